@@ -1,0 +1,146 @@
+# Track geometry: grade and curvature as functions of position.
+"""Track grade and curvature, and the line resistance they cause.
+
+Two formulas for the additional resistance per unit mass are offered:
+
+``"tbt"`` (default)
+    The standard Chinese (TB/T) unit resistances: grade i‰ gives i N/kN and a
+    curve of radius R [m] gives 600/R N/kN; converted with g/1000.
+``"ning2016"``
+    Seed 003's printed term per unit mass, 9.98·sin θ + 0.04·D, with
+    θ = arctan(i/1000) and D = 0.5·wheelbase/R (Ning et al. 2016, eq. 3 as
+    printed; 9.98 is the paper's constant, not g).
+
+Positions are measured along the track in the direction of travel [m].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .._validation import check_finite, check_positive
+from ..exceptions import ModelError
+from ..units import GRAVITY
+
+__all__ = ["RESISTANCE_FORMULAS", "Track", "TrackSection"]
+
+RESISTANCE_FORMULAS = ("tbt", "ning2016")
+"""Names of the supported line-resistance formulas."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrackSection:
+    """A stretch of track with constant grade and curvature.
+
+    Parameters
+    ----------
+    start : float
+        Position where the section starts [m]; it runs to the next section's start.
+    grade_permille : float
+        Grade [‰], positive uphill.
+    curve_radius : float
+        Curve radius [m], > 0; ``math.inf`` for straight track.
+
+    Examples
+    --------
+    >>> TrackSection(start=0.0, grade_permille=-12.0).curve_radius
+    inf
+    """
+
+    start: float
+    grade_permille: float = 0.0
+    curve_radius: float = math.inf
+
+    def __post_init__(self) -> None:
+        check_finite("TrackSection", "start", self.start)
+        check_finite("TrackSection", "grade_permille", self.grade_permille)
+        radius = float(self.curve_radius)
+        if math.isnan(radius) or radius <= 0:
+            raise ModelError(
+                f"TrackSection: 'curve_radius' must be > 0, or inf for straight track "
+                f"(got {self.curve_radius!r})."
+            )
+
+
+@dataclass(frozen=True, kw_only=True)
+class Track:
+    """Piecewise-constant grade and curvature along the line.
+
+    Parameters
+    ----------
+    sections : tuple of TrackSection
+        Sections sorted by strictly increasing ``start``. Before the first
+        section's start the first section applies.
+    formula : {"tbt", "ning2016"}
+        Line-resistance formula (module docstring).
+    wheelbase : float
+        Wheelset spacing used by ``"ning2016"`` for D = 0.5·wheelbase/R [m].
+
+    Examples
+    --------
+    >>> track = Track(sections=(TrackSection(start=0.0),
+    ...                         TrackSection(start=1000.0, grade_permille=6.0)))
+    >>> track.resistance_per_mass([500.0, 1500.0]).round(5).tolist()
+    [0.0, 0.05886]
+    """
+
+    sections: tuple[TrackSection, ...] = field(default=(TrackSection(start=0.0),))
+    formula: str = "tbt"
+    wheelbase: float = 1.83
+
+    def __post_init__(self) -> None:
+        if not self.sections:
+            raise ModelError("Track: 'sections' must hold at least one TrackSection (got none).")
+        starts = [s.start for s in self.sections]
+        if any(b <= a for a, b in zip(starts, starts[1:], strict=False)):
+            raise ModelError(
+                f"Track: section starts must increase strictly (got {starts})."
+            )
+        if self.formula not in RESISTANCE_FORMULAS:
+            raise ModelError(
+                f"Track: 'formula' must be one of {RESISTANCE_FORMULAS} (got {self.formula!r})."
+            )
+        check_positive("Track", "wheelbase", self.wheelbase)
+
+    @property
+    def is_flat(self) -> bool:
+        """True when every section is level and straight."""
+        return all(s.grade_permille == 0 and math.isinf(s.curve_radius) for s in self.sections)
+
+    @cached_property
+    def _section_arrays(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        starts = np.array([s.start for s in self.sections])
+        per_section = np.array([self._section_resistance(s) for s in self.sections])
+        return starts, per_section
+
+    def _section_resistance(self, section: TrackSection) -> float:
+        grade = section.grade_permille
+        radius = section.curve_radius
+        if self.formula == "tbt":
+            curve = 0.0 if math.isinf(radius) else 600.0 / radius
+            return (grade + curve) * GRAVITY / 1000.0
+        theta = math.atan(grade / 1000.0)
+        curvature = 0.0 if math.isinf(radius) else 0.5 * self.wheelbase / radius
+        return 9.98 * math.sin(theta) + 0.04 * curvature
+
+    def resistance_per_mass(self, position: ArrayLike) -> NDArray[np.float64]:
+        """Grade plus curve resistance per unit mass at ``position`` [m/s²].
+
+        Parameters
+        ----------
+        position : array_like
+            Positions along the track [m].
+
+        Returns
+        -------
+        ndarray
+            Line resistance per unit mass [m/s²]; negative on down-grades.
+        """
+        starts, per_section = self._section_arrays
+        index = np.searchsorted(starts, np.asarray(position, dtype=float), side="right") - 1
+        return per_section[np.clip(index, 0, len(starts) - 1)]
