@@ -1,0 +1,158 @@
+# Modal analysis of continuous linear train models.
+"""Eigenvalues of a linear train model, classified and named.
+
+Each mode of ``[v; delta]`` models is classified from its eigenvalue and
+eigenvector:
+
+``"rigid-body"``
+    Real mode in which every vehicle moves the same way (velocity components
+    of one sign): the train speeding up or slowing down as a whole.
+``"coupler"``
+    Oscillatory pair: vehicles vibrating against each other on the couplers.
+``"dummy"``
+    Seed 000's dummy state of the last coach (eigenvalue 0, decoupled).
+``"integrator"``
+    Other zero eigenvalues, e.g. gap drift of virtually coupled trains.
+``"real"``
+    Any other real (overdamped) mode.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import control as ct
+import numpy as np
+
+__all__ = ["Mode", "continuous_modes", "nyquist_sample_time"]
+
+_ZERO_TOL = 1e-9
+"""Eigenvalues with |lambda| below this times max(1, ||A||) count as zero."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class Mode:
+    """One eigenvalue (or conjugate pair) of a continuous model.
+
+    Parameters
+    ----------
+    eigenvalue : complex
+        Eigenvalue [1/s]; for a pair, the one with positive imaginary part.
+    kind : str
+        ``"rigid-body"``, ``"coupler"``, ``"dummy"``, ``"integrator"`` or ``"real"``.
+    natural_frequency : float
+        |lambda| [rad/s].
+    damping_ratio : float
+        -Re(lambda)/|lambda| [-]; NaN for a zero eigenvalue.
+    multiplicity : int
+        1 for a real eigenvalue, 2 for a conjugate pair.
+    """
+
+    eigenvalue: complex
+    kind: str
+    natural_frequency: float
+    damping_ratio: float
+    multiplicity: int
+
+    @property
+    def period(self) -> float:
+        """Oscillation period 2π/Im(lambda) [s]; inf for real modes."""
+        im = abs(self.eigenvalue.imag)
+        return 2 * math.pi / im if im > 0 else math.inf
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-safe dict (complex as [re, im], NaN/inf as None)."""
+        return {
+            "kind": self.kind,
+            "eigenvalue": [self.eigenvalue.real, self.eigenvalue.imag],
+            "natural_frequency": self.natural_frequency,
+            "damping_ratio": None if math.isnan(self.damping_ratio) else self.damping_ratio,
+            "period": None if math.isinf(self.period) else self.period,
+            "multiplicity": self.multiplicity,
+        }
+
+
+def continuous_modes(sys: ct.StateSpace, *, n_vehicles: int) -> tuple[Mode, ...]:
+    """Classified modes of a continuous linear train model.
+
+    Parameters
+    ----------
+    sys : control.StateSpace
+        Continuous model with states ordered ``[v (n), delta (...)]`` as built
+        by :func:`trainctl.models.linearise`.
+    n_vehicles : int
+        Number of vehicles n (the first n states are velocities).
+
+    Returns
+    -------
+    tuple of Mode
+        Sorted by natural frequency; conjugate pairs reported once.
+
+    Examples
+    --------
+    >>> from trainctl.models import crh2_half, linearise
+    >>> modes = continuous_modes(linearise(crh2_half(), 300 / 3.6, dummy_state=True),
+    ...                          n_vehicles=4)
+    >>> [m.kind for m in modes]
+    ['dummy', 'rigid-body', 'coupler', 'coupler', 'coupler']
+    >>> round(modes[-1].natural_frequency, 3)
+    27.77
+    """
+    A = np.asarray(sys.A, dtype=float)
+    lam, vec = np.linalg.eig(A)
+    scale = max(1.0, float(np.linalg.norm(A, ord=np.inf)))
+    labels = list(sys.state_labels)
+    modes = []
+    for k in np.argsort(np.abs(lam), kind="stable"):
+        value = complex(lam[k])
+        if value.imag < -_ZERO_TOL * scale:
+            continue
+        kind = _classify(value, vec[:, k], n_vehicles, labels, scale)
+        wn = abs(value)
+        zeta = -value.real / wn if wn > _ZERO_TOL * scale else math.nan
+        pair = 2 if value.imag > _ZERO_TOL * scale else 1
+        modes.append(Mode(eigenvalue=value, kind=kind, natural_frequency=wn,
+                          damping_ratio=zeta, multiplicity=pair))
+    return tuple(modes)
+
+
+def _classify(value: complex, vec: np.ndarray, n: int, labels: list[str], scale: float) -> str:
+    if abs(value.imag) > _ZERO_TOL * scale:
+        return "coupler"
+    weights = np.abs(vec)
+    if abs(value) <= _ZERO_TOL * scale:
+        top = int(np.argmax(weights))
+        dummy = f"delta[{n - 1}]"
+        if labels[top] == dummy and weights[top] > 0.999 * np.linalg.norm(vec):
+            return "dummy"
+        return "integrator"
+    v = vec[:n].real
+    if np.all(v > 0) or np.all(v < 0):
+        return "rigid-body"
+    return "real"
+
+
+def nyquist_sample_time(modes: tuple[Mode, ...]) -> float:
+    """Largest sample time that resolves every coupler mode, π/ω_max [s].
+
+    Parameters
+    ----------
+    modes : tuple of Mode
+        Modes from :func:`continuous_modes`.
+
+    Returns
+    -------
+    float
+        π divided by the largest coupler-mode |Im(lambda)|; inf without
+        coupler modes.
+
+    Examples
+    --------
+    >>> from trainctl.models import crh2_half, linearise
+    >>> sys = linearise(crh2_half(), 300 / 3.6)
+    >>> round(nyquist_sample_time(continuous_modes(sys, n_vehicles=4)), 4)
+    0.1131
+    """
+    freqs = [abs(m.eigenvalue.imag) for m in modes if m.kind == "coupler"]
+    return math.pi / max(freqs) if freqs else math.inf
