@@ -1,0 +1,273 @@
+# Controllability and observability: Kalman rank, PBH, finite-horizon Gramians.
+"""Controllability and observability without slycot.
+
+- Kalman rank of [B, AB, ..., A^{n-1}B] from singular values with a stated
+  relative tolerance, and its condition number.
+- PBH test per distinct eigenvalue: rank [A - lambda I, B] < n marks an
+  uncontrollable mode; its left eigenvector (w^T A = lambda w^T, w^T B = 0)
+  is reported by state name.
+- Finite-horizon (time-limited) Gramians, which exist for marginally stable
+  and unstable systems alike (python-control's ``gram`` needs slycot and an
+  asymptotically stable system): continuous W(T) = ∫_0^T e^{At} B B^T e^{A^T t} dt
+  by Van Loan's block matrix exponential, discrete W_N = Σ_{k<N} A^k B B^T (A^T)^k
+  by doubling (W_{2N} = W_N + A^N W_N (A^N)^T).
+
+Observability is the dual problem (A^T, C^T).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import control as ct
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+__all__ = [
+    "ControllabilityResult",
+    "UncontrollableMode",
+    "analyse_controllability",
+    "analyse_observability",
+    "finite_horizon_gramian",
+]
+
+
+@dataclass(frozen=True, kw_only=True)
+class UncontrollableMode:
+    """An eigenvalue that the inputs cannot move (or the outputs cannot see).
+
+    Parameters
+    ----------
+    eigenvalue : complex
+        The eigenvalue.
+    pbh_margin : float
+        Smallest singular value of [A - lambda I, B] relative to the largest.
+    direction : dict of str to float
+        Largest components of the left (controllability) or right
+        (observability) eigenvector, by state name.
+    """
+
+    eigenvalue: complex
+    pbh_margin: float
+    direction: dict[str, float]
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-safe dict."""
+        return {"eigenvalue": [self.eigenvalue.real, self.eigenvalue.imag],
+                "pbh_margin": self.pbh_margin, "direction": dict(self.direction)}
+
+
+@dataclass(frozen=True, kw_only=True)
+class ControllabilityResult:
+    """Kalman rank, PBH and Gramian of (A, B) — or of (A^T, C^T) for observability.
+
+    Parameters
+    ----------
+    kind : str
+        ``"controllability"`` or ``"observability"``.
+    n_states : int
+        State dimension.
+    rank : int
+        Numerical rank of the Kalman matrix.
+    tol : float
+        Relative singular-value tolerance used for ranks.
+    singular_values : ndarray
+        Singular values of the Kalman matrix.
+    condition_number : float
+        Largest over smallest singular value of the Kalman matrix.
+    uncontrollable : tuple of UncontrollableMode
+        Modes failing the PBH test.
+    gramian_horizon : float
+        Horizon T [s] (continuous) or number of steps N (discrete) of the Gramian.
+    gramian_eigenvalues : ndarray
+        Eigenvalues of the finite-horizon Gramian, ascending.
+    """
+
+    kind: str
+    n_states: int
+    rank: int
+    tol: float
+    singular_values: NDArray[np.float64]
+    condition_number: float
+    uncontrollable: tuple[UncontrollableMode, ...]
+    gramian_horizon: float
+    gramian_eigenvalues: NDArray[np.float64]
+
+    @property
+    def full_rank(self) -> bool:
+        """True when the Kalman rank equals the state dimension."""
+        return self.rank == self.n_states
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-safe dict."""
+        cond = None if math.isinf(self.condition_number) else self.condition_number
+        return {
+            "kind": self.kind, "n_states": self.n_states, "rank": self.rank, "tol": self.tol,
+            "full_rank": self.full_rank, "condition_number": cond,
+            "singular_values": self.singular_values.tolist(),
+            "uncontrollable": [m.to_dict() for m in self.uncontrollable],
+            "gramian_horizon": self.gramian_horizon,
+            "gramian_eigenvalues": self.gramian_eigenvalues.tolist(),
+        }
+
+    def _repr_html_(self) -> str:
+        word = "uncontrollable" if self.kind == "controllability" else "unobservable"
+        return (f"<p><b>{self.kind.capitalize()}</b>: rank {self.rank}/{self.n_states}, "
+                f"cond {self.condition_number:.3g}, {len(self.uncontrollable)} {word} mode(s)</p>")
+
+
+def finite_horizon_gramian(
+    A: NDArray[np.float64], B: NDArray[np.float64], horizon: float, *, discrete: bool
+) -> NDArray[np.float64]:
+    """Finite-horizon controllability Gramian (works for marginal systems).
+
+    Parameters
+    ----------
+    A, B : ndarray
+        State and input matrices.
+    horizon : float
+        T [s] for continuous systems; number of steps N (int >= 1) for discrete.
+    discrete : bool
+        True for x(k+1) = A x + B u.
+
+    Returns
+    -------
+    ndarray
+        The symmetric positive semidefinite Gramian.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> W = finite_horizon_gramian(np.eye(1), np.ones((1, 1)), 5, discrete=True)
+    >>> float(W[0, 0])
+    5.0
+    """
+    A = np.asarray(A, dtype=float)
+    Q = np.asarray(B, dtype=float) @ np.asarray(B, dtype=float).T
+    if not discrete:
+        n = A.shape[0]
+        M = np.block([[-A, Q], [np.zeros((n, n)), A.T]]) * float(horizon)
+        F = scipy.linalg.expm(M)
+        W = F[n:, n:].T @ F[:n, n:]
+        return 0.5 * (W + W.T)
+    steps = int(horizon)
+    if steps != horizon or steps < 1:
+        raise ValueError(f"finite_horizon_gramian: 'horizon' must be an int >= 1 steps (got {horizon!r}).")
+    W = np.zeros_like(Q)
+    power = np.eye(A.shape[0])  # A^(steps done so far)
+    block, block_power = Q, A   # Gramian over 2^j steps and A^(2^j)
+    while steps:
+        if steps & 1:
+            W = W + power @ block @ power.T
+            power = power @ block_power
+        steps >>= 1
+        if steps:
+            block = block + block_power @ block @ block_power.T
+            block_power = block_power @ block_power
+    return 0.5 * (W + W.T)
+
+
+def analyse_controllability(
+    sys: ct.StateSpace,
+    *,
+    tol: float = 1e-9,
+    horizon: float | None = None,
+) -> ControllabilityResult:
+    """Kalman rank, PBH test and finite-horizon Gramian of (A, B).
+
+    Parameters
+    ----------
+    sys : control.StateSpace
+        Continuous or discrete system.
+    tol : float
+        Relative tolerance: singular values below tol times the largest count
+        as zero (Kalman rank and PBH).
+    horizon : float or None
+        Gramian horizon: T [s] (continuous, default 10 s) or N steps
+        (discrete, default the state dimension).
+
+    Returns
+    -------
+    ControllabilityResult
+        Rank, condition number, uncontrollable modes and Gramian spectrum.
+
+    Examples
+    --------
+    >>> from trainctl.models import crh2_half, linearise
+    >>> res = analyse_controllability(linearise(crh2_half(), 300 / 3.6, dummy_state=True))
+    >>> res.rank, [m.direction for m in res.uncontrollable]
+    (7, [{'delta[3]': 1.0}])
+    """
+    return _analyse(sys.A, sys.B, sys, tol, horizon, "controllability")
+
+
+def analyse_observability(
+    sys: ct.StateSpace,
+    *,
+    tol: float = 1e-9,
+    horizon: float | None = None,
+) -> ControllabilityResult:
+    """Observability: the controllability analysis of (A^T, C^T).
+
+    Parameters
+    ----------
+    sys : control.StateSpace
+        Continuous or discrete system.
+    tol : float
+        Relative singular-value tolerance.
+    horizon : float or None
+        Gramian horizon, as for :func:`analyse_controllability`.
+
+    Returns
+    -------
+    ControllabilityResult
+        With ``kind="observability"``; directions are right eigenvectors.
+
+    Examples
+    --------
+    >>> from trainctl.models import crh2_half, linearise
+    >>> analyse_observability(linearise(crh2_half(), 300 / 3.6)).full_rank
+    True
+    """
+    return _analyse(sys.A.T, sys.C.T, sys, tol, horizon, "observability")
+
+
+def _analyse(A, B, sys, tol, horizon, kind) -> ControllabilityResult:
+    A = np.asarray(A, dtype=float)
+    B = np.asarray(B, dtype=float)
+    n = A.shape[0]
+    discrete = bool(sys.dt)
+    K = np.hstack([np.linalg.matrix_power(A, k) @ B for k in range(n)])
+    sv = np.linalg.svd(K, compute_uv=False)
+    rank = int(np.sum(sv > tol * sv[0])) if sv.size and sv[0] > 0 else 0
+    cond = float(sv[0] / sv[n - 1]) if sv.size >= n and sv[n - 1] > 0 else math.inf
+    if horizon is None:
+        horizon = float(n) if discrete else 10.0
+    W = finite_horizon_gramian(A, B, horizon, discrete=discrete)
+    return ControllabilityResult(
+        kind=kind, n_states=n, rank=rank, tol=tol, singular_values=sv,
+        condition_number=cond, uncontrollable=_pbh(A, B, list(sys.state_labels), tol),
+        gramian_horizon=float(horizon), gramian_eigenvalues=np.linalg.eigvalsh(W),
+    )
+
+
+def _pbh(A: NDArray[np.float64], B: NDArray[np.float64], labels: list[str], tol: float) -> tuple[UncontrollableMode, ...]:
+    n = A.shape[0]
+    found: list[UncontrollableMode] = []
+    seen: list[complex] = []
+    for value in np.linalg.eigvals(A):
+        if any(abs(value - s) <= 1e-9 * max(1.0, abs(s)) for s in seen):
+            continue
+        seen.append(complex(value))
+        M = np.hstack([A - value * np.eye(n), B])
+        U, sv, _ = np.linalg.svd(M)
+        margin = float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
+        if margin <= tol:
+            w = U[:, -1]  # left null vector: w^H [A - lambda I, B] = 0
+            weights = np.abs(w) / np.linalg.norm(w)
+            order = np.argsort(-weights)[:4]
+            direction = {labels[i]: round(float(weights[i]), 6) for i in order if weights[i] > 1e-3}
+            found.append(UncontrollableMode(eigenvalue=complex(value), pbh_margin=margin, direction=direction))
+    return tuple(found)

@@ -1,0 +1,241 @@
+# Stability of continuous and discrete linear models, mode by mode.
+"""Eigenvalue-based stability with an explicit tolerance band.
+
+Each eigenvalue is classified as
+
+``"stable"``
+    Re(lambda) < -tol (continuous) or |z| < 1 - tol (discrete).
+``"marginal-semisimple"``
+    On the boundary within ``tol`` and semisimple (as many independent
+    eigenvectors as the eigenvalue's multiplicity): bounded, does not decay.
+``"marginal-defective"``
+    On the boundary with a Jordan block: grows polynomially (a double
+    integrator); unstable in practice.
+``"unstable"``
+    Re(lambda) > tol or |z| > 1 + tol.
+
+Multiplicities are found by clustering eigenvalues within ``tol`` and the
+geometric multiplicity from the numerical rank of A - lambda I (singular
+values below ``rank_tol`` times the largest count as zero).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import control as ct
+import numpy as np
+from numpy.typing import ArrayLike
+
+from .modes import _ZERO_TOL
+
+__all__ = ["ModeStability", "StabilityResult", "analyse_stability"]
+
+CLASSES = ("stable", "marginal-semisimple", "marginal-defective", "unstable")
+"""Stability classes, from best to worst."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class ModeStability:
+    """Stability of one eigenvalue.
+
+    Parameters
+    ----------
+    eigenvalue : complex
+        Eigenvalue (continuous [1/s] or discrete [-]).
+    status : str
+        One of ``CLASSES``.
+    algebraic_multiplicity, geometric_multiplicity : int
+        Multiplicities of the eigenvalue's cluster.
+    natural_frequency : float
+        |s| [rad/s] of the continuous eigenvalue (for discrete systems
+        s = log(z)/dt).
+    damping_ratio : float
+        -Re(s)/|s| [-]; NaN when s = 0.
+    name : str
+        Structural name where one applies (``"rigid-body"``, ``"dummy"``,
+        ``"coupler"``), else ``""``.
+    direction : dict of str to float
+        Largest components of the (normalised) eigenvector by state name.
+    """
+
+    eigenvalue: complex
+    status: str
+    algebraic_multiplicity: int
+    geometric_multiplicity: int
+    natural_frequency: float
+    damping_ratio: float
+    name: str
+    direction: dict[str, float]
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-safe dict (complex as [re, im], NaN as None)."""
+        return {
+            "eigenvalue": [self.eigenvalue.real, self.eigenvalue.imag],
+            "status": self.status,
+            "algebraic_multiplicity": self.algebraic_multiplicity,
+            "geometric_multiplicity": self.geometric_multiplicity,
+            "natural_frequency": self.natural_frequency,
+            "damping_ratio": None if math.isnan(self.damping_ratio) else self.damping_ratio,
+            "name": self.name,
+            "direction": dict(self.direction),
+        }
+
+
+@dataclass(frozen=True, kw_only=True)
+class StabilityResult:
+    """Mode-by-mode stability of a linear system.
+
+    Parameters
+    ----------
+    discrete : bool
+        True for a discrete-time system.
+    dt : float
+        Sample time [s] (0 for continuous).
+    tol : float
+        Half-width of the marginal band around the stability boundary.
+    modes : tuple of ModeStability
+        One entry per eigenvalue.
+    """
+
+    discrete: bool
+    dt: float
+    tol: float
+    modes: tuple[ModeStability, ...]
+
+    @property
+    def status(self) -> str:
+        """Worst class over all modes."""
+        return max((m.status for m in self.modes), key=CLASSES.index, default="stable")
+
+    @property
+    def spectral_abscissa(self) -> float:
+        """max Re(lambda) (continuous) or max |z| (discrete)."""
+        values = [abs(m.eigenvalue) if self.discrete else m.eigenvalue.real for m in self.modes]
+        return max(values, default=-math.inf)
+
+    def count(self, status: str) -> int:
+        """Number of eigenvalues with this status."""
+        return sum(1 for m in self.modes if m.status == status)
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-safe dict."""
+        return {
+            "discrete": self.discrete,
+            "dt": self.dt,
+            "tol": self.tol,
+            "status": self.status,
+            "spectral_abscissa": self.spectral_abscissa,
+            "modes": [m.to_dict() for m in self.modes],
+        }
+
+    def _repr_html_(self) -> str:
+        counts = ", ".join(f"{c}: {self.count(c)}" for c in CLASSES if self.count(c))
+        kind = "discrete" if self.discrete else "continuous"
+        return f"<p><b>Stability ({kind})</b>: {self.status} — {counts}</p>"
+
+
+def analyse_stability(
+    sys: ct.StateSpace | ArrayLike,
+    *,
+    tol: float = 1e-9,
+    rank_tol: float = 1e-8,
+    n_vehicles: int | None = None,
+) -> StabilityResult:
+    """Classify every eigenvalue of a linear system.
+
+    Parameters
+    ----------
+    sys : control.StateSpace or array_like
+        The system, or a bare state matrix A (then continuous).
+    tol : float
+        Marginal band: |Re(lambda)| <= tol (continuous) or ||z| - 1| <= tol
+        (discrete), relative to max(1, ||A||) for continuous systems.
+    rank_tol : float
+        Relative singular-value threshold for the geometric multiplicity.
+    n_vehicles : int or None
+        Number of vehicles when the states are ``[v, delta]``; enables the
+        structural names (rigid-body, dummy, coupler).
+
+    Returns
+    -------
+    StabilityResult
+        The classified modes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> analyse_stability(np.array([[0.0, 1.0], [0.0, 0.0]])).status
+    'marginal-defective'
+    >>> analyse_stability(np.zeros((2, 2))).status
+    'marginal-semisimple'
+    """
+    A, dt, labels = _unpack(sys)
+    discrete = dt != 0
+    lam, vec = np.linalg.eig(A)
+    scale = 1.0 if discrete else max(1.0, float(np.linalg.norm(A, ord=np.inf)))
+    modes = []
+    for k, value in enumerate(lam):
+        dist = abs(value) - 1.0 if discrete else value.real
+        cluster = np.abs(lam - value) <= max(tol * scale, 1e-12)
+        alg = int(cluster.sum())
+        geo = _geometric_multiplicity(A, value, rank_tol)
+        if dist > tol * scale:
+            status = "unstable"
+        elif dist < -tol * scale:
+            status = "stable"
+        else:
+            status = "marginal-semisimple" if geo >= alg else "marginal-defective"
+        s = _continuous_equivalent(complex(value), dt)
+        wn = abs(s)
+        modes.append(ModeStability(
+            eigenvalue=complex(value), status=status, algebraic_multiplicity=alg,
+            geometric_multiplicity=min(geo, alg), natural_frequency=wn,
+            damping_ratio=-s.real / wn if wn > _ZERO_TOL else math.nan,
+            name=_structural_name(complex(value), vec[:, k], labels, n_vehicles, discrete, scale),
+            direction=_direction(vec[:, k], labels),
+        ))
+    return StabilityResult(discrete=discrete, dt=float(dt), tol=tol, modes=tuple(modes))
+
+
+def _unpack(sys: ct.StateSpace | ArrayLike) -> tuple[np.ndarray, float, list[str]]:
+    if isinstance(sys, ct.StateSpace):
+        dt = 0.0 if sys.dt in (0, None) else (1.0 if sys.dt is True else float(sys.dt))
+        return np.asarray(sys.A, dtype=float), dt, list(sys.state_labels)
+    A = np.atleast_2d(np.asarray(sys, dtype=float))
+    return A, 0.0, [f"x[{i}]" for i in range(A.shape[0])]
+
+
+def _geometric_multiplicity(A: np.ndarray, value: complex, rank_tol: float) -> int:
+    sv = np.linalg.svd(A - value * np.eye(A.shape[0]), compute_uv=False)
+    return int(np.sum(sv <= rank_tol * max(1.0, sv[0])))
+
+
+def _continuous_equivalent(value: complex, dt: float) -> complex:
+    if dt == 0:
+        return value
+    return complex(np.log(value) / dt) if value != 0 else complex(-math.inf)
+
+
+def _structural_name(value: complex, vec: np.ndarray, labels: list[str], n: int | None,
+                     discrete: bool, scale: float) -> str:
+    if n is None:
+        return ""
+    boundary = abs(value - 1) if discrete else abs(value)
+    weights = np.abs(vec)
+    top = int(np.argmax(weights))
+    if boundary <= 1e-9 * scale and labels[top] == f"delta[{n - 1}]" and weights[top] > 0.999 * np.linalg.norm(vec):
+        return "dummy"
+    if abs(value.imag) > 1e-9 * scale:
+        return "coupler"
+    v = vec[:n].real
+    if np.all(v > 0) or np.all(v < 0):
+        return "rigid-body"
+    return ""
+
+
+def _direction(vec: np.ndarray, labels: list[str], keep: int = 4) -> dict[str, float]:
+    w = np.abs(vec) / max(float(np.linalg.norm(vec)), 1e-300)
+    order = np.argsort(-w)[:keep]
+    return {labels[i]: round(float(w[i]), 6) for i in order if w[i] > 1e-3}
