@@ -2,7 +2,13 @@
 """Controllability and observability without slycot.
 
 - Kalman rank of [B, AB, ..., A^{n-1}B] from singular values with a stated
-  relative tolerance, and its condition number.
+  relative tolerance, and its condition number. Train models mix scales
+  (B ~ 1/m ~ 1e-5, A ~ k/m ~ 250), so the raw Kalman matrix spans a dozen
+  decades and its numerical rank means little. The rank is therefore taken
+  after two rank-preserving scalings: a diagonal state balancing
+  (``scipy.linalg.matrix_balance``) and normalising block k by ||A||^k and
+  every input column to unit norm. The reported singular values and
+  condition number are those of this scaled matrix.
 - PBH test per distinct eigenvalue: rank [A - lambda I, B] < n marks an
   uncontrollable mode; its left eigenvector (w^T A = lambda w^T, w^T B = 0)
   is reported by state name.
@@ -31,6 +37,7 @@ __all__ = [
     "analyse_controllability",
     "analyse_observability",
     "finite_horizon_gramian",
+    "kalman_matrix",
 ]
 
 
@@ -74,9 +81,9 @@ class ControllabilityResult:
     tol : float
         Relative singular-value tolerance used for ranks.
     singular_values : ndarray
-        Singular values of the Kalman matrix.
+        Singular values of the scaled Kalman matrix (module docstring).
     condition_number : float
-        Largest over smallest singular value of the Kalman matrix.
+        Largest over n-th singular value of the scaled Kalman matrix.
     uncontrollable : tuple of UncontrollableMode
         Modes failing the PBH test.
     gramian_horizon : float
@@ -169,6 +176,46 @@ def finite_horizon_gramian(
     return 0.5 * (W + W.T)
 
 
+def kalman_matrix(A: NDArray[np.float64], B: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Unscaled Kalman matrix [B, AB, ..., A^{n-1}B] (as ``control.ctrb``).
+
+    Parameters
+    ----------
+    A, B : ndarray
+        State and input matrices.
+
+    Returns
+    -------
+    ndarray
+        Shape (n, n·m).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> kalman_matrix(np.array([[0.0, 1.0], [0.0, 0.0]]), np.array([[0.0], [1.0]])).tolist()
+    [[0.0, 1.0], [1.0, 0.0]]
+    """
+    A = np.asarray(A, dtype=float)
+    B = np.asarray(B, dtype=float)
+    blocks = [B]
+    for _ in range(A.shape[0] - 1):
+        blocks.append(A @ blocks[-1])
+    return np.hstack(blocks)
+
+
+def _scaled_kalman(A: NDArray[np.float64], B: NDArray[np.float64]) -> NDArray[np.float64]:
+    _, (scale, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
+    Ab = A * scale[None, :] / scale[:, None]
+    Bb = B / scale[:, None]
+    norms = np.linalg.norm(Bb, axis=0)
+    Bb = Bb / np.where(norms > 0, norms, 1.0)
+    step = max(1.0, float(np.linalg.norm(Ab, 2)))
+    blocks = [Bb]
+    for _ in range(A.shape[0] - 1):
+        blocks.append(Ab @ blocks[-1] / step)
+    return np.hstack(blocks)
+
+
 def analyse_controllability(
     sys: ct.StateSpace,
     *,
@@ -239,8 +286,7 @@ def _analyse(A, B, sys, tol, horizon, kind) -> ControllabilityResult:
     B = np.asarray(B, dtype=float)
     n = A.shape[0]
     discrete = bool(sys.dt)
-    K = np.hstack([np.linalg.matrix_power(A, k) @ B for k in range(n)])
-    sv = np.linalg.svd(K, compute_uv=False)
+    sv = np.linalg.svd(_scaled_kalman(A, B), compute_uv=False)
     rank = int(np.sum(sv > tol * sv[0])) if sv.size and sv[0] > 0 else 0
     cond = float(sv[0] / sv[n - 1]) if sv.size >= n and sv[n - 1] > 0 else math.inf
     if horizon is None:
