@@ -367,3 +367,21 @@ class TestParameters:
         flat = train_rhs(train, x, np.zeros(4))
         hill = train_rhs(train, x, np.zeros(4), track)
         np.testing.assert_allclose(flat[:4] - hill[:4], [0.0981, 0.0, 0.0, 0.0], atol=1e-15)
+
+
+class TestBuiltinScenariosMatchPresets:
+    @pytest.mark.parametrize(("name", "preset"), [
+        ("crh2-dmpc", "crh2_half"), ("crh2-potential", "crh2_8car"),
+        ("heavy-haul-hinf", "heavy_haul_1p2p1"), ("heavy-haul-flocking", "virtual_formation"),
+    ])
+    def test_scenario_file_and_preset_build_the_same_train(self, name, preset):
+        """The explicit TOML parameters equal the Python preset's (masses, Davis, couplers, envelopes)."""
+        from trainctl.scenario import load_scenario
+        a, b = load_scenario(name).train, PRESETS[preset]()
+        np.testing.assert_allclose(a.mass, b.mass, rtol=1e-12)
+        np.testing.assert_allclose(a.davis, b.davis, rtol=1e-5)  # files print 6 digits
+        np.testing.assert_allclose(a.stiffness, b.stiffness, rtol=1e-12)
+        np.testing.assert_allclose(a.damping, b.damping, rtol=1e-12)
+        np.testing.assert_allclose(a.spacing, b.spacing, rtol=1e-12)
+        np.testing.assert_array_equal(a.traction_share, b.traction_share)
+        assert [v.envelope for v in a.vehicles] == [v.envelope for v in b.vehicles]

@@ -64,7 +64,7 @@ def _crh2_coach(mass_t: float, motor: bool, davis: tuple[float, float, float], n
     # cars); 40 kN service braking per coach; trailers brake only.
     envelope = TractionEnvelope(
         max_traction=kn_to_n(80.0) if motor else 0.0,
-        max_power=kw_to_w(1200.0),
+        max_power=kw_to_w(1200.0) if motor else math.inf,
         max_braking=kn_to_n(40.0),
         max_braking_power=kw_to_w(1200.0) if motor else math.inf,
     )

@@ -1,0 +1,947 @@
+"""Tests for trainctl.scenario: TOML scenario files to SI dataclasses."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+import sys
+import types
+from pathlib import Path
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from trainctl.exceptions import ModelError, ScenarioError
+from trainctl.models.train import Train
+from trainctl.models.vehicle import Coupler, Vehicle
+from trainctl.scenario import (
+    RESERVED_SECTIONS,
+    BuiltinScenario,
+    ModelSettings,
+    Scenario,
+    builtin_scenario_text,
+    builtin_scenarios,
+    load_scenario,
+    parse_scenario,
+    slugify,
+)
+
+BUILTIN_NAMES = ["crh2-dmpc", "crh2-potential", "heavy-haul-flocking", "heavy-haul-hinf"]
+ANALYSES = Path(__file__).resolve().parent.parent / "analyses"
+
+BASE = """\
+schema_version = 1
+name = "Test train"
+description = "A three-coach test train"
+seed = 0
+
+[train]
+
+[[train.vehicle]]
+name = "T"
+mass_t = 42.8
+length = 25.0
+davis_n_per_kn_kmh = [0.8806, 0.007444, 0.0001143]
+traction_share = 0.0
+
+[[train.vehicle]]
+name = "M"
+count = 2
+mass_t = 48.0
+davis_n_per_kn_kmh = [0.8806, 0.007444, 0.0001143]
+max_traction_kn = 80.0
+max_power_kw = 1200.0
+
+[train.coupler]
+stiffness_kn_per_m = 10488.0
+damping_kn_s_per_m = 0.0
+
+[model]
+speed_kmh = 300.0
+sample_time = 20.0
+"""
+
+SINGLE = """\
+schema_version = 1
+name = "One car"
+description = "A single vehicle"
+[train]
+[[train.vehicle]]
+mass_t = 40.0
+davis_si = [0.01, 0.0, 1e-5]
+[model]
+speed_kmh = 90.0
+sample_time = 1.0
+"""
+
+
+def edit(old: str, new: str, text: str = BASE) -> str:
+    """Replace ``old`` (which must occur) by ``new`` in a scenario text."""
+    assert old in text, old
+    return text.replace(old, new, 1)
+
+
+def fails(text: str, *fragments: str) -> ScenarioError:
+    """Parse ``text`` expecting ScenarioError whose message holds every fragment."""
+    with pytest.raises(ScenarioError, match=re.escape(fragments[0])) as info:
+        parse_scenario(text, source="t.toml")
+    message = str(info.value)
+    assert message.startswith("t.toml: "), message
+    for fragment in fragments[1:]:
+        assert fragment in message, (fragment, message)
+    return info.value
+
+
+class TestBuiltins:
+    """The shipped scenario files and their lookup."""
+
+    def test_names_sorted(self) -> None:
+        """builtin_scenarios lists the four seed scenarios sorted by name."""
+        found = builtin_scenarios()
+        assert [b.name for b in found] == BUILTIN_NAMES
+        assert all(isinstance(b, BuiltinScenario) and b.path.is_file() for b in found)
+
+    @pytest.mark.parametrize("name", BUILTIN_NAMES)
+    def test_every_builtin_loads(self, name: str) -> None:
+        """Each built-in parses into a Scenario with a builtin: source."""
+        scenario = load_scenario(name)
+        assert isinstance(scenario, Scenario)
+        assert isinstance(scenario.train, Train)
+        assert scenario.source == f"builtin:{name}"
+        assert re.fullmatch(r"[a-z0-9-]+", scenario.slug)
+
+    @pytest.mark.parametrize("name", BUILTIN_NAMES)
+    def test_description_is_one_line(self, name: str) -> None:
+        """Each built-in's description is a single non-empty line."""
+        (entry,) = [b for b in builtin_scenarios() if b.name == name]
+        assert entry.description and "\n" not in entry.description
+        assert entry.description == load_scenario(name).description
+
+    @pytest.mark.parametrize("name", BUILTIN_NAMES)
+    def test_first_lines_are_comments(self, name: str) -> None:
+        """Each built-in file opens with comment lines citing its source."""
+        text = builtin_scenario_text(name)
+        assert text.splitlines()[0].startswith("# Seed 00")
+        assert "Source:" in text
+
+    def test_crh2_dmpc_values(self) -> None:
+        """crh2-dmpc holds the book's masses, stiffness, speed and sample time in SI."""
+        scenario = load_scenario("crh2-dmpc")
+        train = scenario.train
+        assert train.mass.tolist() == [42800.0, 48000.0, 46500.0, 42000.0]
+        assert train.stiffness.tolist() == pytest.approx([1.0488e7] * 3)
+        assert train.damping.tolist() == [0.0, 0.0, 0.0]
+        assert train.traction_share.tolist() == [0.0, 1.0, 1.0, 0.0]
+        assert scenario.model.speed == pytest.approx(83.333, abs=1e-3)
+        assert scenario.model.sample_time == 20.0
+        assert scenario.model.linearisation == "jacobian"
+        assert scenario.model.dummy_state is True
+        assert scenario.track is None
+        assert train.vehicles[1].envelope.max_power == pytest.approx(1.2e6)
+        assert train.vehicles[0].envelope.max_traction == 0.0
+
+    def test_crh2_potential_formation(self) -> None:
+        """crh2-potential is the 8-car T-M-M-T-T-M-M-T train at 0.01 s."""
+        scenario = load_scenario("crh2-potential")
+        assert [v.name for v in scenario.train.vehicles] == list("TMMTTMMT")
+        assert scenario.train.mass.tolist() == [
+            42800.0, 48000.0, 46500.0, 42000.0, 42000.0, 46500.0, 48000.0, 42800.0,
+        ]  # fmt: skip
+        assert scenario.train.davis[:, 0].tolist() == [0.01176, 0.00077616, 1.6e-5]
+        assert scenario.model.sample_time == 0.01
+
+    def test_heavy_haul_flocking_virtual_links(self) -> None:
+        """heavy-haul-flocking has 4 unit trains joined by virtual links 500 m apart."""
+        train = load_scenario("heavy-haul-flocking").train
+        assert train.n_vehicles == 4
+        assert train.virtual.tolist() == [True, True, True]
+        assert train.stiffness.tolist() == [0.0, 0.0, 0.0]
+        assert train.spacing.tolist() == [1800.0, 1800.0, 1800.0]
+        assert train.groups == ((0,), (1,), (2,), (3,))
+
+    def test_heavy_haul_hinf_track_and_couplers(self) -> None:
+        """heavy-haul-hinf has 5184 t subsystems, damped couplers and a 12 permille down-grade."""
+        scenario = load_scenario("heavy-haul-hinf")
+        assert scenario.train.mass.tolist() == [5184000.0] * 4
+        assert scenario.train.damping.tolist() == [5e5] * 3
+        assert scenario.train.spacing.tolist() == pytest.approx([632.8] * 3)
+        assert scenario.track is not None and scenario.track.formula == "ning2016"
+        assert [s.grade_permille for s in scenario.track.sections] == [0.0, -12.0]
+
+    def test_hinf_davis_is_mass_weighted_mix(self) -> None:
+        """The subsystem Davis coefficients are the 184 t / 5000 t weighted mix."""
+        loco, wagon = [2.25, 0.0190, 0.000320], [0.92, 0.0048, 0.000125]
+        mix = [(184 * a + 5000 * b) / 5184 for a, b in zip(loco, wagon, strict=True)]
+        text = builtin_scenario_text("heavy-haul-hinf")
+        match = re.search(r"^davis_n_per_kn_kmh = \[(.*?)\]", text, re.MULTILINE)
+        assert match is not None
+        printed = [float(x) for x in match.group(1).split(",")]
+        assert printed == pytest.approx(mix, rel=1e-5)
+
+    def test_text_matches_file(self) -> None:
+        """builtin_scenario_text returns the file's text."""
+        entry = builtin_scenarios()[0]
+        assert builtin_scenario_text(entry.name) == entry.path.read_text(encoding="utf-8")
+
+    def test_unknown_builtin_lists_and_suggests(self) -> None:
+        """An unknown built-in name lists the available ones and suggests a close match."""
+        with pytest.raises(ScenarioError, match=r"builtin:crh2-dmcp") as info:
+            load_scenario("crh2-dmcp")
+        assert "Did you mean 'crh2-dmpc'?" in str(info.value)
+        assert "heavy-haul-hinf" in str(info.value)
+
+    def test_unknown_builtin_text(self) -> None:
+        """builtin_scenario_text rejects an unknown name with ScenarioError."""
+        with pytest.raises(ScenarioError, match="no built-in scenario named 'nope'"):
+            builtin_scenario_text("nope")
+
+    def test_readme_example_parses(self) -> None:
+        """The annotated example in analyses/README.md is a valid scenario."""
+        readme = (ANALYSES / "README.md").read_text(encoding="utf-8")
+        example = re.search(r"```toml\n(.*?)```", readme, re.DOTALL)
+        assert example is not None
+        scenario = parse_scenario(example.group(1))
+        assert scenario.train.n_vehicles == 2
+        assert scenario.track is not None and len(scenario.track.sections) == 2
+
+
+class TestLoadScenario:
+    """Resolution of bare names vs paths and file-level errors."""
+
+    def test_path_is_read_from_file(self, tmp_path: Path) -> None:
+        """A path named like a built-in is read from the file, not the built-in."""
+        path = tmp_path / "crh2-dmpc.toml"
+        path.write_text(edit('name = "Test train"', 'name = "From file"'), encoding="utf-8")
+        scenario = load_scenario(str(path))
+        assert scenario.name == "From file"
+        assert scenario.source == str(path)
+
+    def test_pathlike_is_read_from_file(self, tmp_path: Path) -> None:
+        """An os.PathLike is always read as a file."""
+        path = tmp_path / "crh2-dmpc"
+        path.write_text(BASE, encoding="utf-8")
+        assert load_scenario(path).name == "Test train"
+
+    def test_toml_suffix_without_directory_is_a_path(
+        self, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    ) -> None:
+        """'crh2-dmpc.toml' (no separator) is a relative path because of its suffix."""
+        (tmp_path / "crh2-dmpc.toml").write_text(BASE, encoding="utf-8")
+        monkeypatch.chdir(tmp_path)
+        scenario = load_scenario("crh2-dmpc.toml")
+        assert scenario.name == "Test train"
+        assert scenario.source == "crh2-dmpc.toml"
+
+    def test_bare_name_is_builtin(self, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+        """A bare name selects the built-in even if a same-named file is in the cwd."""
+        (tmp_path / "crh2-dmpc").write_text(BASE, encoding="utf-8")
+        monkeypatch.chdir(tmp_path)
+        assert load_scenario("crh2-dmpc").source == "builtin:crh2-dmpc"
+
+    def test_file_not_found(self, tmp_path: Path) -> None:
+        """A missing file gives ScenarioError naming the path."""
+        path = tmp_path / "missing.toml"
+        with pytest.raises(ScenarioError, match=re.escape(f"{path}: file not found")):
+            load_scenario(path)
+
+    def test_directory_is_not_readable(self, tmp_path: Path) -> None:
+        """A directory path gives ScenarioError, not an OSError."""
+        with pytest.raises(ScenarioError, match="cannot read the file"):
+            load_scenario(tmp_path)
+
+    def test_not_utf8(self, tmp_path: Path) -> None:
+        """A latin-1 encoded file gives ScenarioError with the line, not UnicodeDecodeError."""
+        path = tmp_path / "latin1.toml"
+        path.write_bytes(edit('"Test train"', '"Zürich train"').encode("latin-1"))
+        with pytest.raises(ScenarioError, match=r"not UTF-8 text .* at line 2"):
+            load_scenario(path)
+
+    def test_utf8_bom_is_accepted(self, tmp_path: Path) -> None:
+        """A UTF-8 file with a byte-order mark loads."""
+        path = tmp_path / "bom.toml"
+        path.write_bytes(b"\xef\xbb\xbf" + BASE.encode("utf-8"))
+        assert load_scenario(path).name == "Test train"
+
+    def test_error_names_the_file(self, tmp_path: Path) -> None:
+        """Errors in a file start with the path as given."""
+        path = tmp_path / "bad.toml"
+        path.write_text(edit("sample_time = 20.0", "sample_time = -1.0"), encoding="utf-8")
+        with pytest.raises(ScenarioError) as info:
+            load_scenario(path)
+        assert str(info.value) == (f"{path}: [model].sample_time must be a number > 0 (got -1.0).")
+
+
+class TestParseValid:
+    """Well-formed documents and their conversion to SI."""
+
+    def test_base_document(self) -> None:
+        """The base document expands counts and converts units."""
+        scenario = parse_scenario(BASE)
+        train = scenario.train
+        assert train.mass.tolist() == [42800.0, 48000.0, 48000.0]
+        assert [v.name for v in train.vehicles] == ["T", "M", "M"]
+        assert train.stiffness.tolist() == [1.0488e7, 1.0488e7]
+        assert scenario.source == "<string>"
+        assert scenario.seed == 0 and scenario.track is None
+
+    def test_defaults(self) -> None:
+        """Omitted optional keys take their documented defaults."""
+        scenario = parse_scenario(SINGLE)
+        vehicle = scenario.train.vehicles[0]
+        assert vehicle.name == "vehicle" and vehicle.length == 25.0
+        assert vehicle.traction_share == 1.0
+        assert math.isinf(vehicle.envelope.max_traction)
+        assert math.isinf(vehicle.envelope.adhesion)
+        model = scenario.model
+        assert (model.linearisation, model.dummy_state, model.allocation, model.discretisation) == (
+            "jacobian", True, "shares", "zoh",
+        )  # fmt: skip
+        assert scenario.train.couplers == ()
+
+    def test_ints_become_floats(self) -> None:
+        """TOML integers where numbers are expected become floats."""
+        scenario = parse_scenario(edit("sample_time = 20.0", "sample_time = 20"))
+        assert isinstance(scenario.model.sample_time, float)
+
+    @pytest.mark.parametrize(
+        ("key", "expected"),
+        [
+            ("davis_si", [0.01, 0.0, 1e-5]),
+            ("davis_book_literal", [0.01, 0.0, 1e-5]),
+            ("davis_n_per_kn_kmh", [0.01 * 9.81e-3, 0.0, 1e-5 * 9.81e-3 * 3.6**2]),
+        ],
+    )
+    def test_davis_readings(self, key: str, expected: list[float]) -> None:
+        """Each Davis key converts with its own reading."""
+        scenario = parse_scenario(edit("davis_si", key, SINGLE))
+        assert scenario.train.davis[:, 0].tolist() == pytest.approx(expected)
+
+    def test_coupler_array(self) -> None:
+        """[[train.coupler]] gives one coupler per link, with gap added to the spacing."""
+        text = edit(
+            "[train.coupler]\nstiffness_kn_per_m = 10488.0\ndamping_kn_s_per_m = 0.0\n",
+            "[[train.coupler]]\nstiffness_kn_per_m = 1.0\ngap = 2.0\n"
+            "[[train.coupler]]\nstiffness_kn_per_m = 3.0\ndamping_kn_s_per_m = 4.0\n",
+        )
+        train = parse_scenario(text).train
+        assert train.stiffness.tolist() == [1000.0, 3000.0]
+        assert train.damping.tolist() == [0.0, 4000.0]
+        assert train.spacing.tolist() == [27.0, 25.0]
+
+    def test_virtual_link_without_stiffness(self) -> None:
+        """A virtual coupler may omit stiffness and becomes a virtual link."""
+        text = edit("stiffness_kn_per_m = 10488.0\ndamping_kn_s_per_m = 0.0\n", "virtual = true\n")
+        train = parse_scenario(text).train
+        assert train.virtual.tolist() == [True, True]
+        assert train.stiffness.tolist() == [0.0, 0.0]
+
+    def test_track(self) -> None:
+        """[track] sections become a Track with SI positions."""
+        text = SINGLE + (
+            '[track]\nformula = "ning2016"\nwheelbase = 2.0\n'
+            "[[track.section]]\nstart = 0\n"
+            "[[track.section]]\nstart = 100.0\ngrade_permille = 6\ncurve_radius = 800\n"
+        )
+        track = parse_scenario(text).track
+        assert track is not None
+        assert (track.formula, track.wheelbase) == ("ning2016", 2.0)
+        assert track.sections[1].curve_radius == 800.0
+        assert math.isinf(track.sections[0].curve_radius)
+
+    def test_name_any_text(self) -> None:
+        """The display name may hold any text; the slug is safe."""
+        scenario = parse_scenario(edit('"Test train"', '"<script>alert(1)</script>"'))
+        assert scenario.name == "<script>alert(1)</script>"
+        assert scenario.slug == "script-alert-1-script"
+
+
+class TestUnknownAndReserved:
+    """Unknown keys, unknown sections and reserved sections."""
+
+    def test_unknown_key_suggests(self) -> None:
+        """A misspelt key names its path and suggests the right one."""
+        error = fails(
+            edit("sample_time = 20.0", "sample_tim = 20.0"),
+            "unknown key [model].sample_tim. Did you mean 'sample_time'?",
+        )
+        assert "reserved" not in str(error)
+
+    def test_unknown_vehicle_key(self) -> None:
+        """A misspelt key in the second vehicle group names the group index."""
+        fails(edit("mass_t = 48.0", "mass_t = 48.0\nmas_t = 1.0"), "[train.vehicle][1].mas_t")
+
+    def test_unknown_top_level_key(self) -> None:
+        """An unknown top-level key is reported with a suggestion."""
+        fails(edit("seed = 0", "seeds = 0"), "unknown key seeds. Did you mean 'seed'?")
+
+    def test_unknown_section(self) -> None:
+        """A misspelt section is reported as an unknown section."""
+        fails(edit("[model]", "[modle]"), "unknown section [modle]. Did you mean 'model'?")
+
+    def test_unknown_subsection(self) -> None:
+        """An unknown sub-table inside [train] gives its dotted name."""
+        fails(BASE + "[train.wagon]\nx = 1\n", "unknown section [train.wagon]")
+
+    def test_unknown_without_match_lists_allowed(self) -> None:
+        """Without a close match the allowed keys are listed."""
+        fails(edit("[model]", "[model]\nzzz = 1"), "unknown key [model].zzz.", "Allowed here:")
+
+    @pytest.mark.parametrize("section", RESERVED_SECTIONS)
+    def test_reserved_section(self, section: str) -> None:
+        """Reserved sections are rejected as not supported yet, not as unknown."""
+        error = fails(
+            BASE + f"[{section}]\nx = 1\n",
+            f"section [{section}] is reserved for a later trainctl release",
+            "not supported yet",
+        )
+        assert "unknown" not in str(error)
+
+
+class TestMissing:
+    """Missing required keys and sections."""
+
+    @pytest.mark.parametrize(
+        ("old", "fragment"),
+        [
+            ("schema_version = 1\n", "missing required key schema_version"),
+            ('name = "Test train"\n', "missing required key name"),
+            ('description = "A three-coach test train"\n', "missing required key description"),
+            ("sample_time = 20.0\n", "missing required key [model].sample_time"),
+            ("speed_kmh = 300.0\n", "missing required key [model].speed_kmh"),
+            ("mass_t = 48.0\n", "missing required key [train.vehicle][1].mass_t"),
+            (
+                "stiffness_kn_per_m = 10488.0\n",
+                "missing required key [train.coupler].stiffness_kn_per_m",
+            ),
+        ],
+    )
+    def test_missing_key(self, old: str, fragment: str) -> None:
+        """Each required key is reported by its key path."""
+        fails(edit(old, ""), fragment)
+
+    def test_missing_model_section(self) -> None:
+        """A document without [model] names the section."""
+        fails(BASE.split("[model]")[0], "missing required section [model]")
+
+    def test_missing_train_section(self) -> None:
+        """A document without [train] names the section."""
+        fails(
+            SINGLE.replace("[train]\n[[train.vehicle]]\nmass_t = 40.0\n", "").replace(
+                "davis_si = [0.01, 0.0, 1e-5]\n", ""
+            ),
+            "missing required section [train]",
+        )
+
+    def test_no_vehicles_and_no_preset(self) -> None:
+        """[train] needs a preset or vehicles."""
+        text = edit("davis_si = [0.01, 0.0, 1e-5]\n", "", SINGLE)
+        text = edit("[[train.vehicle]]\nmass_t = 40.0\n", "", text)
+        fails(text, "missing required key [train].preset or [train.vehicle]")
+
+    def test_missing_davis(self) -> None:
+        """A vehicle group without Davis coefficients names the group."""
+        fails(
+            edit("davis_si = [0.01, 0.0, 1e-5]\n", "", SINGLE),
+            "[train.vehicle][0] needs exactly one of",
+        )
+
+    def test_two_davis_keys(self) -> None:
+        """Two Davis keys in one group are rejected."""
+        fails(
+            edit(
+                "davis_si = [0.01, 0.0, 1e-5]\n",
+                "davis_si = [0.01, 0.0, 1e-5]\ndavis_book_literal = [1, 1, 1]\n",
+                SINGLE,
+            ),
+            "[train.vehicle][0] needs exactly one of",
+            "(got davis_si and davis_book_literal)",
+        )
+
+    def test_missing_coupler(self) -> None:
+        """A train of several vehicles without a coupler names [train.coupler]."""
+        fails(
+            BASE.replace(
+                "[train.coupler]\nstiffness_kn_per_m = 10488.0\ndamping_kn_s_per_m = 0.0\n", ""
+            ),
+            "missing required key [train.coupler]",
+            "3 vehicles",
+        )
+
+
+class TestWrongType:
+    """Values of the wrong TOML type."""
+
+    @pytest.mark.parametrize(
+        ("old", "new", "fragment"),
+        [
+            (
+                "mass_t = 42.8",
+                "mass_t = true",
+                "[train.vehicle][0].mass_t must be a number > 0 (got true, a boolean)",
+            ),
+            (
+                "sample_time = 20.0",
+                'sample_time = "20"',
+                "[model].sample_time must be a number > 0 (got '20', a string)",
+            ),
+            (
+                "count = 2",
+                "count = 2.0",
+                "[train.vehicle][1].count must be an integer >= 1 (got 2.0)",
+            ),
+            ("seed = 0", "seed = true", "seed must be an integer >= 0 (got true, a boolean)"),
+            ("schema_version = 1", "schema_version = 1.0", "schema_version must be an integer"),
+            ('name = "Test train"', "name = 3", "name must be a string (got 3)"),
+            (
+                'name = "T"',
+                "name = [1]",
+                "[train.vehicle][0].name must be a string (got an array of 1 item)",
+            ),
+            (
+                "speed_kmh = 300.0",
+                "speed_kmh = 1979-05-27",
+                "[model].speed_kmh must be a number > 0 (got 1979-05-27, a date/time)",
+            ),
+            (
+                "[model]",
+                "[model]\ndummy_state = 1",
+                "[model].dummy_state must be true or false (got 1)",
+            ),
+            (
+                "damping_kn_s_per_m = 0.0",
+                'damping_kn_s_per_m = 0.0\nvirtual = "no"',
+                "[train.coupler].virtual must be true or false",
+            ),
+        ],
+    )
+    def test_wrong_scalar_type(self, old: str, new: str, fragment: str) -> None:
+        """Bools, strings, floats and dates where another type is required are rejected."""
+        fails(edit(old, new), fragment)
+
+    def test_string_number_hint(self) -> None:
+        """A quoted number gets a hint to drop the quotes."""
+        fails(
+            edit("sample_time = 20.0", 'sample_time = "20"'),
+            "[model].sample_time",
+            "without quotes",
+        )
+
+    def test_list_where_table_expected(self) -> None:
+        """An array where the [model] table is expected is rejected."""
+        text = edit("seed = 0", "seed = 0\nmodel = [1, 2]", BASE.split("[model]")[0])
+        fails(text, "[model] must be a table (got an array of 2 items)")
+
+    def test_table_where_array_of_tables_expected(self) -> None:
+        """[train.vehicle] written as a single table asks for double brackets."""
+        text = edit("[[train.vehicle]]", "[train.vehicle]", SINGLE)
+        fails(text, "[train.vehicle] must be a non-empty array of tables", "double brackets")
+
+    def test_scalar_where_array_item_table_expected(self) -> None:
+        """A plain array in place of [[train.vehicle]] names the bad item."""
+        text = SINGLE.replace(
+            "[[train.vehicle]]\nmass_t = 40.0\ndavis_si = [0.01, 0.0, 1e-5]\n", "vehicle = [1]\n"
+        )
+        fails(text, "[train.vehicle][0] must be a table (got 1)")
+
+    def test_davis_element_type(self) -> None:
+        """A non-number inside the Davis list names its index."""
+        fails(
+            edit("[0.01, 0.0, 1e-5]", '[0.01, "x", 1e-5]', SINGLE),
+            "[train.vehicle][0].davis_si[1] must be a number >= 0",
+        )
+
+
+class TestNonFinite:
+    """nan and inf, which TOML allows, are rejected."""
+
+    @pytest.mark.parametrize("value", ["nan", "inf", "-inf", "+inf"])
+    def test_mass(self, value: str) -> None:
+        """Non-finite mass is rejected with the key path."""
+        fails(
+            edit("mass_t = 42.8", f"mass_t = {value}"),
+            "[train.vehicle][0].mass_t must be a finite number > 0",
+        )
+
+    def test_sample_time_nan(self) -> None:
+        """nan sample time is rejected and shown as nan."""
+        fails(
+            edit("sample_time = 20.0", "sample_time = nan"),
+            "[model].sample_time must be a finite number > 0 (got nan)",
+        )
+
+    def test_inf_limit_hint(self) -> None:
+        """inf for an optional limit hints to omit the key."""
+        fails(
+            edit("max_power_kw = 1200.0", "max_power_kw = inf"),
+            "[train.vehicle][1].max_power_kw",
+            "Omit the key for no limit",
+        )
+
+    def test_davis_nan(self) -> None:
+        """nan inside the Davis list is rejected with its index."""
+        fails(
+            edit("[0.01, 0.0, 1e-5]", "[0.01, nan, 1e-5]", SINGLE),
+            "[train.vehicle][0].davis_si[1] must be a finite number",
+        )
+
+    def test_huge_integer(self) -> None:
+        """An integer too large for a float is treated as non-finite."""
+        fails(
+            edit("sample_time = 20.0", "sample_time = " + "9" * 400),
+            "[model].sample_time must be a finite number",
+        )
+
+
+class TestBounds:
+    """Zero or negative values where positive ones are required."""
+
+    @pytest.mark.parametrize(
+        ("old", "new", "fragment"),
+        [
+            (
+                "mass_t = 42.8",
+                "mass_t = 0",
+                "[train.vehicle][0].mass_t must be a number > 0 (got 0)",
+            ),
+            (
+                "mass_t = 48.0",
+                "mass_t = -1.0",
+                "[train.vehicle][1].mass_t must be a number > 0 (got -1.0)",
+            ),
+            (
+                "stiffness_kn_per_m = 10488.0",
+                "stiffness_kn_per_m = 0.0",
+                "[train.coupler].stiffness_kn_per_m must be a number > 0 (got 0.0)",
+            ),
+            (
+                "stiffness_kn_per_m = 10488.0",
+                "stiffness_kn_per_m = -5",
+                "[train.coupler].stiffness_kn_per_m must be a number > 0",
+            ),
+            (
+                "sample_time = 20.0",
+                "sample_time = 0.0",
+                "[model].sample_time must be a number > 0 (got 0.0)",
+            ),
+            (
+                "speed_kmh = 300.0",
+                "speed_kmh = -300.0",
+                "[model].speed_kmh must be a number > 0 (got -300.0)",
+            ),
+            ("count = 2", "count = 0", "[train.vehicle][1].count must be an integer >= 1 (got 0)"),
+            ("seed = 0", "seed = -1", "seed must be an integer >= 0 (got -1)"),
+            (
+                "traction_share = 0.0",
+                "traction_share = -0.5",
+                "[train.vehicle][0].traction_share must be a number >= 0",
+            ),
+            (
+                "damping_kn_s_per_m = 0.0",
+                "damping_kn_s_per_m = -1.0",
+                "[train.coupler].damping_kn_s_per_m must be a number >= 0",
+            ),
+            ("length = 25.0", "length = 0.0", "[train.vehicle][0].length must be a number > 0"),
+        ],
+    )
+    def test_out_of_range(self, old: str, new: str, fragment: str) -> None:
+        """Each out-of-range value names its key path, the bound and the value."""
+        fails(edit(old, new), fragment)
+
+    def test_schema_version(self) -> None:
+        """Only schema_version 1 is read."""
+        fails(edit("schema_version = 1", "schema_version = 2"), "schema_version must be 1 (got 2)")
+
+    def test_blank_name(self) -> None:
+        """A blank name is rejected."""
+        fails(edit('"Test train"', '"   "'), "name must be a non-empty string")
+
+    def test_multi_line_description(self) -> None:
+        """The description must be one line."""
+        fails(
+            edit('"A three-coach test train"', '"""two\nlines"""'),
+            "description must be a single line",
+        )
+
+    def test_curve_radius_zero(self) -> None:
+        """A zero curve radius is rejected with the section index."""
+        text = SINGLE + "[track]\n[[track.section]]\nstart = 0.0\ncurve_radius = 0.0\n"
+        fails(text, "[track.section][0].curve_radius must be a number > 0")
+
+    def test_vehicle_count_limit(self) -> None:
+        """An absurd count is rejected before expanding the train."""
+        fails(
+            edit("count = 2", "count = 100000000"),
+            "[train.vehicle][1].count makes the train longer",
+        )
+
+
+class TestLengths:
+    """Lists and arrays of tables with the wrong length."""
+
+    def test_davis_two_numbers(self) -> None:
+        """A Davis list of 2 numbers is rejected."""
+        fails(
+            edit("[0.01, 0.0, 1e-5]", "[0.01, 0.0]", SINGLE),
+            "[train.vehicle][0].davis_si must be an array of 3 numbers >= 0",
+            "(got an array of 2 items)",
+        )
+
+    def test_davis_not_a_list(self) -> None:
+        """A scalar Davis value is rejected."""
+        fails(
+            edit("[0.01, 0.0, 1e-5]", "0.01", SINGLE),
+            "[train.vehicle][0].davis_si must be an array of 3 numbers",
+        )
+
+    def test_coupler_count(self) -> None:
+        """[[train.coupler]] with the wrong number of entries gives the expected count."""
+        text = edit("[train.coupler]", "[[train.coupler]]")
+        fails(text, "[[train.coupler]] must have exactly 2 entries", "(got 1)")
+
+    def test_empty_track_sections(self) -> None:
+        """A track needs at least one section."""
+        fails(
+            SINGLE + "[track]\nsection = []\n",
+            "[track.section] must be a non-empty array of tables",
+        )
+
+    def test_missing_track_sections(self) -> None:
+        """[track] without sections names the missing key."""
+        fails(SINGLE + "[track]\nformula = 'tbt'\n", "missing required key [track].section")
+
+
+class TestSyntaxAndEnums:
+    """Not-TOML input and bad enumeration values."""
+
+    def test_not_toml(self) -> None:
+        """A TOML syntax error is reported with its line."""
+        line = len(BASE.splitlines()) + 1
+        fails(BASE + "sample_time = = 3\n", "not valid TOML", f"at line {line}, column")
+
+    def test_duplicate_key(self) -> None:
+        """A duplicated key is a TOML error."""
+        fails(edit("seed = 0", "seed = 0\nseed = 1"), "not valid TOML")
+
+    @pytest.mark.parametrize(
+        ("key", "bad", "fragment"),
+        [
+            ("linearisation", "book2", "Did you mean 'book'?"),
+            ("allocation", "share", "Did you mean 'shares'?"),
+            ("discretisation", "tustn", "Did you mean 'tustin'?"),
+        ],
+    )
+    def test_bad_enum(self, key: str, bad: str, fragment: str) -> None:
+        """A bad enum value lists the options and suggests a close one."""
+        fails(
+            edit("[model]", f'[model]\n{key} = "{bad}"'),
+            f"[model].{key} must be one of",
+            f"(got '{bad}', a string)",
+            fragment,
+        )
+
+    def test_bad_track_formula(self) -> None:
+        """An unknown track formula is rejected with the options."""
+        text = SINGLE + "[track]\nformula = 'ning'\n[[track.section]]\nstart = 0.0\n"
+        fails(text, "[track].formula must be one of 'tbt', 'ning2016'")
+
+
+class TestModelErrors:
+    """ModelError from the model constructors becomes ScenarioError with a key path."""
+
+    def test_virtual_with_stiffness(self) -> None:
+        """A virtual link with stiffness is rejected at [train.coupler]."""
+        error = fails(
+            edit("damping_kn_s_per_m = 0.0", "damping_kn_s_per_m = 0.0\nvirtual = true"),
+            "[train.coupler]: Coupler: a virtual link transmits no force",
+        )
+        assert isinstance(error.__cause__, ModelError)
+
+    def test_virtual_with_damping_in_array(self) -> None:
+        """A virtual link with damping in [[train.coupler]] names its index."""
+        text = edit(
+            "[train.coupler]\nstiffness_kn_per_m = 10488.0\ndamping_kn_s_per_m = 0.0\n",
+            "[[train.coupler]]\nstiffness_kn_per_m = 1.0\n"
+            "[[train.coupler]]\nvirtual = true\ndamping_kn_s_per_m = 4.0\n",
+        )
+        fails(text, "[train.coupler][1]: Coupler:")
+
+    def test_track_starts_must_increase(self) -> None:
+        """Section starts out of order name the offending section."""
+        text = SINGLE + "[track]\n[[track.section]]\nstart = 10.0\n[[track.section]]\nstart = 5.0\n"
+        fails(
+            text, "[track.section][1].start must be greater than the previous section's start 10.0"
+        )
+
+
+def _fake_presets(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Install a stand-in trainctl.models.presets with one preset."""
+
+    def two_cars(*, mass_t: float = 40.0, stiffness_kn_per_m: float = 1000.0) -> Train:
+        car = Vehicle(mass=mass_t * 1e3, a0=0.01, a1=0.0, a2=1e-5)
+        return Train(vehicles=(car, car), couplers=(Coupler(stiffness=stiffness_kn_per_m * 1e3),))
+
+    def needs_n(*, n: int) -> Train:
+        car = Vehicle(mass=1e3, a0=0.0, a1=0.0, a2=0.0)
+        return Train(vehicles=(car,) * n, couplers=(Coupler(stiffness=1.0),) * (n - 1))
+
+    module = types.ModuleType("trainctl.models.presets")
+    module.PRESETS = {"two_cars": two_cars, "needs_n": needs_n}  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, "trainctl.models.presets", module)
+
+
+PRESET_DOC = """\
+schema_version = 1
+name = "Preset train"
+description = "From a preset"
+[train]
+preset = "{preset}"
+{options}
+[model]
+speed_kmh = 100.0
+sample_time = 1.0
+"""
+
+
+def preset_doc(preset: str, options: str = "") -> str:
+    """A scenario text using ``preset`` with optional [train.preset_options] lines."""
+    block = f"[train.preset_options]\n{options}" if options else ""
+    return PRESET_DOC.format(preset=preset, options=block)
+
+
+class TestPresetMachinery:
+    """The preset path, exercised with a stand-in presets module."""
+
+    def test_preset_with_options(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        """Options are passed as keyword arguments to the preset function."""
+        _fake_presets(monkeypatch)
+        train = parse_scenario(preset_doc("two_cars", "mass_t = 50.0\n")).train
+        assert train.mass.tolist() == [50000.0, 50000.0]
+
+    def test_unknown_preset(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        """An unknown preset lists the available ones and suggests a close match."""
+        _fake_presets(monkeypatch)
+        fails(
+            preset_doc("two_car"),
+            "[train].preset must name a preset (got 'two_car')",
+            "Did you mean 'two_cars'?",
+            "needs_n",
+        )
+
+    def test_unknown_option(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        """An option the preset function does not take is rejected with a suggestion."""
+        _fake_presets(monkeypatch)
+        fails(
+            preset_doc("two_cars", "mass = 50.0\n"),
+            "unknown key [train.preset_options].mass. Did you mean 'mass_t'?",
+        )
+
+    def test_missing_required_option(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        """A keyword-only argument without default must be given."""
+        _fake_presets(monkeypatch)
+        fails(preset_doc("needs_n"), "missing required key [train.preset_options].n")
+
+    def test_model_error_from_preset(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        """A ModelError inside the preset becomes ScenarioError at [train.preset_options]."""
+        _fake_presets(monkeypatch)
+        fails(preset_doc("two_cars", "mass_t = -1.0\n"), "[train.preset_options]: Vehicle")
+
+    def test_preset_and_vehicles_conflict(self) -> None:
+        """A preset cannot be combined with explicit vehicles."""
+        fails(
+            edit("[train]\n", '[train]\npreset = "crh2_half"\n'),
+            "[train].preset cannot be combined with [train.vehicle]",
+        )
+
+    def test_options_without_preset(self) -> None:
+        """[train.preset_options] without a preset is rejected."""
+        fails(
+            edit("[train]\n", "[train]\npreset_options = {}\n"),
+            "[train.preset_options] needs [train].preset",
+        )
+
+
+def _real_presets() -> dict:
+    """The real PRESETS mapping, or skip the test when it is not available yet."""
+    presets = pytest.importorskip("trainctl.models.presets")
+    if not hasattr(presets, "PRESETS"):
+        pytest.skip("trainctl.models.presets has no PRESETS yet")
+    return presets.PRESETS
+
+
+class TestRealPresets:
+    """The preset path with the project's presets module (skipped until it exists)."""
+
+    @pytest.mark.parametrize(
+        "name", ["crh2_half", "crh2_8car", "heavy_haul_1p2p1", "virtual_formation"]
+    )
+    def test_preset_loads(self, name: str) -> None:
+        """Each documented preset builds a Train with default options."""
+        presets = _real_presets()
+        if name not in presets:
+            pytest.skip(f"preset {name!r} not defined yet")
+        assert isinstance(parse_scenario(preset_doc(name)).train, Train)
+
+    def test_unknown_preset(self) -> None:
+        """An unknown preset name lists the real presets."""
+        _real_presets()
+        fails(preset_doc("crh2_halff"), "[train].preset must name a preset", "Available:")
+
+
+class TestSlugify:
+    """slugify: safe identifiers from any text."""
+
+    @pytest.mark.parametrize(
+        ("text", "slug"),
+        [
+            ("CRH2 half train", "crh2-half-train"),
+            ("<script>alert(1)</script>", "script-alert-1-script"),
+            ("../../etc/passwd", "etc-passwd"),
+            ("Zürich — Genève", "zurich-geneve"),
+            ("  --Hello__World--  ", "hello-world"),
+            ("", "scenario"),
+            ("!!!", "scenario"),
+            ("北京", "scenario"),
+        ],
+    )
+    def test_cases(self, text: str, slug: str) -> None:
+        """Known inputs give the expected slug."""
+        assert slugify(text) == slug
+
+    def test_long_text_cut_at_word(self) -> None:
+        """Long text is cut to at most 60 characters at a word boundary."""
+        slug = slugify("word " * 30)
+        assert len(slug) <= 60 and not slug.endswith("-")
+        assert set(slug.split("-")) == {"word"}
+
+    @given(st.text())
+    def test_property(self, text: str) -> None:
+        """Every slug is non-empty, at most 60 chars of [a-z0-9-], no edge dashes."""
+        slug = slugify(text)
+        assert re.fullmatch(r"[a-z0-9]+(-[a-z0-9]+)*", slug)
+        assert len(slug) <= 60
+
+
+class TestDataclasses:
+    """ModelSettings, Scenario and BuiltinScenario as data."""
+
+    def test_frozen(self) -> None:
+        """Scenario and ModelSettings are immutable."""
+        scenario = load_scenario("crh2-dmpc")
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            scenario.name = "x"  # type: ignore[misc]
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            scenario.model.speed = 1.0  # type: ignore[misc]
+
+    def test_model_settings_validates(self) -> None:
+        """ModelSettings built directly rejects bad values with ModelError."""
+        with pytest.raises(ModelError, match="'sample_time' must be > 0"):
+            ModelSettings(speed=1.0, sample_time=0.0)
+        with pytest.raises(ModelError, match="'linearisation' must be one of"):
+            ModelSettings(speed=1.0, sample_time=1.0, linearisation="book2")
+
+    def test_scenario_error_is_value_error(self) -> None:
+        """ScenarioError stays catchable as ValueError."""
+        with pytest.raises(ValueError):
+            parse_scenario("not = [toml")

@@ -1,0 +1,920 @@
+# Scenario files: the one module that reads TOML and turns it into SI objects.
+"""Read scenario files (TOML) into frozen dataclasses with SI values inside.
+
+A scenario names a train (a preset or explicit vehicle groups), an optional
+track and the model settings (cruise speed, linearisation, sampling). Keys
+whose name carries a unit (``mass_t``, ``speed_kmh``, ``stiffness_kn_per_m``)
+are converted once, here, with :mod:`trainctl.units`; every other number is
+already SI. The schema is documented in ``analyses/README.md``.
+
+Every malformed input raises :class:`~trainctl.exceptions.ScenarioError`
+whose message names the file, the key path (``[train.vehicle][2].mass_t``;
+array indices count from 0, head vehicle first), what must hold and what was
+given.
+
+Built-in scenarios are the ``*.toml`` files shipped in
+``trainctl/builtin_analyses/`` (an installed wheel) or, in a source checkout,
+the top-level ``analyses/`` directory. A bare name such as ``crh2-dmpc``
+selects one; anything that looks like a path is read as a file.
+"""
+
+from __future__ import annotations
+
+import datetime
+import difflib
+import inspect
+import math
+import os
+import re
+import tomllib
+import unicodedata
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any, NoReturn, TypeVar
+
+from .exceptions import ModelError, ScenarioError
+from .models.track import RESISTANCE_FORMULAS, Track, TrackSection
+from .models.train import Train
+from .models.vehicle import Coupler, TractionEnvelope, Vehicle
+from .units import (
+    davis_book_literal,
+    davis_from_unit_resistance_kmh,
+    kmh_to_ms,
+    kn_per_m_to_n_per_m,
+    kn_s_per_m_to_n_s_per_m,
+    kn_to_n,
+    kw_to_w,
+    tonnes_to_kg,
+)
+
+__all__ = [
+    "ALLOCATIONS",
+    "DISCRETISATIONS",
+    "LINEARISATIONS",
+    "RESERVED_SECTIONS",
+    "SCHEMA_VERSION",
+    "BuiltinScenario",
+    "ModelSettings",
+    "Scenario",
+    "builtin_scenario_text",
+    "builtin_scenarios",
+    "load_scenario",
+    "parse_scenario",
+    "slugify",
+]
+
+SCHEMA_VERSION = 1
+"""The only ``schema_version`` this release reads."""
+
+RESERVED_SECTIONS = ("controller", "simulation", "report", "communication", "sweep")
+"""Top-level sections reserved for later releases (rejected today)."""
+
+LINEARISATIONS = ("jacobian", "book")
+"""Accepted values of ``[model].linearisation``."""
+
+ALLOCATIONS = ("shares", "own")
+"""Accepted values of ``[model].allocation``."""
+
+DISCRETISATIONS = ("zoh", "tustin")
+"""Accepted values of ``[model].discretisation``."""
+
+_SLUG_MAX = 60
+_MAX_VEHICLES = 10_000
+_MISSING: Any = object()
+_T = TypeVar("_T")
+
+_TOP_KEYS = ("schema_version", "name", "description", "seed", "train", "track", "model")
+_TRAIN_KEYS = ("preset", "preset_options", "vehicle", "coupler")
+_DAVIS_KEYS = ("davis_n_per_kn_kmh", "davis_si", "davis_book_literal")
+_VEHICLE_KEYS = (
+    "name", "count", "mass_t", "length", *_DAVIS_KEYS, "traction_share",
+    "max_traction_kn", "max_power_kw", "max_braking_kn", "max_braking_power_kw", "adhesion",
+)  # fmt: skip
+_COUPLER_KEYS = ("stiffness_kn_per_m", "damping_kn_s_per_m", "virtual", "gap")
+_TRACK_KEYS = ("formula", "wheelbase", "section")
+_SECTION_KEYS = ("start", "grade_permille", "curve_radius")
+_MODEL_KEYS = (
+    "speed_kmh", "linearisation", "dummy_state", "allocation", "sample_time", "discretisation",
+)  # fmt: skip
+_DAVIS_CONVERTERS: dict[str, Callable[[float, float, float], tuple[float, float, float]]] = {
+    "davis_n_per_kn_kmh": davis_from_unit_resistance_kmh,
+    "davis_si": lambda c0, c1, c2: (c0, c1, c2),
+    "davis_book_literal": davis_book_literal,
+}
+_NO_LIMIT = " Omit the key for no limit."
+_STRAIGHT = " Omit the key for straight track."
+_BOUNDS = {None: "", "pos": " > 0", "nonneg": " >= 0"}
+
+
+@dataclass(frozen=True, kw_only=True)
+class ModelSettings:
+    """How the train model is linearised and sampled.
+
+    Parameters
+    ----------
+    speed : float
+        Cruise (linearisation) speed [m/s], > 0.
+    linearisation : {"jacobian", "book"}
+        Jacobian of the Davis law at ``speed``, or the book's printed matrices.
+    dummy_state : bool
+        Keep the book's dummy state in the linear model.
+    allocation : {"shares", "own"}
+        Cruise traction spread by ``traction_share`` within each physically
+        coupled group, or each vehicle carrying its own resistance.
+    sample_time : float
+        Sample time of the discrete model [s], > 0.
+    discretisation : {"zoh", "tustin"}
+        Continuous-to-discrete method.
+
+    Examples
+    --------
+    >>> ModelSettings(speed=25.0, sample_time=0.1).discretisation
+    'zoh'
+    """
+
+    speed: float
+    linearisation: str = "jacobian"
+    dummy_state: bool = True
+    allocation: str = "shares"
+    sample_time: float
+    discretisation: str = "zoh"
+
+    def __post_init__(self) -> None:
+        for name in ("speed", "sample_time"):
+            value = float(getattr(self, name))
+            if not math.isfinite(value) or value <= 0:
+                raise ModelError(f"ModelSettings: {name!r} must be > 0 (got {value!r}).")
+            object.__setattr__(self, name, value)
+        for name, options in (
+            ("linearisation", LINEARISATIONS),
+            ("allocation", ALLOCATIONS),
+            ("discretisation", DISCRETISATIONS),
+        ):
+            if getattr(self, name) not in options:
+                raise ModelError(
+                    f"ModelSettings: {name!r} must be one of {options} "
+                    f"(got {getattr(self, name)!r})."
+                )
+
+
+@dataclass(frozen=True, kw_only=True)
+class Scenario:
+    """A parsed scenario: train, track and model settings, all SI.
+
+    Parameters
+    ----------
+    name : str
+        Display name (any text); see :attr:`slug` for a file-name-safe form.
+    description : str
+        One-line description shown by ``trainctl list``.
+    seed : int
+        Random seed [-], >= 0.
+    train : Train
+        The train, head vehicle first.
+    track : Track or None
+        Track grade and curvature; ``None`` for flat, straight track.
+    model : ModelSettings
+        Linearisation and sampling settings.
+    source : str
+        Where the scenario came from: the file path as given, ``"builtin:NAME"``
+        or ``"<string>"``.
+
+    Examples
+    --------
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> scenario.slug
+    'crh2-half-train-n-dmpc-as-printed-li-zheng-ch-12'
+    """
+
+    name: str
+    description: str
+    seed: int = 0
+    train: Train
+    track: Track | None = None
+    model: ModelSettings
+    source: str = "<string>"
+
+    @property
+    def slug(self) -> str:
+        """File-name-safe form of :attr:`name` (see :func:`slugify`)."""
+        return slugify(self.name)
+
+
+@dataclass(frozen=True, kw_only=True)
+class BuiltinScenario:
+    """A scenario file shipped with trainctl.
+
+    Parameters
+    ----------
+    name : str
+        Built-in name (the file stem), e.g. ``"crh2-dmpc"``.
+    description : str
+        The file's one-line ``description``.
+    path : pathlib.Path
+        Location of the file.
+
+    Examples
+    --------
+    >>> builtin_scenarios()[0].name
+    'crh2-dmpc'
+    """
+
+    name: str
+    description: str
+    path: Path
+
+
+# --------------------------------------------------------------------------- public API
+
+
+def slugify(text: str) -> str:
+    """Turn any text into a short, safe identifier ``[a-z0-9-]``.
+
+    Accents are stripped, everything else that is not a letter or digit
+    becomes one ``-``; the result is at most 60 characters (cut at a word
+    boundary where possible) and never empty (``"scenario"`` is the fallback).
+
+    Parameters
+    ----------
+    text : str
+        Any text, e.g. a scenario's display name.
+
+    Returns
+    -------
+    str
+        The slug.
+
+    Examples
+    --------
+    >>> slugify("CRH2 half train — N-DMPC (Li & Zheng)")
+    'crh2-half-train-n-dmpc-li-zheng'
+    >>> slugify("<script>alert(1)</script>")
+    'script-alert-1-script'
+    >>> slugify("  ")
+    'scenario'
+    """
+    ascii_text = unicodedata.normalize("NFKD", str(text)).encode("ascii", "ignore").decode()
+    slug = re.sub(r"[^a-z0-9]+", "-", ascii_text.lower()).strip("-")
+    if len(slug) > _SLUG_MAX:
+        cut = slug[: _SLUG_MAX + 1].rfind("-")
+        slug = slug[: cut if cut >= _SLUG_MAX // 2 else _SLUG_MAX].rstrip("-")
+    return slug or "scenario"
+
+
+def builtin_scenarios() -> list[BuiltinScenario]:
+    """List the built-in scenarios, sorted by name.
+
+    Returns
+    -------
+    list of BuiltinScenario
+        One entry per shipped ``*.toml`` file.
+
+    Examples
+    --------
+    >>> [b.name for b in builtin_scenarios()]
+    ['crh2-dmpc', 'crh2-potential', 'heavy-haul-flocking', 'heavy-haul-hinf']
+    """
+    found = []
+    for path in _builtin_paths():
+        label = f"builtin:{path.stem}"
+        data = _load_toml(_decode(path.read_bytes(), label), label)
+        description = data.get("description", "")
+        found.append(
+            BuiltinScenario(
+                name=path.stem,
+                description=description if isinstance(description, str) else "",
+                path=path,
+            )
+        )
+    return found
+
+
+def builtin_scenario_text(name: str) -> str:
+    """Return the TOML text of a built-in scenario.
+
+    Parameters
+    ----------
+    name : str
+        Built-in name, e.g. ``"crh2-dmpc"``.
+
+    Returns
+    -------
+    str
+        The file's text.
+
+    Raises
+    ------
+    ScenarioError
+        If there is no built-in of that name (the message lists them).
+
+    Examples
+    --------
+    >>> builtin_scenario_text("crh2-dmpc").startswith("#")
+    True
+    """
+    paths = {path.stem: path for path in _builtin_paths()}
+    if name not in paths:
+        hint = _suggest(name, paths)
+        raise ScenarioError(
+            f"builtin:{name}: no built-in scenario named {name!r}.{hint} Available: "
+            f"{', '.join(sorted(paths)) or '(none)'}. To read a file, give a path "
+            f"such as ./{name}.toml."
+        )
+    return _decode(paths[name].read_bytes(), f"builtin:{name}")
+
+
+def load_scenario(source: str | os.PathLike[str]) -> Scenario:
+    """Load a scenario from a built-in name or a file.
+
+    Parameters
+    ----------
+    source : str or os.PathLike
+        A bare name (no path separator, no ``.toml`` suffix) selects a
+        built-in scenario; anything else is read as a UTF-8 TOML file.
+
+    Returns
+    -------
+    Scenario
+        The parsed scenario; its ``source`` is the path as given or
+        ``"builtin:NAME"``.
+
+    Raises
+    ------
+    ScenarioError
+        If the file is missing, unreadable, not UTF-8, not TOML or does not
+        follow the schema.
+
+    Examples
+    --------
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> scenario.source, scenario.train.mass.tolist()
+    ('builtin:crh2-dmpc', [42800.0, 48000.0, 46500.0, 42000.0])
+    >>> round(scenario.model.speed, 3), scenario.model.sample_time
+    (83.333, 20.0)
+    """
+    if isinstance(source, str) and _is_bare_name(source):
+        return parse_scenario(builtin_scenario_text(source), source=f"builtin:{source}")
+    label = os.fspath(source)
+    try:
+        raw = Path(label).read_bytes()
+    except FileNotFoundError:
+        raise ScenarioError(
+            f"{label}: file not found. Give an existing path, or a built-in name "
+            f"({', '.join(_builtin_names())})."
+        ) from None
+    except OSError as exc:
+        raise ScenarioError(f"{label}: cannot read the file ({exc.strerror or exc}).") from None
+    return parse_scenario(_decode(raw, label), source=label)
+
+
+def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:
+    """Parse scenario TOML text.
+
+    Parameters
+    ----------
+    text : str
+        The TOML document.
+    source : str
+        Label used in error messages and stored as ``Scenario.source``.
+
+    Returns
+    -------
+    Scenario
+        The scenario, SI inside.
+
+    Raises
+    ------
+    ScenarioError
+        If the text is not TOML or does not follow the schema.
+
+    Examples
+    --------
+    >>> text = '''
+    ... schema_version = 1
+    ... name = "Two coaches"
+    ... description = "Smallest coupled train"
+    ... [train]
+    ... vehicle = [{mass_t = 40.0, count = 2, davis_si = [0.01, 0.0, 1e-5]}]
+    ... coupler = {stiffness_kn_per_m = 10000.0}
+    ... [model]
+    ... speed_kmh = 90.0
+    ... sample_time = 0.5
+    ... '''
+    >>> scenario = parse_scenario(text)
+    >>> scenario.train.stiffness.tolist(), scenario.model.speed
+    ([10000000.0], 25.0)
+    """
+    if not isinstance(text, str):
+        raise TypeError(f"parse_scenario: 'text' must be a str (got {type(text).__name__}).")
+    top = _Table(source, _load_toml(text, source), _TOP_KEYS, dotted="", reserved=True)
+    version = top.integer("schema_version", minimum=0)
+    if version != SCHEMA_VERSION:
+        top.fail(
+            f"schema_version must be {SCHEMA_VERSION} (got {version}). This trainctl "
+            f"release reads schema version {SCHEMA_VERSION} only."
+        )
+    name = top.string("name", nonblank=True)
+    track_table = top.optional_section("track", _TRACK_KEYS)
+    return Scenario(
+        name=name,
+        description=top.string("description", single_line=True),
+        seed=top.integer("seed", minimum=0, default=0),
+        train=_parse_train(top.section("train", _TRAIN_KEYS), name),
+        track=None if track_table is None else _parse_track(track_table),
+        model=_parse_model(top.section("model", _MODEL_KEYS)),
+        source=source,
+    )
+
+
+# --------------------------------------------------------------------------- sections
+
+
+def _parse_train(table: _Table, name: str) -> Train:
+    if table.has("preset"):
+        for key in ("vehicle", "coupler"):
+            if table.has(key):
+                table.fail(
+                    f"{table.key('preset')} cannot be combined with {table.child_path(key)[0]}: "
+                    f"give either a preset or explicit vehicles."
+                )
+        return _parse_preset(table)
+    if table.has("preset_options"):
+        where = table.child_path("preset_options")[0]
+        table.fail(f"{where} needs {table.key('preset')} (got no preset).")
+    if not table.has("vehicle"):
+        table.fail(
+            f"missing required key {table.key('preset')} or {table.child_path('vehicle')[0]}: the "
+            f"train needs a preset name or at least one [[train.vehicle]] group."
+        )
+    vehicles = _parse_vehicles(table.sections("vehicle", _VEHICLE_KEYS))
+    couplers = _parse_couplers(table, vehicles)
+    return _build(
+        table.file,
+        table.path,
+        lambda: Train(vehicles=tuple(vehicles), couplers=tuple(couplers), name=name),
+    )
+
+
+def _parse_preset(table: _Table) -> Train:
+    preset = table.string("preset")
+    try:
+        from .models.presets import PRESETS
+    except ImportError as exc:
+        table.fail(f"{table.key('preset')}: presets are not available ({exc}).")
+    if preset not in PRESETS:
+        table.fail(
+            f"{table.key('preset')} must name a preset (got {preset!r}).{_suggest(preset, PRESETS)}"
+            f" Available: {', '.join(sorted(PRESETS))}."
+        )
+    factory = PRESETS[preset]
+    options = _preset_options(table, factory, preset)
+    where = table.child_path("preset_options")[0] if options else table.key("preset")
+    # A preset may also reject an option's value or type with ValueError / TypeError.
+    train = _build(table.file, where, lambda: factory(**options), (ValueError, TypeError))
+    if not isinstance(train, Train):
+        table.fail(f"{table.key('preset')}: preset {preset!r} did not return a Train.")
+    return train
+
+
+def _preset_options(table: _Table, factory: Callable[..., Train], preset: str) -> dict[str, Any]:
+    params = inspect.signature(factory).parameters
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        allowed = None
+    else:
+        keyword = (inspect.Parameter.KEYWORD_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+        allowed = tuple(n for n, p in params.items() if p.kind in keyword)
+    section = table.optional_section("preset_options", allowed)
+    options = {} if section is None else dict(section.data)
+    for name, param in params.items():
+        if param.kind is inspect.Parameter.KEYWORD_ONLY and param.default is param.empty:
+            if name not in options:
+                table.fail(
+                    f"missing required key {table.child_path('preset_options')[0]}.{name} "
+                    f"(preset {preset!r} needs it)."
+                )
+    return options
+
+
+def _parse_vehicles(groups: list[_Table]) -> list[Vehicle]:
+    vehicles: list[Vehicle] = []
+    for group in groups:
+        count = group.integer("count", minimum=1, default=1)
+        if len(vehicles) + count > _MAX_VEHICLES:
+            group.fail(
+                f"{group.key('count')} makes the train longer than {_MAX_VEHICLES} vehicles "
+                f"(got {count} after {len(vehicles)})."
+            )
+        vehicles.extend([_parse_vehicle(group)] * count)
+    return vehicles
+
+
+def _parse_vehicle(group: _Table) -> Vehicle:
+    a0, a1, a2 = _parse_davis(group)
+    envelope = TractionEnvelope(
+        max_traction=kn_to_n(group.number("max_traction_kn", "nonneg", math.inf)),
+        max_power=kw_to_w(group.number("max_power_kw", "pos", math.inf)),
+        max_braking=kn_to_n(group.number("max_braking_kn", "nonneg", math.inf)),
+        max_braking_power=kw_to_w(group.number("max_braking_power_kw", "pos", math.inf)),
+        adhesion=group.number("adhesion", "pos", math.inf),
+    )
+    return _build(
+        group.file,
+        group.path,
+        lambda: Vehicle(
+            mass=tonnes_to_kg(group.number("mass_t", "pos")),
+            a0=a0,
+            a1=a1,
+            a2=a2,
+            name=group.string("name", default="vehicle"),
+            length=group.number("length", "pos", 25.0),
+            traction_share=group.number("traction_share", "nonneg", 1.0),
+            envelope=envelope,
+        ),
+    )
+
+
+def _parse_davis(group: _Table) -> tuple[float, float, float]:
+    given = [key for key in _DAVIS_KEYS if group.has(key)]
+    if len(given) != 1:
+        what = "none" if not given else " and ".join(given)
+        group.fail(
+            f"{group.path} needs exactly one of {', '.join(_DAVIS_KEYS)} (got {what}). "
+            f"davis_n_per_kn_kmh is N/kN with V in km/h; davis_si is [a0 m/s², a1 1/s, a2 1/m]."
+        )
+    c0, c1, c2 = group.numbers(given[0], length=3, bound="nonneg")
+    return _DAVIS_CONVERTERS[given[0]](c0, c1, c2)
+
+
+def _parse_couplers(table: _Table, vehicles: Sequence[Vehicle]) -> list[Coupler]:
+    n_links = len(vehicles) - 1
+    raw = table.data.get("coupler", _MISSING)
+    if raw is _MISSING:
+        if n_links == 0:
+            return []
+        table.fail(
+            f"missing required key [train.coupler]: a train of {len(vehicles)} vehicles "
+            f"needs a [train.coupler] table or {n_links} [[train.coupler]] entries."
+        )
+    if isinstance(raw, dict):
+        links = [table.section("coupler", _COUPLER_KEYS)] * n_links
+    else:
+        links = table.sections("coupler", _COUPLER_KEYS, allow_empty=True)
+        if len(links) != n_links:
+            table.fail(
+                f"[[train.coupler]] must have exactly {n_links} entries, one per link "
+                f"between {len(vehicles)} vehicles (got {len(links)}). Use a single "
+                f"[train.coupler] table to apply one coupler to every link."
+            )
+    return [
+        _parse_coupler(link, vehicles[i].length, vehicles[i + 1].length)
+        for i, link in enumerate(links)
+    ]
+
+
+def _parse_coupler(link: _Table, front_length: float, rear_length: float) -> Coupler:
+    virtual = link.boolean("virtual", default=False)
+    if virtual:
+        stiffness = link.number("stiffness_kn_per_m", "nonneg", 0.0)
+    else:
+        stiffness = link.number("stiffness_kn_per_m", "pos")
+    spacing = (front_length + rear_length) / 2.0 + link.number("gap", "nonneg", 0.0)
+    return _build(
+        link.file,
+        link.path,
+        lambda: Coupler(
+            stiffness=kn_per_m_to_n_per_m(stiffness),
+            damping=kn_s_per_m_to_n_s_per_m(link.number("damping_kn_s_per_m", "nonneg", 0.0)),
+            spacing=spacing,
+            virtual=virtual,
+        ),
+    )
+
+
+def _parse_track(table: _Table) -> Track:
+    formula = table.choice("formula", RESISTANCE_FORMULAS, default="tbt")
+    wheelbase = table.number("wheelbase", "pos", 1.83)
+    sections: list[TrackSection] = []
+    for item in table.sections("section", _SECTION_KEYS):
+        sections.append(_parse_section(item, sections[-1].start if sections else None))
+    return _build(
+        table.file,
+        table.path,
+        lambda: Track(sections=tuple(sections), formula=formula, wheelbase=wheelbase),
+    )
+
+
+def _parse_section(item: _Table, previous_start: float | None) -> TrackSection:
+    start = item.number("start")
+    if previous_start is not None and start <= previous_start:
+        item.fail(
+            f"{item.key('start')} must be greater than the previous section's start "
+            f"{previous_start!r} (got {start!r}). List sections in track order."
+        )
+    return _build(
+        item.file,
+        item.path,
+        lambda: TrackSection(
+            start=start,
+            grade_permille=item.number("grade_permille", None, 0.0),
+            curve_radius=item.number("curve_radius", "pos", math.inf, _STRAIGHT),
+        ),
+    )
+
+
+def _parse_model(table: _Table) -> ModelSettings:
+    return _build(
+        table.file,
+        table.path,
+        lambda: ModelSettings(
+            speed=kmh_to_ms(table.number("speed_kmh", "pos")),
+            linearisation=table.choice("linearisation", LINEARISATIONS, default="jacobian"),
+            dummy_state=table.boolean("dummy_state", default=True),
+            allocation=table.choice("allocation", ALLOCATIONS, default="shares"),
+            sample_time=table.number("sample_time", "pos"),
+            discretisation=table.choice("discretisation", DISCRETISATIONS, default="zoh"),
+        ),
+    )
+
+
+# --------------------------------------------------------------------------- table reader
+
+
+class _Table:
+    """Typed, key-path-aware access to one TOML table.
+
+    ``path`` is the display key path (``"[model]"``, ``"[train.vehicle][2]"``,
+    ``""`` for the document); ``dotted`` is the TOML table name used to form
+    child section names, or None inside an array element.
+    """
+
+    def __init__(
+        self,
+        file: str,
+        data: dict[str, Any],
+        allowed: Iterable[str] | None,
+        *,
+        path: str = "",
+        dotted: str | None = None,
+        reserved: bool = False,
+    ) -> None:
+        self.file = file
+        self.data = data
+        self.path = path
+        self.dotted = dotted
+        if allowed is not None:
+            self._check_keys(tuple(allowed), reserved)
+
+    def _check_keys(self, allowed: tuple[str, ...], reserved: bool) -> None:
+        known = allowed + (RESERVED_SECTIONS if reserved else ())
+        for key, value in self.data.items():
+            if key in allowed:
+                continue
+            if reserved and key in RESERVED_SECTIONS:
+                self.fail(
+                    f"section [{key}] is reserved for a later trainctl release and is not "
+                    f"supported yet. Remove it to load this scenario."
+                )
+            where = self.child_path(key)[0] if isinstance(value, dict) else self.key(key)
+            kind = "section" if isinstance(value, dict) else "key"
+            hint = _suggest(key, known) or (
+                f" Allowed here: {', '.join(allowed)}." if allowed else " No keys are allowed here."
+            )
+            self.fail(f"unknown {kind} {where}.{hint}")
+
+    def fail(self, message: str) -> NoReturn:
+        """Raise ScenarioError with the file name in front of ``message``."""
+        raise ScenarioError(f"{self.file}: {message}")
+
+    def key(self, name: str) -> str:
+        """Display key path of ``name`` in this table."""
+        return f"{self.path}.{name}" if self.path else name
+
+    def child_path(self, name: str) -> tuple[str, str | None]:
+        """Display path and dotted name of the sub-table ``name``."""
+        if self.dotted is None:
+            return self.key(name), None
+        dotted = f"{self.dotted}.{name}" if self.dotted else name
+        return f"[{dotted}]", dotted
+
+    def has(self, name: str) -> bool:
+        """True if the key is present."""
+        return name in self.data
+
+    def _get(self, name: str, default: Any, want: str) -> Any:
+        value = self.data.get(name, _MISSING)
+        if value is _MISSING and default is _MISSING:
+            self.fail(f"missing required key {self.key(name)} ({want}).")
+        return value
+
+    def number(
+        self, name: str, bound: str | None = None, default: Any = _MISSING, hint: str = ""
+    ) -> float:
+        """A finite float; ``bound`` is None, ``"pos"`` (> 0) or ``"nonneg"`` (>= 0)."""
+        value = self._get(name, default, "a number" + _BOUNDS[bound])
+        if value is _MISSING:
+            return float(default)
+        if not hint and default is not _MISSING and math.isinf(default):
+            hint = _NO_LIMIT
+        return _check_number(self.file, self.key(name), value, bound, hint)
+
+    def numbers(self, name: str, *, length: int, bound: str | None) -> list[float]:
+        """A list of exactly ``length`` finite floats."""
+        want = f"an array of {length} numbers{_BOUNDS[bound]}"
+        value = self._get(name, _MISSING, want)
+        if not isinstance(value, list) or len(value) != length:
+            self.fail(f"{self.key(name)} must be {want} (got {_got(value)}).")
+        return [
+            _check_number(self.file, f"{self.key(name)}[{i}]", item, bound, "")
+            for i, item in enumerate(value)
+        ]
+
+    def integer(self, name: str, *, minimum: int, default: Any = _MISSING) -> int:
+        """An int (not a bool or float) >= ``minimum``."""
+        want = f"an integer >= {minimum}"
+        value = self._get(name, default, want)
+        if value is _MISSING:
+            return int(default)
+        if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+            self.fail(f"{self.key(name)} must be {want} (got {_got(value)}).")
+        return value
+
+    def string(
+        self,
+        name: str,
+        *,
+        default: Any = _MISSING,
+        nonblank: bool = False,
+        single_line: bool = False,
+    ) -> str:
+        """A str, optionally non-blank and without line breaks."""
+        value = self._get(name, default, "a string")
+        if value is _MISSING:
+            return str(default)
+        if not isinstance(value, str):
+            self.fail(f"{self.key(name)} must be a string (got {_got(value)}).")
+        if nonblank and not value.strip():
+            self.fail(f"{self.key(name)} must be a non-empty string (got {value!r}).")
+        if single_line and ("\n" in value or "\r" in value):
+            self.fail(f"{self.key(name)} must be a single line (got {_short(value)!r}).")
+        return value
+
+    def boolean(self, name: str, *, default: Any = _MISSING) -> bool:
+        """A TOML boolean (``true`` / ``false``)."""
+        value = self._get(name, default, "true or false")
+        if value is _MISSING:
+            return bool(default)
+        if not isinstance(value, bool):
+            self.fail(f"{self.key(name)} must be true or false (got {_got(value)}).")
+        return value
+
+    def choice(self, name: str, options: Sequence[str], *, default: Any = _MISSING) -> str:
+        """One of ``options``."""
+        want = "one of " + ", ".join(repr(o) for o in options)
+        value = self._get(name, default, want)
+        if value is _MISSING:
+            return str(default)
+        if not isinstance(value, str) or value not in options:
+            hint = _suggest(value, options) if isinstance(value, str) else ""
+            self.fail(f"{self.key(name)} must be {want} (got {_got(value)}).{hint}")
+        return value
+
+    def optional_section(self, name: str, allowed: Iterable[str] | None) -> _Table | None:
+        """The sub-table ``name`` (``[a.name]``), or None if absent."""
+        return self.section(name, allowed) if name in self.data else None
+
+    def section(self, name: str, allowed: Iterable[str] | None) -> _Table:
+        """The required sub-table ``name`` (``[a.name]``)."""
+        where, dotted = self.child_path(name)
+        value = self.data.get(name, _MISSING)
+        if value is _MISSING:
+            self.fail(f"missing required section {where}.")
+        if not isinstance(value, dict):
+            self.fail(f"{where} must be a table (got {_got(value)}).")
+        return _Table(self.file, value, allowed, path=where, dotted=dotted)
+
+    def sections(
+        self, name: str, allowed: Iterable[str], *, allow_empty: bool = False
+    ) -> list[_Table]:
+        """The array of tables ``[[a.name]]``, each element a child table."""
+        where = self.child_path(name)[0]
+        value = self._get(name, _MISSING, f"an array of tables [{where}]")
+        if not isinstance(value, list) or not (value or allow_empty):
+            self.fail(
+                f"{where} must be a non-empty array of tables, written [{where}] with "
+                f"double brackets (got {_got(value)})."
+            )
+        allowed = tuple(allowed)
+        tables = []
+        for i, item in enumerate(value):
+            if not isinstance(item, dict):
+                self.fail(f"{where}[{i}] must be a table (got {_got(item)}).")
+            tables.append(_Table(self.file, item, allowed, path=f"{where}[{i}]"))
+        return tables
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def _check_number(file: str, where: str, value: Any, bound: str | None, hint: str) -> float:
+    want = "a number" + _BOUNDS[bound]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        quote = " Write numbers without quotes." if isinstance(value, str) else ""
+        raise ScenarioError(f"{file}: {where} must be {want} (got {_got(value)}).{quote}")
+    try:
+        x = float(value)
+    except OverflowError:
+        x = math.inf
+    if not math.isfinite(x):
+        raise ScenarioError(
+            f"{file}: {where} must be a finite number{_BOUNDS[bound]} (got {x!r}).{hint}"
+        )
+    if (bound == "pos" and x <= 0.0) or (bound == "nonneg" and x < 0.0):
+        raise ScenarioError(f"{file}: {where} must be {want} (got {value!r}).")
+    return x
+
+
+def _build(
+    file: str,
+    where: str,
+    make: Callable[[], _T],
+    catch: tuple[type[Exception], ...] = (ModelError,),
+) -> _T:
+    """Call ``make``; re-raise a model-level error as ScenarioError at ``where``."""
+    try:
+        return make()
+    except ScenarioError:
+        raise
+    except catch as exc:
+        raise ScenarioError(f"{file}: {where}: {exc}") from exc
+
+
+def _load_toml(text: str, source: str) -> dict[str, Any]:
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{source}: not valid TOML: {exc}.") from None
+
+
+def _decode(raw: bytes, label: str) -> str:
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise ScenarioError(
+            f"{label}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at line {line}, byte "
+            f"offset {exc.start}). Save the file as UTF-8."
+        ) from None
+
+
+def _is_bare_name(source: str) -> bool:
+    seps = {"/", "\\", os.sep} | ({os.altsep} if os.altsep else set())
+    return not any(sep in source for sep in seps) and not source.lower().endswith(".toml")
+
+
+def _builtin_dir() -> Path:
+    try:
+        candidate = resources.files("trainctl") / "builtin_analyses"
+        if candidate.is_dir():
+            return Path(str(candidate))
+    except (ImportError, OSError, TypeError, ValueError):
+        pass
+    return Path(__file__).resolve().parent.parent / "analyses"
+
+
+def _builtin_paths() -> list[Path]:
+    directory = _builtin_dir()
+    if not directory.is_dir():
+        return []
+    return sorted((p for p in directory.glob("*.toml") if p.is_file()), key=lambda p: p.stem)
+
+
+def _builtin_names() -> list[str]:
+    return [path.stem for path in _builtin_paths()]
+
+
+def _suggest(word: str, choices: Iterable[str]) -> str:
+    close = difflib.get_close_matches(word, list(choices), n=1)
+    return f" Did you mean {close[0]!r}?" if close else ""
+
+
+def _short(text: str, limit: int = 60) -> str:
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _got(value: Any) -> str:
+    """Describe a TOML value for a '(got ...)' clause."""
+    if isinstance(value, bool):
+        return f"{str(value).lower()}, a boolean"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return f"{_short(value)!r}, a string"
+    if isinstance(value, list):
+        return f"an array of {len(value)} item{'s' if len(value) != 1 else ''}"
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, (datetime.date, datetime.time)):
+        return f"{value.isoformat()}, a date/time"
+    return type(value).__name__
