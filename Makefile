@@ -1,0 +1,52 @@
+# trainctl developer tasks. On a fresh clone: `make report` and `make test`.
+#
+# The virtual environment lives in .venv; the install steps are recorded by
+# stamp files inside it, so they re-run only when pyproject.toml (or the
+# version) changes, or when .venv is deleted.
+
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+PIP := $(BIN)/python -m pip --disable-pip-version-check
+STAMP_RUN := $(VENV)/.trainctl-install.stamp
+STAMP_TEST := $(VENV)/.trainctl-install-test.stamp
+INSTALL_DEPS := pyproject.toml trainctl/__init__.py
+
+.PHONY: help report test install install-test lint clean
+
+help:
+	@echo "make report   write reports/crh2-dmpc.html (creates .venv when missing)"
+	@echo "make test     run the whole test suite, doctests included"
+	@echo "make lint     ruff check and mypy"
+	@echo "make clean    remove build artefacts and caches (keeps .venv)"
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+
+# pip on this machine may print 'Location ... is ignored' configuration
+# warnings; they are harmless, only pip's exit status counts.
+$(STAMP_RUN): $(INSTALL_DEPS) | $(BIN)/python
+	$(PIP) install --quiet -e .
+	@touch $@
+
+$(STAMP_TEST): $(INSTALL_DEPS) | $(BIN)/python
+	$(PIP) install --quiet -e '.[test]'
+	@touch $@ $(STAMP_RUN)
+
+install: $(STAMP_RUN)
+
+install-test: $(STAMP_TEST)
+
+report: $(STAMP_RUN)
+	$(BIN)/trainctl report
+
+test: $(STAMP_TEST)
+	$(BIN)/python -m pytest
+
+lint: $(STAMP_TEST)
+	$(BIN)/ruff check .
+	$(BIN)/mypy
+
+clean:
+	rm -rf build dist .pytest_cache .hypothesis .mypy_cache .ruff_cache
+	find . -path ./$(VENV) -prune -o -name __pycache__ -type d -exec rm -rf {} +
