@@ -409,7 +409,7 @@ def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:
     if not isinstance(text, str):
         raise TypeError(f"parse_scenario: 'text' must be a str (got {type(text).__name__}).")
     top = _Table(source, _load_toml(text, source), _TOP_KEYS, dotted="", reserved=True)
-    version = top.integer("schema_version", minimum=0)
+    version = top.integer("schema_version", minimum=1)
     if version != SCHEMA_VERSION:
         top.fail(
             f"schema_version must be {SCHEMA_VERSION} (got {version}). This trainctl "

@@ -5,8 +5,9 @@ Each mode of ``[v; delta]`` models is classified from its eigenvalue and
 eigenvector:
 
 ``"rigid-body"``
-    Real mode in which every vehicle moves the same way (velocity components
-    of one sign): the train speeding up or slowing down as a whole.
+    Real mode in which the vehicles that move at all move the same way
+    (non-negligible velocity components of one sign): a train, or each
+    virtually coupled unit, speeding up or slowing down as a whole.
 ``"coupler"``
     Oscillatory pair: vehicles vibrating against each other on the couplers.
 ``"dummy"``
@@ -128,7 +129,8 @@ def _classify(value: complex, vec: np.ndarray, n: int, labels: list[str], scale:
             return "dummy"
         return "integrator"
     v = vec[:n].real
-    if np.all(v > 0) or np.all(v < 0):
+    v = v[np.abs(v) > 1e-6 * np.max(np.abs(v), initial=0.0)]
+    if v.size and (np.all(v > 0) or np.all(v < 0)):
         return "rigid-body"
     return "real"
 

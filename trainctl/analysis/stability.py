@@ -28,7 +28,7 @@ import control as ct
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .modes import _ZERO_TOL
+from .modes import _ZERO_TOL, _classify
 
 __all__ = ["ModeStability", "StabilityResult", "analyse_stability"]
 
@@ -193,7 +193,7 @@ def analyse_stability(
             eigenvalue=complex(value), status=status, algebraic_multiplicity=alg,
             geometric_multiplicity=min(geo, alg), natural_frequency=wn,
             damping_ratio=-s.real / wn if wn > _ZERO_TOL else math.nan,
-            name=_structural_name(complex(value), vec[:, k], labels, n_vehicles, discrete, scale),
+            name=_structural_name(s, vec[:, k], labels, n_vehicles),
             direction=_direction(vec[:, k], labels),
         ))
     return StabilityResult(discrete=discrete, dt=float(dt), tol=tol, modes=tuple(modes))
@@ -218,21 +218,11 @@ def _continuous_equivalent(value: complex, dt: float) -> complex:
     return complex(np.log(value) / dt) if value != 0 else complex(-math.inf)
 
 
-def _structural_name(value: complex, vec: np.ndarray, labels: list[str], n: int | None,
-                     discrete: bool, scale: float) -> str:
-    if n is None:
+def _structural_name(s: complex, vec: np.ndarray, labels: list[str], n: int | None) -> str:
+    if n is None or not math.isfinite(s.real):
         return ""
-    boundary = abs(value - 1) if discrete else abs(value)
-    weights = np.abs(vec)
-    top = int(np.argmax(weights))
-    if boundary <= 1e-9 * scale and labels[top] == f"delta[{n - 1}]" and weights[top] > 0.999 * np.linalg.norm(vec):
-        return "dummy"
-    if abs(value.imag) > 1e-9 * scale:
-        return "coupler"
-    v = vec[:n].real
-    if np.all(v > 0) or np.all(v < 0):
-        return "rigid-body"
-    return ""
+    kind = _classify(s, vec, n, labels, 1.0)
+    return kind if kind in ("rigid-body", "dummy", "coupler") else ""
 
 
 def _direction(vec: np.ndarray, labels: list[str], keep: int = 4) -> dict[str, float]:

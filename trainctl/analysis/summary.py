@@ -161,16 +161,19 @@ def model_summary(scenario: Scenario) -> ModelSummary:
 
 def _text_lines(s: ModelSummary) -> list[str]:
     eq = s.equilibrium
+    names = [str(v["name"]) for v in s.vehicles]
+    formation = f" ({'-'.join(names)})" if len(names) <= 12 else ""
+    label = "" if s.train_name == s.scenario_name else f"{s.train_name}, "
     lines = [
         f"Scenario: {s.scenario_name}",
-        f"Train:    {s.train_name}, {len(s.vehicles)} vehicles, "
+        f"Train:    {label}{len(s.vehicles)} vehicles{formation}, "
         f"{sum(float(v['mass']) for v in s.vehicles) / 1e3:.1f} t",
         f"Model:    {len(s.state_labels)} states, {len(s.input_labels)} inputs [N], "
         f"{len(s.output_labels)} outputs; linearised ({s.linearisation}) at "
         f"{s.speed * 3.6:.1f} km/h ({s.speed:.3f} m/s)",
         "",
         "Vehicles:",
-        f"  {'#':>3}  {'name':<14}{'mass [t]':>10}{'share':>8}{'u_eq [kN]':>11}",
+        f"  {'i':>3}  {'name':<14}{'mass [t]':>10}{'share':>8}{'u_eq [kN]':>11}",
     ]
     shown = list(enumerate(s.vehicles))
     if len(shown) > 12:
@@ -183,9 +186,11 @@ def _text_lines(s: ModelSummary) -> list[str]:
                      f"{float(v['traction_share']):>8.2f}{eq.inputs[i] / 1e3:>11.3f}")
     if eq.coupler_forces.size:
         fmax = float(np.max(np.abs(eq.coupler_forces)))
-        lines.append(f"Static coupler forces: max |f| = {fmax / 1e3:.3f} kN "
-                     f"(tension positive); cruise traction within envelope: "
-                     f"{'yes' if eq.feasible else 'NO'}")
+        forces = ", ".join(f"{f / 1e3:.3f}" for f in eq.coupler_forces[:8])
+        more = ", ..." if eq.coupler_forces.size > 8 else ""
+        lines.append(f"Static coupler forces [kN], tension positive: {forces}{more} "
+                     f"(max |f| = {fmax / 1e3:.3f} kN)")
+    lines.append(f"Cruise traction within every vehicle's envelope: {'yes' if eq.feasible else 'NO'}")
     lines += ["", "Modes (continuous):",
               f"  {'kind':<12}{'Re [1/s]':>12}{'Im [rad/s]':>12}{'wn [rad/s]':>12}{'zeta':>10}"]
     for m in s.modes:
