@@ -87,7 +87,9 @@ class TestControllability:
         sys = discretise(linearise(crh2_half(), V300), 0.1)
         B_kn = sys.B * 1e3
         np.testing.assert_allclose(kalman_matrix(sys.A, B_kn), ct.ctrb(sys.A, B_kn), rtol=1e-14)
-        np.testing.assert_allclose(kalman_matrix(sys.A.T, sys.C.T).T, ct.obsv(sys.A, sys.C), rtol=1e-14)
+        np.testing.assert_allclose(
+            kalman_matrix(sys.A.T, sys.C.T).T, ct.obsv(sys.A, sys.C), rtol=1e-14
+        )
         sys_kn = ct.ss(sys.A, B_kn, sys.C, 0, dt=0.1)
         assert analyse_controllability(sys_kn).rank == np.linalg.matrix_rank(ct.ctrb(sys.A, B_kn))
         assert analyse_observability(sys).rank == np.linalg.matrix_rank(ct.obsv(sys.A, sys.C))
@@ -187,7 +189,9 @@ class TestMPCTheory:
         pred = prediction(d)
         D0, D1 = iteration_matrices(d, pred)
         e = rng.normal(size=pred.G.shape[0])
-        np.testing.assert_allclose(nash_gain(D0, D1) @ e, pred.centralised_gain() @ e, rtol=1e-8, atol=1e-12)
+        np.testing.assert_allclose(
+            nash_gain(D0, D1) @ e, pred.centralised_gain() @ e, rtol=1e-8, atol=1e-12
+        )
 
     def test_threshold_weight_separates_convergence(self):
         """ρ(D0) < 1 just above R* and ≥ 1 just below."""

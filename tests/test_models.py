@@ -101,7 +101,9 @@ class TestCrh2Model:
         lam = np.linalg.eigvals(sys.A)
         osc = np.sort(np.abs(lam[lam.imag > 1e-6]))
         np.testing.assert_allclose(osc, expected, rtol=1e-10)
-        np.testing.assert_allclose(np.sort(lam[lam.imag > 0].imag), [11.9365, 21.6613, 27.7699], atol=1e-4)
+        np.testing.assert_allclose(
+            np.sort(lam[lam.imag > 0].imag), [11.9365, 21.6613, 27.7699], atol=1e-4
+        )
 
     @pytest.mark.parametrize(
         ("method", "d"), [("jacobian", 2.68486e-3), ("book", 1.47388e-3)]
@@ -145,7 +147,11 @@ class TestCrh2Model:
         A = sub.A
         nb = neighbourhood(sub, 1)
         Z = np.zeros((2, 2))
-        expected = np.block([[A[0, 0], A[0, 1], Z], [A[1, 0], A[1, 1], A[1, 2]], [Z, A[2, 1], A[2, 2]]])
+        expected = np.block([
+            [A[0, 0], A[0, 1], Z],
+            [A[1, 0], A[1, 1], A[1, 2]],
+            [Z, A[2, 1], A[2, 2]],
+        ])
         np.testing.assert_array_equal(nb.A_hat, expected)
         np.testing.assert_array_equal(nb.couplings[3], np.vstack([Z, Z, A[2, 3]]))
         nb3 = neighbourhood(sub, 2)
@@ -332,7 +338,9 @@ class TestParameters:
     def test_envelope_limits(self):
         """min(force, P/v, mu m g) with each limit active in turn."""
         env = TractionEnvelope(max_traction=80e3, max_power=1.2e6)
-        np.testing.assert_allclose(env.traction_limit([1.0, 83.333], mass=1e5), [80e3, 1.2e6 / 83.333])
+        np.testing.assert_allclose(
+            env.traction_limit([1.0, 83.333], mass=1e5), [80e3, 1.2e6 / 83.333]
+        )
         slippery = TractionEnvelope(max_traction=80e3, max_power=1.2e6, adhesion=0.05)
         assert slippery.traction_limit(1.0, mass=1e5) == pytest.approx(0.05 * 1e5 * 9.81)
         assert TractionEnvelope(max_traction=0.0).traction_limit(10.0, mass=1e3) == 0.0
@@ -344,7 +352,10 @@ class TestParameters:
         (lambda: Coupler(stiffness=1.0, virtual=True), "virtual link transmits no force"),
         (lambda: Train(vehicles=(crh2_half().vehicles[0],) * 2, couplers=()), "needs 1 couplers"),
         (lambda: TractionEnvelope(max_power=0.0), "'max_power' must be > 0"),
-        (lambda: Track(sections=(TrackSection(start=5.0), TrackSection(start=1.0))), "increase strictly"),
+        (
+            lambda: Track(sections=(TrackSection(start=5.0), TrackSection(start=1.0))),
+            "increase strictly",
+        ),
     ])
     def test_invalid_parameters_raise_model_error(self, factory, match):
         """Invalid physical parameters raise ModelError naming the parameter."""
@@ -362,7 +373,9 @@ class TestParameters:
     def test_grade_acts_on_each_vehicle_at_its_position(self):
         """Vehicles behind a grade change feel the grade only once they reach it."""
         train = crh2_half()
-        track = Track(sections=(TrackSection(start=0.0), TrackSection(start=100.0, grade_permille=10.0)))
+        track = Track(
+            sections=(TrackSection(start=0.0), TrackSection(start=100.0, grade_permille=10.0))
+        )
         x = np.concatenate([np.full(4, 50.0), np.zeros(3), [110.0]])  # head at 110 m, spacing 25 m
         flat = train_rhs(train, x, np.zeros(4))
         hill = train_rhs(train, x, np.zeros(4), track)
@@ -375,7 +388,10 @@ class TestBuiltinScenariosMatchPresets:
         ("heavy-haul-hinf", "heavy_haul_1p2p1"), ("heavy-haul-flocking", "virtual_formation"),
     ])
     def test_scenario_file_and_preset_build_the_same_train(self, name, preset):
-        """The explicit TOML parameters equal the Python preset's (masses, Davis, couplers, envelopes)."""
+        """The explicit TOML parameters equal the Python preset's.
+
+        Masses, Davis coefficients, couplers and envelopes are compared.
+        """
         from trainctl.scenario import load_scenario
         a, b = load_scenario(name).train, PRESETS[preset]()
         np.testing.assert_allclose(a.mass, b.mass, rtol=1e-12)

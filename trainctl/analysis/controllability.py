@@ -161,7 +161,9 @@ def finite_horizon_gramian(
         return 0.5 * (W + W.T)
     steps = int(horizon)
     if steps != horizon or steps < 1:
-        raise ValueError(f"finite_horizon_gramian: 'horizon' must be an int >= 1 steps (got {horizon!r}).")
+        raise ValueError(
+            f"finite_horizon_gramian: 'horizon' must be an int >= 1 steps (got {horizon!r})."
+        )
     W = np.zeros_like(Q)
     power = np.eye(A.shape[0])  # A^(steps done so far)
     block, block_power = Q, A   # Gramian over 2^j steps and A^(2^j)
@@ -286,20 +288,23 @@ def _analyse(A, B, sys, tol, horizon, kind) -> ControllabilityResult:
     B = np.asarray(B, dtype=float)
     n = A.shape[0]
     discrete = bool(sys.dt)
-    sv = np.linalg.svd(_scaled_kalman(A, B), compute_uv=False)
+    sv = np.asarray(np.linalg.svd(_scaled_kalman(A, B), compute_uv=False), dtype=np.float64)
     rank = int(np.sum(sv > tol * sv[0])) if sv.size and sv[0] > 0 else 0
     cond = float(sv[0] / sv[n - 1]) if sv.size >= n and sv[n - 1] > 0 else math.inf
     if horizon is None:
         horizon = float(n) if discrete else 10.0
     W = finite_horizon_gramian(A, B, horizon, discrete=discrete)
+    gramian_eigenvalues = np.asarray(np.linalg.eigvalsh(W), dtype=np.float64)
     return ControllabilityResult(
         kind=kind, n_states=n, rank=rank, tol=tol, singular_values=sv,
         condition_number=cond, uncontrollable=_pbh(A, B, list(sys.state_labels), tol),
-        gramian_horizon=float(horizon), gramian_eigenvalues=np.linalg.eigvalsh(W),
+        gramian_horizon=float(horizon), gramian_eigenvalues=gramian_eigenvalues,
     )
 
 
-def _pbh(A: NDArray[np.float64], B: NDArray[np.float64], labels: list[str], tol: float) -> tuple[UncontrollableMode, ...]:
+def _pbh(
+    A: NDArray[np.float64], B: NDArray[np.float64], labels: list[str], tol: float
+) -> tuple[UncontrollableMode, ...]:
     n = A.shape[0]
     found: list[UncontrollableMode] = []
     seen: list[complex] = []
@@ -315,5 +320,9 @@ def _pbh(A: NDArray[np.float64], B: NDArray[np.float64], labels: list[str], tol:
             weights = np.abs(w) / np.linalg.norm(w)
             order = np.argsort(-weights)[:4]
             direction = {labels[i]: round(float(weights[i]), 6) for i in order if weights[i] > 1e-3}
-            found.append(UncontrollableMode(eigenvalue=complex(value), pbh_margin=margin, direction=direction))
+            found.append(
+                UncontrollableMode(
+                    eigenvalue=complex(value), pbh_margin=margin, direction=direction
+                )
+            )
     return tuple(found)

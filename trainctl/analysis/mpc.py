@@ -36,7 +36,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import brentq
 
 from ..exceptions import ModelError
 
@@ -101,9 +100,14 @@ class MPCDesign:
         nx, nu = self.B.shape
         P, M = self.prediction_horizon, self.control_horizon
         if self.A.shape != (nx, nx) or self.C.shape[1] != nx:
-            raise ModelError(f"MPCDesign: A, B, C shapes disagree ({self.A.shape}, {self.B.shape}, {self.C.shape}).")
+            raise ModelError(
+                "MPCDesign: A, B, C shapes disagree "
+                f"({self.A.shape}, {self.B.shape}, {self.C.shape})."
+            )
         if not (isinstance(P, int) and isinstance(M, int) and 1 <= M <= P):
-            raise ModelError(f"MPCDesign: horizons must be ints with 1 <= M <= P (got P={P!r}, M={M!r}).")
+            raise ModelError(
+                f"MPCDesign: horizons must be ints with 1 <= M <= P (got P={P!r}, M={M!r})."
+            )
         if self.form not in FORMS:
             raise ModelError(f"MPCDesign: 'form' must be one of {FORMS} (got {self.form!r}).")
         if self.q.shape != (self.C.shape[0],) or self.r.shape != (nu,):
@@ -111,7 +115,10 @@ class MPCDesign:
         if np.any(self.q < 0) or np.any(self.r < 0):
             raise ModelError("MPCDesign: weights must be >= 0.")
         if len(self.output_owner) != self.C.shape[0] or len(self.neighbourhoods) != nu:
-            raise ModelError("MPCDesign: output_owner needs one coach per output, neighbourhoods one per input.")
+            raise ModelError(
+                "MPCDesign: output_owner needs one coach per output, "
+                "neighbourhoods one per input."
+            )
 
     @property
     def n_inputs(self) -> int:
@@ -167,7 +174,7 @@ class Prediction:
 
     def centralised_gain(self) -> Array:
         """K_c with U* = K_c e, K_c = H⁻¹ GᵀQ."""
-        return np.linalg.solve(self.hessian(), self.G.T @ self.Qbar)
+        return np.asarray(np.linalg.solve(self.hessian(), self.G.T @ self.Qbar), dtype=np.float64)
 
     def cost(self, U: Array, e: Array) -> float:
         """Cost ‖G U - e‖²_Q + ‖U‖²_R of decision U for error e = Y_r - free response."""
@@ -220,8 +227,8 @@ def prediction(design: MPCDesign) -> Prediction:
                 Su[rows] += block
                 for m in range(move + 1):
                     G[rows, m * nu:(m + 1) * nu] += block
-    Qbar = np.kron(np.eye(P), np.diag(design.q))
-    Rbar = np.kron(np.eye(M), np.diag(design.r))
+    Qbar = np.asarray(np.kron(np.eye(P), np.diag(design.q)), dtype=np.float64)
+    Rbar = np.asarray(np.kron(np.eye(M), np.diag(design.r)), dtype=np.float64)
     columns = tuple(np.arange(M) * nu + i for i in range(nu))
     first = np.zeros((nu, M * nu))
     first[:, :nu] = np.eye(nu)
@@ -230,7 +237,8 @@ def prediction(design: MPCDesign) -> Prediction:
 
 def _local_weight(design: MPCDesign, members: Sequence[int]) -> Array:
     mask = np.array([owner in members for owner in design.output_owner], dtype=float)
-    return np.kron(np.eye(design.prediction_horizon), np.diag(design.q * mask))
+    weight = np.kron(np.eye(design.prediction_horizon), np.diag(design.q * mask))
+    return np.asarray(weight, dtype=np.float64)
 
 
 def iteration_matrices(design: MPCDesign, pred: Prediction | None = None) -> tuple[Array, Array]:
@@ -282,7 +290,7 @@ def spectral_radius(M: Array) -> float:
 
 def nash_gain(D0: Array, D1: Array) -> Array:
     """T_N with U_Nash = T_N e: (I - D0)⁻¹ D1."""
-    return np.linalg.solve(np.eye(D0.shape[0]) - D0, D1)
+    return np.asarray(np.linalg.solve(np.eye(D0.shape[0]) - D0, D1), dtype=np.float64)
 
 
 def closed_loop_matrix(
@@ -463,7 +471,9 @@ def relaxation(D0: Array) -> RelaxationResult:
     """
     lam = np.linalg.eigvals(D0) if D0.size else np.zeros(1)
     if np.any(lam.real >= 1.0 - 1e-12):
-        return RelaxationResult(exists=False, omega_max=math.nan, omega_best=math.nan, rate=math.nan)
+        return RelaxationResult(
+            exists=False, omega_max=math.nan, omega_best=math.nan, rate=math.nan
+        )
     one_minus = 1.0 - lam
     omega_max = float(min(1.0, np.min(2.0 * one_minus.real / np.abs(one_minus) ** 2)))
 
@@ -508,7 +518,10 @@ def cooperative_iteration(
     n = design.n_inputs
     w = np.full(n, 1.0 / n) if weights is None else np.asarray(weights, dtype=float)
     if w.shape != (n,) or np.any(w <= 0) or not math.isclose(float(w.sum()), 1.0, rel_tol=1e-12):
-        raise ModelError(f"cooperative_iteration: weights must be n = {n} positive numbers summing to 1 (got {w.tolist()}).")
+        raise ModelError(
+            f"cooperative_iteration: weights must be n = {n} positive numbers summing to 1 "
+            f"(got {w.tolist()})."
+        )
     everyone = tuple(range(n))
     full = design.with_neighbourhoods([everyone] * n)
     pred = prediction(full) if pred is None else pred

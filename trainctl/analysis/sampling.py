@@ -72,7 +72,9 @@ class SamplingResult:
                 f"{self.input_collapse:.3g}</p>")
 
 
-def analyse_sampling(sys: ct.StateSpace, dt: float, *, n_vehicles: int, method: str = "zoh") -> SamplingResult:
+def analyse_sampling(
+    sys: ct.StateSpace, dt: float, *, n_vehicles: int, method: str = "zoh"
+) -> SamplingResult:
     """Sampling adequacy of ``dt`` for the continuous model ``sys``.
 
     Parameters

@@ -54,7 +54,7 @@ class ModelSummary:
 
     scenario_name: str
     train_name: str
-    vehicles: tuple[dict[str, object], ...]
+    vehicles: tuple[dict[str, str | float], ...]
     state_labels: tuple[str, ...]
     input_labels: tuple[str, ...]
     output_labels: tuple[str, ...]
@@ -94,7 +94,9 @@ class ModelSummary:
                 "inputs": eq.inputs.tolist(),
                 "coupler_forces": eq.coupler_forces.tolist(),
                 "elongations": eq.elongations.tolist(),
-                "traction_limit": [None if math.isinf(x) else x for x in eq.traction_limit.tolist()],
+                "traction_limit": [
+                    None if math.isinf(x) else x for x in eq.traction_limit.tolist()
+                ],
                 "feasible": eq.feasible,
             },
             "modes": [m.to_dict() for m in self.modes],
@@ -138,7 +140,7 @@ def model_summary(scenario: Scenario) -> ModelSummary:
     modes = continuous_modes(sys, n_vehicles=train.n_vehicles)
     sysd = discretise(sys, cfg.sample_time, method=cfg.discretisation)
     eq = equilibrium(train, cfg.speed, allocation=cfg.allocation, track=scenario.track)
-    vehicles = tuple(
+    vehicles: tuple[dict[str, str | float], ...] = tuple(
         {"name": v.name, "mass": v.mass, "length": v.length, "traction_share": v.traction_share}
         for v in train.vehicles
     )
@@ -190,7 +192,9 @@ def _text_lines(s: ModelSummary) -> list[str]:
         more = ", ..." if eq.coupler_forces.size > 8 else ""
         lines.append(f"Static coupler forces [kN], tension positive: {forces}{more} "
                      f"(max |f| = {fmax / 1e3:.3f} kN)")
-    lines.append(f"Cruise traction within every vehicle's envelope: {'yes' if eq.feasible else 'NO'}")
+    lines.append(
+        f"Cruise traction within every vehicle's envelope: {'yes' if eq.feasible else 'NO'}"
+    )
     lines += ["", "Modes (continuous):",
               f"  {'kind':<12}{'Re [1/s]':>12}{'Im [rad/s]':>12}{'wn [rad/s]':>12}{'zeta':>10}"]
     for m in s.modes:

@@ -53,7 +53,11 @@ def discretise(sys: ct.StateSpace, dt: float, *, method: str = "zoh") -> ct.Stat
     """
     dt = check_positive("discretise", "dt", dt)
     if method not in DISCRETISATIONS:
-        hint = " Forward Euler is not offered: it is unstable for stiff couplers." if method == "euler" else ""
+        hint = (
+            " Forward Euler is not offered: it is unstable for stiff couplers."
+            if method == "euler"
+            else ""
+        )
         raise ModelError(
             f"discretise: 'method' must be one of {DISCRETISATIONS} (got {method!r}).{hint}"
         )

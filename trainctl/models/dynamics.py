@@ -172,10 +172,14 @@ def nonlinear_system(
     """
     n = train.n_vehicles
 
-    def update(t: float, x: NDArray[np.float64], u: NDArray[np.float64], params: dict) -> NDArray[np.float64]:
+    def update(
+        t: float, x: NDArray[np.float64], u: NDArray[np.float64], params: dict
+    ) -> NDArray[np.float64]:
         return train_rhs(train, x, u, track)
 
-    def output(t: float, x: NDArray[np.float64], u: NDArray[np.float64], params: dict) -> NDArray[np.float64]:
+    def output(
+        t: float, x: NDArray[np.float64], u: NDArray[np.float64], params: dict
+    ) -> NDArray[np.float64]:
         return x[:n]
 
     return ct.nlsys(
@@ -306,7 +310,9 @@ def equilibrium(
     )
 
 
-def _line_resistance(train: Train, grade: float, track: Track | None, position: float) -> NDArray[np.float64]:
+def _line_resistance(
+    train: Train, grade: float, track: Track | None, position: float
+) -> NDArray[np.float64]:
     if track is None:
         return np.full(train.n_vehicles, permille_to_accel(grade))
     x = np.concatenate([np.zeros(train.n_vehicles), np.zeros(train.n_couplers), [position]])

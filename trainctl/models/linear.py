@@ -173,9 +173,15 @@ def linearise(
     )
 
 
-def _output_matrix(train: Train, outputs: tuple[str, ...], nx: int) -> tuple[NDArray[np.float64], list[str]]:
+def _output_matrix(
+    train: Train, outputs: tuple[str, ...], nx: int
+) -> tuple[NDArray[np.float64], list[str]]:
     n, nc = train.n_vehicles, train.n_couplers
-    if not outputs or any(g not in OUTPUT_GROUPS for g in outputs) or len(set(outputs)) != len(outputs):
+    if (
+        not outputs
+        or any(g not in OUTPUT_GROUPS for g in outputs)
+        or len(set(outputs)) != len(outputs)
+    ):
         raise ModelError(
             f"linearise: 'outputs' must be distinct groups from {OUTPUT_GROUPS} (got {outputs!r})."
         )

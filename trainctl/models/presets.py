@@ -59,7 +59,9 @@ _DAVIS_READINGS: dict[str, Callable[[float, float, float], tuple[float, float, f
 }
 
 
-def _crh2_coach(mass_t: float, motor: bool, davis: tuple[float, float, float], name: str) -> Vehicle:
+def _crh2_coach(
+    mass_t: float, motor: bool, davis: tuple[float, float, float], name: str
+) -> Vehicle:
     # [reconstructed] 80 kN and 1.2 MW per motor coach (CRH2C: 7.2 MW over 6 motor
     # cars); 40 kN service braking per coach; trailers brake only.
     envelope = TractionEnvelope(
@@ -180,10 +182,18 @@ def heavy_haul_1p2p1(*, detail: str = "subsystems", wagons_per_group: int = 100)
     204
     """
     if detail not in ("subsystems", "full"):
-        raise ModelError(f"heavy_haul_1p2p1: 'detail' must be 'subsystems' or 'full' (got {detail!r}).")
-    if isinstance(wagons_per_group, bool) or not isinstance(wagons_per_group, int) or wagons_per_group < 2 or wagons_per_group % 2:
         raise ModelError(
-            f"heavy_haul_1p2p1: 'wagons_per_group' must be an even int >= 2 (got {wagons_per_group!r})."
+            f"heavy_haul_1p2p1: 'detail' must be 'subsystems' or 'full' (got {detail!r})."
+        )
+    if (
+        isinstance(wagons_per_group, bool)
+        or not isinstance(wagons_per_group, int)
+        or wagons_per_group < 2
+        or wagons_per_group % 2
+    ):
+        raise ModelError(
+            "heavy_haul_1p2p1: 'wagons_per_group' must be an even int >= 2 "
+            f"(got {wagons_per_group!r})."
         )
     coupler = Coupler(stiffness=2.5e7, damping=5.0e5, spacing=12.0)
     loco_kmh = davis_from_unit_resistance_kmh(*LOCO_DAVIS_KMH)
@@ -195,11 +205,16 @@ def heavy_haul_1p2p1(*, detail: str = "subsystems", wagons_per_group: int = 100)
                     envelope=TractionEnvelope(max_traction=0.0, max_braking=0.0))
     half = wagons_per_group // 2
     if detail == "full":
-        order = [loco] + [wagon] * wagons_per_group + [loco, loco] + [wagon] * wagons_per_group + [loco]
+        order = (
+            [loco] + [wagon] * wagons_per_group + [loco, loco] + [wagon] * wagons_per_group + [loco]
+        )
         return Train(vehicles=tuple(order), couplers=(coupler,) * (len(order) - 1),
                      name="1+2+1 heavy-haul train (all vehicles)")
     mass = loco.mass + half * wagon.mass
-    a = _mix_davis([(loco.mass, (loco.a0, loco.a1, loco.a2)), (half * wagon.mass, (wagon.a0, wagon.a1, wagon.a2))])
+    a = _mix_davis([
+        (loco.mass, (loco.a0, loco.a1, loco.a2)),
+        (half * wagon.mass, (wagon.a0, wagon.a1, wagon.a2)),
+    ])
     group = Vehicle(name="SS4B+wagons", mass=mass, a0=a[0], a1=a[1], a2=a[2],
                     length=loco.length + half * wagon.length, traction_share=1.0,
                     envelope=_ss4b_envelope())

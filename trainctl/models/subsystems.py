@@ -71,7 +71,9 @@ class CoachSubsystems:
             return self.A[i, j]
         return np.zeros((self.B[i].shape[0], self.B[j].shape[0]))
 
-    def global_matrices(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    def global_matrices(
+        self,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """Assemble (A, B, C) in the interleaved order [z_0; z_1; ...]."""
         n = self.n_coaches
         A = np.block([[self.block(i, j) for j in range(n)] for i in range(n)])

@@ -55,12 +55,16 @@ class Train:
                 f"Train: a train of {len(self.vehicles)} vehicles needs "
                 f"{len(self.vehicles) - 1} couplers (got {len(self.couplers)})."
             )
-        for i, item in enumerate(self.vehicles):
-            if not isinstance(item, Vehicle):
-                raise ModelError(f"Train: vehicles[{i}] must be a Vehicle (got {type(item).__name__}).")
-        for i, item in enumerate(self.couplers):
-            if not isinstance(item, Coupler):
-                raise ModelError(f"Train: couplers[{i}] must be a Coupler (got {type(item).__name__}).")
+        for i, vehicle in enumerate(self.vehicles):
+            if not isinstance(vehicle, Vehicle):
+                raise ModelError(
+                    f"Train: vehicles[{i}] must be a Vehicle (got {type(vehicle).__name__})."
+                )
+        for i, coupler in enumerate(self.couplers):
+            if not isinstance(coupler, Coupler):
+                raise ModelError(
+                    f"Train: couplers[{i}] must be a Coupler (got {type(coupler).__name__})."
+                )
 
     @property
     def n_vehicles(self) -> int:
