@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
+import pickle
 import re
 import sys
 import types
@@ -17,8 +19,10 @@ from trainctl.exceptions import ModelError, ScenarioError
 from trainctl.models.train import Train
 from trainctl.models.vehicle import Coupler, Vehicle
 from trainctl.scenario import (
+    CHECK_NAMES,
     RESERVED_SECTIONS,
     BuiltinScenario,
+    ControllerSettings,
     ModelSettings,
     Scenario,
     builtin_scenario_text,
@@ -945,3 +949,618 @@ class TestDataclasses:
         """ScenarioError stays catchable as ValueError."""
         with pytest.raises(ValueError):
             parse_scenario("not = [toml")
+
+
+CONTROLLER = """
+[controller]
+form = "u"
+prediction_horizon = 4
+control_horizon = 2
+r_per_kn2 = 10.0
+"""
+
+FULL_CONTROLLER = """
+[controller]
+form = "du"
+prediction_horizon = 6
+control_horizon = 3
+outputs = ["force", "v"]
+q_velocity = 2.5
+q_force_per_kn2 = 0.5
+r_per_n2 = 2e-5
+neighbourhood = [[1, 0], [1, 2, 0], [2]]
+iterations = 4
+cooperative_weights = [0.5, 0.25, 0.25]
+"""
+
+
+def with_controller(*lines: str, base: str = CONTROLLER) -> str:
+    """BASE plus a [controller] section with ``lines`` appended to it."""
+    return BASE + base + "".join(f"{line}\n" for line in lines)
+
+
+def controller_without(key: str, *lines: str) -> str:
+    """BASE plus the minimal [controller] section without the line starting with ``key``."""
+    kept = [line for line in CONTROLLER.splitlines() if not line.startswith(f"{key} =")]
+    return BASE + "\n".join(kept) + "\n" + "".join(f"{line}\n" for line in lines)
+
+
+def make_controller(**changes: object) -> ControllerSettings:
+    """A valid ControllerSettings with ``changes`` applied."""
+    settings: dict[str, object] = {
+        "form": "u",
+        "prediction_horizon": 4,
+        "control_horizon": 2,
+        "input_weight": 10.0,
+    }
+    settings.update(changes)
+    return ControllerSettings(**settings)  # type: ignore[arg-type]
+
+
+class TestControllerValid:
+    """A well-formed [controller] section and its defaults."""
+
+    def test_absent_is_none(self) -> None:
+        """Without [controller] the scenario has no controller."""
+        assert parse_scenario(BASE).controller is None
+
+    def test_readme_example_parses(self) -> None:
+        """The [controller]/[expected] example in analyses/README.md fits the annotated example."""
+        readme = (ANALYSES / "README.md").read_text(encoding="utf-8")
+        blocks = re.findall(r"```toml\n(.*?)```", readme, re.DOTALL)
+        (extra,) = [block for block in blocks if block.startswith("[controller]")]
+        scenario = parse_scenario(blocks[0] + extra)
+        assert scenario.controller is not None
+        assert scenario.controller.outputs == ("v", "force")
+        assert scenario.controller.neighbourhoods(2) == ((0, 1), (0, 1))
+        assert dict(scenario.expected) == {
+            "open_loop_stability": "pass",
+            "ndmpc_convergence": "pass",
+        }
+
+    def test_not_reserved_any_more(self) -> None:
+        """[controller] is a real section, not a reserved one."""
+        assert "controller" not in RESERVED_SECTIONS
+        error = fails(BASE + "[controller]\n", "missing required key [controller].form")
+        assert "reserved" not in str(error)
+
+    def test_full_section(self) -> None:
+        """Every key is read with its value, units kept as documented."""
+        ctl = parse_scenario(BASE + FULL_CONTROLLER).controller
+        assert ctl == ControllerSettings(
+            form="du",
+            prediction_horizon=6,
+            control_horizon=3,
+            outputs=("force", "v"),
+            q_velocity=2.5,
+            q_force=0.5,
+            input_weight=2e-5,
+            input_weight_unit="N",
+            neighbourhood=((1, 0), (1, 2, 0), (2,)),
+            iterations=4,
+            cooperative_weights=(0.5, 0.25, 0.25),
+        )
+        assert ctl is not None
+        assert ctl.input_weight_per_kn2() == pytest.approx(20.0)
+        assert ctl.neighbourhoods(3) == ((0, 1), (0, 1, 2), (2,))
+        assert ctl.cooperative_weight_vector(3) == (0.5, 0.25, 0.25)
+
+    def test_defaults(self) -> None:
+        """Omitted optional keys take their documented defaults."""
+        ctl = parse_scenario(with_controller()).controller
+        assert ctl is not None
+        assert (ctl.form, ctl.prediction_horizon, ctl.control_horizon) == ("u", 4, 2)
+        assert ctl.outputs == ("v",)
+        assert (ctl.q_velocity, ctl.q_force) == (1.0, 0.0)
+        assert (ctl.input_weight, ctl.input_weight_unit) == (10.0, "kN")
+        assert ctl.input_weight_per_kn2() == 10.0
+        assert ctl.neighbourhood == "adjacent"
+        assert ctl.iterations == 10
+        assert ctl.cooperative_weights == "uniform"
+        assert ctl.cooperative_weight_vector(4) == (0.25, 0.25, 0.25, 0.25)
+
+    def test_r_per_n2_converts(self) -> None:
+        """r_per_n2 keeps the user's unit and converts to per kN^2 as r * 1e6."""
+        ctl = parse_scenario(controller_without("r_per_kn2", "r_per_n2 = 3e-6")).controller
+        assert ctl is not None
+        assert (ctl.input_weight, ctl.input_weight_unit) == (3e-6, "N")
+        assert ctl.input_weight_per_kn2() == pytest.approx(3.0, rel=1e-12)
+
+    def test_ints_become_floats(self) -> None:
+        """TOML integers for weights become floats."""
+        ctl = parse_scenario(with_controller("q_velocity = 2", "q_force_per_kn2 = 0")).controller
+        assert ctl is not None
+        assert isinstance(ctl.q_velocity, float) and isinstance(ctl.q_force, float)
+
+    def test_m_equals_p(self) -> None:
+        """M = P is allowed."""
+        ctl = parse_scenario(controller_without("control_horizon", "control_horizon = 4"))
+        assert ctl.controller is not None and ctl.controller.control_horizon == 4
+
+    @pytest.mark.parametrize(
+        ("kind", "expected"),
+        [
+            ("adjacent", ((0, 1), (0, 1, 2), (1, 2, 3), (2, 3))),
+            ("all", ((0, 1, 2, 3),) * 4),
+            ("self", ((0,), (1,), (2,), (3,))),
+        ],
+    )
+    def test_named_neighbourhoods(self, kind: str, expected: tuple) -> None:
+        """The named kinds resolve to {i-1, i, i+1}, every coach, or {i} alone."""
+        ctl = parse_scenario(with_controller(f'neighbourhood = "{kind}"')).controller
+        assert ctl is not None and ctl.neighbourhood == kind
+        assert ctl.neighbourhoods(4) == expected
+
+    def test_single_coach_neighbourhoods(self) -> None:
+        """A one-coach train has the neighbourhood (0,) whatever the kind."""
+        for kind in ("adjacent", "all", "self"):
+            assert make_controller(neighbourhood=kind).neighbourhoods(1) == ((0,),)
+
+    def test_weights_within_tolerance(self) -> None:
+        """Cooperative weights summing to 1 within 1e-9 are accepted."""
+        ctl = parse_scenario(
+            with_controller("cooperative_weights = [0.3333333333, 0.3333333333, 0.3333333334]")
+        )
+        assert ctl.controller is not None
+        assert len(ctl.controller.cooperative_weight_vector(3)) == 3
+
+
+class TestControllerErrors:
+    """Malformed [controller] sections, each with its key path."""
+
+    @pytest.mark.parametrize(
+        ("key", "fragment"),
+        [
+            ("form", "missing required key [controller].form (one of 'u', 'du')"),
+            (
+                "prediction_horizon",
+                "missing required key [controller].prediction_horizon (an integer >= 1)",
+            ),
+            ("control_horizon", "missing required key [controller].control_horizon"),
+        ],
+    )
+    def test_missing_required(self, key: str, fragment: str) -> None:
+        """form and both horizons are required."""
+        fails(controller_without(key), fragment)
+
+    def test_bad_form(self) -> None:
+        """An unknown form lists the options."""
+        fails(
+            controller_without("form", 'form = "delta"'),
+            "[controller].form must be one of 'u', 'du' (got 'delta', a string)",
+        )
+
+    def test_m_greater_than_p(self) -> None:
+        """M > P is rejected, naming P's value."""
+        fails(
+            controller_without("control_horizon", "control_horizon = 5"),
+            "[controller].control_horizon must be an integer from 1 to "
+            "[controller].prediction_horizon = 4 (got 5)",
+            "free moves",
+        )
+
+    @pytest.mark.parametrize(
+        ("key", "value", "fragment"),
+        [
+            (
+                "prediction_horizon",
+                "0",
+                "[controller].prediction_horizon must be an integer >= 1 (got 0)",
+            ),
+            (
+                "control_horizon",
+                "0",
+                "[controller].control_horizon must be an integer >= 1 (got 0)",
+            ),
+            (
+                "prediction_horizon",
+                "true",
+                "[controller].prediction_horizon must be an integer >= 1 (got true, a boolean)",
+            ),
+            (
+                "control_horizon",
+                "2.0",
+                "[controller].control_horizon must be an integer >= 1 (got 2.0)",
+            ),
+            ("prediction_horizon", '"4"', "[controller].prediction_horizon must be an integer"),
+        ],
+    )
+    def test_bad_horizon(self, key: str, value: str, fragment: str) -> None:
+        """Horizons must be integers >= 1, not bools, floats or strings."""
+        fails(controller_without(key, f"{key} = {value}"), fragment)
+
+    @pytest.mark.parametrize("line", ["iterations = 0", "iterations = 1.5", "iterations = false"])
+    def test_bad_iterations(self, line: str) -> None:
+        """iterations must be an integer >= 1."""
+        fails(with_controller(line), "[controller].iterations must be an integer >= 1")
+
+    def test_both_input_weights(self) -> None:
+        """r_per_kn2 and r_per_n2 together are rejected."""
+        fails(
+            with_controller("r_per_n2 = 1e-5"),
+            "[controller] needs exactly one of r_per_kn2, r_per_n2 (got r_per_kn2 and r_per_n2)",
+            "r_per_kn2 = r_per_n2 × 1e6",
+        )
+
+    def test_no_input_weight(self) -> None:
+        """One of r_per_kn2 / r_per_n2 is required."""
+        fails(
+            controller_without("r_per_kn2"),
+            "[controller] needs exactly one of r_per_kn2, r_per_n2 (got none)",
+        )
+
+    @pytest.mark.parametrize(
+        ("line", "fragment"),
+        [
+            ("r_per_kn2 = 0.0", "[controller].r_per_kn2 must be a number > 0 (got 0.0)"),
+            ("r_per_kn2 = -1", "[controller].r_per_kn2 must be a number > 0 (got -1)"),
+            ("r_per_n2 = 0", "[controller].r_per_n2 must be a number > 0 (got 0)"),
+            ("r_per_kn2 = inf", "[controller].r_per_kn2 must be a finite number > 0"),
+            ("r_per_kn2 = nan", "[controller].r_per_kn2 must be a finite number > 0"),
+        ],
+    )
+    def test_input_weight_not_positive(self, line: str, fragment: str) -> None:
+        """The input weight must be a finite number > 0."""
+        fails(controller_without("r_per_kn2", line), fragment)
+
+    @pytest.mark.parametrize(
+        ("line", "fragment"),
+        [
+            ("q_velocity = -1.0", "[controller].q_velocity must be a number >= 0 (got -1.0)"),
+            ("q_force_per_kn2 = -0.5", "[controller].q_force_per_kn2 must be a number >= 0"),
+            (
+                'q_velocity = "1"',
+                "[controller].q_velocity must be a number >= 0 (got '1', a string)",
+            ),
+        ],
+    )
+    def test_bad_output_weight(self, line: str, fragment: str) -> None:
+        """Output weights must be numbers >= 0."""
+        fails(with_controller(line), fragment)
+
+    def test_unknown_output(self) -> None:
+        """An unknown output names its index and suggests a close one."""
+        fails(
+            with_controller('outputs = ["v", "forces"]'),
+            "[controller].outputs[1] must be one of 'v', 'force' (got 'forces', a string)",
+            "Did you mean 'force'?",
+        )
+
+    def test_output_not_a_string(self) -> None:
+        """An output that is not a string is rejected."""
+        fails(
+            with_controller("outputs = [1]"),
+            "[controller].outputs[0] must be one of 'v', 'force' (got 1)",
+        )
+
+    def test_duplicate_output(self) -> None:
+        """An output listed twice is rejected."""
+        fails(
+            with_controller('outputs = ["v", "force", "v"]'),
+            "[controller].outputs[2] must not repeat an earlier output (got 'v' again)",
+        )
+
+    @pytest.mark.parametrize(
+        ("line", "got"),
+        [("outputs = []", "an array of 0 items"), ('outputs = "v"', "'v', a string")],
+    )
+    def test_outputs_not_a_non_empty_array(self, line: str, got: str) -> None:
+        """outputs must be a non-empty array."""
+        fails(
+            with_controller(line), "[controller].outputs must be a non-empty array", f"(got {got})"
+        )
+
+    def test_force_output_without_couplers(self) -> None:
+        """'force' is rejected for a one-vehicle train, which has no couplers."""
+        fails(
+            SINGLE + CONTROLLER + 'outputs = ["force"]\n',
+            "[controller].outputs[0] must be 'v' for a train of one vehicle",
+        )
+
+    def test_force_weight_without_force_output(self) -> None:
+        """q_force_per_kn2 > 0 needs 'force' in outputs, with a hint."""
+        fails(
+            with_controller("q_force_per_kn2 = 2.0"),
+            "[controller].q_force_per_kn2 must be 0 when [controller].outputs has no 'force' "
+            "(got 2.0 with outputs ['v'])",
+            'Add "force" to outputs',
+        )
+
+    def test_neighbourhood_wrong_length(self) -> None:
+        """An explicit neighbourhood needs one entry per coach."""
+        fails(
+            with_controller("neighbourhood = [[0, 1], [0, 1]]"),
+            "[controller].neighbourhood must be one of 'adjacent', 'all', 'self' or an array of "
+            "3 arrays of coach indices, one per coach (got an array of 2 items)",
+            "the train has 3 coaches",
+        )
+
+    def test_neighbourhood_missing_own_index(self) -> None:
+        """Entry i must contain i."""
+        fails(
+            with_controller("neighbourhood = [[0], [1], [0, 1]]"),
+            "[controller].neighbourhood[2] must contain its own coach index 2 (got [0, 1])",
+        )
+
+    @pytest.mark.parametrize("bad", ["3", "-1", "1.0", "true", '"1"'])
+    def test_neighbourhood_index_out_of_range(self, bad: str) -> None:
+        """Indices must be integers from 0 to n-1; the message names entry and position."""
+        fails(
+            with_controller(f"neighbourhood = [[0], [1, {bad}], [2]]"),
+            "[controller].neighbourhood[1][1] must be a coach index from 0 to 2",
+            "Indices count from 0",
+        )
+
+    def test_neighbourhood_duplicates(self) -> None:
+        """An index listed twice in one entry is rejected."""
+        fails(
+            with_controller("neighbourhood = [[0], [1, 2, 1], [2]]"),
+            "[controller].neighbourhood[1] must list distinct coach indices (got [1, 2, 1])",
+        )
+
+    def test_neighbourhood_entry_not_array(self) -> None:
+        """Each entry must be an array."""
+        fails(
+            with_controller("neighbourhood = [[0], 1, [2]]"),
+            "[controller].neighbourhood[1] must be an array of coach indices (got 1)",
+        )
+
+    def test_neighbourhood_unknown_kind(self) -> None:
+        """An unknown named kind suggests a close one."""
+        fails(
+            with_controller('neighbourhood = "adjacnt"'),
+            "[controller].neighbourhood must be one of 'adjacent', 'all', 'self'",
+            "Did you mean 'adjacent'?",
+        )
+
+    def test_weights_not_summing_to_one(self) -> None:
+        """Cooperative weights must sum to 1 within 1e-9."""
+        fails(
+            with_controller("cooperative_weights = [0.5, 0.25, 0.2]"),
+            "[controller].cooperative_weights must sum to 1 within 1e-9 (got sum 0.95)",
+        )
+
+    def test_weights_slightly_off(self) -> None:
+        """A sum off by more than 1e-9 is rejected."""
+        fails(
+            with_controller("cooperative_weights = [0.5, 0.25, 0.25000001]"),
+            "[controller].cooperative_weights must sum to 1",
+        )
+
+    def test_weights_wrong_length(self) -> None:
+        """Cooperative weights need one entry per coach."""
+        fails(
+            with_controller("cooperative_weights = [0.5, 0.5]"),
+            "[controller].cooperative_weights must be 'uniform' or an array of 3 numbers > 0 "
+            "summing to 1, one per coach (got an array of 2 items)",
+        )
+
+    @pytest.mark.parametrize("bad", ["0.0", "-0.5", "nan", "true"])
+    def test_weight_not_positive(self, bad: str) -> None:
+        """Each cooperative weight must be a finite number > 0, named by index."""
+        fails(
+            with_controller(f"cooperative_weights = [0.5, 0.5, {bad}]"),
+            "[controller].cooperative_weights[2] must be a",
+        )
+
+    def test_weights_unknown_name(self) -> None:
+        """A misspelt 'uniform' gets a suggestion."""
+        fails(
+            with_controller('cooperative_weights = "unifrom"'),
+            "[controller].cooperative_weights must be 'uniform'",
+            "Did you mean 'uniform'?",
+        )
+
+    def test_unknown_key_suggests(self) -> None:
+        """A misspelt key in [controller] suggests the right one."""
+        error = fails(
+            with_controller("prediction_horizn = 4"),
+            "unknown key [controller].prediction_horizn. Did you mean 'prediction_horizon'?",
+        )
+        assert "reserved" not in str(error)
+
+    def test_unknown_key_r(self) -> None:
+        """A unit-less weight key suggests a unit-carrying one."""
+        fails(
+            with_controller("r_per_kn = 1.0"),
+            "unknown key [controller].r_per_kn. Did you mean 'r_per_kn2'?",
+        )
+
+    def test_not_a_table(self) -> None:
+        """controller given as a value, not a table, is rejected."""
+        fails("controller = 1\n" + BASE, "[controller] must be a table (got 1)")
+
+
+class TestExpected:
+    """The [expected] section: check name to declared status."""
+
+    def test_absent_is_empty(self) -> None:
+        """Without [expected] the mapping is empty."""
+        assert dict(parse_scenario(BASE).expected) == {}
+
+    def test_valid(self) -> None:
+        """Statuses are kept per check in file order."""
+        text = with_controller(
+            "[expected]",
+            'sampling = "fail"',
+            'ndmpc_convergence = "pass"',
+            'nash_gap = "warn"',
+        )
+        expected = parse_scenario(text).expected
+        assert list(expected.items()) == [
+            ("sampling", "fail"),
+            ("ndmpc_convergence", "pass"),
+            ("nash_gap", "warn"),
+        ]
+
+    def test_every_check_name(self) -> None:
+        """Every name in CHECK_NAMES is accepted."""
+        lines = [f'{name} = "pass"' for name in CHECK_NAMES]
+        expected = parse_scenario(with_controller("[expected]", *lines)).expected
+        assert tuple(expected) == CHECK_NAMES
+
+    def test_model_checks_without_controller(self) -> None:
+        """Model-level checks may be declared without a [controller]."""
+        text = BASE + '[expected]\nopen_loop_stability = "pass"\ninput_collapse = "warn"\n'
+        assert dict(parse_scenario(text).expected) == {
+            "open_loop_stability": "pass",
+            "input_collapse": "warn",
+        }
+
+    def test_controller_check_needs_controller(self) -> None:
+        """A controller check declared without [controller] is rejected."""
+        fails(
+            BASE + '[expected]\nclosed_loop_nash = "pass"\n',
+            "[expected].closed_loop_nash needs a [controller] section (got none)",
+        )
+
+    def test_read_only(self) -> None:
+        """The mapping cannot be changed."""
+        expected = parse_scenario(BASE + '[expected]\nsampling = "pass"\n').expected
+        with pytest.raises(TypeError):
+            expected["sampling"] = "fail"  # type: ignore[index]
+
+    def test_hashable_and_picklable(self) -> None:
+        """The mapping hashes, compares to a dict and survives pickle and deepcopy."""
+        scenario = parse_scenario(BASE + '[expected]\nsampling = "pass"\n')
+        expected = scenario.expected
+        assert isinstance(hash(expected), int)
+        assert expected == {"sampling": "pass"}
+        assert pickle.loads(pickle.dumps(scenario)).expected == expected
+        assert copy.deepcopy(expected) == expected
+
+    def test_unknown_check_suggests(self) -> None:
+        """An unknown check name suggests a close one."""
+        fails(
+            BASE + '[expected]\nsamplng = "pass"\n',
+            "unknown key [expected].samplng. Did you mean 'sampling'?",
+        )
+
+    def test_unknown_check_lists_names(self) -> None:
+        """Without a close match the check names are listed."""
+        fails(BASE + '[expected]\nzzz = "pass"\n', "unknown key [expected].zzz.", "nash_gap")
+
+    @pytest.mark.parametrize(
+        ("value", "got"), [('"passed"', "'passed', a string"), ("true", "true, a boolean")]
+    )
+    def test_bad_status(self, value: str, got: str) -> None:
+        """A status other than pass, warn or fail is rejected."""
+        fails(
+            BASE + f"[expected]\nsampling = {value}\n",
+            "[expected].sampling must be one of 'pass', 'warn', 'fail'",
+            f"(got {got})",
+        )
+
+    def test_status_suggestion(self) -> None:
+        """A misspelt status suggests a close one."""
+        fails(BASE + '[expected]\nsampling = "warning"\n', "Did you mean 'warn'?")
+
+
+class TestControllerSettings:
+    """ControllerSettings and Scenario built directly, without a file."""
+
+    def test_defaults_and_frozen(self) -> None:
+        """The defaults match the file defaults and the object is immutable."""
+        ctl = make_controller()
+        assert (ctl.outputs, ctl.q_velocity, ctl.q_force) == (("v",), 1.0, 0.0)
+        assert (ctl.input_weight_unit, ctl.neighbourhood) == ("kN", "adjacent")
+        assert (ctl.iterations, ctl.cooperative_weights) == (10, "uniform")
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            ctl.iterations = 3  # type: ignore[misc]
+
+    def test_sequences_become_tuples(self) -> None:
+        """Lists given for outputs, neighbourhood and weights are stored as tuples."""
+        ctl = make_controller(
+            outputs=["v", "force"],
+            q_force=1,
+            neighbourhood=[[0, 1], [1]],
+            cooperative_weights=[0.5, 0.5],
+        )
+        assert ctl.outputs == ("v", "force")
+        assert ctl.neighbourhood == ((0, 1), (1,))
+        assert ctl.cooperative_weights == (0.5, 0.5)
+        assert isinstance(ctl.q_force, float)
+        hash(ctl)
+
+    @pytest.mark.parametrize(
+        ("changes", "fragment"),
+        [
+            ({"form": "x"}, "'form' must be one of"),
+            ({"prediction_horizon": 0}, "'prediction_horizon' must be an integer >= 1"),
+            ({"control_horizon": True}, "'control_horizon' must be an integer >= 1"),
+            ({"control_horizon": 5}, "'control_horizon' must be <= 'prediction_horizon' = 4"),
+            ({"iterations": 1.0}, "'iterations' must be an integer >= 1"),
+            ({"outputs": ()}, "'outputs' must be distinct items"),
+            ({"outputs": ("v", "v")}, "'outputs' must be distinct items"),
+            ({"outputs": ("x",)}, "'outputs' must be distinct items"),
+            ({"q_velocity": -1.0}, "'q_velocity' must be a finite number >= 0"),
+            ({"q_force": 1.0}, "'q_force' must be 0 without 'force'"),
+            ({"input_weight": 0.0}, "'input_weight' must be a finite number > 0"),
+            ({"input_weight": math.inf}, "'input_weight' must be a finite number > 0"),
+            ({"input_weight": "1"}, "'input_weight' must be a finite number > 0"),
+            ({"input_weight_unit": "kn"}, "'input_weight_unit' must be 'kN' or 'N'"),
+            ({"neighbourhood": "near"}, "'neighbourhood' must be one of"),
+            ({"neighbourhood": 3}, "'neighbourhood' must be one of"),
+            ({"neighbourhood": ((1,), (1,))}, "'neighbourhood'[0] must hold distinct coach"),
+            ({"neighbourhood": ((0, 0),)}, "'neighbourhood'[0] must hold distinct coach"),
+            ({"neighbourhood": ((0, -1),)}, "'neighbourhood'[0] must hold distinct coach"),
+            ({"neighbourhood": ()}, "'neighbourhood' must not be empty"),
+            ({"cooperative_weights": "even"}, "'cooperative_weights' must be 'uniform'"),
+            ({"cooperative_weights": (0.5, 0.4)}, "'cooperative_weights' must be numbers > 0"),
+            ({"cooperative_weights": (1.5, -0.5)}, "'cooperative_weights' must be numbers > 0"),
+            ({"cooperative_weights": ()}, "'cooperative_weights' must be numbers > 0"),
+            ({"cooperative_weights": 1.0}, "'cooperative_weights' must be numbers > 0"),
+        ],
+    )
+    def test_validates(self, changes: dict, fragment: str) -> None:
+        """Invalid values raise ModelError naming the field."""
+        with pytest.raises(ModelError, match=re.escape(f"ControllerSettings: {fragment}")):
+            make_controller(**changes)
+
+    def test_explicit_neighbourhoods_checked_against_n(self) -> None:
+        """neighbourhoods(n) rejects an explicit list of the wrong length or range."""
+        ctl = make_controller(neighbourhood=((0, 2), (1,), (2,)))
+        assert ctl.neighbourhoods(3) == ((0, 2), (1,), (2,))
+        with pytest.raises(ModelError, match="has 3 entries for a train of 4 coaches"):
+            ctl.neighbourhoods(4)
+        with pytest.raises(ModelError, match="'neighbourhood' has 3 entries"):
+            ctl.neighbourhoods(2)
+
+    def test_explicit_neighbourhood_index_beyond_n(self) -> None:
+        """An index >= n is rejected by neighbourhoods(n)."""
+        ctl = make_controller(neighbourhood=((0, 5), (1,)))
+        with pytest.raises(ModelError, match="names a coach >= 2"):
+            ctl.neighbourhoods(2)
+
+    @pytest.mark.parametrize("n", [0, -1, 1.0, True])
+    def test_bad_n(self, n: object) -> None:
+        """n must be an integer >= 1."""
+        with pytest.raises(ModelError, match="'n' must be an integer >= 1"):
+            make_controller().neighbourhoods(n)  # type: ignore[arg-type]
+        with pytest.raises(ModelError, match="'n' must be an integer >= 1"):
+            make_controller().cooperative_weight_vector(n)  # type: ignore[arg-type]
+
+    def test_weight_vector_wrong_length(self) -> None:
+        """cooperative_weight_vector(n) rejects weights of another length."""
+        with pytest.raises(ModelError, match="'cooperative_weights' has 2 entries"):
+            make_controller(cooperative_weights=(0.5, 0.5)).cooperative_weight_vector(3)
+
+    def test_scenario_checks_controller_against_train(self) -> None:
+        """Scenario built directly rejects a controller that does not fit the train."""
+        scenario = parse_scenario(BASE)
+        with pytest.raises(ModelError, match="'neighbourhood' has 2 entries"):
+            dataclasses.replace(scenario, controller=make_controller(neighbourhood=((0,), (1,))))
+
+    def test_scenario_checks_expected(self) -> None:
+        """Scenario built directly validates and freezes expected."""
+        scenario = parse_scenario(BASE)
+        frozen = dataclasses.replace(scenario, expected={"sampling": "warn"})
+        assert frozen.expected == {"sampling": "warn"}
+        with pytest.raises(TypeError):
+            frozen.expected["sampling"] = "pass"  # type: ignore[index]
+        with pytest.raises(ModelError, match="unknown check 'samplin'. Did you mean 'sampling'?"):
+            dataclasses.replace(scenario, expected={"samplin": "warn"})
+        with pytest.raises(ModelError, match=r"'expected'\['sampling'\] must be one of"):
+            dataclasses.replace(scenario, expected={"sampling": "ok"})
+        with pytest.raises(ModelError, match="needs a controller"):
+            dataclasses.replace(scenario, expected={"nash_gap": "pass"})

@@ -2,7 +2,9 @@
 """Read scenario files (TOML) into frozen dataclasses with SI values inside.
 
 A scenario names a train (a preset or explicit vehicle groups), an optional
-track and the model settings (cruise speed, linearisation, sampling). Keys
+track, the model settings (cruise speed, linearisation, sampling), optionally
+an unconstrained (D)MPC design (``[controller]``) and the declared outcome of
+the design checks (``[expected]``). Keys
 whose name carries a unit (``mass_t``, ``speed_kmh``, ``stiffness_kn_per_m``)
 are converted once, here, with :mod:`trainctl.units`; every other number is
 already SI. The schema is documented in ``analyses/README.md``.
@@ -24,12 +26,13 @@ import datetime
 import difflib
 import inspect
 import math
+import numbers
 import os
 import re
 import tomllib
 import unicodedata
-from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any, NoReturn, TypeVar
@@ -51,11 +54,17 @@ from .units import (
 
 __all__ = [
     "ALLOCATIONS",
+    "CHECK_NAMES",
+    "CHECK_STATUSES",
+    "CONTROLLER_FORMS",
+    "CONTROLLER_OUTPUTS",
     "DISCRETISATIONS",
     "LINEARISATIONS",
+    "NEIGHBOURHOODS",
     "RESERVED_SECTIONS",
     "SCHEMA_VERSION",
     "BuiltinScenario",
+    "ControllerSettings",
     "ModelSettings",
     "Scenario",
     "builtin_scenario_text",
@@ -68,7 +77,7 @@ __all__ = [
 SCHEMA_VERSION = 1
 """The only ``schema_version`` this release reads."""
 
-RESERVED_SECTIONS = ("controller", "simulation", "report", "communication", "sweep")
+RESERVED_SECTIONS = ("simulation", "report", "communication", "sweep")
 """Top-level sections reserved for later releases (rejected today)."""
 
 LINEARISATIONS = ("jacobian", "book")
@@ -80,12 +89,67 @@ ALLOCATIONS = ("shares", "own")
 DISCRETISATIONS = ("zoh", "tustin")
 """Accepted values of ``[model].discretisation``."""
 
+CONTROLLER_FORMS = ("u", "du")
+"""Accepted values of ``[controller].form``: penalise the input or its increments."""
+
+CONTROLLER_OUTPUTS = ("v", "force")
+"""Accepted items of ``[controller].outputs``: velocities [m/s], coupler forces [kN]."""
+
+NEIGHBOURHOODS = ("adjacent", "all", "self")
+"""Named kinds of ``[controller].neighbourhood`` (an explicit list is also accepted)."""
+
+CHECK_NAMES = (
+    "open_loop_stability",
+    "controllability",
+    "observability",
+    "sampling",
+    "input_collapse",
+    "ndmpc_convergence",
+    "relaxation",
+    "closed_loop_nash",
+    "closed_loop_iterations",
+    "nash_gap",
+    "cooperative_convergence",
+    "centralised_closed_loop",
+)
+"""Names of the design checks whose outcome ``[expected]`` may declare.
+
+``open_loop_stability``
+    Modes of the open-loop linear model.
+``controllability`` / ``observability``
+    Rank tests of the design model.
+``sampling``
+    Fastest coupler mode times the sample time, against pi (aliasing).
+``input_collapse``
+    Whether every input acts almost alike over one sample.
+``ndmpc_convergence``
+    Convergence of the N-DMPC (Jacobi) iteration, rho(D0) < 1.
+``relaxation``
+    Whether a relaxation factor makes the N-DMPC iteration converge.
+``closed_loop_nash``
+    Closed loop with the converged N-DMPC (Nash point).
+``closed_loop_iterations``
+    Closed loop with ``[controller].iterations`` N-DMPC iterations per sample.
+``nash_gap``
+    Cost of the Nash point above the centralised optimum.
+``cooperative_convergence``
+    Convergence of the cooperative DMPC iteration.
+``centralised_closed_loop``
+    Closed loop with centralised MPC.
+"""
+
+CHECK_STATUSES = ("pass", "warn", "fail")
+"""Accepted statuses in ``[expected]``."""
+
 _SLUG_MAX = 60
 _MAX_VEHICLES = 10_000
 _MISSING: Any = object()
 _T = TypeVar("_T")
 
-_TOP_KEYS = ("schema_version", "name", "description", "seed", "train", "track", "model")
+_TOP_KEYS = (
+    "schema_version", "name", "description", "seed", "train", "track", "model", "controller",
+    "expected",
+)  # fmt: skip
 _TRAIN_KEYS = ("preset", "preset_options", "vehicle", "coupler")
 _DAVIS_KEYS = ("davis_n_per_kn_kmh", "davis_si", "davis_book_literal")
 _VEHICLE_KEYS = (
@@ -97,6 +161,17 @@ _TRACK_KEYS = ("formula", "wheelbase", "section")
 _SECTION_KEYS = ("start", "grade_permille", "curve_radius")
 _MODEL_KEYS = (
     "speed_kmh", "linearisation", "dummy_state", "allocation", "sample_time", "discretisation",
+)  # fmt: skip
+_CONTROLLER_KEYS = (
+    "form", "prediction_horizon", "control_horizon", "outputs", "q_velocity", "q_force_per_kn2",
+    "r_per_kn2", "r_per_n2", "neighbourhood", "iterations", "cooperative_weights",
+)  # fmt: skip
+_INPUT_WEIGHT_KEYS = {"r_per_kn2": "kN", "r_per_n2": "N"}
+_N2_PER_KN2 = kn_to_n(1.0) ** 2  # a weight per N^2 times this is the weight per kN^2
+_WEIGHT_SUM_TOL = 1e-9
+_CONTROLLER_CHECKS = (
+    "ndmpc_convergence", "relaxation", "closed_loop_nash", "closed_loop_iterations", "nash_gap",
+    "cooperative_convergence", "centralised_closed_loop",
 )  # fmt: skip
 _DAVIS_CONVERTERS: dict[str, Callable[[float, float, float], tuple[float, float, float]]] = {
     "davis_n_per_kn_kmh": davis_from_unit_resistance_kmh,
@@ -160,8 +235,251 @@ class ModelSettings:
 
 
 @dataclass(frozen=True, kw_only=True)
+class ControllerSettings:
+    """An unconstrained (D)MPC design: horizons, outputs, weights, neighbourhoods.
+
+    Inputs are the coaches' traction/braking forces, one per vehicle; weights
+    are given per squared design unit (velocity m/s, force kN), so that they
+    are plain numbers. Built-in validation raises
+    :class:`~trainctl.exceptions.ModelError`; checks that need the number of
+    coaches ``n`` happen in :meth:`neighbourhoods` and
+    :meth:`cooperative_weight_vector` (and, with key paths, in
+    :func:`parse_scenario`).
+
+    Parameters
+    ----------
+    form : {"u", "du"}
+        Penalise the input deviation (``"u"``) or the input increments (``"du"``).
+    prediction_horizon : int
+        P [steps], >= 1.
+    control_horizon : int
+        M [steps], 1 <= M <= P.
+    outputs : tuple of {"v", "force"}
+        Controlled outputs in this order, distinct, non-empty: ``"v"`` the
+        velocities [m/s], ``"force"`` the coupler forces [kN].
+    q_velocity : float
+        Weight on the velocity tracking error [per (m/s)^2], >= 0.
+    q_force : float
+        Weight on the coupler-force deviation [per kN^2], >= 0; > 0 needs
+        ``"force"`` in ``outputs``.
+    input_weight : float
+        Input weight R as given, in ``input_weight_unit`` [per kN^2 or per
+        N^2], > 0.
+    input_weight_unit : {"kN", "N"}
+        The force unit the user chose for R; reports quote thresholds in it.
+    neighbourhood : {"adjacent", "all", "self"} or tuple of tuple of int
+        Whose outputs coach i weighs: ``"adjacent"`` {i-1, i, i+1},
+        ``"all"`` every coach, ``"self"`` {i} only, or one tuple of 0-based
+        coach indices per coach (tuple i contains i, no repeats).
+    iterations : int
+        Fixed N-DMPC iteration count per sample analysed for the
+        finite-iteration closed loop [-], >= 1.
+    cooperative_weights : "uniform" or tuple of float
+        Convex-combination weights of cooperative DMPC: ``"uniform"`` (1/n
+        each) or one weight > 0 per coach, summing to 1 (within 1e-9).
+
+    Examples
+    --------
+    >>> ctl = ControllerSettings(form="du", prediction_horizon=4, control_horizon=2,
+    ...                          input_weight=10.0, input_weight_unit="N")
+    >>> ctl.input_weight_per_kn2()
+    10000000.0
+    >>> ctl.neighbourhoods(3)
+    ((0, 1), (0, 1, 2), (1, 2))
+    """
+
+    form: str
+    prediction_horizon: int
+    control_horizon: int
+    outputs: tuple[str, ...] = ("v",)
+    q_velocity: float = 1.0
+    q_force: float = 0.0
+    input_weight: float
+    input_weight_unit: str = "kN"
+    neighbourhood: str | tuple[tuple[int, ...], ...] = "adjacent"
+    iterations: int = 10
+    cooperative_weights: str | tuple[float, ...] = "uniform"
+
+    def __post_init__(self) -> None:
+        def fail(message: str) -> NoReturn:
+            raise ModelError(f"ControllerSettings: {message}")
+
+        if self.form not in CONTROLLER_FORMS:
+            fail(f"'form' must be one of {CONTROLLER_FORMS} (got {self.form!r}).")
+        for name in ("prediction_horizon", "control_horizon", "iterations"):
+            value = getattr(self, name)
+            if not _is_int(value) or value < 1:
+                fail(f"{name!r} must be an integer >= 1 (got {value!r}).")
+            object.__setattr__(self, name, int(value))
+        if self.control_horizon > self.prediction_horizon:
+            fail(
+                f"'control_horizon' must be <= 'prediction_horizon' = "
+                f"{self.prediction_horizon} (got {self.control_horizon})."
+            )
+        outputs = (self.outputs,) if isinstance(self.outputs, str) else tuple(self.outputs)
+        if (
+            not outputs
+            or any(o not in CONTROLLER_OUTPUTS for o in outputs)
+            or len(set(outputs)) != len(outputs)
+        ):
+            fail(
+                f"'outputs' must be distinct items of {CONTROLLER_OUTPUTS}, at least one "
+                f"(got {self.outputs!r})."
+            )
+        object.__setattr__(self, "outputs", outputs)
+        for name, bound in (
+            ("q_velocity", "nonneg"),
+            ("q_force", "nonneg"),
+            ("input_weight", "pos"),
+        ):
+            value = getattr(self, name)
+            x = _as_float(value)
+            if not math.isfinite(x) or x < 0 or (bound == "pos" and x == 0):
+                fail(f"{name!r} must be a finite number{_BOUNDS[bound]} (got {value!r}).")
+            object.__setattr__(self, name, x)
+        if self.q_force > 0 and "force" not in outputs:
+            fail(f"'q_force' must be 0 without 'force' in 'outputs' (got {self.q_force!r}).")
+        if self.input_weight_unit not in _INPUT_WEIGHT_KEYS.values():
+            fail(f"'input_weight_unit' must be 'kN' or 'N' (got {self.input_weight_unit!r}).")
+        object.__setattr__(self, "neighbourhood", _freeze_neighbourhood(self.neighbourhood))
+        object.__setattr__(self, "cooperative_weights", _freeze_weights(self.cooperative_weights))
+
+    def input_weight_per_kn2(self) -> float:
+        """The input weight R converted to per kN^2 (the design unit).
+
+        Returns
+        -------
+        float
+            ``input_weight`` [per kN^2]; a weight given per N^2 is multiplied
+            by 1e6.
+
+        Examples
+        --------
+        >>> ControllerSettings(form="u", prediction_horizon=1, control_horizon=1,
+        ...                    input_weight=2.0).input_weight_per_kn2()
+        2.0
+        """
+        if self.input_weight_unit == "N":
+            return self.input_weight * _N2_PER_KN2
+        return self.input_weight
+
+    def neighbourhoods(self, n: int) -> tuple[tuple[int, ...], ...]:
+        """Resolve the neighbourhood of every coach in a train of ``n`` coaches.
+
+        Parameters
+        ----------
+        n : int
+            Number of coaches (inputs) [-], >= 1.
+
+        Returns
+        -------
+        tuple of tuple of int
+            Entry i lists the 0-based coaches whose outputs coach i weighs,
+            ascending; it always contains i.
+
+        Raises
+        ------
+        ModelError
+            If ``n`` < 1, or an explicit neighbourhood does not have ``n``
+            entries or names a coach >= ``n``.
+
+        Examples
+        --------
+        >>> ctl = ControllerSettings(form="u", prediction_horizon=2, control_horizon=1,
+        ...                          input_weight=1.0, neighbourhood="self")
+        >>> ctl.neighbourhoods(3)
+        ((0,), (1,), (2,))
+        """
+        n = _coach_count(n)
+        kind = self.neighbourhood
+        if isinstance(kind, str):
+            if kind == "all":
+                return (tuple(range(n)),) * n
+            if kind == "self":
+                return tuple((i,) for i in range(n))
+            return tuple(tuple(range(max(0, i - 1), min(n, i + 2))) for i in range(n))
+        if len(kind) != n:
+            raise ModelError(
+                f"ControllerSettings: 'neighbourhood' has {len(kind)} entries for a train of "
+                f"{n} coaches (one per coach needed)."
+            )
+        if any(j >= n for members in kind for j in members):
+            raise ModelError(
+                f"ControllerSettings: 'neighbourhood' names a coach >= {n} for a train of "
+                f"{n} coaches (indices count from 0)."
+            )
+        return tuple(tuple(sorted(members)) for members in kind)
+
+    def cooperative_weight_vector(self, n: int) -> tuple[float, ...]:
+        """Resolve the cooperative DMPC weights for ``n`` coaches.
+
+        Parameters
+        ----------
+        n : int
+            Number of coaches [-], >= 1.
+
+        Returns
+        -------
+        tuple of float
+            One weight per coach [-], summing to 1 (``1/n`` each for
+            ``"uniform"``).
+
+        Raises
+        ------
+        ModelError
+            If ``n`` < 1 or explicit weights do not have ``n`` entries.
+
+        Examples
+        --------
+        >>> ControllerSettings(form="u", prediction_horizon=1, control_horizon=1,
+        ...                    input_weight=1.0).cooperative_weight_vector(4)
+        (0.25, 0.25, 0.25, 0.25)
+        """
+        n = _coach_count(n)
+        if isinstance(self.cooperative_weights, str):
+            return (1.0 / n,) * n
+        if len(self.cooperative_weights) != n:
+            raise ModelError(
+                f"ControllerSettings: 'cooperative_weights' has "
+                f"{len(self.cooperative_weights)} entries for a train of {n} coaches."
+            )
+        return self.cooperative_weights
+
+
+class _FrozenMapping(Mapping[str, str]):
+    """A read-only, hashable, picklable ``str -> str`` mapping in insertion order."""
+
+    __slots__ = ("_data",)
+    _data: dict[str, str]
+
+    def __init__(self, items: Mapping[str, str] | Iterable[tuple[str, str]] = ()) -> None:
+        object.__setattr__(self, "_data", dict(items))
+
+    def __setattr__(self, name: str, value: Any) -> NoReturn:
+        raise AttributeError(f"{type(self).__name__} is read-only")
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (type(self), (tuple(self._data.items()),))
+
+    def __getitem__(self, key: str) -> str:
+        return self._data[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._data)
+
+    def __len__(self) -> int:
+        return len(self._data)
+
+    def __hash__(self) -> int:
+        return hash(frozenset(self._data.items()))
+
+    def __repr__(self) -> str:
+        return repr(self._data)
+
+
+@dataclass(frozen=True, kw_only=True)
 class Scenario:
-    """A parsed scenario: train, track and model settings, all SI.
+    """A parsed scenario: train, track, model and controller settings, all SI.
 
     Parameters
     ----------
@@ -177,6 +495,12 @@ class Scenario:
         Track grade and curvature; ``None`` for flat, straight track.
     model : ModelSettings
         Linearisation and sampling settings.
+    controller : ControllerSettings or None
+        The (D)MPC design; ``None`` when the file has no ``[controller]``.
+    expected : Mapping of str to str
+        Declared outcome of the design checks, check name (one of
+        :data:`CHECK_NAMES`) to status (one of :data:`CHECK_STATUSES`), in
+        file order; read-only, empty when the file has no ``[expected]``.
     source : str
         Where the scenario came from: the file path as given, ``"builtin:NAME"``
         or ``"<string>"``.
@@ -194,7 +518,29 @@ class Scenario:
     train: Train
     track: Track | None = None
     model: ModelSettings
+    controller: ControllerSettings | None = None
+    expected: Mapping[str, str] = field(default_factory=_FrozenMapping)
     source: str = "<string>"
+
+    def __post_init__(self) -> None:
+        expected = _FrozenMapping(self.expected)
+        for check, status in expected.items():
+            if check not in CHECK_NAMES:
+                raise ModelError(
+                    f"Scenario: 'expected' names an unknown check {check!r}."
+                    f"{_suggest(check, CHECK_NAMES)} Checks: {', '.join(CHECK_NAMES)}."
+                )
+            if status not in CHECK_STATUSES:
+                raise ModelError(
+                    f"Scenario: 'expected'[{check!r}] must be one of {CHECK_STATUSES} "
+                    f"(got {status!r})."
+                )
+            if self.controller is None and check in _CONTROLLER_CHECKS:
+                raise ModelError(f"Scenario: 'expected'[{check!r}] needs a controller (got none).")
+        object.__setattr__(self, "expected", expected)
+        if self.controller is not None:
+            self.controller.neighbourhoods(self.train.n_vehicles)
+            self.controller.cooperative_weight_vector(self.train.n_vehicles)
 
     @property
     def slug(self) -> str:
@@ -405,6 +751,25 @@ def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:
     >>> scenario = parse_scenario(text)
     >>> scenario.train.stiffness.tolist(), scenario.model.speed
     ([10000000.0], 25.0)
+    >>> scenario.controller is None, dict(scenario.expected)
+    (True, {})
+
+    A controller design and the expected outcome of its checks:
+
+    >>> text += '''
+    ... [controller]
+    ... form = "du"
+    ... prediction_horizon = 4
+    ... control_horizon = 2
+    ... r_per_n2 = 1e-5
+    ... [expected]
+    ... ndmpc_convergence = "pass"
+    ... '''
+    >>> scenario = parse_scenario(text)
+    >>> scenario.controller.input_weight_per_kn2(), scenario.controller.neighbourhoods(2)
+    (10.0, ((0, 1), (0, 1)))
+    >>> scenario.expected["ndmpc_convergence"]
+    'pass'
     """
     if not isinstance(text, str):
         raise TypeError(f"parse_scenario: 'text' must be a str (got {type(text).__name__}).")
@@ -416,14 +781,30 @@ def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:
             f"release reads schema version {SCHEMA_VERSION} only."
         )
     name = top.string("name", nonblank=True)
+    description = top.string("description", single_line=True)
+    seed = top.integer("seed", minimum=0, default=0)
+    train = _parse_train(top.section("train", _TRAIN_KEYS), name)
     track_table = top.optional_section("track", _TRACK_KEYS)
+    track = None if track_table is None else _parse_track(track_table)
+    model = _parse_model(top.section("model", _MODEL_KEYS))
+    # Checks that depend on the number of coaches run here, after the train is built.
+    controller_table = top.optional_section("controller", _CONTROLLER_KEYS)
+    controller = (
+        None if controller_table is None else _parse_controller(controller_table, train.n_vehicles)
+    )
+    expected_table = top.optional_section("expected", CHECK_NAMES)
+    expected = (
+        _FrozenMapping() if expected_table is None else _parse_expected(expected_table, controller)
+    )
     return Scenario(
         name=name,
-        description=top.string("description", single_line=True),
-        seed=top.integer("seed", minimum=0, default=0),
-        train=_parse_train(top.section("train", _TRAIN_KEYS), name),
-        track=None if track_table is None else _parse_track(track_table),
-        model=_parse_model(top.section("model", _MODEL_KEYS)),
+        description=description,
+        seed=seed,
+        train=train,
+        track=track,
+        model=model,
+        controller=controller,
+        expected=expected,
         source=source,
     )
 
@@ -638,6 +1019,168 @@ def _parse_model(table: _Table) -> ModelSettings:
     )
 
 
+def _parse_controller(table: _Table, n: int) -> ControllerSettings:
+    form = table.choice("form", CONTROLLER_FORMS)
+    horizon = table.integer("prediction_horizon", minimum=1)
+    moves = table.integer("control_horizon", minimum=1)
+    if moves > horizon:
+        table.fail(
+            f"{table.key('control_horizon')} must be an integer from 1 to "
+            f"{table.key('prediction_horizon')} = {horizon} (got {moves}). The control horizon "
+            f"M counts the free moves inside the prediction horizon P."
+        )
+    outputs = _parse_outputs(table, n)
+    q_velocity = table.number("q_velocity", "nonneg", 1.0)
+    q_force = table.number("q_force_per_kn2", "nonneg", 0.0)
+    if q_force > 0 and "force" not in outputs:
+        table.fail(
+            f"{table.key('q_force_per_kn2')} must be 0 when {table.key('outputs')} has no "
+            f"'force' (got {q_force!r} with outputs {list(outputs)}). Add \"force\" to outputs "
+            f"to weight the coupler forces, or omit q_force_per_kn2."
+        )
+    weight_key = _input_weight_key(table)
+    input_weight = table.number(weight_key, "pos")
+    neighbourhood = _parse_neighbourhood(table, n)
+    iterations = table.integer("iterations", minimum=1, default=10)
+    cooperative_weights = _parse_cooperative_weights(table, n)
+    return _build(
+        table.file,
+        table.path,
+        lambda: ControllerSettings(
+            form=form,
+            prediction_horizon=horizon,
+            control_horizon=moves,
+            outputs=outputs,
+            q_velocity=q_velocity,
+            q_force=q_force,
+            input_weight=input_weight,
+            input_weight_unit=_INPUT_WEIGHT_KEYS[weight_key],
+            neighbourhood=neighbourhood,
+            iterations=iterations,
+            cooperative_weights=cooperative_weights,
+        ),
+    )
+
+
+def _parse_outputs(table: _Table, n: int) -> tuple[str, ...]:
+    where = table.key("outputs")
+    options = ", ".join(repr(o) for o in CONTROLLER_OUTPUTS)
+    value = table.data.get("outputs", ["v"])
+    if not isinstance(value, list) or not value:
+        table.fail(
+            f"{where} must be a non-empty array of distinct names from {options} "
+            f"(got {_got(value)})."
+        )
+    for i, item in enumerate(value):
+        if not isinstance(item, str) or item not in CONTROLLER_OUTPUTS:
+            hint = _suggest(item, CONTROLLER_OUTPUTS) if isinstance(item, str) else ""
+            table.fail(
+                f"{where}[{i}] must be one of {options} (got {_got(item)}).{hint} 'v' selects "
+                f"the velocities [m/s], 'force' the coupler forces [kN]."
+            )
+        if item in value[:i]:
+            table.fail(
+                f"{where}[{i}] must not repeat an earlier output (got {item!r} again). List "
+                f"each output once."
+            )
+        if item == "force" and n < 2:
+            table.fail(
+                f"{where}[{i}] must be 'v' for a train of one vehicle, which has no couplers "
+                f"(got 'force'). Remove 'force', or give the train at least two vehicles."
+            )
+    return tuple(value)
+
+
+def _input_weight_key(table: _Table) -> str:
+    given = [key for key in _INPUT_WEIGHT_KEYS if table.has(key)]
+    if len(given) != 1:
+        what = "none" if not given else " and ".join(given)
+        table.fail(
+            f"{table.path} needs exactly one of {', '.join(_INPUT_WEIGHT_KEYS)} (got {what}). "
+            f"The input weight R is per kN² (r_per_kn2) or per N² (r_per_n2); "
+            f"r_per_kn2 = r_per_n2 × 1e6."
+        )
+    return given[0]
+
+
+def _parse_neighbourhood(table: _Table, n: int) -> str | tuple[tuple[int, ...], ...]:
+    where = table.key("neighbourhood")
+    value = table.data.get("neighbourhood", "adjacent")
+    want = (
+        f"one of {', '.join(repr(k) for k in NEIGHBOURHOODS)} or an array of {n} arrays of "
+        f"coach indices, one per coach"
+    )
+    if isinstance(value, str):
+        if value not in NEIGHBOURHOODS:
+            table.fail(
+                f"{where} must be {want} (got {_got(value)}).{_suggest(value, NEIGHBOURHOODS)}"
+            )
+        return value
+    if not isinstance(value, list) or len(value) != n:
+        table.fail(
+            f"{where} must be {want} (got {_got(value)}). Entry i lists the coaches whose "
+            f"outputs coach i weighs; the train has {n} coaches."
+        )
+    members_list: list[tuple[int, ...]] = []
+    for i, members in enumerate(value):
+        here = f"{where}[{i}]"
+        if not isinstance(members, list):
+            table.fail(f"{here} must be an array of coach indices (got {_got(members)}).")
+        for k, j in enumerate(members):
+            if isinstance(j, bool) or not isinstance(j, int) or not 0 <= j < n:
+                table.fail(
+                    f"{here}[{k}] must be a coach index from 0 to {n - 1} (got {_got(j)}). "
+                    f"Indices count from 0, head coach first."
+                )
+        if len(set(members)) != len(members):
+            table.fail(f"{here} must list distinct coach indices (got {members}).")
+        if i not in members:
+            table.fail(
+                f"{here} must contain its own coach index {i} (got {members}). Every coach "
+                f"weighs its own outputs."
+            )
+        members_list.append(tuple(members))
+    return tuple(members_list)
+
+
+def _parse_cooperative_weights(table: _Table, n: int) -> str | tuple[float, ...]:
+    where = table.key("cooperative_weights")
+    value = table.data.get("cooperative_weights", "uniform")
+    if value == "uniform":
+        return "uniform"
+    if not isinstance(value, list) or len(value) != n:
+        hint = _suggest(value, ("uniform",)) if isinstance(value, str) else ""
+        table.fail(
+            f"{where} must be 'uniform' or an array of {n} numbers > 0 summing to 1, one per "
+            f"coach (got {_got(value)}).{hint}"
+        )
+    weights = tuple(
+        _check_number(table.file, f"{where}[{i}]", w, "pos", "") for i, w in enumerate(value)
+    )
+    total = math.fsum(weights)
+    if abs(total - 1.0) > _WEIGHT_SUM_TOL:
+        table.fail(
+            f"{where} must sum to 1 within 1e-9 (got sum {total!r}). Divide "
+            f"each weight by the sum, or use 'uniform'."
+        )
+    return weights
+
+
+def _parse_expected(table: _Table, controller: ControllerSettings | None) -> _FrozenMapping:
+    # Unknown check names were rejected (with a suggestion) when the table was opened.
+    statuses = []
+    for check in table.data:
+        status = table.choice(check, CHECK_STATUSES)
+        if controller is None and check in _CONTROLLER_CHECKS:
+            table.fail(
+                f"{table.key(check)} needs a [controller] section (got none): the check "
+                f"{check!r} runs only for a controller design. Add [controller] or remove "
+                f"the expectation."
+            )
+        statuses.append((check, status))
+    return _FrozenMapping(statuses)
+
+
 # --------------------------------------------------------------------------- table reader
 
 
@@ -815,6 +1358,78 @@ class _Table:
 
 
 # --------------------------------------------------------------------------- helpers
+
+
+def _is_int(value: Any) -> bool:
+    """True for integers (Python or NumPy), False for bools and everything else."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
+def _as_float(value: Any) -> float:
+    """``float(value)`` for real numbers (not bools); nan for anything else."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        return math.nan
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf
+
+
+def _coach_count(n: Any) -> int:
+    if not _is_int(n) or n < 1:
+        raise ModelError(f"ControllerSettings: 'n' must be an integer >= 1 (got {n!r}).")
+    return int(n)
+
+
+def _freeze_neighbourhood(value: Any) -> str | tuple[tuple[int, ...], ...]:
+    """Validate a neighbourhood kind or explicit list; explicit lists become tuples."""
+    bad_kind = ModelError(
+        f"ControllerSettings: 'neighbourhood' must be one of {NEIGHBOURHOODS} or one "
+        f"sequence of coach indices per coach (got {value!r})."
+    )
+    if isinstance(value, str):
+        if value not in NEIGHBOURHOODS:
+            raise bad_kind
+        return value
+    try:
+        frozen = tuple(tuple(members) for members in value)
+    except TypeError:
+        raise bad_kind from None
+    for i, members in enumerate(frozen):
+        if (
+            not all(_is_int(j) and j >= 0 for j in members)
+            or len(set(members)) != len(members)
+            or i not in members
+        ):
+            raise ModelError(
+                f"ControllerSettings: 'neighbourhood'[{i}] must hold distinct coach indices "
+                f">= 0 including {i} (got {members!r})."
+            )
+    if not frozen:
+        raise ModelError("ControllerSettings: 'neighbourhood' must not be empty.")
+    return tuple(tuple(int(j) for j in members) for members in frozen)
+
+
+def _freeze_weights(value: Any) -> str | tuple[float, ...]:
+    """Validate cooperative weights; an explicit sequence becomes a tuple of floats."""
+    if isinstance(value, str):
+        if value != "uniform":
+            raise ModelError(
+                f"ControllerSettings: 'cooperative_weights' must be 'uniform' or a sequence "
+                f"of numbers > 0 summing to 1 (got {value!r})."
+            )
+        return value
+    try:
+        weights = tuple(_as_float(w) for w in value)
+    except TypeError:
+        weights = (math.nan,)
+    total = math.fsum(weights) if all(math.isfinite(w) for w in weights) else math.nan
+    if not weights or not all(w > 0 for w in weights) or not abs(total - 1.0) <= _WEIGHT_SUM_TOL:
+        raise ModelError(
+            f"ControllerSettings: 'cooperative_weights' must be numbers > 0 summing to 1 "
+            f"within 1e-9 (got {value!r})."
+        )
+    return weights
 
 
 def _check_number(file: str, where: str, value: Any, bound: str | None, hint: str) -> float:

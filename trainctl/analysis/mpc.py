@@ -46,10 +46,12 @@ __all__ = [
     "RelaxationResult",
     "closed_loop_matrix",
     "cooperative_iteration",
+    "finite_iteration_closed_loop",
     "iteration_matrices",
     "nash_gain",
     "prediction",
     "relaxation",
+    "shift_matrix",
     "spectral_radius",
     "threshold_weight",
 ]
