@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
 import re
@@ -15,12 +14,12 @@ from pathlib import Path
 import pytest
 
 import trainctl
-from trainctl.analysis.summary import ModelSummary
 from trainctl.cli import main
-from trainctl.scenario import Scenario, builtin_scenario_text, load_scenario
+from trainctl.scenario import builtin_scenario_text, load_scenario
 
 REPO = Path(__file__).resolve().parents[1]
-BUILTINS = ("crh2-dmpc", "crh2-potential", "heavy-haul-flocking", "heavy-haul-hinf")
+# Every file in the repository's analyses/ is a built-in scenario.
+BUILTINS = tuple(sorted(p.stem for p in (REPO / "analyses").glob("*.toml")))
 XSS_NAME = "<script>alert(1)</script>"
 
 
@@ -253,9 +252,13 @@ class TestAnalyse:
 
     @pytest.mark.parametrize("name", BUILTINS)
     def test_every_builtin(self, name: str, capsys: pytest.CaptureFixture[str]) -> None:
-        """Every built-in analyses with exit status 0."""
-        assert main(["analyse", name, "--strict"]) == 0
+        """Every built-in analyses with exit 0; --strict exits 1 exactly when a check fails."""
+        from trainctl.analysis.review import review_design
+
+        assert main(["analyse", name]) == 0
         assert load_scenario(name).name in capsys.readouterr().out
+        failed = any(c.status == "fail" for c in review_design(load_scenario(name)).checks)
+        assert main(["analyse", name, "--strict"]) == (1 if failed else 0)
 
     def test_scenario_file(self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
         """A scenario file path is read as a file."""
@@ -263,25 +266,16 @@ class TestAnalyse:
         assert main(["analyze", str(path), "--json"]) == 0
         assert json.loads(capsys.readouterr().out)["n_vehicles"] == 2
 
-    def test_strict_failing_check_exits_1(
-        self, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
-    ) -> None:
-        """--strict exits 1 when the summary has failed checks; without it, 0."""
-        import trainctl.analysis.summary as summary_module
-
-        real = summary_module.model_summary
-
-        def failing(scenario: Scenario) -> ModelSummary:
-            return dataclasses.replace(real(scenario), failed_checks=("coupler-aliasing",))
-
-        monkeypatch.setattr(summary_module, "model_summary", failing)
+    def test_strict_failing_check_exits_1(self, capsys: pytest.CaptureFixture[str]) -> None:
+        """The book's T = 20 s fails the sampling check: --strict exits 1 and names it."""
         assert main(["analyse", "crh2-dmpc"]) == 0
         capsys.readouterr()
         assert main(["analyse", "crh2-dmpc", "--strict"]) == 1
         out, err = capsys.readouterr()
-        assert "Vehicles" in out
-        assert "coupler-aliasing" in err
+        assert "Vehicles" in out and "Design checks" in out
+        assert "sampling" in err and "input_collapse" in err
         assert "Traceback" not in err
+        assert main(["analyse", "crh2-dmpc-well-sampled", "--strict"]) == 0
 
 
 BAD_FILES: dict[str, str | bytes] = {

@@ -32,7 +32,13 @@ from trainctl.scenario import (
     slugify,
 )
 
-BUILTIN_NAMES = ["crh2-dmpc", "crh2-potential", "heavy-haul-flocking", "heavy-haul-hinf"]
+BUILTIN_NAMES = [
+    "crh2-dmpc",
+    "crh2-dmpc-well-sampled",
+    "crh2-potential",
+    "heavy-haul-flocking",
+    "heavy-haul-hinf",
+]
 ANALYSES = Path(__file__).resolve().parent.parent / "analyses"
 
 BASE = """\
@@ -102,7 +108,7 @@ class TestBuiltins:
     """The shipped scenario files and their lookup."""
 
     def test_names_sorted(self) -> None:
-        """builtin_scenarios lists the four seed scenarios sorted by name."""
+        """builtin_scenarios lists the seed scenarios sorted by name."""
         found = builtin_scenarios()
         assert [b.name for b in found] == BUILTIN_NAMES
         assert all(isinstance(b, BuiltinScenario) and b.path.is_file() for b in found)

@@ -222,7 +222,10 @@ def _failed_checks(summary: Any) -> list[str]:
 
 
 def _cmd_analyse(args: argparse.Namespace) -> int:
-    _, summary = _summary_of(args.scenario)
+    from .run import run_scenario
+    from .scenario import load_scenario
+
+    summary = run_scenario(load_scenario(args.scenario))
     if args.json:
         print(json.dumps(summary.to_dict(), indent=2))
     else:

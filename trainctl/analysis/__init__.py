@@ -1,10 +1,32 @@
-# Analysis of train models: modes, sampling, and (later) design checks.
-"""Analysis layer: modal analysis and model summaries."""
+# Analysis of train models: modes, stability, controllability, sampling, DMPC.
+"""Analysis layer: each check is a public function returning a frozen result."""
 
+from .controllability import ControllabilityResult as ControllabilityResult
+from .controllability import analyse_controllability as analyse_controllability
+from .controllability import analyse_observability as analyse_observability
+from .controllability import finite_horizon_gramian as finite_horizon_gramian
+from .dmpc import DMPCAnalysis as DMPCAnalysis
+from .dmpc import analyse_dmpc as analyse_dmpc
 from .modes import Mode as Mode
 from .modes import continuous_modes as continuous_modes
 from .modes import nyquist_sample_time as nyquist_sample_time
+from .mpc import MPCDesign as MPCDesign
+from .mpc import prediction as prediction
+from .review import Check as Check
+from .review import DesignReview as DesignReview
+from .review import design_model as design_model
+from .review import review_design as review_design
+from .sampling import SamplingResult as SamplingResult
+from .sampling import analyse_sampling as analyse_sampling
+from .stability import StabilityResult as StabilityResult
+from .stability import analyse_stability as analyse_stability
 from .summary import ModelSummary as ModelSummary
 from .summary import model_summary as model_summary
 
-__all__ = ["Mode", "ModelSummary", "continuous_modes", "model_summary", "nyquist_sample_time"]
+__all__ = [
+    "Check", "ControllabilityResult", "DMPCAnalysis", "DesignReview", "MPCDesign", "Mode",
+    "ModelSummary", "SamplingResult", "StabilityResult", "analyse_controllability",
+    "analyse_dmpc", "analyse_observability", "analyse_sampling", "analyse_stability",
+    "continuous_modes", "design_model", "finite_horizon_gramian", "model_summary",
+    "nyquist_sample_time", "prediction", "review_design",
+]

@@ -314,15 +314,15 @@ def _pbh(
         seen.append(complex(value))
         M = np.hstack([A - value * np.eye(n), B])
         U, sv, _ = np.linalg.svd(M)
-        margin = float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
-        if margin <= tol:
-            w = U[:, -1]  # left null vector: w^H [A - lambda I, B] = 0
+        full = np.concatenate([sv, np.zeros(n - sv.size)]) if sv.size < n else sv[:n]
+        null = np.flatnonzero(full <= tol * max(float(sv[0]), 1e-300))
+        for k in null:  # one entry per independent left null vector
+            w = U[:, k]  # w^H [A - lambda I, B] = 0
             weights = np.abs(w) / np.linalg.norm(w)
             order = np.argsort(-weights)[:4]
-            direction = {labels[i]: round(float(weights[i]), 6) for i in order if weights[i] > 1e-3}
-            found.append(
-                UncontrollableMode(
-                    eigenvalue=complex(value), pbh_margin=margin, direction=direction
-                )
-            )
+            direction = {labels[i]: round(float(weights[i]), 6) for i in order
+                         if weights[i] > 1e-3}
+            found.append(UncontrollableMode(eigenvalue=complex(value),
+                                            pbh_margin=float(full[k] / sv[0]),
+                                            direction=direction))
     return tuple(found)
