@@ -13,7 +13,12 @@ from trainctl.analysis.mpc import iteration_matrices, spectral_radius, threshold
 from trainctl.analysis.review import review_design
 from trainctl.cli import main
 from trainctl.run import run_scenario
-from trainctl.scenario import builtin_scenario_text, builtin_scenarios, load_scenario, parse_scenario
+from trainctl.scenario import (
+    builtin_scenario_text,
+    builtin_scenarios,
+    load_scenario,
+    parse_scenario,
+)
 
 from .test_analysis import crh2_design
 
