@@ -783,7 +783,7 @@ def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:
     name = top.string("name", nonblank=True)
     description = top.string("description", single_line=True)
     seed = top.integer("seed", minimum=0, default=0)
-    train = _parse_train(top.section("train", _TRAIN_KEYS), name)
+    train = _parse_train(top.section("train", _TRAIN_KEYS))
     track_table = top.optional_section("track", _TRACK_KEYS)
     track = None if track_table is None else _parse_track(track_table)
     model = _parse_model(top.section("model", _MODEL_KEYS))
@@ -812,7 +812,21 @@ def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:
 # --------------------------------------------------------------------------- sections
 
 
-def _parse_train(table: _Table, name: str) -> Train:
+def _formation_name(vehicles: list[Vehicle]) -> str:
+    """The formation: 'T-M-M-T', 'unit train ×4', run-length coded when long."""
+    names = [v.name for v in vehicles]
+    if len(set(names)) > 1 and len(names) <= 12:
+        return "-".join(names)
+    runs: list[tuple[str, int]] = []
+    for v in vehicles:
+        if runs and runs[-1][0] == v.name:
+            runs[-1] = (v.name, runs[-1][1] + 1)
+        else:
+            runs.append((v.name, 1))
+    return "-".join(name if count == 1 else f"{name} ×{count}" for name, count in runs)
+
+
+def _parse_train(table: _Table) -> Train:
     if table.has("preset"):
         for key in ("vehicle", "coupler"):
             if table.has(key):
@@ -834,7 +848,8 @@ def _parse_train(table: _Table, name: str) -> Train:
     return _build(
         table.file,
         table.path,
-        lambda: Train(vehicles=tuple(vehicles), couplers=tuple(couplers), name=name),
+        lambda: Train(vehicles=tuple(vehicles), couplers=tuple(couplers),
+                      name=_formation_name(vehicles)),
     )
 
 

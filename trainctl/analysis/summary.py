@@ -163,12 +163,9 @@ def model_summary(scenario: Scenario) -> ModelSummary:
 
 def _text_lines(s: ModelSummary) -> list[str]:
     eq = s.equilibrium
-    names = [str(v["name"]) for v in s.vehicles]
-    formation = f" ({'-'.join(names)})" if len(names) <= 12 else ""
-    label = "" if s.train_name == s.scenario_name else f"{s.train_name}, "
     lines = [
         f"Scenario: {s.scenario_name}",
-        f"Train:    {label}{len(s.vehicles)} vehicles{formation}, "
+        f"Train:    {s.train_name}; {len(s.vehicles)} vehicles, "
         f"{sum(float(v['mass']) for v in s.vehicles) / 1e3:.1f} t",
         f"Model:    {len(s.state_labels)} states, {len(s.input_labels)} inputs [N], "
         f"{len(s.output_labels)} outputs; linearised ({s.linearisation}) at "
