@@ -210,6 +210,16 @@ class TestLinearisation:
         assert rel_err(sys.A, A_fd) <= 1e-6
         assert rel_err(sys.B, B_fd) <= 1e-6
 
+    def test_full_heavy_haul_chain_jacobian(self):
+        """The 204-vehicle 1+2+1 chain (damped couplers, mixed Davis) linearises exactly."""
+        from trainctl.models import heavy_haul_1p2p1
+        train = heavy_haul_1p2p1(detail="full")
+        eq = equilibrium(train, 19.44)
+        A_fd, B_fd = fd_jacobian(train, eq.state(position=0.0), eq.inputs)
+        sys = linearise(train, 19.44)
+        assert sys.nstates == 407
+        assert rel_err(sys.A, A_fd) <= 1e-6 and rel_err(sys.B, B_fd) <= 1e-6
+
     def test_book_literal_preset_jacobian(self):
         """The literal Davis reading also linearises exactly."""
         train = crh2_half(davis_reading="book_literal")
