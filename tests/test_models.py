@@ -191,6 +191,17 @@ class TestEquilibrium:
         extra = MASS.sum() * 9.81 * 10 / 1000
         assert climb.inputs.sum() - flat.inputs.sum() == pytest.approx(extra, rel=1e-12)
 
+    def test_acceleration_is_shared_like_a_grade(self):
+        """A uniform acceleration a needs m·a more per coach, as a grade of a·1000/g ‰ does."""
+        a = 0.3
+        acc = equilibrium(crh2_half(), V300, acceleration=a)
+        grade = equilibrium(crh2_half(), V300, grade_permille=a * 1000 / 9.81)
+        np.testing.assert_allclose(acc.inputs, grade.inputs, rtol=1e-12)
+        np.testing.assert_allclose(acc.coupler_forces, grade.coupler_forces, rtol=1e-9)
+        x = acc.state(position=0.0)
+        dv = train_rhs(crh2_half(), x, acc.inputs)[:4]
+        np.testing.assert_allclose(dv, a, rtol=1e-9)  # every coach accelerates at a
+
     def test_trailers_only_group_is_rejected(self):
         """A coupled group without traction has no cruise equilibrium with shares."""
         car = Vehicle(mass=4e4, a0=0.01, a1=0, a2=0, traction_share=0.0)

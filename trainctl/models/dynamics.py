@@ -249,6 +249,7 @@ def equilibrium(
     grade_permille: float = 0.0,
     track: Track | None = None,
     position: float = 0.0,
+    acceleration: float = 0.0,
 ) -> Equilibrium:
     """Cruise equilibrium: inputs and static coupler forces at speed v_r.
 
@@ -273,6 +274,10 @@ def equilibrium(
         Track whose resistance is evaluated at the vehicles' equilibrium positions.
     position : float
         Head position s [m] for ``track``.
+    acceleration : float
+        Common acceleration of every vehicle [m/s²] (0 for cruise). With a
+        non-zero value the result is the quasi-static force distribution that
+        accelerates the whole train uniformly (the MPC feedforward).
 
     Returns
     -------
@@ -287,13 +292,14 @@ def equilibrium(
     [-5.627, -0.151, 5.521]
     """
     speed = check_positive("equilibrium", "speed", speed)
+    accel = check_finite("equilibrium", "acceleration", acceleration)
     grade = check_finite("equilibrium", "grade_permille", grade_permille)
     if allocation not in ALLOCATIONS:
         raise ModelError(
             f"equilibrium: 'allocation' must be one of {ALLOCATIONS} (got {allocation!r})."
         )
     resistance = train.mass * (train.davis[0] + train.davis[1] * speed + train.davis[2] * speed**2)
-    resistance = resistance + train.mass * _line_resistance(train, grade, track, position)
+    resistance = resistance + train.mass * (_line_resistance(train, grade, track, position) + accel)
     inputs = resistance.copy() if allocation == "own" else _share_out(train, resistance)
     forces = np.cumsum(inputs - resistance)[:-1]
     forces[train.virtual] = 0.0

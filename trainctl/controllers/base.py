@@ -1,0 +1,128 @@
+# The controller protocol every trainctl controller follows.
+"""One protocol for every controller: ``reset()`` and ``step()``.
+
+A controller is called once per sample by the simulation loop
+(:func:`trainctl.sim.simulate`) with the time, what it can measure and a
+preview of the reference, and returns a :class:`StepRecord`. It may hold
+explicit internal state (previous plan, previous input, warm starts, an
+observer's estimate) that ``reset()`` clears; it never keeps history: the
+simulation collects the records. Later controllers — continuous-time
+consensus laws over a communication graph, networked controllers fed
+delayed or interrupted neighbour data — fit the same protocol: the
+measurement carries per-agent ``messages`` for them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "STATUSES",
+    "Controller",
+    "Measurement",
+    "ReferencePreview",
+    "StepRecord",
+]
+
+STATUSES = ("optimal", "optimal_inaccurate", "max_iterations", "infeasible", "fallback", "error")
+"""Step statuses, mapped from solver statuses in one place (controllers.status)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class Measurement:
+    """What a controller receives at one sample.
+
+    Parameters
+    ----------
+    state : ndarray or None
+        Full plant state ``[v (n) [m/s], delta (n-1) [m], s [m]]`` when the
+        controller is given full-state measurement, else None.
+    outputs : ndarray or None
+        Measured outputs (e.g. noisy speeds [m/s]) for output-feedback controllers.
+    messages : mapping or None
+        Networked controllers: per-agent data received over the communication
+        network (with their own time stamps), e.g. ``{(i, j): (t_sent, value)}``.
+    """
+
+    state: NDArray[np.float64] | None = None
+    outputs: NDArray[np.float64] | None = None
+    messages: Mapping[object, object] | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class ReferencePreview:
+    """The reference over the controller's horizon.
+
+    Parameters
+    ----------
+    times : ndarray
+        Sample times t, t+T, ..., t+P·T [s], shape (P+1,).
+    speed : ndarray
+        Reference speed at those times [m/s], shape (P+1,).
+    acceleration : ndarray
+        Reference acceleration [m/s²], shape (P+1,).
+    """
+
+    times: NDArray[np.float64]
+    speed: NDArray[np.float64]
+    acceleration: NDArray[np.float64]
+
+
+@dataclass(frozen=True, kw_only=True)
+class StepRecord:
+    """What one controller step produced.
+
+    Parameters
+    ----------
+    inputs : ndarray
+        Force per vehicle to apply until the next sample [N].
+    status : str
+        One of :data:`STATUSES`.
+    iterations : int
+        Distributed iterations (or solver iterations for centralised MPC).
+    residuals : tuple of float
+        Iteration residuals ‖U^(l) - U^(l-1)‖ per iteration [kN].
+    solve_time : float
+        Wall time spent in the step [s].
+    fallback : str
+        Name of the fallback applied ("" when none).
+    info : mapping
+        Controller-specific extras (JSON-safe).
+    """
+
+    inputs: NDArray[np.float64]
+    status: str = "optimal"
+    iterations: int = 0
+    residuals: tuple[float, ...] = ()
+    solve_time: float = 0.0
+    fallback: str = ""
+    info: Mapping[str, object] = field(default_factory=dict)
+
+
+@runtime_checkable
+class Controller(Protocol):
+    """The protocol of every trainctl controller.
+
+    Attributes
+    ----------
+    dt : float
+        Sample time T [s] at which the simulation calls :meth:`step`.
+    name : str
+        Label used in results and reports.
+    """
+
+    dt: float
+    name: str
+
+    def reset(self) -> None:
+        """Clear internal state (previous plan, warm starts, estimates)."""
+        ...
+
+    def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
+        """Compute the inputs to hold over [t, t + dt)."""
+        ...
