@@ -42,7 +42,7 @@ from .status import from_cvxpy, from_osqp
 
 __all__ = ["OSQP_SETTINGS", "ParametricQP", "QPSolution"]
 
-OSQP_SETTINGS = {"eps_abs": 1e-6, "eps_rel": 1e-6, "max_iter": 20000, "polishing": True}
+OSQP_SETTINGS = {"eps_abs": 1e-7, "eps_rel": 1e-7, "max_iter": 20000, "polishing": True}
 """OSQP settings used by both solve paths."""
 
 Array = NDArray[np.float64]
@@ -184,6 +184,10 @@ class ParametricQP:
                           elapsed)
 
 
+def _differs(a: sp.spmatrix, b: sp.spmatrix) -> bool:
+    return a.shape != b.shape or (a != b).nnz > 0
+
+
 def _or(x: Array | None, n: int, fill: float) -> Array:
     return np.full(n, fill) if x is None else np.asarray(x, dtype=float)
 
@@ -234,7 +238,7 @@ class _FastOSQP:
 
     def _check_constant(self, data: dict, where: str) -> None:
         A = sp.vstack([data["A"], data["F"]]).tocsc()
-        if (abs(data["P"] - self.P)).max() > 0 or (abs(A - self.Amat)).max() > 0:
+        if _differs(data["P"], self.P) or _differs(A, self.Amat):
             raise SolverError(f"{self.qp.name}: a parameter changes the QP matrices ({where}); "
                               "the fast path needs parameters in q, l, u only.")
 

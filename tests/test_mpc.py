@@ -1,0 +1,227 @@
+"""Tests of the MPC family against closed forms and independent formulations."""
+
+from __future__ import annotations
+
+import math
+
+import cvxpy as cp
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from trainctl.analysis.mpc import (
+    MPCDesign,
+    cooperative_iteration,
+    iteration_matrices,
+    nash_gain,
+    prediction,
+)
+from trainctl.analysis.review import design_model
+from trainctl.controllers.base import Measurement, ReferencePreview
+from trainctl.controllers.mpc import MPCConstraints, make_mpc
+from trainctl.controllers.qp import ParametricQP
+from trainctl.models import equilibrium
+from trainctl.scenario import load_scenario
+
+NONE = MPCConstraints(input_bounds=False)
+
+
+@pytest.fixture(scope="module")
+def book():
+    scenario = load_scenario("crh2-dmpc")
+    return scenario, design_model(scenario)[1]
+
+
+@pytest.fixture(scope="module")
+def fast():
+    scenario = load_scenario("crh2-dmpc-well-sampled")
+    return scenario, design_model(scenario)[1]
+
+
+def preview(design, dt, v0=60.0, accel=0.0):
+    times = dt * np.arange(design.prediction_horizon + 1)
+    return ReferencePreview(times=times, speed=v0 + accel * times,
+                            acceleration=np.full(times.size, accel))
+
+
+def perturbed_state(train, v0, rng, dv=0.5, ddelta=2e-4, relative=0.01):
+    """Equilibrium at v0 plus a common speed error, small relative speeds and elongations.
+
+    Coaches on stiff couplers cannot differ much in speed: 1 m/s of relative speed
+    swings a 10488 kN/m coupler by ~900 kN, so the perturbation is mostly common.
+    """
+    x = equilibrium(train, v0).state(position=0.0)
+    n = train.n_vehicles
+    x[:n] += rng.normal(scale=dv) + rng.normal(scale=relative, size=n)
+    x[n:2 * n - 1] += rng.normal(scale=ddelta, size=n - 1)
+    return x
+
+
+def deviation(train, x, v0):
+    eq = equilibrium(train, v0)
+    n = train.n_vehicles
+    return np.concatenate([x[:n] - v0, x[n:2 * n - 1] - eq.elongations])
+
+
+class TestReferenceProblem:
+    @pytest.mark.parametrize("path", ["fast", "cvxpy"])
+    def test_mpt3_regulation_problem(self, path):
+        """MPT3 example as pinned in python-control's tests: u and cost 32.4898."""
+        A = np.array([[1.0, 1.0], [0.0, 1.0]])
+        B = np.array([[1.0], [0.5]])
+        d = MPCDesign(A=A, B=B, C=np.eye(2), prediction_horizon=4, control_horizon=4, form="u",
+                      q=np.ones(2), r=np.ones(1), output_owner=(0, 0), neighbourhoods=((0,),))
+        pred = prediction(d)
+        x0 = np.array([4.0, 0.0])
+        free = pred.Phi @ x0
+        hard = np.vstack([np.eye(4), pred.G])  # |u| <= 1, |x_1..x_4| <= 5
+        qp = ParametricQP(2 * pred.hessian(), hard, np.zeros((0, 4)), name="mpt3")
+        sol = qp.solve(2 * pred.G.T @ free, np.concatenate([-np.ones(4), -5 - free]),
+                       np.concatenate([np.ones(4), 5 - free]), path=path)
+        u = np.append(sol.z, 0.0)  # the input at the last time point has no effect
+        np.testing.assert_allclose(u, [-1, -1, 0.1393, 0.3361, 0], atol=1e-4)
+        cost = pred.cost(sol.z, -free) + x0 @ x0
+        assert cost == pytest.approx(32.4898, abs=1e-4)
+
+
+class TestUnconstrained:
+    @pytest.mark.parametrize("fixture", ["book", "fast"])
+    def test_ndmpc_converges_to_closed_form_nash(self, fixture, request, rng):
+        """Iterated local QPs reach (I - D0)⁻¹ D1 e (≤ 1e-6 kN)."""
+        scenario, d = request.getfixturevalue(fixture)
+        ctl = make_mpc(scenario.train, d, dt=scenario.model.sample_time, strategy="ndmpc",
+                       constraints=NONE, max_iterations=500, tolerance=1e-10)
+        x = perturbed_state(scenario.train, 60.0, rng)
+        ctl.step(0.0, Measurement(state=x), preview(d, scenario.model.sample_time))
+        pred = prediction(d)
+        D0, D1 = iteration_matrices(d, pred)
+        e = -pred.Phi @ deviation(scenario.train, x, 60.0)
+        np.testing.assert_allclose(ctl._plan, nash_gain(D0, D1) @ e, atol=1e-6)
+
+    def test_cooperative_equals_centralised(self, book, rng):
+        """Cooperative DMPC converges to centralised MPC's inputs."""
+        scenario, d = book
+        T = scenario.model.sample_time
+        x = perturbed_state(scenario.train, 60.0, rng)
+        coop = make_mpc(scenario.train, d, dt=T, strategy="cooperative", constraints=NONE,
+                        max_iterations=2000, tolerance=1e-11)
+        cent = make_mpc(scenario.train, d, dt=T, strategy="centralised", constraints=NONE)
+        a = coop.step(0.0, Measurement(state=x), preview(d, T))
+        b = cent.step(0.0, Measurement(state=x), preview(d, T))
+        np.testing.assert_allclose(a.inputs / 1e3, b.inputs / 1e3, atol=1e-6)
+        rho = np.max(np.abs(np.linalg.eigvals(cooperative_iteration(d)[0])))
+        assert a.iterations < 2000 and rho < 1
+
+
+def sparse_centralised(scenario, d, x_dev, u_ff, f_ff, lb, ub, u_prev, limits):
+    """An independent, non-condensed formulation of constrained centralised MPC (CLARABEL)."""
+    train = scenario.train
+    n, P, M = train.n_vehicles, d.prediction_horizon, d.control_horizon
+    nf = n - 1
+    from trainctl.models import linearise
+    Cf = np.asarray(linearise(train, 1.0, outputs=("force",)).C) / 1e3
+    x = cp.Variable((d.A.shape[0], P + 1))
+    u = cp.Variable((n, M))
+    s = cp.Variable((nf, P), nonneg=True)
+    cons = [x[:, 0] == x_dev]
+    cost = 0
+    for j in range(P):
+        uj = u[:, min(j, M - 1)]
+        cons.append(x[:, j + 1] == d.A @ x[:, j] + d.B @ uj)
+        y = d.C @ x[:, j + 1]
+        cost += cp.sum(cp.multiply(d.q, cp.square(y)))
+        f = f_ff[j] + Cf @ x[:, j + 1]
+        cons += [f <= limits["force"] + s[:, j], f >= -limits["force"] - s[:, j]]
+    cost += 1e3 * cp.sum(s) + 0.5 * 1e2 * cp.sum_squares(s)
+    for m in range(M):
+        cost += cp.sum(cp.multiply(d.r, cp.square(u[:, m])))
+        cons += [u_ff[m] + u[:, m] >= lb[m], u_ff[m] + u[:, m] <= ub[m]]
+        prev = u_prev if m == 0 else u_ff[m - 1] + u[:, m - 1]
+        cons += [cp.abs(u_ff[m] + u[:, m] - prev) <= limits["rate"]]
+    prob = cp.Problem(cp.Minimize(cost), cons)
+    prob.solve(solver=cp.CLARABEL)
+    assert prob.status == cp.OPTIMAL
+    return u_ff[0] + u.value[:, 0]
+
+
+class TestConstrained:
+    def test_centralised_equals_independent_formulation(self, fast, rng):
+        """Constrained centralised MPC = sparse formulation by a second solver (≤ 1e-5 kN)."""
+        scenario, d = fast
+        train, T = scenario.train, scenario.model.sample_time
+        cons = MPCConstraints(rate_limit=3e3, coupler_force_limit=6e3)
+        for trial in range(4):
+            ctl = make_mpc(train, d, dt=T, strategy="centralised", constraints=cons)
+            v0, acc = 30.0 + 10 * trial, 0.1  # cruise traction stays inside the power limit
+            x = perturbed_state(train, v0, rng, dv=1.0)
+            ref = preview(d, T, v0=v0, accel=acc)
+            rec = ctl.step(0.0, Measurement(state=x), ref)
+            ffs = [equilibrium(train, v, acceleration=acc) for v in ref.speed]
+            u_ff = np.array([e.inputs for e in ffs]) / 1e3
+            f_ff = np.array([e.coupler_forces for e in ffs])[1:] / 1e3
+            lb, ub = ctl._bounds(ref.speed[: d.control_horizon])
+            x_dev = np.concatenate([x[:4] - v0, x[4:7] - ffs[0].elongations])
+            expected = sparse_centralised(
+                scenario, d, x_dev, u_ff, f_ff, lb.reshape(-1, 4), ub.reshape(-1, 4),
+                u_ff[0], {"rate": 3.0, "force": 6.0})
+            assert rec.status == "optimal"
+            np.testing.assert_allclose(rec.inputs / 1e3, expected, atol=1e-5)
+
+    def test_fast_path_equals_cvxpy_path_over_a_closed_loop(self, fast, rng):
+        """Fast path and plain cvxpy re-solve give the same inputs over 30 steps (≤ 1e-6 kN)."""
+        scenario, d = fast
+        train, T = scenario.train, scenario.model.sample_time
+        cons = MPCConstraints(rate_limit=5e3, coupler_force_limit=20e3)
+        ctls = [make_mpc(train, d, dt=T, strategy="ndmpc", constraints=cons, path=p)
+                for p in ("fast", "cvxpy")]
+        sysd = d  # the design model is the plant here (deviation dynamics, kN)
+        x = perturbed_state(train, 50.0, rng, dv=1.0)
+        x_dev = deviation(train, x, 50.0)
+        eq = equilibrium(train, 50.0)
+        for k in range(30):
+            state = np.concatenate([50.0 + x_dev[:4], eq.elongations + x_dev[4:], [0.0]])
+            recs = [c.step(k * T, Measurement(state=state), preview(d, T, v0=50.0)) for c in ctls]
+            np.testing.assert_allclose(recs[0].inputs / 1e3, recs[1].inputs / 1e3, atol=1e-6)
+            x_dev = sysd.A @ x_dev + sysd.B @ ((recs[0].inputs - eq.inputs) / 1e3)
+
+
+@settings(deadline=None, max_examples=15)
+@given(dv=st.floats(-3.0, 3.0), v0=st.floats(25.0, 80.0), accel=st.floats(-0.3, 0.3),
+       strategy=st.sampled_from(["centralised", "ndmpc", "decentralised"]))
+def test_inputs_respect_envelope_and_rate_bounds(dv, v0, accel, strategy):
+    """Every step's inputs lie in the envelope and within the rate limit of the last input."""
+    scenario = load_scenario("crh2-dmpc-well-sampled")
+    d = design_model(scenario)[1]
+    train, T = scenario.train, scenario.model.sample_time
+    rate = 2e3
+    ctl = make_mpc(train, d, dt=T, strategy=strategy, max_iterations=20,
+                   constraints=MPCConstraints(rate_limit=rate, coupler_force_limit=50e3))
+    x = equilibrium(train, v0).state(position=0.0)
+    x[:4] += dv
+    prev = None
+    for k in range(5):
+        ref = preview(d, T, v0=v0 + accel * k * T, accel=accel)
+        rec = ctl.step(k * T, Measurement(state=x), ref)
+        lb, ub = ctl._bounds(ref.speed[:1])
+        assert np.all(rec.inputs / 1e3 >= lb - 1e-4) and np.all(rec.inputs / 1e3 <= ub + 1e-4)
+        if prev is not None and rec.status != "fallback":
+            assert np.max(np.abs(rec.inputs - prev)) <= rate * (1 + 1e-4) + 1e-3
+        prev = rec.inputs
+
+
+def test_infeasible_step_is_recorded_and_falls_back(fast):
+    """A bound that drops faster than the rate limit allows: status recorded, fallback used."""
+    scenario, d = fast
+    train, T = scenario.train, scenario.model.sample_time
+    ctl = make_mpc(train, d, dt=T, strategy="ndmpc",
+                   constraints=MPCConstraints(rate_limit=100.0), max_iterations=5)
+    x = equilibrium(train, 20.0).state(position=0.0)
+    first = ctl.step(0.0, Measurement(state=x), preview(d, T, v0=20.0, accel=0.6))
+    # Jump the reference to 83 m/s: the power limit cuts the bound from ~60 to 14.4 kN.
+    second = ctl.step(T, Measurement(state=x), preview(d, T, v0=83.0))
+    assert second.status in ("fallback", "infeasible")
+    assert second.fallback == "shifted plan"
+    assert np.all(np.isfinite(second.inputs))
+    assert first.status in ("optimal", "max_iterations")
+    assert math.isfinite(second.solve_time)
