@@ -64,6 +64,28 @@ def deviation(train, x, v0):
     return np.concatenate([x[:n] - v0, x[n:2 * n - 1] - eq.elongations])
 
 
+class TestFeedforward:
+    @pytest.mark.parametrize("name", ["crh2-dmpc", "heavy-haul-flocking"])
+    def test_vectorised_feedforward_equals_equilibrium(self, name):
+        """The controller's feedforward over a preview equals equilibrium() point by point."""
+        scenario = load_scenario(name)
+        train = scenario.train
+        n = train.n_vehicles
+        d = MPCDesign(A=np.eye(2 * n - 1), B=np.zeros((2 * n - 1, n)),
+                      C=np.eye(n, 2 * n - 1), prediction_horizon=2, control_horizon=1,
+                      form="u", q=np.ones(n), r=np.ones(n), output_owner=tuple(range(n)),
+                      neighbourhoods=tuple((i,) for i in range(n)))
+        ctl = make_mpc(train, d, dt=1.0, strategy="decentralised", constraints=NONE)
+        speeds, accels = np.array([10.0, 30.0, 60.0]), np.array([0.2, 0.0, -0.1])
+        u_ff, f_ff, elong = ctl._feedforward(speeds, accels)
+        for k, (v, a) in enumerate(zip(speeds, accels, strict=True)):
+            eq = equilibrium(train, v, acceleration=a)
+            np.testing.assert_allclose(u_ff[k] * 1e3, eq.inputs, rtol=1e-12)
+            np.testing.assert_allclose(f_ff[k] * 1e3, eq.coupler_forces, rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(elong, equilibrium(train, 10.0, acceleration=0.2).elongations,
+                                   rtol=1e-9, atol=1e-15)
+
+
 class TestReferenceProblem:
     @pytest.mark.parametrize("path", ["fast", "cvxpy"])
     def test_mpt3_regulation_problem(self, path):

@@ -47,8 +47,8 @@ from numpy.typing import NDArray
 
 from ..analysis.mpc import MPCDesign, Prediction, prediction
 from ..exceptions import ModelError
-from ..models.dynamics import equilibrium
 from ..models.train import Train
+from ..units import GRAVITY
 from .base import Measurement, ReferencePreview, StepRecord
 from .qp import ParametricQP
 from .status import is_usable
@@ -89,12 +89,22 @@ class MPCConstraints:
 
 @dataclass(frozen=True)
 class _Block:
-    """One optimiser: the coaches it decides for and the outputs it weighs."""
+    """One optimiser: the coaches it decides for, its QP and its precomputed maps.
+
+    With c0 = Φx̃ + S_u ũ(k-1) and f0 the force prediction without moves, the
+    block's QP vectors are g = Kc c0 + Ko U, hl/hu = ∓limit - f0[rows] - Fo U
+    (U the whole plan; Ko, Fo have the block's own columns zeroed); the bounds
+    do not depend on the other coaches. The fast path folds all of it into
+    the solver data: data = base(step) + Jo U.
+    """
 
     coaches: tuple[int, ...]
     cols: NDArray[np.int64]          # its columns in the decision vector
-    weight: Array                    # diagonal of W over the horizon (P·ny,)
     force_rows: NDArray[np.int64]    # rows of the force prediction it bounds
+    Kc: Array                        # 2 G_iᵀ W_i, maps c0 to g
+    Ko: Array                        # 2 G_iᵀ W_i G (own columns zeroed)
+    Fo: Array                        # force rows of G (own columns zeroed)
+    Jo: Array | None                 # fast path: data sensitivity to U
     qp: ParametricQP
 
 
@@ -157,6 +167,16 @@ class MPCController:
         self.L = (np.eye(M * n) if design.form == "u"
                   else np.kron(np.tril(np.ones((M, M))), np.eye(n)))
         self._D = np.kron(np.eye(M) - np.eye(M, k=-1), np.eye(n))  # move differences
+        self._groups = [np.array(g) for g in train.groups]
+        env = [v.envelope for v in train.vehicles]
+        self._env = np.array([[e.max_traction for e in env], [e.max_power for e in env],
+                              [e.max_braking for e in env], [e.max_braking_power for e in env],
+                              [e.adhesion * v.mass * GRAVITY for e, v in zip(env, train.vehicles,
+                                                                          strict=True)]])
+        for idx in self._groups:
+            if train.traction_share[idx].sum() <= 0:
+                raise ModelError(f"{self.name}: vehicles {idx.tolist()} form a coupled group "
+                                 "without traction (all traction_share are 0).")
         self.blocks = [self._build_block(c) for c in self._block_coaches()]
         self.reset()
 
@@ -181,7 +201,6 @@ class MPCController:
         weight = np.tile(d.q * mask, self.P)
         Gi = pred.G[:, cols]
         H = 2.0 * (Gi.T @ (weight[:, None] * Gi) + pred.Rbar[np.ix_(cols, cols)])
-        hard = self._hard_rows(cols)
         nf = self.fpred.G.shape[0] // self.P
         couplers = sorted({c for i in coaches for c in (i - 1, i) if 0 <= c < nf})
         if self.strategy == "centralised":
@@ -190,11 +209,21 @@ class MPCController:
         if not math.isfinite(self.constraints.coupler_force_limit):
             rows = np.zeros(0, dtype=np.int64)
         F = self.fpred.G[np.ix_(rows, cols)] if rows.size else np.zeros((0, cols.size))
-        qp = ParametricQP(H, hard, F, soft_linear=self.constraints.soft_linear,
+        qp = ParametricQP(H, self._hard_rows(cols), F, soft_linear=self.constraints.soft_linear,
                           soft_quadratic=self.constraints.soft_quadratic,
                           name=f"{self.name}[{','.join(map(str, coaches))}]",
                           fast=self.path == "fast")
-        return _Block(coaches=coaches, cols=cols, weight=weight, force_rows=rows, qp=qp)
+        Kc = 2.0 * Gi.T * weight[None, :]
+        Ko = Kc @ pred.G
+        Ko[:, cols] = 0.0
+        Fo = self.fpred.G[rows, :].copy()
+        Fo[:, cols] = 0.0
+        Jo = None
+        if qp.has_fast_path:
+            _, blocks = qp.data_map()
+            Jo = blocks["g"] @ Ko - (blocks["hl"] + blocks["hu"]) @ Fo
+        return _Block(coaches=coaches, cols=cols, force_rows=rows, Kc=Kc, Ko=Ko, Fo=Fo, Jo=Jo,
+                      qp=qp)
 
     def _hard_rows(self, cols: NDArray[np.int64]) -> Array:
         """Rows of [bounds on ũ moves; rate of u moves] restricted to the block's columns."""
@@ -233,13 +262,10 @@ class MPCController:
     # -- one step -----------------------------------------------------------------------------
     def _context(self, state: Array, ref: ReferencePreview) -> dict[str, Array]:
         n, P, M = self.n, self.P, self.M
-        ff = [equilibrium(self.train, max(float(v), 0.1), acceleration=float(a))
-              for v, a in zip(ref.speed[: P + 1], ref.acceleration[: P + 1], strict=True)]
-        u_ff = np.array([e.inputs for e in ff]) / KN                       # (P+1, n)
-        f_ff = np.array([e.coupler_forces for e in ff]) / KN               # (P+1, n-1)
+        u_ff, f_ff, elong0 = self._feedforward(ref.speed[: P + 1], ref.acceleration[: P + 1])
         v = state[:n]
         delta = state[n:2 * n - 1]
-        x_dev = np.concatenate([v - ref.speed[0], delta - ff[0].elongations])
+        x_dev = np.concatenate([v - ref.speed[0], delta - elong0])
         u_prev = u_ff[0] if self._u_prev is None else self._u_prev
         ff_prev = u_ff[0] if self._ff_prev is None else self._ff_prev
         u_dev_prev = u_prev - ff_prev if self.design.form == "du" else np.zeros(n)
@@ -250,15 +276,36 @@ class MPCController:
                 else np.zeros(M * n),
                 "lb": lb - u_ff[:M].ravel(), "ub": ub - u_ff[:M].ravel()}
 
+    def _feedforward(self, speeds: Array, accels: Array) -> tuple[Array, Array, Array]:
+        """Quasi-static inputs [kN], coupler forces [kN] and first elongations [m].
+
+        Vectorised over the preview: the same allocation as
+        :func:`trainctl.models.equilibrium` (traction shares within each
+        physically coupled group; level track), for every (speed, acceleration).
+        """
+        train = self.train
+        v = np.maximum(np.asarray(speeds, dtype=float), 0.1)[:, None]
+        a0, a1, a2 = train.davis
+        need = train.mass * (a0 + a1 * v + a2 * v * v + np.asarray(accels, dtype=float)[:, None])
+        inputs = np.zeros_like(need)
+        shares = train.traction_share
+        for idx in self._groups:
+            share = shares[idx] / shares[idx].sum()
+            inputs[:, idx] = need[:, idx].sum(axis=1, keepdims=True) * share
+        forces = np.cumsum(inputs - need, axis=1)[:, :-1]
+        forces[:, train.virtual] = 0.0
+        stiff = np.where(train.virtual, 1.0, train.stiffness)
+        elong = np.where(train.virtual, 0.0, forces[0] / stiff)
+        return inputs / KN, forces / KN, elong
+
     def _bounds(self, speeds: Array) -> tuple[Array, Array]:
         if not self.constraints.input_bounds:
             size = speeds.size * self.n
             return np.full(size, -np.inf), np.full(size, np.inf)
-        up = np.array([[v.envelope.traction_limit(s, mass=v.mass) for v in self.train.vehicles]
-                       for s in speeds]) / KN
-        down = np.array([[v.envelope.braking_limit(s, mass=v.mass) for v in self.train.vehicles]
-                         for s in speeds]) / KN
-        return -down.ravel(), up.ravel()
+        v = np.maximum(np.abs(np.asarray(speeds, dtype=float)), 0.1)[:, None]
+        up = np.minimum(np.minimum(self._env[0], self._env[1] / v), self._env[4])
+        down = np.minimum(np.minimum(self._env[2], self._env[3] / v), self._env[4])
+        return -down.ravel() / KN, up.ravel() / KN
 
     def _shifted_plan(self) -> Array:
         n, M = self.n, self.M
@@ -269,37 +316,49 @@ class MPCController:
             else np.vstack([moves[1:], np.zeros((1, n))])
         return shifted.ravel()
 
-    def _solve_block(self, block: _Block, ctx: dict[str, Array],
-                     U: Array) -> tuple[Array, str, float]:
+    def _prepare(self, ctx: dict[str, Array]) -> list[dict[str, Array]]:
+        """Per-sample constants of every block's QP (independent of the other plans)."""
         pred, fpred = self.pred, self.fpred
-        others = U.copy()
-        others[block.cols] = 0.0
-        if self.strategy == "decentralised":
-            others[:] = 0.0
-        c = pred.Phi @ ctx["x"] + pred.Su @ ctx["u_dev_prev"] + pred.G @ others
-        Gi = pred.G[:, block.cols]
-        g = 2.0 * Gi.T @ (block.weight * c)
-        lb, ub = self._hard_bounds(block, ctx, others)
-        hl = hu = None
-        if block.force_rows.size:
-            fixed = (fpred.Phi @ ctx["x"] + fpred.Su @ ctx["u_dev_prev"] + fpred.G @ others)
-            offset = (ctx["f_ff"] + fixed)[block.force_rows]
-            limit = self.constraints.coupler_force_limit / KN
-            hl, hu = -limit - offset, limit - offset
-        sol = block.qp.solve(g, lb, ub, hl, hu, path=self.path)
-        return sol.z, sol.status, sol.solve_time
+        c0 = pred.Phi @ ctx["x"] + pred.Su @ ctx["u_dev_prev"]
+        f0 = fpred.Phi @ ctx["x"] + fpred.Su @ ctx["u_dev_prev"] + ctx["f_ff"]
+        limit = self.constraints.coupler_force_limit / KN
+        out = []
+        for block in self.blocks:
+            lb, ub = self._hard_bounds(block, ctx)
+            prep = {"g": block.Kc @ c0, "lb": lb, "ub": ub,
+                    "hl": -limit - f0[block.force_rows], "hu": limit - f0[block.force_rows]}
+            if block.Jo is not None:
+                offset, maps = block.qp.data_map()
+                base = offset.copy()
+                for key, vec in prep.items():
+                    if vec.size:
+                        base += maps[key] @ np.clip(vec, -1e20, 1e20)
+                prep["data"] = base
+            out.append(prep)
+        return out
 
-    def _hard_bounds(self, block: _Block, ctx: dict[str, Array],
-                     others: Array) -> tuple[Array, Array]:
-        """Bounds of the block's hard rows given the other coaches' moves.
+    def _solve_block(self, block: _Block, prep: dict[str, Array],
+                     U: Array) -> tuple[Array, str]:
+        if self.strategy == "decentralised":
+            U = np.zeros_like(U)  # the other coaches' moves are not known
+        if block.Jo is not None:
+            sol = block.qp.solve_data(prep["data"] + block.Jo @ U)
+        else:
+            shift = block.Fo @ U
+            sol = block.qp.solve(prep["g"] + block.Ko @ U, prep["lb"], prep["ub"],
+                                 prep["hl"] - shift, prep["hu"] - shift, path=self.path)
+        return sol.z, sol.status
+
+    def _hard_bounds(self, block: _Block, ctx: dict[str, Array]) -> tuple[Array, Array]:
+        """Bounds of the block's hard rows.
 
         Input moves are ũ = L U + t0; absolute forces u_ff + ũ. The rate of
         move m is (u_ff(m) - u_ff(m-1)) + (ũ(m) - ũ(m-1)), with the applied
         u(k-1) before move 0. L and the difference matrix are block diagonal
-        by coach, so the other coaches enter only through t0.
+        by coach, so the other coaches' moves do not enter.
         """
         cols = block.cols
-        base = self.L @ others + ctx["u_dev_prev_tiled"]
+        base = ctx["u_dev_prev_tiled"]
         lbs, ubs = [], []
         if self.constraints.input_bounds:
             lbs.append((ctx["lb"] - base)[cols])
@@ -318,9 +377,8 @@ class MPCController:
     def _single(self, ctx: dict[str, Array], plan0: Array):
         U = np.zeros_like(plan0)
         statuses, fallback = [], ""
-        for block in self.blocks:
-            fixed = U if self.strategy == "centralised" else plan0
-            z, status, _ = self._solve_block(block, ctx, fixed)
+        for block, prep in zip(self.blocks, self._prepare(ctx), strict=True):
+            z, status = self._solve_block(block, prep, U)
             if not is_usable(status):
                 z, fallback = self._fallback(block, ctx, plan0), "shifted plan"
             U[block.cols] = z
@@ -332,10 +390,11 @@ class MPCController:
         residuals: list[float] = []
         statuses, fallback = [], ""
         converged = False
+        preps = self._prepare(ctx)
         for _ in range(self.max_iterations):
             new = U.copy()
-            for block in self.blocks:
-                z, status, _ = self._solve_block(block, ctx, U)
+            for block, prep in zip(self.blocks, preps, strict=True):
+                z, status = self._solve_block(block, prep, U)
                 if not is_usable(status):
                     z, fallback = self._fallback(block, ctx, plan0), "shifted plan"
                 statuses.append(status)

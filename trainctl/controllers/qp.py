@@ -46,6 +46,7 @@ OSQP_SETTINGS = {"eps_abs": 1e-7, "eps_rel": 1e-7, "max_iter": 20000, "polishing
 """OSQP settings used by both solve paths."""
 
 Array = NDArray[np.float64]
+_HUGE = 1e19  # data beyond this came from an infinite bound
 
 
 @dataclass(frozen=True)
@@ -129,6 +130,31 @@ class ParametricQP:
                               "parameter or a variable. Precompute such products in numpy.")
         self._params = [p for p in (self._g, self._lb, self._ub, self._hl, self._hu) if p.size]
         self._fast: _FastOSQP | None = _FastOSQP(self) if fast else None
+
+    @property
+    def has_fast_path(self) -> bool:
+        """True when the probed OSQP path was built."""
+        return self._fast is not None
+
+    def data_map(self) -> tuple[Array, dict[str, Array]]:
+        """The identified affine map from parameters to OSQP's stacked (q, l, u) data.
+
+        Returns
+        -------
+        offset : ndarray
+            Data at zero parameters.
+        blocks : dict of str to ndarray
+            Column blocks of the map for ``"g"``, ``"lb"``, ``"ub"``, ``"hl"``, ``"hu"``.
+        """
+        if self._fast is None:
+            raise SolverError(f"{self.name}: built without the fast path (fast=False).")
+        return self._fast.offset, self._fast.blocks
+
+    def solve_data(self, data: Array) -> QPSolution:
+        """Fast path with the data vector already composed (see :meth:`data_map`)."""
+        if self._fast is None:
+            raise SolverError(f"{self.name}: built without the fast path (fast=False).")
+        return self._fast.solve_vector(data)
 
     def _assign(self, values: dict[str, Array]) -> None:
         for p, key in ((self._g, "g"), (self._lb, "lb"), (self._ub, "ub"),
@@ -214,6 +240,12 @@ class _FastOSQP:
             cols.append(self._vector(data) - vec0)
         self.offset = vec0
         self.jac = np.column_stack(cols) if cols else np.zeros((vec0.size, 0))
+        self.blocks: dict[str, Array] = {}
+        start = 0
+        for key, p in zip(("g", "lb", "ub", "hl", "hu"), (qp._g, qp._lb, qp._ub, qp._hl, qp._hu),
+                          strict=True):
+            self.blocks[key] = self.jac[:, start:start + p.size]
+            start += p.size
         check = np.random.default_rng(0).normal(size=self._k)
         if not np.allclose(self._vector(self._data(check)), vec0 + self.jac @ check,
                            rtol=1e-9, atol=1e-9):
@@ -253,6 +285,9 @@ class _FastOSQP:
         h = vec[n + self.n_eq:]
         lower = np.concatenate([b, np.full(h.size, -np.inf)])
         upper = np.concatenate([b, h])
+        # Parameters were clipped to ±1e20 for the map; give OSQP true infinities.
+        lower[lower <= -_HUGE] = -np.inf
+        upper[upper >= _HUGE] = np.inf
         return q, lower, upper
 
     def _locate(self, data: dict) -> dict[str, NDArray[np.int64]]:
@@ -276,8 +311,11 @@ class _FastOSQP:
                                                  (self.qp._g, self.qp._lb, self.qp._ub,
                                                   self.qp._hl, self.qp._hu), strict=True)
                                if p.size])
+        return self.solve_vector(self.offset + self.jac @ flat)
+
+    def solve_vector(self, data: Array) -> QPSolution:
         start = time.perf_counter()
-        q, lower, upper = self._qlu(self.offset + self.jac @ flat)
+        q, lower, upper = self._qlu(data)
         self.solver.update(q=q, l=lower, u=upper)
         res = self.solver.solve(raise_error=False)
         elapsed = time.perf_counter() - start
