@@ -21,10 +21,13 @@ from trainctl.models.vehicle import Coupler, Vehicle
 from trainctl.scenario import (
     CHECK_NAMES,
     RESERVED_SECTIONS,
+    SIMULATION_STRATEGIES,
+    SOLVER_PATHS,
     BuiltinScenario,
     ControllerSettings,
     ModelSettings,
     Scenario,
+    SimulationSettings,
     builtin_scenario_text,
     builtin_scenarios,
     load_scenario,
@@ -151,6 +154,28 @@ class TestBuiltins:
         assert scenario.track is None
         assert train.vehicles[1].envelope.max_power == pytest.approx(1.2e6)
         assert train.vehicles[0].envelope.max_traction == 0.0
+
+    def test_crh2_dmpc_simulation(self) -> None:
+        """crh2-dmpc simulates 60 samples of 20 s for the three strategies of Figs 12.10-12.13."""
+        scenario = load_scenario("crh2-dmpc")
+        sim, ctl = scenario.simulation, scenario.controller
+        assert sim is not None and ctl is not None
+        assert sim.duration == 1200.0
+        assert sim.n_steps(20.0) == 60
+        assert sim.n_steps(scenario.model.sample_time) == 60
+        assert sim.strategies == ("centralised", "decentralised", "ndmpc")
+        assert sim.reference_times == (0.0, 60.0, 460.0, 1020.0, 1200.0)
+        assert sim.reference_speeds == pytest.approx((20.0, 20.0, 60.0, 80.0, 80.0))
+        assert (sim.settle_time, sim.tracking_tolerance) == (100.0, 1.0)
+        assert (sim.initial_speed_error, sim.measurement_noise, sim.regen_efficiency) == (
+            0.0,
+            0.0,
+            1.0,
+        )
+        assert (ctl.max_iterations, ctl.iteration_tolerance) == (50, 1e-4)
+        assert ctl.coupler_force_limit == pytest.approx(5e5)
+        assert (ctl.rate_limit, ctl.input_bounds, ctl.solver_path) == (math.inf, True, "fast")
+        assert (ctl.iterations, ctl.input_weight) == (10, 10.0)
 
     def test_crh2_potential_formation(self) -> None:
         """crh2-potential is the 8-car T-M-M-T-T-M-M-T train at 0.01 s."""
@@ -1570,3 +1595,668 @@ class TestControllerSettings:
             dataclasses.replace(scenario, expected={"sampling": "ok"})
         with pytest.raises(ModelError, match="needs a controller"):
             dataclasses.replace(scenario, expected={"nash_gap": "pass"})
+
+
+def controller_with(*lines: str) -> ControllerSettings:
+    """The [controller] of BASE plus the minimal controller with ``lines`` appended."""
+    ctl = parse_scenario(with_controller(*lines)).controller
+    assert ctl is not None
+    return ctl
+
+
+class TestControllerConstraints:
+    """The iteration and constraint keys of [controller] used in simulation."""
+
+    def test_defaults(self) -> None:
+        """Omitted keys take their documented defaults; limits default to no limit."""
+        ctl = controller_with()
+        assert (ctl.max_iterations, ctl.iteration_tolerance, ctl.relaxation) == (50, 1e-4, 1.0)
+        assert ctl.input_bounds is True
+        assert (ctl.rate_limit, ctl.coupler_force_limit) == (math.inf, math.inf)
+        assert (ctl.soft_penalty_linear, ctl.soft_penalty_quadratic) == (1000.0, 100.0)
+        assert ctl.solver_path == "fast"
+        assert ctl == make_controller()
+
+    def test_all_keys(self) -> None:
+        """Every key is read; kN limits become N, the tolerance stays in kN."""
+        ctl = controller_with(
+            "max_iterations = 7",
+            "iteration_tolerance_kn = 0.01",
+            "relaxation = 0.5",
+            "input_bounds = false",
+            "rate_limit_kn = 20.0",
+            "coupler_force_limit_kn = 500.0",
+            "soft_penalty_linear = 0.0",
+            "soft_penalty_quadratic = 2.5",
+            'solver_path = "cvxpy"',
+        )
+        assert (ctl.max_iterations, ctl.iteration_tolerance, ctl.relaxation) == (7, 0.01, 0.5)
+        assert ctl.input_bounds is False
+        assert ctl.rate_limit == pytest.approx(2e4)
+        assert ctl.coupler_force_limit == pytest.approx(5e5)
+        assert (ctl.soft_penalty_linear, ctl.soft_penalty_quadratic) == (0.0, 2.5)
+        assert ctl.solver_path == "cvxpy"
+
+    def test_ints_become_floats(self) -> None:
+        """Numbers written as TOML integers are stored as floats."""
+        ctl = controller_with("relaxation = 1", "rate_limit_kn = 3", "soft_penalty_quadratic = 4")
+        for value in (ctl.relaxation, ctl.rate_limit, ctl.soft_penalty_quadratic):
+            assert isinstance(value, float)
+        assert ctl.rate_limit == 3000.0
+
+    def test_every_solver_path(self) -> None:
+        """Each name in SOLVER_PATHS is accepted."""
+        for path in SOLVER_PATHS:
+            assert controller_with(f'solver_path = "{path}"').solver_path == path
+
+    def test_mpc_constraints(self) -> None:
+        """mpc_constraints() copies the settings into MPCConstraints, limits in N."""
+        from trainctl.controllers.mpc import MPCConstraints
+
+        ctl = controller_with(
+            "input_bounds = false",
+            "rate_limit_kn = 20.0",
+            "coupler_force_limit_kn = 500.0",
+            "soft_penalty_linear = 5.0",
+            "soft_penalty_quadratic = 6.0",
+        )
+        assert ctl.mpc_constraints() == MPCConstraints(
+            input_bounds=False,
+            rate_limit=2e4,
+            coupler_force_limit=5e5,
+            soft_linear=5.0,
+            soft_quadratic=6.0,
+        )
+
+    def test_default_constraints_match_mpc_defaults(self) -> None:
+        """The file defaults give the MPC's own default constraints."""
+        from trainctl.controllers.mpc import MPCConstraints
+
+        assert make_controller().mpc_constraints() == MPCConstraints()
+
+    def test_strategy_names_match_mpc(self) -> None:
+        """SIMULATION_STRATEGIES is the MPC module's STRATEGIES."""
+        from trainctl.controllers.mpc import STRATEGIES
+
+        assert SIMULATION_STRATEGIES == STRATEGIES
+
+    def test_import_stays_light(self) -> None:
+        """Importing trainctl.scenario does not import the MPC controllers or cvxpy."""
+        import subprocess
+
+        code = (
+            "import sys, trainctl.scenario; "
+            "print('trainctl.controllers.mpc' in sys.modules, 'cvxpy' in sys.modules)"
+        )
+        result = subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, check=True
+        )
+        assert result.stdout.split() == ["False", "False"]
+
+    @pytest.mark.parametrize(
+        ("line", "fragment"),
+        [
+            ("max_iterations = 0", "[controller].max_iterations must be an integer >= 1 (got 0)"),
+            ("max_iterations = 2.0", "[controller].max_iterations must be an integer >= 1"),
+            ("max_iterations = true", "[controller].max_iterations must be an integer >= 1"),
+            (
+                "iteration_tolerance_kn = 0.0",
+                "[controller].iteration_tolerance_kn must be a number > 0 (got 0.0)",
+            ),
+            ("iteration_tolerance_kn = nan", "[controller].iteration_tolerance_kn must be a"),
+            ("relaxation = 0.0", "[controller].relaxation must be a number > 0 (got 0.0)"),
+            ("relaxation = -0.5", "[controller].relaxation must be a number > 0"),
+            ("relaxation = 1.5", "[controller].relaxation must be a number in (0, 1] (got 1.5)"),
+            ("input_bounds = 1", "[controller].input_bounds must be true or false (got 1)"),
+            ('input_bounds = "yes"', "[controller].input_bounds must be true or false"),
+            ("rate_limit_kn = 0.0", "[controller].rate_limit_kn must be a number > 0 (got 0.0)"),
+            ('rate_limit_kn = "20"', "[controller].rate_limit_kn must be a number > 0"),
+            ("coupler_force_limit_kn = -5.0", "[controller].coupler_force_limit_kn must be a"),
+            ("soft_penalty_linear = -1.0", "[controller].soft_penalty_linear must be a number >="),
+            (
+                "soft_penalty_quadratic = 0",
+                "[controller].soft_penalty_quadratic must be a number >",
+            ),
+        ],
+    )
+    def test_bad_value(self, line: str, fragment: str) -> None:
+        """Out-of-range or wrongly typed values name the key and what must hold."""
+        fails(with_controller(line), fragment)
+
+    @pytest.mark.parametrize("key", ["rate_limit_kn", "coupler_force_limit_kn"])
+    def test_inf_limit_hint(self, key: str) -> None:
+        """An infinite limit is rejected with the hint to omit the key."""
+        fails(
+            with_controller(f"{key} = inf"),
+            f"[controller].{key} must be a finite number > 0",
+            "Omit the key for no limit.",
+        )
+
+    def test_bad_solver_path(self) -> None:
+        """An unknown solver path lists the choices and suggests a close one."""
+        fails(
+            with_controller('solver_path = "cvx"'),
+            "[controller].solver_path must be one of 'fast', 'cvxpy' (got 'cvx', a string).",
+            "Did you mean 'cvxpy'?",
+        )
+
+    def test_unit_less_key_suggests(self) -> None:
+        """A limit key without its unit suggests the unit-carrying one."""
+        fails(
+            with_controller("rate_limit = 20.0"),
+            "unknown key [controller].rate_limit. Did you mean 'rate_limit_kn'?",
+        )
+
+
+class TestControllerSettingsConstraints:
+    """The new ControllerSettings fields built directly, without a file."""
+
+    def test_limits_in_newtons(self) -> None:
+        """Limits are given in N; inf means no limit; ints become floats."""
+        ctl = make_controller(rate_limit=20_000, coupler_force_limit=math.inf, relaxation=1)
+        assert ctl.rate_limit == 20_000.0 and isinstance(ctl.rate_limit, float)
+        assert ctl.coupler_force_limit == math.inf
+        assert isinstance(ctl.relaxation, float)
+        assert ctl.mpc_constraints().rate_limit == 20_000.0
+
+    @pytest.mark.parametrize(
+        ("changes", "fragment"),
+        [
+            ({"max_iterations": 0}, "'max_iterations' must be an integer >= 1"),
+            ({"max_iterations": 2.0}, "'max_iterations' must be an integer >= 1"),
+            ({"iteration_tolerance": 0.0}, "'iteration_tolerance' must be a finite number > 0"),
+            ({"iteration_tolerance": math.inf}, "'iteration_tolerance' must be a finite number"),
+            ({"relaxation": 0.0}, "'relaxation' must be a finite number > 0"),
+            ({"relaxation": 1.01}, "'relaxation' must be in (0, 1]"),
+            ({"input_bounds": 1}, "'input_bounds' must be True or False"),
+            ({"rate_limit": 0.0}, "'rate_limit' must be a number > 0 [N], or inf"),
+            ({"rate_limit": math.nan}, "'rate_limit' must be a number > 0 [N], or inf"),
+            ({"coupler_force_limit": -1.0}, "'coupler_force_limit' must be a number > 0"),
+            ({"coupler_force_limit": "5e5"}, "'coupler_force_limit' must be a number > 0"),
+            ({"soft_penalty_linear": -1.0}, "'soft_penalty_linear' must be a finite number >= 0"),
+            ({"soft_penalty_quadratic": 0.0}, "'soft_penalty_quadratic' must be a finite number"),
+            ({"solver_path": "osqp"}, "'solver_path' must be one of ('fast', 'cvxpy')"),
+        ],
+    )
+    def test_validates(self, changes: dict, fragment: str) -> None:
+        """Invalid values raise ModelError naming the field."""
+        with pytest.raises(ModelError, match=re.escape(f"ControllerSettings: {fragment}")):
+            make_controller(**changes)
+
+
+SIMULATION = """
+[simulation]
+duration = 1200.0
+strategies = ["centralised", "decentralised", "ndmpc"]
+
+[simulation.reference]
+times = [0.0, 60.0, 460.0, 1020.0, 1200.0]
+speeds_kmh = [72.0, 72.0, 216.0, 288.0, 288.0]
+"""
+
+
+def with_simulation(*lines: str, reference: str | None = None, controller: bool = True) -> str:
+    """BASE, the minimal [controller] and [simulation] with ``lines`` added.
+
+    ``lines`` go into [simulation]; ``reference`` replaces the body of
+    [simulation.reference] when given.
+    """
+    head, body = SIMULATION.split("[simulation.reference]\n")
+    head += "".join(f"{line}\n" for line in lines)
+    if reference is not None:
+        body = reference if reference.endswith("\n") else reference + "\n"
+    return BASE + (CONTROLLER if controller else "") + head + "[simulation.reference]\n" + body
+
+
+def simulation_of(text: str) -> SimulationSettings:
+    """Parse ``text`` and return its simulation settings."""
+    sim = parse_scenario(text).simulation
+    assert sim is not None
+    return sim
+
+
+def make_simulation(**changes: object) -> SimulationSettings:
+    """A valid SimulationSettings with ``changes`` applied."""
+    settings: dict[str, object] = {
+        "duration": 100.0,
+        "strategies": ("ndmpc",),
+        "reference_times": (0.0, 50.0),
+        "reference_speeds": (20.0, 30.0),
+    }
+    settings.update(changes)
+    return SimulationSettings(**settings)  # type: ignore[arg-type]
+
+
+class TestSimulationValid:
+    """A well-formed [simulation] section, its defaults and conversions."""
+
+    def test_absent_is_none(self) -> None:
+        """Without [simulation] the scenario has no simulation."""
+        assert parse_scenario(with_controller()).simulation is None
+
+    def test_not_reserved_any_more(self) -> None:
+        """[simulation] is a real section, not a reserved one."""
+        assert "simulation" not in RESERVED_SECTIONS
+        assert RESERVED_SECTIONS == ("report", "communication", "sweep")
+        error = fails(with_controller("[simulation]"), "missing required key [simulation].duration")
+        assert "reserved" not in str(error)
+
+    def test_defaults(self) -> None:
+        """Omitted optional keys take their documented defaults; km/h become m/s."""
+        sim = simulation_of(with_simulation())
+        assert sim == SimulationSettings(
+            duration=1200.0,
+            strategies=("centralised", "decentralised", "ndmpc"),
+            reference_times=(0.0, 60.0, 460.0, 1020.0, 1200.0),
+            reference_speeds=sim.reference_speeds,
+        )
+        assert sim.reference_speeds == pytest.approx((20.0, 20.0, 60.0, 80.0, 80.0))
+        assert (sim.initial_speed_error, sim.measurement_noise, sim.settle_time) == (0.0, 0.0, 0.0)
+        assert (sim.tracking_tolerance, sim.regen_efficiency) == (1.0, 1.0)
+        assert sim.n_steps(20.0) == 60
+
+    def test_full_section(self) -> None:
+        """Every key is read with its value, SI inside."""
+        sim = simulation_of(
+            with_simulation(
+                "initial_speed_error = -2.5",
+                "measurement_noise = 0.1",
+                "settle_time = 100",
+                "tracking_tolerance = 0.5",
+                "regen_efficiency = 0.8",
+            )
+        )
+        assert sim.initial_speed_error == -2.5
+        assert sim.measurement_noise == 0.1
+        assert sim.settle_time == 100.0 and isinstance(sim.settle_time, float)
+        assert (sim.tracking_tolerance, sim.regen_efficiency) == (0.5, 0.8)
+
+    def test_speeds_in_metres_per_second(self) -> None:
+        """speeds (m/s) is used as given, integers becoming floats."""
+        sim = simulation_of(with_simulation(reference="times = [0, 600]\nspeeds = [20, 80.5]"))
+        assert sim.reference_times == (0.0, 600.0)
+        assert sim.reference_speeds == (20.0, 80.5)
+        assert all(isinstance(v, float) for v in sim.reference_times + sim.reference_speeds)
+
+    def test_constant_reference(self) -> None:
+        """A single breakpoint at t = 0 is a constant reference."""
+        sim = simulation_of(with_simulation(reference="times = [0.0]\nspeeds_kmh = [300.0]"))
+        assert sim.reference_times == (0.0,)
+        assert sim.reference_speeds == pytest.approx((83.3333333,))
+
+    def test_zero_speed_allowed(self) -> None:
+        """A reference speed of 0 (standstill) is accepted."""
+        sim = simulation_of(with_simulation(reference="times = [0, 10]\nspeeds = [0, 0]"))
+        assert sim.reference_speeds == (0.0, 0.0)
+
+    def test_every_strategy(self) -> None:
+        """All strategies may be listed, in any order, and the order is kept."""
+        names = ", ".join(f'"{s}"' for s in reversed(SIMULATION_STRATEGIES))
+        text = with_simulation().replace(
+            'strategies = ["centralised", "decentralised", "ndmpc"]', f"strategies = [{names}]"
+        )
+        assert simulation_of(text).strategies == tuple(reversed(SIMULATION_STRATEGIES))
+
+    def test_duration_multiple_within_tolerance(self) -> None:
+        """A duration that is a multiple up to rounding (0.3 / 0.1) is accepted."""
+        text = with_simulation().replace("sample_time = 20.0", "sample_time = 0.1")
+        text = text.replace("duration = 1200.0", "duration = 0.3")
+        sim = simulation_of(text)
+        assert sim.n_steps(0.1) == 3
+
+    def test_one_sample(self) -> None:
+        """duration equal to the sample time is one step."""
+        text = with_simulation().replace("duration = 1200.0", "duration = 20.0")
+        assert simulation_of(text).n_steps(20.0) == 1
+
+    def test_readme_example_parses(self) -> None:
+        """The [simulation] example in analyses/README.md fits the annotated example."""
+        readme = (ANALYSES / "README.md").read_text(encoding="utf-8")
+        blocks = re.findall(r"```toml\n(.*?)```", readme, re.DOTALL)
+        (controller,) = [block for block in blocks if block.startswith("[controller]")]
+        (simulation,) = [block for block in blocks if block.startswith("[simulation]")]
+        scenario = parse_scenario(blocks[0] + controller + simulation)
+        sim, ctl = scenario.simulation, scenario.controller
+        assert sim is not None and ctl is not None
+        assert sim.n_steps(scenario.model.sample_time) == 240
+        assert sim.strategies == ("centralised", "ndmpc")
+        assert sim.reference_speeds == pytest.approx((200 / 3.6, 60.0, 60.0))
+        assert (ctl.rate_limit, ctl.coupler_force_limit) == (2e4, 2e5)
+
+    def test_pickle_and_frozen(self) -> None:
+        """A scenario with a simulation survives pickle; the settings are immutable."""
+        scenario = parse_scenario(with_simulation())
+        assert pickle.loads(pickle.dumps(scenario)) == scenario
+        assert scenario.simulation is not None
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            scenario.simulation.duration = 1.0  # type: ignore[misc]
+        hash(scenario.simulation)
+
+
+class TestSimulationErrors:
+    """Malformed [simulation] sections, each with its key path."""
+
+    def test_needs_controller(self) -> None:
+        """[simulation] without [controller] is rejected with a hint."""
+        fails(
+            with_simulation(controller=False),
+            "[simulation] needs a [controller] section (got none)",
+            "Add [controller] or remove [simulation].",
+        )
+
+    @pytest.mark.parametrize(
+        ("key", "fragment"),
+        [
+            ("duration", "missing required key [simulation].duration (a number > 0)"),
+            ("strategies", "missing required key [simulation].strategies"),
+        ],
+    )
+    def test_missing_required(self, key: str, fragment: str) -> None:
+        """duration and strategies are required."""
+        text = "\n".join(
+            line for line in with_simulation().splitlines() if not line.startswith(f"{key} =")
+        )
+        fails(text, fragment)
+
+    def test_missing_reference(self) -> None:
+        """[simulation.reference] is required."""
+        text = with_simulation().split("[simulation.reference]")[0]
+        fails(text, "missing required section [simulation.reference].")
+
+    def test_reference_not_a_table(self) -> None:
+        """reference given as a value is rejected."""
+        text = with_simulation().split("[simulation.reference]")[0]
+        fails(
+            edit("duration = 1200.0", "duration = 1200.0\nreference = 1", text),
+            "[simulation.reference] must be a table (got 1)",
+        )
+
+    @pytest.mark.parametrize(
+        ("duration", "fragments"),
+        [
+            ("1210.0", ("(got 1210.0 s, 60.5 samples)", "Use e.g. 1200.0 or 1220.0.")),
+            ("1200.5", ("(got 1200.5 s, 60.025 samples)", "Use e.g. 1200.0 or 1220.0.")),
+            ("10.0", ("(got 10.0 s, 0.5 samples)", "Use e.g. 20.0.")),
+        ],
+    )
+    def test_duration_not_a_multiple(self, duration: str, fragments: tuple[str, ...]) -> None:
+        """A duration that is not a whole multiple of the sample time names both numbers."""
+        fails(
+            with_simulation().replace("duration = 1200.0", f"duration = {duration}"),
+            "[simulation].duration must be a whole multiple of [model].sample_time = 20.0 s",
+            *fragments,
+        )
+
+    @pytest.mark.parametrize(
+        ("value", "fragment"),
+        [
+            ("0.0", "[simulation].duration must be a number > 0 (got 0.0)"),
+            ("-1.0", "[simulation].duration must be a number > 0"),
+            ("nan", "[simulation].duration must be a finite number > 0"),
+            ('"1200"', "[simulation].duration must be a number > 0 (got '1200', a string)"),
+        ],
+    )
+    def test_bad_duration(self, value: str, fragment: str) -> None:
+        """duration must be a finite number > 0."""
+        fails(with_simulation().replace("duration = 1200.0", f"duration = {value}"), fragment)
+
+    def _strategies(self, value: str) -> str:
+        return with_simulation().replace(
+            'strategies = ["centralised", "decentralised", "ndmpc"]', f"strategies = {value}"
+        )
+
+    def test_unknown_strategy_suggests(self) -> None:
+        """An unknown strategy names its index and suggests a close match."""
+        fails(
+            self._strategies('["centralised", "ndmpcc"]'),
+            "[simulation].strategies[1] must be one of 'centralised', 'decentralised', "
+            "'ndmpc', 'cooperative' (got 'ndmpcc', a string).",
+            "Did you mean 'ndmpc'?",
+        )
+
+    def test_british_spelling_hint(self) -> None:
+        """'centralized' suggests 'centralised'."""
+        fails(self._strategies('["centralized"]'), "Did you mean 'centralised'?")
+
+    def test_duplicate_strategy(self) -> None:
+        """A strategy listed twice is rejected at its second position."""
+        fails(
+            self._strategies('["ndmpc", "centralised", "ndmpc"]'),
+            "[simulation].strategies[2] must not repeat an earlier strategy (got 'ndmpc' again)",
+        )
+
+    @pytest.mark.parametrize(
+        ("value", "got"),
+        [("[]", "an array of 0 items"), ('"ndmpc"', "'ndmpc', a string"), ("1", "1")],
+    )
+    def test_strategies_not_a_non_empty_array(self, value: str, got: str) -> None:
+        """strategies must be a non-empty array."""
+        fails(
+            self._strategies(value),
+            "[simulation].strategies must be a non-empty array of distinct names",
+            f"(got {got})",
+        )
+
+    def test_strategy_not_a_string(self) -> None:
+        """A non-string strategy is rejected by index."""
+        fails(self._strategies('["ndmpc", 3]'), "[simulation].strategies[1] must be one of")
+
+    def test_both_speed_keys(self) -> None:
+        """speeds_kmh and speeds together are rejected."""
+        fails(
+            with_simulation(reference="times = [0.0]\nspeeds_kmh = [72.0]\nspeeds = [20.0]"),
+            "[simulation.reference] needs exactly one of speeds_kmh, speeds (got speeds_kmh and "
+            "speeds)",
+        )
+
+    def test_no_speed_key(self) -> None:
+        """A reference without speeds is rejected."""
+        fails(
+            with_simulation(reference="times = [0.0]"),
+            "[simulation.reference] needs exactly one of speeds_kmh, speeds (got none)",
+            "speeds_kmh is in km/h, speeds in m/s.",
+        )
+
+    def test_missing_times(self) -> None:
+        """times is required."""
+        fails(
+            with_simulation(reference="speeds = [20.0]"),
+            "missing required key [simulation.reference].times",
+        )
+
+    def test_length_mismatch(self) -> None:
+        """times and speeds must pair up."""
+        fails(
+            with_simulation(
+                reference="times = [0.0, 60.0, 460.0, 1020.0, 1200.0]\n"
+                "speeds_kmh = [72.0, 72.0, 216.0, 288.0]"
+            ),
+            "[simulation.reference]: times and speeds_kmh must have the same length (got 5 and 4)",
+        )
+
+    def test_length_mismatch_speeds(self) -> None:
+        """The length message names the speed key actually used."""
+        fails(
+            with_simulation(reference="times = [0.0]\nspeeds = [20.0, 30.0]"),
+            "[simulation.reference]: times and speeds must have the same length (got 1 and 2)",
+        )
+
+    @pytest.mark.parametrize("times", ["[0.0, 60.0, 460.0, 460.0]", "[0.0, 60.0, 460.0, 400.0]"])
+    def test_times_not_increasing(self, times: str) -> None:
+        """Breakpoint times must strictly increase, named by index."""
+        fails(
+            with_simulation(reference=f"times = {times}\nspeeds = [20.0, 20.0, 60.0, 80.0]"),
+            "[simulation.reference].times[3] must be greater than the previous time 460.0",
+            "List the times in increasing order.",
+        )
+
+    def test_first_time_not_zero(self) -> None:
+        """The reference must start at t = 0."""
+        fails(
+            with_simulation(reference="times = [5.0, 60.0]\nspeeds = [20.0, 20.0]"),
+            "[simulation.reference].times[0] must be 0 (got 5.0). The reference starts at t = 0.",
+        )
+
+    def test_negative_time(self) -> None:
+        """A negative time is rejected by index."""
+        fails(
+            with_simulation(reference="times = [-1.0, 60.0]\nspeeds = [20.0, 20.0]"),
+            "[simulation.reference].times[0] must be a number >= 0 (got -1.0)",
+        )
+
+    @pytest.mark.parametrize(
+        ("speeds", "fragment"),
+        [
+            ("[72.0, 72.0, -1.0]", "[simulation.reference].speeds_kmh[2] must be a number >= 0"),
+            ('[72.0, 72.0, "fast"]', "[simulation.reference].speeds_kmh[2] must be a number"),
+            ("[72.0, 72.0, inf]", "[simulation.reference].speeds_kmh[2] must be a finite"),
+        ],
+    )
+    def test_bad_speed(self, speeds: str, fragment: str) -> None:
+        """Each speed must be a finite number >= 0, named by index."""
+        fails(
+            with_simulation(reference=f"times = [0.0, 60.0, 120.0]\nspeeds_kmh = {speeds}"),
+            fragment,
+        )
+
+    @pytest.mark.parametrize(("value", "got"), [("[]", "an array of 0 items"), ("0.0", "0.0")])
+    def test_times_not_a_non_empty_array(self, value: str, got: str) -> None:
+        """times must be a non-empty array of numbers."""
+        fails(
+            with_simulation(reference=f"times = {value}\nspeeds = [20.0]"),
+            "[simulation.reference].times must be a non-empty array of numbers >= 0",
+            f"(got {got})",
+        )
+
+    def test_unknown_reference_key_suggests(self) -> None:
+        """A misspelt speed key suggests the right one."""
+        fails(
+            with_simulation(reference="times = [0.0]\nspeed_kmh = [72.0]"),
+            "unknown key [simulation.reference].speed_kmh. Did you mean 'speeds_kmh'?",
+        )
+
+    def test_unknown_key_suggests(self) -> None:
+        """A misspelt key in [simulation] suggests the right one."""
+        fails(
+            with_simulation("settle_tim = 1.0"),
+            "unknown key [simulation].settle_tim. Did you mean 'settle_time'?",
+        )
+
+    @pytest.mark.parametrize(
+        ("line", "fragment"),
+        [
+            ("measurement_noise = -0.1", "[simulation].measurement_noise must be a number >= 0"),
+            ("settle_time = -1.0", "[simulation].settle_time must be a number >= 0"),
+            ("tracking_tolerance = 0.0", "[simulation].tracking_tolerance must be a number > 0"),
+            ("regen_efficiency = -0.1", "[simulation].regen_efficiency must be a number >= 0"),
+            (
+                "regen_efficiency = 1.5",
+                "[simulation].regen_efficiency must be a number from 0 to 1 (got 1.5)",
+            ),
+            ("initial_speed_error = nan", "[simulation].initial_speed_error must be a finite"),
+            ('initial_speed_error = "1"', "[simulation].initial_speed_error must be a number"),
+        ],
+    )
+    def test_bad_value(self, line: str, fragment: str) -> None:
+        """Optional keys are range-checked with their key path."""
+        fails(with_simulation(line), fragment)
+
+    @pytest.mark.parametrize("settle", ["1200.0", "1500.0"])
+    def test_settle_time_not_before_end(self, settle: str) -> None:
+        """settle_time must leave some time in which tracking is judged."""
+        fails(
+            with_simulation(f"settle_time = {settle}"),
+            "[simulation].settle_time must be less than [simulation].duration = 1200.0 s",
+        )
+
+    def test_initial_speed_below_zero(self) -> None:
+        """The initial speed error must not make a vehicle start backwards."""
+        fails(
+            with_simulation("initial_speed_error = -25.0"),
+            "[simulation].initial_speed_error must be >= -20.0 m/s",
+            "(got -25.0)",
+        )
+        assert simulation_of(with_simulation("initial_speed_error = -20.0")).initial_speed_error
+
+
+class TestSimulationSettings:
+    """SimulationSettings and Scenario.simulation built directly, without a file."""
+
+    def test_defaults_and_conversion(self) -> None:
+        """Defaults match the file defaults; lists become tuples, ints floats."""
+        sim = make_simulation(
+            strategies=["ndmpc", "cooperative"], reference_times=[0, 50], reference_speeds=[20, 30]
+        )
+        assert sim.strategies == ("ndmpc", "cooperative")
+        assert sim.reference_times == (0.0, 50.0)
+        assert sim.reference_speeds == (20.0, 30.0)
+        assert all(isinstance(v, float) for v in sim.reference_times + sim.reference_speeds)
+        assert (sim.initial_speed_error, sim.measurement_noise, sim.settle_time) == (0.0, 0.0, 0.0)
+        assert (sim.tracking_tolerance, sim.regen_efficiency) == (1.0, 1.0)
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            sim.duration = 1.0  # type: ignore[misc]
+
+    @pytest.mark.parametrize(
+        ("changes", "fragment"),
+        [
+            ({"duration": 0.0}, "'duration' must be a finite number > 0"),
+            ({"duration": math.inf}, "'duration' must be a finite number > 0"),
+            ({"initial_speed_error": math.nan}, "'initial_speed_error' must be a finite number"),
+            ({"measurement_noise": -1.0}, "'measurement_noise' must be a finite number >= 0"),
+            ({"settle_time": -1.0}, "'settle_time' must be a finite number >= 0"),
+            ({"settle_time": 100.0}, "'settle_time' must be less than 'duration' = 100.0"),
+            ({"tracking_tolerance": 0.0}, "'tracking_tolerance' must be a finite number > 0"),
+            ({"regen_efficiency": 1.1}, "'regen_efficiency' must be in [0, 1]"),
+            ({"regen_efficiency": True}, "'regen_efficiency' must be a finite number >= 0"),
+            ({"strategies": ()}, "'strategies' must be distinct items"),
+            ({"strategies": ("ndmpc", "ndmpc")}, "'strategies' must be distinct items"),
+            ({"strategies": ("mpc",)}, "'strategies' must be distinct items"),
+            ({"reference_times": ()}, "'reference_times' must be finite numbers starting at 0"),
+            ({"reference_times": (1.0, 50.0)}, "'reference_times' must be finite numbers"),
+            ({"reference_times": 0.0}, "'reference_times' must be finite numbers"),
+            ({"reference_times": "0"}, "'reference_times' must be finite numbers"),
+            ({"reference_times": (0.0, 0.0)}, "'reference_times' must be strictly increasing"),
+            ({"reference_speeds": (20.0,)}, "'reference_speeds' must be 2 finite numbers >= 0"),
+            ({"reference_speeds": (20.0, -1.0)}, "'reference_speeds' must be 2 finite numbers"),
+            ({"initial_speed_error": -21.0}, "'initial_speed_error' must be >= -20.0"),
+        ],
+    )
+    def test_validates(self, changes: dict, fragment: str) -> None:
+        """Invalid values raise ModelError naming the field."""
+        with pytest.raises(ModelError, match=re.escape(f"SimulationSettings: {fragment}")):
+            make_simulation(**changes)
+
+    def test_single_strategy_string(self) -> None:
+        """A single strategy name given as a string becomes a one-item tuple."""
+        assert make_simulation(strategies="centralised").strategies == ("centralised",)
+
+    @pytest.mark.parametrize(("dt", "steps"), [(100.0, 1), (20.0, 5), (0.1, 1000), (0.01, 10000)])
+    def test_n_steps(self, dt: float, steps: int) -> None:
+        """n_steps is duration / sample_time for whole multiples."""
+        assert make_simulation().n_steps(dt) == steps
+
+    @pytest.mark.parametrize("dt", [30.0, 200.0, 100.0 + 1e-6])
+    def test_n_steps_not_a_multiple(self, dt: float) -> None:
+        """A sample time that does not divide the duration is rejected."""
+        with pytest.raises(ModelError, match="'duration' = 100.0 s must be a whole multiple"):
+            make_simulation().n_steps(dt)
+
+    @pytest.mark.parametrize("dt", [0.0, -1.0, math.nan, math.inf, "20"])
+    def test_n_steps_bad_sample_time(self, dt: object) -> None:
+        """The sample time must be a finite number > 0."""
+        with pytest.raises(ModelError, match="'sample_time' must be a finite number > 0"):
+            make_simulation().n_steps(dt)  # type: ignore[arg-type]
+
+    def test_scenario_needs_controller(self) -> None:
+        """Scenario built directly rejects a simulation without a controller."""
+        scenario = parse_scenario(BASE)
+        with pytest.raises(ModelError, match="'simulation' needs a controller"):
+            dataclasses.replace(scenario, simulation=make_simulation())
+
+    def test_scenario_checks_duration(self) -> None:
+        """Scenario built directly checks the duration against the sample time."""
+        scenario = parse_scenario(with_controller())
+        ok = dataclasses.replace(scenario, simulation=make_simulation(duration=200.0))
+        assert ok.simulation is not None and ok.simulation.n_steps(20.0) == 10
+        with pytest.raises(ModelError, match="must be a whole multiple of the sample time 20.0"):
+            dataclasses.replace(scenario, simulation=make_simulation(duration=110.0))

@@ -3,8 +3,9 @@
 
 A scenario names a train (a preset or explicit vehicle groups), an optional
 track, the model settings (cruise speed, linearisation, sampling), optionally
-an unconstrained (D)MPC design (``[controller]``) and the declared outcome of
-the design checks (``[expected]``). Keys
+a (D)MPC design with its constraints (``[controller]``), a closed-loop
+simulation run (``[simulation]``) and the declared outcome of the design
+checks (``[expected]``). Keys
 whose name carries a unit (``mass_t``, ``speed_kmh``, ``stiffness_kn_per_m``)
 are converted once, here, with :mod:`trainctl.units`; every other number is
 already SI. The schema is documented in ``analyses/README.md``.
@@ -35,7 +36,7 @@ from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any, NoReturn, TypeVar
+from typing import TYPE_CHECKING, Any, NoReturn, TypeVar
 
 from .exceptions import ModelError, ScenarioError
 from .models.track import RESISTANCE_FORMULAS, Track, TrackSection
@@ -52,6 +53,9 @@ from .units import (
     tonnes_to_kg,
 )
 
+if TYPE_CHECKING:
+    from .controllers.mpc import MPCConstraints
+
 __all__ = [
     "ALLOCATIONS",
     "CHECK_NAMES",
@@ -63,10 +67,13 @@ __all__ = [
     "NEIGHBOURHOODS",
     "RESERVED_SECTIONS",
     "SCHEMA_VERSION",
+    "SIMULATION_STRATEGIES",
+    "SOLVER_PATHS",
     "BuiltinScenario",
     "ControllerSettings",
     "ModelSettings",
     "Scenario",
+    "SimulationSettings",
     "builtin_scenario_text",
     "builtin_scenarios",
     "load_scenario",
@@ -77,7 +84,7 @@ __all__ = [
 SCHEMA_VERSION = 1
 """The only ``schema_version`` this release reads."""
 
-RESERVED_SECTIONS = ("simulation", "report", "communication", "sweep")
+RESERVED_SECTIONS = ("report", "communication", "sweep")
 """Top-level sections reserved for later releases (rejected today)."""
 
 LINEARISATIONS = ("jacobian", "book")
@@ -97,6 +104,16 @@ CONTROLLER_OUTPUTS = ("v", "force")
 
 NEIGHBOURHOODS = ("adjacent", "all", "self")
 """Named kinds of ``[controller].neighbourhood`` (an explicit list is also accepted)."""
+
+SOLVER_PATHS = ("fast", "cvxpy")
+"""Accepted values of ``[controller].solver_path``: the QP solve path of the MPC."""
+
+SIMULATION_STRATEGIES = ("centralised", "decentralised", "ndmpc", "cooperative")
+"""Accepted items of ``[simulation].strategies``.
+
+The same names as :data:`trainctl.controllers.mpc.STRATEGIES`, repeated here
+so that ``import trainctl.scenario`` does not import the MPC solvers.
+"""
 
 CHECK_NAMES = (
     "open_loop_stability",
@@ -148,7 +165,7 @@ _T = TypeVar("_T")
 
 _TOP_KEYS = (
     "schema_version", "name", "description", "seed", "train", "track", "model", "controller",
-    "expected",
+    "simulation", "expected",
 )  # fmt: skip
 _TRAIN_KEYS = ("preset", "preset_options", "vehicle", "coupler")
 _DAVIS_KEYS = ("davis_n_per_kn_kmh", "davis_si", "davis_book_literal")
@@ -165,7 +182,16 @@ _MODEL_KEYS = (
 _CONTROLLER_KEYS = (
     "form", "prediction_horizon", "control_horizon", "outputs", "q_velocity", "q_force_per_kn2",
     "r_per_kn2", "r_per_n2", "neighbourhood", "iterations", "cooperative_weights",
+    "max_iterations", "iteration_tolerance_kn", "relaxation", "input_bounds", "rate_limit_kn",
+    "coupler_force_limit_kn", "soft_penalty_linear", "soft_penalty_quadratic", "solver_path",
 )  # fmt: skip
+_SIMULATION_KEYS = (
+    "duration", "strategies", "initial_speed_error", "measurement_noise", "settle_time",
+    "tracking_tolerance", "regen_efficiency", "reference",
+)  # fmt: skip
+_REFERENCE_KEYS = ("times", "speeds_kmh", "speeds")
+_REFERENCE_SPEED_KEYS = {"speeds_kmh": "km/h", "speeds": "m/s"}
+_MULTIPLE_TOL = 1e-9  # relative tolerance of "duration is a whole multiple of sample_time"
 _INPUT_WEIGHT_KEYS = {"r_per_kn2": "kN", "r_per_n2": "N"}
 _N2_PER_KN2 = kn_to_n(1.0) ** 2  # a weight per N^2 times this is the weight per kN^2
 _WEIGHT_SUM_TOL = 1e-9
@@ -236,11 +262,13 @@ class ModelSettings:
 
 @dataclass(frozen=True, kw_only=True)
 class ControllerSettings:
-    """An unconstrained (D)MPC design: horizons, outputs, weights, neighbourhoods.
+    """A (D)MPC design: horizons, outputs, weights, neighbourhoods, constraints.
 
     Inputs are the coaches' traction/braking forces, one per vehicle; weights
     are given per squared design unit (velocity m/s, force kN), so that they
-    are plain numbers. Built-in validation raises
+    are plain numbers. The design checks use the unconstrained part; the
+    closed-loop simulation also uses the iteration settings and the
+    constraints (:meth:`mpc_constraints`). Built-in validation raises
     :class:`~trainctl.exceptions.ModelError`; checks that need the number of
     coaches ``n`` happen in :meth:`neighbourhoods` and
     :meth:`cooperative_weight_vector` (and, with key paths, in
@@ -277,6 +305,28 @@ class ControllerSettings:
     cooperative_weights : "uniform" or tuple of float
         Convex-combination weights of cooperative DMPC: ``"uniform"`` (1/n
         each) or one weight > 0 per coach, summing to 1 (within 1e-9).
+    max_iterations : int
+        Iteration limit per sample of the distributed strategies (N-DMPC,
+        cooperative) in simulation [-], >= 1.
+    iteration_tolerance : float
+        The distributed iteration stops when every coach's plan changes by
+        less than this [kN], > 0.
+    relaxation : float
+        N-DMPC relaxation factor omega [-], 0 < omega <= 1 (1: plain Jacobi).
+    input_bounds : bool
+        Bound each coach's force by its traction/braking envelope (hard).
+    rate_limit : float
+        Largest change of a coach's force per sample [N], > 0; ``math.inf``
+        for no limit (hard).
+    coupler_force_limit : float
+        Largest absolute coupler force [N], > 0; ``math.inf`` for no limit
+        (soft).
+    soft_penalty_linear : float
+        Linear penalty on a coupler-force violation [per kN], >= 0.
+    soft_penalty_quadratic : float
+        Quadratic penalty on a coupler-force violation [per kN^2], > 0.
+    solver_path : {"fast", "cvxpy"}
+        QP solve path of the MPC.
 
     Examples
     --------
@@ -286,6 +336,8 @@ class ControllerSettings:
     10000000.0
     >>> ctl.neighbourhoods(3)
     ((0, 1), (0, 1, 2), (1, 2))
+    >>> ctl.max_iterations, ctl.iteration_tolerance, ctl.rate_limit, ctl.solver_path
+    (50, 0.0001, inf, 'fast')
     """
 
     form: str
@@ -299,6 +351,15 @@ class ControllerSettings:
     neighbourhood: str | tuple[tuple[int, ...], ...] = "adjacent"
     iterations: int = 10
     cooperative_weights: str | tuple[float, ...] = "uniform"
+    max_iterations: int = 50
+    iteration_tolerance: float = 1e-4
+    relaxation: float = 1.0
+    input_bounds: bool = True
+    rate_limit: float = math.inf
+    coupler_force_limit: float = math.inf
+    soft_penalty_linear: float = 1000.0
+    soft_penalty_quadratic: float = 100.0
+    solver_path: str = "fast"
 
     def __post_init__(self) -> None:
         def fail(message: str) -> NoReturn:
@@ -306,7 +367,7 @@ class ControllerSettings:
 
         if self.form not in CONTROLLER_FORMS:
             fail(f"'form' must be one of {CONTROLLER_FORMS} (got {self.form!r}).")
-        for name in ("prediction_horizon", "control_horizon", "iterations"):
+        for name in ("prediction_horizon", "control_horizon", "iterations", "max_iterations"):
             value = getattr(self, name)
             if not _is_int(value) or value < 1:
                 fail(f"{name!r} must be an integer >= 1 (got {value!r}).")
@@ -331,18 +392,64 @@ class ControllerSettings:
             ("q_velocity", "nonneg"),
             ("q_force", "nonneg"),
             ("input_weight", "pos"),
+            ("iteration_tolerance", "pos"),
+            ("relaxation", "pos"),
+            ("soft_penalty_linear", "nonneg"),
+            ("soft_penalty_quadratic", "pos"),
         ):
             value = getattr(self, name)
             x = _as_float(value)
             if not math.isfinite(x) or x < 0 or (bound == "pos" and x == 0):
                 fail(f"{name!r} must be a finite number{_BOUNDS[bound]} (got {value!r}).")
             object.__setattr__(self, name, x)
+        if self.relaxation > 1.0:
+            fail(f"'relaxation' must be in (0, 1] (got {self.relaxation!r}).")
+        for name in ("rate_limit", "coupler_force_limit"):
+            value = getattr(self, name)
+            x = _as_float(value)
+            if not x > 0:  # inf (no limit) is allowed, nan is not
+                fail(f"{name!r} must be a number > 0 [N], or inf for no limit (got {value!r}).")
+            object.__setattr__(self, name, x)
+        if not isinstance(self.input_bounds, bool):
+            fail(f"'input_bounds' must be True or False (got {self.input_bounds!r}).")
+        if self.solver_path not in SOLVER_PATHS:
+            fail(f"'solver_path' must be one of {SOLVER_PATHS} (got {self.solver_path!r}).")
         if self.q_force > 0 and "force" not in outputs:
             fail(f"'q_force' must be 0 without 'force' in 'outputs' (got {self.q_force!r}).")
         if self.input_weight_unit not in _INPUT_WEIGHT_KEYS.values():
             fail(f"'input_weight_unit' must be 'kN' or 'N' (got {self.input_weight_unit!r}).")
         object.__setattr__(self, "neighbourhood", _freeze_neighbourhood(self.neighbourhood))
         object.__setattr__(self, "cooperative_weights", _freeze_weights(self.cooperative_weights))
+
+    def mpc_constraints(self) -> MPCConstraints:
+        """The constraint settings in the form the MPC controller takes.
+
+        Returns
+        -------
+        trainctl.controllers.mpc.MPCConstraints
+            ``input_bounds``, ``rate_limit`` [N], ``coupler_force_limit``
+            [N], ``soft_linear`` [per kN] and ``soft_quadratic`` [per kN^2]
+            copied from these settings.
+
+        Examples
+        --------
+        >>> ctl = ControllerSettings(form="u", prediction_horizon=1, control_horizon=1,
+        ...                          input_weight=1.0, coupler_force_limit=5e5)
+        >>> limits = ctl.mpc_constraints()
+        >>> limits.input_bounds, limits.rate_limit, limits.coupler_force_limit
+        (True, inf, 500000.0)
+        >>> limits.soft_linear, limits.soft_quadratic
+        (1000.0, 100.0)
+        """
+        from .controllers.mpc import MPCConstraints
+
+        return MPCConstraints(
+            input_bounds=self.input_bounds,
+            rate_limit=self.rate_limit,
+            coupler_force_limit=self.coupler_force_limit,
+            soft_linear=self.soft_penalty_linear,
+            soft_quadratic=self.soft_penalty_quadratic,
+        )
 
     def input_weight_per_kn2(self) -> float:
         """The input weight R converted to per kN^2 (the design unit).
@@ -446,6 +553,158 @@ class ControllerSettings:
         return self.cooperative_weights
 
 
+@dataclass(frozen=True, kw_only=True)
+class SimulationSettings:
+    """A closed-loop simulation run: duration, strategies, reference, judgement.
+
+    Built-in validation raises :class:`~trainctl.exceptions.ModelError`; the
+    check against the sample time happens in :meth:`n_steps` (and, with key
+    paths, in :func:`parse_scenario`).
+
+    Parameters
+    ----------
+    duration : float
+        Simulated time [s], > 0; a whole multiple of the sample time.
+    strategies : tuple of str
+        MPC strategies to simulate, distinct items of
+        :data:`SIMULATION_STRATEGIES`, at least one, in this order.
+    reference_times : tuple of float
+        Breakpoint times of the reference speed [s]: finite, strictly
+        increasing, the first 0. The reference is piecewise linear through
+        the breakpoints and constant after the last one.
+    reference_speeds : tuple of float
+        Reference speed at each breakpoint [m/s], finite, >= 0, one per time.
+    initial_speed_error : float
+        Common speed offset of every vehicle at t = 0 [m/s], finite; the
+        initial speed ``reference_speeds[0] + initial_speed_error`` must be
+        >= 0.
+    measurement_noise : float
+        Standard deviation of the Gaussian speed-measurement noise [m/s], >= 0.
+    settle_time : float
+        Tracking is judged after this time [s], 0 <= settle_time < duration.
+    tracking_tolerance : float
+        Largest admissible absolute speed error after ``settle_time`` [m/s], > 0.
+    regen_efficiency : float
+        Share of the braking energy credited back [-], 0 to 1.
+
+    Examples
+    --------
+    >>> sim = SimulationSettings(duration=1200.0, strategies=("ndmpc",),
+    ...                          reference_times=(0.0, 600.0), reference_speeds=(20.0, 80.0))
+    >>> sim.n_steps(20.0), sim.tracking_tolerance, sim.regen_efficiency
+    (60, 1.0, 1.0)
+    """
+
+    duration: float
+    strategies: tuple[str, ...]
+    reference_times: tuple[float, ...]
+    reference_speeds: tuple[float, ...]
+    initial_speed_error: float = 0.0
+    measurement_noise: float = 0.0
+    settle_time: float = 0.0
+    tracking_tolerance: float = 1.0
+    regen_efficiency: float = 1.0
+
+    def __post_init__(self) -> None:
+        def fail(message: str) -> NoReturn:
+            raise ModelError(f"SimulationSettings: {message}")
+
+        for name, bound in (
+            ("duration", "pos"),
+            ("initial_speed_error", None),
+            ("measurement_noise", "nonneg"),
+            ("settle_time", "nonneg"),
+            ("tracking_tolerance", "pos"),
+            ("regen_efficiency", "nonneg"),
+        ):
+            value = getattr(self, name)
+            x = _as_float(value)
+            if not math.isfinite(x) or (bound and x < 0) or (bound == "pos" and x == 0):
+                fail(f"{name!r} must be a finite number{_BOUNDS[bound]} (got {value!r}).")
+            object.__setattr__(self, name, x)
+        if self.regen_efficiency > 1.0:
+            fail(f"'regen_efficiency' must be in [0, 1] (got {self.regen_efficiency!r}).")
+        if self.settle_time >= self.duration:
+            fail(
+                f"'settle_time' must be less than 'duration' = {self.duration!r} "
+                f"(got {self.settle_time!r})."
+            )
+        strategies = (
+            (self.strategies,) if isinstance(self.strategies, str) else tuple(self.strategies)
+        )
+        if (
+            not strategies
+            or any(s not in SIMULATION_STRATEGIES for s in strategies)
+            or len(set(strategies)) != len(strategies)
+        ):
+            fail(
+                f"'strategies' must be distinct items of {SIMULATION_STRATEGIES}, at least "
+                f"one (got {self.strategies!r})."
+            )
+        object.__setattr__(self, "strategies", strategies)
+        times = _float_tuple(self.reference_times)
+        speeds = _float_tuple(self.reference_speeds)
+        if not times or not all(math.isfinite(t) for t in times) or times[0] != 0.0:
+            fail(
+                f"'reference_times' must be finite numbers starting at 0 "
+                f"(got {self.reference_times!r})."
+            )
+        if any(times[i] <= times[i - 1] for i in range(1, len(times))):
+            fail(f"'reference_times' must be strictly increasing (got {self.reference_times!r}).")
+        if len(speeds) != len(times) or not all(math.isfinite(v) and v >= 0 for v in speeds):
+            fail(
+                f"'reference_speeds' must be {len(times)} finite numbers >= 0, one per "
+                f"reference time (got {self.reference_speeds!r})."
+            )
+        object.__setattr__(self, "reference_times", times)
+        object.__setattr__(self, "reference_speeds", speeds)
+        if speeds[0] + self.initial_speed_error < 0:
+            fail(
+                f"'initial_speed_error' must be >= {-speeds[0]!r}, minus the reference speed "
+                f"at t = 0 (got {self.initial_speed_error!r})."
+            )
+
+    def n_steps(self, sample_time: float) -> int:
+        """The number of samples that make up :attr:`duration`.
+
+        Parameters
+        ----------
+        sample_time : float
+            Sample time of the model and controller [s], > 0.
+
+        Returns
+        -------
+        int
+            ``duration / sample_time`` [-], >= 1.
+
+        Raises
+        ------
+        ModelError
+            If ``sample_time`` is not a number > 0 or ``duration`` is not a
+            whole multiple of it (relative tolerance 1e-9).
+
+        Examples
+        --------
+        >>> sim = SimulationSettings(duration=1.5, strategies=("centralised",),
+        ...                          reference_times=(0.0,), reference_speeds=(25.0,))
+        >>> sim.n_steps(0.1)
+        15
+        """
+        dt = _as_float(sample_time)
+        if not (math.isfinite(dt) and dt > 0):
+            raise ModelError(
+                f"SimulationSettings: 'sample_time' must be a finite number > 0 "
+                f"(got {sample_time!r})."
+            )
+        steps = _whole_steps(self.duration, dt)
+        if steps is None:
+            raise ModelError(
+                f"SimulationSettings: 'duration' = {self.duration!r} s must be a whole "
+                f"multiple of the sample time {dt!r} s (got {self.duration / dt!r} samples)."
+            )
+        return steps
+
+
 class _FrozenMapping(Mapping[str, str]):
     """A read-only, hashable, picklable ``str -> str`` mapping in insertion order."""
 
@@ -497,6 +756,10 @@ class Scenario:
         Linearisation and sampling settings.
     controller : ControllerSettings or None
         The (D)MPC design; ``None`` when the file has no ``[controller]``.
+    simulation : SimulationSettings or None
+        The closed-loop simulation run; ``None`` when the file has no
+        ``[simulation]``. Needs a ``controller``, and its duration must be a
+        whole multiple of ``model.sample_time``.
     expected : Mapping of str to str
         Declared outcome of the design checks, check name (one of
         :data:`CHECK_NAMES`) to status (one of :data:`CHECK_STATUSES`), in
@@ -510,6 +773,8 @@ class Scenario:
     >>> scenario = load_scenario("crh2-dmpc")
     >>> scenario.slug
     'crh2-half-train-n-dmpc-as-printed-li-zheng-ch-12'
+    >>> scenario.simulation.n_steps(scenario.model.sample_time)
+    60
     """
 
     name: str
@@ -519,6 +784,7 @@ class Scenario:
     track: Track | None = None
     model: ModelSettings
     controller: ControllerSettings | None = None
+    simulation: SimulationSettings | None = None
     expected: Mapping[str, str] = field(default_factory=_FrozenMapping)
     source: str = "<string>"
 
@@ -541,6 +807,10 @@ class Scenario:
         if self.controller is not None:
             self.controller.neighbourhoods(self.train.n_vehicles)
             self.controller.cooperative_weight_vector(self.train.n_vehicles)
+        if self.simulation is not None:
+            if self.controller is None:
+                raise ModelError("Scenario: 'simulation' needs a controller (got none).")
+            self.simulation.n_steps(self.model.sample_time)
 
     @property
     def slug(self) -> str:
@@ -792,6 +1062,12 @@ def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:
     controller = (
         None if controller_table is None else _parse_controller(controller_table, train.n_vehicles)
     )
+    simulation_table = top.optional_section("simulation", _SIMULATION_KEYS)
+    simulation = (
+        None
+        if simulation_table is None
+        else _parse_simulation(simulation_table, model.sample_time, controller is not None)
+    )
     expected_table = top.optional_section("expected", CHECK_NAMES)
     expected = (
         _FrozenMapping() if expected_table is None else _parse_expected(expected_table, controller)
@@ -804,6 +1080,7 @@ def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:
         track=track,
         model=model,
         controller=controller,
+        simulation=simulation,
         expected=expected,
         source=source,
     )
@@ -1058,6 +1335,21 @@ def _parse_controller(table: _Table, n: int) -> ControllerSettings:
     neighbourhood = _parse_neighbourhood(table, n)
     iterations = table.integer("iterations", minimum=1, default=10)
     cooperative_weights = _parse_cooperative_weights(table, n)
+    max_iterations = table.integer("max_iterations", minimum=1, default=50)
+    tolerance = table.number("iteration_tolerance_kn", "pos", 1e-4)
+    relaxation = table.number("relaxation", "pos", 1.0)
+    if relaxation > 1.0:
+        table.fail(
+            f"{table.key('relaxation')} must be a number in (0, 1] (got {relaxation!r}). "
+            f"The N-DMPC relaxation factor omega blends each new plan with the previous one; "
+            f"1 is the plain Jacobi iteration."
+        )
+    input_bounds = table.boolean("input_bounds", default=True)
+    rate_limit = kn_to_n(table.number("rate_limit_kn", "pos", math.inf))
+    force_limit = kn_to_n(table.number("coupler_force_limit_kn", "pos", math.inf))
+    soft_linear = table.number("soft_penalty_linear", "nonneg", 1000.0)
+    soft_quadratic = table.number("soft_penalty_quadratic", "pos", 100.0)
+    solver_path = table.choice("solver_path", SOLVER_PATHS, default="fast")
     return _build(
         table.file,
         table.path,
@@ -1073,6 +1365,15 @@ def _parse_controller(table: _Table, n: int) -> ControllerSettings:
             neighbourhood=neighbourhood,
             iterations=iterations,
             cooperative_weights=cooperative_weights,
+            max_iterations=max_iterations,
+            iteration_tolerance=tolerance,
+            relaxation=relaxation,
+            input_bounds=input_bounds,
+            rate_limit=rate_limit,
+            coupler_force_limit=force_limit,
+            soft_penalty_linear=soft_linear,
+            soft_penalty_quadratic=soft_quadratic,
+            solver_path=solver_path,
         ),
     )
 
@@ -1179,6 +1480,116 @@ def _parse_cooperative_weights(table: _Table, n: int) -> str | tuple[float, ...]
             f"each weight by the sum, or use 'uniform'."
         )
     return weights
+
+
+def _parse_simulation(
+    table: _Table, sample_time: float, has_controller: bool
+) -> SimulationSettings:
+    if not has_controller:
+        table.fail(
+            f"{table.path} needs a [controller] section (got none): the simulation runs the "
+            f"MPC design given in [controller]. Add [controller] or remove [simulation]."
+        )
+    duration = table.number("duration", "pos")
+    if _whole_steps(duration, sample_time) is None:
+        steps = duration / sample_time
+        below = max(math.floor(steps), 1) * sample_time
+        above = max(math.ceil(steps), 1) * sample_time
+        options = f"{below!r}" if below == above else f"{below!r} or {above!r}"
+        table.fail(
+            f"{table.key('duration')} must be a whole multiple of [model].sample_time = "
+            f"{sample_time!r} s (got {duration!r} s, {steps:.6g} samples). Use e.g. {options}."
+        )
+    strategies = _parse_strategies(table)
+    initial_speed_error = table.number("initial_speed_error", None, 0.0)
+    measurement_noise = table.number("measurement_noise", "nonneg", 0.0)
+    settle_time = table.number("settle_time", "nonneg", 0.0)
+    if settle_time >= duration:
+        table.fail(
+            f"{table.key('settle_time')} must be less than {table.key('duration')} = "
+            f"{duration!r} s (got {settle_time!r}). Tracking is judged after settle_time."
+        )
+    tracking_tolerance = table.number("tracking_tolerance", "pos", 1.0)
+    regen_efficiency = table.number("regen_efficiency", "nonneg", 1.0)
+    if regen_efficiency > 1.0:
+        table.fail(
+            f"{table.key('regen_efficiency')} must be a number from 0 to 1 (got "
+            f"{regen_efficiency!r}). It is the share of the braking energy credited back."
+        )
+    times, speeds = _parse_reference(table.section("reference", _REFERENCE_KEYS))
+    if speeds[0] + initial_speed_error < 0:
+        table.fail(
+            f"{table.key('initial_speed_error')} must be >= {-speeds[0]!r} m/s, minus the "
+            f"reference speed at t = 0, so that no vehicle starts backwards (got "
+            f"{initial_speed_error!r})."
+        )
+    return _build(
+        table.file,
+        table.path,
+        lambda: SimulationSettings(
+            duration=duration,
+            strategies=strategies,
+            reference_times=times,
+            reference_speeds=speeds,
+            initial_speed_error=initial_speed_error,
+            measurement_noise=measurement_noise,
+            settle_time=settle_time,
+            tracking_tolerance=tracking_tolerance,
+            regen_efficiency=regen_efficiency,
+        ),
+    )
+
+
+def _parse_strategies(table: _Table) -> tuple[str, ...]:
+    where = table.key("strategies")
+    options = ", ".join(repr(s) for s in SIMULATION_STRATEGIES)
+    value = table._get("strategies", _MISSING, f"an array of names from {options}")
+    if not isinstance(value, list) or not value:
+        table.fail(
+            f"{where} must be a non-empty array of distinct names from {options} "
+            f"(got {_got(value)})."
+        )
+    for i, item in enumerate(value):
+        if not isinstance(item, str) or item not in SIMULATION_STRATEGIES:
+            hint = _suggest(item, SIMULATION_STRATEGIES) if isinstance(item, str) else ""
+            table.fail(f"{where}[{i}] must be one of {options} (got {_got(item)}).{hint}")
+        if item in value[:i]:
+            table.fail(
+                f"{where}[{i}] must not repeat an earlier strategy (got {item!r} again). List "
+                f"each strategy once."
+            )
+    return tuple(value)
+
+
+def _parse_reference(table: _Table) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    given = [key for key in _REFERENCE_SPEED_KEYS if table.has(key)]
+    if len(given) != 1:
+        what = "none" if not given else " and ".join(given)
+        table.fail(
+            f"{table.path} needs exactly one of {', '.join(_REFERENCE_SPEED_KEYS)} (got "
+            f"{what}). speeds_kmh is in km/h, speeds in m/s."
+        )
+    key = given[0]
+    times = table.number_array("times", bound="nonneg")
+    speeds = table.number_array(key, bound="nonneg")
+    if len(times) != len(speeds):
+        table.fail(
+            f"{table.path}: times and {key} must have the same length (got {len(times)} and "
+            f"{len(speeds)}). Give one speed per time."
+        )
+    if times[0] != 0.0:
+        table.fail(
+            f"{table.key('times')}[0] must be 0 (got {times[0]!r}). The reference starts at t = 0."
+        )
+    for i in range(1, len(times)):
+        if times[i] <= times[i - 1]:
+            table.fail(
+                f"{table.key('times')}[{i}] must be greater than the previous time "
+                f"{times[i - 1]!r} (got {times[i]!r}). List the times in increasing order."
+            )
+    if key == "speeds_kmh":
+        speeds = [kmh_to_ms(v) for v in speeds]
+    return tuple(times), tuple(speeds)
 
 
 def _parse_expected(table: _Table, controller: ControllerSettings | None) -> _FrozenMapping:
@@ -1288,6 +1699,17 @@ class _Table:
             for i, item in enumerate(value)
         ]
 
+    def number_array(self, name: str, *, bound: str | None) -> list[float]:
+        """A non-empty list of finite floats, of any length."""
+        want = f"a non-empty array of numbers{_BOUNDS[bound]}"
+        value = self._get(name, _MISSING, want)
+        if not isinstance(value, list) or not value:
+            self.fail(f"{self.key(name)} must be {want} (got {_got(value)}).")
+        return [
+            _check_number(self.file, f"{self.key(name)}[{i}]", item, bound, "")
+            for i, item in enumerate(value)
+        ]
+
     def integer(self, name: str, *, minimum: int, default: Any = _MISSING) -> int:
         """An int (not a bool or float) >= ``minimum``."""
         want = f"an integer >= {minimum}"
@@ -1388,6 +1810,24 @@ def _as_float(value: Any) -> float:
         return float(value)
     except OverflowError:
         return math.inf
+
+
+def _whole_steps(duration: float, sample_time: float) -> int | None:
+    """``duration / sample_time`` if it is a whole number >= 1 (relative 1e-9), else None."""
+    steps = round(duration / sample_time)
+    if steps < 1 or abs(steps * sample_time - duration) > _MULTIPLE_TOL * duration:
+        return None
+    return steps
+
+
+def _float_tuple(value: Any) -> tuple[float, ...]:
+    """``value`` as a tuple of floats (nan for non-numbers); ``(nan,)`` if not iterable."""
+    if isinstance(value, str):
+        return (math.nan,)
+    try:
+        return tuple(_as_float(x) for x in value)
+    except TypeError:
+        return (math.nan,)
 
 
 def _coach_count(n: Any) -> int:

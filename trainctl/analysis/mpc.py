@@ -30,6 +30,7 @@ and the convex-combination update U^{l+1} = (I - W)U^l + W(D0 U^l + D1 e)
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -400,8 +401,15 @@ def threshold_weight(
         R* (``low`` if the iteration converges already at ``low``; inf if it
         diverges even at ``high``).
     """
+    pred = prediction(design)  # independent of R: build once, swap the weight block
+    M = design.control_horizon
+
     def excess(log_r: float) -> float:
-        D0, _ = iteration_matrices(design.with_r(10.0**log_r))
+        r = 10.0**log_r
+        Rbar = np.asarray(np.kron(np.eye(M), np.diag(np.full(design.n_inputs, r))),
+                          dtype=np.float64)
+        trial = dataclasses.replace(pred, Rbar=Rbar)
+        D0, _ = iteration_matrices(design.with_r(r), trial)
         return spectral_radius(D0) - 1.0
 
     lo, hi = math.log10(low), math.log10(high)

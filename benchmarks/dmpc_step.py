@@ -1,0 +1,201 @@
+"""Benchmark: one N-DMPC step, trainctl's fast path against its baselines.
+
+Run:  .venv/bin/python benchmarks/dmpc_step.py [--quick]
+
+Part 1 — CRH2 half train, the well-sampled design (crh2-dmpc-well-sampled:
+T = 0.05 s, P = 40, M = 5, u-form, outputs speeds and coupler forces,
+envelope, 5 kN/step rate and 50 kN coupler-force limits), N-DMPC with the
+scenario's iteration settings, over the same closed-loop sequence of states:
+
+  fast      trainctl, cvxpy-modelled QPs solved through the probed OSQP data
+  cvxpy     trainctl, the same QPs re-solved with Problem.solve(warm_start=True)
+  rebuild   a new controller (cvxpy problems rebuilt) at every step
+  raw OSQP  the identical (P, q, A, l, u) sequence the fast path produced,
+            replayed on OSQP directly (update + solve, warm-started)
+
+The ratio fast / raw OSQP measures trainctl's overhead over the solver on the
+same data; the formulation (condensed: inputs are the only decisions, 5 per
+coach plus slacks) is reported separately and is the same for all four.
+
+Part 2 — per-iteration time and iteration counts of the fast path for trains
+of 4, 8, 16, 32 and 64 coaches (T-M-M-T units of seed 000's coaches).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+import scipy.sparse as sp
+
+from trainctl.analysis.review import design_model
+from trainctl.controllers.base import Measurement, ReferencePreview
+from trainctl.controllers.mpc import MPCConstraints, make_mpc
+from trainctl.controllers.qp import OSQP_SETTINGS
+from trainctl.models import Coupler, Train, equilibrium
+from trainctl.scenario import load_scenario
+
+CONSTRAINTS = MPCConstraints(rate_limit=5e3, coupler_force_limit=50e3)
+
+
+def preview(d, dt, t, v0, accel):
+    times = t + dt * np.arange(d.prediction_horizon + 1)
+    return ReferencePreview(times=times, speed=v0 + accel * times,
+                            acceleration=np.full(times.size, accel))
+
+
+def closed_loop_states(train, d, dt, steps):
+    """States along a closed loop of the fast controller (the shared test sequence)."""
+    ctl = make_mpc(train, d, dt=dt, strategy="ndmpc", constraints=CONSTRAINTS,
+                   tolerance=1e-4)
+    eq = equilibrium(train, 50.0)
+    n = train.n_vehicles
+    x_dev = np.zeros(d.A.shape[0])
+    x_dev[:n] = 1.0  # every coach 1 m/s fast
+    states = []
+    for k in range(steps):
+        state = np.concatenate([50.0 + x_dev[:n], eq.elongations + x_dev[n:], [0.0]])
+        states.append(state)
+        rec = ctl.step(k * dt, Measurement(state=state), preview(d, dt, 0.0, 50.0, 0.0))
+        x_dev = d.A @ x_dev + d.B @ ((rec.inputs - eq.inputs) / 1e3)
+    return states
+
+
+class Recorder:
+    """Wraps each block QP's solve_data to record the data vectors it is given."""
+
+    def __init__(self, ctl):
+        self.log = []
+        for index, block in enumerate(ctl.blocks):
+            original = block.qp.solve_data
+
+            def record(data, _orig=original, _i=index):
+                self.log.append((_i, data.copy()))
+                return _orig(data)
+
+            block.qp.solve_data = record
+
+
+def time_controller(ctl, states, d, dt):
+    times, iters = [], []
+    ctl.reset()
+    for k, state in enumerate(states):
+        start = time.perf_counter()
+        rec = ctl.step(k * dt, Measurement(state=state), preview(d, dt, 0.0, 50.0, 0.0))
+        times.append(time.perf_counter() - start)
+        iters.append(rec.iterations)
+    return times, iters
+
+
+def replay_raw_osqp(ctl, log, steps):
+    """Solve the recorded data with fresh OSQP solvers, warm-started, in the same order."""
+    import osqp
+
+    solvers = []
+    for block in ctl.blocks:
+        fast = block.qp._fast
+        solver = osqp.OSQP()
+        q, lo, up = fast._qlu(fast.offset)
+        solver.setup(sp.csc_matrix(sp.triu(fast.P, format="csc")), q, sp.csc_matrix(fast.Amat),
+                     lo, up, verbose=False, warm_starting=True, **OSQP_SETTINGS)
+        solvers.append((solver, fast))
+    prepared = [(i, *solvers[i][1]._qlu(data)) for i, data in log]
+    start = time.perf_counter()
+    for i, q, lo, up in prepared:
+        solver = solvers[i][0]
+        solver.update(q=q, l=lo, u=up)
+        solver.solve(raise_error=False)
+    return (time.perf_counter() - start) / steps
+
+
+def part1(steps):
+    scenario = load_scenario("crh2-dmpc-well-sampled")
+    train, dt = scenario.train, scenario.model.sample_time
+    _, d = design_model(scenario)
+    states = closed_loop_states(train, d, dt, steps)
+    fast = make_mpc(train, d, dt=dt, strategy="ndmpc", constraints=CONSTRAINTS, tolerance=1e-4)
+    recorder = Recorder(fast)
+    t_fast, iters = time_controller(fast, states, d, dt)
+    raw = replay_raw_osqp(fast, recorder.log, steps)
+    plain = make_mpc(train, d, dt=dt, strategy="ndmpc", constraints=CONSTRAINTS, tolerance=1e-4,
+                     path="cvxpy")
+    t_cvxpy, _ = time_controller(plain, states, d, dt)
+    t_rebuild = []
+    for k, state in enumerate(states[: max(3, steps // 10)]):
+        start = time.perf_counter()
+        ctl = make_mpc(train, d, dt=dt, strategy="ndmpc", constraints=CONSTRAINTS,
+                       tolerance=1e-4, path="cvxpy")
+        ctl.step(k * dt, Measurement(state=state), preview(d, dt, 0.0, 50.0, 0.0))
+        t_rebuild.append(time.perf_counter() - start)
+    block = fast.blocks[0].qp
+    print(f"CRH2 half train, T = {dt} s, P = {d.prediction_horizon}, M = {d.control_horizon}, "
+          f"{d.form}-form, N-DMPC; {steps} closed-loop steps, median "
+          f"{statistics.median(iters)} Jacobi iterations x 4 coach QPs per step")
+    print(f"formulation: condensed; each coach QP has {block.nz} decisions, {block.nh} hard "
+          f"rows, {block.ns} soft rows (+{block.ns} slacks)")
+    mean_fast = sum(t_fast) / steps
+    rows = [("trainctl fast path", statistics.median(t_fast), mean_fast),
+            ("trainctl plain cvxpy re-solve", statistics.median(t_cvxpy), sum(t_cvxpy) / steps),
+            ("cvxpy rebuilt every step", statistics.median(t_rebuild),
+             sum(t_rebuild) / len(t_rebuild)),
+            ("raw OSQP on the same data", raw, raw)]
+    print(f"{'':32}{'median [ms]':>12}{'mean [ms]':>12}{'mean / raw':>12}")
+    for name, med, mean in rows:
+        print(f"{name:32}{med * 1e3:12.2f}{mean * 1e3:12.2f}{mean / raw:12.2f}")
+    print(f"overhead ratio (fast / raw OSQP, same iterations and data): {mean_fast / raw:.2f} "
+          "(target <= 1.5)")
+
+
+def chain(n):
+    base = load_scenario("crh2-dmpc").train
+    cars = [base.vehicles[i % 4] for i in range(n)]
+    coupler = Coupler(stiffness=1.0488e7, spacing=25.0)
+    return Train(vehicles=tuple(cars), couplers=(coupler,) * (n - 1))
+
+
+def part2(sizes, steps):
+    from trainctl.analysis.mpc import MPCDesign, threshold_weight
+    from trainctl.models import discretise, linearise
+
+    print(f"\nScaling (fast path, N-DMPC, adjacent neighbourhoods, T = 0.05 s, P = 40, M = 5, "
+          f"{steps} steps):")
+    print("R = max(0.2, 2 R*) per kN² (R* to 5 %): the Jacobi iteration converges")
+    print(f"{'coaches':>8}{'R':>8}{'build [s]':>11}{'iterations':>12}{'per iteration [ms]':>20}"
+          f"{'per coach-QP [ms]':>19}")
+    for n in sizes:
+        train = chain(n)
+        sys_c = linearise(train, 50.0, outputs=("v", "force"))
+        scale = np.concatenate([np.ones(n), np.full(n - 1, 1e-3)])
+        sysd = discretise(sys_c, 0.05)
+        d = MPCDesign(A=sysd.A, B=sysd.B * 1e3, C=scale[:, None] * sysd.C,
+                      prediction_horizon=40, control_horizon=5, form="u",
+                      q=np.concatenate([np.full(n, 10.0), np.full(n - 1, 0.01)]),
+                      r=np.full(n, 0.2), output_owner=tuple(range(n)) + tuple(range(n - 1)),
+                      neighbourhoods=tuple(tuple(j for j in (i - 1, i, i + 1) if 0 <= j < n)
+                                           for i in range(n)))
+        r = max(0.2, 2.0 * threshold_weight(d, rtol=0.05))
+        d = d.with_r(r)
+        start = time.perf_counter()
+        ctl = make_mpc(train, d, dt=0.05, strategy="ndmpc", constraints=CONSTRAINTS,
+                       tolerance=1e-4)
+        build = time.perf_counter() - start
+        states = closed_loop_states(train, d, 0.05, steps)
+        times, iters = time_controller(ctl, states, d, 0.05)
+        per_iter = sum(times) / max(sum(iters), 1)
+        print(f"{n:>8}{r:>8.3g}{build:>11.2f}{statistics.median(iters):>12.1f}"
+              f"{per_iter * 1e3:>20.2f}"
+              f"{per_iter / n * 1e3:>19.3f}")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer steps and sizes (smoke run)")
+    args = parser.parse_args()
+    part1(steps=10 if args.quick else 60)
+    part2([4, 8] if args.quick else [4, 8, 16, 32, 64], steps=3 if args.quick else 4)
+
+
+if __name__ == "__main__":
+    main()
