@@ -1,18 +1,24 @@
 # Running a scenario: everything `trainctl analyse` computes, in one result.
-"""Run a scenario's analyses and collect them in one :class:`AnalysisRun`."""
+"""Run a scenario's analyses and simulations and collect them in one :class:`AnalysisRun`."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from .analysis.review import DesignReview, review_design
+import numpy as np
+
+from .analysis.review import DesignReview, design_model, review_design
 from .analysis.summary import ModelSummary, model_summary
 
 if TYPE_CHECKING:
+    from .controllers.mpc import MPCController
     from .scenario import Scenario
+    from .sim.metrics import Metrics
+    from .sim.results import SimulationResult
 
-__all__ = ["AnalysisRun", "run_scenario"]
+__all__ = ["AnalysisRun", "make_controller", "run_scenario", "simulate_strategy"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -27,11 +33,24 @@ class AnalysisRun:
         Model summary (vehicles, equilibrium, modes, sampling).
     review : DesignReview
         The named design checks.
+    simulations : mapping of str to SimulationResult
+        Closed-loop runs by strategy (empty without ``[simulation]``).
+    metrics : mapping of str to Metrics
+        Their metrics, by strategy.
     """
 
     scenario: Scenario
     summary: ModelSummary
     review: DesignReview
+    simulations: Mapping[str, SimulationResult] = field(default_factory=dict)
+    metrics: Mapping[str, Metrics] = field(default_factory=dict)
+
+    def tracking_ok(self, strategy: str) -> bool:
+        """True when the strategy's max speed error after settling is within tolerance."""
+        sim = self.scenario.simulation
+        if sim is None or strategy not in self.metrics:
+            return False
+        return float(np.max(self.metrics[strategy].max_error)) <= sim.tracking_tolerance
 
     @property
     def failed_checks(self) -> tuple[str, ...]:
@@ -55,32 +74,139 @@ class AnalysisRun:
         out = self.summary.to_dict()
         out["checks"] = self.review.to_dict()["checks"]
         out["failed_checks"] = list(self.failed_checks)
+        if self.metrics:
+            out["simulations"] = {
+                name: {**m.to_dict(), "tracking_ok": self.tracking_ok(name)}
+                for name, m in self.metrics.items()}
         return out
 
     def format_text(self) -> str:
         """The text ``trainctl analyse`` prints."""
-        return self.summary.format_text() + "\n\n" + self.review.format_text()
+        text = self.summary.format_text() + "\n\n" + self.review.format_text()
+        if self.metrics:
+            text += "\n\n" + _metrics_table(self)
+        return text
 
 
-def run_scenario(scenario: Scenario) -> AnalysisRun:
-    """Run the model summary and the design review of ``scenario``.
+def _metrics_table(run: AnalysisRun) -> str:
+    sim = run.scenario.simulation
+    assert sim is not None  # metrics exist only with a [simulation] section
+    lines = [f"Closed-loop simulations ({sim.duration:g} s, nonlinear plant; errors after "
+             f"{sim.settle_time:g} s, tolerance {sim.tracking_tolerance:g} m/s):",
+             f"  {'strategy':<15}{'RMS err':>9}{'max err':>9}{'max |f|':>9}{'energy':>9}"
+             f"{'iters':>7}{'solve p50':>10}  statuses",
+             f"  {'':<15}{'[m/s]':>9}{'[m/s]':>9}{'[kN]':>9}{'[kWh]':>9}{'mean':>7}{'[ms]':>10}"]
+    for name, m in run.metrics.items():
+        ok = "" if run.tracking_ok(name) else "  (tracking outside tolerance)"
+        statuses = ", ".join(f"{k} {v}" for k, v in m.status_counts.items() if v)
+        lines.append(f"  {name:<15}{float(np.sqrt(np.mean(m.rms_error**2))):>9.3f}"
+                     f"{float(np.max(m.max_error)):>9.3f}{m.max_coupler_force / 1e3:>9.2f}"
+                     f"{m.energy:>9.2f}{m.iterations_mean:>7.1f}"
+                     f"{m.solve_time_median * 1e3:>10.2f}  {statuses}{ok}")
+    return "\n".join(lines)
+
+
+def make_controller(scenario: Scenario, strategy: str) -> MPCController:
+    """The scenario's MPC controller for one strategy (QPs built once here).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A scenario with a ``[controller]`` section.
+    strategy : str
+        ``"centralised"``, ``"decentralised"``, ``"ndmpc"`` or ``"cooperative"``.
+
+    Returns
+    -------
+    MPCController
+        Ready for :func:`trainctl.sim.simulate`.
+    """
+    from .controllers.mpc import make_mpc
+    from .exceptions import ScenarioError
+
+    ctl = scenario.controller
+    _, design = design_model(scenario)
+    if ctl is None or design is None:
+        raise ScenarioError(f"{scenario.source}: simulating needs a [controller] section.")
+    weights = (None if ctl.cooperative_weights == "uniform"
+               else np.asarray(ctl.cooperative_weights, dtype=float))
+    return make_mpc(scenario.train, design, dt=scenario.model.sample_time, strategy=strategy,
+                    constraints=ctl.mpc_constraints(), max_iterations=ctl.max_iterations,
+                    tolerance=ctl.iteration_tolerance, relaxation=ctl.relaxation,
+                    cooperative_weights=weights, path=ctl.solver_path, name=strategy)
+
+
+def simulate_strategy(scenario: Scenario, strategy: str) -> SimulationResult:
+    """Simulate one strategy of the scenario's ``[simulation]`` on the nonlinear plant.
+
+    The train starts at the feedforward equilibrium of the reference at t = 0
+    (speed, acceleration) with every vehicle off by ``initial_speed_error``.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A scenario with ``[controller]`` and ``[simulation]`` sections.
+    strategy : str
+        The MPC strategy.
+
+    Returns
+    -------
+    SimulationResult
+        Time series, statuses, iterations and solve times.
+    """
+    from .exceptions import ScenarioError
+    from .models.dynamics import equilibrium
+    from .sim.closed_loop import simulate
+    from .sim.plant import Plant
+    from .sim.reference import SpeedProfile
+
+    sim = scenario.simulation
+    if sim is None:
+        raise ScenarioError(f"{scenario.source}: there is no [simulation] section to run.")
+    profile = SpeedProfile(times=np.asarray(sim.reference_times, dtype=float),
+                           speeds=np.asarray(sim.reference_speeds, dtype=float))
+    v0 = float(profile.speed(0.0))
+    start = equilibrium(scenario.train, max(v0, 0.1), acceleration=float(profile.acceleration(0.0)))
+    state = start.state(position=0.0)
+    state[: scenario.train.n_vehicles] = v0 + sim.initial_speed_error
+    controller = make_controller(scenario, strategy)
+    return simulate(Plant(train=scenario.train, track=scenario.track), controller, profile,
+                    duration=sim.duration, initial_state=state,
+                    preview_steps=controller.P,
+                    measurement_noise=sim.measurement_noise, seed=scenario.seed)
+
+
+def run_scenario(scenario: Scenario, *, simulate: bool = True) -> AnalysisRun:
+    """Run the model summary, the design review and the scenario's simulations.
 
     Parameters
     ----------
     scenario : Scenario
         A loaded scenario.
+    simulate : bool
+        Run the ``[simulation]`` strategies (when the scenario has them).
 
     Returns
     -------
     AnalysisRun
-        Summary and review.
+        Summary, review, simulation results and metrics.
 
     Examples
     --------
     >>> from trainctl.scenario import load_scenario
-    >>> run = run_scenario(load_scenario("crh2-dmpc"))
+    >>> run = run_scenario(load_scenario("crh2-dmpc"), simulate=False)
     >>> "sampling" in run.failed_checks, run.unexpected_checks()
     (True, {})
     """
+    sims: dict[str, SimulationResult] = {}
+    metrics: dict[str, Metrics] = {}
+    if simulate and scenario.simulation is not None:
+        from .sim.metrics import compute_metrics
+
+        for strategy in scenario.simulation.strategies:
+            sims[strategy] = simulate_strategy(scenario, strategy)
+            metrics[strategy] = compute_metrics(
+                sims[strategy], settle_time=scenario.simulation.settle_time,
+                regen_efficiency=scenario.simulation.regen_efficiency)
     return AnalysisRun(scenario=scenario, summary=model_summary(scenario),
-                       review=review_design(scenario))
+                       review=review_design(scenario), simulations=sims, metrics=metrics)

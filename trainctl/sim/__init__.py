@@ -1,0 +1,27 @@
+# Closed-loop simulation: plant integrator, references, loop, results, metrics.
+"""Closed-loop simulation of trainctl controllers on the nonlinear train.
+
+:class:`Plant` integrates the nonlinear train between samples (exponential
+splitting, exact for the stiff couplers); :class:`SpeedProfile` gives the
+reference; :func:`simulate` runs any :class:`~trainctl.controllers.base.Controller`
+in closed loop and returns a :class:`SimulationResult` (save/load, pandas,
+python-control and matplotlib views); :func:`compute_metrics` summarises it.
+Importing this package loads neither pandas nor :mod:`trainctl.plot`; they are
+imported when a view needs them.
+"""
+
+from .closed_loop import HOLD_FALLBACK as HOLD_FALLBACK
+from .closed_loop import simulate as simulate
+from .metrics import Metrics as Metrics
+from .metrics import compute_metrics as compute_metrics
+from .plant import Plant as Plant
+from .reference import Reference as Reference
+from .reference import SpeedProfile as SpeedProfile
+from .reference import ramp_profile as ramp_profile
+from .results import SimulationResult as SimulationResult
+from .results import environment as environment
+
+__all__ = [
+    "HOLD_FALLBACK", "Metrics", "Plant", "Reference", "SimulationResult", "SpeedProfile",
+    "compute_metrics", "environment", "ramp_profile", "simulate",
+]

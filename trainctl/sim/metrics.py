@@ -1,0 +1,208 @@
+# Performance numbers of one closed-loop run.
+"""Tracking, coupler-force, energy, comfort and solver metrics of a run.
+
+All are computed from the sampled signals of a
+:class:`~trainctl.sim.SimulationResult` (what happens between samples is
+not seen: at T = 20 s the coupler oscillations inside an interval are not in
+the maximum coupler force).
+
+Energy quadrature: over interval k each vehicle's input u_k is held, and its
+speed is taken as the trapezoid (v_k + v_{k+1}) / 2, so the work is
+W_ik = u_ik (v_ik + v_i,k+1) / 2 · T — exact when the speed is linear over
+the interval (constant force on a rigid vehicle without resistance).
+Positive work is motoring; negative work is braking, of which the fraction
+``regen_efficiency`` is recovered:
+
+    E = Σ_ik max(W_ik, 0) - regen_efficiency · Σ_ik max(-W_ik, 0)    [J → kWh]
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .._validation import check_finite
+from ..exceptions import ModelError
+from .results import SimulationResult
+
+__all__ = ["Metrics", "compute_metrics"]
+
+JOULES_PER_KWH = 3.6e6
+"""Joules in one kilowatt-hour."""
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class Metrics:
+    """Numbers summarising one run.
+
+    Parameters
+    ----------
+    settle_time : float
+        Tracking errors use samples with t >= settle_time [s].
+    rms_error : ndarray
+        RMS of v_i - v_ref per vehicle after ``settle_time`` [m/s], shape (n,).
+    max_error : ndarray
+        Max |v_i - v_ref| per vehicle after ``settle_time`` [m/s], shape (n,).
+    max_coupler_force : float
+        Max |coupler force| over couplers and samples [N] (0 for one vehicle).
+    energy : float
+        Net traction energy [kWh] (module docstring).
+    motoring_energy : float
+        Σ max(W, 0) [kWh].
+    braking_energy : float
+        Σ max(-W, 0) [kWh], before the regeneration efficiency.
+    regen_efficiency : float
+        Fraction of braking energy recovered [-].
+    max_jerk : float
+        Max |jerk| of the head vehicle [m/s³] (NaN with fewer than 2 samples).
+    rms_jerk : float
+        RMS jerk of the head vehicle [m/s³] (NaN with fewer than 2 samples).
+    iterations_mean : float
+        Mean iterations per sample.
+    iterations_max : int
+        Max iterations in a sample.
+    solve_time_median : float
+        Median controller step time [s].
+    solve_time_p95 : float
+        95th percentile of the step time [s].
+    solve_time_max : float
+        Max step time [s].
+    status_counts : mapping
+        Samples per status.
+    """
+
+    settle_time: float
+    rms_error: NDArray[np.float64]
+    max_error: NDArray[np.float64]
+    max_coupler_force: float
+    energy: float
+    motoring_energy: float
+    braking_energy: float
+    regen_efficiency: float
+    max_jerk: float
+    rms_jerk: float
+    iterations_mean: float
+    iterations_max: int
+    solve_time_median: float
+    solve_time_p95: float
+    solve_time_max: float
+    status_counts: Mapping[str, int]
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-safe dict (arrays as lists, non-finite numbers as None)."""
+
+        def num(x: float) -> float | None:
+            return float(x) if math.isfinite(x) else None
+
+        return {
+            "settle_time": self.settle_time,
+            "rms_error": [num(x) for x in self.rms_error],
+            "max_error": [num(x) for x in self.max_error],
+            "max_coupler_force": num(self.max_coupler_force),
+            "energy_kwh": num(self.energy),
+            "motoring_energy_kwh": num(self.motoring_energy),
+            "braking_energy_kwh": num(self.braking_energy),
+            "regen_efficiency": self.regen_efficiency,
+            "max_jerk": num(self.max_jerk),
+            "rms_jerk": num(self.rms_jerk),
+            "iterations_mean": num(self.iterations_mean),
+            "iterations_max": self.iterations_max,
+            "solve_time_median": num(self.solve_time_median),
+            "solve_time_p95": num(self.solve_time_p95),
+            "solve_time_max": num(self.solve_time_max),
+            "status_counts": dict(self.status_counts),
+        }
+
+
+def compute_metrics(
+    result: SimulationResult, *, settle_time: float = 0.0, regen_efficiency: float = 1.0
+) -> Metrics:
+    """Metrics of a run.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        The run.
+    settle_time : float
+        Ignore tracking errors before this time [s]; there must be at least
+        one sample at or after it.
+    regen_efficiency : float
+        Fraction of braking energy recovered, in [0, 1].
+
+    Returns
+    -------
+    Metrics
+        The numbers. Tracking errors and coupler forces are taken at the
+        sample instants; the head jerk is the difference of the interval
+        accelerations a_k = (v_{k+1} - v_k) / T, j_k = (a_{k+1} - a_k) / T.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> result = SimulationResult(
+    ...     time=np.array([0.0, 10.0]), states=np.array([[10.0, 20.0], [0.0, 150.0]]),
+    ...     velocities=np.array([[10.0, 20.0]]), coupler_forces=np.zeros((0, 2)),
+    ...     inputs=np.array([[1000.0]]), reference_speed=np.array([10.0, 20.0]),
+    ...     reference_acceleration=np.ones(2), statuses=("optimal",),
+    ...     iterations=np.array([2]), residuals=((),), solve_times=np.array([0.01]),
+    ...     fallbacks=("",), controller_name="demo", seed=0, dt=10.0)
+    >>> m = compute_metrics(result)
+    >>> round(m.energy * 3.6e6)  # 1000 N over 150 m
+    150000
+    """
+    settle = check_finite("compute_metrics", "settle_time", settle_time)
+    eta = check_finite("compute_metrics", "regen_efficiency", regen_efficiency)
+    if not 0.0 <= eta <= 1.0:
+        raise ModelError(
+            f"compute_metrics: 'regen_efficiency' must be in [0, 1] (got {regen_efficiency!r})."
+        )
+    after = result.time >= settle - 1e-9 * max(1.0, abs(settle))
+    if not np.any(after):
+        raise ModelError(
+            f"compute_metrics: 'settle_time' must leave at least one sample "
+            f"(got {settle_time!r} s; the run ends at {result.time[-1]!r} s)."
+        )
+    error = result.velocities[:, after] - result.reference_speed[after]
+    rms_error = np.sqrt(np.mean(error**2, axis=1))
+    max_error = np.abs(error).max(axis=1)
+    forces = result.coupler_forces
+    max_force = float(np.abs(forces).max()) if forces.size else 0.0
+
+    v = result.velocities
+    dt_k = np.diff(result.time)
+    work = result.inputs * 0.5 * (v[:, :-1] + v[:, 1:]) * dt_k
+    motoring = float(np.maximum(work, 0.0).sum()) / JOULES_PER_KWH
+    braking = float(np.maximum(-work, 0.0).sum()) / JOULES_PER_KWH
+
+    accel = np.diff(v[0]) / dt_k
+    if accel.size >= 2:
+        jerk = np.diff(accel) / dt_k[1:]
+        max_jerk, rms_jerk = float(np.abs(jerk).max()), float(np.sqrt(np.mean(jerk**2)))
+    else:
+        max_jerk = rms_jerk = math.nan
+
+    iters = result.iterations
+    times = result.solve_times
+    has = iters.size > 0
+    return Metrics(
+        settle_time=settle,
+        rms_error=rms_error,
+        max_error=max_error,
+        max_coupler_force=max_force,
+        energy=motoring - eta * braking,
+        motoring_energy=motoring,
+        braking_energy=braking,
+        regen_efficiency=eta,
+        max_jerk=max_jerk,
+        rms_jerk=rms_jerk,
+        iterations_mean=float(iters.mean()) if has else math.nan,
+        iterations_max=int(iters.max()) if has else 0,
+        solve_time_median=float(np.median(times)) if has else math.nan,
+        solve_time_p95=float(np.percentile(times, 95)) if has else math.nan,
+        solve_time_max=float(times.max()) if has else math.nan,
+        status_counts=result.status_counts(),
+    )
