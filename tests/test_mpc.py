@@ -208,17 +208,29 @@ class TestConstrained:
             x_dev = sysd.A @ x_dev + sysd.B @ ((recs[0].inputs - eq.inputs) / 1e3)
 
 
+_BOUNDED: dict[str, object] = {}
+
+
+def _bounded_controller(strategy):
+    """One controller per strategy for the property test (QPs are built once, then reset)."""
+    if strategy not in _BOUNDED:
+        scenario = load_scenario("crh2-dmpc-well-sampled")
+        d = design_model(scenario)[1]
+        _BOUNDED[strategy] = make_mpc(
+            scenario.train, d, dt=scenario.model.sample_time, strategy=strategy,
+            max_iterations=20, constraints=MPCConstraints(rate_limit=2e3, coupler_force_limit=50e3))
+    ctl = _BOUNDED[strategy]
+    ctl.reset()
+    return ctl
+
+
 @settings(deadline=None, max_examples=15)
 @given(dv=st.floats(-3.0, 3.0), v0=st.floats(25.0, 80.0), accel=st.floats(-0.3, 0.3),
        strategy=st.sampled_from(["centralised", "ndmpc", "decentralised"]))
 def test_inputs_respect_envelope_and_rate_bounds(dv, v0, accel, strategy):
     """Every step's inputs lie in the envelope and within the rate limit of the last input."""
-    scenario = load_scenario("crh2-dmpc-well-sampled")
-    d = design_model(scenario)[1]
-    train, T = scenario.train, scenario.model.sample_time
-    rate = 2e3
-    ctl = make_mpc(train, d, dt=T, strategy=strategy, max_iterations=20,
-                   constraints=MPCConstraints(rate_limit=rate, coupler_force_limit=50e3))
+    ctl = _bounded_controller(strategy)
+    d, train, T, rate = ctl.design, ctl.train, ctl.dt, 2e3
     x = equilibrium(train, v0).state(position=0.0)
     x[:4] += dv
     prev = None

@@ -1,0 +1,65 @@
+"""Seed 000 closed loops: the scenario's strategies on the nonlinear plant."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from trainctl.run import run_scenario
+from trainctl.scenario import load_scenario
+from trainctl.sim.plant import Plant
+
+
+@pytest.fixture(scope="module")
+def book_run():
+    return run_scenario(load_scenario("crh2-dmpc"))
+
+
+class TestSeed000:
+    def test_every_strategy_tracks_within_the_stated_tolerance(self, book_run):
+        """After the scenario's settle time every coach is within tracking_tolerance."""
+        sim = book_run.scenario.simulation
+        assert set(book_run.metrics) == {"centralised", "decentralised", "ndmpc"}
+        for name, m in book_run.metrics.items():
+            assert np.max(m.max_error) <= sim.tracking_tolerance, name
+            assert book_run.tracking_ok(name)
+
+    def test_traction_and_coupler_forces_stay_within_bounds(self, book_run):
+        """Inputs lie in each coach's envelope at the reference speed; |f| <= 500 kN."""
+        train = book_run.scenario.train
+        limit = book_run.scenario.controller.coupler_force_limit
+        for name, res in book_run.simulations.items():
+            v_ref = res.reference_speed[:-1]
+            up = np.array([[v.envelope.traction_limit(s, mass=v.mass) for s in v_ref]
+                           for v in train.vehicles])
+            down = np.array([[v.envelope.braking_limit(s, mass=v.mass) for s in v_ref]
+                             for v in train.vehicles])
+            assert np.all(res.inputs <= up + 1.0), name      # 1 N of solver tolerance
+            assert np.all(res.inputs >= -down - 1.0), name
+            assert np.all(res.inputs[[0, 3]] <= 1.0), name    # trailers brake only
+            assert np.max(np.abs(res.coupler_forces)) <= limit, name
+            assert set(res.statuses) <= {"optimal", "optimal_inaccurate"}, name
+
+    def test_metrics_are_reported(self, book_run):
+        """The JSON of the run carries metrics per strategy; the text has the table."""
+        data = json.loads(json.dumps(book_run.to_dict()))
+        assert set(data["simulations"]) == {"centralised", "decentralised", "ndmpc"}
+        assert data["simulations"]["ndmpc"]["tracking_ok"] is True
+        assert "Closed-loop simulations" in book_run.format_text()
+
+    def test_plant_integrator_agrees_with_solve_ivp_over_the_full_run(self, book_run):
+        """Replaying the N-DMPC inputs: splitting integrator = solve_ivp (rtol 1e-9), 1200 s."""
+        res = book_run.simulations["ndmpc"]
+        plant = Plant(train=book_run.scenario.train)
+        x_split = x_ref = res.states[:, 0]
+        for k in range(res.inputs.shape[1]):
+            x_split = plant.advance(x_split, res.inputs[:, k], res.dt)
+            x_ref = plant.advance_reference(x_ref, res.inputs[:, k], res.dt, rtol=1e-9)
+        n = 4
+        np.testing.assert_allclose(x_split[:n], x_ref[:n], rtol=1e-7)
+        forces_split = 1.0488e7 * x_split[n:2 * n - 1]
+        forces_ref = 1.0488e7 * x_ref[n:2 * n - 1]
+        np.testing.assert_allclose(forces_split, forces_ref, atol=1e-3 * np.ptp(res.coupler_forces))
+        np.testing.assert_allclose(x_split, res.states[:, -1], rtol=1e-12)  # the run used it
