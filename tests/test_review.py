@@ -113,9 +113,17 @@ class TestCli:
         out = capsys.readouterr().out
         assert "Design checks:" in out and "ndmpc_convergence" in out and "hint:" in out
 
+    def test_no_simulate_skips_the_runs(self, capsys):
+        """--no-simulate prints the checks but no closed-loop table."""
+        assert main(["analyse", "crh2-dmpc", "--no-simulate"]) == 0
+        out = capsys.readouterr().out
+        assert "Design checks:" in out and "Closed-loop simulations" not in out
+        assert main(["analyse", "crh2-dmpc"]) == 0
+        assert "Closed-loop simulations" in capsys.readouterr().out
+
     def test_json_has_the_checks(self, capsys):
         """--json carries the same checks, statuses and hints."""
-        assert main(["analyse", "crh2-dmpc", "--json"]) == 0
+        assert main(["analyse", "crh2-dmpc", "--json", "--no-simulate"]) == 0
         data = json.loads(capsys.readouterr().out)
         by_name = {c["name"]: c for c in data["checks"]}
         assert by_name["sampling"]["status"] == "fail" and by_name["sampling"]["hint"]

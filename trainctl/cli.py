@@ -107,6 +107,10 @@ def build_parser() -> argparse.ArgumentParser:
     p_analyse.add_argument(
         "--strict", action="store_true", help="exit with status 1 if any check fails"
     )
+    p_analyse.add_argument(
+        "--no-simulate", action="store_true",
+        help="skip the [simulation] runs (model summary and design checks only)",
+    )
     p_analyse.set_defaults(func=_cmd_analyse)
 
     p_report = sub.add_parser(
@@ -225,7 +229,7 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
     from .run import run_scenario
     from .scenario import load_scenario
 
-    summary = run_scenario(load_scenario(args.scenario))
+    summary = run_scenario(load_scenario(args.scenario), simulate=not args.no_simulate)
     if args.json:
         print(json.dumps(summary.to_dict(), indent=2))
     else:

@@ -42,7 +42,7 @@ from .status import from_cvxpy, from_osqp
 
 __all__ = ["OSQP_SETTINGS", "ParametricQP", "QPSolution"]
 
-OSQP_SETTINGS = {"eps_abs": 1e-7, "eps_rel": 1e-7, "max_iter": 20000, "polishing": True}
+OSQP_SETTINGS = {"eps_abs": 1e-6, "eps_rel": 1e-6, "max_iter": 20000, "polishing": True}
 """OSQP settings used by both solve paths."""
 
 Array = NDArray[np.float64]
