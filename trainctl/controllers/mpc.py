@@ -50,6 +50,7 @@ from ..exceptions import ModelError
 from ..models.train import Train
 from ..units import GRAVITY
 from .base import Measurement, ReferencePreview, StepRecord
+from .observer import KalmanObserver, ObserverSettings
 from .qp import ParametricQP
 from .status import is_usable
 
@@ -139,13 +140,16 @@ class MPCController:
         QP solve path.
     name : str
         Label.
+    observer : KalmanObserver or None
+        With an observer the controller uses the measured speeds only
+        (``measurement.outputs``) and compensates the estimated disturbance.
     """
 
     def __init__(self, train: Train, design: MPCDesign, force_matrix: Array, *, dt: float,
                  strategy: str, constraints: MPCConstraints, max_iterations: int = 50,
                  tolerance: float = 1e-6, relaxation: float = 1.0,
                  cooperative_weights: Array | None = None, path: str = "fast",
-                 name: str | None = None) -> None:
+                 name: str | None = None, observer: KalmanObserver | None = None) -> None:
         if strategy not in STRATEGIES:
             raise ModelError(
                 f"MPCController: 'strategy' must be one of {STRATEGIES} (got {strategy!r}).")
@@ -155,6 +159,7 @@ class MPCController:
         self.strategy, self.constraints, self.path = strategy, constraints, path
         self.max_iterations, self.tolerance, self.relaxation = max_iterations, tolerance, relaxation
         self.name = name or strategy
+        self.observer = observer
         n, M = design.n_inputs, design.control_horizon
         self.n, self.M, self.P = n, M, design.prediction_horizon
         self.pred: Prediction = prediction(design)
@@ -240,13 +245,20 @@ class MPCController:
         self._plan: Array | None = None         # decision vector of the last step
         self._u_prev: Array | None = None       # last applied absolute input [kN]
         self._ff_prev: Array | None = None      # feedforward at the last step [kN]
+        self._disturbance = 0.0                 # estimated specific force [m/s²]
+        if self.observer is not None:
+            self.observer.reset()
+
+    @property
+    def needs_full_state(self) -> bool:
+        """False when an observer estimates the state from the measured speeds."""
+        return self.observer is None
 
     def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
         """One MPC step: feedforward + optimised deviation, first move applied."""
         start = time.perf_counter()
-        if measurement.state is None:
-            raise ModelError(f"{self.name}: needs full-state measurement (got state=None).")
-        ctx = self._context(measurement.state, reference)
+        state = self._state(measurement)
+        ctx = self._context(state, reference)
         plan0 = self._shifted_plan()
         if self.strategy in ("centralised", "decentralised"):
             U, status, iters, residuals, fallback = self._single(ctx, plan0)
@@ -255,14 +267,32 @@ class MPCController:
         moves = self.L @ U + ctx["u_dev_prev_tiled"]
         u_abs = ctx["u_ff"][0] + moves[: self.n]
         self._plan, self._u_prev, self._ff_prev = U, u_abs, ctx["u_ff"][0]
+        info: dict[str, object] = {}
+        if self.observer is not None:
+            self.observer.predict(u_abs * KN)
+            info["disturbance"] = self._disturbance
         return StepRecord(inputs=u_abs * KN, status=status, iterations=iters,
                           residuals=tuple(residuals), solve_time=time.perf_counter() - start,
-                          fallback=fallback)
+                          fallback=fallback, info=info)
+
+    def _state(self, measurement: Measurement) -> Array:
+        if self.observer is None:
+            if measurement.state is None:
+                raise ModelError(f"{self.name}: needs full-state measurement (got state=None); "
+                                 "give the controller an observer to use measured speeds.")
+            return measurement.state
+        if measurement.outputs is None:
+            raise ModelError(f"{self.name}: the observer needs the measured speeds "
+                             "(measurement.outputs is None).")
+        state, self._disturbance = self.observer.correct(measurement.outputs)
+        return state
 
     # -- one step -----------------------------------------------------------------------------
     def _context(self, state: Array, ref: ReferencePreview) -> dict[str, Array]:
         n, P, M = self.n, self.P, self.M
-        u_ff, f_ff, elong0 = self._feedforward(ref.speed[: P + 1], ref.acceleration[: P + 1])
+        # An estimated disturbance is compensated like an extra acceleration.
+        accel = ref.acceleration[: P + 1] + self._disturbance
+        u_ff, f_ff, elong0 = self._feedforward(ref.speed[: P + 1], accel)
         v = state[:n]
         delta = state[n:2 * n - 1]
         x_dev = np.concatenate([v - ref.speed[0], delta - elong0])
@@ -434,7 +464,8 @@ def make_mpc(train: Train, design: MPCDesign, *, dt: float, strategy: str = "ndm
              constraints: MPCConstraints | None = None, max_iterations: int = 50,
              tolerance: float = 1e-6, relaxation: float = 1.0,
              cooperative_weights: Array | None = None, path: str = "fast",
-             name: str | None = None) -> MPCController:
+             name: str | None = None, observer: ObserverSettings | None = None,
+             design_speed: float | None = None) -> MPCController:
     """Build an MPC controller; every QP is modelled once here.
 
     Parameters
@@ -462,6 +493,11 @@ def make_mpc(train: Train, design: MPCDesign, *, dt: float, strategy: str = "ndm
         QP solve path.
     name : str or None
         Label (default: the strategy).
+    observer : ObserverSettings or None
+        Estimate the state and a disturbance from the measured speeds
+        (output feedback, offset-free tracking) instead of measuring the state.
+    design_speed : float or None
+        Speed at which the observer gain is designed [m/s]; required with ``observer``.
 
     Returns
     -------
@@ -475,8 +511,13 @@ def make_mpc(train: Train, design: MPCDesign, *, dt: float, strategy: str = "ndm
     if force_rows.shape[1] != nx:
         raise ModelError(f"make_mpc: the design has {nx} states but the train's model has "
                          f"{force_rows.shape[1]}; build the design without the dummy state.")
+    kalman = None
+    if observer is not None:
+        if design_speed is None:
+            raise ModelError("make_mpc: 'design_speed' [m/s] is required with an observer.")
+        kalman = KalmanObserver(train, dt, design_speed, observer)
     return MPCController(train, design, force_rows, dt=dt, strategy=strategy,
                          constraints=constraints or MPCConstraints(),
                          max_iterations=max_iterations, tolerance=tolerance,
                          relaxation=relaxation, cooperative_weights=cooperative_weights,
-                         path=path, name=name)
+                         path=path, name=name, observer=kalman)
