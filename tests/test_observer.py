@@ -99,3 +99,30 @@ class TestOffsetFree:
         with pytest.raises(ModelError, match="full-state measurement"):
             ctl.step(0.0, Measurement(outputs=np.full(4, 50.0)),
                      SpeedProfile(times=(0.0,), speeds=(50.0,)).preview(0.0, 0.05, 40))
+
+
+class TestScenarioObserver:
+    def test_kalman_observer_from_a_scenario_file(self):
+        """[controller] observer = "kalman": the strategy runs on measured speeds only."""
+        from trainctl.run import make_controller, simulate_strategy
+        from trainctl.scenario import builtin_scenario_text, parse_scenario
+
+        text = builtin_scenario_text("crh2-dmpc").replace(
+            "[controller]\n", '[controller]\nobserver = "kalman"\n', 1).replace(
+            "[simulation]\n", "[simulation]\nmeasurement_noise = 0.02\n", 1)
+        scenario = parse_scenario(text)
+        assert scenario.controller.observer == "kalman"
+        assert not make_controller(scenario, "centralised").needs_full_state
+        result = simulate_strategy(scenario, "centralised")
+        error = np.abs(result.velocities[:, 10:] - result.reference_speed[10:])
+        assert error.max() < scenario.simulation.tracking_tolerance
+
+    def test_unknown_observer_is_rejected(self):
+        """A misspelt observer name is a ScenarioError with a suggestion."""
+        from trainctl.exceptions import ScenarioError
+        from trainctl.scenario import builtin_scenario_text, parse_scenario
+
+        text = builtin_scenario_text("crh2-dmpc").replace(
+            "[controller]\n", '[controller]\nobserver = "kalman2"\n', 1)
+        with pytest.raises(ScenarioError, match=r"\[controller\]\.observer"):
+            parse_scenario(text)

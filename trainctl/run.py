@@ -128,12 +128,20 @@ def make_controller(scenario: Scenario, strategy: str) -> MPCController:
     _, design = design_model(scenario)
     if ctl is None or design is None:
         raise ScenarioError(f"{scenario.source}: simulating needs a [controller] section.")
+    from .controllers.observer import ObserverSettings
+
     weights = (None if ctl.cooperative_weights == "uniform"
                else np.asarray(ctl.cooperative_weights, dtype=float))
+    observer = None
+    if ctl.observer == "kalman":
+        noise = scenario.simulation.measurement_noise if scenario.simulation else 0.0
+        observer = ObserverSettings(measurement_noise=max(noise, 0.01),
+                                    disturbance_noise=ctl.observer_disturbance_noise)
     return make_mpc(scenario.train, design, dt=scenario.model.sample_time, strategy=strategy,
                     constraints=ctl.mpc_constraints(), max_iterations=ctl.max_iterations,
                     tolerance=ctl.iteration_tolerance, relaxation=ctl.relaxation,
-                    cooperative_weights=weights, path=ctl.solver_path, name=strategy)
+                    cooperative_weights=weights, path=ctl.solver_path, name=strategy,
+                    observer=observer, design_speed=scenario.model.speed)
 
 
 def simulate_strategy(scenario: Scenario, strategy: str) -> SimulationResult:
@@ -173,7 +181,8 @@ def simulate_strategy(scenario: Scenario, strategy: str) -> SimulationResult:
     return simulate(Plant(train=scenario.train, track=scenario.track), controller, profile,
                     duration=sim.duration, initial_state=state,
                     preview_steps=controller.P,
-                    measurement_noise=sim.measurement_noise, seed=scenario.seed)
+                    measurement_noise=sim.measurement_noise, seed=scenario.seed,
+                    full_state=controller.needs_full_state)
 
 
 def run_scenario(scenario: Scenario, *, simulate: bool = True) -> AnalysisRun:

@@ -68,6 +68,7 @@ __all__ = [
     "RESERVED_SECTIONS",
     "SCHEMA_VERSION",
     "SIMULATION_STRATEGIES",
+    "OBSERVERS",
     "SOLVER_PATHS",
     "BuiltinScenario",
     "ControllerSettings",
@@ -107,6 +108,10 @@ NEIGHBOURHOODS = ("adjacent", "all", "self")
 
 SOLVER_PATHS = ("fast", "cvxpy")
 """Accepted values of ``[controller].solver_path``: the QP solve path of the MPC."""
+
+OBSERVERS = ("none", "kalman")
+"""Accepted values of ``[controller].observer``: full-state feedback, or a Kalman
+observer that estimates the state and a grade-like disturbance from the speeds."""
 
 SIMULATION_STRATEGIES = ("centralised", "decentralised", "ndmpc", "cooperative")
 """Accepted items of ``[simulation].strategies``.
@@ -184,6 +189,7 @@ _CONTROLLER_KEYS = (
     "r_per_kn2", "r_per_n2", "neighbourhood", "iterations", "cooperative_weights",
     "max_iterations", "iteration_tolerance_kn", "relaxation", "input_bounds", "rate_limit_kn",
     "coupler_force_limit_kn", "soft_penalty_linear", "soft_penalty_quadratic", "solver_path",
+    "observer", "observer_disturbance_noise",
 )  # fmt: skip
 _SIMULATION_KEYS = (
     "duration", "strategies", "initial_speed_error", "measurement_noise", "settle_time",
@@ -327,6 +333,12 @@ class ControllerSettings:
         Quadratic penalty on a coupler-force violation [per kN^2], > 0.
     solver_path : {"fast", "cvxpy"}
         QP solve path of the MPC.
+    observer : {"none", "kalman"}
+        ``"none"``: the controller measures the full state. ``"kalman"``: it
+        measures the (noisy) speeds only and estimates the state and a
+        specific-force disturbance (offset-free on grades).
+    observer_disturbance_noise : float
+        Random-walk step of the estimated disturbance per sample [m/s²], > 0.
 
     Examples
     --------
@@ -360,6 +372,8 @@ class ControllerSettings:
     soft_penalty_linear: float = 1000.0
     soft_penalty_quadratic: float = 100.0
     solver_path: str = "fast"
+    observer: str = "none"
+    observer_disturbance_noise: float = 1e-3
 
     def __post_init__(self) -> None:
         def fail(message: str) -> NoReturn:
@@ -414,6 +428,12 @@ class ControllerSettings:
             fail(f"'input_bounds' must be True or False (got {self.input_bounds!r}).")
         if self.solver_path not in SOLVER_PATHS:
             fail(f"'solver_path' must be one of {SOLVER_PATHS} (got {self.solver_path!r}).")
+        if self.observer not in OBSERVERS:
+            fail(f"'observer' must be one of {OBSERVERS} (got {self.observer!r}).")
+        if not (math.isfinite(self.observer_disturbance_noise)
+                and self.observer_disturbance_noise > 0):
+            fail("'observer_disturbance_noise' must be a number > 0 [m/s²] "
+                 f"(got {self.observer_disturbance_noise!r}).")
         if self.q_force > 0 and "force" not in outputs:
             fail(f"'q_force' must be 0 without 'force' in 'outputs' (got {self.q_force!r}).")
         if self.input_weight_unit not in _INPUT_WEIGHT_KEYS.values():
@@ -1350,6 +1370,8 @@ def _parse_controller(table: _Table, n: int) -> ControllerSettings:
     soft_linear = table.number("soft_penalty_linear", "nonneg", 1000.0)
     soft_quadratic = table.number("soft_penalty_quadratic", "pos", 100.0)
     solver_path = table.choice("solver_path", SOLVER_PATHS, default="fast")
+    observer = table.choice("observer", OBSERVERS, default="none")
+    disturbance_noise = table.number("observer_disturbance_noise", "pos", 1e-3)
     return _build(
         table.file,
         table.path,
@@ -1374,6 +1396,8 @@ def _parse_controller(table: _Table, n: int) -> ControllerSettings:
             soft_penalty_linear=soft_linear,
             soft_penalty_quadratic=soft_quadratic,
             solver_path=solver_path,
+            observer=observer,
+            observer_disturbance_noise=disturbance_noise,
         ),
     )
 
