@@ -544,3 +544,16 @@ def test_import_does_not_load_pandas() -> None:
             "print(sorted(m for m in ('pandas', 'trainctl.plot') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_to_pandas_without_pandas_names_the_extra(monkeypatch):
+    """With pandas unavailable, to_pandas raises MissingDependencyError with the install hint."""
+    import sys
+
+    from trainctl.exceptions import MissingDependencyError
+    from trainctl.sim.results import SimulationResult
+
+    monkeypatch.setitem(sys.modules, "pandas", None)  # import pandas -> ImportError
+    result = SimulationResult.__new__(SimulationResult)
+    with pytest.raises(MissingDependencyError, match=r"trainctl\[pandas\]"):
+        result.to_pandas()
