@@ -255,10 +255,10 @@ class TestAnalyse:
         """Every built-in analyses with exit 0; --strict exits 1 exactly when a check fails."""
         from trainctl.analysis.review import review_design
 
-        assert main(["analyse", name]) == 0
+        assert main(["analyse", name, "--no-simulate"]) == 0
         assert load_scenario(name).name in capsys.readouterr().out
         failed = any(c.status == "fail" for c in review_design(load_scenario(name)).checks)
-        assert main(["analyse", name, "--strict"]) == (1 if failed else 0)
+        assert main(["analyse", name, "--strict", "--no-simulate"]) == (1 if failed else 0)
 
     def test_scenario_file(self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
         """A scenario file path is read as a file."""
@@ -275,7 +275,7 @@ class TestAnalyse:
         assert "Vehicles" in out and "Design checks" in out
         assert "sampling" in err and "input_collapse" in err
         assert "Traceback" not in err
-        assert main(["analyse", "crh2-dmpc-well-sampled", "--strict"]) == 0
+        assert main(["analyse", "crh2-dmpc-well-sampled", "--strict", "--no-simulate"]) == 0
 
 
 BAD_FILES: dict[str, str | bytes] = {

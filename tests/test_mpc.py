@@ -259,3 +259,15 @@ def test_infeasible_step_is_recorded_and_falls_back(fast):
     assert np.all(np.isfinite(second.inputs))
     assert first.status in ("optimal", "max_iterations")
     assert math.isfinite(second.solve_time)
+
+
+def test_force_steps_select_the_bounded_prediction_steps(fast):
+    """Bounding forces at k of the P steps gives k rows per adjacent coupler in each QP."""
+    scenario, d = fast
+    steps = (1, 2, 10, 40)
+    ctl = make_mpc(scenario.train, d, dt=scenario.model.sample_time, strategy="ndmpc",
+                   constraints=MPCConstraints(coupler_force_limit=500e3, force_steps=steps))
+    assert [b.qp.ns for b in ctl.blocks] == [4, 8, 8, 4]  # end coaches have one coupler
+    full = make_mpc(scenario.train, d, dt=scenario.model.sample_time, strategy="centralised",
+                    constraints=MPCConstraints(coupler_force_limit=500e3))
+    assert full.blocks[0].qp.ns == 3 * d.prediction_horizon

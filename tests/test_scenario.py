@@ -2260,3 +2260,23 @@ class TestSimulationSettings:
         assert ok.simulation is not None and ok.simulation.n_steps(20.0) == 10
         with pytest.raises(ModelError, match="must be a whole multiple of the sample time 20.0"):
             dataclasses.replace(scenario, simulation=make_simulation(duration=110.0))
+
+
+class TestCouplerForceSteps:
+    """[controller].coupler_force_steps."""
+
+    def test_steps_reach_the_mpc_constraints(self) -> None:
+        """The well-sampled built-in bounds the forces at its twelve listed steps."""
+        ctl = load_scenario("crh2-dmpc-well-sampled").controller
+        assert ctl.coupler_force_steps == (1, 2, 3, 4, 5, 10, 15, 20, 25, 30, 35, 40)
+        assert ctl.mpc_constraints().force_steps == ctl.coupler_force_steps
+
+    @pytest.mark.parametrize(
+        "value", ["[]", "[0, 1]", "[3, 2]", "[1, 41]", "[1.0]", "[true]", '"all"'])
+    def test_bad_steps_are_rejected(self, value: str) -> None:
+        """Empty, out-of-range, non-increasing or non-integer steps name the key."""
+        text = builtin_scenario_text("crh2-dmpc-well-sampled").replace(
+            "coupler_force_steps = [1, 2, 3, 4, 5, 10, 15, 20, 25, 30, 35, 40]",
+            f"coupler_force_steps = {value}")
+        with pytest.raises(ScenarioError, match=r"\[controller\]\.coupler_force_steps"):
+            parse_scenario(text)

@@ -189,7 +189,7 @@ _CONTROLLER_KEYS = (
     "r_per_kn2", "r_per_n2", "neighbourhood", "iterations", "cooperative_weights",
     "max_iterations", "iteration_tolerance_kn", "relaxation", "input_bounds", "rate_limit_kn",
     "coupler_force_limit_kn", "soft_penalty_linear", "soft_penalty_quadratic", "solver_path",
-    "observer", "observer_disturbance_noise",
+    "observer", "observer_disturbance_noise", "coupler_force_steps",
 )  # fmt: skip
 _SIMULATION_KEYS = (
     "duration", "strategies", "initial_speed_error", "measurement_noise", "settle_time",
@@ -339,6 +339,9 @@ class ControllerSettings:
         specific-force disturbance (offset-free on grades).
     observer_disturbance_noise : float
         Random-walk step of the estimated disturbance per sample [m/s²], > 0.
+    coupler_force_steps : tuple of int or None
+        Prediction steps (1..P, increasing) at which the coupler-force bound
+        applies; None for every step.
 
     Examples
     --------
@@ -374,6 +377,7 @@ class ControllerSettings:
     solver_path: str = "fast"
     observer: str = "none"
     observer_disturbance_noise: float = 1e-3
+    coupler_force_steps: tuple[int, ...] | None = None
 
     def __post_init__(self) -> None:
         def fail(message: str) -> NoReturn:
@@ -469,6 +473,7 @@ class ControllerSettings:
             coupler_force_limit=self.coupler_force_limit,
             soft_linear=self.soft_penalty_linear,
             soft_quadratic=self.soft_penalty_quadratic,
+            force_steps=self.coupler_force_steps,
         )
 
     def input_weight_per_kn2(self) -> float:
@@ -1371,6 +1376,7 @@ def _parse_controller(table: _Table, n: int) -> ControllerSettings:
     soft_quadratic = table.number("soft_penalty_quadratic", "pos", 100.0)
     solver_path = table.choice("solver_path", SOLVER_PATHS, default="fast")
     observer = table.choice("observer", OBSERVERS, default="none")
+    force_steps = _parse_force_steps(table, horizon)
     disturbance_noise = table.number("observer_disturbance_noise", "pos", 1e-3)
     return _build(
         table.file,
@@ -1398,8 +1404,25 @@ def _parse_controller(table: _Table, n: int) -> ControllerSettings:
             solver_path=solver_path,
             observer=observer,
             observer_disturbance_noise=disturbance_noise,
+            coupler_force_steps=force_steps,
         ),
     )
+
+
+def _parse_force_steps(table: _Table, horizon: int) -> tuple[int, ...] | None:
+    if not table.has("coupler_force_steps"):
+        return None
+    where = table.key("coupler_force_steps")
+    value = table.data["coupler_force_steps"]
+    want = f"a non-empty array of increasing integers from 1 to prediction_horizon = {horizon}"
+    if not isinstance(value, list) or not value:
+        table.fail(f"{where} must be {want} (got {_got(value)}).")
+    for i, item in enumerate(value):
+        bad = isinstance(item, bool) or not isinstance(item, int) or not 1 <= item <= horizon
+        if bad or (i and item <= value[i - 1]):
+            table.fail(f"{where}[{i}] must be {want} (got {_got(item)}). Omit the key to bound "
+                       "the coupler forces at every prediction step.")
+    return tuple(value)
 
 
 def _parse_outputs(table: _Table, n: int) -> tuple[str, ...]:

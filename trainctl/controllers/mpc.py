@@ -79,6 +79,10 @@ class MPCConstraints:
         Linear penalty per kN of coupler-force violation.
     soft_quadratic : float
         Quadratic penalty per kN² of violation.
+    force_steps : tuple of int or None
+        Prediction steps (1..P) at which the coupler forces are bounded; None
+        for every step. Bounding a subset (e.g. the first few steps, then every
+        fifth) shrinks each QP with little effect when the bound is far from active.
     """
 
     input_bounds: bool = True
@@ -86,6 +90,7 @@ class MPCConstraints:
     coupler_force_limit: float = math.inf
     soft_linear: float = 1e3
     soft_quadratic: float = 1e2
+    force_steps: tuple[int, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -210,7 +215,10 @@ class MPCController:
         couplers = sorted({c for i in coaches for c in (i - 1, i) if 0 <= c < nf})
         if self.strategy == "centralised":
             couplers = list(range(nf))
-        rows = np.array([j * nf + c for j in range(self.P) for c in couplers], dtype=np.int64)
+        chosen = self.constraints.force_steps
+        steps = (range(self.P) if chosen is None
+                 else sorted({int(j) - 1 for j in chosen if 1 <= j <= self.P}))
+        rows = np.array([j * nf + c for j in steps for c in couplers], dtype=np.int64)
         if not math.isfinite(self.constraints.coupler_force_limit):
             rows = np.zeros(0, dtype=np.int64)
         F = self.fpred.G[np.ix_(rows, cols)] if rows.size else np.zeros((0, cols.size))
