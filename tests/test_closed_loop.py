@@ -78,3 +78,23 @@ class TestSeed000:
         forces_ref = 1.0488e7 * x_ref[n:2 * n - 1]
         np.testing.assert_allclose(forces_split, forces_ref, atol=1e-3 * np.ptp(res.coupler_forces))
         np.testing.assert_allclose(x_split, res.states[:, -1], rtol=1e-12)  # the run used it
+
+
+def test_infeasible_scenario_records_statuses_falls_back_and_completes():
+    """Start at 20 m/s asked to accelerate at 0.8 m/s²: the feedforward exceeds the 60 kN
+    power limit by more than the 1 kN/step rate limit allows. The run completes, the
+    infeasible samples are recorded and the declared fallback (shifted plan) is applied."""
+    from trainctl.run import simulate_strategy
+    from trainctl.scenario import builtin_scenario_text, parse_scenario
+
+    text = builtin_scenario_text("crh2-dmpc")
+    text = text.replace("[controller]\n", "[controller]\nrate_limit_kn = 1.0\n", 1)
+    text = text.replace("times = [0.0, 60.0, 460.0, 1020.0, 1200.0]", "times = [0, 60, 1200]")
+    text = text.replace("speeds_kmh = [72.0, 72.0, 216.0, 288.0, 288.0]",
+                        "speeds_kmh = [72, 244.8, 244.8]")
+    scenario = parse_scenario(text)
+    assert scenario.simulation.reference_times == (0.0, 60.0, 1200.0)
+    result = simulate_strategy(scenario, "ndmpc")
+    assert len(result.statuses) == 60 and np.all(np.isfinite(result.inputs))
+    assert result.statuses[0] == "fallback"
+    assert "shifted plan" in result.fallbacks
