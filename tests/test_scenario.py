@@ -96,7 +96,7 @@ def edit(old: str, new: str, text: str = BASE) -> str:
     return text.replace(old, new, 1)
 
 
-def fails(text: str, *fragments: str) -> ScenarioError:
+def check_fails(text: str, *fragments: str) -> ScenarioError:
     """Parse ``text`` expecting ScenarioError whose message holds every fragment."""
     with pytest.raises(ScenarioError, match=re.escape(fragments[0])) as info:
         parse_scenario(text, source="t.toml")
@@ -397,7 +397,7 @@ class TestUnknownAndReserved:
 
     def test_unknown_key_suggests(self) -> None:
         """A misspelt key names its path and suggests the right one."""
-        error = fails(
+        error = check_fails(
             edit("sample_time = 20.0", "sample_tim = 20.0"),
             "unknown key [model].sample_tim. Did you mean 'sample_time'?",
         )
@@ -405,28 +405,30 @@ class TestUnknownAndReserved:
 
     def test_unknown_vehicle_key(self) -> None:
         """A misspelt key in the second vehicle group names the group index."""
-        fails(edit("mass_t = 48.0", "mass_t = 48.0\nmas_t = 1.0"), "[train.vehicle][1].mas_t")
+        check_fails(edit("mass_t = 48.0", "mass_t = 48.0\nmas_t = 1.0"), "[train.vehicle][1].mas_t")
 
     def test_unknown_top_level_key(self) -> None:
         """An unknown top-level key is reported with a suggestion."""
-        fails(edit("seed = 0", "seeds = 0"), "unknown key seeds. Did you mean 'seed'?")
+        check_fails(edit("seed = 0", "seeds = 0"), "unknown key seeds. Did you mean 'seed'?")
 
     def test_unknown_section(self) -> None:
         """A misspelt section is reported as an unknown section."""
-        fails(edit("[model]", "[modle]"), "unknown section [modle]. Did you mean 'model'?")
+        check_fails(edit("[model]", "[modle]"), "unknown section [modle]. Did you mean 'model'?")
 
     def test_unknown_subsection(self) -> None:
         """An unknown sub-table inside [train] gives its dotted name."""
-        fails(BASE + "[train.wagon]\nx = 1\n", "unknown section [train.wagon]")
+        check_fails(BASE + "[train.wagon]\nx = 1\n", "unknown section [train.wagon]")
 
     def test_unknown_without_match_lists_allowed(self) -> None:
         """Without a close match the allowed keys are listed."""
-        fails(edit("[model]", "[model]\nzzz = 1"), "unknown key [model].zzz.", "Allowed here:")
+        check_fails(
+            edit("[model]", "[model]\nzzz = 1"), "unknown key [model].zzz.", "Allowed here:"
+        )
 
     @pytest.mark.parametrize("section", RESERVED_SECTIONS)
     def test_reserved_section(self, section: str) -> None:
         """Reserved sections are rejected as not supported yet, not as unknown."""
-        error = fails(
+        error = check_fails(
             BASE + f"[{section}]\nx = 1\n",
             f"section [{section}] is reserved for a later trainctl release",
             "not supported yet",
@@ -454,15 +456,15 @@ class TestMissing:
     )
     def test_missing_key(self, old: str, fragment: str) -> None:
         """Each required key is reported by its key path."""
-        fails(edit(old, ""), fragment)
+        check_fails(edit(old, ""), fragment)
 
     def test_missing_model_section(self) -> None:
         """A document without [model] names the section."""
-        fails(BASE.split("[model]")[0], "missing required section [model]")
+        check_fails(BASE.split("[model]")[0], "missing required section [model]")
 
     def test_missing_train_section(self) -> None:
         """A document without [train] names the section."""
-        fails(
+        check_fails(
             SINGLE.replace("[train]\n[[train.vehicle]]\nmass_t = 40.0\n", "").replace(
                 "davis_si = [0.01, 0.0, 1e-5]\n", ""
             ),
@@ -473,18 +475,18 @@ class TestMissing:
         """[train] needs a preset or vehicles."""
         text = edit("davis_si = [0.01, 0.0, 1e-5]\n", "", SINGLE)
         text = edit("[[train.vehicle]]\nmass_t = 40.0\n", "", text)
-        fails(text, "missing required key [train].preset or [train.vehicle]")
+        check_fails(text, "missing required key [train].preset or [train.vehicle]")
 
     def test_missing_davis(self) -> None:
         """A vehicle group without Davis coefficients names the group."""
-        fails(
+        check_fails(
             edit("davis_si = [0.01, 0.0, 1e-5]\n", "", SINGLE),
             "[train.vehicle][0] needs exactly one of",
         )
 
     def test_two_davis_keys(self) -> None:
         """Two Davis keys in one group are rejected."""
-        fails(
+        check_fails(
             edit(
                 "davis_si = [0.01, 0.0, 1e-5]\n",
                 "davis_si = [0.01, 0.0, 1e-5]\ndavis_book_literal = [1, 1, 1]\n",
@@ -496,7 +498,7 @@ class TestMissing:
 
     def test_missing_coupler(self) -> None:
         """A train of several vehicles without a coupler names [train.coupler]."""
-        fails(
+        check_fails(
             BASE.replace(
                 "[train.coupler]\nstiffness_kn_per_m = 10488.0\ndamping_kn_s_per_m = 0.0\n", ""
             ),
@@ -553,11 +555,11 @@ class TestWrongType:
     )
     def test_wrong_scalar_type(self, old: str, new: str, fragment: str) -> None:
         """Bools, strings, floats and dates where another type is required are rejected."""
-        fails(edit(old, new), fragment)
+        check_fails(edit(old, new), fragment)
 
     def test_string_number_hint(self) -> None:
         """A quoted number gets a hint to drop the quotes."""
-        fails(
+        check_fails(
             edit("sample_time = 20.0", 'sample_time = "20"'),
             "[model].sample_time",
             "without quotes",
@@ -566,23 +568,23 @@ class TestWrongType:
     def test_list_where_table_expected(self) -> None:
         """An array where the [model] table is expected is rejected."""
         text = edit("seed = 0", "seed = 0\nmodel = [1, 2]", BASE.split("[model]")[0])
-        fails(text, "[model] must be a table (got an array of 2 items)")
+        check_fails(text, "[model] must be a table (got an array of 2 items)")
 
     def test_table_where_array_of_tables_expected(self) -> None:
         """[train.vehicle] written as a single table asks for double brackets."""
         text = edit("[[train.vehicle]]", "[train.vehicle]", SINGLE)
-        fails(text, "[train.vehicle] must be a non-empty array of tables", "double brackets")
+        check_fails(text, "[train.vehicle] must be a non-empty array of tables", "double brackets")
 
     def test_scalar_where_array_item_table_expected(self) -> None:
         """A plain array in place of [[train.vehicle]] names the bad item."""
         text = SINGLE.replace(
             "[[train.vehicle]]\nmass_t = 40.0\ndavis_si = [0.01, 0.0, 1e-5]\n", "vehicle = [1]\n"
         )
-        fails(text, "[train.vehicle][0] must be a table (got 1)")
+        check_fails(text, "[train.vehicle][0] must be a table (got 1)")
 
     def test_davis_element_type(self) -> None:
         """A non-number inside the Davis list names its index."""
-        fails(
+        check_fails(
             edit("[0.01, 0.0, 1e-5]", '[0.01, "x", 1e-5]', SINGLE),
             "[train.vehicle][0].davis_si[1] must be a number >= 0",
         )
@@ -594,21 +596,21 @@ class TestNonFinite:
     @pytest.mark.parametrize("value", ["nan", "inf", "-inf", "+inf"])
     def test_mass(self, value: str) -> None:
         """Non-finite mass is rejected with the key path."""
-        fails(
+        check_fails(
             edit("mass_t = 42.8", f"mass_t = {value}"),
             "[train.vehicle][0].mass_t must be a finite number > 0",
         )
 
     def test_sample_time_nan(self) -> None:
         """nan sample time is rejected and shown as nan."""
-        fails(
+        check_fails(
             edit("sample_time = 20.0", "sample_time = nan"),
             "[model].sample_time must be a finite number > 0 (got nan)",
         )
 
     def test_inf_limit_hint(self) -> None:
         """inf for an optional limit hints to omit the key."""
-        fails(
+        check_fails(
             edit("max_power_kw = 1200.0", "max_power_kw = inf"),
             "[train.vehicle][1].max_power_kw",
             "Omit the key for no limit",
@@ -616,14 +618,14 @@ class TestNonFinite:
 
     def test_davis_nan(self) -> None:
         """nan inside the Davis list is rejected with its index."""
-        fails(
+        check_fails(
             edit("[0.01, 0.0, 1e-5]", "[0.01, nan, 1e-5]", SINGLE),
             "[train.vehicle][0].davis_si[1] must be a finite number",
         )
 
     def test_huge_integer(self) -> None:
         """An integer too large for a float is treated as non-finite."""
-        fails(
+        check_fails(
             edit("sample_time = 20.0", "sample_time = " + "9" * 400),
             "[model].sample_time must be a finite number",
         )
@@ -682,19 +684,21 @@ class TestBounds:
     )
     def test_out_of_range(self, old: str, new: str, fragment: str) -> None:
         """Each out-of-range value names its key path, the bound and the value."""
-        fails(edit(old, new), fragment)
+        check_fails(edit(old, new), fragment)
 
     def test_schema_version(self) -> None:
         """Only schema_version 1 is read."""
-        fails(edit("schema_version = 1", "schema_version = 2"), "schema_version must be 1 (got 2)")
+        check_fails(
+            edit("schema_version = 1", "schema_version = 2"), "schema_version must be 1 (got 2)"
+        )
 
     def test_blank_name(self) -> None:
         """A blank name is rejected."""
-        fails(edit('"Test train"', '"   "'), "name must be a non-empty string")
+        check_fails(edit('"Test train"', '"   "'), "name must be a non-empty string")
 
     def test_multi_line_description(self) -> None:
         """The description must be one line."""
-        fails(
+        check_fails(
             edit('"A three-coach test train"', '"""two\nlines"""'),
             "description must be a single line",
         )
@@ -702,11 +706,11 @@ class TestBounds:
     def test_curve_radius_zero(self) -> None:
         """A zero curve radius is rejected with the section index."""
         text = SINGLE + "[track]\n[[track.section]]\nstart = 0.0\ncurve_radius = 0.0\n"
-        fails(text, "[track.section][0].curve_radius must be a number > 0")
+        check_fails(text, "[track.section][0].curve_radius must be a number > 0")
 
     def test_vehicle_count_limit(self) -> None:
         """An absurd count is rejected before expanding the train."""
-        fails(
+        check_fails(
             edit("count = 2", "count = 100000000"),
             "[train.vehicle][1].count makes the train longer",
         )
@@ -717,7 +721,7 @@ class TestLengths:
 
     def test_davis_two_numbers(self) -> None:
         """A Davis list of 2 numbers is rejected."""
-        fails(
+        check_fails(
             edit("[0.01, 0.0, 1e-5]", "[0.01, 0.0]", SINGLE),
             "[train.vehicle][0].davis_si must be an array of 3 numbers >= 0",
             "(got an array of 2 items)",
@@ -725,7 +729,7 @@ class TestLengths:
 
     def test_davis_not_a_list(self) -> None:
         """A scalar Davis value is rejected."""
-        fails(
+        check_fails(
             edit("[0.01, 0.0, 1e-5]", "0.01", SINGLE),
             "[train.vehicle][0].davis_si must be an array of 3 numbers",
         )
@@ -733,18 +737,18 @@ class TestLengths:
     def test_coupler_count(self) -> None:
         """[[train.coupler]] with the wrong number of entries gives the expected count."""
         text = edit("[train.coupler]", "[[train.coupler]]")
-        fails(text, "[[train.coupler]] must have exactly 2 entries", "(got 1)")
+        check_fails(text, "[[train.coupler]] must have exactly 2 entries", "(got 1)")
 
     def test_empty_track_sections(self) -> None:
         """A track needs at least one section."""
-        fails(
+        check_fails(
             SINGLE + "[track]\nsection = []\n",
             "[track.section] must be a non-empty array of tables",
         )
 
     def test_missing_track_sections(self) -> None:
         """[track] without sections names the missing key."""
-        fails(SINGLE + "[track]\nformula = 'tbt'\n", "missing required key [track].section")
+        check_fails(SINGLE + "[track]\nformula = 'tbt'\n", "missing required key [track].section")
 
 
 class TestSyntaxAndEnums:
@@ -753,11 +757,11 @@ class TestSyntaxAndEnums:
     def test_not_toml(self) -> None:
         """A TOML syntax error is reported with its line."""
         line = len(BASE.splitlines()) + 1
-        fails(BASE + "sample_time = = 3\n", "not valid TOML", f"at line {line}, column")
+        check_fails(BASE + "sample_time = = 3\n", "not valid TOML", f"at line {line}, column")
 
     def test_duplicate_key(self) -> None:
         """A duplicated key is a TOML error."""
-        fails(edit("seed = 0", "seed = 0\nseed = 1"), "not valid TOML")
+        check_fails(edit("seed = 0", "seed = 0\nseed = 1"), "not valid TOML")
 
     @pytest.mark.parametrize(
         ("key", "bad", "fragment"),
@@ -769,7 +773,7 @@ class TestSyntaxAndEnums:
     )
     def test_bad_enum(self, key: str, bad: str, fragment: str) -> None:
         """A bad enum value lists the options and suggests a close one."""
-        fails(
+        check_fails(
             edit("[model]", f'[model]\n{key} = "{bad}"'),
             f"[model].{key} must be one of",
             f"(got '{bad}', a string)",
@@ -779,7 +783,7 @@ class TestSyntaxAndEnums:
     def test_bad_track_formula(self) -> None:
         """An unknown track formula is rejected with the options."""
         text = SINGLE + "[track]\nformula = 'ning'\n[[track.section]]\nstart = 0.0\n"
-        fails(text, "[track].formula must be one of 'tbt', 'ning2016'")
+        check_fails(text, "[track].formula must be one of 'tbt', 'ning2016'")
 
 
 class TestModelErrors:
@@ -787,7 +791,7 @@ class TestModelErrors:
 
     def test_virtual_with_stiffness(self) -> None:
         """A virtual link with stiffness is rejected at [train.coupler]."""
-        error = fails(
+        error = check_fails(
             edit("damping_kn_s_per_m = 0.0", "damping_kn_s_per_m = 0.0\nvirtual = true"),
             "[train.coupler]: Coupler: a virtual link transmits no force",
         )
@@ -800,12 +804,12 @@ class TestModelErrors:
             "[[train.coupler]]\nstiffness_kn_per_m = 1.0\n"
             "[[train.coupler]]\nvirtual = true\ndamping_kn_s_per_m = 4.0\n",
         )
-        fails(text, "[train.coupler][1]: Coupler:")
+        check_fails(text, "[train.coupler][1]: Coupler:")
 
     def test_track_starts_must_increase(self) -> None:
         """Section starts out of order name the offending section."""
         text = SINGLE + "[track]\n[[track.section]]\nstart = 10.0\n[[track.section]]\nstart = 5.0\n"
-        fails(
+        check_fails(
             text, "[track.section][1].start must be greater than the previous section's start 10.0"
         )
 
@@ -857,7 +861,7 @@ class TestPresetMachinery:
     def test_unknown_preset(self, monkeypatch: pytest.MonkeyPatch) -> None:
         """An unknown preset lists the available ones and suggests a close match."""
         _fake_presets(monkeypatch)
-        fails(
+        check_fails(
             preset_doc("two_car"),
             "[train].preset must name a preset (got 'two_car')",
             "Did you mean 'two_cars'?",
@@ -867,7 +871,7 @@ class TestPresetMachinery:
     def test_unknown_option(self, monkeypatch: pytest.MonkeyPatch) -> None:
         """An option the preset function does not take is rejected with a suggestion."""
         _fake_presets(monkeypatch)
-        fails(
+        check_fails(
             preset_doc("two_cars", "mass = 50.0\n"),
             "unknown key [train.preset_options].mass. Did you mean 'mass_t'?",
         )
@@ -875,23 +879,23 @@ class TestPresetMachinery:
     def test_missing_required_option(self, monkeypatch: pytest.MonkeyPatch) -> None:
         """A keyword-only argument without default must be given."""
         _fake_presets(monkeypatch)
-        fails(preset_doc("needs_n"), "missing required key [train.preset_options].n")
+        check_fails(preset_doc("needs_n"), "missing required key [train.preset_options].n")
 
     def test_model_error_from_preset(self, monkeypatch: pytest.MonkeyPatch) -> None:
         """A ModelError inside the preset becomes ScenarioError at [train.preset_options]."""
         _fake_presets(monkeypatch)
-        fails(preset_doc("two_cars", "mass_t = -1.0\n"), "[train.preset_options]: Vehicle")
+        check_fails(preset_doc("two_cars", "mass_t = -1.0\n"), "[train.preset_options]: Vehicle")
 
     def test_preset_and_vehicles_conflict(self) -> None:
         """A preset cannot be combined with explicit vehicles."""
-        fails(
+        check_fails(
             edit("[train]\n", '[train]\npreset = "crh2_half"\n'),
             "[train].preset cannot be combined with [train.vehicle]",
         )
 
     def test_options_without_preset(self) -> None:
         """[train.preset_options] without a preset is rejected."""
-        fails(
+        check_fails(
             edit("[train]\n", "[train]\npreset_options = {}\n"),
             "[train.preset_options] needs [train].preset",
         )
@@ -921,7 +925,7 @@ class TestRealPresets:
     def test_unknown_preset(self) -> None:
         """An unknown preset name lists the real presets."""
         _real_presets()
-        fails(preset_doc("crh2_halff"), "[train].preset must name a preset", "Available:")
+        check_fails(preset_doc("crh2_halff"), "[train].preset must name a preset", "Available:")
 
 
 class TestSlugify:
@@ -1052,7 +1056,7 @@ class TestControllerValid:
     def test_not_reserved_any_more(self) -> None:
         """[controller] is a real section, not a reserved one."""
         assert "controller" not in RESERVED_SECTIONS
-        error = fails(BASE + "[controller]\n", "missing required key [controller].form")
+        error = check_fails(BASE + "[controller]\n", "missing required key [controller].form")
         assert "reserved" not in str(error)
 
     def test_full_section(self) -> None:
@@ -1152,18 +1156,18 @@ class TestControllerErrors:
     )
     def test_missing_required(self, key: str, fragment: str) -> None:
         """form and both horizons are required."""
-        fails(controller_without(key), fragment)
+        check_fails(controller_without(key), fragment)
 
     def test_bad_form(self) -> None:
         """An unknown form lists the options."""
-        fails(
+        check_fails(
             controller_without("form", 'form = "delta"'),
             "[controller].form must be one of 'u', 'du' (got 'delta', a string)",
         )
 
     def test_m_greater_than_p(self) -> None:
         """M > P is rejected, naming P's value."""
-        fails(
+        check_fails(
             controller_without("control_horizon", "control_horizon = 5"),
             "[controller].control_horizon must be an integer from 1 to "
             "[controller].prediction_horizon = 4 (got 5)",
@@ -1198,16 +1202,16 @@ class TestControllerErrors:
     )
     def test_bad_horizon(self, key: str, value: str, fragment: str) -> None:
         """Horizons must be integers >= 1, not bools, floats or strings."""
-        fails(controller_without(key, f"{key} = {value}"), fragment)
+        check_fails(controller_without(key, f"{key} = {value}"), fragment)
 
     @pytest.mark.parametrize("line", ["iterations = 0", "iterations = 1.5", "iterations = false"])
     def test_bad_iterations(self, line: str) -> None:
         """iterations must be an integer >= 1."""
-        fails(with_controller(line), "[controller].iterations must be an integer >= 1")
+        check_fails(with_controller(line), "[controller].iterations must be an integer >= 1")
 
     def test_both_input_weights(self) -> None:
         """r_per_kn2 and r_per_n2 together are rejected."""
-        fails(
+        check_fails(
             with_controller("r_per_n2 = 1e-5"),
             "[controller] needs exactly one of r_per_kn2, r_per_n2 (got r_per_kn2 and r_per_n2)",
             "r_per_kn2 = r_per_n2 × 1e6",
@@ -1215,7 +1219,7 @@ class TestControllerErrors:
 
     def test_no_input_weight(self) -> None:
         """One of r_per_kn2 / r_per_n2 is required."""
-        fails(
+        check_fails(
             controller_without("r_per_kn2"),
             "[controller] needs exactly one of r_per_kn2, r_per_n2 (got none)",
         )
@@ -1232,7 +1236,7 @@ class TestControllerErrors:
     )
     def test_input_weight_not_positive(self, line: str, fragment: str) -> None:
         """The input weight must be a finite number > 0."""
-        fails(controller_without("r_per_kn2", line), fragment)
+        check_fails(controller_without("r_per_kn2", line), fragment)
 
     @pytest.mark.parametrize(
         ("line", "fragment"),
@@ -1247,11 +1251,11 @@ class TestControllerErrors:
     )
     def test_bad_output_weight(self, line: str, fragment: str) -> None:
         """Output weights must be numbers >= 0."""
-        fails(with_controller(line), fragment)
+        check_fails(with_controller(line), fragment)
 
     def test_unknown_output(self) -> None:
         """An unknown output names its index and suggests a close one."""
-        fails(
+        check_fails(
             with_controller('outputs = ["v", "forces"]'),
             "[controller].outputs[1] must be one of 'v', 'force' (got 'forces', a string)",
             "Did you mean 'force'?",
@@ -1259,14 +1263,14 @@ class TestControllerErrors:
 
     def test_output_not_a_string(self) -> None:
         """An output that is not a string is rejected."""
-        fails(
+        check_fails(
             with_controller("outputs = [1]"),
             "[controller].outputs[0] must be one of 'v', 'force' (got 1)",
         )
 
     def test_duplicate_output(self) -> None:
         """An output listed twice is rejected."""
-        fails(
+        check_fails(
             with_controller('outputs = ["v", "force", "v"]'),
             "[controller].outputs[2] must not repeat an earlier output (got 'v' again)",
         )
@@ -1277,20 +1281,20 @@ class TestControllerErrors:
     )
     def test_outputs_not_a_non_empty_array(self, line: str, got: str) -> None:
         """outputs must be a non-empty array."""
-        fails(
+        check_fails(
             with_controller(line), "[controller].outputs must be a non-empty array", f"(got {got})"
         )
 
     def test_force_output_without_couplers(self) -> None:
         """'force' is rejected for a one-vehicle train, which has no couplers."""
-        fails(
+        check_fails(
             SINGLE + CONTROLLER + 'outputs = ["force"]\n',
             "[controller].outputs[0] must be 'v' for a train of one vehicle",
         )
 
     def test_force_weight_without_force_output(self) -> None:
         """q_force_per_kn2 > 0 needs 'force' in outputs, with a hint."""
-        fails(
+        check_fails(
             with_controller("q_force_per_kn2 = 2.0"),
             "[controller].q_force_per_kn2 must be 0 when [controller].outputs has no 'force' "
             "(got 2.0 with outputs ['v'])",
@@ -1299,7 +1303,7 @@ class TestControllerErrors:
 
     def test_neighbourhood_wrong_length(self) -> None:
         """An explicit neighbourhood needs one entry per coach."""
-        fails(
+        check_fails(
             with_controller("neighbourhood = [[0, 1], [0, 1]]"),
             "[controller].neighbourhood must be one of 'adjacent', 'all', 'self' or an array of "
             "3 arrays of coach indices, one per coach (got an array of 2 items)",
@@ -1308,7 +1312,7 @@ class TestControllerErrors:
 
     def test_neighbourhood_missing_own_index(self) -> None:
         """Entry i must contain i."""
-        fails(
+        check_fails(
             with_controller("neighbourhood = [[0], [1], [0, 1]]"),
             "[controller].neighbourhood[2] must contain its own coach index 2 (got [0, 1])",
         )
@@ -1316,7 +1320,7 @@ class TestControllerErrors:
     @pytest.mark.parametrize("bad", ["3", "-1", "1.0", "true", '"1"'])
     def test_neighbourhood_index_out_of_range(self, bad: str) -> None:
         """Indices must be integers from 0 to n-1; the message names entry and position."""
-        fails(
+        check_fails(
             with_controller(f"neighbourhood = [[0], [1, {bad}], [2]]"),
             "[controller].neighbourhood[1][1] must be a coach index from 0 to 2",
             "Indices count from 0",
@@ -1324,21 +1328,21 @@ class TestControllerErrors:
 
     def test_neighbourhood_duplicates(self) -> None:
         """An index listed twice in one entry is rejected."""
-        fails(
+        check_fails(
             with_controller("neighbourhood = [[0], [1, 2, 1], [2]]"),
             "[controller].neighbourhood[1] must list distinct coach indices (got [1, 2, 1])",
         )
 
     def test_neighbourhood_entry_not_array(self) -> None:
         """Each entry must be an array."""
-        fails(
+        check_fails(
             with_controller("neighbourhood = [[0], 1, [2]]"),
             "[controller].neighbourhood[1] must be an array of coach indices (got 1)",
         )
 
     def test_neighbourhood_unknown_kind(self) -> None:
         """An unknown named kind suggests a close one."""
-        fails(
+        check_fails(
             with_controller('neighbourhood = "adjacnt"'),
             "[controller].neighbourhood must be one of 'adjacent', 'all', 'self'",
             "Did you mean 'adjacent'?",
@@ -1346,21 +1350,21 @@ class TestControllerErrors:
 
     def test_weights_not_summing_to_one(self) -> None:
         """Cooperative weights must sum to 1 within 1e-9."""
-        fails(
+        check_fails(
             with_controller("cooperative_weights = [0.5, 0.25, 0.2]"),
             "[controller].cooperative_weights must sum to 1 within 1e-9 (got sum 0.95)",
         )
 
     def test_weights_slightly_off(self) -> None:
         """A sum off by more than 1e-9 is rejected."""
-        fails(
+        check_fails(
             with_controller("cooperative_weights = [0.5, 0.25, 0.25000001]"),
             "[controller].cooperative_weights must sum to 1",
         )
 
     def test_weights_wrong_length(self) -> None:
         """Cooperative weights need one entry per coach."""
-        fails(
+        check_fails(
             with_controller("cooperative_weights = [0.5, 0.5]"),
             "[controller].cooperative_weights must be 'uniform' or an array of 3 numbers > 0 "
             "summing to 1, one per coach (got an array of 2 items)",
@@ -1369,14 +1373,14 @@ class TestControllerErrors:
     @pytest.mark.parametrize("bad", ["0.0", "-0.5", "nan", "true"])
     def test_weight_not_positive(self, bad: str) -> None:
         """Each cooperative weight must be a finite number > 0, named by index."""
-        fails(
+        check_fails(
             with_controller(f"cooperative_weights = [0.5, 0.5, {bad}]"),
             "[controller].cooperative_weights[2] must be a",
         )
 
     def test_weights_unknown_name(self) -> None:
         """A misspelt 'uniform' gets a suggestion."""
-        fails(
+        check_fails(
             with_controller('cooperative_weights = "unifrom"'),
             "[controller].cooperative_weights must be 'uniform'",
             "Did you mean 'uniform'?",
@@ -1384,7 +1388,7 @@ class TestControllerErrors:
 
     def test_unknown_key_suggests(self) -> None:
         """A misspelt key in [controller] suggests the right one."""
-        error = fails(
+        error = check_fails(
             with_controller("prediction_horizn = 4"),
             "unknown key [controller].prediction_horizn. Did you mean 'prediction_horizon'?",
         )
@@ -1392,14 +1396,14 @@ class TestControllerErrors:
 
     def test_unknown_key_r(self) -> None:
         """A unit-less weight key suggests a unit-carrying one."""
-        fails(
+        check_fails(
             with_controller("r_per_kn = 1.0"),
             "unknown key [controller].r_per_kn. Did you mean 'r_per_kn2'?",
         )
 
     def test_not_a_table(self) -> None:
         """controller given as a value, not a table, is rejected."""
-        fails("controller = 1\n" + BASE, "[controller] must be a table (got 1)")
+        check_fails("controller = 1\n" + BASE, "[controller] must be a table (got 1)")
 
 
 class TestExpected:
@@ -1440,7 +1444,7 @@ class TestExpected:
 
     def test_controller_check_needs_controller(self) -> None:
         """A controller check declared without [controller] is rejected."""
-        fails(
+        check_fails(
             BASE + '[expected]\nclosed_loop_nash = "pass"\n',
             "[expected].closed_loop_nash needs a [controller] section (got none)",
         )
@@ -1462,21 +1466,21 @@ class TestExpected:
 
     def test_unknown_check_suggests(self) -> None:
         """An unknown check name suggests a close one."""
-        fails(
+        check_fails(
             BASE + '[expected]\nsamplng = "pass"\n',
             "unknown key [expected].samplng. Did you mean 'sampling'?",
         )
 
     def test_unknown_check_lists_names(self) -> None:
         """Without a close match the check names are listed."""
-        fails(BASE + '[expected]\nzzz = "pass"\n', "unknown key [expected].zzz.", "nash_gap")
+        check_fails(BASE + '[expected]\nzzz = "pass"\n', "unknown key [expected].zzz.", "nash_gap")
 
     @pytest.mark.parametrize(
         ("value", "got"), [('"passed"', "'passed', a string"), ("true", "true, a boolean")]
     )
     def test_bad_status(self, value: str, got: str) -> None:
         """A status other than pass, warn or fail is rejected."""
-        fails(
+        check_fails(
             BASE + f"[expected]\nsampling = {value}\n",
             "[expected].sampling must be one of 'pass', 'warn', 'fail'",
             f"(got {got})",
@@ -1484,7 +1488,7 @@ class TestExpected:
 
     def test_status_suggestion(self) -> None:
         """A misspelt status suggests a close one."""
-        fails(BASE + '[expected]\nsampling = "warning"\n', "Did you mean 'warn'?")
+        check_fails(BASE + '[expected]\nsampling = "warning"\n', "Did you mean 'warn'?")
 
 
 class TestControllerSettings:
@@ -1721,12 +1725,12 @@ class TestControllerConstraints:
     )
     def test_bad_value(self, line: str, fragment: str) -> None:
         """Out-of-range or wrongly typed values name the key and what must hold."""
-        fails(with_controller(line), fragment)
+        check_fails(with_controller(line), fragment)
 
     @pytest.mark.parametrize("key", ["rate_limit_kn", "coupler_force_limit_kn"])
     def test_inf_limit_hint(self, key: str) -> None:
         """An infinite limit is rejected with the hint to omit the key."""
-        fails(
+        check_fails(
             with_controller(f"{key} = inf"),
             f"[controller].{key} must be a finite number > 0",
             "Omit the key for no limit.",
@@ -1734,7 +1738,7 @@ class TestControllerConstraints:
 
     def test_bad_solver_path(self) -> None:
         """An unknown solver path lists the choices and suggests a close one."""
-        fails(
+        check_fails(
             with_controller('solver_path = "cvx"'),
             "[controller].solver_path must be one of 'fast', 'cvxpy' (got 'cvx', a string).",
             "Did you mean 'cvxpy'?",
@@ -1742,7 +1746,7 @@ class TestControllerConstraints:
 
     def test_unit_less_key_suggests(self) -> None:
         """A limit key without its unit suggests the unit-carrying one."""
-        fails(
+        check_fails(
             with_controller("rate_limit = 20.0"),
             "unknown key [controller].rate_limit. Did you mean 'rate_limit_kn'?",
         )
@@ -1838,7 +1842,9 @@ class TestSimulationValid:
         """[simulation] is a real section, not a reserved one."""
         assert "simulation" not in RESERVED_SECTIONS
         assert RESERVED_SECTIONS == ("report", "communication", "sweep")
-        error = fails(with_controller("[simulation]"), "missing required key [simulation].duration")
+        error = check_fails(
+            with_controller("[simulation]"), "missing required key [simulation].duration"
+        )
         assert "reserved" not in str(error)
 
     def test_defaults(self) -> None:
@@ -1938,7 +1944,7 @@ class TestSimulationErrors:
 
     def test_needs_controller(self) -> None:
         """[simulation] without [controller] is rejected with a hint."""
-        fails(
+        check_fails(
             with_simulation(controller=False),
             "[simulation] needs a [controller] section (got none)",
             "Add [controller] or remove [simulation].",
@@ -1956,17 +1962,17 @@ class TestSimulationErrors:
         text = "\n".join(
             line for line in with_simulation().splitlines() if not line.startswith(f"{key} =")
         )
-        fails(text, fragment)
+        check_fails(text, fragment)
 
     def test_missing_reference(self) -> None:
         """[simulation.reference] is required."""
         text = with_simulation().split("[simulation.reference]")[0]
-        fails(text, "missing required section [simulation.reference].")
+        check_fails(text, "missing required section [simulation.reference].")
 
     def test_reference_not_a_table(self) -> None:
         """reference given as a value is rejected."""
         text = with_simulation().split("[simulation.reference]")[0]
-        fails(
+        check_fails(
             edit("duration = 1200.0", "duration = 1200.0\nreference = 1", text),
             "[simulation.reference] must be a table (got 1)",
         )
@@ -1981,7 +1987,7 @@ class TestSimulationErrors:
     )
     def test_duration_not_a_multiple(self, duration: str, fragments: tuple[str, ...]) -> None:
         """A duration that is not a whole multiple of the sample time names both numbers."""
-        fails(
+        check_fails(
             with_simulation().replace("duration = 1200.0", f"duration = {duration}"),
             "[simulation].duration must be a whole multiple of [model].sample_time = 20.0 s",
             *fragments,
@@ -1998,7 +2004,7 @@ class TestSimulationErrors:
     )
     def test_bad_duration(self, value: str, fragment: str) -> None:
         """duration must be a finite number > 0."""
-        fails(with_simulation().replace("duration = 1200.0", f"duration = {value}"), fragment)
+        check_fails(with_simulation().replace("duration = 1200.0", f"duration = {value}"), fragment)
 
     def _strategies(self, value: str) -> str:
         return with_simulation().replace(
@@ -2007,7 +2013,7 @@ class TestSimulationErrors:
 
     def test_unknown_strategy_suggests(self) -> None:
         """An unknown strategy names its index and suggests a close match."""
-        fails(
+        check_fails(
             self._strategies('["centralised", "ndmpcc"]'),
             "[simulation].strategies[1] must be one of 'centralised', 'decentralised', "
             "'ndmpc', 'cooperative' (got 'ndmpcc', a string).",
@@ -2016,11 +2022,11 @@ class TestSimulationErrors:
 
     def test_british_spelling_hint(self) -> None:
         """'centralized' suggests 'centralised'."""
-        fails(self._strategies('["centralized"]'), "Did you mean 'centralised'?")
+        check_fails(self._strategies('["centralized"]'), "Did you mean 'centralised'?")
 
     def test_duplicate_strategy(self) -> None:
         """A strategy listed twice is rejected at its second position."""
-        fails(
+        check_fails(
             self._strategies('["ndmpc", "centralised", "ndmpc"]'),
             "[simulation].strategies[2] must not repeat an earlier strategy (got 'ndmpc' again)",
         )
@@ -2031,7 +2037,7 @@ class TestSimulationErrors:
     )
     def test_strategies_not_a_non_empty_array(self, value: str, got: str) -> None:
         """strategies must be a non-empty array."""
-        fails(
+        check_fails(
             self._strategies(value),
             "[simulation].strategies must be a non-empty array of distinct names",
             f"(got {got})",
@@ -2039,11 +2045,11 @@ class TestSimulationErrors:
 
     def test_strategy_not_a_string(self) -> None:
         """A non-string strategy is rejected by index."""
-        fails(self._strategies('["ndmpc", 3]'), "[simulation].strategies[1] must be one of")
+        check_fails(self._strategies('["ndmpc", 3]'), "[simulation].strategies[1] must be one of")
 
     def test_both_speed_keys(self) -> None:
         """speeds_kmh and speeds together are rejected."""
-        fails(
+        check_fails(
             with_simulation(reference="times = [0.0]\nspeeds_kmh = [72.0]\nspeeds = [20.0]"),
             "[simulation.reference] needs exactly one of speeds_kmh, speeds (got speeds_kmh and "
             "speeds)",
@@ -2051,7 +2057,7 @@ class TestSimulationErrors:
 
     def test_no_speed_key(self) -> None:
         """A reference without speeds is rejected."""
-        fails(
+        check_fails(
             with_simulation(reference="times = [0.0]"),
             "[simulation.reference] needs exactly one of speeds_kmh, speeds (got none)",
             "speeds_kmh is in km/h, speeds in m/s.",
@@ -2059,14 +2065,14 @@ class TestSimulationErrors:
 
     def test_missing_times(self) -> None:
         """times is required."""
-        fails(
+        check_fails(
             with_simulation(reference="speeds = [20.0]"),
             "missing required key [simulation.reference].times",
         )
 
     def test_length_mismatch(self) -> None:
         """times and speeds must pair up."""
-        fails(
+        check_fails(
             with_simulation(
                 reference="times = [0.0, 60.0, 460.0, 1020.0, 1200.0]\n"
                 "speeds_kmh = [72.0, 72.0, 216.0, 288.0]"
@@ -2076,7 +2082,7 @@ class TestSimulationErrors:
 
     def test_length_mismatch_speeds(self) -> None:
         """The length message names the speed key actually used."""
-        fails(
+        check_fails(
             with_simulation(reference="times = [0.0]\nspeeds = [20.0, 30.0]"),
             "[simulation.reference]: times and speeds must have the same length (got 1 and 2)",
         )
@@ -2084,7 +2090,7 @@ class TestSimulationErrors:
     @pytest.mark.parametrize("times", ["[0.0, 60.0, 460.0, 460.0]", "[0.0, 60.0, 460.0, 400.0]"])
     def test_times_not_increasing(self, times: str) -> None:
         """Breakpoint times must strictly increase, named by index."""
-        fails(
+        check_fails(
             with_simulation(reference=f"times = {times}\nspeeds = [20.0, 20.0, 60.0, 80.0]"),
             "[simulation.reference].times[3] must be greater than the previous time 460.0",
             "List the times in increasing order.",
@@ -2092,14 +2098,14 @@ class TestSimulationErrors:
 
     def test_first_time_not_zero(self) -> None:
         """The reference must start at t = 0."""
-        fails(
+        check_fails(
             with_simulation(reference="times = [5.0, 60.0]\nspeeds = [20.0, 20.0]"),
             "[simulation.reference].times[0] must be 0 (got 5.0). The reference starts at t = 0.",
         )
 
     def test_negative_time(self) -> None:
         """A negative time is rejected by index."""
-        fails(
+        check_fails(
             with_simulation(reference="times = [-1.0, 60.0]\nspeeds = [20.0, 20.0]"),
             "[simulation.reference].times[0] must be a number >= 0 (got -1.0)",
         )
@@ -2114,7 +2120,7 @@ class TestSimulationErrors:
     )
     def test_bad_speed(self, speeds: str, fragment: str) -> None:
         """Each speed must be a finite number >= 0, named by index."""
-        fails(
+        check_fails(
             with_simulation(reference=f"times = [0.0, 60.0, 120.0]\nspeeds_kmh = {speeds}"),
             fragment,
         )
@@ -2122,7 +2128,7 @@ class TestSimulationErrors:
     @pytest.mark.parametrize(("value", "got"), [("[]", "an array of 0 items"), ("0.0", "0.0")])
     def test_times_not_a_non_empty_array(self, value: str, got: str) -> None:
         """times must be a non-empty array of numbers."""
-        fails(
+        check_fails(
             with_simulation(reference=f"times = {value}\nspeeds = [20.0]"),
             "[simulation.reference].times must be a non-empty array of numbers >= 0",
             f"(got {got})",
@@ -2130,14 +2136,14 @@ class TestSimulationErrors:
 
     def test_unknown_reference_key_suggests(self) -> None:
         """A misspelt speed key suggests the right one."""
-        fails(
+        check_fails(
             with_simulation(reference="times = [0.0]\nspeed_kmh = [72.0]"),
             "unknown key [simulation.reference].speed_kmh. Did you mean 'speeds_kmh'?",
         )
 
     def test_unknown_key_suggests(self) -> None:
         """A misspelt key in [simulation] suggests the right one."""
-        fails(
+        check_fails(
             with_simulation("settle_tim = 1.0"),
             "unknown key [simulation].settle_tim. Did you mean 'settle_time'?",
         )
@@ -2159,19 +2165,19 @@ class TestSimulationErrors:
     )
     def test_bad_value(self, line: str, fragment: str) -> None:
         """Optional keys are range-checked with their key path."""
-        fails(with_simulation(line), fragment)
+        check_fails(with_simulation(line), fragment)
 
     @pytest.mark.parametrize("settle", ["1200.0", "1500.0"])
     def test_settle_time_not_before_end(self, settle: str) -> None:
         """settle_time must leave some time in which tracking is judged."""
-        fails(
+        check_fails(
             with_simulation(f"settle_time = {settle}"),
             "[simulation].settle_time must be less than [simulation].duration = 1200.0 s",
         )
 
     def test_initial_speed_below_zero(self) -> None:
         """The initial speed error must not make a vehicle start backwards."""
-        fails(
+        check_fails(
             with_simulation("initial_speed_error = -25.0"),
             "[simulation].initial_speed_error must be >= -20.0 m/s",
             "(got -25.0)",
@@ -2272,11 +2278,13 @@ class TestCouplerForceSteps:
         assert ctl.mpc_constraints().force_steps == ctl.coupler_force_steps
 
     @pytest.mark.parametrize(
-        "value", ["[]", "[0, 1]", "[3, 2]", "[1, 41]", "[1.0]", "[true]", '"all"'])
+        "value", ["[]", "[0, 1]", "[3, 2]", "[1, 41]", "[1.0]", "[true]", '"all"']
+    )
     def test_bad_steps_are_rejected(self, value: str) -> None:
         """Empty, out-of-range, non-increasing or non-integer steps name the key."""
         text = builtin_scenario_text("crh2-dmpc-well-sampled").replace(
             "coupler_force_steps = [1, 2, 3, 4, 5, 10, 15, 20, 25, 30, 35, 40]",
-            f"coupler_force_steps = {value}")
+            f"coupler_force_steps = {value}",
+        )
         with pytest.raises(ScenarioError, match=r"\[controller\]\.coupler_force_steps"):
             parse_scenario(text)
