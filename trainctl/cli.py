@@ -7,8 +7,10 @@ Subcommands
     One line per built-in scenario: its name and description.
 ``export NAME [-o PATH] [--force]``
     Write a built-in scenario's TOML text to ``PATH`` (default ``./NAME.toml``).
-``analyse SCENARIO [--json] [--strict]``
-    Print the model summary of a scenario (a built-in name or a file path).
+``analyse SCENARIO [--json] [--strict] [--no-simulate]``
+    Print the model summary, the design checks and — when the scenario has a
+    ``[simulation]`` section — the closed-loop metrics of a scenario (a
+    built-in name or a file path).
 ``report [SCENARIO] [-o PATH]``
     Write the HTML model summary (default ``reports/<slug>.html``, see
     :func:`default_report_path`).
@@ -95,8 +97,9 @@ def build_parser() -> argparse.ArgumentParser:
     p_analyse = sub.add_parser(
         "analyse",
         aliases=["analyze"],
-        help="print the model summary of a scenario",
-        description="Print the linear-model summary of a scenario.",
+        help="model summary, design checks and simulations of a scenario",
+        description="Print the model summary, the design checks (pass/warn/fail with hints) "
+        "and, for scenarios with [simulation], the closed-loop metrics.",
     )
     p_analyse.add_argument(
         "scenario", metavar="SCENARIO", help="built-in scenario name or path to a TOML file"
