@@ -215,19 +215,6 @@ def _summary_of(source: str) -> tuple[Any, Any]:
     return scenario, model_summary(scenario)
 
 
-def _failed_checks(summary: Any) -> list[str]:
-    failed = getattr(summary, "failed_checks", None)
-    if failed is None and hasattr(summary, "to_dict"):
-        failed = summary.to_dict().get("failed_checks")
-    if not failed:
-        return []
-    if isinstance(failed, str):
-        return [failed]
-    if isinstance(failed, dict):
-        return [f"{key}: {value}" for key, value in failed.items()]
-    return [str(item) for item in failed]
-
-
 def _cmd_analyse(args: argparse.Namespace) -> int:
     from .run import run_scenario
     from .scenario import load_scenario
@@ -238,7 +225,7 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
     else:
         print(summary.format_text().rstrip("\n"))
     if args.strict:
-        failed = _failed_checks(summary)
+        failed = summary.failed_checks
         if failed:
             noun = "check" if len(failed) == 1 else "checks"
             print(f"{PROG}: {len(failed)} {noun} failed: " + "; ".join(failed), file=sys.stderr)

@@ -48,7 +48,6 @@ from numpy.typing import NDArray
 from ..analysis.mpc import MPCDesign, Prediction, prediction
 from ..exceptions import ModelError
 from ..models.train import Train
-from ..units import GRAVITY
 from .base import Measurement, ReferencePreview, StepRecord
 from .observer import KalmanObserver, ObserverSettings
 from .qp import ParametricQP
@@ -178,11 +177,6 @@ class MPCController:
                   else np.kron(np.tril(np.ones((M, M))), np.eye(n)))
         self._D = np.kron(np.eye(M) - np.eye(M, k=-1), np.eye(n))  # move differences
         self._groups = [np.array(g) for g in train.groups]
-        env = [v.envelope for v in train.vehicles]
-        self._env = np.array([[e.max_traction for e in env], [e.max_power for e in env],
-                              [e.max_braking for e in env], [e.max_braking_power for e in env],
-                              [e.adhesion * v.mass * GRAVITY for e, v in zip(env, train.vehicles,
-                                                                          strict=True)]])
         for idx in self._groups:
             if train.traction_share[idx].sum() <= 0:
                 raise ModelError(f"{self.name}: vehicles {idx.tolist()} form a coupled group "
@@ -340,9 +334,12 @@ class MPCController:
         if not self.constraints.input_bounds:
             size = speeds.size * self.n
             return np.full(size, -np.inf), np.full(size, np.inf)
-        v = np.maximum(np.abs(np.asarray(speeds, dtype=float)), 0.1)[:, None]
-        up = np.minimum(np.minimum(self._env[0], self._env[1] / v), self._env[4])
-        down = np.minimum(np.minimum(self._env[2], self._env[3] / v), self._env[4])
+        v = np.asarray(speeds, dtype=float)
+        # One vectorised envelope call per vehicle over the previewed speeds: (moves, n).
+        up = np.column_stack([veh.envelope.traction_limit(v, mass=veh.mass)
+                              for veh in self.train.vehicles])
+        down = np.column_stack([veh.envelope.braking_limit(v, mass=veh.mass)
+                                for veh in self.train.vehicles])
         return -down.ravel() / KN, up.ravel() / KN
 
     def _shifted_plan(self) -> Array:
