@@ -7,13 +7,16 @@ Subcommands
     One line per built-in scenario: its name and description.
 ``export NAME [-o PATH] [--force]``
     Write a built-in scenario's TOML text to ``PATH`` (default ``./NAME.toml``).
-``analyse SCENARIO [--json] [--strict] [--no-simulate]``
+``analyse SCENARIO [--json] [--strict] [--no-simulate] [--save DIR]``
     Print the model summary, the design checks and — when the scenario has a
     ``[simulation]`` section — the closed-loop metrics of a scenario (a
-    built-in name or a file path).
-``report [SCENARIO] [-o PATH]``
-    Write the HTML model summary (default ``reports/<slug>.html``, see
-    :func:`default_report_path`).
+    built-in name or a file path); ``--save`` also writes everything a report
+    shows to ``DIR``.
+``report [SCENARIO | DIR] [-o PATH] [--all] [--deterministic] [--timestamp T] [--jobs N]``
+    Run a scenario (or read a directory saved by ``analyse --save``) and
+    write its self-contained HTML design report (default
+    ``reports/<name>.html``, see :func:`default_report_path`); ``--all``
+    writes every built-in's report and an ``index.html`` gallery.
 
 Exit status: 0 the command ran; 1 ``--strict`` found a failing check; 2 a
 usage, scenario or file error (``trainctl: error: <message>`` on stderr, no
@@ -22,8 +25,8 @@ traceback, no file written). Any other exception is a bug and propagates.
 Examples
 --------
 >>> args = build_parser().parse_args(["report"])
->>> args.scenario, args.output
-('crh2-dmpc', None)
+>>> args.scenario, args.output, args.all
+(None, None, False)
 """
 
 from __future__ import annotations
@@ -31,7 +34,10 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import sys
+import threading
+import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -49,6 +55,7 @@ DEFAULT_SCENARIO = "crh2-dmpc"
 EXIT_OK = 0
 EXIT_CHECK_FAILED = 1
 EXIT_ERROR = 2
+EXIT_INTERRUPTED = 130
 
 
 class _UserError(TrainctlError):
@@ -114,19 +121,25 @@ def build_parser() -> argparse.ArgumentParser:
         "--no-simulate", action="store_true",
         help="skip the [simulation] runs (model summary and design checks only)",
     )
+    p_analyse.add_argument(
+        "--save", metavar="DIR",
+        help="also write the results to DIR (new, empty, or an earlier --save); "
+        "'trainctl report DIR' renders them without re-running",
+    )
     p_analyse.set_defaults(func=_cmd_analyse)
 
     p_report = sub.add_parser(
         "report",
-        help="write the HTML model-summary report of a scenario",
-        description="Render the HTML model summary of a scenario.",
+        help="write the HTML design report of a scenario (or of all built-ins)",
+        description="Run a scenario's analysis and simulations and write one self-contained "
+        "HTML design report: scenario, model, design checks, controllers compared, figures.",
     )
     p_report.add_argument(
         "scenario",
         metavar="SCENARIO",
         nargs="?",
-        default=DEFAULT_SCENARIO,
-        help=f"built-in scenario name or path to a TOML file (default: {DEFAULT_SCENARIO})",
+        help=f"built-in scenario name, path to a TOML file, or a directory written by "
+        f"'analyse --save' (default: {DEFAULT_SCENARIO})",
     )
     p_report.add_argument(
         "-o",
@@ -134,11 +147,41 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="PATH",
         help=(
             "output HTML file (default: reports/NAME.html for a built-in, "
-            "reports/<slug of the scenario name>.html for a file)"
+            "reports/<slug of the scenario name>.html otherwise); with --all, the output "
+            "directory (default: reports)"
         ),
+    )
+    p_report.add_argument(
+        "--all", action="store_true",
+        help="report on every built-in scenario and write an index.html gallery",
+    )
+    p_report.add_argument(
+        "--deterministic", action="store_true",
+        help="leave out wall-clock values (solve and stage times, and the current time unless "
+        "--timestamp or SOURCE_DATE_EPOCH gives one): same input, same bytes",
+    )
+    p_report.add_argument(
+        "--timestamp", metavar="TIME",
+        help="time printed in the report, ISO 8601 or Unix seconds (default: now, or "
+        "SOURCE_DATE_EPOCH when set)",
+    )
+    p_report.add_argument(
+        "-j", "--jobs", metavar="N", type=_positive_int,
+        help="worker processes for the simulations (default: all CPUs when the simulations "
+        "are long, else 1)",
     )
     p_report.set_defaults(func=_cmd_report)
     return parser
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1 (got {text!r})") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1 (got {text!r})")
+    return value
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -158,11 +201,32 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(list(argv) if argv is not None else None)
     func: Callable[[argparse.Namespace], int] = args.func
+    previous = _terminate_as_interrupt()
     try:
         return func(args)
     except (TrainctlError, OSError) as exc:
         _error(_describe(exc))
         return EXIT_ERROR
+    except KeyboardInterrupt:
+        print(f"\n{PROG}: interrupted; no partial output was written", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _terminate_as_interrupt() -> Any:
+    """Make SIGTERM unwind like Ctrl-C, so that temporary files are removed.
+
+    Returns the previous handler (None when not in the main thread).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return None
+
+    def handler(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    return signal.signal(signal.SIGTERM, handler)
 
 
 def _error(message: str) -> None:
@@ -207,23 +271,27 @@ def _cmd_export(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _summary_of(source: str) -> tuple[Any, Any]:
-    from .analysis.summary import model_summary
-    from .scenario import load_scenario
-
-    scenario = load_scenario(source)
-    return scenario, model_summary(scenario)
-
-
 def _cmd_analyse(args: argparse.Namespace) -> int:
     from .run import run_scenario
-    from .scenario import load_scenario
+    from .scenario import parse_scenario, read_scenario_text
 
-    summary = run_scenario(load_scenario(args.scenario), simulate=not args.no_simulate)
+    text, label = read_scenario_text(args.scenario)
+    scenario = parse_scenario(text, source=label)
+    if args.save:
+        _check_save_target(Path(args.save))
+    summary = run_scenario(scenario, simulate=not args.no_simulate)
+    if args.save:
+        from .report import collect_report_data, portable_command
+
+        command = portable_command(_rebuild_argv(args))
+        data = collect_report_data(summary, scenario_text=text, command=command)
+        data.save(args.save)
     if args.json:
         print(json.dumps(summary.to_dict(), indent=2))
     else:
         print(summary.format_text().rstrip("\n"))
+    if args.save:
+        print(f"saved results to {args.save}", file=sys.stderr)
     if args.strict:
         failed = summary.failed_checks
         if failed:
@@ -231,6 +299,32 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
             print(f"{PROG}: {len(failed)} {noun} failed: " + "; ".join(failed), file=sys.stderr)
             return EXIT_CHECK_FAILED
     return EXIT_OK
+
+
+def _check_save_target(path: Path) -> None:
+    """Refuse a --save target before running (the same rules as ReportData.save)."""
+    from .report.data import MANIFEST
+
+    if path.exists() and not path.is_dir():
+        raise _UserError(f"{path}: exists and is not a directory; give a directory to --save")
+    if path.is_dir() and any(path.iterdir()) and not (path / MANIFEST).is_file():
+        raise _UserError(f"{path}: is a non-empty directory without {MANIFEST}; refusing to "
+                         "overwrite it. Give a new or empty directory to --save.")
+
+
+def _rebuild_argv(args: argparse.Namespace) -> list[str]:
+    """Arguments that reproduce ``args``, in a canonical order (printed in reports)."""
+    argv = [args.command]
+    if getattr(args, "scenario", None):
+        argv.append(args.scenario)
+    for flag in ("all", "deterministic", "json", "strict", "no_simulate"):
+        if getattr(args, flag, False):
+            argv.append("--" + flag.replace("_", "-"))
+    for option in ("save", "timestamp", "output"):
+        value = getattr(args, option, None)
+        if value:
+            argv += ["--" + option, str(value)]
+    return argv
 
 
 def default_report_path(scenario: Any) -> Path:
@@ -260,11 +354,101 @@ def default_report_path(scenario: Any) -> Path:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from .report import build_summary_context, render_summary_report, write_report
+    from .report import ReportData, is_saved_run, normalise_timestamp, write_report_file
 
-    scenario, summary = _summary_of(args.scenario)
-    path = Path(args.output) if args.output else default_report_path(scenario)
-    html = render_summary_report(build_summary_context(scenario, summary))
-    written = write_report(html, path)
-    print(f"wrote {written}")
+    if args.all and args.scenario:
+        raise _UserError("give either a SCENARIO or --all, not both")
+    stamp = args.timestamp or os.environ.get("SOURCE_DATE_EPOCH") or None
+    generated_at = normalise_timestamp(stamp) if stamp else None
+    if args.all:
+        return _report_all(args, generated_at)
+    source = args.scenario or DEFAULT_SCENARIO
+    start = time.perf_counter()
+    if Path(source).is_dir():
+        if not is_saved_run(source):
+            raise _UserError(f"{source}: is a directory but not one written by 'trainctl analyse "
+                             "--save'; give a scenario file, a built-in name or a saved run")
+        data = ReportData.load(source)
+        path = Path(args.output) if args.output else default_report_path(data.scenario)
+        _check_output(path)
+    else:
+        job = _report_job(source, args)
+        path = Path(args.output) if args.output else default_report_path(job.scenario)
+        _check_output(path)
+        from ._progress import Progress
+        from .parallel import want_pool
+        from .report import run_report_data
+
+        workers = want_pool([job.scenario], args.jobs)
+        strategies = job.scenario.simulation.strategies if job.scenario.simulation else ()
+        with Progress(len(strategies) + 2) as bar:
+            [data] = list(run_report_data([job], workers=workers, progress=bar))
+            bar.set_label("rendering figures and page")
+            written = write_report_file(data, path, generated_at=generated_at,
+                                        deterministic=args.deterministic)
+            bar.advance("written")
+        print(f"wrote {written} ({_summary_line(data)}; {time.perf_counter() - start:.1f} s)")
+        return EXIT_OK
+    written = write_report_file(data, path, generated_at=generated_at,
+                                deterministic=args.deterministic)
+    print(f"wrote {written} ({_summary_line(data)}; {time.perf_counter() - start:.1f} s)")
     return EXIT_OK
+
+
+def _report_job(source: str, args: argparse.Namespace) -> Any:
+    from .report import ReportJob, portable_command
+    from .scenario import parse_scenario, read_scenario_text
+
+    text, label = read_scenario_text(source)
+    scenario = parse_scenario(text, source=label)
+    argv = ["report", source]
+    if args.deterministic:
+        argv.append("--deterministic")
+    return ReportJob(scenario=scenario, text=text, command=portable_command(argv))
+
+
+def _report_all(args: argparse.Namespace, generated_at: str | None) -> int:
+    from ._progress import Progress
+    from .parallel import want_pool
+    from .report import run_report_data, write_gallery, write_report_file
+    from .scenario import builtin_scenarios
+
+    start = time.perf_counter()
+    outdir = Path(args.output) if args.output else Path("reports")
+    if outdir.exists() and not outdir.is_dir():
+        raise _UserError(f"{outdir}: is not a directory; with --all, -o names the output "
+                         "directory")
+    jobs = [_report_job(item.name, args) for item in builtin_scenarios()]
+    workers = want_pool([job.scenario for job in jobs], args.jobs)
+    total = sum(len(j.scenario.simulation.strategies) if j.scenario.simulation else 0
+                for j in jobs) + 2 * len(jobs) + 1
+    written = []
+    with Progress(total) as bar:
+        for job, data in zip(jobs, run_report_data(jobs, workers=workers, progress=bar),
+                             strict=True):
+            path = outdir / default_report_path(job.scenario).name
+            bar.set_label(f"rendering {path.name}")
+            written.append((data, write_report_file(data, path, generated_at=generated_at,
+                                                    deterministic=args.deterministic)))
+            bar.advance(f"wrote {path.name}")
+        index = write_gallery(written, outdir / "index.html", generated_at=generated_at,
+                              deterministic=args.deterministic)
+        bar.advance("wrote index.html")
+    failing = sum(1 for data, _ in written if data.results.get("failed_checks"))
+    print(f"wrote {index} and {len(written)} reports ({failing} with failing checks; "
+          f"{time.perf_counter() - start:.1f} s)")
+    return EXIT_OK
+
+
+def _check_output(path: Path) -> None:
+    if path.is_dir():
+        raise _UserError(f"{path} is a directory; give a file path with -o")
+
+
+def _summary_line(data: Any) -> str:
+    checks = data.results.get("checks", [])
+    counts = {s: sum(1 for c in checks if c["status"] == s) for s in ("pass", "warn", "fail")}
+    text = f"{len(checks)} checks: " + ", ".join(f"{v} {k}" for k, v in counts.items())
+    if data.simulations:
+        text += f"; {len(data.simulations)} controllers simulated"
+    return text

@@ -24,16 +24,26 @@ Examples
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+from numpy.typing import ArrayLike
 
 if TYPE_CHECKING:
     from .sim.results import SimulationResult
 
-__all__ = ["coupler_force_plot", "input_plot", "iterations_plot", "velocity_plot"]
+__all__ = [
+    "convergence_plot",
+    "coupler_force_plot",
+    "eigenvalue_plot",
+    "input_plot",
+    "iterations_plot",
+    "speed_error_plot",
+    "velocity_plot",
+]
 
 _LEGEND_MAX = 10
 """Show a legend only for at most this many traces."""
@@ -51,13 +61,33 @@ def _legend(ax: Axes, count: int) -> None:
         ax.legend(loc="best", fontsize="small")
 
 
-def _bounds(ax: Axes, bounds: tuple[float, float] | None) -> None:
-    """Dashed horizontal lines at the bounds given in N (drawn in kN)."""
+def _bounds(ax: Axes, bounds: tuple[ArrayLike, ArrayLike] | None,
+            time: ArrayLike | None = None) -> None:
+    """Dashed lines at the bounds given in N (drawn in kN).
+
+    A scalar bound is a horizontal line; an array bound is a curve over
+    ``time`` (one value per instant, or per sample held over its interval).
+    Infinite or missing values are not drawn.
+    """
     if bounds is None:
         return
-    for value in bounds:
-        if value is not None and np.isfinite(value):
-            ax.axhline(value / 1e3, color="0.3", linestyle="--", linewidth=1.0)
+    labels = ("lower bound", "upper bound")
+    for value, label in zip(bounds, labels, strict=True):
+        if value is None:
+            continue
+        arr = np.asarray(value, dtype=float)
+        if arr.ndim == 0:
+            if np.isfinite(arr):
+                ax.axhline(float(arr) / 1e3, color="0.3", linestyle="--", linewidth=1.0,
+                           label=label)
+            continue
+        t = np.asarray(time, dtype=float)
+        if arr.shape[0] == t.shape[0] - 1:  # per sample: hold over the interval
+            arr = np.append(arr, arr[-1])
+        shown = np.where(np.isfinite(arr), arr / 1e3, np.nan)
+        if np.any(np.isfinite(shown)):
+            ax.step(t, shown, where="post", color="0.3", linestyle="--", linewidth=1.0,
+                    label=label)
 
 
 def velocity_plot(result: SimulationResult, *, ax: Axes | None = None) -> Axes:
@@ -84,6 +114,41 @@ def velocity_plot(result: SimulationResult, *, ax: Axes | None = None) -> Axes:
     ax.set_ylabel("speed [m/s]")
     ax.set_title(f"Speeds — {result.controller_name}")
     _legend(ax, n + 1)
+    return ax
+
+
+def speed_error_plot(
+    result: SimulationResult, *, settle_time: float | None = None, ax: Axes | None = None
+) -> Axes:
+    """Speed minus reference speed of every vehicle against time.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        The run.
+    settle_time : float or None
+        Marked with a dotted vertical line when given [s] (tracking metrics
+        start there).
+    ax : matplotlib.axes.Axes or None
+        Axes to draw into; None creates a new Figure.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        The axes, labelled ``time [s]`` and ``speed error [m/s]``.
+    """
+    ax = _axes(ax)
+    n = result.n_vehicles
+    for i in range(n):
+        ax.plot(result.time, result.velocities[i] - result.reference_speed, linewidth=1.0,
+                label=f"vehicle {i + 1}")
+    ax.axhline(0.0, color="0.3", linewidth=0.8)
+    if settle_time is not None:
+        ax.axvline(settle_time, color="0.3", linestyle=":", linewidth=1.0, label="settle time")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("speed error [m/s]")
+    ax.set_title(f"Speed error — {result.controller_name}")
+    _legend(ax, n + (settle_time is not None))
     return ax
 
 
@@ -114,7 +179,7 @@ def coupler_force_plot(
     for i in range(count):
         ax.plot(result.time, result.coupler_forces[i] / 1e3, linewidth=1.0,
                 label=f"coupler {i + 1}–{i + 2}")
-    _bounds(ax, bounds)
+    _bounds(ax, bounds, result.time)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("coupler force [kN]")
     ax.set_title(f"Coupler forces — {result.controller_name}")
@@ -126,7 +191,7 @@ def coupler_force_plot(
 def input_plot(
     result: SimulationResult,
     *,
-    bounds: tuple[float, float] | None = None,
+    bounds: tuple[ArrayLike, ArrayLike] | None = None,
     ax: Axes | None = None,
 ) -> Axes:
     """Traction/braking forces, held over each sample interval, in kN.
@@ -135,8 +200,10 @@ def input_plot(
     ----------
     result : SimulationResult
         The run.
-    bounds : (float, float) or None
-        Lower (braking) and upper (traction) limits [N], drawn as dashed lines.
+    bounds : (float or ndarray, float or ndarray) or None
+        Lower (braking, negative) and upper (traction) limits [N], drawn as
+        dashed lines: scalars, or arrays over the samples (N values, held) or
+        the instants (N + 1 values), e.g. a speed-dependent envelope.
     ax : matplotlib.axes.Axes or None
         Axes to draw into; None creates a new Figure.
 
@@ -151,16 +218,21 @@ def input_plot(
         for i in range(n):
             held = np.append(result.inputs[i], result.inputs[i, -1]) / 1e3
             ax.step(result.time, held, where="post", linewidth=1.0, label=f"vehicle {i + 1}")
-    _bounds(ax, bounds)
+    _bounds(ax, bounds, result.time)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("force [kN]")
     ax.set_title(f"Inputs — {result.controller_name}")
-    _legend(ax, n)
+    _legend(ax, n + (2 if bounds is not None else 0))
     return ax
 
 
 def iterations_plot(result: SimulationResult, *, ax: Axes | None = None) -> Axes:
-    """Iterations per sample; samples whose status is not optimal are marked.
+    """Iterations and the final iteration residual per sample.
+
+    Iterations are a step line on the left axis; samples whose status is not
+    optimal are marked with red crosses. When the controller iterates (the
+    run recorded residuals), the last residual of each sample [kN] is drawn
+    on a logarithmic right axis.
 
     Parameters
     ----------
@@ -172,16 +244,128 @@ def iterations_plot(result: SimulationResult, *, ax: Axes | None = None) -> Axes
     Returns
     -------
     matplotlib.axes.Axes
-        The axes, labelled ``time [s]`` and ``iterations [-]``.
+        The iterations axes, labelled ``time [s]`` and ``iterations [-]``
+        (the residual axes is its twin).
     """
     ax = _axes(ax)
     t = result.time[:-1]
-    ax.step(t, result.iterations, where="post", linewidth=1.0, label="iterations")
+    handles = ax.step(t, result.iterations, where="post", linewidth=1.0, label="iterations")
     flagged = np.array([s != "optimal" for s in result.statuses], dtype=bool)
     if np.any(flagged):
-        ax.plot(t[flagged], result.iterations[flagged], "rx", label="not optimal")
-        ax.legend(loc="best", fontsize="small")
+        handles += ax.plot(t[flagged], result.iterations[flagged], "rx", label="not optimal")
+    final = np.array([r[-1] if r else np.nan for r in result.residuals], dtype=float)
+    shown = np.where(final > 0, final, np.nan)
+    if np.any(np.isfinite(shown)):
+        twin = ax.twinx()
+        handles += twin.step(t, shown, where="post", color="tab:orange", linewidth=0.8,
+                             label="final residual")
+        twin.set_yscale("log")
+        twin.set_ylabel("residual [kN]")
+    ax.set_ylim(bottom=0)
+    if len(handles) > 1:
+        ax.legend(handles=handles, loc="best", fontsize="small")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("iterations [-]")
     ax.set_title(f"Iterations — {result.controller_name}")
+    return ax
+
+
+def eigenvalue_plot(
+    eigenvalues: Mapping[str, ArrayLike], *, ax: Axes | None = None
+) -> Axes:
+    """Discrete-time eigenvalues against the unit circle.
+
+    Parameters
+    ----------
+    eigenvalues : mapping of str to array_like of complex
+        Label (e.g. ``"open loop"``, ``"centralised"``) to eigenvalues.
+    ax : matplotlib.axes.Axes or None
+        Axes to draw into; None creates a new Figure.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        Equal-aspect axes labelled ``Re(λ) [-]`` and ``Im(λ) [-]``.
+
+    Examples
+    --------
+    >>> ax = eigenvalue_plot({"open loop": [1.0, 0.5 + 0.5j, 0.5 - 0.5j]})
+    >>> ax.get_xlabel(), [line.get_label() for line in ax.lines][:2]
+    ('Re(λ) [-]', ['unit circle', 'open loop (ρ = 1)'])
+    """
+    ax = _axes(ax)
+    theta = np.linspace(0.0, 2.0 * np.pi, 361)
+    ax.plot(np.cos(theta), np.sin(theta), color="0.5", linewidth=0.8, label="unit circle")
+    markers = ("o", "x", "+", "s", "^", "D")
+    for k, (label, values) in enumerate(eigenvalues.items()):
+        z = np.asarray(values, dtype=complex).ravel()
+        filled = markers[k % len(markers)] in ("o", "s", "^", "D")
+        ax.plot(z.real, z.imag, linestyle="none", marker=markers[k % len(markers)],
+                markersize=6 if filled else 7, fillstyle="none" if filled else "full",
+                label=f"{label} (ρ = {np.max(np.abs(z)) if z.size else 0.0:.4g})")
+    ax.axhline(0.0, color="0.85", linewidth=0.6, zorder=0)
+    ax.axvline(0.0, color="0.85", linewidth=0.6, zorder=0)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("Re(λ) [-]")
+    ax.set_ylabel("Im(λ) [-]")
+    ax.set_title("Eigenvalues and the unit circle")
+    ax.legend(loc="best", fontsize="small")
+    return ax
+
+
+def convergence_plot(
+    weights: ArrayLike,
+    radii: ArrayLike,
+    *,
+    threshold: float | None = None,
+    design_weight: float | None = None,
+    unit: str = "per kN²",
+    ax: Axes | None = None,
+) -> Axes:
+    """ρ(D0) of the N-DMPC iteration against the input weight R, with R* marked.
+
+    Parameters
+    ----------
+    weights : array_like
+        Input weights R > 0 [``unit``].
+    radii : array_like
+        ρ(D0) at each weight (see :func:`trainctl.analysis.convergence_sweep`).
+    threshold : float or None
+        R*, the smallest weight with ρ(D0) < 1 [``unit``]; marked when finite.
+    design_weight : float or None
+        The design's own R [``unit``]; marked when given.
+    unit : str
+        Unit of the weights, for the axis label.
+    ax : matplotlib.axes.Axes or None
+        Axes to draw into; None creates a new Figure.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        Axes with a logarithmic R axis labelled ``R [unit]`` and ``ρ(D0) [-]``.
+
+    Examples
+    --------
+    >>> ax = convergence_plot([1.0, 5.0, 25.0], [1.667, 1.0, 0.333], threshold=5.0)
+    >>> ax.get_xscale(), ax.get_ylabel()
+    ('log', 'ρ(D0) [-]')
+    """
+    ax = _axes(ax)
+    r = np.asarray(weights, dtype=float)
+    rho = np.asarray(radii, dtype=float)
+    ax.plot(r, rho, linewidth=1.2, label="ρ(D0)")
+    ax.axhline(1.0, color="0.3", linestyle="--", linewidth=1.0, label="ρ = 1")
+    if threshold is not None and np.isfinite(threshold):
+        ax.axvline(threshold, color="tab:red", linestyle=":", linewidth=1.2,
+                   label=f"R* = {threshold:.4g}")
+    if design_weight is not None and np.isfinite(design_weight):
+        at = float(np.interp(np.log(design_weight), np.log(r), rho)) if r.size else np.nan
+        ax.plot([design_weight], [at], "o", color="tab:green",
+                label=f"design R = {design_weight:.4g}")
+    ax.set_xscale("log")
+    ax.set_ylim(bottom=0)
+    ax.set_xlabel(f"R [{unit}]")
+    ax.set_ylabel("ρ(D0) [-]")
+    ax.set_title("N-DMPC iteration: ρ(D0) against the input weight")
+    ax.legend(loc="best", fontsize="small")
     return ax

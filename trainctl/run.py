@@ -3,7 +3,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from concurrent.futures import Executor, Future
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -18,7 +19,9 @@ if TYPE_CHECKING:
     from .sim.metrics import Metrics
     from .sim.results import SimulationResult
 
-__all__ = ["AnalysisRun", "make_controller", "run_scenario", "simulate_strategy"]
+__all__ = [
+    "AnalysisRun", "make_controller", "run_scenario", "simulate_strategy", "submit_simulations",
+]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -185,7 +188,38 @@ def simulate_strategy(scenario: Scenario, strategy: str) -> SimulationResult:
                     full_state=controller.needs_full_state)
 
 
-def run_scenario(scenario: Scenario, *, simulate: bool = True) -> AnalysisRun:
+def submit_simulations(
+    scenario: Scenario, executor: Executor
+) -> dict[str, Future[SimulationResult]]:
+    """Start every ``[simulation]`` strategy of a scenario on an executor.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A loaded scenario (no ``[simulation]``: nothing is submitted).
+    executor : concurrent.futures.Executor
+        Where to run :func:`simulate_strategy`: a process pool
+        (:func:`trainctl.parallel.process_pool`), a Dask executor, ...
+
+    Returns
+    -------
+    dict of str to Future
+        Strategy → future of its :class:`~trainctl.sim.SimulationResult`.
+    """
+    if scenario.simulation is None:
+        return {}
+    return {strategy: executor.submit(simulate_strategy, scenario, strategy)
+            for strategy in scenario.simulation.strategies}
+
+
+def run_scenario(
+    scenario: Scenario,
+    *,
+    simulate: bool = True,
+    executor: Executor | None = None,
+    pending: Mapping[str, Future[SimulationResult]] | None = None,
+    on_simulated: Callable[[str], None] | None = None,
+) -> AnalysisRun:
     """Run the model summary, the design review and the scenario's simulations.
 
     Parameters
@@ -194,6 +228,15 @@ def run_scenario(scenario: Scenario, *, simulate: bool = True) -> AnalysisRun:
         A loaded scenario.
     simulate : bool
         Run the ``[simulation]`` strategies (when the scenario has them).
+    executor : concurrent.futures.Executor or None
+        Run the strategies there, side by side, while this process does the
+        analysis; None runs them here, one after the other. Results are the
+        same either way.
+    pending : mapping of str to Future or None
+        Simulations already submitted with :func:`submit_simulations`
+        (overrides ``executor``).
+    on_simulated : callable or None
+        Called with the strategy name as each simulation finishes (progress).
 
     Returns
     -------
@@ -209,13 +252,21 @@ def run_scenario(scenario: Scenario, *, simulate: bool = True) -> AnalysisRun:
     """
     sims: dict[str, SimulationResult] = {}
     metrics: dict[str, Metrics] = {}
-    if simulate and scenario.simulation is not None:
+    sim = scenario.simulation if simulate else None
+    if sim is not None and pending is None and executor is not None:
+        pending = submit_simulations(scenario, executor)
+    summary, review = model_summary(scenario), review_design(scenario)
+    if sim is not None:
         from .sim.metrics import compute_metrics
 
-        for strategy in scenario.simulation.strategies:
-            sims[strategy] = simulate_strategy(scenario, strategy)
-            metrics[strategy] = compute_metrics(
-                sims[strategy], settle_time=scenario.simulation.settle_time,
-                regen_efficiency=scenario.simulation.regen_efficiency)
-    return AnalysisRun(scenario=scenario, summary=model_summary(scenario),
-                       review=review_design(scenario), simulations=sims, metrics=metrics)
+        for strategy in sim.strategies:
+            if pending is not None:
+                sims[strategy] = pending[strategy].result()
+            else:
+                sims[strategy] = simulate_strategy(scenario, strategy)
+            metrics[strategy] = compute_metrics(sims[strategy], settle_time=sim.settle_time,
+                                                regen_efficiency=sim.regen_efficiency)
+            if on_simulated is not None:
+                on_simulated(strategy)
+    return AnalysisRun(scenario=scenario, summary=summary, review=review, simulations=sims,
+                       metrics=metrics)

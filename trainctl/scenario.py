@@ -79,6 +79,7 @@ __all__ = [
     "builtin_scenarios",
     "load_scenario",
     "parse_scenario",
+    "read_scenario_text",
     "slugify",
 ]
 
@@ -995,8 +996,39 @@ def load_scenario(source: str | os.PathLike[str]) -> Scenario:
     >>> round(scenario.model.speed, 3), scenario.model.sample_time
     (83.333, 20.0)
     """
+    text, label = read_scenario_text(source)
+    return parse_scenario(text, source=label)
+
+
+def read_scenario_text(source: str | os.PathLike[str]) -> tuple[str, str]:
+    """The TOML text of a built-in name or a file, and its source label.
+
+    Parameters
+    ----------
+    source : str or os.PathLike
+        As for :func:`load_scenario`.
+
+    Returns
+    -------
+    text : str
+        The file's text (a report echoes it; ``parse_scenario(text,
+        source=label)`` gives the scenario).
+    label : str
+        ``"builtin:NAME"`` or the path as given.
+
+    Raises
+    ------
+    ScenarioError
+        If the file is missing, unreadable or not UTF-8.
+
+    Examples
+    --------
+    >>> text, label = read_scenario_text("crh2-dmpc")
+    >>> label, parse_scenario(text, source=label).source
+    ('builtin:crh2-dmpc', 'builtin:crh2-dmpc')
+    """
     if isinstance(source, str) and _is_bare_name(source):
-        return parse_scenario(builtin_scenario_text(source), source=f"builtin:{source}")
+        return builtin_scenario_text(source), f"builtin:{source}"
     label = os.fspath(source)
     try:
         raw = Path(label).read_bytes()
@@ -1005,9 +1037,14 @@ def load_scenario(source: str | os.PathLike[str]) -> Scenario:
             f"{label}: file not found. Give an existing path, or a built-in name "
             f"({', '.join(_builtin_names())})."
         ) from None
+    except IsADirectoryError:
+        raise ScenarioError(
+            f"{label}: is a directory, not a scenario file. Give a TOML file or a built-in "
+            f"name ({', '.join(_builtin_names())})."
+        ) from None
     except OSError as exc:
         raise ScenarioError(f"{label}: cannot read the file ({exc.strerror or exc}).") from None
-    return parse_scenario(_decode(raw, label), source=label)
+    return _decode(raw, label), label
 
 
 def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:

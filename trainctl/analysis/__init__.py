@@ -11,6 +11,7 @@ from .modes import Mode as Mode
 from .modes import continuous_modes as continuous_modes
 from .modes import nyquist_sample_time as nyquist_sample_time
 from .mpc import MPCDesign as MPCDesign
+from .mpc import convergence_sweep as convergence_sweep
 from .mpc import prediction as prediction
 from .review import Check as Check
 from .review import DesignReview as DesignReview
@@ -27,6 +28,6 @@ __all__ = [
     "Check", "ControllabilityResult", "DMPCAnalysis", "DesignReview", "MPCDesign", "Mode",
     "ModelSummary", "SamplingResult", "StabilityResult", "analyse_controllability",
     "analyse_dmpc", "analyse_observability", "analyse_sampling", "analyse_stability",
-    "continuous_modes", "design_model", "finite_horizon_gramian", "model_summary",
-    "nyquist_sample_time", "prediction", "review_design",
+    "continuous_modes", "convergence_sweep", "design_model", "finite_horizon_gramian",
+    "model_summary", "nyquist_sample_time", "prediction", "review_design",
 ]

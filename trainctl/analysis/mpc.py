@@ -36,7 +36,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..exceptions import ModelError
 
@@ -46,6 +46,7 @@ __all__ = [
     "Prediction",
     "RelaxationResult",
     "closed_loop_matrix",
+    "convergence_sweep",
     "cooperative_iteration",
     "finite_iteration_closed_loop",
     "iteration_matrices",
@@ -424,6 +425,47 @@ def threshold_weight(
         else:
             hi = mid
     return 10.0**hi
+
+
+def convergence_sweep(design: MPCDesign, weights: ArrayLike) -> Array:
+    """ρ(D0) of the N-DMPC Jacobi iteration for each common input weight R.
+
+    The curve behind :func:`threshold_weight`: ρ(D0) falls through 1 at R*.
+
+    Parameters
+    ----------
+    design : MPCDesign
+        The design (its own ``r`` is ignored; all inputs get the same weight).
+    weights : array_like
+        Input weights R > 0 [design units, e.g. per kN²].
+
+    Returns
+    -------
+    ndarray
+        ρ(D0) for each weight, same shape as ``weights``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> d = MPCDesign(A=np.eye(1), B=np.ones((1, 3)), C=np.eye(1), prediction_horizon=2,
+    ...               control_horizon=1, form="u", q=np.ones(1), r=np.full(3, 0.1),
+    ...               output_owner=(0,), neighbourhoods=((0, 1, 2),) * 3)
+    >>> # By hand: D0 = -5/(5 + R) (J - I), so ρ(D0) = 10/(5 + R).
+    >>> convergence_sweep(d, [1.0, 5.0, 25.0]).round(4).tolist()
+    [1.6667, 1.0, 0.3333]
+    """
+    r = np.asarray(weights, dtype=float)
+    if np.any(~np.isfinite(r)) or np.any(r <= 0):
+        raise ModelError("convergence_sweep: weights must be finite and > 0.")
+    pred = prediction(design)  # independent of R: build once, swap the weight block
+    M = design.control_horizon
+    out = np.empty(r.shape)
+    for index, value in np.ndenumerate(r):
+        Rbar = np.asarray(np.kron(np.eye(M), np.diag(np.full(design.n_inputs, value))),
+                          dtype=np.float64)
+        D0, _ = iteration_matrices(design.with_r(value), dataclasses.replace(pred, Rbar=Rbar))
+        out[index] = spectral_radius(D0)
+    return out
 
 
 @dataclass(frozen=True, kw_only=True)

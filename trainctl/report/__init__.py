@@ -1,5 +1,15 @@
-# HTML reports: build a context, render it with the package templates, write it.
-"""Self-contained HTML reports (no external resources, no JavaScript).
+# HTML design reports: collect the data, build a context, render with package templates, write.
+"""Self-contained HTML design reports (inline CSS and SVG, no JavaScript, no external resources).
+
+The pipeline, each step usable on its own (e.g. in a notebook):
+
+1. :func:`collect_report_data` — from a :class:`~trainctl.run.AnalysisRun` to
+   a :class:`ReportData` (which :meth:`ReportData.save` / :meth:`ReportData.load`
+   write and read: ``trainctl analyse --save DIR``).
+2. :func:`build_report_context` — the one pure function from data to
+   display values and inline-SVG figures.
+3. :func:`render_report` — the package template, autoescaped, strict.
+4. :func:`write_report` — atomic write (temporary file, then rename).
 
 Examples
 --------
@@ -10,14 +20,42 @@ True
 
 from __future__ import annotations
 
-from .render import build_summary_context as build_summary_context
+from .build import ReportJob as ReportJob
+from .build import normalise_timestamp as normalise_timestamp
+from .build import portable_command as portable_command
+from .build import run_report_data as run_report_data
+from .build import write_gallery as write_gallery
+from .build import write_report_file as write_report_file
+from .context import build_index_context as build_index_context
+from .context import build_report_context as build_report_context
+from .context import headline as headline
+from .data import ReportData as ReportData
+from .data import collect_report_data as collect_report_data
+from .data import is_saved_run as is_saved_run
+from .figures import figure_svg as figure_svg
+from .figures import report_figures as report_figures
 from .render import make_environment as make_environment
-from .render import render_summary_report as render_summary_report
+from .render import render_index as render_index
+from .render import render_report as render_report
 from .render import write_report as write_report
 
 __all__ = [
-    "build_summary_context",
+    "ReportData",
+    "ReportJob",
+    "build_index_context",
+    "build_report_context",
+    "collect_report_data",
+    "figure_svg",
+    "headline",
+    "is_saved_run",
     "make_environment",
-    "render_summary_report",
+    "normalise_timestamp",
+    "portable_command",
+    "render_index",
+    "render_report",
+    "report_figures",
+    "run_report_data",
+    "write_gallery",
     "write_report",
+    "write_report_file",
 ]

@@ -1,0 +1,125 @@
+# Process pools for independent simulations (strategies, scenarios, later Monte-Carlo sweeps).
+"""Run independent simulations on several processes.
+
+Simulations of different strategies (and scenarios) share nothing, so they can
+run side by side. Every function here takes any :class:`concurrent.futures.Executor`:
+:func:`process_pool` makes a local one; a Dask cluster's
+``distributed.Client.get_executor()`` fits the same slot, since the submitted
+callables (:func:`trainctl.run.simulate_strategy`) and their arguments (frozen
+scenario dataclasses) pickle.
+
+Workers start from a ``forkserver`` that has imported trainctl once, so a
+worker costs a fork rather than a fresh interpreter; workers ignore SIGINT so
+that Ctrl-C reaches only the main process, which cancels the pool.
+
+Examples
+--------
+>>> from trainctl.scenario import load_scenario
+>>> estimated_steps(load_scenario("crh2-dmpc"))
+180
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+from collections.abc import Iterable
+from concurrent.futures import Executor, ProcessPoolExecutor
+from multiprocessing.context import BaseContext
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .scenario import Scenario
+
+__all__ = ["PARALLEL_MIN_STEPS", "available_cpus", "estimated_steps", "process_pool", "want_pool"]
+
+PARALLEL_MIN_STEPS = 5000
+"""Simulated controller steps (summed over strategies) from which a pool pays off.
+
+Starting the pool costs about a second; a controller step costs 0.2–2 ms, so
+below a few thousand steps the simulations finish sooner in the main process.
+"""
+
+
+def available_cpus() -> int:
+    """CPUs this process may run on (``os.sched_getaffinity`` where available)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def estimated_steps(scenario: Scenario) -> int:
+    """Controller steps of all of a scenario's simulations (0 without ``[simulation]``).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A loaded scenario.
+
+    Returns
+    -------
+    int
+        ``n_steps × number of strategies``.
+    """
+    sim = scenario.simulation
+    if sim is None:
+        return 0
+    return sim.n_steps(scenario.model.sample_time) * len(sim.strategies)
+
+
+def want_pool(scenarios: Iterable[Scenario], jobs: int | None) -> int:
+    """How many worker processes to use for these scenarios' simulations.
+
+    Parameters
+    ----------
+    scenarios : iterable of Scenario
+        The scenarios to simulate.
+    jobs : int or None
+        Requested workers; None chooses: the available CPUs when the
+        simulations total at least :data:`PARALLEL_MIN_STEPS` steps, else 0.
+
+    Returns
+    -------
+    int
+        0 to simulate in the main process, else the pool size (never more
+        than the number of simulations).
+    """
+    scenarios = list(scenarios)
+    tasks = sum(len(s.simulation.strategies) for s in scenarios if s.simulation is not None)
+    if tasks <= 1 or jobs == 1 or jobs == 0:
+        return 0
+    if jobs is None:
+        if sum(estimated_steps(s) for s in scenarios) < PARALLEL_MIN_STEPS:
+            return 0
+        jobs = available_cpus()
+    return max(0, min(int(jobs), tasks)) if jobs > 1 else 0
+
+
+def _ignore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def process_pool(workers: int) -> Executor:
+    """A local process pool whose workers have trainctl imported.
+
+    Parameters
+    ----------
+    workers : int
+        Number of worker processes, >= 1.
+
+    Returns
+    -------
+    concurrent.futures.ProcessPoolExecutor
+        Use it as a context manager.
+    """
+    context: BaseContext
+    try:
+        forkserver = multiprocessing.get_context("forkserver")
+        forkserver.set_forkserver_preload(["trainctl.run"])
+        context = forkserver
+    except ValueError:  # pragma: no cover - platforms without forkserver
+        context = multiprocessing.get_context("spawn")
+    return ProcessPoolExecutor(max_workers=workers, mp_context=context,
+                               initializer=_ignore_sigint)

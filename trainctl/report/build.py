@@ -1,0 +1,333 @@
+# From scenario names to report files: run (in parallel when it pays), collect, render, write.
+"""The ``trainctl report`` pipeline.
+
+:func:`run_report_data` runs scenarios (analysis here, simulations on a
+process pool when they are long, see :func:`trainctl.parallel.want_pool`)
+and yields one :class:`~trainctl.report.ReportData` per scenario, in order.
+:func:`write_report_file` renders one and writes it atomically;
+:func:`write_gallery` writes the ``index.html`` of several.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime
+import os
+import time
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Executor, Future
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from ..exceptions import TrainctlError
+from .context import build_index_context, build_report_context, headline
+from .data import ReportData, collect_report_data
+from .render import render_index, render_report, write_report
+
+if TYPE_CHECKING:
+    from .._progress import Progress
+    from ..scenario import Scenario
+    from ..sim.results import SimulationResult
+
+__all__ = [
+    "ReportJob",
+    "TimestampError",
+    "normalise_timestamp",
+    "portable_command",
+    "run_report_data",
+    "write_gallery",
+    "write_report_file",
+]
+
+# Relative cost of a controller step per strategy (iterating controllers solve more QPs).
+_STRATEGY_COST = {"centralised": 1.0, "decentralised": 1.5, "ndmpc": 2.5, "cooperative": 3.0}
+
+
+class TimestampError(TrainctlError, ValueError):
+    """An injected report timestamp that cannot be read."""
+
+
+@dataclass(frozen=True)
+class ReportJob:
+    """One scenario to report on.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The parsed scenario.
+    text : str
+        Its TOML text.
+    command : str
+        The command line to print in the report (machine-specific paths removed).
+    """
+
+    scenario: Scenario
+    text: str
+    command: str
+
+
+def portable_command(argv: Sequence[str], *, prog: str = "trainctl") -> str:
+    """A command line without machine-specific paths.
+
+    The program is called by its name; an absolute path argument (or
+    ``--option=/abs/path``) is reduced to its last component. Relative paths
+    and everything else stay as given.
+
+    Parameters
+    ----------
+    argv : sequence of str
+        Arguments after the program name.
+    prog : str
+        Program name.
+
+    Returns
+    -------
+    str
+        The command, arguments quoted where needed.
+
+    Examples
+    --------
+    >>> portable_command(["report", "/home/ana/thesis/my scenario.toml", "-o", "out/r.html"])
+    "trainctl report 'my scenario.toml' -o out/r.html"
+    """
+    import shlex
+
+    parts = [prog]
+    for arg in argv:
+        head, sep, tail = arg.partition("=")
+        if sep and arg.startswith("--") and os.path.isabs(tail):
+            arg = f"{head}={Path(tail).name}"
+        elif os.path.isabs(arg):
+            arg = Path(arg).name
+        parts.append(arg)
+    return shlex.join(parts)
+
+
+def normalise_timestamp(value: str) -> str:
+    """An ISO 8601 time (or a Unix epoch in seconds) as ``YYYY-MM-DDTHH:MM:SSZ`` UTC.
+
+    Parameters
+    ----------
+    value : str
+        ``2026-11-22T10:00:00Z``, ``2026-11-22 10:00+01:00``, ``2026-11-22``
+        (midnight UTC) or ``1795000000``; a time without a zone is UTC.
+
+    Returns
+    -------
+    str
+        The normalised UTC time.
+
+    Raises
+    ------
+    TimestampError
+        When ``value`` is neither.
+
+    Examples
+    --------
+    >>> normalise_timestamp("2026-11-22 10:00+01:00"), normalise_timestamp("0")
+    ('2026-11-22T09:00:00Z', '1970-01-01T00:00:00Z')
+    """
+    text = value.strip()
+    try:
+        if text.isdigit():
+            moment = datetime.datetime.fromtimestamp(int(text), datetime.UTC)
+        else:
+            moment = datetime.datetime.fromisoformat(text.replace("Z", "+00:00"))
+    except (ValueError, OverflowError, OSError):
+        raise TimestampError(
+            f"timestamp {value!r} is neither an ISO 8601 time nor a Unix time in seconds; "
+            "give e.g. 2026-11-22T10:00:00Z or 1795000000.") from None
+    if moment.tzinfo is None:
+        moment = moment.replace(tzinfo=datetime.UTC)
+    moment = moment.astimezone(datetime.UTC)
+    return moment.isoformat(timespec="seconds").replace("+00:00", "Z")
+
+
+# --------------------------------------------------------------------------- running
+
+
+def _cost(scenario: Scenario, strategy: str) -> float:
+    sim = scenario.simulation
+    steps = sim.n_steps(scenario.model.sample_time) if sim is not None else 0
+    return steps * scenario.train.n_vehicles * _STRATEGY_COST.get(strategy, 2.0)
+
+
+@contextlib.contextmanager
+def _pool(workers: int) -> Iterator[Executor | None]:
+    """A process pool (None for ``workers == 0``) that is torn down at once on error."""
+    if workers <= 0:
+        yield None
+        return
+    from ..parallel import process_pool
+
+    pool = process_pool(workers)
+    try:
+        yield pool
+    except BaseException:
+        # Do not wait for running simulations: cancel the queue, stop the workers.
+        processes = list(getattr(pool, "_processes", {}).values())
+        pool.shutdown(wait=False, cancel_futures=True)
+        for process in processes:
+            process.terminate()
+        raise
+    else:
+        pool.shutdown(wait=True)
+
+
+def run_report_data(
+    jobs: Sequence[ReportJob],
+    *,
+    workers: int = 0,
+    progress: Progress | None = None,
+) -> Iterator[ReportData]:
+    """Run each job's analysis and simulations; yield its report data, in order.
+
+    Parameters
+    ----------
+    jobs : sequence of ReportJob
+        The scenarios.
+    workers : int
+        Process-pool size for the simulations (0: run them here). All
+        simulations of all jobs are submitted up front, longest first, so
+        that later scenarios simulate while earlier ones are analysed.
+    progress : Progress or None
+        Advanced once per analysis and per simulation.
+
+    Yields
+    ------
+    ReportData
+        With stage timings.
+    """
+    with _pool(workers) as pool:
+        pending: dict[int, dict[str, Future[SimulationResult]]] = {}
+        if pool is not None:
+            tasks = [(k, strategy) for k, job in enumerate(jobs) if job.scenario.simulation
+                     for strategy in job.scenario.simulation.strategies]
+            tasks.sort(key=lambda t: -_cost(jobs[t[0]].scenario, t[1]))
+            from ..run import simulate_strategy
+
+            for k, strategy in tasks:
+                future = pool.submit(simulate_strategy, jobs[k].scenario, strategy)
+                if progress is not None:
+                    future.add_done_callback(_advance(progress, f"simulated {strategy}"))
+                pending.setdefault(k, {})[strategy] = future
+        for k, job in enumerate(jobs):
+            yield _run_one(job, pending.get(k), progress)
+
+
+def _advance(progress: Progress, label: str) -> Callable[[Future[Any]], None]:
+    def callback(_: Future[Any]) -> None:
+        progress.advance(label)
+    return callback
+
+
+def _run_one(job: ReportJob, pending: dict[str, Future[SimulationResult]] | None,
+             progress: Progress | None) -> ReportData:
+    from ..run import run_scenario
+
+    name = job.scenario.name
+    if progress is not None:
+        progress.set_label(f"analysing {name}")
+    start = time.perf_counter()
+
+    def simulated(strategy: str) -> None:
+        if progress is not None:
+            progress.advance(f"simulated {strategy} ({name})")
+
+    run = run_scenario(job.scenario, pending=pending,
+                       on_simulated=simulated if pending is None else None)
+    middle = time.perf_counter()
+    if progress is not None:
+        progress.set_label(f"collecting {name}")
+    data = collect_report_data(run, scenario_text=job.text, command=job.command)
+    end = time.perf_counter()
+    timings = {"analysis and simulations": middle - start, "report data": end - middle}
+    if progress is not None:
+        progress.advance(f"analysed {name}")
+    return _with_timings(data, timings)
+
+
+def _with_timings(data: ReportData, timings: dict[str, float]) -> ReportData:
+    import dataclasses
+
+    return dataclasses.replace(data, timings={**data.timings, **timings})
+
+
+# --------------------------------------------------------------------------- writing
+
+
+def write_report_file(
+    data: ReportData,
+    path: str | os.PathLike[str],
+    *,
+    generated_at: str | None = None,
+    deterministic: bool = False,
+) -> Path:
+    """Render ``data`` and write the page atomically to ``path``.
+
+    Parameters
+    ----------
+    data : ReportData
+        The report's data.
+    path : str or os.PathLike
+        Output file (parents created). Written to a temporary file and
+        renamed into place: an interrupted render leaves the previous file.
+    generated_at : str or None
+        Timestamp (see :func:`trainctl.report.build_report_context`).
+    deterministic : bool
+        Leave out wall-clock values.
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+    """
+    start = time.perf_counter()
+    context = build_report_context(data, generated_at=generated_at, deterministic=deterministic)
+    if not deterministic:
+        # The render's own time is known only now; put it in the footer table.
+        seconds = time.perf_counter() - start
+        context["footer"]["timings"].append({"stage": "Figures and page",
+                                             "seconds": f"{seconds:.3g}"})
+    return write_report(render_report(context), path)
+
+
+def write_gallery(
+    entries: Sequence[tuple[ReportData, Path]],
+    path: str | os.PathLike[str],
+    *,
+    generated_at: str | None = None,
+    deterministic: bool = False,
+) -> Path:
+    """Write the ``index.html`` that links several reports.
+
+    Parameters
+    ----------
+    entries : sequence of (ReportData, Path)
+        Each report's data and its file.
+    path : str or os.PathLike
+        The gallery file; links are relative to its directory.
+    generated_at, deterministic
+        As for :func:`write_report_file`.
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+    """
+    target = Path(path)
+    rows = []
+    for data, report in entries:
+        href = os.path.relpath(Path(report).resolve(), target.parent.resolve())
+        rows.append({"name": data.scenario.name, "href": Path(href).as_posix(),
+                     "description": data.scenario.description, "headline": headline(data),
+                     "source": data.scenario.source})
+    versions: list[dict[str, str]] = []
+    if entries:
+        env = entries[0][0].environment
+        versions = [{"name": k, "version": v or "not installed"}
+                    for k, v in env.get("versions", {}).items()]
+    context = build_index_context(rows, generated_at=generated_at, deterministic=deterministic,
+                                  versions=versions)
+    return write_report(render_index(context), target)

@@ -1,0 +1,396 @@
+# One pure function from report data to the template context; templates never compute.
+"""Build the context of the report and gallery templates.
+
+:func:`build_report_context` is the only place where results become display
+values: numbers are formatted, units attached, statuses mapped to badges and
+figures encoded. It reads no clock unless asked to (``generated_at``) and no
+files, so the same data give the same page.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from ._format import (
+    docstring_units,
+    format_complex,
+    format_number,
+    format_value,
+    humanise,
+    is_real,
+)
+from .data import ReportData
+from .figures import report_figures
+
+__all__ = ["MATRIX_COACHES_SHOWN", "build_index_context", "build_report_context", "headline"]
+
+MATRIX_COACHES_SHOWN = 8
+"""Per-coach matrices are listed for at most this many coaches."""
+
+SECTIONS = (
+    ("scenario", "Scenario"),
+    ("model", "Model"),
+    ("checks", "Design checks"),
+    ("controllers", "Controllers compared"),
+    ("figures", "Figures"),
+    ("reproducibility", "Reproducibility"),
+)
+"""Section anchors and titles, in page order."""
+
+_BADGES = {"pass": "pass", "warn": "warn", "fail": "fail"}
+
+
+def utc_now() -> str:
+    """The current UTC time, ISO 8601 to the second (``2026-11-22T05:30:00Z``)."""
+    now = datetime.datetime.now(datetime.UTC)
+    return now.isoformat(timespec="seconds").replace("+00:00", "Z")
+
+
+def build_report_context(
+    data: ReportData,
+    *,
+    generated_at: str | None = None,
+    deterministic: bool = False,
+) -> dict[str, Any]:
+    """Everything the report template shows, display-ready.
+
+    Parameters
+    ----------
+    data : ReportData
+        From :func:`~trainctl.report.collect_report_data` or
+        :meth:`ReportData.load`.
+    generated_at : str or None
+        Timestamp for the header and footer. None: the current UTC time, or
+        no timestamp at all when ``deterministic``.
+    deterministic : bool
+        Leave out everything that depends on the wall clock (solve times,
+        stage timings, the current time), so that the same data render to
+        the same bytes.
+
+    Returns
+    -------
+    dict
+        Template variables (see ``templates/report.html.j2``).
+    """
+    if generated_at is None and not deterministic:
+        generated_at = utc_now()
+    scenario = data.scenario
+    checks = _checks(data)
+    return {
+        "title": f"{scenario.name} — trainctl design report",
+        "sections": [{"id": key, "title": title} for key, title in SECTIONS],
+        "scenario": _scenario(data),
+        "headline": headline(data),
+        "model": _model(data),
+        "checks": checks,
+        "controllers": _controllers(data, deterministic=deterministic),
+        "figures": report_figures(data),
+        "footer": _footer(data, generated_at=generated_at, deterministic=deterministic),
+        "generated_at": generated_at or "",
+    }
+
+
+# --------------------------------------------------------------------------- scenario
+
+
+def _scenario(data: ReportData) -> dict[str, Any]:
+    scenario = data.scenario
+    settings = []
+    for title, obj in (("Model", scenario.model), ("Controller", scenario.controller),
+                       ("Simulation", scenario.simulation)):
+        if obj is not None:
+            settings.append({"title": title, "rows": _settings_rows(obj)})
+    return {
+        "name": scenario.name,
+        "description": scenario.description,
+        "source": scenario.source,
+        "seed": str(scenario.seed),
+        "slug": scenario.slug,
+        "text": data.scenario_text,
+        "train": _train(scenario.train),
+        "track": _track(scenario.track),
+        "settings": settings,
+        "expected": [{"name": k, "status": v} for k, v in data.expected.items()],
+    }
+
+
+def _settings_rows(settings: Any) -> list[dict[str, str]]:
+    units = docstring_units(type(settings))
+    rows = []
+    for f in dataclasses.fields(settings):
+        value = getattr(settings, f.name)
+        numeric = is_real(value) or (
+            isinstance(value, tuple) and bool(value) and all(is_real(v) for v in value))
+        unit = units.get(f.name, "") if numeric else ""
+        if f.name == "input_weight":
+            unit = f"per {settings.input_weight_unit}²"
+        unit = unit.replace("^2", "²")
+        rows.append({"name": humanise(f.name), "key": f.name, "value": format_value(value),
+                     "unit": unit})
+        if f.name == "speed" and is_real(value):
+            rows.append({"name": "Speed", "key": "speed_kmh",
+                         "value": format_number(float(value) * 3.6), "unit": "km/h"})
+    return rows
+
+
+def _train(train: Any) -> dict[str, Any]:
+    vehicles = []
+    for i, v in enumerate(train.vehicles):
+        env = v.envelope
+        vehicles.append({
+            "index": str(i), "name": v.name, "mass_t": format_number(v.mass / 1e3),
+            "a0": format_number(v.a0), "a1": format_number(v.a1), "a2": format_number(v.a2),
+            "traction_share": format_number(v.traction_share),
+            "max_traction_kn": format_number(env.max_traction / 1e3),
+            "max_braking_kn": format_number(env.max_braking / 1e3),
+            "max_power_kw": format_number(env.max_power / 1e3),
+            "length": format_number(v.length),
+        })
+    couplers = [{
+        "index": str(i), "between": f"{i}–{i + 1}", "kind": "virtual" if c.virtual else "physical",
+        "stiffness_kn_per_m": format_number(c.stiffness / 1e3),
+        "damping_kn_s_per_m": format_number(c.damping / 1e3),
+        "spacing": format_number(c.spacing),
+    } for i, c in enumerate(train.couplers)]
+    return {"name": train.name, "n_vehicles": str(train.n_vehicles),
+            "total_mass_t": format_number(float(np.sum(train.mass)) / 1e3),
+            "vehicles": vehicles, "couplers": couplers}
+
+
+def _track(track: Any) -> list[dict[str, str]]:
+    if track is None:
+        return []
+    rows = []
+    for section in track.sections:
+        radius = float(section.curve_radius)
+        rows.append({"start": format_number(section.start),
+                     "grade_permille": format_number(section.grade_permille),
+                     "curve_radius": "straight" if math.isinf(radius) else format_number(radius)})
+    return rows
+
+
+# --------------------------------------------------------------------------- model
+
+
+def _model(data: ReportData) -> dict[str, Any]:
+    r = data.results
+    eq = r["equilibrium"]
+    overview = [
+        {"name": "States", "value": str(r["n_states"]), "unit": "-"},
+        {"name": "Inputs (traction/braking force per vehicle)", "value": str(r["n_inputs"]),
+         "unit": "N"},
+        {"name": "Outputs", "value": ", ".join(r["outputs"]), "unit": "m/s"},
+        {"name": "Linearisation speed", "value": format_value(r["speed"]), "unit": "m/s"},
+        {"name": "Linearisation speed", "value": format_value(r["speed_kmh"]), "unit": "km/h"},
+        {"name": "Linearisation", "value": str(r["linearisation"]), "unit": ""},
+        {"name": "Sample time T", "value": format_value(r["sampling"]["sample_time"]),
+         "unit": "s"},
+        {"name": "Largest sample time resolving the couplers (π/ω_max)",
+         "value": format_value(r["sampling"]["nyquist_sample_time"]), "unit": "s"},
+        {"name": "ω_max·T", "value": format_value(r["sampling"]["omega_max_times_T"]),
+         "unit": "rad"},
+        {"name": "Discrete open-loop spectral radius",
+         "value": format_value(r["sampling"]["discrete_spectral_radius"]), "unit": "-"},
+        {"name": "Cruise feasible within the traction envelope",
+         "value": format_value(eq.get("feasible")), "unit": ""},
+    ]
+    equilibrium = [
+        {"index": str(i), "input_kn": format_number(u / 1e3), "limit_kn": format_number(lim / 1e3)}
+        for i, (u, lim) in enumerate(zip(eq["inputs"], eq["traction_limit"], strict=True))]
+    couplers = [
+        {"index": f"{i}–{i + 1}", "force_kn": format_number(f / 1e3),
+         "elongation_mm": format_number(x * 1e3)}
+        for i, (f, x) in enumerate(zip(eq["coupler_forces"], eq["elongations"], strict=True))]
+    modes = [{
+        "kind": m["kind"],
+        "eigenvalue": format_complex(*m["eigenvalue"]),
+        "natural_frequency": format_value(m["natural_frequency"]),
+        "damping_ratio": format_value(m["damping_ratio"]),
+        "period": format_value(m["period"]),
+        "multiplicity": str(m["multiplicity"]),
+    } for m in r["modes"]]
+    coaches = [_coach(c) for c in data.subsystems[:MATRIX_COACHES_SHOWN]]
+    return {"overview": overview, "equilibrium": equilibrium, "couplers": couplers,
+            "modes": modes, "coaches": coaches,
+            "coaches_hidden": max(0, len(data.subsystems) - MATRIX_COACHES_SHOWN)}
+
+
+def _coach(coach: Mapping[str, Any]) -> dict[str, Any]:
+    i = coach["index"]
+    states = list(coach["states"])
+    roles = {"B": "input", "C": "output"}
+    matrices = []
+    for block in coach["blocks"]:
+        kind, j = block["kind"], block["from"]
+        if kind == "A":
+            columns = states if j == i else list(block["columns"])
+            role = "local dynamics" if j == i else f"coupling from coach {j}"
+            subscript = f"{i},{j}"
+        else:
+            columns = [f"u[{i}] [N]"] if kind == "B" else states
+            role, subscript = roles[kind], str(i)
+        row_labels = [f"y[{i}] [m/s]"] if kind == "C" else states
+        matrices.append({
+            "kind": kind, "subscript": subscript, "role": role, "columns": columns,
+            "rows": [{"label": row_labels[k] if k < len(row_labels) else str(k),
+                      "cells": [format_number(x) for x in row]}
+                     for k, row in enumerate(block["matrix"])],
+        })
+    return {"index": str(i), "states": ", ".join(states), "matrices": matrices}
+
+
+# --------------------------------------------------------------------------- checks
+
+
+def _checks(data: ReportData) -> dict[str, Any]:
+    rows = []
+    counts = {"pass": 0, "warn": 0, "fail": 0}
+    for check in data.results.get("checks", []):
+        status = str(check["status"])
+        counts[status] = counts.get(status, 0) + 1
+        expected = data.expected.get(check["name"], "")
+        rows.append({
+            "name": check["name"], "status": status, "badge": _BADGES.get(status, "other"),
+            "value": format_value(check["value"]), "threshold": format_value(check["threshold"]),
+            "unit": check["unit"] or "-", "message": check["message"], "hint": check["hint"],
+            "expected": expected,
+            "unexpected": bool(expected) and expected != status,
+        })
+    return {"rows": rows, "counts": counts, "total": len(rows),
+            "unexpected": [{"name": k, "expected": v[0], "found": v[1]}
+                           for k, v in data.unexpected.items()]}
+
+
+def headline(data: ReportData) -> str:
+    """One line of key results (the gallery shows it under the link).
+
+    Examples
+    --------
+    ``12 checks: 7 pass, 3 warn, 2 fail · ρ(D0) = 0.306 · best tracking: ndmpc,
+    max error 0.197 m/s``
+    """
+    checks = data.results.get("checks", [])
+    counts = {s: sum(1 for c in checks if c["status"] == s) for s in ("pass", "warn", "fail")}
+    parts = [f"{len(checks)} checks: " + ", ".join(f"{v} {k}" for k, v in counts.items())]
+    for check in checks:
+        if check["name"] == "ndmpc_convergence" and check["value"] is not None:
+            parts.append(f"ρ(D0) = {format_number(check['value'], 3)}")
+    sims = data.results.get("simulations", {})
+    if sims:
+        best = min(sims, key=lambda name: max(x for x in sims[name]["max_error"]
+                                              if x is not None))
+        worst_err = max(x for x in sims[best]["max_error"] if x is not None)
+        parts.append(f"best tracking: {best}, max error {format_number(worst_err, 3)} m/s")
+    else:
+        parts.append("no closed-loop simulation")
+    return " · ".join(parts)
+
+
+# --------------------------------------------------------------------------- controllers
+
+
+def _controllers(data: ReportData, *, deterministic: bool) -> dict[str, Any]:
+    sims = data.results.get("simulations", {})
+    sim = data.scenario.simulation
+    columns = [
+        ("strategy", "Strategy", ""), ("rms_error", "RMS speed error", "m/s"),
+        ("max_error", "Max speed error", "m/s"), ("max_coupler_force", "Max |coupler force|", "kN"),
+        ("energy", "Net traction energy", "kWh"), ("max_jerk", "Max jerk (head)", "m/s³"),
+        ("iterations", "Iterations mean / max", "-"), ("tracking", "Tracking", ""),
+        ("statuses", "Step statuses", ""),
+    ]
+    if not deterministic:
+        columns.insert(7, ("solve_time", "Step time median / p95", "ms"))
+    rows = []
+    for name, m in sims.items():
+        rms = [x for x in m["rms_error"] if x is not None]
+        maxe = [x for x in m["max_error"] if x is not None]
+        cells = {
+            "strategy": name,
+            "rms_error": format_number(math.sqrt(sum(x * x for x in rms) / len(rms)), 4)
+            if rms else "—",
+            "max_error": format_number(max(maxe), 4) if maxe else "—",
+            "max_coupler_force": format_number((m["max_coupler_force"] or 0.0) / 1e3, 4),
+            "energy": format_value(_round(m["energy_kwh"])),
+            "max_jerk": format_value(_round(m["max_jerk"])),
+            "iterations": f"{format_number(m['iterations_mean'], 3)} / {m['iterations_max']}",
+            "solve_time": f"{format_number(_ms(m['solve_time_median']), 3)} / "
+                          f"{format_number(_ms(m['solve_time_p95']), 3)}",
+            "tracking": "within tolerance" if m.get("tracking_ok") else "outside tolerance",
+            "statuses": ", ".join(f"{k} {v}" for k, v in m["status_counts"].items() if v),
+        }
+        rows.append({"ok": bool(m.get("tracking_ok")),
+                     "cells": [cells[key] for key, _, _ in columns]})
+    note = ""
+    if sim is not None:
+        note = (f"{format_number(sim.duration)} s on the nonlinear plant, sample time "
+                f"{format_number(data.scenario.model.sample_time)} s; errors after "
+                f"{format_number(sim.settle_time)} s, tolerance "
+                f"{format_number(sim.tracking_tolerance)} m/s; measurement noise σ = "
+                f"{format_number(sim.measurement_noise)} m/s.")
+    return {"columns": [{"key": k, "title": t, "unit": u} for k, t, u in columns],
+            "rows": rows, "note": note}
+
+
+def _round(x: float | None) -> float | None:
+    return None if x is None else float(f"{x:.4g}")
+
+
+def _ms(x: float | None) -> float:
+    return math.nan if x is None else x * 1e3
+
+
+# --------------------------------------------------------------------------- footer
+
+
+def _footer(data: ReportData, *, generated_at: str | None, deterministic: bool) -> dict[str, Any]:
+    env = data.environment
+    versions = [{"name": k, "version": v or "not installed"}
+                for k, v in env.get("versions", {}).items()]
+    versions.append({"name": "python", "version": str(env.get("python", ""))})
+    timings = [] if deterministic else [
+        {"stage": humanise(k), "seconds": format_number(v, 3)} for k, v in data.timings.items()]
+    return {"versions": versions, "seed": str(data.scenario.seed), "command": data.command,
+            "generated_at": generated_at or "", "timings": timings,
+            "deterministic": deterministic}
+
+
+# --------------------------------------------------------------------------- gallery
+
+
+def build_index_context(
+    entries: Sequence[Mapping[str, str]],
+    *,
+    generated_at: str | None = None,
+    deterministic: bool = False,
+    versions: Sequence[Mapping[str, str]] = (),
+) -> dict[str, Any]:
+    """Context of the gallery page.
+
+    Parameters
+    ----------
+    entries : sequence of mapping
+        One per report: ``name``, ``href`` (relative link), ``description``,
+        ``headline`` (:func:`headline`) and ``source``.
+    generated_at : str or None
+        As for :func:`build_report_context`.
+    deterministic : bool
+        As for :func:`build_report_context`.
+    versions : sequence of mapping
+        ``name`` / ``version`` rows for the footer.
+
+    Returns
+    -------
+    dict
+        Template variables of ``templates/index.html.j2``.
+    """
+    if generated_at is None and not deterministic:
+        generated_at = utc_now()
+    return {"title": "trainctl — built-in analyses", "entries": [dict(e) for e in entries],
+            "generated_at": generated_at or "", "versions": [dict(v) for v in versions]}

@@ -1,0 +1,358 @@
+# What a report shows, computed once: collected from a run, saved, loaded back.
+"""The numbers behind a report, and the saved-results directory.
+
+:func:`collect_report_data` turns an :class:`~trainctl.run.AnalysisRun` into a
+:class:`ReportData`: the run's JSON summary plus what only the report shows
+(the per-coach matrices, the eigenvalues of the open and closed loops, the
+ρ(D0)-against-R curve) and the simulation results. ``trainctl analyse --save
+DIR`` writes it with :meth:`ReportData.save`; ``trainctl report DIR`` reads
+it back with :meth:`ReportData.load` and renders without re-running anything.
+
+Directory layout (format :data:`FORMAT`)::
+
+    DIR/trainctl-run.json          everything except the time series
+    DIR/scenario.toml              the scenario text as read
+    DIR/simulations/<strategy>/    one SimulationResult.save directory each
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import secrets
+import shutil
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..exceptions import ScenarioError
+
+if TYPE_CHECKING:
+    from ..run import AnalysisRun
+    from ..scenario import Scenario
+    from ..sim.results import SimulationResult
+
+__all__ = ["FORMAT", "MANIFEST", "ReportData", "collect_report_data", "is_saved_run"]
+
+FORMAT = "trainctl.ReportData/1"
+"""Format tag of ``trainctl-run.json``."""
+
+MANIFEST = "trainctl-run.json"
+"""File that marks a saved-results directory."""
+
+SWEEP_POINTS = 61
+"""Weights in the ρ(D0)-against-R curve."""
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class ReportData:
+    """Everything a report shows, as plain data.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario, parsed from ``scenario_text``.
+    scenario_text : str
+        The TOML text as read.
+    results : dict
+        :meth:`AnalysisRun.to_dict`: summary, checks, failed checks, metrics.
+    subsystems : list of dict
+        Per coach i: ``index``, ``states`` and ``blocks``, each with ``kind``
+        (``"A"``, ``"B"``, ``"C"``), ``from`` (j of A_ij) and ``matrix``
+        (nested lists, SI: speeds m/s, elongations m, inputs N); coupling
+        blocks also name their ``columns`` (coach j's states).
+    spectra : dict of str to ndarray
+        Discrete-time eigenvalues (complex) by label: ``"open loop"``, and
+        with a controller ``"centralised"``, ``"N-DMPC (Nash)"``,
+        ``"N-DMPC (k iterations)"``.
+    weight_sweep : dict or None
+        ``weights`` and ``radii`` (ρ(D0)) arrays, ``threshold`` R* and
+        ``design_weight`` R, in ``unit`` (per kN² or per N²); None without a
+        controller.
+    simulations : dict of str to SimulationResult
+        Closed-loop runs by strategy.
+    expected : dict of str to str
+        The scenario's ``[expected]`` table.
+    unexpected : dict of str to list of str
+        Checks whose status differs from ``expected``: name → [expected, found].
+    environment : dict
+        Versions (:func:`trainctl.sim.results.environment`).
+    command : str
+        The command that produced the run, without machine-specific paths.
+    timings : dict of str to float
+        Wall-clock seconds per stage (``analysis``, ``simulations``, ...).
+    """
+
+    scenario: Scenario
+    scenario_text: str
+    results: dict[str, Any]
+    subsystems: list[dict[str, Any]]
+    spectra: dict[str, NDArray[np.complex128]]
+    weight_sweep: dict[str, Any] | None
+    simulations: dict[str, SimulationResult] = field(default_factory=dict)
+    expected: dict[str, str] = field(default_factory=dict)
+    unexpected: dict[str, list[str]] = field(default_factory=dict)
+    environment: dict[str, Any] = field(default_factory=dict)
+    command: str = ""
+    timings: dict[str, float] = field(default_factory=dict)
+
+    # ----------------------------------------------------------------- files
+    def save(self, directory: str | os.PathLike[str]) -> Path:
+        """Write the data to ``directory``, atomically.
+
+        Everything goes to a temporary sibling directory first, which then
+        replaces ``directory``; an interrupted save leaves the previous
+        contents (or nothing). An existing ``directory`` must be empty or a
+        previous save (it holds :data:`MANIFEST`).
+
+        Parameters
+        ----------
+        directory : str or os.PathLike
+            Target directory (parents are created).
+
+        Returns
+        -------
+        pathlib.Path
+            The directory.
+
+        Raises
+        ------
+        ScenarioError
+            If ``directory`` is a file, or a non-empty directory that is not a
+            saved run (nothing is written).
+        """
+        target = Path(directory)
+        if target.exists():
+            if not target.is_dir():
+                raise ScenarioError(f"{target}: exists and is not a directory; give a "
+                                    "directory for the saved results.")
+            if any(target.iterdir()) and not (target / MANIFEST).is_file():
+                raise ScenarioError(f"{target}: is a non-empty directory without {MANIFEST}; "
+                                    "refusing to overwrite it. Give a new or empty directory.")
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = target.with_name(f".{target.name}.{secrets.token_hex(6)}.tmp")
+        try:
+            tmp.mkdir()
+            (tmp / "scenario.toml").write_text(self.scenario_text, encoding="utf-8")
+            for strategy, result in self.simulations.items():
+                result.save(tmp / "simulations" / strategy)
+            (tmp / MANIFEST).write_text(json.dumps(self._document(), indent=1) + "\n",
+                                        encoding="utf-8")
+            old = None
+            if target.exists():
+                old = target.with_name(f".{target.name}.{secrets.token_hex(6)}.old")
+                target.rename(old)
+            tmp.rename(target)
+            if old is not None:
+                shutil.rmtree(old, ignore_errors=True)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+        return target
+
+    def _document(self) -> dict[str, Any]:
+        sweep = None
+        if self.weight_sweep is not None:
+            sweep = {key: (np.asarray(value, dtype=float).tolist()
+                           if key in ("weights", "radii") else _json_number(value))
+                     for key, value in self.weight_sweep.items()}
+        return {
+            "format": FORMAT,
+            "source": self.scenario.source,
+            "strategies": list(self.simulations),
+            "results": self.results,
+            "subsystems": self.subsystems,
+            "spectra": {label: [[float(z.real), float(z.imag)] for z in values]
+                        for label, values in self.spectra.items()},
+            "weight_sweep": sweep,
+            "expected": self.expected,
+            "unexpected": self.unexpected,
+            "environment": self.environment,
+            "command": self.command,
+            "timings": self.timings,
+        }
+
+    @classmethod
+    def load(cls, directory: str | os.PathLike[str]) -> ReportData:
+        """Read a directory written by :meth:`save`.
+
+        Parameters
+        ----------
+        directory : str or os.PathLike
+            A saved-results directory.
+
+        Returns
+        -------
+        ReportData
+            Equal to the saved data (arrays exactly).
+
+        Raises
+        ------
+        ScenarioError
+            If the directory is not a readable saved run of this format.
+        """
+        from ..scenario import parse_scenario
+        from ..sim.results import SimulationResult
+
+        path = Path(directory)
+        manifest = path / MANIFEST
+        try:
+            document = json.loads(manifest.read_text(encoding="utf-8"))
+            text = (path / "scenario.toml").read_text(encoding="utf-8")
+        except FileNotFoundError as exc:
+            raise ScenarioError(f"{path}: not a complete saved run ({Path(exc.filename).name} "
+                                "is missing). Write one with 'trainctl analyse SCENARIO "
+                                "--save DIR'.") from None
+        except (OSError, ValueError) as exc:
+            raise ScenarioError(f"{manifest}: cannot read the saved run ({exc}).") from None
+        if not isinstance(document, dict) or document.get("format") != FORMAT:
+            found = document.get("format") if isinstance(document, dict) else None
+            raise ScenarioError(f"{manifest}: must be a {FORMAT!r} file (got format {found!r}). "
+                                "Re-create it with 'trainctl analyse SCENARIO --save DIR'.")
+        scenario = parse_scenario(text, source=document["source"])
+        sims = {name: SimulationResult.load(path / "simulations" / name)
+                for name in document["strategies"]}
+        sweep = document["weight_sweep"]
+        if sweep is not None:
+            sweep = {key: (np.asarray(value, dtype=float) if key in ("weights", "radii")
+                           else (math.inf if value is None and key == "threshold" else value))
+                     for key, value in sweep.items()}
+        spectra = {label: np.array([complex(re, im) for re, im in values], dtype=complex)
+                   for label, values in document["spectra"].items()}
+        return cls(scenario=scenario, scenario_text=text, results=document["results"],
+                   subsystems=document["subsystems"], spectra=spectra, weight_sweep=sweep,
+                   simulations=sims, expected=document["expected"],
+                   unexpected=document["unexpected"], environment=document["environment"],
+                   command=document["command"], timings=document["timings"])
+
+
+def is_saved_run(path: str | os.PathLike[str]) -> bool:
+    """True when ``path`` is a directory holding :data:`MANIFEST`."""
+    return (Path(path) / MANIFEST).is_file()
+
+
+def _json_number(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+# --------------------------------------------------------------------------- collection
+
+
+def collect_report_data(
+    run: AnalysisRun,
+    *,
+    scenario_text: str,
+    command: str = "",
+    timings: Mapping[str, float] | None = None,
+) -> ReportData:
+    """Compute what the report shows beyond the run itself.
+
+    Parameters
+    ----------
+    run : AnalysisRun
+        From :func:`trainctl.run.run_scenario`.
+    scenario_text : str
+        The scenario's TOML text (echoed in the report and saved).
+    command : str
+        The producing command, machine-specific paths removed.
+    timings : mapping or None
+        Wall-clock seconds per stage.
+
+    Returns
+    -------
+    ReportData
+        Plain data for :func:`trainctl.report.build_report_context`.
+    """
+    from ..sim.results import environment
+
+    scenario = run.scenario
+    return ReportData(
+        scenario=scenario,
+        scenario_text=scenario_text,
+        results=run.to_dict(),
+        subsystems=_subsystems(scenario),
+        spectra=_spectra(scenario),
+        weight_sweep=_weight_sweep(scenario),
+        simulations=dict(run.simulations),
+        expected=dict(scenario.expected),
+        unexpected={name: list(pair) for name, pair in run.unexpected_checks().items()},
+        environment=environment(),
+        command=command,
+        timings=dict(timings or {}),
+    )
+
+
+def _subsystems(scenario: Scenario) -> list[dict[str, Any]]:
+    from ..models.subsystems import coach_subsystems
+
+    cfg = scenario.model
+    sub = coach_subsystems(scenario.train, cfg.speed, method=cfg.linearisation,
+                           dummy_state=cfg.dummy_state)
+    coaches = []
+    for i in range(sub.n_coaches):
+        blocks: list[dict[str, Any]] = [{"kind": "A", "from": i, "matrix": sub.A[i, i].tolist()}]
+        for j in (i - 1, i + 1):
+            if (i, j) in sub.A:
+                blocks.append({"kind": "A", "from": j, "matrix": sub.A[i, j].tolist(),
+                               "columns": list(sub.state_labels[j])})
+        blocks.append({"kind": "B", "from": i, "matrix": sub.B[i].tolist()})
+        blocks.append({"kind": "C", "from": i, "matrix": sub.C[i].tolist()})
+        coaches.append({"index": i, "states": list(sub.state_labels[i]), "blocks": blocks})
+    return coaches
+
+
+def _spectra(scenario: Scenario) -> dict[str, NDArray[np.complex128]]:
+    from ..analysis.dmpc import analyse_dmpc
+    from ..analysis.review import design_model
+    from ..models.discrete import discretise
+
+    sys, design = design_model(scenario)
+    if design is None:
+        sysd = discretise(sys, scenario.model.sample_time, method=scenario.model.discretisation)
+        return {"open loop": _eig(np.asarray(sysd.A, dtype=float))}
+    ctl = scenario.controller
+    assert ctl is not None  # design exists only with a controller
+    weights = (None if ctl.cooperative_weights == "uniform"
+               else np.asarray(ctl.cooperative_weights, dtype=float))
+    res = analyse_dmpc(design, iterations=ctl.iterations, cooperative_weights=weights)
+    return {
+        "open loop": _eig(design.A),
+        "centralised": _eig(res.closed_loop_centralised),
+        "N-DMPC (Nash)": _eig(res.closed_loop_nash),
+        f"N-DMPC ({ctl.iterations} iteration{'s' if ctl.iterations != 1 else ''})":
+            _eig(res.closed_loop_iterations),
+    }
+
+
+def _eig(matrix: NDArray[np.float64]) -> NDArray[np.complex128]:
+    values = np.linalg.eigvals(matrix).astype(complex)
+    # A fixed order (by angle, then modulus) keeps saved files and figures stable.
+    order = np.lexsort((np.round(np.abs(values), 12), np.round(np.angle(values), 12)))
+    return values[order]
+
+
+def _weight_sweep(scenario: Scenario) -> dict[str, Any] | None:
+    from ..analysis.mpc import convergence_sweep, threshold_weight
+    from ..analysis.review import design_model
+
+    ctl = scenario.controller
+    _, design = design_model(scenario)
+    if ctl is None or design is None:
+        return None
+    r_design = ctl.input_weight_per_kn2()
+    r_star = threshold_weight(design)
+    finite = [x for x in (r_design, r_star) if math.isfinite(x) and x > 0]
+    low = min(finite) / 100.0 if finite else 1e-3
+    high = max(finite) * 100.0 if finite else 1e3
+    weights = np.logspace(math.log10(low), math.log10(high), SWEEP_POINTS)
+    radii = convergence_sweep(design, weights)
+    scale = 1.0 if ctl.input_weight_unit == "kN" else 1e-6  # per kN² -> per N²
+    return {"weights": weights * scale, "radii": radii, "threshold": r_star * scale,
+            "design_weight": r_design * scale, "unit": f"per {ctl.input_weight_unit}²"}
