@@ -1,4 +1,4 @@
-# Packaging test: build the wheel, install it elsewhere and run it outside the repo.
+# Packaging test: build the wheel, `pip install .` elsewhere (non-editable), run outside the repo.
 """The built wheel ships the built-in scenarios, templates and static files and runs."""
 
 from __future__ import annotations
@@ -47,16 +47,19 @@ def wheel(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def site(wheel: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A directory the wheel is installed into with pip --target."""
+def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A directory holding a non-editable ``pip install .`` of this checkout (--target)."""
     target = tmp_path_factory.mktemp("install") / "site"
     result = _run(
         [
             sys.executable, "-m", "pip", "install", "--no-deps", "--no-index",
-            "--disable-pip-version-check", "-q", "--target", str(target), str(wheel),
-        ]
+            "--no-build-isolation", "--disable-pip-version-check", "-q",
+            "--target", str(target), ".",
+        ],
+        cwd=REPO,
     )  # fmt: skip
     assert result.returncode == 0, result.stdout + result.stderr
+    assert not list(target.glob("__editable__*")), "the install must not be editable"
     return target
 
 
@@ -79,7 +82,10 @@ class TestWheelContents:
             "trainctl/__main__.py",
             "trainctl/cli.py",
             "trainctl/py.typed",
-            "trainctl/report/templates/summary.html.j2",
+            "trainctl/report/templates/report.html.j2",
+            "trainctl/report/templates/index.html.j2",
+            "trainctl/report/templates/_layout.html.j2",
+            "trainctl/report/templates/_macros.html.j2",
             "trainctl/report/static/report.css",
             *(f"trainctl/builtin_analyses/{name}.toml" for name in BUILTINS),
         }
@@ -129,9 +135,12 @@ class TestInstalledWheel:
         assert "Vehicles" in result.stdout
 
     def test_report(self, site: Path, tmp_path: Path) -> None:
-        """report finds its template and stylesheet in the installed package."""
+        """report finds its templates and stylesheet in the installed package."""
         result = _run_installed(site, tmp_path, "report")
         assert result.returncode == 0, result.stderr
         page = tmp_path / "reports" / "crh2-dmpc.html"
-        assert result.stdout.strip() == f"wrote {Path('reports') / 'crh2-dmpc.html'}"
-        assert "border-collapse" in page.read_text(encoding="utf-8")
+        assert result.stdout.startswith(f"wrote {Path('reports') / 'crh2-dmpc.html'} (")
+        html = page.read_text(encoding="utf-8")
+        assert "border-collapse" in html
+        assert html.count("<svg") == 7
+        assert 'id="reproducibility"' in html

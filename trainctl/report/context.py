@@ -201,11 +201,10 @@ def _model(data: ReportData) -> dict[str, Any]:
          "value": format_value(eq.get("feasible")), "unit": ""},
     ]
     equilibrium = [
-        {"index": str(i), "input_kn": format_number(u / 1e3), "limit_kn": format_number(lim / 1e3)}
+        {"index": str(i), "input_kn": _scaled(u, 1e-3), "limit_kn": _scaled(lim, 1e-3)}
         for i, (u, lim) in enumerate(zip(eq["inputs"], eq["traction_limit"], strict=True))]
     couplers = [
-        {"index": f"{i}–{i + 1}", "force_kn": format_number(f / 1e3),
-         "elongation_mm": format_number(x * 1e3)}
+        {"index": f"{i}–{i + 1}", "force_kn": _scaled(f, 1e-3), "elongation_mm": _scaled(x, 1e3)}
         for i, (f, x) in enumerate(zip(eq["coupler_forces"], eq["elongations"], strict=True))]
     modes = [{
         "kind": m["kind"],
@@ -219,6 +218,11 @@ def _model(data: ReportData) -> dict[str, Any]:
     return {"overview": overview, "equilibrium": equilibrium, "couplers": couplers,
             "modes": modes, "coaches": coaches,
             "coaches_hidden": max(0, len(data.subsystems) - MATRIX_COACHES_SHOWN)}
+
+
+def _scaled(value: float | None, factor: float) -> str:
+    """``value * factor`` formatted; None (a non-finite number in JSON) as a dash."""
+    return "—" if value is None else format_number(value * factor)
 
 
 def _coach(coach: Mapping[str, Any]) -> dict[str, Any]:
