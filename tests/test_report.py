@@ -541,3 +541,45 @@ def test_sequential_and_pool_runs_agree() -> None:
         assert np.array_equal(a.states, b.states) and np.array_equal(a.inputs, b.inputs)
         assert a.statuses == b.statuses
     assert math.isclose(here.metrics["ndmpc"].energy, there.metrics["ndmpc"].energy)
+
+
+class TestProgress:
+    """The terminal progress bar."""
+
+    class _Terminal:
+        def __init__(self) -> None:
+            self.chunks: list[str] = []
+
+        def write(self, text: str) -> int:
+            self.chunks.append(text)
+            return len(text)
+
+        def flush(self) -> None:
+            pass
+
+        def isatty(self) -> bool:
+            return True
+
+    def test_draws_on_a_terminal_and_clears(self) -> None:
+        """On a terminal: counted bar with the label, then the line is cleared."""
+        from trainctl._progress import Progress
+
+        term = self._Terminal()
+        with Progress(4, stream=term) as bar:  # type: ignore[arg-type]
+            bar.advance("simulated ndmpc")
+            bar.advance("analysed", steps=2)
+        text = "".join(term.chunks)
+        assert "[######------------------] 1/4 simulated ndmpc" in text
+        assert "3/4 analysed" in text
+        assert text.endswith("\r\033[K")
+
+    def test_silent_off_a_terminal(self) -> None:
+        """Not a terminal (pipe, log, CI): nothing is written."""
+        import io
+
+        from trainctl._progress import Progress
+
+        stream = io.StringIO()
+        with Progress(2, stream=stream) as bar:
+            bar.advance("x")
+        assert stream.getvalue() == ""
