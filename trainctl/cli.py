@@ -7,7 +7,7 @@ Subcommands
     One line per built-in scenario: its name and description.
 ``export NAME [-o PATH] [--force]``
     Write a built-in scenario's TOML text to ``PATH`` (default ``./NAME.toml``).
-``analyse SCENARIO [--json] [--strict] [--no-simulate] [--save DIR]``
+``analyse SCENARIO [--json] [--strict] [--no-simulate] [--jobs N] [--save DIR]``
     Print the model summary, the design checks and — when the scenario has a
     ``[simulation]`` section — the closed-loop metrics of a scenario (a
     built-in name or a file path); ``--save`` also writes everything a report
@@ -120,6 +120,11 @@ def build_parser() -> argparse.ArgumentParser:
     p_analyse.add_argument(
         "--no-simulate", action="store_true",
         help="skip the [simulation] runs (model summary and design checks only)",
+    )
+    p_analyse.add_argument(
+        "-j", "--jobs", metavar="N", type=_positive_int,
+        help="worker processes for the simulations (default: all CPUs when the simulations "
+        "are long, else 1)",
     )
     p_analyse.add_argument(
         "--save", metavar="DIR",
@@ -279,7 +284,11 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
     scenario = parse_scenario(text, source=label)
     if args.save:
         _check_save_target(Path(args.save))
-    summary = run_scenario(scenario, simulate=not args.no_simulate)
+    from .parallel import want_pool, worker_pool
+
+    workers = 0 if args.no_simulate else want_pool([scenario], args.jobs)
+    with worker_pool(workers) as pool:
+        summary = run_scenario(scenario, simulate=not args.no_simulate, executor=pool)
     if args.save:
         from .report import collect_report_data, portable_command
 

@@ -21,10 +21,11 @@ Examples
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
 import signal
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from concurrent.futures import Executor, ProcessPoolExecutor
 from multiprocessing.context import BaseContext
 from typing import TYPE_CHECKING
@@ -32,7 +33,10 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from .scenario import Scenario
 
-__all__ = ["PARALLEL_MIN_STEPS", "available_cpus", "estimated_steps", "process_pool", "want_pool"]
+__all__ = [
+    "PARALLEL_MIN_STEPS", "available_cpus", "estimated_steps", "process_pool", "want_pool",
+    "worker_pool",
+]
 
 PARALLEL_MIN_STEPS = 5000
 """Simulated controller steps (summed over strategies) from which a pool pays off.
@@ -123,3 +127,37 @@ def process_pool(workers: int) -> Executor:
         context = multiprocessing.get_context("spawn")
     return ProcessPoolExecutor(max_workers=workers, mp_context=context,
                                initializer=_ignore_sigint)
+
+
+@contextlib.contextmanager
+def worker_pool(workers: int) -> Iterator[Executor | None]:
+    """A :func:`process_pool` of ``workers`` (None for 0) that is torn down at once on error.
+
+    On an exception (Ctrl-C included) queued simulations are cancelled and
+    running workers terminated instead of waited for.
+
+    Parameters
+    ----------
+    workers : int
+        Pool size; 0 yields None (run in this process).
+
+    Yields
+    ------
+    concurrent.futures.Executor or None
+        The pool.
+    """
+    if workers <= 0:
+        yield None
+        return
+    pool = process_pool(workers)
+    try:
+        yield pool
+    except BaseException:
+        # ProcessPoolExecutor keeps its workers in _processes (no public handle).
+        procs = list((getattr(pool, "_processes", None) or {}).values())
+        pool.shutdown(wait=False, cancel_futures=True)
+        for process in procs:
+            process.terminate()
+        raise
+    else:
+        pool.shutdown(wait=True)

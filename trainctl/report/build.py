@@ -10,12 +10,11 @@ and yields one :class:`~trainctl.report.ReportData` per scenario, in order.
 
 from __future__ import annotations
 
-import contextlib
 import datetime
 import os
 import time
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import Executor, Future
+from concurrent.futures import Future
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -153,28 +152,6 @@ def _cost(scenario: Scenario, strategy: str) -> float:
     return steps * scenario.train.n_vehicles * _STRATEGY_COST.get(strategy, 2.0)
 
 
-@contextlib.contextmanager
-def _pool(workers: int) -> Iterator[Executor | None]:
-    """A process pool (None for ``workers == 0``) that is torn down at once on error."""
-    if workers <= 0:
-        yield None
-        return
-    from ..parallel import process_pool
-
-    pool = process_pool(workers)
-    try:
-        yield pool
-    except BaseException:
-        # Do not wait for running simulations: cancel the queue, stop the workers.
-        processes = list(getattr(pool, "_processes", {}).values())
-        pool.shutdown(wait=False, cancel_futures=True)
-        for process in processes:
-            process.terminate()
-        raise
-    else:
-        pool.shutdown(wait=True)
-
-
 def run_report_data(
     jobs: Sequence[ReportJob],
     *,
@@ -199,7 +176,9 @@ def run_report_data(
     ReportData
         With stage timings.
     """
-    with _pool(workers) as pool:
+    from ..parallel import worker_pool
+
+    with worker_pool(workers) as pool:
         pending: dict[int, dict[str, Future[SimulationResult]]] = {}
         if pool is not None:
             tasks = [(k, strategy) for k, job in enumerate(jobs) if job.scenario.simulation
