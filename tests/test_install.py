@@ -86,6 +86,8 @@ class TestWheelContents:
             "trainctl/report/templates/index.html.j2",
             "trainctl/report/templates/_layout.html.j2",
             "trainctl/report/templates/_macros.html.j2",
+            *(f"trainctl/report/templates/sections/_{name}.html.j2" for name in (
+                "scenario", "model", "checks", "controllers", "figures", "reproducibility")),
             "trainctl/report/static/report.css",
             *(f"trainctl/builtin_analyses/{name}.toml" for name in BUILTINS),
         }
