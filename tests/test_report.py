@@ -146,6 +146,17 @@ class TestEnvironment:
         assert env.undefined is jinja2.StrictUndefined
         assert {"report.html.j2", "index.html.j2"} <= set(env.list_templates())
 
+    def test_every_section_has_a_partial(self) -> None:
+        """Each section the context lists ships as package data (sections/_<id>.html.j2)."""
+        from importlib import resources
+
+        from trainctl.report.context import SECTIONS
+
+        root = resources.files("trainctl.report").joinpath("templates", "sections")
+        assert [key for key, _ in SECTIONS] == list(SECTION_IDS)
+        for key, _ in SECTIONS:
+            assert root.joinpath(f"_{key}.html.j2").is_file(), key
+
     def test_undefined_fails(self) -> None:
         """A missing template variable raises instead of rendering empty."""
         with pytest.raises(jinja2.UndefinedError):
