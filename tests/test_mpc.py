@@ -20,7 +20,7 @@ from trainctl.analysis.mpc import (
 from trainctl.analysis.review import design_model
 from trainctl.controllers.base import Measurement, ReferencePreview
 from trainctl.controllers.mpc import MPCConstraints, make_mpc
-from trainctl.controllers.qp import ParametricQP
+from trainctl.controllers.qp import ParametricQP, _osqp_runner
 from trainctl.models import equilibrium
 from trainctl.scenario import load_scenario
 
@@ -271,3 +271,85 @@ def test_force_steps_select_the_bounded_prediction_steps(fast):
     full = make_mpc(scenario.train, d, dt=scenario.model.sample_time, strategy="centralised",
                     constraints=MPCConstraints(coupler_force_limit=500e3))
     assert full.blocks[0].qp.ns == 3 * d.prediction_horizon
+
+
+def _random_qp_data(rng, nz, nh, ns, infeasible=False):
+    """Random QP data for ParametricQP.solve (some infinite bounds, optionally infeasible)."""
+    g = rng.normal(size=nz)
+    lb, ub = -rng.uniform(0.5, 2.0, nh), rng.uniform(0.5, 2.0, nh)
+    lb[rng.random(nh) < 0.2] = -np.inf
+    ub[rng.random(nh) < 0.2] = np.inf
+    if infeasible:
+        lb[0], ub[0] = 1.0, -1.0
+    hl, hu = -rng.uniform(0.0, 0.5, ns), rng.uniform(0.0, 0.5, ns)
+    return g, lb, ub, hl, hu
+
+
+class TestOSQPRoutes:
+    """The fast path calls OSQP's compiled solver directly (qp._osqp_runner)."""
+
+    @staticmethod
+    def _pair(rng, nz=6, nh=9, ns=4):
+        A = rng.normal(size=(nz, nz))
+        H = A @ A.T + 0.1 * np.eye(nz)
+        C, F = rng.normal(size=(nh, nz)), rng.normal(size=(ns, nz))
+        internal = ParametricQP(H, C, F, name="internal")
+        public = ParametricQP(H, C, F, name="public")
+        assert public._fast is not None
+        public._fast._run, public._fast.route = _osqp_runner(public._fast.solver, internal=False)
+        return internal, public
+
+    def test_internal_route_equals_public_route(self, rng):
+        """Same data through both routes: identical solutions, statuses and iterations."""
+        statuses = set()
+        for trial in range(4):
+            internal, public = self._pair(rng, nz=4 + trial, nh=2 * (4 + trial), ns=trial)
+            assert public._fast is not None and public._fast.route == "public"
+            for k in range(6):  # a warm-started sequence, as in a closed loop
+                data = _random_qp_data(rng, internal.nz, internal.nh, internal.ns,
+                                       infeasible=k == 4)
+                a, b = internal.solve(*data), public.solve(*data)
+                statuses.add(a.status)
+                assert (a.status, a.iterations) == (b.status, b.iterations)
+                np.testing.assert_array_equal(a.z, b.z)
+                np.testing.assert_array_equal(a.slack, b.slack)
+                if a.status == "optimal":
+                    ref = internal.solve(*data, path="cvxpy")
+                    np.testing.assert_allclose(a.z, ref.z, atol=1e-4)
+        assert {"optimal", "infeasible"} <= statuses
+
+    def test_installed_osqp_takes_the_internal_route(self, rng):
+        """Guards the speed-up: fails if an OSQP release no longer offers the internals.
+
+        Results stay right then (the public update/solve are used); adapt
+        ``_osqp_runner`` to the new interface to get the speed back.
+        """
+        internal, _ = self._pair(rng)
+        assert internal._fast is not None and internal._fast.route == "internal"
+
+
+def test_stock_envelopes_give_the_per_vehicle_bounds(fast):
+    """The broadcast envelope evaluation equals each vehicle's traction/braking_limit."""
+    import dataclasses
+
+    from trainctl.models.vehicle import TractionEnvelope
+
+    class Envelope(TractionEnvelope):
+        """A subclass: the controller must call its methods one vehicle at a time."""
+
+    scenario, d = fast
+    speeds = np.array([0.0, 5.0, 30.0, 60.0, 83.0])
+    trains = [scenario.train]
+    vehicles = [dataclasses.replace(v, envelope=Envelope(**dataclasses.asdict(v.envelope)))
+                for v in scenario.train.vehicles]
+    trains.append(dataclasses.replace(scenario.train, vehicles=tuple(vehicles)))
+    for train in trains:
+        ctl = make_mpc(train, d, dt=scenario.model.sample_time, strategy="centralised")
+        lb, ub = ctl._bounds(speeds)
+        up = np.column_stack([v.envelope.traction_limit(speeds, mass=v.mass)
+                              for v in train.vehicles])
+        down = np.column_stack([v.envelope.braking_limit(speeds, mass=v.mass)
+                                for v in train.vehicles])
+        np.testing.assert_array_equal(ub, up.ravel() / 1e3)
+        np.testing.assert_array_equal(lb, -down.ravel() / 1e3)
+    assert ctl._envelopes is None  # the subclass took the per-vehicle path

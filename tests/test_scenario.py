@@ -282,8 +282,8 @@ class TestLoadScenario:
             load_scenario(path)
 
     def test_directory_is_not_readable(self, tmp_path: Path) -> None:
-        """A directory path gives ScenarioError, not an OSError."""
-        with pytest.raises(ScenarioError, match="cannot read the file"):
+        """A directory path gives ScenarioError naming the problem, not an OSError."""
+        with pytest.raises(ScenarioError, match="is a directory, not a scenario file"):
             load_scenario(tmp_path)
 
     def test_not_utf8(self, tmp_path: Path) -> None:

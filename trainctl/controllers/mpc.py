@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -48,6 +49,7 @@ from numpy.typing import NDArray
 from ..analysis.mpc import MPCDesign, Prediction, prediction
 from ..exceptions import ModelError
 from ..models.train import Train
+from ..models.vehicle import TractionEnvelope, _limit
 from .base import Measurement, ReferencePreview, StepRecord
 from .observer import KalmanObserver, ObserverSettings
 from .qp import ParametricQP
@@ -60,6 +62,10 @@ STRATEGIES = ("centralised", "decentralised", "ndmpc", "cooperative")
 
 KN = 1e3
 Array = NDArray[np.float64]
+
+_ENVELOPE_LIMIT: Callable[..., Array] = _limit
+"""The stock envelope's limit function; elementwise numpy, so it also broadcasts over
+vehicles given per-vehicle arrays (annotated for scalars, hence this alias)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -99,8 +105,15 @@ class _Block:
     With c0 = Φx̃ + S_u ũ(k-1) and f0 the force prediction without moves, the
     block's QP vectors are g = Kc c0 + Ko U, hl/hu = ∓limit - f0[rows] - Fo U
     (U the whole plan; Ko, Fo have the block's own columns zeroed); the bounds
-    do not depend on the other coaches. The fast path folds all of it into
-    the solver data: data = base(step) + Jo U.
+    do not depend on the other coaches. Every step, the parameter vectors of
+    all blocks at U = 0 are computed once, stacked in one source vector
+    (:meth:`MPCController._sources`); ``params`` locates the block's g, lb,
+    ub, hl and hu in it. The fast path folds all of it into the solver data:
+    data = offset + J·clip(source[gather]) + Jo U. J is usually a scaled
+    selection (at most one non-zero per row: every solver datum comes from
+    one parameter); it is then stored as ``pick`` and ``scale``, with
+    J·clip(source[gather]) = scale·clip(source)[pick], the same numbers
+    without the dense product.
     """
 
     coaches: tuple[int, ...]
@@ -111,6 +124,12 @@ class _Block:
     Fo: Array                        # force rows of G (own columns zeroed)
     Jo: Array | None                 # fast path: data sensitivity to U
     qp: ParametricQP
+    params: dict[str, NDArray[np.int64]]  # positions of g, lb, ub, hl, hu in the source vector
+    gather: NDArray[np.int64]        # the QP's parameters (its map's columns) in the source
+    J: Array | None                  # fast path: data sensitivity to those parameters
+    offset: Array | None             # fast path: data at zero parameters
+    pick: NDArray[np.int64] | None   # fast path, J a scaled selection: source entry of each datum
+    scale: Array | None              # ... and its factor (0 for constant data)
 
 
 class MPCController:
@@ -181,10 +200,88 @@ class MPCController:
             if train.traction_share[idx].sum() <= 0:
                 raise ModelError(f"{self.name}: vehicles {idx.tolist()} form a coupled group "
                                  "without traction (all traction_share are 0).")
-        self.blocks = [self._build_block(c) for c in self._block_coaches()]
+        self._precompute()
+        self.blocks = []
+        g_start = self._source_g
+        for coaches in self._block_coaches():
+            self.blocks.append(self._build_block(coaches, g_start))
+            g_start += self.blocks[-1].cols.size
+        self._source_buffer(g_start)
+        self._fast = all(b.offset is not None for b in self.blocks)
+        covered = np.unique(np.concatenate([b.cols for b in self.blocks]))
+        # Iteration residual over the blocks' columns; None: they cover the whole plan.
+        self._residual_cols = None if covered.size == M * n else covered
         self.reset()
 
     # -- construction -------------------------------------------------------------------------
+    def _precompute(self) -> None:
+        """Per-step constants: feedforward shares, envelopes, bounded force rows, source layout.
+
+        Built before the blocks, which locate their parameters in the source layout.
+        """
+        train, n, M, P = self.train, self.n, self.M, self.P
+        shares = train.traction_share
+        self._ff_groups = [(idx, shares[idx] / shares[idx].sum()) for idx in self._groups]
+        self._stiff = np.where(train.virtual, 1.0, train.stiffness)
+        self._any_virtual = bool(train.virtual.any())
+        davis = train.davis
+        self._davis = (tuple(float(a) for a in davis[:, 0])
+                       if bool(np.all(davis == davis[:, :1])) else None)
+        # Envelopes evaluated for all vehicles at once when they are all the stock envelope
+        # (the function of TractionEnvelope.braking_limit/traction_limit, broadcast over
+        # [braking; traction] x moves x vehicles).
+        self._envelopes: tuple[Array, ...] | None = None
+        if all(type(veh.envelope) is TractionEnvelope for veh in train.vehicles):
+            env = [veh.envelope for veh in train.vehicles]
+
+            def stack(*fields: str) -> Array:
+                return np.array([[getattr(e, f) for e in env] for f in fields],
+                                dtype=float)[:, None, :]
+
+            self._envelopes = (stack("max_braking", "max_traction"),
+                               stack("max_braking_power", "max_power"),
+                               stack("adhesion", "adhesion"), train.mass.copy())
+        self._du = self.design.form == "du"
+        self._zeros_n, self._zeros_MN = np.zeros(n), np.zeros(M * n)  # u-form ũ(k-1), tiled
+        self._zeros_n.flags.writeable = self._zeros_MN.flags.writeable = False
+        self._L0 = np.ascontiguousarray(self.L[:n])  # first move from the decision vector
+        # Shift of the plan by one move: u-form repeats the last move, Δu-form appends zero.
+        last = np.arange((M - 1) * n, M * n)
+        self._shift = np.concatenate([np.arange(n, M * n), last])
+        # Source layout (see _sources): [lb_u; ub_u; lb_rate; ub_rate; hl; hu; g of each block].
+        nf = self.fpred.G.shape[0] // P
+        chosen = self.constraints.force_steps
+        steps = (range(P) if chosen is None
+                 else sorted({int(j) - 1 for j in chosen if 1 <= j <= P}))
+        self._force_steps = list(steps)
+        if math.isfinite(self.constraints.coupler_force_limit):
+            bounded = sorted({j * nf + c for j in steps for c in range(nf)})
+        else:
+            bounded = []
+        self._bounded_rows = np.array(bounded, dtype=np.int64)
+        self._fPhi = self.fpred.Phi[self._bounded_rows]
+        self._fSu = self.fpred.Su[self._bounded_rows]
+        MN, nb = M * n, self._bounded_rows.size
+        self._source_hl, self._source_hu = 4 * MN, 4 * MN + nb
+        self._source_g = 4 * MN + 2 * nb
+
+    def _source_buffer(self, size: int) -> None:
+        """The source vector of :meth:`_sources` and views of the parts it writes.
+
+        One buffer, rewritten every step; parts that no problem uses stay zero.
+        """
+        MN, nb = self.M * self.n, self._bounded_rows.size
+        self._src = np.zeros(size)
+        self._src_bounds = self._src[:2 * MN].reshape(2, MN)
+        self._src_rate = self._src[2 * MN:4 * MN].reshape(2, MN)
+        self._src_force = self._src[4 * MN:4 * MN + 2 * nb].reshape(2, nb)
+        self._src_g = [self._src[int(b.params["g"][0]):int(b.params["g"][-1]) + 1]
+                       for b in self.blocks]
+        limit = self.constraints.coupler_force_limit / KN
+        rate = self.constraints.rate_limit / KN
+        self._force_pair = np.array([[-limit], [limit]])  # hl, hu = ∓limit - f0
+        self._rate_pair = np.array([[-rate], [rate]])     # rate bounds ∓du - offset
+
     def _block_coaches(self) -> list[tuple[int, ...]]:
         if self.strategy == "centralised":
             return [tuple(range(self.n))]
@@ -197,7 +294,7 @@ class MPCController:
             return coaches
         return self.design.neighbourhoods[coaches[0]]
 
-    def _build_block(self, coaches: tuple[int, ...]) -> _Block:
+    def _build_block(self, coaches: tuple[int, ...], g_start: int) -> _Block:
         d, pred = self.design, self.pred
         cols = np.sort(np.concatenate([pred.columns[i] for i in coaches]))
         members = self._members(coaches)
@@ -209,10 +306,8 @@ class MPCController:
         couplers = sorted({c for i in coaches for c in (i - 1, i) if 0 <= c < nf})
         if self.strategy == "centralised":
             couplers = list(range(nf))
-        chosen = self.constraints.force_steps
-        steps = (range(self.P) if chosen is None
-                 else sorted({int(j) - 1 for j in chosen if 1 <= j <= self.P}))
-        rows = np.array([j * nf + c for j in steps for c in couplers], dtype=np.int64)
+        rows = np.array([j * nf + c for j in self._force_steps for c in couplers],
+                        dtype=np.int64)
         if not math.isfinite(self.constraints.coupler_force_limit):
             rows = np.zeros(0, dtype=np.int64)
         F = self.fpred.G[np.ix_(rows, cols)] if rows.size else np.zeros((0, cols.size))
@@ -225,12 +320,36 @@ class MPCController:
         Ko[:, cols] = 0.0
         Fo = self.fpred.G[rows, :].copy()
         Fo[:, cols] = 0.0
-        Jo = None
+        MN = self.M * self.n
+        empty = np.zeros(0, dtype=np.int64)
+        bounds, rate = self.constraints.input_bounds, math.isfinite(self.constraints.rate_limit)
+        where = np.searchsorted(self._bounded_rows, rows)
+        params = {"g": g_start + np.arange(cols.size),
+                  "lb": np.concatenate([cols if bounds else empty,
+                                        2 * MN + cols if rate else empty]),
+                  "ub": np.concatenate([MN + cols if bounds else empty,
+                                        3 * MN + cols if rate else empty]),
+                  "hl": self._source_hl + where, "hu": self._source_hu + where}
+        # The map's columns are the QP's non-empty parameters in this order (ParametricQP).
+        gather = np.concatenate([params[key] for key in ("g", "lb", "ub", "hl", "hu")
+                                 if params[key].size])
+        Jo = J = offset = pick = scale = None
         if qp.has_fast_path:
-            _, blocks = qp.data_map()
+            offset, blocks = qp.data_map()
             Jo = blocks["g"] @ Ko - (blocks["hl"] + blocks["hu"]) @ Fo
+            J = np.hstack([blocks[key] for key in ("g", "lb", "ub", "hl", "hu")
+                           if blocks[key].size])
+            if J.shape[1] != gather.size:
+                raise ModelError(f"{self.name}: the QP's parameters do not match the blocks' "
+                                 "(internal error).")
+            nonzero = J != 0
+            if J.shape[1] and nonzero.sum(axis=1).max() <= 1:
+                column = nonzero.argmax(axis=1)  # 0 for rows without a parameter (scale 0)
+                pick, scale = gather[column], J[np.arange(J.shape[0]), column]
+                J = None
         return _Block(coaches=coaches, cols=cols, force_rows=rows, Kc=Kc, Ko=Ko, Fo=Fo, Jo=Jo,
-                      qp=qp)
+                      qp=qp, params=params, gather=gather, J=J, offset=offset, pick=pick,
+                      scale=scale)
 
     def _hard_rows(self, cols: NDArray[np.int64]) -> Array:
         """Rows of [bounds on ũ moves; rate of u moves] restricted to the block's columns."""
@@ -266,8 +385,8 @@ class MPCController:
             U, status, iters, residuals, fallback = self._single(ctx, plan0)
         else:
             U, status, iters, residuals, fallback = self._iterate(ctx, plan0)
-        moves = self.L @ U + ctx["u_dev_prev_tiled"]
-        u_abs = ctx["u_ff"][0] + moves[: self.n]
+        moves = self._L0 @ U + ctx["u_dev_prev_tiled"][: self.n]
+        u_abs = ctx["u_ff"][0] + moves
         self._plan, self._u_prev, self._ff_prev = U, u_abs, ctx["u_ff"][0]
         info: dict[str, object] = {}
         if self.observer is not None:
@@ -293,20 +412,25 @@ class MPCController:
     def _context(self, state: Array, ref: ReferencePreview) -> dict[str, Array]:
         n, P, M = self.n, self.P, self.M
         # An estimated disturbance is compensated like an extra acceleration.
-        accel = ref.acceleration[: P + 1] + self._disturbance
+        accel = ref.acceleration[: P + 1]
+        if self._disturbance:
+            accel = accel + self._disturbance
         u_ff, f_ff, elong0 = self._feedforward(ref.speed[: P + 1], accel)
-        v = state[:n]
-        delta = state[n:2 * n - 1]
-        x_dev = np.concatenate([v - ref.speed[0], delta - elong0])
+        x_dev = np.empty(2 * n - 1)
+        np.subtract(state[:n], ref.speed[0], out=x_dev[:n])
+        np.subtract(state[n:2 * n - 1], elong0, out=x_dev[n:])
         u_prev = u_ff[0] if self._u_prev is None else self._u_prev
         ff_prev = u_ff[0] if self._ff_prev is None else self._ff_prev
-        u_dev_prev = u_prev - ff_prev if self.design.form == "du" else np.zeros(n)
-        lb, ub = self._bounds(ref.speed[:M])
+        if self._du:
+            u_dev_prev = u_prev - ff_prev
+            tiled = np.tile(u_dev_prev, M)
+        else:
+            u_dev_prev, tiled = self._zeros_n, self._zeros_MN
+        bounds = self._bound_pair(ref.speed[:M])
+        bounds -= u_ff[:M].ravel()
         return {"x": x_dev, "u_ff": u_ff[:M], "f_ff": f_ff[1:P + 1].ravel(),
-                "u_prev": u_prev, "u_dev_prev": u_dev_prev,
-                "u_dev_prev_tiled": np.tile(u_dev_prev, M) if self.design.form == "du"
-                else np.zeros(M * n),
-                "lb": lb - u_ff[:M].ravel(), "ub": ub - u_ff[:M].ravel()}
+                "u_prev": u_prev, "u_dev_prev": u_dev_prev, "u_dev_prev_tiled": tiled,
+                "bounds": bounds, "lb": bounds[0], "ub": bounds[1]}
 
     def _feedforward(self, speeds: Array, accels: Array) -> tuple[Array, Array, Array]:
         """Quasi-static inputs [kN], coupler forces [kN] and first elongations [m].
@@ -316,104 +440,163 @@ class MPCController:
         physically coupled group; level track), for every (speed, acceleration).
         """
         train = self.train
-        v = np.maximum(np.asarray(speeds, dtype=float), 0.1)[:, None]
-        a0, a1, a2 = train.davis
-        need = train.mass * (a0 + a1 * v + a2 * v * v + np.asarray(accels, dtype=float)[:, None])
-        inputs = np.zeros_like(need)
-        shares = train.traction_share
-        for idx in self._groups:
-            share = shares[idx] / shares[idx].sum()
-            inputs[:, idx] = need[:, idx].sum(axis=1, keepdims=True) * share
-        forces = np.cumsum(inputs - need, axis=1)[:, :-1]
-        forces[:, train.virtual] = 0.0
-        stiff = np.where(train.virtual, 1.0, train.stiffness)
-        elong = np.where(train.virtual, 0.0, forces[0] / stiff)
+        v = np.maximum(np.asarray(speeds, dtype=float), 0.1)
+        accels = np.asarray(accels, dtype=float)
+        if self._davis is not None:  # per unit mass, the same for every vehicle
+            a0, a1, a2 = self._davis
+            need = np.multiply.outer(a0 + a1 * v + a2 * v * v + accels, train.mass)
+        else:
+            a0v, a1v, a2v = train.davis
+            column = v[:, None]
+            need = train.mass * (a0v + a1v * column + a2v * column * column + accels[:, None])
+        # np.add.reduce/accumulate are what sum/cumsum call, without their Python wrappers.
+        # Each group's columns are gathered (a copy) before the sum: summing a view of 8 or
+        # more columns adds in another order, which rounds differently.
+        if len(self._ff_groups) == 1:
+            group, share = self._ff_groups[0]
+            inputs = np.add.reduce(need[:, group], axis=1, keepdims=True) * share
+        else:
+            inputs = np.empty_like(need)
+            for group, share in self._ff_groups:
+                inputs[:, group] = np.add.reduce(need[:, group], axis=1, keepdims=True) * share
+        np.subtract(inputs, need, out=need)  # need is not used again
+        forces = np.add.accumulate(need, axis=1, out=need)[:, :-1]
+        if self._any_virtual:
+            virtual = train.virtual
+            forces[:, virtual] = 0.0
+            elong = np.where(virtual, 0.0, forces[0] / self._stiff)
+        else:
+            elong = forces[0] / self._stiff
         return inputs / KN, forces / KN, elong
 
     def _bounds(self, speeds: Array) -> tuple[Array, Array]:
-        if not self.constraints.input_bounds:
-            size = speeds.size * self.n
-            return np.full(size, -np.inf), np.full(size, np.inf)
+        """Absolute input bounds (lb, ub) [kN] at the previewed speeds, moves x vehicles."""
+        pair = self._bound_pair(speeds)
+        return pair[0], pair[1]
+
+    def _bound_pair(self, speeds: Array) -> Array:
+        """:meth:`_bounds` as one array [lb; ub] of shape (2, moves·n)."""
         v = np.asarray(speeds, dtype=float)
-        # One vectorised envelope call per vehicle over the previewed speeds: (moves, n).
-        up = np.column_stack([veh.envelope.traction_limit(v, mass=veh.mass)
-                              for veh in self.train.vehicles])
-        down = np.column_stack([veh.envelope.braking_limit(v, mass=veh.mass)
-                                for veh in self.train.vehicles])
-        return -down.ravel() / KN, up.ravel() / KN
+        if not self.constraints.input_bounds:
+            pair = np.empty((2, v.size * self.n))
+            pair[0], pair[1] = -np.inf, np.inf
+            return pair
+        if self._envelopes is not None:
+            # Stock envelopes: one call for [braking; traction] x moves x vehicles.
+            force, power, adhesion, mass = self._envelopes
+            limits = _ENVELOPE_LIMIT(v[:, None], force, power, adhesion, mass)
+            limits /= KN
+        else:
+            # One vectorised envelope call per vehicle over the previewed speeds: (moves, n).
+            vehicles = self.train.vehicles
+            limits = np.stack([
+                np.column_stack([veh.envelope.braking_limit(v, mass=veh.mass)
+                                 for veh in vehicles]),
+                np.column_stack([veh.envelope.traction_limit(v, mass=veh.mass)
+                                 for veh in vehicles])]) / KN
+        np.negative(limits[0], out=limits[0])
+        return limits.reshape(2, -1)
 
     def _shifted_plan(self) -> Array:
         n, M = self.n, self.M
         if self._plan is None:
             return np.zeros(M * n)
-        moves = self._plan.reshape(M, n)
-        shifted = np.vstack([moves[1:], moves[-1:]]) if self.design.form == "u" \
-            else np.vstack([moves[1:], np.zeros((1, n))])
-        return shifted.ravel()
+        shifted = self._plan[self._shift]  # moves 1..M-1, then the last move (Δu-form: 0)
+        if self._du:
+            shifted[(M - 1) * n:] = 0.0
+        return shifted
+
+    def _sources(self, ctx: dict[str, Array]) -> Array:
+        """Every block's QP parameters at U = 0, stacked; each block gathers its own.
+
+        Layout (M·n entries each for the first four): lower and upper bounds
+        of the hard rows on the input moves, then on the move rates, then hl
+        and hu for the bounded rows of the force prediction, then g of each
+        block in turn (``_Block.params`` holds the positions). Parts that no
+        problem uses are zero. The array is the controller's buffer, rewritten
+        by the next call.
+
+        Input moves are ũ = L U + t0; absolute forces u_ff + ũ. The rate of
+        move m is (u_ff(m) - u_ff(m-1)) + (ũ(m) - ũ(m-1)), with the applied
+        u(k-1) before move 0. L and the difference matrix are block diagonal
+        by coach, so the other coaches' moves do not enter a block's bounds.
+        """
+        # In the u-form ũ(k-1) = 0 and S_u = 0: their terms are left out.
+        pred, n = self.pred, self.n
+        base = ctx["u_dev_prev_tiled"]
+        if self.constraints.input_bounds:
+            if self._du:
+                np.subtract(ctx["bounds"], base, out=self._src_bounds)
+            else:
+                self._src_bounds[...] = ctx["bounds"]
+        if math.isfinite(self.constraints.rate_limit):
+            ff = ctx["u_ff"].ravel()
+            # u_ff(m) - u_ff(m-1), with the applied u(k-1) before move 0
+            offset = ff - np.concatenate((ctx["u_prev"], ff[:-n]))
+            if self._du:
+                offset += self._D @ base
+            np.subtract(self._rate_pair, offset, out=self._src_rate)
+        if self._bounded_rows.size:
+            f0 = self._fPhi @ ctx["x"]
+            if self._du:
+                f0 += self._fSu @ ctx["u_dev_prev"]
+            f0 += ctx["f_ff"][self._bounded_rows]
+            np.subtract(self._force_pair, f0, out=self._src_force)
+        c0 = pred.Phi @ ctx["x"]
+        if self._du:
+            c0 += pred.Su @ ctx["u_dev_prev"]
+        for block, out in zip(self.blocks, self._src_g, strict=True):
+            np.matmul(block.Kc, c0, out=out)  # block by block: stacking changes the rounding
+        return self._src
 
     def _prepare(self, ctx: dict[str, Array]) -> list[dict[str, Array]]:
-        """Per-sample constants of every block's QP (independent of the other plans)."""
-        pred, fpred = self.pred, self.fpred
-        c0 = pred.Phi @ ctx["x"] + pred.Su @ ctx["u_dev_prev"]
-        f0 = fpred.Phi @ ctx["x"] + fpred.Su @ ctx["u_dev_prev"] + ctx["f_ff"]
-        limit = self.constraints.coupler_force_limit / KN
-        out = []
-        for block in self.blocks:
-            lb, ub = self._hard_bounds(block, ctx)
-            prep = {"g": block.Kc @ c0, "lb": lb, "ub": ub,
-                    "hl": -limit - f0[block.force_rows], "hu": limit - f0[block.force_rows]}
-            if block.Jo is not None:
-                offset, maps = block.qp.data_map()
-                base = offset.copy()
-                for key, vec in prep.items():
-                    if vec.size:
-                        base += maps[key] @ np.clip(vec, -1e20, 1e20)
-                prep["data"] = base
-            out.append(prep)
-        return out
+        """Per-sample constants of every block's QP (independent of the other plans).
+
+        Fast path: ``{"data": solver data at U = 0}``; otherwise the parameter
+        vectors ``g``, ``lb``, ``ub``, ``hl``, ``hu`` at U = 0.
+        """
+        src = self._sources(ctx)
+        if self._fast:
+            # The map was identified with parameters clipped to ±1e20 (ParametricQP);
+            # maximum then minimum is np.clip, without its Python-level overhead.
+            np.maximum(src, -1e20, out=src)
+            np.minimum(src, 1e20, out=src)
+            out = []
+            for block in self.blocks:
+                assert block.offset is not None
+                if block.pick is not None and block.scale is not None:
+                    data = src[block.pick]
+                    data *= block.scale
+                else:
+                    assert block.J is not None
+                    data = block.J @ src[block.gather]
+                data += block.offset
+                out.append({"data": data})
+            return out
+        return [{key: src[index] for key, index in block.params.items()}
+                for block in self.blocks]
 
     def _solve_block(self, block: _Block, prep: dict[str, Array],
-                     U: Array) -> tuple[Array, str]:
-        if self.strategy == "decentralised":
-            U = np.zeros_like(U)  # the other coaches' moves are not known
+                     U: Array | None) -> tuple[Array, str]:
+        """Solve the block's QP with the other blocks' moves U (None: zero)."""
         if block.Jo is not None:
-            sol = block.qp.solve_data(prep["data"] + block.Jo @ U)
+            sol = block.qp.solve_data(prep["data"] if U is None else prep["data"] + block.Jo @ U)
+        elif U is None:
+            sol = block.qp.solve(prep["g"], prep["lb"], prep["ub"], prep["hl"], prep["hu"],
+                                 path=self.path)
         else:
             shift = block.Fo @ U
             sol = block.qp.solve(prep["g"] + block.Ko @ U, prep["lb"], prep["ub"],
                                  prep["hl"] - shift, prep["hu"] - shift, path=self.path)
         return sol.z, sol.status
 
-    def _hard_bounds(self, block: _Block, ctx: dict[str, Array]) -> tuple[Array, Array]:
-        """Bounds of the block's hard rows.
-
-        Input moves are ũ = L U + t0; absolute forces u_ff + ũ. The rate of
-        move m is (u_ff(m) - u_ff(m-1)) + (ũ(m) - ũ(m-1)), with the applied
-        u(k-1) before move 0. L and the difference matrix are block diagonal
-        by coach, so the other coaches' moves do not enter.
-        """
-        cols = block.cols
-        base = ctx["u_dev_prev_tiled"]
-        lbs, ubs = [], []
-        if self.constraints.input_bounds:
-            lbs.append((ctx["lb"] - base)[cols])
-            ubs.append((ctx["ub"] - base)[cols])
-        if math.isfinite(self.constraints.rate_limit):
-            ff = ctx["u_ff"]
-            ff_step = np.vstack([ff[:1] - ctx["u_prev"][None, :], np.diff(ff, axis=0)]).ravel()
-            offset = (ff_step + self._D @ base)[cols]
-            du = self.constraints.rate_limit / KN
-            lbs.append(-du - offset)
-            ubs.append(du - offset)
-        if not lbs:
-            return np.zeros(0), np.zeros(0)
-        return np.concatenate(lbs), np.concatenate(ubs)
-
     def _single(self, ctx: dict[str, Array], plan0: Array):
-        U = np.zeros_like(plan0)
+        # Centralised: one block, no other moves; decentralised: the others' moves are not
+        # known and taken as zero (their feedforward).
+        U = np.zeros(plan0.shape)
         statuses, fallback = [], ""
         for block, prep in zip(self.blocks, self._prepare(ctx), strict=True):
-            z, status = self._solve_block(block, prep, U)
+            z, status = self._solve_block(block, prep, None)
             if not is_usable(status):
                 z, fallback = self._fallback(block, ctx, plan0), "shifted plan"
             U[block.cols] = z
@@ -426,6 +609,8 @@ class MPCController:
         statuses, fallback = [], ""
         converged = False
         preps = self._prepare(ctx)
+        cooperative, omega = self.strategy == "cooperative", self.relaxation
+        cols = self._residual_cols
         for _ in range(self.max_iterations):
             new = U.copy()
             for block, prep in zip(self.blocks, preps, strict=True):
@@ -433,12 +618,14 @@ class MPCController:
                 if not is_usable(status):
                     z, fallback = self._fallback(block, ctx, plan0), "shifted plan"
                 statuses.append(status)
-                if self.strategy == "cooperative":
-                    w = self.weights[block.coaches[0]]
-                    new[block.cols] = w * z + (1 - w) * U[block.cols]
+                w = self.weights[block.coaches[0]] if cooperative else omega
+                if w == 1.0:
+                    new[block.cols] = z  # = 1·z + 0·U (up to the sign of a zero)
                 else:
-                    new[block.cols] = self.relaxation * z + (1 - self.relaxation) * U[block.cols]
-            change = max(float(np.max(np.abs(new[b.cols] - U[b.cols]))) for b in self.blocks)
+                    new[block.cols] = w * z + (1 - w) * U[block.cols]
+            # Largest change of any block's moves (the blocks' columns, usually all of U).
+            step = new - U if cols is None else new[cols] - U[cols]
+            change = float(np.maximum.reduce(np.abs(step)))
             residuals.append(change)
             U = new
             if change <= self.tolerance:

@@ -21,7 +21,9 @@ step. :class:`ParametricQP` models it once in cvxpy with those vectors as
     from the parameters to OSQP's (q, l, u) (P and A are constant because no
     parameter multiplies a variable), check the map at a random point, and
     locate z in the solver's variable vector. Solve time: one matrix-vector
-    product and ``osqp.update`` + ``osqp.solve``, warm-started.
+    product and an OSQP data update + solve, warm-started, through
+    ``_osqp_runner`` (the compiled solver called directly, without the
+    per-call bookkeeping of ``osqp.OSQP.update``/``solve``).
 
 Both paths use OSQP with the same settings, so they return the same
 solutions to solver tolerance (tested).
@@ -30,7 +32,9 @@ solutions to solver tolerance (tested).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import cvxpy as cp
 import numpy as np
@@ -47,6 +51,9 @@ OSQP_SETTINGS = {"eps_abs": 1e-6, "eps_rel": 1e-6, "max_iter": 20000, "polishing
 
 Array = NDArray[np.float64]
 _HUGE = 1e19  # data beyond this came from an infinite bound
+
+_OSQPRunner = Callable[[Array, Array | None, Array], tuple[Array | None, int, int]]
+"""``run(q, l, u) -> (x, status_val, iterations)``: update OSQP's vectors, solve, report."""
 
 
 @dataclass(frozen=True)
@@ -218,6 +225,92 @@ def _or(x: Array | None, n: int, fill: float) -> Array:
     return np.full(n, fill) if x is None else np.asarray(x, dtype=float)
 
 
+def _as_slice(index: NDArray[np.int64]) -> slice | NDArray[np.int64]:
+    """A run of consecutive indices as a slice (indexing gives a view), else the indices."""
+    if index.size and np.array_equal(index, np.arange(index[0], index[0] + index.size)):
+        return slice(int(index[0]), int(index[0]) + index.size)
+    return index
+
+
+def _osqp_runner(solver: Any, *, internal: bool = True) -> tuple[_OSQPRunner, str]:
+    """Update-and-solve function of a set-up ``osqp.OSQP``; the one use of OSQP internals.
+
+    ``osqp.OSQP.update`` and ``osqp.OSQP.solve`` (OSQP 1.x) are thin Python
+    wrappers of the compiled solver object ``solver._solver``: ``update``
+    clamps l and u to ±OSQP_INFTY (looking the constant up through
+    ``importlib`` on every call), calls ``_solver.update_data_vec(q, l, u)``
+    and refreshes a cache kept for OSQP's derivatives; ``solve`` calls
+    ``_solver.solve()`` and copies every field of ``_solver.info`` into a new
+    namespace. For the small QPs of MPC that bookkeeping costs about as much
+    as the solve.
+
+    The internal route makes the same compiled calls with the same data: it
+    clamps l and u as ``update`` does, passes C-contiguous float64 arrays
+    (the binding reads raw buffers and ignores strides) and reads only
+    ``info.status_val``, ``info.iter`` and ``solution.x`` (a fresh copy per
+    access). It does not maintain the derivative cache, so OSQP's
+    ``adjoint_derivative_*`` methods are not available after it. It is used
+    only when ``solver._solver`` has the expected attributes and the solver
+    works in float64; otherwise, or with ``internal=False``, the public
+    ``update`` + ``solve(raise_error=False)`` are called, so an OSQP release
+    that changes the internals falls back to the public API instead of
+    breaking.
+
+    Parameters
+    ----------
+    solver : osqp.OSQP
+        A solver after ``setup``.
+    internal : bool
+        Use the internal route when available.
+
+    Returns
+    -------
+    run : callable
+        ``run(q, l, u) -> (x, status_val, iterations)`` with x the primal
+        solution (None when OSQP gives none), the OSQP status code and the
+        ADMM iteration count; ``l=None`` keeps the current l. Its arguments
+        are not modified.
+    route : {"internal", "public"}
+        The route taken.
+
+    Examples
+    --------
+    >>> import numpy as np, osqp, scipy.sparse as sp
+    >>> solver = osqp.OSQP()
+    >>> eye = sp.csc_matrix(np.eye(2))
+    >>> solver.setup(eye, np.zeros(2), eye, -np.ones(2), np.ones(2), verbose=False,
+    ...              **OSQP_SETTINGS)
+    >>> run, route = _osqp_runner(solver)
+    >>> x, status, _ = run(np.array([-5.0, 0.5]), np.full(2, -np.inf), np.ones(2))
+    >>> route, status, np.round(x, 6).tolist()
+    ('internal', 1, [1.0, -0.5])
+    """
+    core = getattr(solver, "_solver", None)
+    big = float(solver.constant("OSQP_INFTY")) if hasattr(solver, "constant") else 1e30
+    if internal and core is not None and getattr(solver, "_dtype", None) is np.float64 \
+            and all(hasattr(core, name) for name in ("update_data_vec", "solve", "info",
+                                                      "solution")):
+        update, solve = core.update_data_vec, core.solve
+
+        def run_internal(q: Array, lower: Array | None,
+                         upper: Array) -> tuple[Array | None, int, int]:
+            update(np.ascontiguousarray(q, dtype=np.float64),
+                   None if lower is None else np.maximum(lower, -big, dtype=np.float64),
+                   np.minimum(upper, big, dtype=np.float64))
+            solve()
+            info = core.info
+            return core.solution.x, info.status_val, info.iter
+
+        return run_internal, "internal"
+
+    def run_public(q: Array, lower: Array | None, upper: Array) -> tuple[Array | None, int, int]:
+        solver.update(q=q, l=lower, u=upper)
+        res = solver.solve(raise_error=False)
+        return res.x, res.info.status_val, res.info.iter
+
+    return run_public, "public"
+
+
 class _FastOSQP:
     """OSQP driven directly with data identified from cvxpy at build time."""
 
@@ -253,11 +346,15 @@ class _FastOSQP:
                               "the fast path cannot be used (solve with path='cvxpy').")
         self.n_eq = base["A"].shape[0]
         self.z_index = self._locate(base)
+        self._n = self.P.shape[0]
+        self._lower = np.full(self.Amat.shape[0], -np.inf)  # template of l (inequality rows)
+        self._zi, self._si = _as_slice(self.z_index["z"]), _as_slice(self.z_index["s"])
         self.solver = osqp.OSQP()
         q, lower, upper = self._qlu(vec0)
         P_triu = sp.csc_matrix(sp.triu(self.P, format="csc"))  # OSQP wants csc_matrix
         self.solver.setup(P_triu, q, sp.csc_matrix(self.Amat), lower, upper, verbose=False,
                           warm_starting=True, **OSQP_SETTINGS)
+        self._run, self.route = _osqp_runner(self.solver)
 
     def _data(self, flat: Array) -> dict:
         start = 0
@@ -279,16 +376,24 @@ class _FastOSQP:
         return np.concatenate([data["q"], data["b"], data["G"]])
 
     def _qlu(self, vec: Array) -> tuple[Array, Array, Array]:
-        n = self.P.shape[0]
-        q = vec[:n]
-        b = vec[n:n + self.n_eq]
-        h = vec[n + self.n_eq:]
-        lower = np.concatenate([b, np.full(h.size, -np.inf)])
-        upper = np.concatenate([b, h])
-        # Parameters were clipped to ±1e20 for the map; give OSQP true infinities.
-        lower[lower <= -_HUGE] = -np.inf
-        upper[upper >= _HUGE] = np.inf
+        """OSQP's (q, l, u) from the stacked data [q; b; h]: l = [b; -inf], u = [b; h].
+
+        l and u are new arrays; q is a view of ``vec``.
+        """
+        q, upper = self._qu(vec)
+        lower = self._lower.copy()
+        if self.n_eq:
+            lower[:self.n_eq] = vec[self._n:self._n + self.n_eq]
+            lower[lower <= -_HUGE] = -np.inf
         return q, lower, upper
+
+    def _qu(self, vec: Array) -> tuple[Array, Array]:
+        """q and u of :meth:`_qlu` (without equality rows, l = -inf throughout)."""
+        q = vec[:self._n]
+        upper = vec[self._n:].copy()
+        # Parameters were clipped to ±1e20 for the map; give OSQP true infinities.
+        upper[upper >= _HUGE] = np.inf
+        return q, upper
 
     def _locate(self, data: dict) -> dict[str, NDArray[np.int64]]:
         # The solver's variable vector stacks cvxpy variables at recorded offsets.
@@ -315,12 +420,13 @@ class _FastOSQP:
 
     def solve_vector(self, data: Array) -> QPSolution:
         start = time.perf_counter()
-        q, lower, upper = self._qlu(data)
-        self.solver.update(q=q, l=lower, u=upper)
-        res = self.solver.solve(raise_error=False)
+        if self.n_eq:
+            q, lower, upper = self._qlu(data)
+            x, status_val, iters = self._run(q, lower, upper)
+        else:  # l = -inf, as set up: update q and u only
+            q, upper = self._qu(data)
+            x, status_val, iters = self._run(q, None, upper)
         elapsed = time.perf_counter() - start
-        status = from_osqp(res.info.status_val)
-        x = res.x if res.x is not None else np.full(self.P.shape[0], np.nan)
-        z = np.asarray(x, dtype=float)[self.z_index["z"]]
-        s = np.asarray(x, dtype=float)[self.z_index["s"]]
-        return QPSolution(z, s, status, int(res.info.iter), elapsed)
+        status = from_osqp(status_val)
+        x = np.full(self._n, np.nan) if x is None else np.asarray(x, dtype=float)
+        return QPSolution(x[self._zi], x[self._si], status, int(iters), elapsed)

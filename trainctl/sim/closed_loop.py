@@ -163,6 +163,7 @@ def simulate(
     solve_times = np.empty(steps)
     fallbacks: list[str] = []
     previous = np.zeros(n)
+    horizon = int(preview_steps)
     wall = _time.perf_counter()
     controller.reset()
     for k in range(steps):
@@ -170,7 +171,7 @@ def simulate(
         x = states[:, k]
         measured = x[:n] + noise * rng.standard_normal(n)
         measurement = Measurement(state=x.copy() if full_state else None, outputs=measured)
-        record = controller.step(t, measurement, reference.preview(t, dt, int(preview_steps)))
+        record = controller.step(t, measurement, reference.preview(t, dt, horizon))
         if not isinstance(record, StepRecord):
             raise TypeError(
                 f"{where}: {controller.name!r}.step must return a StepRecord "
@@ -183,13 +184,13 @@ def simulate(
                 f"(got {u.shape} at t={t!r} s)."
             )
         status, fallback = str(record.status), str(record.fallback)
-        if not np.all(np.isfinite(u)):
+        if not np.isfinite(u).all():
             u = previous.copy()
             status, fallback = "error", HOLD_FALLBACK
         inputs[:, k] = u
         statuses.append(status)
         iterations[k] = int(record.iterations)
-        residuals.append(tuple(float(r) for r in record.residuals))
+        residuals.append(tuple(map(float, record.residuals)))
         solve_times[k] = float(record.solve_time)
         fallbacks.append(fallback)
         states[:, k + 1] = plant.advance(x, u, dt)

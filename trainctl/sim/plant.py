@@ -199,6 +199,9 @@ class Plant:
     _ladders: _LRU[NDArray[np.float64]] = field(
         default_factory=lambda: _LRU(_CACHE_BYTES), init=False, repr=False, compare=False
     )
+    _drag: dict[float, tuple[NDArray[np.float64], NDArray[np.float64]]] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
 
     def __post_init__(self) -> None:
         if not isinstance(self.train, Train):
@@ -416,6 +419,24 @@ class Plant:
         """
         return self._substeps(check_positive("Plant.substeps", "dt", dt))
 
+    @cached_property
+    def _forces(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """m·a0 and m·a2 per vehicle [N, N·s²/m²], as :meth:`advance` uses them."""
+        m, davis = self.train.mass, self.train.davis
+        return m * davis[0], m * davis[2]
+
+    def _drag_steps(self, h: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(h/2·a2, h·a2) for the drag flow over half and whole substeps of length h.
+
+        Kept for the last h only (a closed loop uses one).
+        """
+        cached = self._drag.get(h)
+        if cached is None:
+            a2 = self.train.davis[2]
+            self._drag.clear()
+            cached = self._drag[h] = (0.5 * h * a2, h * a2)
+        return cached
+
     def _substeps(self, dt: float) -> int:
         ratio = dt / self.max_substep
         return max(1, math.ceil(ratio - 1e-9 * max(1.0, ratio)))
@@ -453,10 +474,9 @@ class Plant:
         steps = self._substeps(dt)
         h = dt / steps
         m = train.mass
-        a2 = train.davis[2]
         quadratic = self._quadratic
-        half, full = 0.5 * h * a2, h * a2
-        base = u - m * train.davis[0]
+        half, full = self._drag_steps(h)
+        base = u - self._forces[0]
         track = self._track_arrays
         if track is not None and track[0].size == 1:  # uniform grade: constant force
             base = base - m * track[1][0]
@@ -466,7 +486,7 @@ class Plant:
         s = x[2 * n - 1]
         vbar = _grid_speed(z[0]) if quadratic else 0.0
         prop = self._propagator(h, vbar)
-        force = base + m * a2 * vbar**2 if quadratic else base
+        force = base + self._forces[1] * vbar**2 if quadratic else base
         z[2 * n - 1 :] = force
         if quadratic:
             _drag_flow(z, n, half, vbar)
@@ -516,7 +536,7 @@ class Plant:
             _drag_flow(z, n, half, vbar)
             vbar = nbar
             prop = self._propagator(h, vbar)
-            force = base + m * a2 * vbar**2
+            force = base + self._forces[1] * vbar**2
             z[2 * n - 1 :] = force - resist
             _drag_flow(z, n, half, vbar)
         out = np.empty(2 * n)
