@@ -380,6 +380,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
         data = ReportData.load(source)
         path = Path(args.output) if args.output else default_report_path(data.scenario)
         _check_output(path)
+        written = write_report_file(data, path, generated_at=generated_at,
+                                    deterministic=args.deterministic)
     else:
         job = _report_job(source, args)
         path = Path(args.output) if args.output else default_report_path(job.scenario)
@@ -396,10 +398,6 @@ def _cmd_report(args: argparse.Namespace) -> int:
             written = write_report_file(data, path, generated_at=generated_at,
                                         deterministic=args.deterministic)
             bar.advance("written")
-        print(f"wrote {written} ({_summary_line(data)}; {time.perf_counter() - start:.1f} s)")
-        return EXIT_OK
-    written = write_report_file(data, path, generated_at=generated_at,
-                                deterministic=args.deterministic)
     print(f"wrote {written} ({_summary_line(data)}; {time.perf_counter() - start:.1f} s)")
     return EXIT_OK
 

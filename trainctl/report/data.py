@@ -33,6 +33,9 @@ from numpy.typing import NDArray
 from ..exceptions import ScenarioError
 
 if TYPE_CHECKING:
+    import control as ct
+
+    from ..analysis.mpc import MPCDesign
     from ..run import AnalysisRun
     from ..scenario import Scenario
     from ..sim.results import SimulationResult
@@ -270,16 +273,18 @@ def collect_report_data(
     ReportData
         Plain data for :func:`trainctl.report.build_report_context`.
     """
+    from ..analysis.review import design_model
     from ..sim.results import environment
 
     scenario = run.scenario
+    design = design_model(scenario)
     return ReportData(
         scenario=scenario,
         scenario_text=scenario_text,
         results=run.to_dict(),
         subsystems=_subsystems(scenario),
-        spectra=_spectra(scenario),
-        weight_sweep=_weight_sweep(scenario),
+        spectra=_spectra(scenario, *design),
+        weight_sweep=_weight_sweep(scenario, design[1]),
         simulations=dict(run.simulations),
         expected=dict(scenario.expected),
         unexpected={name: list(pair) for name, pair in run.unexpected_checks().items()},
@@ -308,12 +313,11 @@ def _subsystems(scenario: Scenario) -> list[dict[str, Any]]:
     return coaches
 
 
-def _spectra(scenario: Scenario) -> dict[str, NDArray[np.complex128]]:
+def _spectra(scenario: Scenario, sys: ct.StateSpace,
+             design: MPCDesign | None) -> dict[str, NDArray[np.complex128]]:
     from ..analysis.dmpc import analyse_dmpc
-    from ..analysis.review import design_model
     from ..models.discrete import discretise
 
-    sys, design = design_model(scenario)
     if design is None:
         sysd = discretise(sys, scenario.model.sample_time, method=scenario.model.discretisation)
         return {"open loop": _eig(np.asarray(sysd.A, dtype=float))}
@@ -338,12 +342,10 @@ def _eig(matrix: NDArray[np.float64]) -> NDArray[np.complex128]:
     return values[order]
 
 
-def _weight_sweep(scenario: Scenario) -> dict[str, Any] | None:
+def _weight_sweep(scenario: Scenario, design: MPCDesign | None) -> dict[str, Any] | None:
     from ..analysis.mpc import convergence_sweep, threshold_weight
-    from ..analysis.review import design_model
 
     ctl = scenario.controller
-    _, design = design_model(scenario)
     if ctl is None or design is None:
         return None
     r_design = ctl.input_weight_per_kn2()
