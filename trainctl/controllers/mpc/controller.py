@@ -46,19 +46,17 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from ..analysis.mpc import MPCDesign, Prediction, prediction
-from ..exceptions import ModelError
-from ..models.train import Train
-from ..models.vehicle import TractionEnvelope, _limit
-from .base import Measurement, ReferencePreview, StepRecord
-from .observer import KalmanObserver, ObserverSettings
-from .qp import ParametricQP
-from .status import is_usable
+from ...analysis.mpc import MPCDesign, Prediction, prediction
+from ...exceptions import ModelError
+from ...models.train import Train
+from ...models.vehicle import TractionEnvelope, _limit
+from ..base import Measurement, ReferencePreview, StepRecord
+from ..observer import KalmanObserver, ObserverSettings
+from ..qp import ParametricQP
+from ..status import is_usable
+from .settings import STRATEGIES, MPCConstraints
 
 __all__ = ["STRATEGIES", "MPCConstraints", "MPCController", "make_mpc"]
-
-STRATEGIES = ("centralised", "decentralised", "ndmpc", "cooperative")
-"""The MPC strategies."""
 
 KN = 1e3
 Array = NDArray[np.float64]
@@ -66,36 +64,6 @@ Array = NDArray[np.float64]
 _ENVELOPE_LIMIT: Callable[..., Array] = _limit
 """The stock envelope's limit function; elementwise numpy, so it also broadcasts over
 vehicles given per-vehicle arrays (annotated for scalars, hence this alias)."""
-
-
-@dataclass(frozen=True, kw_only=True)
-class MPCConstraints:
-    """Constraint settings of an MPC controller.
-
-    Parameters
-    ----------
-    input_bounds : bool
-        Bound every coach's force by its traction/braking envelope (hard).
-    rate_limit : float
-        Largest change of a coach's force per sample [N] (hard); inf for none.
-    coupler_force_limit : float
-        Largest absolute coupler force |f| [N] (soft); inf for none.
-    soft_linear : float
-        Linear penalty per kN of coupler-force violation.
-    soft_quadratic : float
-        Quadratic penalty per kN² of violation.
-    force_steps : tuple of int or None
-        Prediction steps (1..P) at which the coupler forces are bounded; None
-        for every step. Bounding a subset (e.g. the first few steps, then every
-        fifth) shrinks each QP with little effect when the bound is far from active.
-    """
-
-    input_bounds: bool = True
-    rate_limit: float = math.inf
-    coupler_force_limit: float = math.inf
-    soft_linear: float = 1e3
-    soft_quadratic: float = 1e2
-    force_steps: tuple[int, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -696,7 +664,7 @@ def make_mpc(train: Train, design: MPCDesign, *, dt: float, strategy: str = "ndm
     MPCController
         Ready to ``step``.
     """
-    from ..models.linear import linearise
+    from ...models.linear import linearise
 
     force_rows = np.asarray(linearise(train, 1.0, outputs=("force",)).C, dtype=float) / KN
     nx = design.A.shape[0]

@@ -1,0 +1,223 @@
+# Controller families: the protocol every family follows and the registry that names them.
+"""Controller families and their registry.
+
+A *family* is one kind of controller (MPC, LQR, potential-function
+consensus, ...) with everything trainctl needs to analyse, simulate and
+report it. It lives in ``trainctl/controllers/<family>/`` and is named in
+:data:`FAMILY_MODULES` (one line). Each family module exposes a ``FAMILY``
+object that follows :class:`ControllerFamily`:
+
+- ``name``, ``strategies`` and ``check_names``: the vocabulary of the
+  family, defined once, in the family;
+- ``settings``: the schema of its ``[controller]`` table (a pydantic model
+  whose validated instance is the family's settings object, SI inside);
+- ``design(scenario, model, settings)``: the family's design, built once per
+  run from the shared :class:`~trainctl.design.DesignModel`;
+- ``make(design, strategy)``: a controller following the
+  :class:`~trainctl.controllers.base.Controller` protocol;
+- ``checks(design)``: its design checks (:class:`~trainctl.analysis.review.Check`);
+- ``closed_loop(design, strategy)``: the linear closed loop as a discrete
+  ``control.StateSpace`` (None where the loop is not linear), the input of
+  every generic analysis (poles, frequency responses, norms);
+- ``report_data(design)``, ``report_figures(data)`` and ``report_partial``:
+  what the HTML report shows for the family (JSON-safe data, figures drawn
+  from that data, and the Jinja source of its report section).
+
+Importing this module, or a family module, imports no solver: families
+import cvxpy and python-control inside their methods.
+
+Examples
+--------
+>>> family_names()[:2]
+('mpc', 'lqr')
+>>> get_family("mpc").strategies
+('centralised', 'decentralised', 'ndmpc', 'cooperative')
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from importlib import import_module
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+
+from ..exceptions import ScenarioError
+
+if TYPE_CHECKING:
+    import control as ct
+
+    from ..analysis.review import Check
+    from ..design import DesignModel
+    from ..report.figures import ReportFigure
+    from ..scenario import Scenario
+    from .base import Controller
+
+__all__ = [
+    "DEFAULT_FAMILY",
+    "FAMILY_MODULES",
+    "ControllerFamily",
+    "family_names",
+    "get_family",
+    "register_family",
+    "unregister_family",
+]
+
+DEFAULT_FAMILY = "mpc"
+"""The family of a ``[controller]`` table without a ``family`` key."""
+
+FAMILY_MODULES: Mapping[str, str] = {
+    "mpc": "trainctl.controllers.mpc",
+    "lqr": "trainctl.controllers.lqr",
+}
+"""The built-in families: name -> module exposing ``FAMILY`` (imported on first use)."""
+
+_REGISTERED: dict[str, ControllerFamily] = {}
+_LOADED: dict[str, ControllerFamily] = {}
+
+
+@runtime_checkable
+class ControllerFamily(Protocol):
+    """What a controller family provides (module docstring).
+
+    Attributes
+    ----------
+    name : str
+        Registry name, the value of ``[controller] family``.
+    title : str
+        Display name, e.g. ``"Model predictive control"``.
+    strategies : tuple of str
+        Its strategy names, the values of ``[simulation] strategies``.
+    check_names : tuple of str
+        Names of the checks :meth:`checks` returns (what ``[expected]`` may
+        declare for the family).
+    settings : type
+        Pydantic model of the family's ``[controller]`` table.
+    report_partial : str
+        Jinja source of the family's report section (rendered with ``data``,
+        the family's :meth:`report_data`, and ``design`` as context), or ""
+        for none.
+    """
+
+    name: str
+    title: str
+    strategies: tuple[str, ...]
+    check_names: tuple[str, ...]
+    settings: type[Any]
+    report_partial: str
+
+    def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> Any:
+        """The family's design (built once per run)."""
+        ...
+
+    def make(self, design: Any, strategy: str) -> Controller:
+        """A controller for one strategy, ready to ``step``."""
+        ...
+
+    def checks(self, design: Any) -> list[Check]:
+        """The family's design checks."""
+        ...
+
+    def closed_loop(self, design: Any, strategy: str) -> ct.StateSpace | None:
+        """The linear closed loop of a strategy (discrete), or None."""
+        ...
+
+    def report_data(self, design: Any) -> dict[str, Any]:
+        """JSON-safe data for the family's report section and figures."""
+        ...
+
+    def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
+        """Figures of the family's report section, drawn from ``data``."""
+        ...
+
+
+def family_names() -> tuple[str, ...]:
+    """Names of every known family: the built-ins, then the registered ones.
+
+    Returns
+    -------
+    tuple of str
+        Family names.
+
+    Examples
+    --------
+    >>> "mpc" in family_names()
+    True
+    """
+    return tuple(FAMILY_MODULES) + tuple(n for n in _REGISTERED if n not in FAMILY_MODULES)
+
+
+def get_family(name: str) -> ControllerFamily:
+    """The family called ``name``.
+
+    Parameters
+    ----------
+    name : str
+        A name from :func:`family_names`.
+
+    Returns
+    -------
+    ControllerFamily
+        The family object.
+
+    Raises
+    ------
+    ScenarioError
+        If no family has that name (the message lists them).
+
+    Examples
+    --------
+    >>> get_family("lqr").name
+    'lqr'
+    """
+    if name in _REGISTERED:
+        return _REGISTERED[name]
+    if name in _LOADED:
+        return _LOADED[name]
+    if name not in FAMILY_MODULES:
+        from difflib import get_close_matches
+
+        close = get_close_matches(str(name), list(family_names()), n=1)
+        hint = f" Did you mean {close[0]!r}?" if close else ""
+        raise ScenarioError(
+            f"controller family {name!r} is not known.{hint} Families: "
+            f"{', '.join(family_names())}."
+        )
+    family = import_module(FAMILY_MODULES[name]).FAMILY
+    _LOADED[name] = family
+    return family  # type: ignore[no-any-return]
+
+
+def register_family(family: ControllerFamily) -> None:
+    """Make ``family`` available under ``family.name`` (a plug-in, or a test's toy family).
+
+    Parameters
+    ----------
+    family : ControllerFamily
+        The family; a built-in name cannot be replaced.
+
+    Raises
+    ------
+    ValueError
+        If ``family.name`` is a built-in family or not an identifier.
+    """
+    name = getattr(family, "name", None)
+    if not isinstance(name, str) or not name.isidentifier():
+        raise ValueError(f"register_family: 'name' must be an identifier (got {name!r}).")
+    if name in FAMILY_MODULES:
+        raise ValueError(f"register_family: {name!r} is a built-in family and cannot be replaced.")
+    _REGISTERED[name] = family
+
+
+def unregister_family(name: str) -> None:
+    """Remove a family added with :func:`register_family` (no error if absent).
+
+    Parameters
+    ----------
+    name : str
+        The family's name.
+    """
+    _REGISTERED.pop(name, None)
+
+
+def strategy_names(families: Iterable[str]) -> tuple[str, ...]:
+    """Every strategy of the given families, in order (helper for messages)."""
+    return tuple(s for f in families for s in get_family(f).strategies)
