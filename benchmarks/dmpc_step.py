@@ -30,7 +30,7 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from trainctl.analysis.review import design_model
+from trainctl.design import build_design
 from trainctl.controllers.base import Measurement, ReferencePreview
 from trainctl.controllers.mpc import MPCConstraints, make_mpc
 from trainctl.controllers.qp import OSQP_SETTINGS
@@ -130,7 +130,7 @@ def replay_raw_osqp(ctl, log, steps):
 def part1(steps):
     scenario = load_scenario("crh2-dmpc-well-sampled")
     train, dt = scenario.train, scenario.model.sample_time
-    _, d = design_model(scenario)
+    d = build_design(scenario).family("mpc").mpc
     states = closed_loop_states(train, d, dt, steps)
     fast = make_mpc(train, d, dt=dt, strategy="ndmpc", constraints=CONSTRAINTS, tolerance=1e-4)
     recorder = Recorder(fast)

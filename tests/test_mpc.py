@@ -17,10 +17,10 @@ from trainctl.analysis.mpc import (
     nash_gain,
     prediction,
 )
-from trainctl.analysis.review import design_model
 from trainctl.controllers.base import Measurement, ReferencePreview
 from trainctl.controllers.mpc import MPCConstraints, make_mpc
 from trainctl.controllers.qp import ParametricQP, _osqp_runner
+from trainctl.design import build_design
 from trainctl.models import equilibrium
 from trainctl.scenario import load_scenario
 
@@ -30,13 +30,13 @@ NONE = MPCConstraints(input_bounds=False)
 @pytest.fixture(scope="module")
 def book():
     scenario = load_scenario("crh2-dmpc")
-    return scenario, design_model(scenario)[1]
+    return scenario, build_design(scenario).family("mpc").mpc
 
 
 @pytest.fixture(scope="module")
 def fast():
     scenario = load_scenario("crh2-dmpc-well-sampled")
-    return scenario, design_model(scenario)[1]
+    return scenario, build_design(scenario).family("mpc").mpc
 
 
 def preview(design, dt, v0=60.0, accel=0.0):
@@ -215,7 +215,7 @@ def _bounded_controller(strategy):
     """One controller per strategy for the property test (QPs are built once, then reset)."""
     if strategy not in _BOUNDED:
         scenario = load_scenario("crh2-dmpc-well-sampled")
-        d = design_model(scenario)[1]
+        d = build_design(scenario).family("mpc").mpc
         _BOUNDED[strategy] = make_mpc(
             scenario.train, d, dt=scenario.model.sample_time, strategy=strategy,
             max_iterations=20, constraints=MPCConstraints(rate_limit=2e3, coupler_force_limit=50e3))

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from trainctl.analysis.review import design_model
 from trainctl.controllers.base import Measurement
 from trainctl.controllers.mpc import MPCConstraints, make_mpc
 from trainctl.controllers.observer import KalmanObserver, ObserverSettings
+from trainctl.design import build_design
 from trainctl.exceptions import ModelError
 from trainctl.models import Track, TrackSection, crh2_half, equilibrium
 from trainctl.scenario import load_scenario
@@ -21,7 +21,7 @@ R_TRUE = GRADE * 9.81 / 1000       # its specific force [m/s²]
 @pytest.fixture(scope="module")
 def setup():
     scenario = load_scenario("crh2-dmpc-well-sampled")
-    d = design_model(scenario)[1]
+    d = build_design(scenario).family("mpc").mpc
     track = Track(sections=(TrackSection(start=0.0, grade_permille=GRADE),))
     return scenario, d, Plant(train=scenario.train, track=track)
 

@@ -18,7 +18,6 @@ import pytest
 import scipy.linalg
 
 import trainctl
-from trainctl.analysis.review import design_model
 from trainctl.report import (
     ReportData,
     build_report_context,
@@ -173,8 +172,11 @@ class TestData:
     """collect_report_data(): what the report shows beyond the run."""
 
     def test_open_loop_spectrum_is_the_zoh_of_the_design_model(self, crh2: ReportData) -> None:
-        """Open-loop eigenvalues = eig(expm(A T)) of the continuous design model."""
-        sys, _ = design_model(crh2.scenario)
+        """Open-loop eigenvalues = eig(expm(A T)) of the continuous model without the dummy."""
+        from trainctl.models.linear import linearise
+
+        cfg = crh2.scenario.model
+        sys = linearise(crh2.scenario.train, cfg.speed, method=cfg.linearisation)
         T = crh2.scenario.model.sample_time
         expected = np.linalg.eigvals(scipy.linalg.expm(np.asarray(sys.A) * T))
         found = crh2.spectra["open loop"]
@@ -194,9 +196,8 @@ class TestData:
 
     def test_weight_sweep_crosses_one_at_r_star(self, crh2: ReportData) -> None:
         """ρ(D0) falls through 1 at the bisection's R*, and equals the check at the design R."""
-        sweep = crh2.weight_sweep
-        assert sweep is not None
-        r, rho = sweep["weights"], sweep["radii"]
+        sweep = crh2.families["mpc"]["weight_sweep"]
+        r, rho = np.asarray(sweep["weights"]), np.asarray(sweep["radii"])
         above, below = r[rho < 1], r[rho >= 1]
         assert below.max() < sweep["threshold"] < above.min()
         at_design = float(np.interp(np.log(sweep["design_weight"]), np.log(r), rho))
@@ -244,7 +245,7 @@ class TestData:
     def test_no_controller(self, hinf: ReportData) -> None:
         """Without [controller]: the open loop only, no sweep, no simulations."""
         assert list(hinf.spectra) == ["open loop"]
-        assert hinf.weight_sweep is None
+        assert hinf.families == {}
         assert hinf.simulations == {}
 
 

@@ -10,11 +10,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .analysis.review import DesignReview, design_model, review_design
+from .analysis.review import DesignReview, review_design
 from .analysis.summary import ModelSummary, model_summary
 
 if TYPE_CHECKING:
-    from .controllers.mpc import MPCController
+    from .controllers.base import Controller
+    from .design import Design
     from .scenario import Scenario
     from .sim.metrics import Metrics
     from .sim.results import SimulationResult
@@ -32,6 +33,8 @@ class AnalysisRun:
     ----------
     scenario : Scenario
         The scenario that was run.
+    design : Design
+        Its design model and controller designs (built once).
     summary : ModelSummary
         Model summary (vehicles, equilibrium, modes, sampling).
     review : DesignReview
@@ -43,6 +46,7 @@ class AnalysisRun:
     """
 
     scenario: Scenario
+    design: Design
     summary: ModelSummary
     review: DesignReview
     simulations: Mapping[str, SimulationResult] = field(default_factory=dict)
@@ -109,45 +113,39 @@ def _metrics_table(run: AnalysisRun) -> str:
     return "\n".join(lines)
 
 
-def make_controller(scenario: Scenario, strategy: str) -> MPCController:
-    """The scenario's MPC controller for one strategy (QPs built once here).
+def make_controller(scenario: Scenario, strategy: str, design: Design | None = None) -> Controller:
+    """The scenario's controller for one strategy (QPs and gains built once here).
 
     Parameters
     ----------
     scenario : Scenario
         A scenario with a ``[controller]`` section.
     strategy : str
-        ``"centralised"``, ``"decentralised"``, ``"ndmpc"`` or ``"cooperative"``.
+        A name from ``[simulation] strategies``: a strategy of the primary
+        family (``"ndmpc"``) or ``"family.strategy"`` (``"lqr.centralised"``).
+    design : Design or None
+        The run's design (:func:`trainctl.design.build_design`); built here
+        when None.
 
     Returns
     -------
-    MPCController
+    Controller
         Ready for :func:`trainctl.sim.simulate`.
     """
-    from .controllers.mpc import make_mpc
-    from .exceptions import ScenarioError
+    from .controllers.registry import get_family
+    from .design import build_design
 
-    ctl = scenario.controller
-    _, design = design_model(scenario)
-    if ctl is None or design is None:
-        raise ScenarioError(f"{scenario.source}: simulating needs a [controller] section.")
-    from .controllers.observer import ObserverSettings
-
-    weights = (None if ctl.cooperative_weights == "uniform"
-               else np.asarray(ctl.cooperative_weights, dtype=float))
-    observer = None
-    if ctl.observer == "kalman":
-        noise = scenario.simulation.measurement_noise if scenario.simulation else 0.0
-        observer = ObserverSettings(measurement_noise=max(noise, 0.01),
-                                    disturbance_noise=ctl.observer_disturbance_noise)
-    return make_mpc(scenario.train, design, dt=scenario.model.sample_time, strategy=strategy,
-                    constraints=ctl.mpc_constraints(), max_iterations=ctl.max_iterations,
-                    tolerance=ctl.iteration_tolerance, relaxation=ctl.relaxation,
-                    cooperative_weights=weights, path=ctl.solver_path, name=strategy,
-                    observer=observer, design_speed=scenario.model.speed)
+    if design is None:
+        design = build_design(scenario)
+    family, name = design.resolve(strategy)
+    controller = get_family(family).make(design.family(family), name)
+    controller.name = strategy
+    return controller
 
 
-def simulate_strategy(scenario: Scenario, strategy: str) -> SimulationResult:
+def simulate_strategy(
+    scenario: Scenario, strategy: str, design: Design | None = None
+) -> SimulationResult:
     """Simulate one strategy of the scenario's ``[simulation]`` on the nonlinear plant.
 
     The train starts at the feedforward equilibrium of the reference at t = 0
@@ -158,7 +156,9 @@ def simulate_strategy(scenario: Scenario, strategy: str) -> SimulationResult:
     scenario : Scenario
         A scenario with ``[controller]`` and ``[simulation]`` sections.
     strategy : str
-        The MPC strategy.
+        A name from ``[simulation] strategies``.
+    design : Design or None
+        The run's design; built here when None.
 
     Returns
     -------
@@ -180,16 +180,24 @@ def simulate_strategy(scenario: Scenario, strategy: str) -> SimulationResult:
     start = equilibrium(scenario.train, max(v0, 0.1), acceleration=float(profile.acceleration(0.0)))
     state = start.state(position=0.0)
     state[: scenario.train.n_vehicles] = v0 + sim.initial_speed_error
-    controller = make_controller(scenario, strategy)
+    controller = make_controller(scenario, strategy, design)
     return simulate(Plant(train=scenario.train, track=scenario.track), controller, profile,
                     duration=sim.duration, initial_state=state,
-                    preview_steps=controller.P,
+                    preview_steps=_preview_steps(controller),
                     measurement_noise=sim.measurement_noise, seed=scenario.seed,
-                    full_state=controller.needs_full_state)
+                    full_state=getattr(controller, "needs_full_state", True))
+
+
+def _preview_steps(controller: Controller) -> int:
+    """Samples of reference preview a controller reads (its horizon P; 1 without one)."""
+    steps: int | None = getattr(controller, "preview_steps", None)
+    if steps is None:
+        steps = int(getattr(controller, "P", 1))
+    return steps
 
 
 def submit_simulations(
-    scenario: Scenario, executor: Executor
+    scenario: Scenario, executor: Executor, design: Design | None = None
 ) -> dict[str, Future[SimulationResult]]:
     """Start every ``[simulation]`` strategy of a scenario on an executor.
 
@@ -200,6 +208,8 @@ def submit_simulations(
     executor : concurrent.futures.Executor
         Where to run :func:`simulate_strategy`: a process pool
         (:func:`trainctl.parallel.process_pool`), a Dask executor, ...
+    design : Design or None
+        The run's design, sent along so that the workers do not rebuild it.
 
     Returns
     -------
@@ -208,7 +218,7 @@ def submit_simulations(
     """
     if scenario.simulation is None:
         return {}
-    return {strategy: executor.submit(simulate_strategy, scenario, strategy)
+    return {strategy: executor.submit(simulate_strategy, scenario, strategy, design)
             for strategy in scenario.simulation.strategies}
 
 
@@ -219,6 +229,7 @@ def run_scenario(
     executor: Executor | None = None,
     pending: Mapping[str, Future[SimulationResult]] | None = None,
     on_simulated: Callable[[str], None] | None = None,
+    design: Design | None = None,
 ) -> AnalysisRun:
     """Run the model summary, the design review and the scenario's simulations.
 
@@ -237,6 +248,9 @@ def run_scenario(
         (overrides ``executor``).
     on_simulated : callable or None
         Called with the strategy name as each simulation finishes (progress).
+    design : Design or None
+        The design when already built (:func:`trainctl.design.build_design`);
+        built here, once, when None.
 
     Returns
     -------
@@ -250,12 +264,17 @@ def run_scenario(
     >>> "sampling" in run.failed_checks, run.unexpected_checks()
     (True, {})
     """
+    from .design import build_design
+
     sims: dict[str, SimulationResult] = {}
     metrics: dict[str, Metrics] = {}
     sim = scenario.simulation if simulate else None
+    if design is None:
+        design = build_design(scenario)
     if sim is not None and pending is None and executor is not None:
-        pending = submit_simulations(scenario, executor)
-    summary, review = model_summary(scenario), review_design(scenario)
+        pending = submit_simulations(scenario, executor, design)
+    summary = model_summary(scenario, design.model)
+    review = review_design(scenario, design)
     if sim is not None:
         from .sim.metrics import compute_metrics
 
@@ -263,10 +282,10 @@ def run_scenario(
             if pending is not None:
                 sims[strategy] = pending[strategy].result()
             else:
-                sims[strategy] = simulate_strategy(scenario, strategy)
+                sims[strategy] = simulate_strategy(scenario, strategy, design)
             metrics[strategy] = compute_metrics(sims[strategy], settle_time=sim.settle_time,
                                                 regen_efficiency=sim.regen_efficiency)
             if on_simulated is not None:
                 on_simulated(strategy)
-    return AnalysisRun(scenario=scenario, summary=summary, review=review, simulations=sims,
-                       metrics=metrics)
+    return AnalysisRun(scenario=scenario, design=design, summary=summary, review=review,
+                       simulations=sims, metrics=metrics)

@@ -15,7 +15,7 @@ from .mpc import convergence_sweep as convergence_sweep
 from .mpc import prediction as prediction
 from .review import Check as Check
 from .review import DesignReview as DesignReview
-from .review import design_model as design_model
+from .review import model_checks as model_checks
 from .review import review_design as review_design
 from .sampling import SamplingResult as SamplingResult
 from .sampling import analyse_sampling as analyse_sampling
@@ -28,6 +28,6 @@ __all__ = [
     "Check", "ControllabilityResult", "DMPCAnalysis", "DesignReview", "MPCDesign", "Mode",
     "ModelSummary", "SamplingResult", "StabilityResult", "analyse_controllability",
     "analyse_dmpc", "analyse_observability", "analyse_sampling", "analyse_stability",
-    "continuous_modes", "convergence_sweep", "design_model", "finite_horizon_gramian",
+    "continuous_modes", "convergence_sweep", "finite_horizon_gramian", "model_checks",
     "model_summary", "nyquist_sample_time", "prediction", "review_design",
 ]

@@ -2,14 +2,11 @@
 """A design review of a scenario: named checks with status, value, threshold and hint.
 
 The review answers, before any simulation, whether the design can work:
-open-loop stability, controllability and observability, sampling adequacy,
-and — when the scenario has a ``[controller]`` section — the unconstrained
-MPC / N-DMPC / cooperative DMPC conditions of :mod:`trainctl.analysis.mpc`.
-
-The MPC design model is the scenario's linear model without seed 000's
-dummy state (which no input reaches and no output sees), discretised at the
-scenario's sample time, with inputs in kN and coupler-force outputs in kN.
-Weight thresholds are reported in the unit the scenario used (per kN² or per N²).
+open-loop stability, controllability and observability, sampling adequacy
+(:func:`model_checks`, on the run's :class:`~trainctl.design.DesignModel`),
+then the checks of every controller family of the scenario
+(``checks()`` of each :mod:`~trainctl.controllers.registry` family, e.g. the
+N-DMPC conditions of the MPC family).
 """
 
 from __future__ import annotations
@@ -23,19 +20,23 @@ import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
-from ..models.discrete import discretise
-from ..models.linear import linearise
-from ..models.subsystems import coach_subsystems
 from .controllability import analyse_controllability, analyse_observability
-from .dmpc import analyse_dmpc
-from .mpc import MPCDesign
 from .sampling import analyse_sampling
 from .stability import _direction, analyse_stability
 
 if TYPE_CHECKING:
+    from ..design import Design, DesignModel
     from ..scenario import Scenario
 
-__all__ = ["STATUSES", "Check", "DesignReview", "design_model", "review_design"]
+__all__ = [
+    "MODEL_CHECK_NAMES", "STATUSES", "Check", "DesignReview", "model_checks", "radius_check",
+    "review_design",
+]
+
+MODEL_CHECK_NAMES = (
+    "open_loop_stability", "controllability", "observability", "sampling", "input_collapse",
+)
+"""Names of the checks of the linear model (controller families add their own)."""
 
 STATUSES = ("pass", "warn", "fail")
 """Check statuses, from best to worst."""
@@ -141,59 +142,22 @@ class DesignReview:
                 f"<th>unit</th><th>finding</th></tr>{rows}</table>")
 
 
-def design_model(scenario: Scenario) -> tuple[ct.StateSpace, MPCDesign | None]:
-    """The continuous design model and, with a ``[controller]``, the MPC design.
-
-    Parameters
-    ----------
-    scenario : Scenario
-        A loaded scenario.
-
-    Returns
-    -------
-    sys : control.StateSpace
-        Continuous linear model without the dummy state, inputs in kN and
-        outputs as the controller section asks (velocities [m/s], coupler
-        forces [kN]).
-    design : MPCDesign or None
-        Discretised design (None without a ``[controller]`` section).
-    """
-    train, cfg, ctl = scenario.train, scenario.model, scenario.controller
-    outputs = tuple(ctl.outputs) if ctl is not None else ("v",)
-    sys = linearise(train, cfg.speed, method=cfg.linearisation, outputs=outputs)
-    n = train.n_vehicles
-    scale_out = np.concatenate([np.ones(n) if g == "v" else np.full(train.n_couplers, 1 / KN)
-                                for g in outputs])
-    sys = ct.ss(sys.A, sys.B * KN, scale_out[:, None] * sys.C, 0, states=sys.state_labels,
-                inputs=sys.input_labels, outputs=sys.output_labels, name=sys.name)
-    if ctl is None:
-        return sys, None
-    sysd = discretise(sys, cfg.sample_time, method=cfg.discretisation)
-    weight = {"v": (n, ctl.q_velocity), "force": (train.n_couplers, ctl.q_force)}
-    q = np.concatenate([np.full(*weight[g]) for g in outputs])
-    owner = tuple(int(i) for g in outputs for i in range(n if g == "v" else train.n_couplers))
-    design = MPCDesign(
-        A=np.asarray(sysd.A, dtype=float), B=np.asarray(sysd.B, dtype=float),
-        C=np.asarray(sysd.C, dtype=float), prediction_horizon=ctl.prediction_horizon,
-        control_horizon=ctl.control_horizon, form=ctl.form, q=q,
-        r=np.full(n, ctl.input_weight_per_kn2()), output_owner=owner,
-        neighbourhoods=ctl.neighbourhoods(n))
-    return sys, design
-
-
-def review_design(scenario: Scenario) -> DesignReview:
+def review_design(scenario: Scenario, design: Design | None = None) -> DesignReview:
     """Run every design check that applies to ``scenario``.
 
     Parameters
     ----------
     scenario : Scenario
         A loaded scenario.
+    design : Design or None
+        The run's design (:func:`trainctl.design.build_design`); built here
+        when None.
 
     Returns
     -------
     DesignReview
-        Model checks always; MPC/DMPC checks when the scenario has a
-        ``[controller]`` section.
+        The model checks, then each controller family's checks (primary
+        family first).
 
     Examples
     --------
@@ -202,28 +166,84 @@ def review_design(scenario: Scenario) -> DesignReview:
     >>> review.check("sampling").status
     'fail'
     """
-    sys, design = design_model(scenario)
-    checks = list(_model_checks(scenario, sys))
-    if design is not None:
-        checks += _mpc_checks(scenario, design)
+    from ..controllers.registry import get_family
+    from ..design import build_design
+
+    if design is None:
+        design = build_design(scenario)
+    checks = model_checks(design.model)
+    for name, family_design in design.families.items():
+        checks += get_family(name).checks(family_design)
     return DesignReview(scenario_name=scenario.name, checks=tuple(checks))
 
 
-def _model_checks(scenario: Scenario, sys: ct.StateSpace) -> list[Check]:
-    train, cfg = scenario.train, scenario.model
+def model_checks(model: DesignModel) -> list[Check]:
+    """The checks of the linear model: stability, rank tests, sampling.
+
+    Parameters
+    ----------
+    model : DesignModel
+        The run's design model.
+
+    Returns
+    -------
+    list of Check
+        In the order of :data:`MODEL_CHECK_NAMES`.
+    """
+    train, cfg = model.train, model.settings
     n = train.n_vehicles
-    full = linearise(train, cfg.speed, method=cfg.linearisation, dummy_state=cfg.dummy_state)
-    stab = analyse_stability(full, n_vehicles=n)
+    stab = analyse_stability(model.speed_model(), n_vehicles=n)
     checks = [_stability_check(stab)]
+    sys = model.select(model.design)
     ctrb = analyse_controllability(sys)
     obsv = analyse_observability(sys)
-    local = _local_controllability(scenario)
-    checks.append(_rank_check("controllability", ctrb, extra=local))
+    checks.append(_rank_check("controllability", ctrb, extra=_local_controllability(model)))
     checks.append(_rank_check("observability", obsv, virtual=bool(np.any(train.virtual))))
-    samp = analyse_sampling(sys, cfg.sample_time, n_vehicles=n, method=cfg.discretisation)
+    samp = analyse_sampling(sys, cfg.sample_time, n_vehicles=n, method=cfg.discretisation,
+                            sysd=model.select(model.discrete))
     checks.append(_sampling_check(samp))
     checks.append(_collapse_check(samp))
     return checks
+
+
+def radius_check(name: str, A_cl: NDArray[np.float64], labels: list[str], what: str, *,
+                 marginal_hint: str, unstable_hint: str) -> Check:
+    """Judge a discrete closed loop by its spectral radius (fail > 1, warn on the circle).
+
+    Parameters
+    ----------
+    name : str
+        Check name.
+    A_cl : ndarray
+        Closed-loop state matrix (discrete).
+    labels : list of str
+        State names (eigenvector directions are described with them).
+    what : str
+        What the closed loop is, for the message.
+    marginal_hint, unstable_hint : str
+        Hints when eigenvalues sit on the unit circle / outside it.
+
+    Returns
+    -------
+    Check
+        Value ρ, threshold 1; details with the eigenvalues on the circle.
+    """
+    lam, vec = np.linalg.eig(A_cl)
+    rho = float(np.max(np.abs(lam)))
+    on_circle = np.flatnonzero(np.abs(np.abs(lam) - 1) <= _UNIT_TOL)
+    circle = [{"eigenvalue": [float(lam[k].real), float(lam[k].imag)],
+               "direction": _direction(vec[:, k], labels)} for k in on_circle]
+    details = {"spectral_radius": rho, "unit_circle": circle}
+    if rho > 1 + _UNIT_TOL:
+        return Check(name=name, status="fail", value=rho, threshold=1.0, unit="",
+                     message=f"{what}: closed loop unstable, ρ = {rho:.6g}",
+                     hint=unstable_hint, details=details)
+    if circle:
+        return Check(name=name, status="warn", value=rho, threshold=1.0, unit="",
+                     message=f"{what}: {len(circle)} eigenvalue(s) on the unit circle, e.g. "
+                     f"directions {circle[0]['direction']}", hint=marginal_hint, details=details)
+    return Check(name=name, status="pass", value=rho, threshold=1.0, unit="",
+                 message=f"{what}: ρ = {rho:.6g} < 1", details=details)
 
 
 def _stability_check(stab) -> Check:
@@ -252,14 +272,15 @@ def _stability_check(stab) -> Check:
                  details=details)
 
 
-def _local_controllability(scenario: Scenario) -> list[bool]:
-    train, cfg = scenario.train, scenario.model
+def _local_controllability(model: DesignModel) -> list[bool]:
+    """Per coach: is its own subsystem (A_ii, B_i) controllable (dummy state dropped)?"""
+    train, sub = model.train, model.subsystems
     if train.n_vehicles < 2 or np.any(train.virtual):
         return []
-    sub = coach_subsystems(train, cfg.speed, method=cfg.linearisation, dummy_state=False)
     result = []
     for i in range(sub.n_coaches):
-        local = ct.ss(sub.A[i, i], sub.B[i] * KN, sub.C[i], 0)
+        keep = 1 if (i == sub.n_coaches - 1 and model.has_dummy) else sub.B[i].shape[0]
+        local = ct.ss(sub.A[i, i][:keep, :keep], sub.B[i][:keep] * KN, sub.C[i][:, :keep], 0)
         result.append(analyse_controllability(local).full_rank)
     return result
 
@@ -312,103 +333,6 @@ def _collapse_check(samp) -> Check:
     return Check(name="input_collapse", status=status, value=c, threshold=0.1, unit="",
                  message=f"smallest normalised singular value of B_d: {c:.3g}", hint=hint,
                  details=samp.to_dict())
-
-
-def _mpc_checks(scenario: Scenario, design: MPCDesign) -> list[Check]:
-    ctl = scenario.controller
-    if ctl is None:
-        return []
-    unit_scale = 1.0 if ctl.input_weight_unit == "kN" else 1e-6   # per kN² -> per N²
-    unit = f"per {ctl.input_weight_unit}²"
-    weights = (None if ctl.cooperative_weights == "uniform"
-               else np.asarray(ctl.cooperative_weights, dtype=float))
-    res = analyse_dmpc(design, iterations=ctl.iterations, cooperative_weights=weights)
-    labels = _closed_loop_labels(scenario, design)
-    plan = [f"plan[{i}]" for i in range(res.closed_loop_iterations.shape[0] - len(labels))]
-    checks = [
-        _convergence_check(res.rho_d0, res.threshold_weight * unit_scale, unit, res.relaxation),
-        _relaxation_check(res.rho_d0, res.relaxation),
-        _radius_check("closed_loop_nash", res.closed_loop_nash, labels, design,
-                      "converged N-DMPC (Nash point)"),
-        _radius_check("closed_loop_iterations", res.closed_loop_iterations, labels + plan, design,
-                      f"N-DMPC with {ctl.iterations} iteration(s) per sample"),
-        _gap_check(res.cost_gap),
-        Check(name="cooperative_convergence", status="pass" if res.rho_cooperative < 1 else "fail",
-              value=res.rho_cooperative, threshold=1.0, unit="",
-              message=f"cooperative DMPC iteration: ρ = {res.rho_cooperative:.4g}; its fixed "
-              "point is the centralised optimum",
-              hint="" if res.rho_cooperative < 1 else "use convex weights summing to 1"),
-        _radius_check("centralised_closed_loop", res.closed_loop_centralised, labels, design,
-                      "centralised MPC"),
-    ]
-    return checks
-
-
-def _convergence_check(rho: float, r_star: float, unit: str, relax) -> Check:
-    details = {"rho_D0": rho, "R_star": _finite(r_star), "relaxation": relax.to_dict()}
-    if rho < 1:
-        return Check(name="ndmpc_convergence", status="pass", value=rho, threshold=1.0, unit="",
-                     message=f"Jacobi iteration converges: ρ(D0) = {rho:.4g} < 1 "
-                     f"(threshold weight R* = {r_star:.4g} {unit})", details=details)
-    relax_hint = (f" or relax with ω ≤ {relax.omega_max:.3g} (best ω = {relax.omega_best:.3g}, "
-                  f"rate {relax.rate:.3g})" if relax.exists else " (no relaxation factor helps)")
-    return Check(name="ndmpc_convergence", status="fail", value=rho, threshold=1.0, unit="",
-                 message=f"Jacobi iteration diverges: ρ(D0) = {rho:.4g} ≥ 1",
-                 hint=f"raise R above R* = {r_star:.4g} {unit}{relax_hint}", details=details)
-
-
-def _relaxation_check(rho: float, relax) -> Check:
-    if rho < 1:
-        return Check(name="relaxation", status="pass", value=1.0, threshold=None, unit="",
-                     message="not needed: plain Jacobi (ω = 1) converges", details=relax.to_dict())
-    if relax.exists:
-        return Check(name="relaxation", status="warn", value=relax.omega_best,
-                     threshold=relax.omega_max, unit="",
-                     message=f"relaxed Jacobi converges for ω ≤ {relax.omega_max:.3g}; best "
-                     f"ω = {relax.omega_best:.3g} gives rate {relax.rate:.3g}",
-                     hint="set the relaxation factor, or raise R", details=relax.to_dict())
-    return Check(name="relaxation", status="fail", value=None, threshold=None, unit="",
-                 message="no relaxation exists: an eigenvalue of D0 has real part ≥ 1",
-                 hint="raise R above R* or shorten the sample time", details=relax.to_dict())
-
-
-def _closed_loop_labels(scenario: Scenario, design: MPCDesign) -> list[str]:
-    labels = scenario.train.state_labels()
-    if design.form == "du":
-        labels += [f"u_prev[{i}]" for i in range(design.n_inputs)]
-    return labels
-
-
-def _radius_check(name: str, A_cl: NDArray[np.float64], labels: list[str], design: MPCDesign,
-                  what: str) -> Check:
-    lam, vec = np.linalg.eig(A_cl)
-    rho = float(np.max(np.abs(lam)))
-    on_circle = np.flatnonzero(np.abs(np.abs(lam) - 1) <= _UNIT_TOL)
-    circle = [{"eigenvalue": [float(lam[k].real), float(lam[k].imag)],
-               "direction": _direction(vec[:, k], labels)} for k in on_circle]
-    details = {"spectral_radius": rho, "unit_circle": circle}
-    if rho > 1 + _UNIT_TOL:
-        return Check(name=name, status="fail", value=rho, threshold=1.0, unit="",
-                     message=f"{what}: closed loop unstable, ρ = {rho:.6g}",
-                     hint="raise R, lengthen P, or penalise coupler forces", details=details)
-    if circle:
-        hint = ("the Δu-form with velocity-only outputs leaves the internal-force directions "
-                "unpenalised: add 'force' to [controller].outputs or use the u-form"
-                if design.form == "du" else "penalise the states along these directions")
-        return Check(name=name, status="warn", value=rho, threshold=1.0, unit="",
-                     message=f"{what}: {len(circle)} eigenvalue(s) on the unit circle, e.g. "
-                     f"directions {circle[0]['direction']}", hint=hint, details=details)
-    return Check(name=name, status="pass", value=rho, threshold=1.0, unit="",
-                 message=f"{what}: ρ = {rho:.6g} < 1", details=details)
-
-
-def _gap_check(gap: float) -> Check:
-    status = "pass" if gap <= 0.1 else "warn"
-    return Check(name="nash_gap", status=status, value=gap, threshold=0.1, unit="",
-                 message=f"Nash cost exceeds the centralised optimum by {100 * gap:.3g} % for a "
-                 "1 m/s error on every coach",
-                 hint="" if status == "pass"
-                 else "widen the neighbourhoods or use cooperative DMPC")
 
 
 def _finite(x: float | None) -> float | None:

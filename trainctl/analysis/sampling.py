@@ -73,7 +73,8 @@ class SamplingResult:
 
 
 def analyse_sampling(
-    sys: ct.StateSpace, dt: float, *, n_vehicles: int, method: str = "zoh"
+    sys: ct.StateSpace, dt: float, *, n_vehicles: int, method: str = "zoh",
+    sysd: ct.StateSpace | None = None,
 ) -> SamplingResult:
     """Sampling adequacy of ``dt`` for the continuous model ``sys``.
 
@@ -87,6 +88,9 @@ def analyse_sampling(
         Number of vehicles.
     method : {"zoh", "tustin"}
         Discretisation used for B_d.
+    sysd : control.StateSpace or None
+        ``sys`` already discretised at ``dt`` with ``method`` (not
+        discretised again); None discretises here.
 
     Returns
     -------
@@ -103,7 +107,9 @@ def analyse_sampling(
     """
     modes = continuous_modes(sys, n_vehicles=n_vehicles)
     omega = max((abs(m.eigenvalue.imag) for m in modes if m.kind == "coupler"), default=0.0)
-    Bd = np.asarray(discretise(sys, dt, method=method).B, dtype=float)
+    if sysd is None:
+        sysd = discretise(sys, dt, method=method)
+    Bd = np.asarray(sysd.B, dtype=float)
     norms = np.linalg.norm(Bd, axis=0)
     sv = np.linalg.svd(Bd / np.where(norms > 0, norms, 1.0), compute_uv=False)
     collapse = float(sv[-1] / sv[0]) if Bd.shape[1] > 1 and sv[0] > 0 else 1.0

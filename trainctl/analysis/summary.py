@@ -9,12 +9,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..models.discrete import discretise
-from ..models.dynamics import Equilibrium, equilibrium
-from ..models.linear import linearise
+from ..models.dynamics import Equilibrium
 from .modes import Mode, continuous_modes, nyquist_sample_time
 
 if TYPE_CHECKING:
+    from ..design import DesignModel
     from ..scenario import Scenario
 
 __all__ = ["ModelSummary", "model_summary"]
@@ -115,13 +114,16 @@ class ModelSummary:
         return "\n".join(_text_lines(self))
 
 
-def model_summary(scenario: Scenario) -> ModelSummary:
+def model_summary(scenario: Scenario, model: DesignModel | None = None) -> ModelSummary:
     """Summarise a scenario's train model.
 
     Parameters
     ----------
     scenario : Scenario
         A loaded scenario (:func:`trainctl.scenario.load_scenario`).
+    model : DesignModel or None
+        The run's design model (:func:`trainctl.design.build_model`); built
+        here when None.
 
     Returns
     -------
@@ -135,11 +137,17 @@ def model_summary(scenario: Scenario) -> ModelSummary:
     >>> summary.resolves_couplers, round(summary.nyquist_sample_time, 3)
     (False, 0.113)
     """
+    if model is None:
+        from ..design import build_model
+
+        model = build_model(scenario)
     train, cfg = scenario.train, scenario.model
-    sys = linearise(train, cfg.speed, method=cfg.linearisation, dummy_state=cfg.dummy_state)
+    sys = model.speed_model()
     modes = continuous_modes(sys, n_vehicles=train.n_vehicles)
-    sysd = discretise(sys, cfg.sample_time, method=cfg.discretisation)
-    eq = equilibrium(train, cfg.speed, allocation=cfg.allocation, track=scenario.track)
+    radius = float(np.max(np.abs(np.linalg.eigvals(model.discrete.A))))
+    if model.has_dummy:  # the dummy state is decoupled with eigenvalue 0: e^(0·T) = 1
+        radius = max(radius, 1.0)
+    eq = model.equilibrium
     vehicles: tuple[dict[str, str | float], ...] = tuple(
         {"name": v.name, "mass": v.mass, "length": v.length, "traction_share": v.traction_share}
         for v in train.vehicles
@@ -157,7 +165,7 @@ def model_summary(scenario: Scenario) -> ModelSummary:
         modes=modes,
         sample_time=cfg.sample_time,
         nyquist_sample_time=nyquist_sample_time(modes),
-        discrete_spectral_radius=float(np.max(np.abs(np.linalg.eigvals(sysd.A)))),
+        discrete_spectral_radius=radius,
     )
 
 

@@ -26,6 +26,7 @@ from .render import render_index, render_report, write_report
 
 if TYPE_CHECKING:
     from .._progress import Progress
+    from ..design import Design
     from ..scenario import Scenario
     from ..sim.results import SimulationResult
 
@@ -38,9 +39,6 @@ __all__ = [
     "write_gallery",
     "write_report_file",
 ]
-
-# Relative cost of a controller step per strategy (iterating controllers solve more QPs).
-_STRATEGY_COST = {"centralised": 1.0, "decentralised": 1.5, "ndmpc": 2.5, "cooperative": 3.0}
 
 
 class TimestampError(TrainctlError, ValueError):
@@ -146,10 +144,16 @@ def normalise_timestamp(value: str) -> str:
 # --------------------------------------------------------------------------- running
 
 
-def _cost(scenario: Scenario, strategy: str) -> float:
+def _cost(design: Design, strategy: str) -> float:
+    """Relative cost of simulating a strategy: steps x vehicles x the family's step cost."""
+    from ..controllers.registry import get_family
+
+    scenario = design.scenario
     sim = scenario.simulation
     steps = sim.n_steps(scenario.model.sample_time) if sim is not None else 0
-    return steps * scenario.train.n_vehicles * _STRATEGY_COST.get(strategy, 2.0)
+    family, name = design.resolve(strategy)
+    per_step = getattr(get_family(family), "strategy_cost", {}).get(name, 2.0)
+    return steps * scenario.train.n_vehicles * per_step
 
 
 def run_report_data(
@@ -176,23 +180,25 @@ def run_report_data(
     ReportData
         With stage timings.
     """
+    from ..design import build_design
     from ..parallel import worker_pool
 
+    designs = [build_design(job.scenario) for job in jobs]
     with worker_pool(workers) as pool:
         pending: dict[int, dict[str, Future[SimulationResult]]] = {}
         if pool is not None:
             tasks = [(k, strategy) for k, job in enumerate(jobs) if job.scenario.simulation
                      for strategy in job.scenario.simulation.strategies]
-            tasks.sort(key=lambda t: -_cost(jobs[t[0]].scenario, t[1]))
+            tasks.sort(key=lambda t: -_cost(designs[t[0]], t[1]))
             from ..run import simulate_strategy
 
             for k, strategy in tasks:
-                future = pool.submit(simulate_strategy, jobs[k].scenario, strategy)
+                future = pool.submit(simulate_strategy, jobs[k].scenario, strategy, designs[k])
                 if progress is not None:
                     future.add_done_callback(_advance(progress, f"simulated {strategy}"))
                 pending.setdefault(k, {})[strategy] = future
         for k, job in enumerate(jobs):
-            yield _run_one(job, pending.get(k), progress)
+            yield _run_one(job, designs[k], pending.get(k), progress)
 
 
 def _advance(progress: Progress, label: str) -> Callable[[Future[Any]], None]:
@@ -201,7 +207,8 @@ def _advance(progress: Progress, label: str) -> Callable[[Future[Any]], None]:
     return callback
 
 
-def _run_one(job: ReportJob, pending: dict[str, Future[SimulationResult]] | None,
+def _run_one(job: ReportJob, design: Design,
+             pending: dict[str, Future[SimulationResult]] | None,
              progress: Progress | None) -> ReportData:
     from ..run import run_scenario
 
@@ -214,7 +221,7 @@ def _run_one(job: ReportJob, pending: dict[str, Future[SimulationResult]] | None
         if progress is not None:
             progress.advance(f"simulated {strategy} ({name})")
 
-    run = run_scenario(job.scenario, pending=pending,
+    run = run_scenario(job.scenario, pending=pending, design=design,
                        on_simulated=simulated if pending is None else None)
     middle = time.perf_counter()
     if progress is not None:

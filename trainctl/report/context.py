@@ -84,7 +84,7 @@ def build_report_context(
     checks = _checks(data)
     return {
         "title": f"{scenario.name} — trainctl design report",
-        "sections": [{"id": key, "title": title} for key, title in SECTIONS],
+        "sections": _sections(data),
         "scenario": _scenario(data),
         "headline": headline(data),
         "model": _model(data),
@@ -94,6 +94,23 @@ def build_report_context(
         "footer": _footer(data, generated_at=generated_at, deterministic=deterministic),
         "generated_at": generated_at or "",
     }
+
+
+def _sections(data: ReportData) -> list[dict[str, Any]]:
+    """The page's sections: the fixed ones, with one per controller family after the checks."""
+    from ..controllers.registry import get_family
+
+    sections: list[dict[str, Any]] = []
+    for key, title in SECTIONS:
+        sections.append({"id": key, "title": title, "family": ""})
+        if key != "checks":
+            continue
+        for name, family_data in data.families.items():
+            family = get_family(name)
+            if family.report_partial:
+                sections.append({"id": f"family-{name}", "title": family.title, "family": name,
+                                 "template": f"families/{name}.html.j2", "data": family_data})
+    return sections
 
 
 # --------------------------------------------------------------------------- scenario

@@ -18,7 +18,6 @@ Directory layout (format :data:`FORMAT`)::
 from __future__ import annotations
 
 import json
-import math
 import os
 import secrets
 import shutil
@@ -33,23 +32,18 @@ from numpy.typing import NDArray
 from ..exceptions import ScenarioError
 
 if TYPE_CHECKING:
-    import control as ct
-
-    from ..analysis.mpc import MPCDesign
+    from ..models.subsystems import CoachSubsystems
     from ..run import AnalysisRun
     from ..scenario import Scenario
     from ..sim.results import SimulationResult
 
 __all__ = ["FORMAT", "MANIFEST", "ReportData", "collect_report_data", "is_saved_run"]
 
-FORMAT = "trainctl.ReportData/1"
+FORMAT = "trainctl.ReportData/2"
 """Format tag of ``trainctl-run.json``."""
 
 MANIFEST = "trainctl-run.json"
 """File that marks a saved-results directory."""
-
-SWEEP_POINTS = 61
-"""Weights in the ρ(D0)-against-R curve."""
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -70,13 +64,12 @@ class ReportData:
         (nested lists, SI: speeds m/s, elongations m, inputs N); coupling
         blocks also name their ``columns`` (coach j's states).
     spectra : dict of str to ndarray
-        Discrete-time eigenvalues (complex) by label: ``"open loop"``, and
-        with a controller ``"centralised"``, ``"N-DMPC (Nash)"``,
-        ``"N-DMPC (k iterations)"``.
-    weight_sweep : dict or None
-        ``weights`` and ``radii`` (ρ(D0)) arrays, ``threshold`` R* and
-        ``design_weight`` R, in ``unit`` (per kN² or per N²); None without a
-        controller.
+        Discrete-time eigenvalues (complex) by label: ``"open loop"``, then
+        the closed loops each controller family reports (MPC:
+        ``"centralised"``, ``"N-DMPC (Nash)"``, ``"N-DMPC (k iterations)"``).
+    families : dict of str to dict
+        Each controller family's JSON-safe report data (its
+        ``report_data()``), by family name; empty without a controller.
     simulations : dict of str to SimulationResult
         Closed-loop runs by strategy.
     expected : dict of str to str
@@ -96,7 +89,7 @@ class ReportData:
     results: dict[str, Any]
     subsystems: list[dict[str, Any]]
     spectra: dict[str, NDArray[np.complex128]]
-    weight_sweep: dict[str, Any] | None
+    families: dict[str, dict[str, Any]] = field(default_factory=dict)
     simulations: dict[str, SimulationResult] = field(default_factory=dict)
     expected: dict[str, str] = field(default_factory=dict)
     unexpected: dict[str, list[str]] = field(default_factory=dict)
@@ -159,11 +152,6 @@ class ReportData:
         return target
 
     def _document(self) -> dict[str, Any]:
-        sweep = None
-        if self.weight_sweep is not None:
-            sweep = {key: (np.asarray(value, dtype=float).tolist()
-                           if key in ("weights", "radii") else _json_number(value))
-                     for key, value in self.weight_sweep.items()}
         return {
             "format": FORMAT,
             "source": self.scenario.source,
@@ -172,7 +160,7 @@ class ReportData:
             "subsystems": self.subsystems,
             "spectra": {label: [[float(z.real), float(z.imag)] for z in values]
                         for label, values in self.spectra.items()},
-            "weight_sweep": sweep,
+            "families": self.families,
             "expected": self.expected,
             "unexpected": self.unexpected,
             "environment": self.environment,
@@ -220,15 +208,11 @@ class ReportData:
         scenario = parse_scenario(text, source=document["source"])
         sims = {name: SimulationResult.load(path / "simulations" / name)
                 for name in document["strategies"]}
-        sweep = document["weight_sweep"]
-        if sweep is not None:
-            sweep = {key: (np.asarray(value, dtype=float) if key in ("weights", "radii")
-                           else (math.inf if value is None and key == "threshold" else value))
-                     for key, value in sweep.items()}
         spectra = {label: np.array([complex(re, im) for re, im in values], dtype=complex)
                    for label, values in document["spectra"].items()}
         return cls(scenario=scenario, scenario_text=text, results=document["results"],
-                   subsystems=document["subsystems"], spectra=spectra, weight_sweep=sweep,
+                   subsystems=document["subsystems"], spectra=spectra,
+                   families=document["families"],
                    simulations=sims, expected=document["expected"],
                    unexpected=document["unexpected"], environment=document["environment"],
                    command=document["command"], timings=document["timings"])
@@ -237,12 +221,6 @@ class ReportData:
 def is_saved_run(path: str | os.PathLike[str]) -> bool:
     """True when ``path`` is a directory holding :data:`MANIFEST`."""
     return (Path(path) / MANIFEST).is_file()
-
-
-def _json_number(value: Any) -> Any:
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 # --------------------------------------------------------------------------- collection
@@ -256,6 +234,9 @@ def collect_report_data(
     timings: Mapping[str, float] | None = None,
 ) -> ReportData:
     """Compute what the report shows beyond the run itself.
+
+    Everything comes from the run's design (:attr:`AnalysisRun.design`):
+    nothing is linearised or discretised again.
 
     Parameters
     ----------
@@ -273,20 +254,25 @@ def collect_report_data(
     ReportData
         Plain data for :func:`trainctl.report.build_report_context`.
     """
-    from ..analysis.review import design_model
+    from ..controllers.registry import get_family
     from ..sim.results import environment
 
-    scenario = run.scenario
-    design = design_model(scenario)
+    design = run.design
+    families = {name: get_family(name).report_data(family_design)
+                for name, family_design in design.families.items()}
+    spectra = {"open loop": _eig(np.asarray(design.model.discrete.A, dtype=float))}
+    for data in families.values():
+        for label, values in data.get("spectra", {}).items():
+            spectra[label] = np.array([complex(re, im) for re, im in values], dtype=complex)
     return ReportData(
-        scenario=scenario,
+        scenario=run.scenario,
         scenario_text=scenario_text,
         results=run.to_dict(),
-        subsystems=_subsystems(scenario),
-        spectra=_spectra(scenario, *design),
-        weight_sweep=_weight_sweep(scenario, design[1]),
+        subsystems=_subsystems(design.model.subsystems),
+        spectra=spectra,
+        families=families,
         simulations=dict(run.simulations),
-        expected=dict(scenario.expected),
+        expected=dict(run.scenario.expected),
         unexpected={name: list(pair) for name, pair in run.unexpected_checks().items()},
         environment=environment(),
         command=command,
@@ -294,12 +280,7 @@ def collect_report_data(
     )
 
 
-def _subsystems(scenario: Scenario) -> list[dict[str, Any]]:
-    from ..models.subsystems import coach_subsystems
-
-    cfg = scenario.model
-    sub = coach_subsystems(scenario.train, cfg.speed, method=cfg.linearisation,
-                           dummy_state=cfg.dummy_state)
+def _subsystems(sub: CoachSubsystems) -> list[dict[str, Any]]:
     coaches = []
     for i in range(sub.n_coaches):
         blocks: list[dict[str, Any]] = [{"kind": "A", "from": i, "matrix": sub.A[i, i].tolist()}]
@@ -313,48 +294,8 @@ def _subsystems(scenario: Scenario) -> list[dict[str, Any]]:
     return coaches
 
 
-def _spectra(scenario: Scenario, sys: ct.StateSpace,
-             design: MPCDesign | None) -> dict[str, NDArray[np.complex128]]:
-    from ..analysis.dmpc import analyse_dmpc
-    from ..models.discrete import discretise
-
-    if design is None:
-        sysd = discretise(sys, scenario.model.sample_time, method=scenario.model.discretisation)
-        return {"open loop": _eig(np.asarray(sysd.A, dtype=float))}
-    ctl = scenario.controller
-    assert ctl is not None  # design exists only with a controller
-    weights = (None if ctl.cooperative_weights == "uniform"
-               else np.asarray(ctl.cooperative_weights, dtype=float))
-    res = analyse_dmpc(design, iterations=ctl.iterations, cooperative_weights=weights)
-    return {
-        "open loop": _eig(design.A),
-        "centralised": _eig(res.closed_loop_centralised),
-        "N-DMPC (Nash)": _eig(res.closed_loop_nash),
-        f"N-DMPC ({ctl.iterations} iteration{'s' if ctl.iterations != 1 else ''})":
-            _eig(res.closed_loop_iterations),
-    }
-
-
 def _eig(matrix: NDArray[np.float64]) -> NDArray[np.complex128]:
     values = np.linalg.eigvals(matrix).astype(complex)
     # A fixed order (by angle, then modulus) keeps saved files and figures stable.
     order = np.lexsort((np.round(np.abs(values), 12), np.round(np.angle(values), 12)))
     return values[order]
-
-
-def _weight_sweep(scenario: Scenario, design: MPCDesign | None) -> dict[str, Any] | None:
-    from ..analysis.mpc import convergence_sweep, threshold_weight
-
-    ctl = scenario.controller
-    if ctl is None or design is None:
-        return None
-    r_design = ctl.input_weight_per_kn2()
-    r_star = threshold_weight(design)
-    finite = [x for x in (r_design, r_star) if math.isfinite(x) and x > 0]
-    low = min(finite) / 100.0 if finite else 1e-3
-    high = max(finite) * 100.0 if finite else 1e3
-    weights = np.logspace(math.log10(low), math.log10(high), SWEEP_POINTS)
-    radii = convergence_sweep(design, weights)
-    scale = 1.0 if ctl.input_weight_unit == "kN" else 1e-6  # per kN² -> per N²
-    return {"weights": weights * scale, "radii": radii, "threshold": r_star * scale,
-            "design_weight": r_design * scale, "unit": f"per {ctl.input_weight_unit}²"}

@@ -136,8 +136,8 @@ def report_figures(data: ReportData) -> list[ReportFigure]:
     -------
     list of ReportFigure
         Closed-loop figures (one panel per strategy) when there are
-        simulations, then the eigenvalue map and, with a controller, the
-        ρ(D0)-against-R curve.
+        simulations, then the eigenvalue map, then each controller family's
+        figures (MPC: the ρ(D0)-against-R curve).
     """
     return list(_figures(data))
 
@@ -146,7 +146,7 @@ def _figures(data: ReportData) -> Iterator[ReportFigure]:
     sims = data.simulations
     scenario = data.scenario
     if sims:
-        limit = scenario.controller.coupler_force_limit if scenario.controller else np.inf
+        limit = getattr(scenario.controller, "coupler_force_limit", np.inf)
         force_bounds = (-limit, limit) if np.isfinite(limit) else None
         settle = scenario.simulation.settle_time if scenario.simulation else None
         yield _panels("velocity", "Speed tracking", sims,
@@ -177,17 +177,10 @@ def _figures(data: ReportData) -> Iterator[ReportFigure]:
                            "Discrete-time eigenvalues of the design model (open loop) and of "
                            "the unconstrained closed loops; ρ in the legend is the spectral "
                            "radius.", figure_svg(figure, prefix="fig-eigenvalues"))
-    sweep = data.weight_sweep
-    if sweep is not None:
-        figure = _figure(width=7.0, height=3.6)
-        plot.convergence_plot(sweep["weights"], sweep["radii"], threshold=sweep["threshold"],
-                              design_weight=sweep["design_weight"], unit=sweep["unit"],
-                              ax=figure.add_subplot())
-        yield ReportFigure("convergence", "N-DMPC convergence against the input weight",
-                           f"Spectral radius of the Jacobi iteration matrix D0 against a common "
-                           f"input weight R [{sweep['unit']}]; the iteration converges where "
-                           "ρ(D0) < 1, i.e. for R above R*.",
-                           figure_svg(figure, prefix="fig-convergence"))
+    from ..controllers.registry import get_family
+
+    for name, family_data in data.families.items():
+        yield from get_family(name).report_figures(family_data)
 
 
 def _figure(*, width: float, height: float) -> Figure:

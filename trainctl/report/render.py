@@ -33,6 +33,8 @@ __all__ = [
 REPORT_TEMPLATE = "report.html.j2"
 INDEX_TEMPLATE = "index.html.j2"
 _CSS_RESOURCE = ("static", "report.css")
+FAMILY_TEMPLATES = "families/"
+"""Template names ``families/<family>.html.j2`` load the family's ``report_partial``."""
 
 
 # --------------------------------------------------------------------------- environment
@@ -44,8 +46,9 @@ def make_environment() -> jinja2.Environment:
     Returns
     -------
     jinja2.Environment
-        Loads from the package's ``templates`` directory, escapes every
-        substituted value and fails on undefined names.
+        Loads from the package's ``templates`` directory (and the report
+        sections of controller families as ``families/<name>.html.j2``),
+        escapes every substituted value and fails on undefined names.
 
     Examples
     --------
@@ -54,13 +57,38 @@ def make_environment() -> jinja2.Environment:
     '&lt;b&gt;'
     """
     return jinja2.Environment(
-        loader=jinja2.PackageLoader("trainctl.report", "templates"),
+        loader=jinja2.ChoiceLoader([jinja2.PackageLoader("trainctl.report", "templates"),
+                                    _FamilyLoader()]),
         autoescape=True,
         undefined=jinja2.StrictUndefined,
         trim_blocks=True,
         lstrip_blocks=True,
         keep_trailing_newline=True,
     )
+
+
+class _FamilyLoader(jinja2.BaseLoader):
+    """``families/<family>.html.j2``: the report section (``report_partial``) of a family."""
+
+    def get_source(
+        self, environment: jinja2.Environment, template: str
+    ) -> tuple[str, str | None, Any]:
+        from ..controllers.registry import get_family
+        from ..exceptions import ScenarioError
+
+        name = template.removeprefix(FAMILY_TEMPLATES).removesuffix(".html.j2")
+        if f"{FAMILY_TEMPLATES}{name}.html.j2" != template:
+            raise jinja2.TemplateNotFound(template)
+        try:
+            source = get_family(name).report_partial
+        except ScenarioError:
+            raise jinja2.TemplateNotFound(template) from None
+        return source, None, lambda: False  # never cached across families' changes
+
+    def list_templates(self) -> list[str]:
+        from ..controllers.registry import family_names
+
+        return [f"{FAMILY_TEMPLATES}{name}.html.j2" for name in family_names()]
 
 
 @lru_cache(maxsize=1)

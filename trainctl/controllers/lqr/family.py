@@ -1,17 +1,175 @@
-# The LQR family as a registry entry.
-"""The LQR family object (:data:`FAMILY`), see :mod:`trainctl.controllers.registry`."""
+# The LQR family as a registry entry: the unconstrained baseline every comparison needs.
+"""The LQR family object (:data:`FAMILY`), see :mod:`trainctl.controllers.registry`.
+
+Two strategies on the run's discrete design model (inputs in kN):
+
+``"centralised"``
+    One gain on the whole train: ``control.dlqr(A, B, Q, R)`` with
+    Q = Cᵀ diag(q) C on the controlled outputs (speeds [m/s], coupler forces
+    [kN]) and R = r·I [per kN²].
+``"decentralised"``
+    One gain per coach from its own subsystem (A_ii, B_i of seed 000's
+    decomposition, the neighbours ignored), discretised at the sample time,
+    with the weights of the outputs the coach owns (its speed and the coupler
+    behind it); the global gain is block diagonal in the coaches' states.
+
+Both run with the cruise feedforward and the envelope as saturation
+(:class:`~trainctl.controllers.lqr.controller.LQRController`).
+"""
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
-__all__ = ["CHECK_NAMES", "FAMILY", "STRATEGIES", "LQRFamily"]
+import numpy as np
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    import control as ct
+
+    from ...analysis.review import Check
+    from ...design import DesignModel
+    from ...report.figures import ReportFigure
+    from ...scenario import Scenario
+    from .controller import LQRController
+
+__all__ = ["CHECK_NAMES", "FAMILY", "STRATEGIES", "LQRDesign", "LQRFamily", "design_lqr"]
 
 STRATEGIES = ("centralised", "decentralised")
 """The LQR strategies: one gain on the whole train, or one per coach."""
 
 CHECK_NAMES = ("lqr_closed_loop", "lqr_decentralised_closed_loop")
 """The LQR family's design checks."""
+
+Array = NDArray[np.float64]
+
+PARTIAL = """\
+<p>Discrete LQR on the design model (inputs in kN), Q = CᵀWC on the outputs
+{{ data.outputs | join(", ") }}, R = {{ data.r_text }} {{ data.unit }}; the cruise feedforward
+is added and the inputs are saturated to the envelope{% if not data.input_bounds %} (off in this
+scenario){% endif %}.</p>
+<table class="quantities">
+  <thead><tr><th scope="col">Strategy</th><th scope="col">Closed-loop spectral radius [-]</th>
+  <th scope="col">Largest gain [kN per unit state]</th></tr></thead>
+  <tbody>
+{% for row in data.rows %}
+    <tr><td>{{ row.strategy }}</td><td class="num">{{ row.radius }}</td>
+    <td class="num">{{ row.gain }}</td></tr>
+{% endfor %}
+  </tbody>
+</table>
+"""
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class LQRDesign:
+    """The LQR family's design of one scenario.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    model : DesignModel
+        The run's design model.
+    settings : LQRSettings
+        Outputs, weights and saturation.
+    A, B : ndarray
+        Discrete design model (inputs in kN).
+    Q, R : ndarray
+        State and input weights of the centralised design.
+    gains : mapping of str to ndarray
+        K per strategy, shape (n, 2n-1) [kN per unit state].
+    """
+
+    scenario: Scenario
+    model: DesignModel
+    settings: Any
+    A: Array
+    B: Array
+    Q: Array
+    R: Array
+    gains: Mapping[str, Array]
+
+    def closed_loop_matrix(self, strategy: str) -> Array:
+        """A - B K of a strategy."""
+        return np.asarray(self.A - self.B @ self.gains[strategy], dtype=float)
+
+
+def design_lqr(scenario: Scenario, model: DesignModel, settings: Any) -> LQRDesign:
+    """Centralised and decentralised discrete LQR gains.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    model : DesignModel
+        Its design model.
+    settings : LQRSettings
+        ``outputs``, ``q_velocity`` [per (m/s)²], ``q_force`` [per kN²],
+        ``input_weight_per_kn2()``, ``input_bounds``.
+
+    Returns
+    -------
+    LQRDesign
+        Gains of both strategies.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc-well-sampled")
+    >>> settings = SimpleNamespace(outputs=("v",), q_velocity=1.0, q_force=0.0,
+    ...                            input_weight_per_kn2=lambda: 0.1, input_bounds=True)
+    >>> design = design_lqr(scenario, build_model(scenario), settings)
+    >>> design.gains["centralised"].shape, design.gains["decentralised"].shape
+    ((4, 7), (4, 7))
+    """
+    import control as ct
+
+    sysd = model.select(model.discrete, tuple(settings.outputs))
+    A, B, C = (np.asarray(m, dtype=float) for m in (sysd.A, sysd.B, sysd.C))
+    q = _output_weights(model, settings)
+    Q = C.T @ (q[:, None] * C)
+    R = np.eye(B.shape[1]) * settings.input_weight_per_kn2()
+    K, _, _ = ct.dlqr(A, B, Q, R)
+    gains = {"centralised": np.asarray(K, dtype=float),
+             "decentralised": _decentralised_gain(model, settings, C, q)}
+    return LQRDesign(scenario=scenario, model=model, settings=settings, A=A, B=B, Q=Q, R=R,
+                     gains=gains)
+
+
+def _output_weights(model: DesignModel, settings: Any) -> Array:
+    n, nc = model.n_vehicles, model.train.n_couplers
+    weight = {"v": np.full(n, settings.q_velocity), "force": np.full(nc, settings.q_force)}
+    return np.concatenate([weight[g] for g in settings.outputs])
+
+
+def _decentralised_gain(model: DesignModel, settings: Any, C: Array, q: Array) -> Array:
+    """Block-diagonal K from each coach's own (A_ii, B_i) and the outputs it owns."""
+    import control as ct
+
+    from ...models.discrete import discretise
+
+    n, nc, nx = model.n_vehicles, model.train.n_couplers, model.n_states
+    sub, cfg = model.subsystems, model.settings
+    owner = np.concatenate([np.arange(n) if g == "v" else np.arange(nc)
+                            for g in settings.outputs])
+    K = np.zeros((n, nx))
+    for i in range(n):
+        states = [i] + ([n + i] if i < nc else [])  # v_i and the coupler behind coach i
+        k = len(states)
+        local = ct.ss(sub.A[i, i][:k, :k], sub.B[i][:k] * 1e3, np.eye(k), 0)
+        sysd = discretise(local, cfg.sample_time, method=cfg.discretisation)
+        rows = owner == i
+        Ci = C[np.ix_(rows, states)]
+        Qi = Ci.T @ (q[rows, None] * Ci)
+        Ri = np.eye(1) * settings.input_weight_per_kn2()
+        Ki, _, _ = ct.dlqr(np.asarray(sysd.A), np.asarray(sysd.B), Qi, Ri)
+        K[i, states] = np.asarray(Ki, dtype=float)[0]
+    return K
 
 
 class LQRFamily:
@@ -21,12 +179,72 @@ class LQRFamily:
     title = "Linear-quadratic regulator"
     strategies = STRATEGIES
     check_names = CHECK_NAMES
-    report_partial = ""
+    strategy_cost: Mapping[str, float] = {"centralised": 0.1, "decentralised": 0.1}
+    report_partial = PARTIAL
 
     @property
     def settings(self) -> type[Any]:
         """The schema of the family's ``[controller]`` table."""
-        raise NotImplementedError
+        from .settings import LQRSettings
+
+        return LQRSettings
+
+    def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> LQRDesign:
+        """See :func:`design_lqr`."""
+        return design_lqr(scenario, model, settings)
+
+    def make(self, design: LQRDesign, strategy: str) -> LQRController:
+        """The controller of one strategy: feedforward, gain, saturation."""
+        from .controller import LQRController
+
+        return LQRController(design.scenario.train, design.gains[strategy],
+                             dt=design.model.settings.sample_time,
+                             input_bounds=design.settings.input_bounds, name=strategy)
+
+    def checks(self, design: LQRDesign) -> list[Check]:
+        """Spectral radius of each strategy's closed loop on the coupled model."""
+        from ...analysis.review import radius_check
+
+        labels = design.scenario.train.state_labels()
+        hint = "raise the output weights or lower R"
+        return [radius_check(name, design.closed_loop_matrix(strategy), labels,
+                             f"{strategy} LQR", marginal_hint=hint,
+                             unstable_hint=("the coaches' own gains destabilise the coupled "
+                                            "train: weight the coupler forces or use the "
+                                            "centralised gain" if strategy == "decentralised"
+                                            else hint))
+                for name, strategy in zip(CHECK_NAMES, STRATEGIES, strict=True)]
+
+    def closed_loop(self, design: LQRDesign, strategy: str) -> ct.StateSpace:
+        """x⁺ = (A - BK) x + B_w w; outputs speed deviations [m/s] and coupler forces [kN]."""
+        import control as ct
+
+        model = design.model
+        n, nx = model.n_vehicles, model.n_states
+        C = np.vstack([np.eye(n, nx), model.force_rows() / 1e3])
+        outputs = [f"v[{i}]" for i in range(n)] + [f"f[{i}]" for i in range(n - 1)]
+        return ct.ss(design.closed_loop_matrix(strategy), model.disturbance_matrix(), C, 0,
+                     dt=model.settings.sample_time, states=design.scenario.train.state_labels(),
+                     inputs=[f"w[{i}]" for i in range(n)], outputs=outputs,
+                     name=f"lqr_{strategy}")
+
+    def report_data(self, design: LQRDesign) -> dict[str, Any]:
+        """Closed-loop spectra and gain sizes, JSON-safe."""
+        spectra, rows = {}, []
+        for strategy in STRATEGIES:
+            lam = np.linalg.eigvals(design.closed_loop_matrix(strategy)).astype(complex)
+            order = np.lexsort((np.round(np.abs(lam), 12), np.round(np.angle(lam), 12)))
+            spectra[f"LQR {strategy}"] = [[float(z.real), float(z.imag)] for z in lam[order]]
+            rows.append({"strategy": strategy, "radius": f"{float(np.max(np.abs(lam))):.6g}",
+                         "gain": f"{float(np.max(np.abs(design.gains[strategy]))):.4g}"})
+        settings = design.settings
+        return {"spectra": spectra, "rows": rows, "outputs": list(settings.outputs),
+                "r_text": f"{settings.input_weight_per_kn2():.4g}", "unit": "per kN²",
+                "input_bounds": bool(settings.input_bounds)}
+
+    def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
+        """No figures of its own: its spectra join the eigenvalue map."""
+        return []
 
 
 FAMILY = LQRFamily()

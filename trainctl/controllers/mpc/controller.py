@@ -110,7 +110,7 @@ class MPCController:
     train : Train
         The train (for the feedforward and the envelopes).
     design : MPCDesign
-        Discrete design model in kN (from :func:`trainctl.analysis.design_model`).
+        Discrete design model in kN (:class:`~trainctl.controllers.mpc.family.MPCFamilyDesign`).
     force_matrix : ndarray
         Rows mapping the design state to coupler-force deviations [kN].
     dt : float
@@ -633,7 +633,7 @@ def make_mpc(train: Train, design: MPCDesign, *, dt: float, strategy: str = "ndm
     train : Train
         The train.
     design : MPCDesign
-        Discrete design model, inputs in kN (:func:`trainctl.analysis.design_model`).
+        Discrete design model, inputs in kN (``MPCFamilyDesign.mpc``).
         Its first n outputs must be the coach speeds.
     dt : float
         Sample time [s] (the design's).

@@ -1,13 +1,36 @@
 # The MPC family as a registry entry: vocabulary, schema, design, controllers, checks, report.
-"""The MPC family object (:data:`FAMILY`), see :mod:`trainctl.controllers.registry`."""
+"""The MPC family object (:data:`FAMILY`), see :mod:`trainctl.controllers.registry`.
+
+The family's design (:class:`MPCFamilyDesign`) holds the unconstrained design
+on the run's discrete model (:class:`~trainctl.analysis.mpc.MPCDesign`) and,
+computed on first use, its closed-form analysis
+(:func:`~trainctl.analysis.dmpc.analyse_dmpc`), which the checks, the linear
+closed loops and the report share.
+"""
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from functools import cached_property
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from .settings import STRATEGIES
 
-__all__ = ["FAMILY", "MPCFamily"]
+if TYPE_CHECKING:
+    import control as ct
+
+    from ...analysis.dmpc import DMPCAnalysis
+    from ...analysis.mpc import MPCDesign
+    from ...analysis.review import Check
+    from ...design import DesignModel
+    from ...report.figures import ReportFigure
+    from ...scenario import Scenario
+    from .controller import MPCController
+
+__all__ = ["CHECK_NAMES", "FAMILY", "MPCFamily", "MPCFamilyDesign"]
 
 CHECK_NAMES = (
     "ndmpc_convergence",
@@ -20,6 +43,172 @@ CHECK_NAMES = (
 )
 """The MPC family's design checks."""
 
+STRATEGY_COST = {"centralised": 1.0, "decentralised": 1.5, "ndmpc": 2.5, "cooperative": 3.0}
+"""Relative cost of a controller step per strategy (iterating strategies solve more QPs)."""
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class MPCFamilyDesign:
+    """The MPC family's design of one scenario.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (train, sample time, simulation noise for the observer).
+    model : DesignModel
+        The run's design model.
+    settings : ControllerSettings
+        The family's ``[controller]`` settings.
+    mpc : MPCDesign
+        The unconstrained design in design units (inputs kN).
+    """
+
+    scenario: Scenario
+    model: DesignModel
+    settings: Any
+    mpc: MPCDesign
+
+    @cached_property
+    def analysis(self) -> DMPCAnalysis:
+        """The closed-form N-DMPC / cooperative analysis (computed once)."""
+        from ...analysis.dmpc import analyse_dmpc
+
+        return analyse_dmpc(self.mpc, iterations=self.settings.iterations,
+                            cooperative_weights=self.cooperative_weights())
+
+    def cooperative_weights(self) -> np.ndarray | None:
+        """Convex weights of cooperative DMPC (None: uniform)."""
+        weights = self.settings.cooperative_weights
+        return None if weights == "uniform" else np.asarray(weights, dtype=float)
+
+    def closed_loop_labels(self) -> list[str]:
+        """State names of the closed loops: the design states, then u_prev in the Δu-form."""
+        labels = self.scenario.train.state_labels()
+        if self.mpc.form == "du":
+            labels += [f"u_prev[{i}]" for i in range(self.mpc.n_inputs)]
+        return labels
+
+
+def design_mpc(scenario: Scenario, model: DesignModel, settings: Any) -> MPCFamilyDesign:
+    """The MPC family's design on the run's discrete design model.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    model : DesignModel
+        Its design model (outputs as ``settings.outputs``).
+    settings : ControllerSettings
+        Horizons, form, weights and neighbourhoods.
+
+    Returns
+    -------
+    MPCFamilyDesign
+        The design (its analysis is computed on first use).
+    """
+    from ...analysis.mpc import MPCDesign
+
+    train = scenario.train
+    n, nc = train.n_vehicles, train.n_couplers
+    sysd = model.select(model.discrete, tuple(settings.outputs))
+    weight = {"v": (n, settings.q_velocity), "force": (nc, settings.q_force)}
+    q = np.concatenate([np.full(*weight[g]) for g in settings.outputs])
+    owner = tuple(int(i) for g in settings.outputs for i in range(n if g == "v" else nc))
+    mpc = MPCDesign(
+        A=np.asarray(sysd.A, dtype=float), B=np.asarray(sysd.B, dtype=float),
+        C=np.asarray(sysd.C, dtype=float), prediction_horizon=settings.prediction_horizon,
+        control_horizon=settings.control_horizon, form=settings.form, q=q,
+        r=np.full(n, settings.input_weight_per_kn2()), output_owner=owner,
+        neighbourhoods=settings.neighbourhoods(n))
+    return MPCFamilyDesign(scenario=scenario, model=model, settings=settings, mpc=mpc)
+
+
+def make_mpc_controller(design: MPCFamilyDesign, strategy: str) -> MPCController:
+    """The MPC controller of one strategy (QPs built once here).
+
+    Parameters
+    ----------
+    design : MPCFamilyDesign
+        The family's design.
+    strategy : str
+        One of :data:`~trainctl.controllers.mpc.STRATEGIES`.
+
+    Returns
+    -------
+    MPCController
+        Ready to ``step``.
+    """
+    from ..observer import KalmanObserver, ObserverSettings
+    from .controller import MPCController
+
+    scenario, ctl = design.scenario, design.settings
+    dt = scenario.model.sample_time
+    observer = None
+    if ctl.observer == "kalman":
+        noise = scenario.simulation.measurement_noise if scenario.simulation else 0.0
+        settings = ObserverSettings(measurement_noise=max(noise, 0.01),
+                                    disturbance_noise=ctl.observer_disturbance_noise)
+        observer = KalmanObserver(scenario.train, dt, scenario.model.speed, settings)
+    force_rows = design.model.force_rows() / 1e3  # coupler forces [kN] on the design state
+    return MPCController(scenario.train, design.mpc, force_rows, dt=dt, strategy=strategy,
+                         constraints=ctl.mpc_constraints(), max_iterations=ctl.max_iterations,
+                         tolerance=ctl.iteration_tolerance, relaxation=ctl.relaxation,
+                         cooperative_weights=design.cooperative_weights(),
+                         path=ctl.solver_path, name=strategy, observer=observer)
+
+
+def mpc_closed_loop(design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:
+    """The unconstrained closed loop of a strategy as a discrete ``StateSpace``.
+
+    Inputs are specific-force disturbances ``w[i]`` [m/s²] per vehicle (a
+    grade), entering the plant only; outputs the speed deviations ``v[i]``
+    [m/s] and coupler-force deviations ``f[i]`` [kN]. The state matrix is the
+    one the checks judge: centralised and cooperative (whose fixed point is
+    the centralised optimum) the centralised loop, ``ndmpc`` the converged
+    Nash loop, ``decentralised`` each coach optimising its own outputs with
+    the others at their feedforward.
+
+    Parameters
+    ----------
+    design : MPCFamilyDesign
+        The family's design.
+    strategy : str
+        A strategy of the family.
+
+    Returns
+    -------
+    control.StateSpace
+        Discrete, ``dt`` the sample time.
+    """
+    import control as ct
+
+    res = design.analysis
+    if strategy in ("centralised", "cooperative"):
+        A_cl = res.closed_loop_centralised
+    elif strategy == "ndmpc":
+        A_cl = res.closed_loop_nash
+    else:
+        A_cl = _decentralised_closed_loop(design.mpc)
+    model = design.model
+    n, nx = model.n_vehicles, model.n_states
+    extra = A_cl.shape[0] - nx
+    B = np.vstack([model.disturbance_matrix(), np.zeros((extra, n))])
+    C = np.vstack([np.eye(n, nx), model.force_rows() / 1e3])
+    C = np.hstack([C, np.zeros((C.shape[0], extra))])
+    outputs = [f"v[{i}]" for i in range(n)] + [f"f[{i}]" for i in range(n - 1)]
+    return ct.ss(A_cl, B, C, 0, dt=model.settings.sample_time,
+                 states=design.closed_loop_labels(), inputs=[f"w[{i}]" for i in range(n)],
+                 outputs=outputs, name=f"mpc_{strategy}")
+
+
+def _decentralised_closed_loop(mpc: MPCDesign) -> np.ndarray:
+    from ...analysis.mpc import closed_loop_matrix, iteration_matrices, prediction
+
+    own = mpc.with_neighbourhoods([(i,) for i in range(mpc.n_inputs)])
+    pred = prediction(own)
+    _, D1 = iteration_matrices(own, pred)
+    return closed_loop_matrix(own, D1, pred)  # one sweep from the feedforward: U = D1 e
+
 
 class MPCFamily:
     """Centralised, decentralised, N-DMPC and cooperative DMPC of the train."""
@@ -28,7 +217,7 @@ class MPCFamily:
     title = "Model predictive control"
     strategies = STRATEGIES
     check_names = CHECK_NAMES
-    report_partial = ""
+    strategy_cost: Mapping[str, float] = STRATEGY_COST
 
     @property
     def settings(self) -> type[Any]:
@@ -36,6 +225,43 @@ class MPCFamily:
         from ...scenario import ControllerSettings
 
         return ControllerSettings
+
+    @property
+    def report_partial(self) -> str:
+        """Jinja source of the family's report section."""
+        from .report import PARTIAL
+
+        return PARTIAL
+
+    def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> MPCFamilyDesign:
+        """See :func:`design_mpc`."""
+        return design_mpc(scenario, model, settings)
+
+    def make(self, design: MPCFamilyDesign, strategy: str) -> MPCController:
+        """See :func:`make_mpc_controller`."""
+        return make_mpc_controller(design, strategy)
+
+    def checks(self, design: MPCFamilyDesign) -> list[Check]:
+        """See :func:`trainctl.controllers.mpc.checks.mpc_checks`."""
+        from .checks import mpc_checks
+
+        return mpc_checks(design)
+
+    def closed_loop(self, design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:
+        """See :func:`mpc_closed_loop`."""
+        return mpc_closed_loop(design, strategy)
+
+    def report_data(self, design: MPCFamilyDesign) -> dict[str, Any]:
+        """See :func:`trainctl.controllers.mpc.report.mpc_report_data`."""
+        from .report import mpc_report_data
+
+        return mpc_report_data(design)
+
+    def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
+        """See :func:`trainctl.controllers.mpc.report.mpc_report_figures`."""
+        from .report import mpc_report_figures
+
+        return mpc_report_figures(data)
 
 
 FAMILY = MPCFamily()

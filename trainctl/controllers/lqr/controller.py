@@ -1,0 +1,108 @@
+# A state-feedback controller of the train: cruise feedforward, a gain, the envelope.
+"""The LQR controller: u = u_ff(v_ref, a_ref) - K x̃, saturated to the envelope.
+
+x̃ = [v - v_ref; delta - delta_ff] is the deviation from the quasi-static
+feedforward of the reference (:func:`trainctl.models.equilibrium` with the
+reference speed and acceleration, traction shares within coupled groups); the
+gain K acts in design units (inputs in kN). With ``input_bounds`` each
+vehicle's force is clipped to its traction/braking envelope at its measured
+speed, so the controller never asks for more than the vehicle has.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...exceptions import DimensionError, ModelError
+from ...models.dynamics import equilibrium
+from ...models.train import Train
+from ..base import Measurement, ReferencePreview, StepRecord
+
+__all__ = ["LQRController"]
+
+Array = NDArray[np.float64]
+KN = 1e3
+
+
+class LQRController:
+    """Static state feedback about the cruise feedforward (module docstring).
+
+    Parameters
+    ----------
+    train : Train
+        The train (feedforward and envelopes).
+    gain : ndarray
+        K, shape (n, 2n-1): input deviations [kN] per design-state deviation
+        (speeds [m/s], elongations [m]).
+    dt : float
+        Sample time [s], > 0.
+    input_bounds : bool
+        Clip each force to the vehicle's envelope at its measured speed.
+    name : str
+        Label.
+
+    Examples
+    --------
+    >>> from trainctl.models import crh2_half, equilibrium
+    >>> train = crh2_half()
+    >>> ctl = LQRController(train, np.zeros((4, 7)), dt=0.1)
+    >>> eq = equilibrium(train, 80.0)
+    >>> ref = ReferencePreview(times=np.zeros(1), speed=np.full(1, 80.0),
+    ...                        acceleration=np.zeros(1))
+    >>> rec = ctl.step(0.0, Measurement(state=eq.state(position=0.0)), ref)
+    >>> bool(np.allclose(rec.inputs, eq.inputs)), rec.status
+    (True, 'optimal')
+    """
+
+    preview_steps = 0
+    needs_full_state = True
+
+    def __init__(self, train: Train, gain: Array, *, dt: float, input_bounds: bool = True,
+                 name: str = "lqr") -> None:
+        n = train.n_vehicles
+        K = np.asarray(gain, dtype=float)
+        if K.shape != (n, 2 * n - 1):
+            raise DimensionError(f"LQRController: 'gain' must have shape {(n, 2 * n - 1)} for "
+                                 f"{n} vehicles (got {K.shape}).")
+        if not np.all(np.isfinite(K)):
+            raise ModelError("LQRController: 'gain' must be finite.")
+        if not dt > 0:
+            raise ModelError(f"LQRController: 'dt' must be > 0 (got {dt!r}).")
+        self.train, self.gain, self.dt = train, K, float(dt)
+        self.input_bounds, self.name = bool(input_bounds), name
+
+    def reset(self) -> None:
+        """Nothing to forget: the law is static."""
+
+    def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
+        """Feedforward minus K times the deviation, clipped to the envelope."""
+        start = time.perf_counter()
+        if measurement.state is None:
+            raise ModelError(f"{self.name}: needs full-state measurement (got state=None).")
+        train, n = self.train, self.train.n_vehicles
+        speed = float(reference.speed[0])
+        ff = equilibrium(train, max(speed, 0.1), acceleration=float(reference.acceleration[0]))
+        x = np.asarray(measurement.state, dtype=float)
+        deviation = np.concatenate([x[:n] - speed, x[n:2 * n - 1] - ff.elongations])
+        inputs = ff.inputs - KN * (self.gain @ deviation)
+        saturated = 0
+        if self.input_bounds:
+            low, high = _envelope(train, x[:n])
+            clipped = np.clip(inputs, low, high)
+            saturated = int(np.count_nonzero(clipped != inputs))
+            inputs = clipped
+        return StepRecord(inputs=inputs, status="optimal", iterations=0,
+                          solve_time=time.perf_counter() - start,
+                          info={"saturated": saturated})
+
+
+def _envelope(train: Train, speeds: Array) -> tuple[Array, Array]:
+    """Braking (negative) and traction limits [N] of every vehicle at its speed."""
+    low = np.array([-veh.envelope.braking_limit(v, mass=veh.mass)
+                    for veh, v in zip(train.vehicles, speeds, strict=True)], dtype=float)
+    high = np.array([veh.envelope.traction_limit(v, mass=veh.mass)
+                     for veh, v in zip(train.vehicles, speeds, strict=True)], dtype=float)
+    return low, high

@@ -1,0 +1,101 @@
+# The MPC family's design checks: N-DMPC convergence, relaxation, closed loops, Nash gap.
+"""Design checks of the MPC family (unconstrained theory of :mod:`trainctl.analysis.mpc`).
+
+Weight thresholds are reported in the unit the scenario used (per kN² or per N²).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+from ...analysis.review import Check, radius_check
+
+if TYPE_CHECKING:
+    from .family import MPCFamilyDesign
+
+__all__ = ["mpc_checks"]
+
+
+def mpc_checks(design: MPCFamilyDesign) -> list[Check]:
+    """The MPC family's checks, in the order of ``FAMILY.check_names``.
+
+    Parameters
+    ----------
+    design : MPCFamilyDesign
+        The family's design (its analysis is computed on first use).
+
+    Returns
+    -------
+    list of Check
+        ``ndmpc_convergence``, ``relaxation``, ``closed_loop_nash``,
+        ``closed_loop_iterations``, ``nash_gap``, ``cooperative_convergence``,
+        ``centralised_closed_loop``.
+    """
+    ctl, res = design.settings, design.analysis
+    unit_scale = 1.0 if ctl.input_weight_unit == "kN" else 1e-6   # per kN² -> per N²
+    unit = f"per {ctl.input_weight_unit}²"
+    labels = design.closed_loop_labels()
+    plan = [f"plan[{i}]" for i in range(res.closed_loop_iterations.shape[0] - len(labels))]
+    return [
+        _convergence_check(res.rho_d0, res.threshold_weight * unit_scale, unit, res.relaxation),
+        _relaxation_check(res.rho_d0, res.relaxation),
+        _radius(design, "closed_loop_nash", res.closed_loop_nash, labels,
+                "converged N-DMPC (Nash point)"),
+        _radius(design, "closed_loop_iterations", res.closed_loop_iterations, labels + plan,
+                f"N-DMPC with {ctl.iterations} iteration(s) per sample"),
+        _gap_check(res.cost_gap),
+        Check(name="cooperative_convergence", status="pass" if res.rho_cooperative < 1 else "fail",
+              value=res.rho_cooperative, threshold=1.0, unit="",
+              message=f"cooperative DMPC iteration: ρ = {res.rho_cooperative:.4g}; its fixed "
+              "point is the centralised optimum",
+              hint="" if res.rho_cooperative < 1 else "use convex weights summing to 1"),
+        _radius(design, "centralised_closed_loop", res.closed_loop_centralised, labels,
+                "centralised MPC"),
+    ]
+
+
+def _radius(design: MPCFamilyDesign, name: str, A_cl: Any, labels: list[str], what: str) -> Check:
+    marginal = ("the Δu-form with velocity-only outputs leaves the internal-force directions "
+                "unpenalised: add 'force' to [controller].outputs or use the u-form"
+                if design.mpc.form == "du" else "penalise the states along these directions")
+    return radius_check(name, A_cl, labels, what, marginal_hint=marginal,
+                        unstable_hint="raise R, lengthen P, or penalise coupler forces")
+
+
+def _convergence_check(rho: float, r_star: float, unit: str, relax: Any) -> Check:
+    finite = float(r_star) if math.isfinite(r_star) else None
+    details = {"rho_D0": rho, "R_star": finite, "relaxation": relax.to_dict()}
+    if rho < 1:
+        return Check(name="ndmpc_convergence", status="pass", value=rho, threshold=1.0, unit="",
+                     message=f"Jacobi iteration converges: ρ(D0) = {rho:.4g} < 1 "
+                     f"(threshold weight R* = {r_star:.4g} {unit})", details=details)
+    relax_hint = (f" or relax with ω ≤ {relax.omega_max:.3g} (best ω = {relax.omega_best:.3g}, "
+                  f"rate {relax.rate:.3g})" if relax.exists else " (no relaxation factor helps)")
+    return Check(name="ndmpc_convergence", status="fail", value=rho, threshold=1.0, unit="",
+                 message=f"Jacobi iteration diverges: ρ(D0) = {rho:.4g} ≥ 1",
+                 hint=f"raise R above R* = {r_star:.4g} {unit}{relax_hint}", details=details)
+
+
+def _relaxation_check(rho: float, relax: Any) -> Check:
+    if rho < 1:
+        return Check(name="relaxation", status="pass", value=1.0, threshold=None, unit="",
+                     message="not needed: plain Jacobi (ω = 1) converges", details=relax.to_dict())
+    if relax.exists:
+        return Check(name="relaxation", status="warn", value=relax.omega_best,
+                     threshold=relax.omega_max, unit="",
+                     message=f"relaxed Jacobi converges for ω ≤ {relax.omega_max:.3g}; best "
+                     f"ω = {relax.omega_best:.3g} gives rate {relax.rate:.3g}",
+                     hint="set the relaxation factor, or raise R", details=relax.to_dict())
+    return Check(name="relaxation", status="fail", value=None, threshold=None, unit="",
+                 message="no relaxation exists: an eigenvalue of D0 has real part ≥ 1",
+                 hint="raise R above R* or shorten the sample time", details=relax.to_dict())
+
+
+def _gap_check(gap: float) -> Check:
+    status = "pass" if gap <= 0.1 else "warn"
+    return Check(name="nash_gap", status=status, value=gap, threshold=0.1, unit="",
+                 message=f"Nash cost exceeds the centralised optimum by {100 * gap:.3g} % for a "
+                 "1 m/s error on every coach",
+                 hint="" if status == "pass"
+                 else "widen the neighbourhoods or use cooperative DMPC")

@@ -1,0 +1,25 @@
+# The design stage: the linear models and every controller family's design, built once.
+"""The design stage of a run.
+
+:func:`build_design` builds, once per run, the scenario's linear models
+(:class:`DesignModel`: one linearisation, one discretisation) and the design
+of every controller family the scenario names. The design review, the
+controllers and the report read them from the :class:`Design` carried in
+:class:`~trainctl.run.AnalysisRun`; none of them linearises or discretises
+again.
+"""
+
+from __future__ import annotations
+
+from .model import KN as KN
+from .model import DesignModel as DesignModel
+from .model import build_model as build_model
+from .stage import Design as Design
+from .stage import build_design as build_design
+from .stage import scenario_controllers as scenario_controllers
+from .stage import split_strategy as split_strategy
+
+__all__ = [
+    "KN", "Design", "DesignModel", "build_design", "build_model", "scenario_controllers",
+    "split_strategy",
+]

@@ -1,0 +1,156 @@
+# Design of every controller family of a scenario, on the shared design model.
+"""The :class:`Design` of a run and how strategies name their family."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from ..exceptions import ScenarioError
+from .model import DesignModel, build_model
+
+if TYPE_CHECKING:
+    from ..scenario import Scenario
+
+__all__ = ["Design", "build_design", "scenario_controllers", "split_strategy"]
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class Design:
+    """Everything designed for one scenario, built once per run.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    model : DesignModel
+        The linear models (one linearisation, one discretisation).
+    families : mapping of str to object
+        Each controller family's design, by family name (primary family
+        first); empty without a ``[controller]`` section.
+    """
+
+    scenario: Scenario
+    model: DesignModel
+    families: Mapping[str, Any] = field(default_factory=dict)
+
+    def family(self, name: str) -> Any:
+        """The design of family ``name``.
+
+        Parameters
+        ----------
+        name : str
+            A family of the scenario.
+
+        Returns
+        -------
+        object
+            The family's design object.
+
+        Raises
+        ------
+        ScenarioError
+            If the scenario has no controller of that family.
+        """
+        if name not in self.families:
+            have = ", ".join(self.families) or "none"
+            raise ScenarioError(f"{self.scenario.source}: no [controller] of family {name!r} "
+                                f"(the scenario has: {have}).")
+        return self.families[name]
+
+    def resolve(self, strategy: str) -> tuple[str, str]:
+        """The (family, strategy) a simulation strategy name stands for (:func:`split_strategy`)."""
+        return split_strategy(self.scenario, strategy)
+
+
+def scenario_controllers(scenario: Scenario) -> dict[str, Any]:
+    """The scenario's controller settings by family name, primary family first.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A loaded scenario.
+
+    Returns
+    -------
+    dict of str to settings
+        Empty without a ``[controller]`` section.
+    """
+    controllers = getattr(scenario, "controllers", None)
+    if controllers is not None:
+        return dict(controllers)
+    if scenario.controller is None:
+        return {}
+    return {getattr(scenario.controller, "family", "mpc"): scenario.controller}
+
+
+def split_strategy(scenario: Scenario, strategy: str) -> tuple[str, str]:
+    """The family and the family's strategy a simulation strategy name stands for.
+
+    A bare name (``"ndmpc"``) is a strategy of the primary family; another
+    family's strategy is written ``"family.strategy"`` (``"lqr.centralised"``).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (its controllers).
+    strategy : str
+        A name from ``[simulation] strategies``.
+
+    Returns
+    -------
+    (str, str)
+        Family name and strategy name.
+
+    Raises
+    ------
+    ScenarioError
+        If the scenario has no such family or the family no such strategy.
+    """
+    from ..controllers.registry import get_family
+
+    controllers = scenario_controllers(scenario)
+    if not controllers:
+        raise ScenarioError(f"{scenario.source}: strategy {strategy!r} needs a [controller].")
+    family, sep, name = strategy.partition(".")
+    if not sep:
+        family, name = next(iter(controllers)), strategy
+    if family not in controllers:
+        raise ScenarioError(f"{scenario.source}: strategy {strategy!r} names family {family!r}, "
+                            f"which the scenario has no [controller] for.")
+    if name not in get_family(family).strategies:
+        raise ScenarioError(f"{scenario.source}: family {family!r} has no strategy {name!r} "
+                            f"(it has {', '.join(get_family(family).strategies)}).")
+    return family, name
+
+
+def build_design(scenario: Scenario, *, model: DesignModel | None = None) -> Design:
+    """Build the design model and every family's design for ``scenario``.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A loaded scenario.
+    model : DesignModel or None
+        The design model when already built (:func:`build_model`).
+
+    Returns
+    -------
+    Design
+        The models and the families' designs.
+
+    Examples
+    --------
+    >>> from trainctl.scenario import load_scenario
+    >>> design = build_design(load_scenario("crh2-dmpc"))
+    >>> list(design.families), design.family("mpc").mpc.prediction_horizon
+    (['mpc'], 4)
+    """
+    from ..controllers.registry import get_family
+
+    if model is None:
+        model = build_model(scenario)
+    families = {name: get_family(name).design(scenario, model, settings)
+                for name, settings in scenario_controllers(scenario).items()}
+    return Design(scenario=scenario, model=model, families=families)
