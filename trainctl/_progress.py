@@ -1,10 +1,11 @@
-# A terminal progress bar for long runs; silent when stderr is not a terminal.
-"""Minimal progress bar on stderr.
+# A terminal progress bar for long runs (tqdm); silent when stderr is not a terminal.
+"""Progress bar on stderr, drawn by tqdm.
 
 Shown only when the stream is a terminal (so logs, pipes and CI stay clean).
-A background thread redraws it twice a second so that the elapsed time moves
-while a long simulation runs; :meth:`Progress.advance` may be called from any
-thread (e.g. a future's done-callback).
+:meth:`Progress.advance` may be called from any thread (e.g. a future's
+done-callback; tqdm serialises its updates). While a long simulation runs,
+nothing calls :meth:`advance`, so a small ticker thread asks tqdm to redraw
+twice a second and the elapsed time keeps moving.
 
 Examples
 --------
@@ -17,14 +18,17 @@ Examples
 
 from __future__ import annotations
 
-import shutil
 import sys
 import threading
-import time
 from types import TracebackType
 from typing import TextIO
 
+from tqdm import tqdm
+
 __all__ = ["Progress"]
+
+BAR_FORMAT = "[{bar:24}] {n_fmt}/{total_fmt} {desc} {elapsed}"
+"""Counted bar, the current step's label, the elapsed time."""
 
 
 class Progress:
@@ -43,17 +47,28 @@ class Progress:
     def __init__(self, total: int, *, stream: TextIO | None = None,
                  enabled: bool | None = None) -> None:
         self.total = max(0, int(total))
-        self.done = 0
-        self.label = ""
         self.stream = sys.stderr if stream is None else stream
         if enabled is None:
             isatty = getattr(self.stream, "isatty", None)
             enabled = bool(isatty and isatty())
         self.enabled = enabled
-        self._start = time.monotonic()
-        self._lock = threading.Lock()
+        self._bar = tqdm(total=self.total, file=self.stream, disable=not enabled, leave=False,
+                         bar_format=BAR_FORMAT, ascii="-#", mininterval=0.0,
+                         dynamic_ncols=True)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self._lock = threading.Lock()
+        self._done = 0
+
+    @property
+    def done(self) -> int:
+        """Steps counted so far."""
+        return self._done
+
+    @property
+    def label(self) -> str:
+        """The current step's label."""
+        return str(self._bar.desc)
 
     def __enter__(self) -> Progress:
         if self.enabled:
@@ -68,17 +83,16 @@ class Progress:
 
     def set_label(self, label: str) -> None:
         """Describe the step in progress."""
-        with self._lock:
-            self.label = label
-            self._draw()
+        self._bar.set_description_str(label)
 
     def advance(self, label: str = "", steps: int = 1) -> None:
         """Count ``steps`` finished steps; ``label`` names the next one (or the last done)."""
         with self._lock:
-            self.done = min(self.total, self.done + steps) if self.total else self.done + steps
-            if label:
-                self.label = label
-            self._draw()
+            step = min(steps, self.total - self._done) if self.total else steps
+            self._done += max(0, step)
+        if label:
+            self._bar.set_description_str(label, refresh=False)
+        self._bar.update(max(0, step))
 
     def close(self) -> None:
         """Stop redrawing and clear the bar's line."""
@@ -86,27 +100,8 @@ class Progress:
         if self._thread is not None:
             self._thread.join()
             self._thread = None
-        if self.enabled:
-            with self._lock:
-                self.stream.write("\r\033[K")
-                self.stream.flush()
+        self._bar.close()
 
     def _tick(self) -> None:
         while not self._stop.wait(0.5):
-            with self._lock:
-                self._draw()
-
-    def _draw(self) -> None:
-        if not self.enabled or self._stop.is_set():
-            return
-        width = shutil.get_terminal_size((80, 20)).columns
-        elapsed = time.monotonic() - self._start
-        fraction = self.done / self.total if self.total else 0.0
-        bar_width = 24
-        filled = int(round(bar_width * fraction))
-        head = f"[{'#' * filled}{'-' * (bar_width - filled)}] {self.done}/{self.total} "
-        tail = f" {elapsed:5.1f} s"
-        room = max(0, width - len(head) - len(tail) - 1)
-        label = self.label if len(self.label) <= room else self.label[: max(0, room - 1)] + "…"
-        self.stream.write("\r\033[K" + head + label + tail)
-        self.stream.flush()
+            self._bar.refresh()

@@ -15,8 +15,8 @@ Subcommands
 ``report [SCENARIO | DIR] [-o PATH] [--all] [--deterministic] [--timestamp T] [--jobs N]``
     Run a scenario (or read a directory saved by ``analyse --save``) and
     write its self-contained HTML design report (default
-    ``reports/<name>.html``, see :func:`default_report_path`); ``--all``
-    writes every built-in's report and an ``index.html`` gallery.
+    ``reports/<name>.html``, see :func:`trainctl.report.batch.default_report_path`);
+    ``--all`` writes every built-in's report and an ``index.html`` gallery.
 
 Exit status: 0 the command ran; 1 ``--strict`` found a failing check; 2 a
 usage, scenario or file error (``trainctl: error: <message>`` on stderr, no
@@ -45,7 +45,7 @@ from typing import Any
 from . import __version__
 from .exceptions import TrainctlError
 
-__all__ = ["DEFAULT_SCENARIO", "build_parser", "default_report_path", "main"]
+__all__ = ["DEFAULT_SCENARIO", "build_parser", "main"]
 
 PROG = "trainctl"
 
@@ -283,7 +283,9 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
     text, label = read_scenario_text(args.scenario)
     scenario = parse_scenario(text, source=label)
     if args.save:
-        _check_save_target(Path(args.save))
+        from .report.data import check_save_target
+
+        check_save_target(args.save)
     from .parallel import want_pool, worker_pool
 
     workers = 0 if args.no_simulate else want_pool([scenario], args.jobs)
@@ -310,17 +312,6 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _check_save_target(path: Path) -> None:
-    """Refuse a --save target before running (the same rules as ReportData.save)."""
-    from .report.data import MANIFEST
-
-    if path.exists() and not path.is_dir():
-        raise _UserError(f"{path}: exists and is not a directory; give a directory to --save")
-    if path.is_dir() and any(path.iterdir()) and not (path / MANIFEST).is_file():
-        raise _UserError(f"{path}: is a non-empty directory without {MANIFEST}; refusing to "
-                         "overwrite it. Give a new or empty directory to --save.")
-
-
 def _rebuild_argv(args: argparse.Namespace) -> list[str]:
     """Arguments that reproduce ``args``, in a canonical order (printed in reports)."""
     argv = [args.command]
@@ -336,69 +327,50 @@ def _rebuild_argv(args: argparse.Namespace) -> list[str]:
     return argv
 
 
-def default_report_path(scenario: Any) -> Path:
-    """Default output of ``trainctl report``: ``reports/<stem>.html``.
-
-    The stem is the built-in name for a built-in scenario (``crh2-dmpc``) and
-    the slug of the scenario's display name otherwise; both are ``[a-z0-9-]``.
-
-    Parameters
-    ----------
-    scenario : trainctl.scenario.Scenario
-        The loaded scenario.
-
-    Returns
-    -------
-    pathlib.Path
-        Relative path under ``reports/``.
-    """
-    from .scenario import slugify
-
-    source = str(getattr(scenario, "source", ""))
-    if source.startswith("builtin:"):
-        stem = slugify(source.removeprefix("builtin:"))
-    else:
-        stem = scenario.slug
-    return Path("reports") / f"{stem}.html"
-
-
 def _cmd_report(args: argparse.Namespace) -> int:
+    from .parallel import want_pool
     from .report import ReportData, is_saved_run, normalise_timestamp, write_report_file
+    from .report.batch import (
+        check_report_output,
+        default_report_path,
+        report_all,
+        report_scenario,
+        summary_line,
+    )
 
     if args.all and args.scenario:
         raise _UserError("give either a SCENARIO or --all, not both")
     stamp = args.timestamp or os.environ.get("SOURCE_DATE_EPOCH") or None
     generated_at = normalise_timestamp(stamp) if stamp else None
-    if args.all:
-        return _report_all(args, generated_at)
-    source = args.scenario or DEFAULT_SCENARIO
     start = time.perf_counter()
+    if args.all:
+        from .scenario import builtin_scenarios
+
+        jobs = [_report_job(item.name, args) for item in builtin_scenarios()]
+        outdir = Path(args.output) if args.output else Path("reports")
+        index, written = report_all(jobs, outdir, generated_at=generated_at,
+                                    deterministic=args.deterministic,
+                                    workers=want_pool([j.scenario for j in jobs], args.jobs))
+        failing = sum(1 for data, _ in written if data.results.get("failed_checks"))
+        print(f"wrote {index} and {len(written)} reports ({failing} with failing checks; "
+              f"{time.perf_counter() - start:.1f} s)")
+        return EXIT_OK
+    source = args.scenario or DEFAULT_SCENARIO
     if Path(source).is_dir():
         if not is_saved_run(source):
             raise _UserError(f"{source}: is a directory but not one written by 'trainctl analyse "
                              "--save'; give a scenario file, a built-in name or a saved run")
         data = ReportData.load(source)
         path = Path(args.output) if args.output else default_report_path(data.scenario)
-        _check_output(path)
-        written = write_report_file(data, path, generated_at=generated_at,
-                                    deterministic=args.deterministic)
+        check_report_output(path)
+        write_report_file(data, path, generated_at=generated_at,
+                          deterministic=args.deterministic)
     else:
         job = _report_job(source, args)
         path = Path(args.output) if args.output else default_report_path(job.scenario)
-        _check_output(path)
-        from ._progress import Progress
-        from .parallel import want_pool
-        from .report import run_report_data
-
-        workers = want_pool([job.scenario], args.jobs)
-        strategies = job.scenario.simulation.strategies if job.scenario.simulation else ()
-        with Progress(len(strategies) + 2) as bar:
-            [data] = list(run_report_data([job], workers=workers, progress=bar))
-            bar.set_label("rendering figures and page")
-            written = write_report_file(data, path, generated_at=generated_at,
-                                        deterministic=args.deterministic)
-            bar.advance("written")
-    print(f"wrote {written} ({_summary_line(data)}; {time.perf_counter() - start:.1f} s)")
+        data = report_scenario(job, path, workers=want_pool([job.scenario], args.jobs),
+                               generated_at=generated_at, deterministic=args.deterministic)
+    print(f"wrote {path} ({summary_line(data)}; {time.perf_counter() - start:.1f} s)")
     return EXIT_OK
 
 
@@ -412,50 +384,3 @@ def _report_job(source: str, args: argparse.Namespace) -> Any:
     if args.deterministic:
         argv.append("--deterministic")
     return ReportJob(scenario=scenario, text=text, command=portable_command(argv))
-
-
-def _report_all(args: argparse.Namespace, generated_at: str | None) -> int:
-    from ._progress import Progress
-    from .parallel import want_pool
-    from .report import run_report_data, write_gallery, write_report_file
-    from .scenario import builtin_scenarios
-
-    start = time.perf_counter()
-    outdir = Path(args.output) if args.output else Path("reports")
-    if outdir.exists() and not outdir.is_dir():
-        raise _UserError(f"{outdir}: is not a directory; with --all, -o names the output "
-                         "directory")
-    jobs = [_report_job(item.name, args) for item in builtin_scenarios()]
-    workers = want_pool([job.scenario for job in jobs], args.jobs)
-    total = sum(len(j.scenario.simulation.strategies) if j.scenario.simulation else 0
-                for j in jobs) + 2 * len(jobs) + 1
-    written = []
-    with Progress(total) as bar:
-        for job, data in zip(jobs, run_report_data(jobs, workers=workers, progress=bar),
-                             strict=True):
-            path = outdir / default_report_path(job.scenario).name
-            bar.set_label(f"rendering {path.name}")
-            written.append((data, write_report_file(data, path, generated_at=generated_at,
-                                                    deterministic=args.deterministic)))
-            bar.advance(f"wrote {path.name}")
-        index = write_gallery(written, outdir / "index.html", generated_at=generated_at,
-                              deterministic=args.deterministic)
-        bar.advance("wrote index.html")
-    failing = sum(1 for data, _ in written if data.results.get("failed_checks"))
-    print(f"wrote {index} and {len(written)} reports ({failing} with failing checks; "
-          f"{time.perf_counter() - start:.1f} s)")
-    return EXIT_OK
-
-
-def _check_output(path: Path) -> None:
-    if path.is_dir():
-        raise _UserError(f"{path} is a directory; give a file path with -o")
-
-
-def _summary_line(data: Any) -> str:
-    checks = data.results.get("checks", [])
-    counts = {s: sum(1 for c in checks if c["status"] == s) for s in ("pass", "warn", "fail")}
-    text = f"{len(checks)} checks: " + ", ".join(f"{v} {k}" for k, v in counts.items())
-    if data.simulations:
-        text += f"; {len(data.simulations)} controllers simulated"
-    return text

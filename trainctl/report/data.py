@@ -37,7 +37,10 @@ if TYPE_CHECKING:
     from ..scenario import Scenario
     from ..sim.results import SimulationResult
 
-__all__ = ["FORMAT", "MANIFEST", "ReportData", "collect_report_data", "is_saved_run"]
+__all__ = [
+    "FORMAT", "MANIFEST", "ReportData", "check_save_target", "collect_report_data",
+    "is_saved_run",
+]
 
 FORMAT = "trainctl.ReportData/2"
 """Format tag of ``trainctl-run.json``."""
@@ -123,13 +126,7 @@ class ReportData:
             saved run (nothing is written).
         """
         target = Path(directory)
-        if target.exists():
-            if not target.is_dir():
-                raise ScenarioError(f"{target}: exists and is not a directory; give a "
-                                    "directory for the saved results.")
-            if any(target.iterdir()) and not (target / MANIFEST).is_file():
-                raise ScenarioError(f"{target}: is a non-empty directory without {MANIFEST}; "
-                                    "refusing to overwrite it. Give a new or empty directory.")
+        check_save_target(target)
         target.parent.mkdir(parents=True, exist_ok=True)
         tmp = target.with_name(f".{target.name}.{secrets.token_hex(6)}.tmp")
         try:
@@ -216,6 +213,28 @@ class ReportData:
                    simulations=sims, expected=document["expected"],
                    unexpected=document["unexpected"], environment=document["environment"],
                    command=document["command"], timings=document["timings"])
+
+
+def check_save_target(path: str | os.PathLike[str]) -> None:
+    """Refuse a directory that :meth:`ReportData.save` must not replace (checked before a run).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The intended saved-results directory.
+
+    Raises
+    ------
+    ScenarioError
+        If ``path`` is a file, or a non-empty directory that is not a saved run.
+    """
+    target = Path(path)
+    if target.exists() and not target.is_dir():
+        raise ScenarioError(f"{target}: exists and is not a directory; give a directory for "
+                            "the saved results.")
+    if target.is_dir() and any(target.iterdir()) and not (target / MANIFEST).is_file():
+        raise ScenarioError(f"{target}: is a non-empty directory without {MANIFEST}; refusing "
+                            "to overwrite it. Give a new or empty directory.")
 
 
 def is_saved_run(path: str | os.PathLike[str]) -> bool:

@@ -1,0 +1,203 @@
+# Report jobs end to end: where reports go, how long they take, one scenario or every built-in.
+"""Write reports of one scenario, a saved run, or every built-in, with a progress bar.
+
+The policies behind ``trainctl report`` live here, so that the command only
+parses and dispatches: default output paths (:func:`default_report_path`),
+progress totals (:func:`progress_total`) and the one-line summaries printed
+at the end (:func:`summary_line`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ..exceptions import TrainctlError
+from .build import ReportJob, run_report_data, write_gallery, write_report_file
+from .data import ReportData
+
+if TYPE_CHECKING:
+    from ..scenario import Scenario
+
+__all__ = [
+    "OutputError",
+    "check_report_output",
+    "default_report_path",
+    "progress_total",
+    "report_all",
+    "report_scenario",
+    "summary_line",
+]
+
+
+class OutputError(TrainctlError, ValueError):
+    """An output path that cannot be written as asked (e.g. a directory for a file)."""
+
+
+def default_report_path(scenario: Scenario) -> Path:
+    """Default output of ``trainctl report``: ``reports/<stem>.html``.
+
+    The stem is the built-in name for a built-in scenario (``crh2-dmpc``) and
+    the slug of the scenario's display name otherwise; both are ``[a-z0-9-]``.
+
+    Parameters
+    ----------
+    scenario : trainctl.scenario.Scenario
+        The loaded scenario.
+
+    Returns
+    -------
+    pathlib.Path
+        Relative path under ``reports/``.
+
+    Examples
+    --------
+    >>> from trainctl.scenario import load_scenario
+    >>> default_report_path(load_scenario("crh2-dmpc")).as_posix()
+    'reports/crh2-dmpc.html'
+    """
+    from ..scenario import slugify
+
+    source = str(getattr(scenario, "source", ""))
+    if source.startswith("builtin:"):
+        stem = slugify(source.removeprefix("builtin:"))
+    else:
+        stem = scenario.slug
+    return Path("reports") / f"{stem}.html"
+
+
+def check_report_output(path: Path) -> None:
+    """Refuse an output file path that is a directory.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The report file to write.
+
+    Raises
+    ------
+    OutputError
+        If ``path`` is a directory.
+    """
+    if path.is_dir():
+        raise OutputError(f"{path} is a directory; give a file path with -o")
+
+
+def progress_total(jobs: Sequence[ReportJob]) -> int:
+    """Steps of the progress bar: one per simulation, per analysis and per page, plus the index.
+
+    Parameters
+    ----------
+    jobs : sequence of ReportJob
+        The scenarios to report on.
+
+    Returns
+    -------
+    int
+        ``simulations + 2·jobs`` (plus 1 for the gallery when there are several).
+    """
+    sims = sum(len(j.scenario.simulation.strategies) if j.scenario.simulation else 0
+               for j in jobs)
+    return sims + 2 * len(jobs) + (1 if len(jobs) > 1 else 0)
+
+
+def summary_line(data: ReportData) -> str:
+    """The check counts and simulations of a report, for the last line the command prints.
+
+    Parameters
+    ----------
+    data : ReportData
+        A report's data.
+
+    Returns
+    -------
+    str
+        ``"12 checks: 7 pass, 3 warn, 2 fail; 3 controllers simulated"``.
+    """
+    checks = data.results.get("checks", [])
+    counts = {s: sum(1 for c in checks if c["status"] == s) for s in ("pass", "warn", "fail")}
+    text = f"{len(checks)} checks: " + ", ".join(f"{v} {k}" for k, v in counts.items())
+    if data.simulations:
+        text += f"; {len(data.simulations)} controllers simulated"
+    return text
+
+
+def report_scenario(job: ReportJob, path: Path, *, workers: int = 0,
+                    generated_at: str | None = None, deterministic: bool = False) -> ReportData:
+    """Run one scenario and write its report, with a progress bar on a terminal.
+
+    Parameters
+    ----------
+    job : ReportJob
+        The scenario.
+    path : pathlib.Path
+        Output file.
+    workers : int
+        Process-pool size for the simulations (0: run them here).
+    generated_at, deterministic
+        As for :func:`~trainctl.report.write_report_file`.
+
+    Returns
+    -------
+    ReportData
+        The data that was rendered.
+    """
+    from .._progress import Progress
+
+    check_report_output(path)
+    with Progress(progress_total([job])) as bar:
+        [data] = list(run_report_data([job], workers=workers, progress=bar))
+        bar.set_label("rendering figures and page")
+        write_report_file(data, path, generated_at=generated_at, deterministic=deterministic)
+        bar.advance("written")
+    return data
+
+
+def report_all(jobs: Sequence[ReportJob], outdir: Path, *, workers: int = 0,
+               generated_at: str | None = None,
+               deterministic: bool = False) -> tuple[Path, list[tuple[ReportData, Path]]]:
+    """Write every job's report into ``outdir`` and an ``index.html`` gallery.
+
+    Parameters
+    ----------
+    jobs : sequence of ReportJob
+        The scenarios (a report each, named as :func:`default_report_path`).
+    outdir : pathlib.Path
+        Output directory (created).
+    workers : int
+        Process-pool size for the simulations.
+    generated_at, deterministic
+        As for :func:`~trainctl.report.write_report_file`.
+
+    Returns
+    -------
+    index : pathlib.Path
+        The gallery.
+    written : list of (ReportData, pathlib.Path)
+        Each report's data and file.
+
+    Raises
+    ------
+    OutputError
+        If ``outdir`` exists and is not a directory.
+    """
+    from .._progress import Progress
+
+    if outdir.exists() and not outdir.is_dir():
+        raise OutputError(f"{outdir}: is not a directory; with --all, -o names the output "
+                          "directory")
+    written: list[tuple[ReportData, Path]] = []
+    with Progress(progress_total(jobs)) as bar:
+        for job, data in zip(jobs, run_report_data(jobs, workers=workers, progress=bar),
+                             strict=True):
+            path = outdir / default_report_path(job.scenario).name
+            bar.set_label(f"rendering {path.name}")
+            written.append((data, write_report_file(data, path, generated_at=generated_at,
+                                                    deterministic=deterministic)))
+            bar.advance(f"wrote {path.name}")
+        index = write_gallery(written, outdir / "index.html", generated_at=generated_at,
+                              deterministic=deterministic)
+        bar.advance("wrote index.html")
+    return index, written
+
