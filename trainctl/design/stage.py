@@ -11,6 +11,8 @@ from ..exceptions import ScenarioError
 from .model import DesignModel, build_model
 
 if TYPE_CHECKING:
+    import control as ct
+
     from ..scenario import Scenario
 
 __all__ = ["Design", "build_design", "scenario_controllers", "split_strategy"]
@@ -58,6 +60,36 @@ class Design:
             raise ScenarioError(f"{self.scenario.source}: no [controller] of family {name!r} "
                                 f"(the scenario has: {have}).")
         return self.families[name]
+
+    def closed_loop(self, strategy: str) -> ct.StateSpace | None:
+        """The linear closed loop of a simulation strategy (None where it is not linear).
+
+        The family's ``closed_loop()``: a discrete ``control.StateSpace`` from
+        the specific-force disturbances ``w[i]`` [m/s²] to the speed
+        deviations ``v[i]`` [m/s] and coupler forces ``f[i]`` [kN], which
+        every generic analysis (poles, frequency responses, norms) takes.
+
+        Parameters
+        ----------
+        strategy : str
+            A name from ``[simulation] strategies`` (or ``"family.strategy"``).
+
+        Returns
+        -------
+        control.StateSpace or None
+            The closed loop.
+
+        Examples
+        --------
+        >>> from trainctl.scenario import load_scenario
+        >>> loop = build_design(load_scenario("crh2-dmpc")).closed_loop("ndmpc")
+        >>> loop.dt, loop.ninputs, loop.noutputs
+        (20.0, 4, 7)
+        """
+        from ..controllers.registry import get_family
+
+        family, name = self.resolve(strategy)
+        return get_family(family).closed_loop(self.family(family), name)
 
     def resolve(self, strategy: str) -> tuple[str, str]:
         """The (family, strategy) a simulation strategy name stands for (:func:`split_strategy`)."""
