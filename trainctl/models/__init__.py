@@ -16,6 +16,7 @@ from .linear import LINEARISATIONS as LINEARISATIONS
 from .linear import linear_matrices as linear_matrices
 from .linear import linearise as linearise
 from .linear import resistance_damping as resistance_damping
+from .plant import Plant as Plant
 from .presets import PRESETS as PRESETS
 from .presets import crh2_8car as crh2_8car
 from .presets import crh2_half as crh2_half
@@ -36,7 +37,7 @@ from .vehicle import Vehicle as Vehicle
 __all__ = [
     "ALLOCATIONS", "DISCRETISATIONS", "LINEARISATIONS", "PRESETS",
     "Chain", "CoachSubsystems", "Coupler", "Equilibrium", "ForceSplit", "Neighbourhood",
-    "QuasiStaticForces", "Track", "TrackSection", "TractionEnvelope", "Train", "Vehicle",
+    "Plant", "QuasiStaticForces", "Track", "TrackSection", "TractionEnvelope", "Train", "Vehicle",
     "coach_subsystems", "coupler_forces", "crh2_8car", "crh2_half", "discretise",
     "equilibrium", "heavy_haul_1p2p1", "linear_matrices", "linearise", "neighbourhood",
     "neighbourhoods", "nonlinear_system", "resistance_damping", "train_rhs",

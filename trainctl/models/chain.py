@@ -155,7 +155,8 @@ class Chain:
             stiffness=train.stiffness,
             damping=train.damping,
             virtual=train.virtual,
-            speed_damping=np.zeros(n) if speed_damping is None else np.asarray(speed_damping, float),
+            speed_damping=(np.zeros(n) if speed_damping is None
+                           else np.asarray(speed_damping, dtype=float)),
             dummy_state=dummy_state,
             position=position,
         )
