@@ -17,15 +17,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from ._plant_propagators import LADDER_LEVELS, TrackArrays, ladder
 from .train import Train
 
 if TYPE_CHECKING:
-    from .plant import Plant, _TrackArrays
+    from .plant import Plant
 
 __all__ = ["SectionTracker", "crossings", "linear_flow", "sections"]
-
-LADDER_LEVELS = 4
-"""Binary levels h/2^j, j = 0..4, used to build the flow over any t in [0, h]."""
 
 TAYLOR_ORDER = 14
 """Order of the Taylor series for the flow over the remainder t < h/2^L."""
@@ -42,7 +40,7 @@ class SectionTracker:
     the sections need no lookup.
     """
 
-    def __init__(self, plant: Plant, track: _TrackArrays, s: float, z: NDArray[np.float64]):
+    def __init__(self, plant: Plant, track: TrackArrays, s: float, z: NDArray[np.float64]):
         n = plant.train.n_vehicles
         self.plant, self.track, self.n = plant, track, n
         self.sec = np.zeros(n, dtype=np.intp)
@@ -98,14 +96,14 @@ def linear_flow(
     below h/2^L, where ‖A t‖ is small.
     """
     n = plant.train.n_vehicles
-    ladder = plant._ladder(h, vbar)
+    levels = ladder(plant, h, vbar)
     Y = np.array(X, dtype=float)
     left = np.array(durations, dtype=float)
     for j in range(LADDER_LEVELS + 1):
         tj = h / 2.0**j
         use = left >= tj
         if np.any(use):
-            level = ladder[j]
+            level = levels[j]
             Y[:, use] = level[:, : 2 * n] @ Y[:, use] + level[:, 2 * n :] @ G[:, use]
             left[use] -= tj
     rate = plant._apply_a(Y, vbar)
@@ -122,7 +120,7 @@ def linear_flow(
 
 
 def sections(
-    train: Train, z: NDArray[np.float64], s: float, track: _TrackArrays
+    train: Train, z: NDArray[np.float64], s: float, track: TrackArrays
 ) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
     """Vehicle positions [m] and the index of the track section each is in."""
     n = train.n_vehicles
@@ -140,7 +138,7 @@ def crossings(
     p1: NDArray[np.float64],
     v1: NDArray[np.float64],
     sec1: NDArray[np.intp],
-    track: _TrackArrays,
+    track: TrackArrays,
 ) -> NDArray[np.float64]:
     """Exact effect, at the end of a substep, of the section crossings within it.
 

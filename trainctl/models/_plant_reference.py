@@ -22,7 +22,8 @@ from .dynamics import _positions, train_rhs
 from .train import Train
 
 if TYPE_CHECKING:
-    from .plant import Plant, _TrackArrays
+    from ._plant_propagators import TrackArrays
+    from .plant import Plant
 
 __all__ = ["advance_reference"]
 
@@ -85,7 +86,7 @@ def _frozen_rhs(
 
 
 def _section_bounds(
-    train: Train, x: NDArray[np.float64], track: _TrackArrays
+    train: Train, x: NDArray[np.float64], track: TrackArrays
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Per vehicle: the bounds to watch in its current section, and its resistance per mass.
 

@@ -1,4 +1,4 @@
-# The simulated plant: the nonlinear train integrated between samples.
+# The plant: the nonlinear train integrated between samples (simulation, observers).
 """The nonlinear train as a plant advanced with a held input.
 
 :class:`Plant` integrates the nonlinear model of
@@ -10,10 +10,11 @@ exponential (Strang) splitting instead, with both sub-flows solved exactly:
 
     dx/dt = A(v̄) x + B F(t) + N(v)
 
-- ``A(v̄)``: the linear part: coupler springs and dampers, the linear Davis
-  term and the quadratic drag linearised about a grid speed v̄,
-  -(a1 + 2 a2 v̄) v, the kinematic rows d(delta_i)/dt = v_i - v_{i+1} and
-  ds/dt = v_0.
+- ``A(v̄)``: the linear part, the chain of :mod:`trainctl.models.chain`
+  (the one definition the linear and nonlinear models share): coupler
+  springs and dampers, the kinematic rows d(delta_i)/dt = v_i - v_{i+1} and
+  ds/dt = v_0, with the linear Davis term and the quadratic drag linearised
+  about a grid speed v̄ as the speed damping, -(a1 + 2 a2 v̄) v.
 - ``F(t)`` [N]: the forces that do not depend on speed: the held input u,
   the constant Davis term -m a0, the constant of the linearisation
   +m a2 v̄², and the line resistance -m r(p_i) of the track at each
@@ -80,83 +81,39 @@ For the 204-vehicle heavy-haul chain the first use of each (h, v̄) costs
 one expm of a 612 × 612 matrix (0.1–0.3 s; with a track also four squarings
 for the crossing ladder); every substep is then one dense (408 × 611)
 product. The caches keep at most 128 MiB each, least recently used first.
+
+The propagators live in :mod:`trainctl.models._plant_propagators`, the section
+crossings in :mod:`trainctl.models._plant_crossings` and the ``solve_ivp``
+reference in :mod:`trainctl.models._plant_reference`.
 """
 
 from __future__ import annotations
 
 import math
-from collections import OrderedDict
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import TypeVar
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_positive
 from ..exceptions import DimensionError, ModelError
-from ._plant_crossings import LADDER_LEVELS, SectionTracker
+from ._plant_crossings import SectionTracker
+from ._plant_propagators import (
+    CACHE_BYTES,
+    LRU,
+    Propagator,
+    TrackArrays,
+    drag_flow,
+    grid_speed,
+    propagator,
+)
 from ._plant_reference import advance_reference
 from .chain import Chain
 from .track import Track
 from .train import Train
 
 __all__ = ["Plant"]
-
-_SPEED_GRID = 2.0
-"""Grid [m/s] of the speeds vbar about which the quadratic drag is linearised."""
-
-_CACHE_BYTES = 1 << 27
-"""Byte budget of each propagator cache (128 MiB); least recently used entries go first."""
-
-_T = TypeVar("_T")
-
-_TrackArrays = tuple[
-    NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]
-]
-
-
-def _grid_speed(speed: float) -> float:
-    """The grid speed nearest ``speed`` [m/s]."""
-    return float(_SPEED_GRID * round(speed / _SPEED_GRID))
-
-
-def _drag_flow(z: NDArray[np.float64], n: int, ta2: NDArray[np.float64], vbar: float) -> None:
-    """Exact flow of dv/dt = -a2 (v - vbar)² over t [s], in place on z[:n]; ta2 = t·a2."""
-    w = z[:n] - vbar
-    z[:n] = vbar + w / (1.0 + ta2 * w)
-
-
-@dataclass(frozen=True)
-class _Propagator:
-    """Exact linear step of length h about speed vbar on ``[v, delta, s]`` with forcing F [N]."""
-
-    step: NDArray[np.float64]
-    """[Φ | Γ] restricted to columns [v, delta, F], (2n, 3n-1); the last row is the
-    increment of s (its own column, e_s, is left out so that s is added exactly)."""
-
-
-class _LRU(OrderedDict[tuple[float, float], _T]):
-    """A small least-recently-used cache with a byte budget."""
-
-    def __init__(self, budget: int = 1 << 27) -> None:
-        super().__init__()
-        self.budget = budget
-        self.limit = 1 << 30
-
-    def fetch(self, key: tuple[float, float]) -> _T | None:
-        value = self.get(key)
-        if value is not None:
-            self.move_to_end(key)
-        return value
-
-    def store(self, key: tuple[float, float], value: _T, nbytes: int) -> None:
-        self.limit = max(2, self.budget // max(nbytes, 1))
-        self[key] = value
-        while len(self) > self.limit:
-            self.popitem(last=False)
-
 
 @dataclass(frozen=True, kw_only=True)
 class Plant:
@@ -187,11 +144,11 @@ class Plant:
     train: Train
     track: Track | None = None
     max_substep: float = 0.05
-    _cache: _LRU[_Propagator] = field(
-        default_factory=lambda: _LRU(_CACHE_BYTES), init=False, repr=False, compare=False
+    _cache: LRU[Propagator] = field(
+        default_factory=lambda: LRU(CACHE_BYTES), init=False, repr=False, compare=False
     )
-    _ladders: _LRU[NDArray[np.float64]] = field(
-        default_factory=lambda: _LRU(_CACHE_BYTES), init=False, repr=False, compare=False
+    _ladders: LRU[NDArray[np.float64]] = field(
+        default_factory=lambda: LRU(CACHE_BYTES), init=False, repr=False, compare=False
     )
     _drag: dict[float, tuple[NDArray[np.float64], NDArray[np.float64]]] = field(
         default_factory=dict, init=False, repr=False, compare=False
@@ -239,23 +196,13 @@ class Plant:
             )
         return chain
 
-    def _matrix_a(self, vbar: float) -> NDArray[np.float64]:
-        """A with the quadratic drag linearised about vbar: -(a1 + 2 a2 vbar) on the v rows."""
-        A = self._linear[0]
-        if vbar == 0.0:
-            return A
-        n = self.train.n_vehicles
-        A = A.copy()
-        A[np.arange(n), np.arange(n)] -= 2.0 * vbar * self.train.davis[2]
-        return A
-
     @cached_property
     def _quadratic(self) -> bool:
         """True when some vehicle has quadratic drag (a2 > 0)."""
         return bool(np.any(self.train.davis[2] > 0))
 
     @cached_property
-    def _track_arrays(self) -> _TrackArrays | None:
+    def _track_arrays(self) -> TrackArrays | None:
         """Section starts (the first replaced by -inf) [m], resistance per mass [m/s²],
         and each section's lower and upper bound [m]; None on flat track."""
         if self.track is None or self.track.is_flat:
@@ -266,47 +213,6 @@ class Plant:
             starts, per_mass = starts[:1], per_mass[:1]
         starts[0] = -math.inf
         return starts, per_mass, starts.copy(), np.append(starts[1:], math.inf)
-
-    def _augmented_expm(self, h: float, vbar: float) -> NDArray[np.float64]:
-        """expm([[A(vbar), B], [0, 0]] h), shape (3n, 3n)."""
-        B = self._linear[1]
-        n = self.train.n_vehicles
-        M = np.zeros((3 * n, 3 * n))
-        M[: 2 * n, : 2 * n] = self._matrix_a(vbar)
-        M[: 2 * n, 2 * n :] = B
-        return np.asarray(scipy.linalg.expm(M * h))
-
-    def _propagator(self, h: float, vbar: float) -> _Propagator:
-        cached = self._cache.fetch((h, vbar))
-        if cached is not None:
-            return cached
-        n = self.train.n_vehicles
-        track = self._track_arrays
-        if track is not None and track[0].size > 1:
-            E = self._ladder(h, vbar)[0]  # crossings will need the ladder anyway
-        else:
-            E = self._augmented_expm(h, vbar)[: 2 * n]
-        # Drop the s column: A has a zero s column, so Φ[:, s] = e_s exactly.
-        cols = np.r_[0 : 2 * n - 1, 2 * n : 3 * n]
-        prop = _Propagator(step=np.ascontiguousarray(E[:, cols]))
-        self._cache.store((h, vbar), prop, prop.step.nbytes)
-        return prop
-
-    def _ladder(self, h: float, vbar: float) -> NDArray[np.float64]:
-        """[Φ | Γ] for durations h/2^j, j = 0..L, shape (L+1, 2n, 3n)."""
-        cached = self._ladders.fetch((h, vbar))
-        if cached is not None:
-            return cached
-        n = self.train.n_vehicles
-        levels = np.empty((LADDER_LEVELS + 1, 2 * n, 3 * n))
-        levels[LADDER_LEVELS] = self._augmented_expm(h / 2.0**LADDER_LEVELS, vbar)[: 2 * n]
-        for j in range(LADDER_LEVELS - 1, -1, -1):
-            # [Φ | Γ] over 2t: [Φ², ΦΓ + Γ].
-            finer = levels[j + 1]
-            np.matmul(finer[:, : 2 * n], finer, out=levels[j])
-            levels[j, :, 2 * n :] += finer[:, 2 * n :]
-        self._ladders.store((h, vbar), levels, levels.nbytes)
-        return levels
 
     def _apply_a(self, Y: NDArray[np.float64], vbar: float) -> NDArray[np.float64]:
         """A(vbar) @ Y from the chain structure in O(n) per column."""
@@ -442,12 +348,12 @@ class Plant:
         n = self.train.n_vehicles
         quadratic = self._quadratic
         half, full = self._drag_steps(h)
-        vbar = _grid_speed(z[0]) if quadratic else 0.0
-        prop = self._propagator(h, vbar)
+        vbar = grid_speed(z[0]) if quadratic else 0.0
+        prop = propagator(self, h, vbar)
         force = base + self._forces[1] * vbar**2 if quadratic else base
         z[2 * n - 1 :] = force
         if quadratic:
-            _drag_flow(z, n, half, vbar)
+            drag_flow(z, n, half, vbar)
         for j in range(steps + 1):
             if tracker is not None:
                 s = tracker.visit(z, s, force, vbar, h, j == steps)
@@ -459,18 +365,18 @@ class Plant:
             if not quadratic:
                 continue
             if j == steps - 1:
-                _drag_flow(z, n, half, vbar)
+                drag_flow(z, n, half, vbar)
                 continue
-            nbar = _grid_speed(z[0])
+            nbar = grid_speed(z[0])
             if nbar == vbar:
-                _drag_flow(z, n, full, vbar)
+                drag_flow(z, n, full, vbar)
                 continue
-            _drag_flow(z, n, half, vbar)
+            drag_flow(z, n, half, vbar)
             vbar = nbar
-            prop = self._propagator(h, vbar)
+            prop = propagator(self, h, vbar)
             force = base + self._forces[1] * vbar**2
             z[2 * n - 1 :] = force if tracker is None else force - tracker.resist
-            _drag_flow(z, n, half, vbar)
+            drag_flow(z, n, half, vbar)
         return s
 
     # ------------------------------------------------------------- reference
