@@ -12,7 +12,9 @@ position s [m]. Inputs are the traction (> 0) or braking (< 0) forces u [N].
 with coupler forces f_i = k_i delta_i + d_i (v_i - v_{i+1}) (f_{-1} = f_{n-1} = 0),
 vehicle positions p_i = s - sum_{j<i} (spacing_j + delta_j) and the line
 resistance r(p) of the track (grade and curves). The Davis law assumes
-forward running, v >= 0.
+forward running, v >= 0. The couplers and kinematic rows come from the one
+chain definition, :class:`~trainctl.models.Chain`; the traction split of
+:func:`equilibrium` from :class:`~trainctl.models.ForceSplit`.
 """
 
 from __future__ import annotations

@@ -6,7 +6,8 @@ speed [m/s] and coupler elongation [m] from the equilibrium), the input the
 force deviations u~ [N]. Because the couplers are linear springs the matrices
 do not depend on the static elongations; the equilibrium only enters the
 absolute coupler forces. The head position is left out: on level track it
-does not influence the dynamics.
+does not influence the dynamics. (A, B) are those of the chain,
+:class:`~trainctl.models.Chain`, with the Davis damping as speed damping.
 
 Two treatments of the quadratic Davis term are offered:
 
