@@ -58,28 +58,34 @@ class SectionTracker:
         ``z`` = [v, delta, F] is updated in place (F = ``force`` - resistance
         when a section changed); the head position is returned.
         """
-        n, track, plant = self.n, self.track, self.plant
+        n = self.n
         moved = abs(s - self.s_ref) + float(np.abs(z[n : 2 * n - 1] - self.d_ref).sum())
         if moved >= self.budget:
-            p0, now = sections(plant.train, z, s, track)
-            prev = self.prev
-            if prev is not None and np.any(now != prev[2]):
-                # Crossings in the previous substep: add their exact effect.
-                fix = crossings(plant, h, prev, p0, z[:n], now, track)
-                z[: 2 * n - 1] += fix[: 2 * n - 1]
-                s += fix[2 * n - 1]
-                p0, now = sections(plant.train, z, s, track)
-            lo, hi = track[2][now], track[3][now]
-            self.budget = min(float((p0 - lo).min()), float((hi - p0).min()))
-            self.s_ref, self.d_ref = s, z[n : 2 * n - 1].copy()
-            if prev is None or np.any(now != self.sec):
-                self.sec = now
-                self.resist = plant.train.mass * track[1][now]
-                z[2 * n - 1 :] = force - self.resist
+            s = self._locate(z, s, force, h)
         if not final:
             self.prev = (z.copy(), s, self.sec, vbar)
         return s
 
+    def _locate(
+        self, z: NDArray[np.float64], s: float, force: NDArray[np.float64], h: float
+    ) -> float:
+        """Look the sections up; add the crossings since the last substep's start."""
+        n, track, plant, prev = self.n, self.track, self.plant, self.prev
+        p0, now = sections(plant.train, z, s, track)
+        if prev is not None and np.any(now != prev[2]):
+            # Crossings in the previous substep: add their exact effect.
+            fix = crossings(plant, h, prev, p0, z[:n], now, track)
+            z[: 2 * n - 1] += fix[: 2 * n - 1]
+            s += fix[2 * n - 1]
+            p0, now = sections(plant.train, z, s, track)
+        lo, hi = track[2][now], track[3][now]
+        self.budget = min(float((p0 - lo).min()), float((hi - p0).min()))
+        self.s_ref, self.d_ref = s, z[n : 2 * n - 1].copy()
+        if prev is None or np.any(now != self.sec):
+            self.sec = now
+            self.resist = plant.train.mass * track[1][now]
+            z[2 * n - 1 :] = force - self.resist
+        return s
 
 def linear_flow(
     plant: Plant,
