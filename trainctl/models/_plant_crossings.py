@@ -43,10 +43,11 @@ class SectionTracker:
     def __init__(self, plant: Plant, track: TrackArrays, s: float, z: NDArray[np.float64]):
         n = plant.train.n_vehicles
         self.plant, self.track, self.n = plant, track, n
-        self.sec = np.zeros(n, dtype=np.intp)
-        self.resist = np.zeros(n)
+        # All set by the first visit, which always looks the sections up (budget < 0).
+        self.sec: NDArray[np.intp] = np.empty(0, dtype=np.intp)
+        self.resist: NDArray[np.float64] = np.empty(0)
         """Line-resistance force of each vehicle in its section [N]."""
-        self.budget, self.s_ref, self.d_ref = -1.0, s, z[n : 2 * n - 1].copy()
+        self.budget, self.s_ref, self.d_ref = -1.0, s, z[n : 2 * n - 1]
         self.prev: _Start | None = None
 
     def visit(
@@ -59,8 +60,10 @@ class SectionTracker:
         when a section changed); the head position is returned.
         """
         n = self.n
-        moved = abs(s - self.s_ref) + float(np.abs(z[n : 2 * n - 1] - self.d_ref).sum())
-        if moved >= self.budget:
+        if self.budget < 0.0 or (
+            abs(s - self.s_ref) + float(np.abs(z[n : 2 * n - 1] - self.d_ref).sum())
+            >= self.budget
+        ):
             s = self._locate(z, s, force, h)
         if not final:
             self.prev = (z.copy(), s, self.sec, vbar)
