@@ -7,9 +7,9 @@ import json
 import numpy as np
 import pytest
 
+from trainctl.models import Plant
 from trainctl.run import run_scenario
 from trainctl.scenario import load_scenario
-from trainctl.sim.plant import Plant
 
 
 @pytest.fixture(scope="module")

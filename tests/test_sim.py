@@ -99,7 +99,7 @@ def replay_reference(plant: Plant, result: SimulationResult, rtol: float) -> np.
     ("dt", "duration", "kp", "start", "v_tol", "f_tol"),
     [
         # Measured here: max |Δv| / max v ≈ 1e-10 (T = 0.05 s) and 3e-10 (T = 20 s); max |Δf| /
-        # range(f) ≈ 5e-8 and 7e-7. Full 1200 s runs: ≈ 1e-9 and ≈ 5e-6 (see trainctl.sim.plant).
+        # range(f) ≈ 5e-8 and 7e-7. Full 1200 s runs: ≈ 1e-9 and ≈ 5e-6 (see trainctl.models.plant).
         (0.05, 40.0, 0.5, 900.0, 5e-9, 2e-6),
         (20.0, 120.0, 0.05, 300.0, 5e-9, 2e-5),
     ],

@@ -6,7 +6,7 @@ observer estimates the full state [v, delta, s] and an unknown specific-force
 disturbance r [m/s²] that acts on every vehicle alike — an unmodelled grade or
 a resistance error — with
 
-- a nonlinear predictor: the plant integrator of :mod:`trainctl.sim.plant`
+- a nonlinear predictor: the plant integrator :class:`trainctl.models.Plant`
   on the level-track model, driven by the applied forces minus m·r̂;
 - a steady-state Kalman gain from ``control.dlqe`` for the linear model at the
   cruise speed augmented with r as a random walk:
@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 from .._validation import check_positive
 from ..models.discrete import discretise
 from ..models.linear import linearise
+from ..models.plant import Plant
 from ..models.train import Train
 
 __all__ = ["KalmanObserver", "ObserverSettings"]
@@ -92,8 +93,6 @@ class KalmanObserver:
     """
 
     def __init__(self, train: Train, dt: float, speed: float, settings: ObserverSettings) -> None:
-        from ..sim.plant import Plant
-
         self.train, self.settings = train, settings
         self.dt = check_positive("KalmanObserver", "dt", dt)
         self.plant = Plant(train=train)

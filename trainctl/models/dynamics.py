@@ -12,7 +12,9 @@ position s [m]. Inputs are the traction (> 0) or braking (< 0) forces u [N].
 with coupler forces f_i = k_i delta_i + d_i (v_i - v_{i+1}) (f_{-1} = f_{n-1} = 0),
 vehicle positions p_i = s - sum_{j<i} (spacing_j + delta_j) and the line
 resistance r(p) of the track (grade and curves). The Davis law assumes
-forward running, v >= 0.
+forward running, v >= 0. The couplers and kinematic rows come from the one
+chain definition, :class:`~trainctl.models.Chain`; the traction split of
+:func:`equilibrium` from :class:`~trainctl.models.ForceSplit`.
 """
 
 from __future__ import annotations
@@ -24,8 +26,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_finite, check_positive
-from ..exceptions import DimensionError, ModelError
+from ..exceptions import DimensionError
 from ..units import permille_to_accel
+from .chain import train_chain
+from .feedforward import ALLOCATIONS, ForceSplit
 from .track import Track
 from .train import Train
 
@@ -37,10 +41,6 @@ __all__ = [
     "nonlinear_system",
     "train_rhs",
 ]
-
-ALLOCATIONS = ("shares", "own")
-"""Ways to spread the cruise traction over the vehicles (see :func:`equilibrium`)."""
-
 
 def coupler_forces(train: Train, state: ArrayLike) -> NDArray[np.float64]:
     """Coupler forces f = k*delta + d*(v_i - v_{i+1}) [N], tension positive.
@@ -65,13 +65,7 @@ def coupler_forces(train: Train, state: ArrayLike) -> NDArray[np.float64]:
     >>> coupler_forces(train, [80, 80, 80, 80, 1e-4, 0, 0]).round(1).tolist()
     [1048.8, 0.0, 0.0]
     """
-    x = np.asarray(state, dtype=float)
-    n = train.n_vehicles
-    v, delta = x[:n], x[n : 2 * n - 1]
-    shape = (-1,) + (1,) * (x.ndim - 1)
-    k = train.stiffness.reshape(shape)
-    d = train.damping.reshape(shape)
-    return k * delta + d * (v[:-1] - v[1:])
+    return train_chain(train).forces(state)
 
 
 def train_rhs(
@@ -124,14 +118,9 @@ def train_rhs(
     accel = u / m - (a0 + a1 * v + a2 * v * v)
     if track is not None and not track.is_flat:
         accel = accel - track.resistance_per_mass(_positions(train, x))
-    if n > 1:
-        f = coupler_forces(train, x)
-        accel[:-1] -= f / m[:-1]
-        accel[1:] += f / m[1:]
     out = np.empty((2 * n,) + np.broadcast_shapes(x.shape[1:], accel.shape[1:]))
     out[:n] = accel
-    out[n : 2 * n - 1] = v[:-1] - v[1:]
-    out[2 * n - 1] = v[0]
+    train_chain(train).couple(x, out)
     return out
 
 
@@ -294,24 +283,20 @@ def equilibrium(
     speed = check_positive("equilibrium", "speed", speed)
     accel = check_finite("equilibrium", "acceleration", acceleration)
     grade = check_finite("equilibrium", "grade_permille", grade_permille)
-    if allocation not in ALLOCATIONS:
-        raise ModelError(
-            f"equilibrium: 'allocation' must be one of {ALLOCATIONS} (got {allocation!r})."
-        )
-    resistance = train.mass * (train.davis[0] + train.davis[1] * speed + train.davis[2] * speed**2)
-    resistance = resistance + train.mass * (_line_resistance(train, grade, track, position) + accel)
-    inputs = resistance.copy() if allocation == "own" else _share_out(train, resistance)
-    forces = np.cumsum(inputs - resistance)[:-1]
-    forces[train.virtual] = 0.0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        elong = np.where(train.virtual, 0.0, forces / np.where(train.virtual, 1.0, train.stiffness))
+    split = ForceSplit(train, allocation=allocation, where="equilibrium")
+    # The acceleration joins the line resistance, m (davis + (line + a)): the order the
+    # equilibrium has always added them in.
+    extra = None
+    if track is not None or grade != 0.0 or accel != 0.0:
+        extra = _line_resistance(train, grade, track, position) + accel
+    q = split(np.array([speed]), np.zeros(1), extra)
     limits = np.array([v.envelope.traction_limit(speed, mass=v.mass) for v in train.vehicles])
     return Equilibrium(
         speed=speed,
-        inputs=inputs,
-        coupler_forces=forces,
-        elongations=elong,
-        resistance=resistance,
+        inputs=q.inputs[0],
+        coupler_forces=q.coupler_forces[0],
+        elongations=q.elongations[0],
+        resistance=q.resistance[0],
         traction_limit=limits,
     )
 
@@ -324,19 +309,3 @@ def _line_resistance(
     x = np.concatenate([np.zeros(train.n_vehicles), np.zeros(train.n_couplers), [position]])
     return track.resistance_per_mass(_positions(train, x))
 
-
-def _share_out(train: Train, resistance: NDArray[np.float64]) -> NDArray[np.float64]:
-    inputs = np.zeros_like(resistance)
-    shares = train.traction_share
-    for group in train.groups:
-        idx = np.array(group)
-        total_share = shares[idx].sum()
-        if total_share <= 0:
-            names = [train.vehicles[i].name for i in group]
-            raise ModelError(
-                f"equilibrium: vehicles {list(group)} ({names}) form a coupled group with no "
-                "traction (all traction_share are 0). Give one a traction_share > 0 or use "
-                "allocation='own'."
-            )
-        inputs[idx] = resistance[idx].sum() * shares[idx] / total_share
-    return inputs

@@ -6,7 +6,8 @@ speed [m/s] and coupler elongation [m] from the equilibrium), the input the
 force deviations u~ [N]. Because the couplers are linear springs the matrices
 do not depend on the static elongations; the equilibrium only enters the
 absolute coupler forces. The head position is left out: on level track it
-does not influence the dynamics.
+does not influence the dynamics. (A, B) are those of the chain,
+:class:`~trainctl.models.Chain`, with the Davis damping as speed damping.
 
 Two treatments of the quadratic Davis term are offered:
 
@@ -26,6 +27,7 @@ from numpy.typing import NDArray
 
 from .._validation import check_positive
 from ..exceptions import ModelError
+from .chain import Chain
 from .train import Train
 
 __all__ = ["LINEARISATIONS", "OUTPUT_GROUPS", "linear_matrices", "linearise", "resistance_damping"]
@@ -101,23 +103,8 @@ def linear_matrices(
     >>> A.shape, B.shape
     ((7, 7), (7, 4))
     """
-    n = train.n_vehicles
-    m = train.mass
     damp = resistance_damping(train, speed, method)
-    nx = 2 * n - 1 + int(dummy_state)
-    A = np.zeros((nx, nx))
-    B = np.zeros((nx, n))
-    A[np.arange(n), np.arange(n)] = -damp
-    B[np.arange(n), np.arange(n)] = 1.0 / m
-    for i, (k, d) in enumerate(zip(train.stiffness, train.damping, strict=True)):
-        front, rear, col = i, i + 1, n + i
-        # Force f_i = k delta_i + d (v_i - v_{i+1}) pulls the front back, the rear forward.
-        for row, sign in ((front, -1.0), (rear, 1.0)):
-            A[row, col] += sign * k / m[row]
-            A[row, front] += sign * d / m[row]
-            A[row, rear] -= sign * d / m[row]
-        A[col, front] = 1.0
-        A[col, rear] = -1.0
+    A, B = Chain.from_train(train, damp, dummy_state=dummy_state).matrices()
     return A, B
 
 

@@ -10,11 +10,11 @@ Importing this package loads neither pandas nor :mod:`trainctl.plot`; they are
 imported when a view needs them.
 """
 
+from ..models.plant import Plant as Plant
 from .closed_loop import HOLD_FALLBACK as HOLD_FALLBACK
 from .closed_loop import simulate as simulate
 from .metrics import Metrics as Metrics
 from .metrics import compute_metrics as compute_metrics
-from .plant import Plant as Plant
 from .reference import Reference as Reference
 from .reference import SpeedProfile as SpeedProfile
 from .reference import ramp_profile as ramp_profile

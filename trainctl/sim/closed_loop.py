@@ -31,7 +31,7 @@ from .._validation import check_nonnegative, check_positive
 from ..controllers.base import Controller, Measurement, StepRecord
 from ..exceptions import DimensionError, ModelError
 from ..models.dynamics import coupler_forces
-from .plant import Plant
+from ..models.plant import Plant
 from .reference import Reference
 from .results import SimulationResult, environment
 

@@ -48,6 +48,7 @@ from numpy.typing import NDArray
 
 from ...analysis.mpc import MPCDesign, Prediction, prediction
 from ...exceptions import ModelError
+from ...models.feedforward import ForceSplit
 from ...models.train import Train
 from ...models.vehicle import TractionEnvelope, _limit
 from ..base import Measurement, ReferencePreview, StepRecord
@@ -188,13 +189,7 @@ class MPCController:
         Built before the blocks, which locate their parameters in the source layout.
         """
         train, n, M, P = self.train, self.n, self.M, self.P
-        shares = train.traction_share
-        self._ff_groups = [(idx, shares[idx] / shares[idx].sum()) for idx in self._groups]
-        self._stiff = np.where(train.virtual, 1.0, train.stiffness)
-        self._any_virtual = bool(train.virtual.any())
-        davis = train.davis
-        self._davis = (tuple(float(a) for a in davis[:, 0])
-                       if bool(np.all(davis == davis[:, :1])) else None)
+        self._split = ForceSplit(train, where=self.name)
         # Envelopes evaluated for all vehicles at once when they are all the stock envelope
         # (the function of TractionEnvelope.braking_limit/traction_limit, broadcast over
         # [braking; traction] x moves x vehicles).
@@ -403,39 +398,13 @@ class MPCController:
     def _feedforward(self, speeds: Array, accels: Array) -> tuple[Array, Array, Array]:
         """Quasi-static inputs [kN], coupler forces [kN] and first elongations [m].
 
-        Vectorised over the preview: the same allocation as
-        :func:`trainctl.models.equilibrium` (traction shares within each
-        physically coupled group; level track), for every (speed, acceleration).
+        Vectorised over the preview: :class:`trainctl.models.ForceSplit`, the
+        split :func:`trainctl.models.equilibrium` uses (traction shares within
+        each physically coupled group; level track), for every (speed, acceleration).
         """
-        train = self.train
         v = np.maximum(np.asarray(speeds, dtype=float), 0.1)
-        accels = np.asarray(accels, dtype=float)
-        if self._davis is not None:  # per unit mass, the same for every vehicle
-            a0, a1, a2 = self._davis
-            need = np.multiply.outer(a0 + a1 * v + a2 * v * v + accels, train.mass)
-        else:
-            a0v, a1v, a2v = train.davis
-            column = v[:, None]
-            need = train.mass * (a0v + a1v * column + a2v * column * column + accels[:, None])
-        # np.add.reduce/accumulate are what sum/cumsum call, without their Python wrappers.
-        # Each group's columns are gathered (a copy) before the sum: summing a view of 8 or
-        # more columns adds in another order, which rounds differently.
-        if len(self._ff_groups) == 1:
-            group, share = self._ff_groups[0]
-            inputs = np.add.reduce(need[:, group], axis=1, keepdims=True) * share
-        else:
-            inputs = np.empty_like(need)
-            for group, share in self._ff_groups:
-                inputs[:, group] = np.add.reduce(need[:, group], axis=1, keepdims=True) * share
-        np.subtract(inputs, need, out=need)  # need is not used again
-        forces = np.add.accumulate(need, axis=1, out=need)[:, :-1]
-        if self._any_virtual:
-            virtual = train.virtual
-            forces[:, virtual] = 0.0
-            elong = np.where(virtual, 0.0, forces[0] / self._stiff)
-        else:
-            elong = forces[0] / self._stiff
-        return inputs / KN, forces / KN, elong
+        ff = self._split(v, accels)
+        return ff.inputs / KN, ff.coupler_forces / KN, ff.elongations[0]
 
     def _bounds(self, speeds: Array) -> tuple[Array, Array]:
         """Absolute input bounds (lb, ub) [kN] at the previewed speeds, moves x vehicles."""

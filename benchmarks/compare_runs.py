@@ -1,0 +1,152 @@
+# Compare the saved simulations of two sets of `trainctl analyse --save` runs.
+"""Check that two sets of saved runs agree: bit-identical, or to 1e-12 relative.
+
+Usage::
+
+    python benchmarks/compare_runs.py BASE_DIR NEW_DIR [--rtol 1e-12]
+
+``BASE_DIR`` and ``NEW_DIR`` each hold one directory per scenario, as written
+by ``trainctl analyse NAME --save DIR/NAME``. For every scenario directory of
+``BASE_DIR`` and every strategy under its ``simulations/``, every array of
+``arrays.npz`` is compared with the same array of ``NEW_DIR``, and so are the
+per-step Jacobi residuals, statuses and fallbacks of ``result.json``. Wall-clock
+arrays (``solve_times``) are skipped.
+
+Each array is reported as ``identical`` (equal values, NaNs in the same places)
+or with its maximum relative difference: per signal (row of a 2-D array; a 1-D
+array is one signal) max |new - base| / max |base|, then the largest over the
+signals. A difference above ``--rtol`` (default 1e-12), a changed shape, or a
+missing scenario, strategy or array is a mismatch.
+
+Exit status: 0 when everything agrees, 1 on any mismatch, 2 on a usage error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+WALL_CLOCK = frozenset({"solve_times"})
+"""Arrays holding wall-clock times, which differ between any two runs."""
+
+
+def relative_difference(base: np.ndarray, new: np.ndarray) -> float:
+    """Largest per-signal max |new - base| / max |base| (0 where both are all zero)."""
+    b = np.atleast_2d(np.asarray(base, dtype=float))
+    c = np.atleast_2d(np.asarray(new, dtype=float))
+    b = b.reshape(b.shape[0], -1)
+    c = c.reshape(c.shape[0], -1)
+    worst = 0.0
+    for row_b, row_c in zip(b, c, strict=True):
+        both_nan = np.isnan(row_b) & np.isnan(row_c)
+        diff = np.where(both_nan, 0.0, np.abs(row_c - row_b))
+        if np.any(np.isnan(diff)):
+            return float("inf")
+        scale = float(np.nanmax(np.abs(row_b), initial=0.0))
+        peak = float(diff.max(initial=0.0))
+        if peak == 0.0:
+            continue
+        worst = max(worst, peak / scale if scale > 0.0 else float("inf"))
+    return worst
+
+
+def compare_array(name: str, base: np.ndarray, new: np.ndarray, rtol: float) -> tuple[str, bool]:
+    """One report line for an array and whether it passes."""
+    if base.shape != new.shape:
+        return f"{name}: shape {base.shape} -> {new.shape}  MISMATCH", False
+    if np.array_equal(base, new, equal_nan=bool(base.dtype.kind == "f")):
+        return f"{name}: identical", True
+    rel = relative_difference(base, new)
+    ok = rel <= rtol
+    return f"{name}: max relative difference {rel:.3e}{'' if ok else '  MISMATCH'}", ok
+
+
+def _residuals(result: dict) -> np.ndarray:
+    """The ragged per-step residual lists as one flat array (lengths checked separately)."""
+    steps = result.get("residuals") or []
+    return np.array([r for step in steps for r in step], dtype=float)
+
+
+def compare_strategy(base: Path, new: Path, rtol: float) -> tuple[list[str], bool]:
+    """Report lines for one strategy directory and whether all of it passes."""
+    if not (new / "arrays.npz").is_file():
+        return [f"  missing {new / 'arrays.npz'}  MISMATCH"], False
+    lines: list[str] = []
+    ok = True
+    with np.load(base / "arrays.npz") as b, np.load(new / "arrays.npz") as c:
+        for name in sorted(set(b.files) | set(c.files)):
+            if name in WALL_CLOCK:
+                lines.append(f"  {name}: skipped (wall clock)")
+                continue
+            if name not in b.files or name not in c.files:
+                lines.append(f"  {name}: only in {'new' if name in c.files else 'base'}  MISMATCH")
+                ok = False
+                continue
+            line, good = compare_array(name, b[name], c[name], rtol)
+            lines.append(f"  {line}")
+            ok &= good
+    rb = json.loads((base / "result.json").read_text())
+    rc = json.loads((new / "result.json").read_text())
+    for key in ("statuses", "fallbacks"):
+        same = rb.get(key) == rc.get(key)
+        lines.append(f"  {key}: {'identical' if same else 'differ  MISMATCH'}")
+        ok &= same
+    lengths_b = [len(r) for r in rb.get("residuals") or []]
+    lengths_c = [len(r) for r in rc.get("residuals") or []]
+    if lengths_b != lengths_c:
+        lines.append("  residuals: iteration counts differ  MISMATCH")
+        ok = False
+    else:
+        line, good = compare_array("residuals", _residuals(rb), _residuals(rc), rtol)
+        lines.append(f"  {line}")
+        ok &= good
+    return lines, ok
+
+
+def compare_runs(base_dir: Path, new_dir: Path, rtol: float) -> tuple[list[str], bool]:
+    """Report lines for every scenario and strategy of ``base_dir`` and the overall verdict."""
+    lines: list[str] = []
+    ok = True
+    scenarios = sorted(p for p in base_dir.iterdir() if p.is_dir())
+    for scenario in scenarios:
+        sims = scenario / "simulations"
+        strategies = sorted(p for p in sims.iterdir() if p.is_dir()) if sims.is_dir() else []
+        count = f"{len(strategies)} strateg{'y' if len(strategies) == 1 else 'ies'}"
+        lines.append(f"{scenario.name}: {count}")
+        if not (new_dir / scenario.name).is_dir():
+            lines.append(f"  missing {new_dir / scenario.name}  MISMATCH")
+            ok = False
+            continue
+        for strategy in strategies:
+            lines.append(f" {strategy.name}")
+            new = new_dir / scenario.name / "simulations" / strategy.name
+            more, good = compare_strategy(strategy, new, rtol)
+            lines += more
+            ok &= good
+    return lines, ok
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command-line entry point; returns the exit status."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("base", type=Path, help="directory of the baseline scenario runs")
+    parser.add_argument("new", type=Path, help="directory of the runs to check")
+    parser.add_argument("--rtol", type=float, default=1e-12,
+                        help="largest admissible relative difference")
+    args = parser.parse_args(argv)
+    for path in (args.base, args.new):
+        if not path.is_dir():
+            parser.error(f"{path} is not a directory")
+    lines, ok = compare_runs(args.base, args.new, args.rtol)
+    print("\n".join(lines))
+    verdict = "OK: all arrays agree" if ok else f"FAIL: differences above {args.rtol:g} or missing"
+    print(verdict)
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,141 @@
+# Exact linear steps of the plant's splitting integrator (private to models.plant).
+"""The propagators of :class:`trainctl.models.Plant`: exact steps of the linear part.
+
+Over a substep of length h the plant's linear part x' = A(v̄) x + B F (the
+chain of :mod:`trainctl.models.chain` with the quadratic drag linearised about
+the grid speed v̄) is solved exactly: [Φ | Γ] = the top rows of
+expm([[A, B], [0, 0]] h), one ``scipy.linalg.expm``, cached per (h, v̄) on the
+plant (:func:`propagator`). On a track the crossings also need the flow over
+any t <= h, built from the binary ladder h/2^j (:func:`ladder`). The quadratic
+drag's remainder -a2 (v - v̄)² has the exact flow :func:`drag_flow`.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, TypeVar
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from .plant import Plant
+
+__all__ = [
+    "CACHE_BYTES", "LADDER_LEVELS", "LRU", "Propagator", "TrackArrays", "augmented_expm",
+    "drag_flow", "grid_speed", "ladder", "matrix_a", "propagator",
+]
+
+LADDER_LEVELS = 4
+"""Binary levels h/2^j, j = 0..4, used to build the flow over any t in [0, h]."""
+
+SPEED_GRID = 2.0
+"""Grid [m/s] of the speeds vbar about which the quadratic drag is linearised."""
+
+CACHE_BYTES = 1 << 27
+"""Byte budget of each propagator cache (128 MiB); least recently used entries go first."""
+
+_T = TypeVar("_T")
+
+TrackArrays = tuple[
+    NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]
+]
+
+
+def grid_speed(speed: float) -> float:
+    """The grid speed nearest ``speed`` [m/s]."""
+    return float(SPEED_GRID * round(speed / SPEED_GRID))
+
+
+def drag_flow(z: NDArray[np.float64], n: int, ta2: NDArray[np.float64], vbar: float) -> None:
+    """Exact flow of dv/dt = -a2 (v - vbar)² over t [s], in place on z[:n]; ta2 = t·a2."""
+    w = z[:n] - vbar
+    z[:n] = vbar + w / (1.0 + ta2 * w)
+
+
+@dataclass(frozen=True)
+class Propagator:
+    """Exact linear step of length h about speed vbar on ``[v, delta, s]`` with forcing F [N]."""
+
+    step: NDArray[np.float64]
+    """[Φ | Γ] restricted to columns [v, delta, F], (2n, 3n-1); the last row is the
+    increment of s (its own column, e_s, is left out so that s is added exactly)."""
+
+
+class LRU(OrderedDict[tuple[float, float], _T]):
+    """A small least-recently-used cache with a byte budget."""
+
+    def __init__(self, budget: int = 1 << 27) -> None:
+        super().__init__()
+        self.budget = budget
+        self.limit = 1 << 30
+
+    def fetch(self, key: tuple[float, float]) -> _T | None:
+        value = self.get(key)
+        if value is not None:
+            self.move_to_end(key)
+        return value
+
+    def store(self, key: tuple[float, float], value: _T, nbytes: int) -> None:
+        self.limit = max(2, self.budget // max(nbytes, 1))
+        self[key] = value
+        while len(self) > self.limit:
+            self.popitem(last=False)
+
+
+def matrix_a(plant: Plant, vbar: float) -> NDArray[np.float64]:
+    """A with the quadratic drag linearised about vbar: -(a1 + 2 a2 vbar) on the v rows."""
+    A = plant._linear[0]
+    if vbar == 0.0:
+        return A
+    n = plant.train.n_vehicles
+    A = A.copy()
+    A[np.arange(n), np.arange(n)] -= 2.0 * vbar * plant.train.davis[2]
+    return A
+
+
+def augmented_expm(plant: Plant, h: float, vbar: float) -> NDArray[np.float64]:
+    """expm([[A(vbar), B], [0, 0]] h), shape (3n, 3n)."""
+    B = plant._linear[1]
+    n = plant.train.n_vehicles
+    M = np.zeros((3 * n, 3 * n))
+    M[: 2 * n, : 2 * n] = matrix_a(plant, vbar)
+    M[: 2 * n, 2 * n :] = B
+    return np.asarray(scipy.linalg.expm(M * h))
+
+
+def propagator(plant: Plant, h: float, vbar: float) -> Propagator:
+    """The exact step of length h about vbar (cached on the plant)."""
+    cached = plant._cache.fetch((h, vbar))
+    if cached is not None:
+        return cached
+    n = plant.train.n_vehicles
+    track = plant._track_arrays
+    if track is not None and track[0].size > 1:
+        E = ladder(plant, h, vbar)[0]  # crossings will need the ladder anyway
+    else:
+        E = augmented_expm(plant, h, vbar)[: 2 * n]
+    # Drop the s column: A has a zero s column, so Φ[:, s] = e_s exactly.
+    cols = np.r_[0 : 2 * n - 1, 2 * n : 3 * n]
+    prop = Propagator(step=np.ascontiguousarray(E[:, cols]))
+    plant._cache.store((h, vbar), prop, prop.step.nbytes)
+    return prop
+
+
+def ladder(plant: Plant, h: float, vbar: float) -> NDArray[np.float64]:
+    """[Φ | Γ] for durations h/2^j, j = 0..L, shape (L+1, 2n, 3n)."""
+    cached = plant._ladders.fetch((h, vbar))
+    if cached is not None:
+        return cached
+    n = plant.train.n_vehicles
+    levels = np.empty((LADDER_LEVELS + 1, 2 * n, 3 * n))
+    levels[LADDER_LEVELS] = augmented_expm(plant, h / 2.0**LADDER_LEVELS, vbar)[: 2 * n]
+    for j in range(LADDER_LEVELS - 1, -1, -1):
+        # [Φ | Γ] over 2t: [Φ², ΦΓ + Γ].
+        finer = levels[j + 1]
+        np.matmul(finer[:, : 2 * n], finer, out=levels[j])
+        levels[j, :, 2 * n :] += finer[:, 2 * n :]
+    plant._ladders.store((h, vbar), levels, levels.nbytes)
+    return levels
