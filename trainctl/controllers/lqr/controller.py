@@ -2,8 +2,9 @@
 """The LQR controller: u = u_ff(v_ref, a_ref) - K x̃, saturated to the envelope.
 
 x̃ = [v - v_ref; delta - delta_ff] is the deviation from the quasi-static
-feedforward of the reference (:func:`trainctl.models.equilibrium` with the
-reference speed and acceleration, traction shares within coupled groups); the
+feedforward of the reference (:class:`~trainctl.models.feedforward.ForceSplit`
+at the reference speed and acceleration, traction shares within coupled
+groups, as :func:`trainctl.models.equilibrium` and the MPC use); the
 gain K acts in design units (inputs in kN). With ``input_bounds`` each
 vehicle's force is clipped to its traction/braking envelope at its measured
 speed, so the controller never asks for more than the vehicle has.
@@ -17,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...exceptions import DimensionError, ModelError
-from ...models.dynamics import equilibrium
+from ...models.feedforward import ForceSplit
 from ...models.train import Train
 from ..base import Measurement, ReferencePreview, StepRecord
 
@@ -73,6 +74,7 @@ class LQRController:
             raise ModelError(f"LQRController: 'dt' must be > 0 (got {dt!r}).")
         self.train, self.gain, self.dt = train, K, float(dt)
         self.input_bounds, self.name = bool(input_bounds), name
+        self._split = ForceSplit(train, where=name)
 
     def reset(self) -> None:
         """Nothing to forget: the law is static."""
@@ -84,10 +86,10 @@ class LQRController:
             raise ModelError(f"{self.name}: needs full-state measurement (got state=None).")
         train, n = self.train, self.train.n_vehicles
         speed = float(reference.speed[0])
-        ff = equilibrium(train, max(speed, 0.1), acceleration=float(reference.acceleration[0]))
+        ff = self._split([max(speed, 0.1)], [float(reference.acceleration[0])])
         x = np.asarray(measurement.state, dtype=float)
-        deviation = np.concatenate([x[:n] - speed, x[n:2 * n - 1] - ff.elongations])
-        inputs = ff.inputs - KN * (self.gain @ deviation)
+        deviation = np.concatenate([x[:n] - speed, x[n:2 * n - 1] - ff.elongations[0]])
+        inputs = ff.inputs[0] - KN * (self.gain @ deviation)
         saturated = 0
         if self.input_bounds:
             low, high = _envelope(train, x[:n])
