@@ -39,6 +39,7 @@ __all__ = ["STATUSES", "Check", "DesignReview", "design_model", "review_design"]
 
 STATUSES = ("pass", "warn", "fail")
 """Check statuses, from best to worst."""
+MODEL_CHECK_NAMES = ("open_loop_stability", "controllability", "observability", "sampling", "input_collapse")  # noqa: E501
 
 KN = 1e3
 """Newtons per kilonewton: inputs and coupler forces are in kN in the design model."""

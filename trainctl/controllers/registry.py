@@ -183,7 +183,7 @@ def get_family(name: str) -> ControllerFamily:
         )
     family = import_module(FAMILY_MODULES[name]).FAMILY
     _LOADED[name] = family
-    return family  # type: ignore[no-any-return]
+    return family
 
 
 def register_family(family: ControllerFamily) -> None:

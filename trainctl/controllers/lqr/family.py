@@ -26,7 +26,9 @@ class LQRFamily:
     @property
     def settings(self) -> type[Any]:
         """The schema of the family's ``[controller]`` table."""
-        raise NotImplementedError
+        from .settings import LQRSettings
+
+        return LQRSettings
 
 
 FAMILY = LQRFamily()
