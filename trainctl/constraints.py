@@ -160,6 +160,10 @@ def _fmt(x: float) -> str:
     return f"{x:g}"
 
 
+def _or(items: Sequence[str]) -> str:
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " or " + items[-1]
+
+
 class Rule:
     """Base class: Annotated metadata that pydantic enforces and trainctl words.
 
@@ -174,6 +178,11 @@ class Rule:
     def plural(self) -> str:
         """The items of an array of such values, e.g. ``"numbers >= 0"``."""
         return self.want()
+
+    def doc_type(self) -> str:
+        """The type column of the documentation, e.g. ``"number > 0"`` (Markdown)."""
+        want = self.want()
+        return want.split(" ", 1)[1] if want.startswith(("a ", "an ")) else want
 
     def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
         """The pydantic core schema that performs the check."""
@@ -342,6 +351,10 @@ class Flag(Rule):
         """Strict bool."""
         return core_schema.bool_schema(strict=True)
 
+    def doc_type(self) -> str:
+        """``"boolean"``."""
+        return "boolean"
+
 
 @dataclass(frozen=True)
 class Text(Rule):
@@ -390,6 +403,10 @@ class Choice(Rule):
         """A literal of the options (a string never equals a bool or number)."""
         return core_schema.literal_schema(list(self.options))
 
+    def doc_type(self) -> str:
+        """The options as TOML strings, e.g. ```"u"` or `"du"```."""
+        return _or([f'`"{o}"`' for o in self.options])
+
     def explain(self, error_type: str, value: Any) -> Violation:
         """Lists the options and suggests the closest."""
         return replace(
@@ -410,7 +427,7 @@ class NameList(Rule):
 
     options: tuple[str, ...] | Callable[[dict[str, Any] | None], tuple[str, ...]]
     noun: str = "name"
-    hint: str = ""
+    hint: str | Callable[[object], str] = ""
     single: bool = True
 
     def names(self, context: dict[str, Any] | None = None) -> tuple[str, ...]:
@@ -440,10 +457,10 @@ class NameList(Rule):
         """Each item is a known name, listed once."""
         context = info.context if info is not None else None
         names = self.names(context)
-        choice = Choice(names, hint=self.hint)
         for i, item in enumerate(value):
             if not isinstance(item, str) or item not in names:
-                raise_at((i,), choice.explain("literal_error", item), item)
+                hint = self.hint(item) if callable(self.hint) else self.hint
+                raise_at((i,), Choice(names, hint=hint).explain("literal_error", item), item)
             if item in value[:i]:
                 text = f"must not repeat an earlier {self.noun}"
                 raise_at((i,), Violation(text=text, got_text=f"{item!r} again",
@@ -453,6 +470,13 @@ class NameList(Rule):
     def explain(self, error_type: str, value: Any) -> Violation:
         """Not an array, or an empty one."""
         return Violation(text=f"must be {self.want()}", got=value)
+
+    def doc_type(self) -> str:
+        """An array of names, e.g. ``array of `"v"`, `"force"` ``."""
+        names = self.names()
+        return "non-empty array of distinct " + (
+            _or([f'`"{o}"`' for o in names]) if len(names) <= 6 else f"{self.noun} names"
+        )
 
     def json_extra(self) -> dict[str, Any]:
         """Items from the vocabulary, unique."""

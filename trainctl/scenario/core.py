@@ -149,7 +149,7 @@ def expectation_violation(check: str, families: Sequence[str]) -> Violation | No
         )
     return Violation(
         text=f"needs a controller of family {owners[0]!r}", got_text=", ".join(families),
-        hint=f" The check {check!r} runs only for a {owners[0]!r} design: add "
+        hint=f" The check {check!r} runs only for a design of family {owners[0]!r}: add "
         f"[controller.{owners[0]}] or remove the expectation.",
     )
 

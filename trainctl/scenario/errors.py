@@ -110,17 +110,22 @@ class _Table:
         return text
 
     def table_loc(self, loc: tuple[Any, ...]) -> tuple[Any, ...]:
-        """``loc`` if it names a table, else the table that holds it."""
-        if not loc or isinstance(loc[-1], int):
-            return loc
-        f = field_at(self.model, loc)
-        return loc if f is not None and table_kind(f) != "value" else loc[:-1]
+        """``loc`` if it names a table, else the table that holds the key or item."""
+        while loc:
+            *head, last = loc
+            f = field_at(self.model, tuple(head) if isinstance(last, int) else loc)
+            if f is not None and table_kind(f) != "value":
+                return loc
+            loc = tuple(head)
+        return loc
 
     def ref(self, table: tuple[Any, ...], name: str) -> str | None:
-        """The key path of field ``name`` of the table at ``table``."""
-        model = self.model if not table else _model_at(self.model, table)
-        if name in field_names(model):
-            return self.path((*table, name))
+        """The key path of field ``name`` of the table at ``table`` or of one around it."""
+        for depth in range(len(table), -1, -1):
+            here = table[:depth]
+            model = self.model if not here else _model_at(self.model, here)
+            if model is not None and name in field_names(model):
+                return self.path((*here, name))
         if self.settings is not None:
             raw = _lookup(self.doc, self.prefix)
             mapped = file_loc(self.settings, (name,), raw if isinstance(raw, Mapping) else {})
@@ -131,7 +136,7 @@ class _Table:
 
 def _model_at(model: type[BaseModel] | None, loc: tuple[Any, ...]) -> type[BaseModel] | None:
     f = field_at(model, loc)
-    return sub_model(f) if f is not None else model
+    return sub_model(f) if f is not None else None
 
 
 def describe(violation: Violation, table: _Table, loc: tuple[Any, ...]) -> str:

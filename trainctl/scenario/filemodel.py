@@ -178,6 +178,7 @@ def _make(name: str, fields: dict[str, Any], doc: str) -> type[BaseModel]:
         config["json_schema_extra"] = one_of_schema(*(keys for keys, _ in groups))
     model = create_model(name, __config__=config, __validators__=validators, **fields)
     model.__doc__ = doc.split("\n\n")[0] if doc else None
+    model.one_of_keys = tuple(keys for keys, _ in groups)
     return model
 
 
@@ -331,6 +332,8 @@ def table_kind(f: DeclaredField) -> str:
     rule = rule_of(f)
     if rule is not None and getattr(rule, "model", None) is not None:
         return "either"
+    if getattr(rule, "is_table", False):
+        return "table"
     annotation = f.info.annotation
     origin = typing.get_origin(annotation)
     if origin in (Union, types.UnionType):

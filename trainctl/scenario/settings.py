@@ -78,7 +78,15 @@ def _strategies(context: dict[str, Any] | None) -> tuple[str, ...]:
     return strategy_names()
 
 
-_STRATEGIES = NameList(_strategies, noun="strategy")
+def _qualified_hint(item: object) -> str:
+    """How to name another family's strategy, for a qualified name that is not offered."""
+    if not (isinstance(item, str) and "." in item):
+        return ""
+    return (f" A strategy of another controller family ({item!r}) needs that family's "
+            f"[controller.{item.split('.')[0]}] table.")
+
+
+_STRATEGIES = NameList(_strategies, noun="strategy", hint=_qualified_hint)
 _STRATEGY_LIST: TypeAdapter[tuple[str, ...]] = TypeAdapter(
     Annotated[tuple[str, ...], _STRATEGIES]
 )

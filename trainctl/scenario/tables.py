@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import typing
 from collections.abc import Mapping
-from typing import Annotated, Any
+from typing import Annotated, Any, ClassVar
 
 from pydantic import (
     ConfigDict,
@@ -77,6 +77,8 @@ _DAVIS_HINT = (" davis_n_per_kn_kmh is N/kN with V in km/h; davis_si is [a0 m/sÂ
 class TableRule(Rule):
     """A TOML table (its keys checked elsewhere)."""
 
+    is_table = True
+
     def want(self, *, python: bool = False) -> str:
         """``"a table"``."""
         return "a table"
@@ -132,6 +134,7 @@ class VehicleTable(FileTable):
     """A group of identical vehicles (``[[train.vehicle]]``)."""
 
     model_config = ConfigDict(**FileTable.model_config, json_schema_extra=one_of_schema(DAVIS_KEYS))
+    one_of_keys: ClassVar[tuple[tuple[str, ...], ...]] = (DAVIS_KEYS,)
 
     name: Annotated[str, Text(), Key("Label, e.g. 'T' (trailer) or 'M' (motor coach)")] = (
         "vehicle"

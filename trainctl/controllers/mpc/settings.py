@@ -121,6 +121,11 @@ class NeighbourhoodRule(Rule):
         names = ", ".join(repr(k) for k in NEIGHBOURHOODS)
         return f"one of {names} or {arrays} of coach indices, one per coach"
 
+    def doc_type(self) -> str:
+        """The named kinds or the explicit form, as TOML."""
+        return ('`"adjacent"`, `"all"`, `"self"` or an array of n arrays of distinct coach '
+                "indices (entry i contains i)")
+
     def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
         """Anything; :meth:`check` decides."""
         return core_schema.any_schema()
@@ -179,6 +184,10 @@ class CooperativeWeightsRule(Rule):
         """``'uniform'`` or an array of ``n`` numbers > 0 summing to 1."""
         count = f"{n} " if n else ""
         return f"'uniform' or an array of {count}numbers > 0 summing to 1, one per coach"
+
+    def doc_type(self) -> str:
+        """The name or the explicit form, as TOML."""
+        return '`"uniform"` or an array of n numbers > 0 summing to 1 (±1e-9)'
 
     def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
         """Anything; :meth:`check` decides."""
