@@ -10,9 +10,10 @@ path) and a value passed to a settings class from Python (a
 :class:`~trainctl.exceptions.ModelError`, see :mod:`trainctl.declare`).
 
 A failed rule raises a pydantic error of type ``"trainctl"`` whose context
-holds a :class:`Violation`: the predicate, the value given and a hint. Rules
-that span several fields (model validators) raise the same kind of error with
-:func:`fail`.
+holds a :class:`~trainctl.violations.Violation`: the predicate, the value
+given and a hint. Rules that span several fields (model validators) raise the
+same kind of error with :func:`~trainctl.violations.raise_at`; both are
+re-exported here.
 
 Examples
 --------
@@ -30,130 +31,25 @@ must be a number > 0
 
 from __future__ import annotations
 
-import difflib
 import math
 import numbers
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any, NoReturn
+from typing import Any
 
 from pydantic import GetCoreSchemaHandler, GetJsonSchemaHandler, ValidationError
 from pydantic.json_schema import JsonSchemaValue
-from pydantic_core import CoreSchema, InitErrorDetails, PydanticCustomError, core_schema
+from pydantic_core import CoreSchema, core_schema
 
-__all__ = [
-    "NOTHING",
-    "Array",
-    "Choice",
-    "Flag",
-    "Integer",
-    "NameList",
-    "Number",
-    "Rule",
-    "Text",
-    "Violation",
-    "fail",
-    "raise_at",
-    "suggest",
-]
+from .violations import ERROR_TYPE as ERROR_TYPE
+from .violations import NOTHING as NOTHING
+from .violations import Violation as Violation
+from .violations import fail as fail
+from .violations import raise_at as raise_at
+from .violations import suggest as suggest
 
-NOTHING: Any = type("Nothing", (), {"__repr__": lambda self: "NOTHING"})()
-"""Marker: no value to show in a message's ``(got ...)`` clause."""
-
-ERROR_TYPE = "trainctl"
-"""The pydantic error type of every trainctl rule violation."""
-
-
-@dataclass(frozen=True)
-class Violation:
-    """The words of one rule violation, before the key path is known.
-
-    Parameters
-    ----------
-    text : str
-        What must hold, e.g. ``"must be a number > 0"``; ``{name}`` refers to
-        the field ``name`` of the same table (rendered as its key path).
-    got : object
-        The value shown in ``(got ...)``; :data:`NOTHING` for no clause.
-    got_text : str
-        Literal text for the ``(got ...)`` clause instead of ``got``.
-    hint : str
-        Sentences after the message (how to fix it).
-    python_text : str
-        ``text`` for Python callers when the wording differs ("" = same).
-    file_hint : str
-        A hint shown for scenario files only.
-    value : bool
-        True when the key's own hint applies (a wrong value, not a wrong type);
-        False otherwise.
-    finite : bool
-        True when the value is not finite (a key that may be omitted says so).
-    where : bool
-        False when ``text`` is the whole message, without the key path in
-        front (``{name}`` references are still rendered).
-    """
-
-    text: str
-    got: Any = NOTHING
-    got_text: str = ""
-    hint: str = ""
-    python_text: str = ""
-    file_hint: str = ""
-    value: bool = True
-    finite: bool = False
-    where: bool = True
-
-
-def fail(violation: Violation) -> PydanticCustomError:
-    """The pydantic error carrying ``violation`` (raise it in a validator).
-
-    Parameters
-    ----------
-    violation : Violation
-        What is wrong.
-
-    Returns
-    -------
-    pydantic_core.PydanticCustomError
-        An error of type ``"trainctl"`` with the violation in its context.
-    """
-    context = {"text": violation.text, "violation": violation}
-    return PydanticCustomError(ERROR_TYPE, "{text}", context)
-
-
-def raise_at(loc: Sequence[str | int], violation: Violation, value: Any = None) -> NoReturn:
-    """Raise ``violation`` at ``loc`` below the value being validated.
-
-    Parameters
-    ----------
-    loc : sequence of str or int
-        Field names and item indices, relative to the value or model.
-    violation : Violation
-        What is wrong.
-    value : object
-        The offending input.
-
-    Raises
-    ------
-    pydantic.ValidationError
-        Always.
-    """
-    detail = InitErrorDetails(type=fail(violation), loc=tuple(loc), input=value)
-    raise ValidationError.from_exception_data(ERROR_TYPE, [detail])
-
-
-def suggest(word: object, choices: Iterable[str]) -> str:
-    """A "Did you mean" sentence for a near miss, or "".
-
-    Examples
-    --------
-    >>> suggest("tustn", ("zoh", "tustin"))
-    " Did you mean 'tustin'?"
-    """
-    if not isinstance(word, str):
-        return ""
-    close = difflib.get_close_matches(word, list(choices), n=1)
-    return f" Did you mean {close[0]!r}?" if close else ""
+__all__ = ["NOTHING", "Array", "Choice", "Flag", "Integer", "NameList", "Number", "Rule", "Text",
+           "Violation", "fail", "raise_at", "suggest"]
 
 
 def _fmt(x: float) -> str:
