@@ -48,8 +48,8 @@ from .violations import fail as fail
 from .violations import raise_at as raise_at
 from .violations import suggest as suggest
 
-__all__ = ["NOTHING", "Array", "Choice", "Flag", "Integer", "NameList", "Number", "Rule", "Text",
-           "Violation", "fail", "raise_at", "suggest"]
+__all__ = ["FINITE", "NONNEGATIVE", "NOTHING", "POSITIVE", "Array", "Choice", "Flag", "Integer",
+           "NameList", "Number", "Rule", "Text", "Violation", "fail", "raise_at", "suggest"]
 
 
 def _fmt(x: float) -> str:
@@ -160,6 +160,7 @@ class Number(Rule):
     ge: float | None = None
     le: float | None = None
     allow_inf: bool = False
+    inf: str = "no limit"
 
     def _range(self) -> str:
         low = self.gt if self.gt is not None else self.ge
@@ -176,7 +177,7 @@ class Number(Rule):
     def want(self, *, python: bool = False, finite: bool = False) -> str:
         """What a valid value is; ``finite`` (or a Python caller) says "finite"."""
         if self.allow_inf:
-            return f"a number{self._range()}, or inf for no limit"
+            return f"a number{self._range()}, or inf for {self.inf}"
         return f"a {'finite ' if finite or python else ''}number{self._range()}"
 
     def plural(self) -> str:
@@ -413,3 +414,13 @@ class Array(Rule):
     def json_extra(self) -> dict[str, Any]:
         """Extra keywords declared with the array."""
         return dict(self.extra)
+
+
+FINITE = Number()
+"""A finite number."""
+
+POSITIVE = Number(gt=0)
+"""A finite number > 0."""
+
+NONNEGATIVE = Number(ge=0)
+"""A finite number >= 0."""

@@ -27,10 +27,10 @@ import re
 import typing
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, TypeVar, dataclass_transform
+from typing import Annotated, Any, TypeVar, dataclass_transform
 
 import pydantic
-from pydantic import ConfigDict, GetJsonSchemaHandler, ValidationError
+from pydantic import ConfigDict, GetJsonSchemaHandler, TypeAdapter, ValidationError
 from pydantic.fields import FieldInfo
 from pydantic.json_schema import JsonSchemaValue
 from pydantic_core import CoreSchema, ErrorDetails
@@ -38,8 +38,8 @@ from pydantic_core import CoreSchema, ErrorDetails
 from .constraints import ERROR_TYPE, NOTHING, Rule, Violation
 from .exceptions import ModelError
 
-__all__ = ["Alt", "Key", "declared_fields", "first_error", "python_error", "render_refs",
-           "settings"]
+__all__ = ["Alt", "Key", "check_fields", "declared_fields", "first_error", "python_error",
+           "render_refs", "settings"]
 
 _T = TypeVar("_T")
 _SIGNATURE_ERRORS = {
@@ -286,3 +286,41 @@ def python_error(owner: str, exc: ValidationError, prefix: Sequence[str] = ()) -
     got = "" if v.got is NOTHING and not v.got_text else f" (got {v.got_text or repr(v.got)})"
     where = f"{python_path(loc)} " if loc else ""
     return ModelError(f"{owner}: {where}{text}{got}.{v.hint}")
+
+
+@functools.cache
+def _adapter(rule: Rule) -> TypeAdapter[Any]:
+    return TypeAdapter(Annotated[Any, rule])
+
+
+def check_fields(owner: str, obj: object, rules: Mapping[str, Rule]) -> None:
+    """Check attributes of ``obj`` against rules (a plain dataclass's ``__post_init__``).
+
+    Parameters
+    ----------
+    owner : str
+        The message's first words, e.g. ``"Vehicle 'T'"``.
+    obj : object
+        The object whose attributes are checked.
+    rules : mapping of str to Rule
+        Attribute name to rule.
+
+    Raises
+    ------
+    ModelError
+        For the first attribute that breaks its rule, worded by :func:`python_error`.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> from trainctl.constraints import POSITIVE
+    >>> check_fields("Car", SimpleNamespace(mass=-1.0), {"mass": POSITIVE})
+    Traceback (most recent call last):
+    ...
+    trainctl.exceptions.ModelError: Car: 'mass' must be a finite number > 0 (got -1.0).
+    """
+    for name, rule in rules.items():
+        try:
+            _adapter(rule).validate_python(getattr(obj, name))
+        except ValidationError as exc:
+            raise python_error(owner, exc, prefix=(name,)) from None

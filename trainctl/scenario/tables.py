@@ -39,7 +39,8 @@ from ..constraints import (
     raise_at,
 )
 from ..declare import Key
-from ..models.track import RESISTANCE_FORMULAS
+from ..models.track import SECTION_RULES, TRACK_RULES
+from ..models.vehicle import COUPLER_RULES, ENVELOPE_RULES, VEHICLE_RULES
 from ..units import (
     davis_book_literal,
     davis_from_unit_resistance_kmh,
@@ -65,11 +66,13 @@ __all__ = [
     "family_table",
 ]
 
+_ENVELOPE = {name: rule.for_file() for name, rule in ENVELOPE_RULES.items()}
+
 MAX_VEHICLES = 10_000
 """Longest train a scenario file may describe (vehicles after ``count``)."""
 
 DAVIS_KEYS = ("davis_n_per_kn_kmh", "davis_si", "davis_book_literal")
-_DAVIS = Array(Number(ge=0), length=3)
+_DAVIS = Array(VEHICLE_RULES["a0"], length=3)
 _DAVIS_HINT = (" davis_n_per_kn_kmh is N/kN with V in km/h; davis_si is [a0 m/s², a1 1/s, "
                "a2 1/m].")
 
@@ -140,9 +143,9 @@ class VehicleTable(FileTable):
         "vehicle"
     )
     count: Annotated[int, Integer(ge=1), Key("This many identical vehicles in a row")] = 1
-    mass_t: Annotated[float, Number(gt=0), Key(
+    mass_t: Annotated[float, VEHICLE_RULES["mass"], Key(
         "Mass", unit="t", to_si=tonnes_to_kg, si_unit="kg")]
-    length: Annotated[float, Number(gt=0), Key("Length over couplers", unit="m")] = 25.0
+    length: Annotated[float, VEHICLE_RULES["length"], Key("Length over couplers", unit="m")] = 25.0
     davis_n_per_kn_kmh: Annotated[tuple[float, ...] | None, _DAVIS, Key(
         "Unit running resistance c0 + c1 V + c2 V² (one of three Davis keys)",
         unit="N/kN, V in km/h", to_si=lambda c: davis_from_unit_resistance_kmh(*c),
@@ -154,21 +157,21 @@ class VehicleTable(FileTable):
         "Coefficients as printed in the book (one of three Davis keys; reproduction only)",
         unit="as printed", to_si=lambda c: davis_book_literal(*c), vector=True,
         si_text="used literally as a0, a1, a2")] = None
-    traction_share: Annotated[float, Number(ge=0), Key(
+    traction_share: Annotated[float, VEHICLE_RULES["traction_share"], Key(
         "Share of the cruise traction within its coupled group")] = 1.0
-    max_traction_kn: Annotated[float | None, Number(ge=0), Key(
+    max_traction_kn: Annotated[float | None, _ENVELOPE["max_traction"], Key(
         "Largest tractive force", unit="kN", to_si=kn_to_n, si_unit="N",
         omitted="no limit")] = None
-    max_power_kw: Annotated[float | None, Number(gt=0), Key(
+    max_power_kw: Annotated[float | None, _ENVELOPE["max_power"], Key(
         "Largest traction power at the wheel", unit="kW", to_si=kw_to_w, si_unit="W",
         omitted="no limit")] = None
-    max_braking_kn: Annotated[float | None, Number(ge=0), Key(
+    max_braking_kn: Annotated[float | None, _ENVELOPE["max_braking"], Key(
         "Largest braking force", unit="kN", to_si=kn_to_n, si_unit="N",
         omitted="no limit")] = None
-    max_braking_power_kw: Annotated[float | None, Number(gt=0), Key(
+    max_braking_power_kw: Annotated[float | None, _ENVELOPE["max_braking_power"], Key(
         "Largest braking power", unit="kW", to_si=kw_to_w, si_unit="W",
         omitted="no limit")] = None
-    adhesion: Annotated[float | None, Number(gt=0), Key(
+    adhesion: Annotated[float | None, _ENVELOPE["adhesion"], Key(
         "Adhesion coefficient mu", omitted="no limit")] = None
 
     @model_validator(mode="after")
@@ -187,10 +190,10 @@ class CouplerTable(FileTable):
                  "properties": {"stiffness_kn_per_m": {"exclusiveMinimum": 0}}},
     })
 
-    stiffness_kn_per_m: Annotated[float | None, Number(), Key(
+    stiffness_kn_per_m: Annotated[float | None, COUPLER_RULES["stiffness"], Key(
         "Spring stiffness k: > 0, required unless virtual (then 0 or omitted)", unit="kN/m",
         to_si=kn_per_m_to_n_per_m, si_unit="N/m")] = None
-    damping_kn_s_per_m: Annotated[float, Number(ge=0), Key(
+    damping_kn_s_per_m: Annotated[float, COUPLER_RULES["damping"], Key(
         "Viscous damping d (0 when virtual)", unit="kN·s/m", to_si=kn_s_per_m_to_n_s_per_m,
         si_unit="N·s/m")] = 0.0
     virtual: Annotated[bool, Flag(), Key(
@@ -216,20 +219,21 @@ class CouplerTable(FileTable):
 class SectionTable(FileTable):
     """A stretch of constant grade and curvature (``[[track.section]]``)."""
 
-    start: Annotated[float, Number(), Key(
+    start: Annotated[float, SECTION_RULES["start"], Key(
         "Where the section starts; it runs to the next section's start", unit="m")]
-    grade_permille: Annotated[float, Number(), Key("Grade, positive uphill", unit="‰")] = 0.0
-    curve_radius: Annotated[float | None, Number(gt=0), Key(
+    grade_permille: Annotated[float, SECTION_RULES["grade_permille"], Key(
+        "Grade, positive uphill", unit="‰")] = 0.0
+    curve_radius: Annotated[float | None, SECTION_RULES["curve_radius"].for_file(), Key(
         "Curve radius", unit="m", omitted="straight track")] = None
 
 
 class TrackTable(FileTable):
     """Grade and curvature along the line (``[track]``)."""
 
-    formula: Annotated[str, Choice(RESISTANCE_FORMULAS), Key(
+    formula: Annotated[str, TRACK_RULES["formula"], Key(
         "Line-resistance formula: TB/T unit resistances, or Ning et al. (2016) as printed"
     )] = "tbt"
-    wheelbase: Annotated[float, Number(gt=0), Key(
+    wheelbase: Annotated[float, TRACK_RULES["wheelbase"], Key(
         "Wheelset spacing, used by 'ning2016' for D = 0.5·wheelbase/R", unit="m")] = 1.83
     section: Annotated[list[SectionTable], Field(min_length=1), Key(
         "Sections in track order, starts strictly increasing")]
