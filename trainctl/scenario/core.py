@@ -76,6 +76,12 @@ def check_names(families: Sequence[str] | None = None) -> tuple[str, ...]:
     -------
     tuple of str
         Check names, without repeats.
+
+    Examples
+    --------
+    >>> check_names(["lqr"])
+    ('open_loop_stability', 'controllability', 'observability', 'sampling', 'input_collapse', \
+'lqr_closed_loop', 'lqr_decentralised_closed_loop')
     """
     names = [*model_check_names(), *(c for f in _families(families) for c in f.check_names)]
     return tuple(dict.fromkeys(names))
@@ -94,6 +100,12 @@ def strategy_names(families: Sequence[str] | None = None) -> tuple[str, ...]:
     -------
     tuple of str
         ``"ndmpc"`` for the primary family, ``"lqr.centralised"`` for another.
+
+    Examples
+    --------
+    >>> strategy_names(["mpc", "lqr"])
+    ('centralised', 'decentralised', 'ndmpc', 'cooperative', 'lqr.centralised', \
+'lqr.decentralised')
     """
     if families is None:
         known = _families()

@@ -117,6 +117,12 @@ def json_schema() -> dict[str, Any]:
     -------
     dict
         A JSON-serialisable schema: ``trainctl schema`` prints it.
+
+    Examples
+    --------
+    >>> speed = json_schema()["$defs"]["ModelSettings"]["properties"]["speed_kmh"]
+    >>> speed["unit"], speed["exclusiveMinimum"], speed["type"]
+    ('km/h', 0, 'number')
     """
     from ..controllers.registry import DEFAULT_FAMILY, family_names, get_family
 
