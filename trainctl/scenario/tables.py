@@ -263,7 +263,7 @@ class TrainTable(FileTable):
         "A preset of trainctl.models.presets (instead of vehicles and couplers)")] = None
     preset_options: Annotated[dict[str, Any] | None, TableRule(), Key(
         "Keyword arguments of the preset function (names are checked)")] = None
-    vehicle: Annotated[list[VehicleTable] | None, Key(
+    vehicle: Annotated[list[VehicleTable] | None, Field(min_length=1), Key(
         "Vehicle groups, head first (needed without a preset)")] = None
     coupler: Annotated[Any, TableOrTables(CouplerTable), Key(
         "One coupler for every link, or exactly n-1 couplers front to rear (n vehicles)")] = None
