@@ -367,12 +367,12 @@ class TestParameters:
         assert TractionEnvelope(max_traction=0.0).traction_limit(10.0, mass=1e3) == 0.0
 
     @pytest.mark.parametrize(("factory", "match"), [
-        (lambda: Vehicle(mass=-1.0, a0=0, a1=0, a2=0), "'mass' must be > 0"),
-        (lambda: Vehicle(mass=math.inf, a0=0, a1=0, a2=0), "'mass' must be finite"),
+        (lambda: Vehicle(mass=-1.0, a0=0, a1=0, a2=0), "'mass' must be a finite number > 0"),
+        (lambda: Vehicle(mass=math.inf, a0=0, a1=0, a2=0), "'mass' must be a finite number"),
         (lambda: Coupler(stiffness=0.0), "'stiffness' must be > 0"),
         (lambda: Coupler(stiffness=1.0, virtual=True), "virtual link transmits no force"),
         (lambda: Train(vehicles=(crh2_half().vehicles[0],) * 2, couplers=()), "needs 1 couplers"),
-        (lambda: TractionEnvelope(max_power=0.0), "'max_power' must be > 0"),
+        (lambda: TractionEnvelope(max_power=0.0), "'max_power' must be a number > 0, or inf"),
         (
             lambda: Track(sections=(TrackSection(start=5.0), TrackSection(start=1.0))),
             "increase strictly",

@@ -5,6 +5,8 @@ Subcommands
 -----------
 ``list``
     One line per built-in scenario: its name and description.
+``schema [--markdown]``
+    The JSON Schema of scenario files (or the README's schema tables).
 ``export NAME [-o PATH] [--force]``
     Write a built-in scenario's TOML text to ``PATH`` (default ``./NAME.toml``).
 ``analyse SCENARIO [--json] [--strict] [--no-simulate] [--jobs N] [--save DIR]``
@@ -85,6 +87,18 @@ def build_parser() -> argparse.ArgumentParser:
 
     p_list = sub.add_parser("list", help="list the built-in scenarios")
     p_list.set_defaults(func=_cmd_list)
+
+    p_schema = sub.add_parser(
+        "schema",
+        help="print the JSON Schema of scenario files",
+        description="Print the JSON Schema (draft 2020-12) of scenario files, generated from "
+        "the key declarations; editors that validate TOML against a JSON Schema use it.",
+    )
+    p_schema.add_argument(
+        "--markdown", action="store_true",
+        help="print the schema tables of analyses/README.md instead",
+    )
+    p_schema.set_defaults(func=_cmd_schema)
 
     p_export = sub.add_parser(
         "export",
@@ -254,6 +268,18 @@ def _cmd_list(args: argparse.Namespace) -> int:
     for item in scenarios:
         description = " ".join(str(item.description).split())
         print(f"{item.name:<{width}}  {description}".rstrip())
+    return EXIT_OK
+
+
+def _cmd_schema(args: argparse.Namespace) -> int:
+    if args.markdown:
+        from .scenario.docs import markdown_text
+
+        print(markdown_text(), end="")
+    else:
+        from .scenario import json_schema
+
+        print(json.dumps(json_schema(), indent=2, ensure_ascii=False))
     return EXIT_OK
 
 

@@ -40,6 +40,7 @@ MODEL_CHECK_NAMES = (
 
 STATUSES = ("pass", "warn", "fail")
 """Check statuses, from best to worst."""
+MODEL_CHECK_NAMES = ("open_loop_stability", "controllability", "observability", "sampling", "input_collapse")  # noqa: E501
 
 KN = 1e3
 """Newtons per kilonewton: inputs and coupler forces are in kN in the design model."""

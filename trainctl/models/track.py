@@ -23,14 +23,25 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_finite, check_positive
+from ..constraints import FINITE, POSITIVE, Choice, Number, Rule
+from ..declare import check_fields
 from ..exceptions import ModelError
 from ..units import GRAVITY
 
-__all__ = ["RESISTANCE_FORMULAS", "Track", "TrackSection"]
+__all__ = ["RESISTANCE_FORMULAS", "SECTION_RULES", "TRACK_RULES", "Track", "TrackSection"]
 
 RESISTANCE_FORMULAS = ("tbt", "ning2016")
 """Names of the supported line-resistance formulas."""
+
+SECTION_RULES: dict[str, Rule] = {
+    "start": FINITE,
+    "grade_permille": FINITE,
+    "curve_radius": Number(gt=0, allow_inf=True, inf="straight track"),
+}
+"""The rule of each :class:`TrackSection` field (also used by scenario files)."""
+
+TRACK_RULES: dict[str, Rule] = {"formula": Choice(RESISTANCE_FORMULAS), "wheelbase": POSITIVE}
+"""The rule of each :class:`Track` setting (also used by scenario files)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -57,14 +68,7 @@ class TrackSection:
     curve_radius: float = math.inf
 
     def __post_init__(self) -> None:
-        check_finite("TrackSection", "start", self.start)
-        check_finite("TrackSection", "grade_permille", self.grade_permille)
-        radius = float(self.curve_radius)
-        if math.isnan(radius) or radius <= 0:
-            raise ModelError(
-                f"TrackSection: 'curve_radius' must be > 0, or inf for straight track "
-                f"(got {self.curve_radius!r})."
-            )
+        check_fields("TrackSection", self, SECTION_RULES)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -101,11 +105,7 @@ class Track:
             raise ModelError(
                 f"Track: section starts must increase strictly (got {starts})."
             )
-        if self.formula not in RESISTANCE_FORMULAS:
-            raise ModelError(
-                f"Track: 'formula' must be one of {RESISTANCE_FORMULAS} (got {self.formula!r})."
-            )
-        check_positive("Track", "wheelbase", self.wheelbase)
+        check_fields("Track", self, TRACK_RULES)
 
     @property
     def is_flat(self) -> bool:

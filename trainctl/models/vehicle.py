@@ -15,11 +15,38 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_finite, check_nonnegative, check_positive
+from ..constraints import FINITE, NONNEGATIVE, POSITIVE, Number, Rule
+from ..declare import check_fields
 from ..exceptions import ModelError
 from ..units import GRAVITY
 
-__all__ = ["Coupler", "TractionEnvelope", "Vehicle"]
+__all__ = ["COUPLER_RULES", "ENVELOPE_RULES", "VEHICLE_RULES", "Coupler", "TractionEnvelope",
+           "Vehicle"]
+
+_FORCE_LIMIT = Number(ge=0, allow_inf=True)
+_POWER_LIMIT = Number(gt=0, allow_inf=True)
+
+ENVELOPE_RULES: dict[str, Rule] = {
+    "max_traction": _FORCE_LIMIT,
+    "max_power": _POWER_LIMIT,
+    "max_braking": _FORCE_LIMIT,
+    "max_braking_power": _POWER_LIMIT,
+    "adhesion": _POWER_LIMIT,
+}
+"""The rule of each :class:`TractionEnvelope` field (also used by scenario files)."""
+
+VEHICLE_RULES: dict[str, Rule] = {
+    "mass": POSITIVE,
+    "a0": NONNEGATIVE,
+    "a1": NONNEGATIVE,
+    "a2": NONNEGATIVE,
+    "length": POSITIVE,
+    "traction_share": NONNEGATIVE,
+}
+"""The rule of each numeric :class:`Vehicle` field (also used by scenario files)."""
+
+COUPLER_RULES: dict[str, Rule] = {"stiffness": FINITE, "damping": NONNEGATIVE, "spacing": POSITIVE}
+"""The rule of each :class:`Coupler` field; a physical coupler's stiffness is also > 0."""
 
 _MIN_SPEED = 0.1
 """Speed below which the power limit P/v is evaluated at this speed [m/s]."""
@@ -62,17 +89,7 @@ class TractionEnvelope:
     adhesion: float = math.inf
 
     def __post_init__(self) -> None:
-        where = "TractionEnvelope"
-        for name in ("max_traction", "max_braking"):
-            value = float(getattr(self, name))
-            if math.isnan(value) or value < 0:
-                raise ModelError(f"{where}: {name!r} must be >= 0 (got {value!r}).")
-        for name in ("max_power", "max_braking_power", "adhesion"):
-            value = float(getattr(self, name))
-            if math.isnan(value) or value <= 0:
-                raise ModelError(
-                    f"{where}: {name!r} must be > 0 or inf for no limit (got {value!r})."
-                )
+        check_fields("TractionEnvelope", self, ENVELOPE_RULES)
 
     def traction_limit(self, speed: ArrayLike, *, mass: float) -> NDArray[np.float64]:
         """Largest tractive force available at ``speed``.
@@ -161,11 +178,7 @@ class Vehicle:
     envelope: TractionEnvelope = field(default_factory=TractionEnvelope)
 
     def __post_init__(self) -> None:
-        where = f"Vehicle {self.name!r}"
-        check_positive(where, "mass", self.mass)
-        check_positive(where, "length", self.length)
-        for name in ("a0", "a1", "a2", "traction_share"):
-            check_nonnegative(where, name, getattr(self, name))
+        check_fields(f"Vehicle {self.name!r}", self, VEHICLE_RULES)
 
     def resistance_per_mass(self, speed: ArrayLike) -> NDArray[np.float64]:
         """Davis running resistance per unit mass a0 + a1 v + a2 v² [m/s²].
@@ -222,9 +235,8 @@ class Coupler:
 
     def __post_init__(self) -> None:
         where = "Coupler"
-        stiffness = check_finite(where, "stiffness", self.stiffness)
-        damping = check_nonnegative(where, "damping", self.damping)
-        check_positive(where, "spacing", self.spacing)
+        check_fields(where, self, COUPLER_RULES)
+        stiffness, damping = float(self.stiffness), float(self.damping)
         object.__setattr__(self, "stiffness", stiffness)
         object.__setattr__(self, "damping", damping)
         if self.virtual:

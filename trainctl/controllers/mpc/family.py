@@ -222,7 +222,7 @@ class MPCFamily:
     @property
     def settings(self) -> type[Any]:
         """The schema of the family's ``[controller]`` table."""
-        from ...scenario import ControllerSettings
+        from .settings import ControllerSettings
 
         return ControllerSettings
 

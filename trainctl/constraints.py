@@ -1,0 +1,426 @@
+# Shared constraint types: each rule enforced by pydantic and worded once.
+"""Constraint types shared by the settings classes and the scenario schema.
+
+A constraint is a :class:`Rule` used as ``typing.Annotated`` metadata:
+pydantic enforces it (its core schemas check the type, the bounds and
+finiteness) and the rule words it, once: ``must be a number > 0``. The same
+rule checks a value written in a scenario file (the scenario package turns a
+failure into a :class:`~trainctl.exceptions.ScenarioError` with the key
+path) and a value passed to a settings class from Python (a
+:class:`~trainctl.exceptions.ModelError`, see :mod:`trainctl.declare`).
+
+A failed rule raises a pydantic error of type ``"trainctl"`` whose context
+holds a :class:`~trainctl.violations.Violation`: the predicate, the value
+given and a hint. Rules that span several fields (model validators) raise the
+same kind of error with :func:`~trainctl.violations.raise_at`; both are
+re-exported here.
+
+Examples
+--------
+>>> from typing import Annotated
+>>> from pydantic import TypeAdapter, ValidationError
+>>> positive = TypeAdapter(Annotated[float, Number(gt=0)])
+>>> positive.validate_python(3)
+3.0
+>>> try:
+...     positive.validate_python(-1.0)
+... except ValidationError as exc:
+...     print(exc.errors()[0]["ctx"]["violation"].text)
+must be a number > 0
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from pydantic import GetCoreSchemaHandler, GetJsonSchemaHandler, ValidationError
+from pydantic.json_schema import JsonSchemaValue
+from pydantic_core import CoreSchema, core_schema
+
+from .violations import ERROR_TYPE as ERROR_TYPE
+from .violations import NOTHING as NOTHING
+from .violations import Violation as Violation
+from .violations import fail as fail
+from .violations import raise_at as raise_at
+from .violations import suggest as suggest
+
+__all__ = ["FINITE", "NONNEGATIVE", "NOTHING", "POSITIVE", "Array", "Choice", "Flag", "Integer",
+           "NameList", "Number", "Rule", "Text", "Violation", "fail", "raise_at", "suggest"]
+
+
+def _fmt(x: float) -> str:
+    return f"{x:g}"
+
+
+def _or(items: Sequence[str]) -> str:
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " or " + items[-1]
+
+
+class Rule:
+    """Base class: Annotated metadata that pydantic enforces and trainctl words.
+
+    Subclasses give the core schema that checks a value (:meth:`schema`) and
+    the phrase that names what is allowed (:meth:`want`).
+    """
+
+    def want(self, *, python: bool = False) -> str:
+        """What a valid value is, e.g. ``"a number > 0"``."""
+        raise NotImplementedError
+
+    def plural(self) -> str:
+        """The items of an array of such values, e.g. ``"numbers >= 0"``."""
+        return self.want()
+
+    def doc_type(self) -> str:
+        """The type column of the documentation, e.g. ``"number > 0"`` (Markdown)."""
+        want = self.want()
+        return want.split(" ", 1)[1] if want.startswith(("a ", "an ")) else want
+
+    def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
+        """The pydantic core schema that performs the check."""
+        raise NotImplementedError
+
+    def for_file(self) -> Rule:
+        """The rule for a scenario file (TOML values; no inf, no shortcuts)."""
+        return self
+
+    def explain(self, error_type: str, value: Any) -> Violation:
+        """The violation for a failed check of pydantic type ``error_type``."""
+        return Violation(
+            text=f"must be {self.want()}",
+            python_text=f"must be {self.want(python=True)}",
+            got=value,
+            value=not error_type.endswith("_type"),
+        )
+
+    def check(self, value: Any, info: core_schema.ValidationInfo | None) -> Any:
+        """Checks pydantic cannot express, after :meth:`schema` passed."""
+        return value
+
+    def __get_pydantic_core_schema__(
+        self, source: Any, handler: GetCoreSchemaHandler
+    ) -> CoreSchema:
+        """Wrap :meth:`schema` so that failures carry this rule's wording."""
+
+        def wrap(value: Any, inner: Any, info: core_schema.ValidationInfo) -> Any:
+            try:
+                result = inner(value)
+            except ValidationError as exc:
+                error = exc.errors()[0]
+                if error["loc"] or error["type"] == ERROR_TYPE:
+                    raise
+                raise fail(self.explain(error["type"], value)) from None
+            return self.check(result, info)
+
+        return core_schema.with_info_wrap_validator_function(wrap, self.schema(handler))
+
+    def __get_pydantic_json_schema__(
+        self, schema: CoreSchema, handler: GetJsonSchemaHandler
+    ) -> JsonSchemaValue:
+        """The JSON Schema of the inner check, plus :meth:`json_extra`."""
+        return {**handler(schema), **self.json_extra()}
+
+    def json_extra(self) -> dict[str, Any]:
+        """JSON Schema keywords the core schema does not give."""
+        return {}
+
+
+def _real(value: Any) -> Any:
+    """Integers (not bools) become floats; too large ones become +-inf."""
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+        try:
+            return float(value)
+        except OverflowError:
+            return math.inf if int(value) > 0 else -math.inf
+    return value
+
+
+def _integral(value: Any) -> Any:
+    """NumPy integers become ints; everything else is left to the int check."""
+    if isinstance(value, numbers.Integral) and not isinstance(value, (bool, int)):
+        return int(value)
+    return value
+
+
+@dataclass(frozen=True)
+class Number(Rule):
+    """A real number (not a bool), finite unless ``allow_inf``, within bounds.
+
+    Examples
+    --------
+    >>> Number(gt=0, le=1).want(), Number(ge=0, allow_inf=True).want(python=True)
+    ('a number in (0, 1]', 'a number >= 0, or inf for no limit')
+    """
+
+    gt: float | None = None
+    ge: float | None = None
+    le: float | None = None
+    allow_inf: bool = False
+    inf: str = "no limit"
+
+    def _range(self) -> str:
+        low = self.gt if self.gt is not None else self.ge
+        if self.le is not None and low is not None:
+            if self.gt is not None:
+                return f" in ({_fmt(low)}, {_fmt(self.le)}]"
+            return f" from {_fmt(low)} to {_fmt(self.le)}"
+        if self.gt is not None:
+            return f" > {_fmt(self.gt)}"
+        if self.ge is not None:
+            return f" >= {_fmt(self.ge)}"
+        return f" <= {_fmt(self.le)}" if self.le is not None else ""
+
+    def want(self, *, python: bool = False, finite: bool = False) -> str:
+        """What a valid value is; ``finite`` (or a Python caller) says "finite"."""
+        if self.allow_inf:
+            return f"a number{self._range()}, or inf for {self.inf}"
+        return f"a {'finite ' if finite or python else ''}number{self._range()}"
+
+    def plural(self) -> str:
+        """Items of an array, e.g. ``"numbers >= 0"``."""
+        return f"numbers{self._range()}"
+
+    def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
+        """Strict float with bounds; ints widen, nan and inf fail unless allowed."""
+        number = core_schema.float_schema(
+            gt=self.gt, ge=self.ge, le=self.le, allow_inf_nan=self.allow_inf, strict=True
+        )
+        return core_schema.no_info_before_validator_function(_real, number)
+
+    def for_file(self) -> Number:
+        """Files give finite numbers only (an omitted limit means no limit)."""
+        return replace(self, allow_inf=False)
+
+    def explain(self, error_type: str, value: Any) -> Violation:
+        """Type, finiteness or bound; a quoted number gets a hint."""
+        finite = error_type == "finite_number" or (
+            isinstance(_real(value), float) and not math.isfinite(_real(value))
+        )
+        return Violation(
+            text=f"must be {self.want(finite=finite)}",
+            python_text=f"must be {self.want(python=True)}",
+            got=_real(value) if finite else value,
+            file_hint=" Write numbers without quotes." if isinstance(value, str) else "",
+            value=error_type != "float_type",
+            finite=finite,
+        )
+
+
+@dataclass(frozen=True)
+class Integer(Rule):
+    """An integer (not a bool or float) >= ``ge``.
+
+    Examples
+    --------
+    >>> Integer(ge=1).want()
+    'an integer >= 1'
+    """
+
+    ge: int = 0
+
+    def want(self, *, python: bool = False) -> str:
+        """``"an integer >= ge"``."""
+        return f"an integer >= {self.ge}"
+
+    def plural(self) -> str:
+        """``"integers >= ge"``."""
+        return f"integers >= {self.ge}"
+
+    def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
+        """Strict int; NumPy integers are accepted."""
+        integer = core_schema.int_schema(ge=self.ge, strict=True)
+        return core_schema.no_info_before_validator_function(_integral, integer)
+
+
+@dataclass(frozen=True)
+class Flag(Rule):
+    """A boolean (TOML ``true`` / ``false``)."""
+
+    def want(self, *, python: bool = False) -> str:
+        """``"true or false"``."""
+        return "True or False" if python else "true or false"
+
+    def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
+        """Strict bool."""
+        return core_schema.bool_schema(strict=True)
+
+    def doc_type(self) -> str:
+        """``"boolean"``."""
+        return "boolean"
+
+
+@dataclass(frozen=True)
+class Text(Rule):
+    """A string; optionally with a non-space character, or on one line."""
+
+    nonblank: bool = False
+    single_line: bool = False
+
+    def want(self, *, python: bool = False) -> str:
+        """``"a string"``."""
+        return "a string"
+
+    def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
+        """Strict str with the pattern of the options."""
+        pattern = r"\S" if self.nonblank else r"^[^\r\n]*$" if self.single_line else None
+        return core_schema.str_schema(strict=True, pattern=pattern)
+
+    def explain(self, error_type: str, value: Any) -> Violation:
+        """A wrong type, a blank string or a line break."""
+        if error_type != "string_pattern_mismatch":
+            return super().explain(error_type, value)
+        text = "must be a non-empty string" if self.nonblank else "must be a single line"
+        return Violation(text=text, got=value)
+
+
+@dataclass(frozen=True)
+class Choice(Rule):
+    """One string out of a fixed vocabulary, with a near-miss suggestion.
+
+    Examples
+    --------
+    >>> Choice(("u", "du")).want(), Choice(("u", "du")).want(python=True)
+    ("one of 'u', 'du'", "one of ('u', 'du')")
+    """
+
+    options: tuple[str, ...]
+    hint: str = ""
+
+    def want(self, *, python: bool = False) -> str:
+        """``"one of 'a', 'b'"``."""
+        if python:
+            return f"one of {self.options!r}"
+        return "one of " + ", ".join(repr(o) for o in self.options)
+
+    def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
+        """A literal of the options (a string never equals a bool or number)."""
+        return core_schema.literal_schema(list(self.options))
+
+    def doc_type(self) -> str:
+        """The options as TOML strings, e.g. ```"u"` or `"du"```."""
+        return _or([f'`"{o}"`' for o in self.options])
+
+    def explain(self, error_type: str, value: Any) -> Violation:
+        """Lists the options and suggests the closest."""
+        return replace(
+            super().explain(error_type, value),
+            hint=suggest(value, self.options) + self.hint,
+            value=isinstance(value, str),
+        )
+
+
+@dataclass(frozen=True)
+class NameList(Rule):
+    """A non-empty array of distinct names from a vocabulary, order kept.
+
+    ``options`` may be a callable that reads the vocabulary from the
+    validation context (e.g. the strategies of the families in a scenario).
+    From Python a single name stands for a one-item tuple.
+    """
+
+    options: tuple[str, ...] | Callable[[dict[str, Any] | None], tuple[str, ...]]
+    noun: str = "name"
+    hint: str | Callable[[object], str] = ""
+    single: bool = True
+
+    def names(self, context: dict[str, Any] | None = None) -> tuple[str, ...]:
+        """The vocabulary (for ``context``)."""
+        return self.options if isinstance(self.options, tuple) else self.options(context)
+
+    def want(self, *, python: bool = False, context: dict[str, Any] | None = None) -> str:
+        """``"a non-empty array of distinct names from 'a', 'b'"``."""
+        names = ", ".join(repr(o) for o in self.names(context))
+        return f"a non-empty array of distinct names from {names}"
+
+    def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
+        """A non-empty tuple (lists accepted); a bare string from Python."""
+        items = core_schema.tuple_schema([core_schema.any_schema()], variadic_item_index=0,
+                                         min_length=1)
+        if not self.single:
+            return items
+        return core_schema.no_info_before_validator_function(
+            lambda v: (v,) if isinstance(v, str) else v, items
+        )
+
+    def for_file(self) -> NameList:
+        """Files must write an array."""
+        return replace(self, single=False)
+
+    def check(self, value: Any, info: core_schema.ValidationInfo | None) -> Any:
+        """Each item is a known name, listed once."""
+        context = info.context if info is not None else None
+        names = self.names(context)
+        for i, item in enumerate(value):
+            if not isinstance(item, str) or item not in names:
+                hint = self.hint(item) if callable(self.hint) else self.hint
+                raise_at((i,), Choice(names, hint=hint).explain("literal_error", item), item)
+            if item in value[:i]:
+                text = f"must not repeat an earlier {self.noun}"
+                raise_at((i,), Violation(text=text, got_text=f"{item!r} again",
+                                         hint=f" List each {self.noun} once."), item)
+        return value
+
+    def explain(self, error_type: str, value: Any) -> Violation:
+        """Not an array, or an empty one."""
+        return Violation(text=f"must be {self.want()}", got=value)
+
+    def doc_type(self) -> str:
+        """An array of names, e.g. ``array of `"v"`, `"force"` ``."""
+        names = self.names()
+        return "non-empty array of distinct " + (
+            _or([f'`"{o}"`' for o in names]) if len(names) <= 6 else f"{self.noun} names"
+        )
+
+    def json_extra(self) -> dict[str, Any]:
+        """Items from the vocabulary, unique."""
+        return {"items": {"enum": list(self.names())}, "uniqueItems": True}
+
+
+@dataclass(frozen=True)
+class Array(Rule):
+    """An array of values that each follow ``item``; stored as a tuple.
+
+    Examples
+    --------
+    >>> Array(Number(ge=0), length=3).want()
+    'an array of 3 numbers >= 0'
+    """
+
+    item: Rule
+    length: int | None = None
+    extra: dict[str, Any] = field(default_factory=dict, compare=False)
+
+    def want(self, *, python: bool = False) -> str:
+        """``"an array of 3 numbers >= 0"`` or ``"a non-empty array of ..."``."""
+        if self.length is not None:
+            return f"an array of {self.length} {self.item.plural()}"
+        return f"a non-empty array of {self.item.plural()}"
+
+    def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
+        """A tuple (lists accepted) of the item rule, of the given length."""
+        item = self.item.__get_pydantic_core_schema__(Any, handler)
+        return core_schema.tuple_schema(
+            [item], variadic_item_index=0, min_length=self.length or 1, max_length=self.length
+        )
+
+    def for_file(self) -> Array:
+        """The item rule for files."""
+        return replace(self, item=self.item.for_file())
+
+    def json_extra(self) -> dict[str, Any]:
+        """Extra keywords declared with the array."""
+        return dict(self.extra)
+
+
+FINITE = Number()
+"""A finite number."""
+
+POSITIVE = Number(gt=0)
+"""A finite number > 0."""
+
+NONNEGATIVE = Number(ge=0)
+"""A finite number >= 0."""

@@ -1,0 +1,326 @@
+# Declaring settings once: SI field, constraint, file key, unit, converter, default, doc.
+"""Settings classes whose every field is declared once.
+
+A field of a settings class is annotated with its SI type, a
+:class:`~trainctl.constraints.Rule` and a :class:`Key`: the one-line
+documentation, the scenario-file key with its unit and the converter to SI.
+From that one declaration come the validation of objects built in Python
+(this module: :func:`settings` raises :class:`~trainctl.exceptions.ModelError`)
+and the scenario-file table, its error messages, its documentation and its
+JSON Schema (:mod:`trainctl.scenario`).
+
+Examples
+--------
+>>> from trainctl.scenario import ModelSettings
+>>> ModelSettings(speed=25, sample_time=0.5).speed
+25.0
+>>> ModelSettings(speed=-1.0, sample_time=0.5)
+Traceback (most recent call last):
+...
+trainctl.exceptions.ModelError: ModelSettings: 'speed' must be a finite number > 0 (got -1.0).
+"""
+
+from __future__ import annotations
+
+import functools
+import re
+import typing
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Annotated, Any, TypeVar, dataclass_transform
+
+import pydantic
+from pydantic import ConfigDict, GetJsonSchemaHandler, TypeAdapter, ValidationError
+from pydantic.fields import FieldInfo
+from pydantic.json_schema import JsonSchemaValue
+from pydantic_core import CoreSchema, ErrorDetails
+
+from .constraints import ERROR_TYPE, NOTHING, Rule, Violation
+from .exceptions import ModelError
+
+__all__ = ["Alt", "Key", "check_fields", "declared_fields", "first_error", "python_error",
+           "render_refs", "settings"]
+
+_T = TypeVar("_T")
+_SIGNATURE_ERRORS = {
+    "missing": "missing required argument",
+    "missing_keyword_only_argument": "missing required argument",
+    "unexpected_keyword_argument": "unexpected argument",
+    "unexpected_positional_argument": "takes keyword arguments only; unexpected",
+    "extra_forbidden": "unexpected argument",
+}
+_REF = re.compile(r"\{(\w+)\}")
+
+
+@dataclass(frozen=True)
+class Alt:
+    """One of several alternative file keys for one field ("exactly one of").
+
+    Parameters
+    ----------
+    key : str
+        The file key (``"a.b"`` for key ``b`` of the sub-table ``a``).
+    unit : str
+        Unit of the file value.
+    to_si : callable or None
+        Converter of the file value to SI (applied to each item of an array).
+    sets : mapping
+        Other fields this choice fixes (e.g. the unit the user chose).
+    si_text : str
+        The conversion in words for the documentation ("" = derived).
+    """
+
+    key: str
+    unit: str = ""
+    to_si: Callable[..., Any] | None = None
+    sets: Mapping[str, Any] = field(default_factory=dict)
+    si_text: str = ""
+
+
+@dataclass(frozen=True)
+class Key:
+    """How a settings field appears in scenario files, and its documentation.
+
+    Parameters
+    ----------
+    doc : str
+        One line of documentation.
+    file : str or None
+        The file key (``"a.b"`` inside the sub-table ``a``); None for the
+        field name, "" for a field that files do not set directly.
+    unit : str
+        Unit of the file value ("" if dimensionless).
+    to_si : callable or None
+        Converter of the file value to SI (``trainctl.units``); None if the
+        file value is already the stored value.
+    si_unit : str
+        Unit of the stored value, when a converter changes it.
+    omitted : str
+        What an omitted optional key means (e.g. ``"no limit"``).
+    hint : str
+        Sentences appended to a message about a wrong value of this key.
+    one_of : tuple of Alt
+        Alternative file keys, exactly one of which must be given.
+    si_text : str
+        The conversion in words for the documentation ("" = derived).
+    vector : bool
+        ``to_si`` takes the whole array (e.g. three Davis coefficients) rather
+        than each item.
+    """
+
+    doc: str
+    file: str | None = None
+    unit: str = ""
+    to_si: Callable[..., Any] | None = None
+    si_unit: str = ""
+    omitted: str = ""
+    hint: str = ""
+    one_of: tuple[Alt, ...] = ()
+    si_text: str = ""
+    vector: bool = False
+
+    def describe(self) -> str:
+        """The documentation line with the unit and what omitting the key means."""
+        unit = f" [{self.unit}]" if self.unit else ""
+        omitted = f"; omit for {self.omitted}" if self.omitted else ""
+        return f"{self.doc}{unit}{omitted}."
+
+    def __get_pydantic_json_schema__(
+        self, schema: CoreSchema, handler: GetJsonSchemaHandler
+    ) -> JsonSchemaValue:
+        """Title, description and unit of the key in the JSON Schema."""
+        value = handler(schema)
+        if self.doc:
+            value.update(title=self.doc, description=self.describe())
+        if self.unit:
+            value["unit"] = self.unit
+        return value
+
+
+@dataclass(frozen=True)
+class DeclaredField:
+    """A field of a settings class or file table with its declaration."""
+
+    name: str
+    info: FieldInfo
+    rule: Rule | None
+    key: Key | None
+
+    @property
+    def required(self) -> bool:
+        """True when the field has no default."""
+        return self.info.is_required()
+
+    @property
+    def default(self) -> Any:
+        """The default value (None when required)."""
+        return self.info.get_default(call_default_factory=True)
+
+
+def declared_fields(cls: type) -> Iterator[DeclaredField]:
+    """The fields of a pydantic model or dataclass with their Rule and Key.
+
+    Parameters
+    ----------
+    cls : type
+        A pydantic model or pydantic dataclass.
+
+    Yields
+    ------
+    DeclaredField
+        In declaration order.
+    """
+    fields: dict[str, FieldInfo] = getattr(cls, "__pydantic_fields__", None) or {}
+    for name, info in fields.items():
+        rule = next((m for m in info.metadata if isinstance(m, Rule)), None)
+        key = next((m for m in info.metadata if isinstance(m, Key)), None)
+        yield DeclaredField(name, info, rule, key)
+
+
+@dataclass_transform(kw_only_default=True, frozen_default=True)
+def settings(cls: type[_T]) -> type[_T]:
+    """Make ``cls`` a frozen, keyword-only pydantic dataclass of settings.
+
+    Construction validates every field through its declared rule and the
+    class's model validators; a violation raises
+    :class:`~trainctl.exceptions.ModelError` (a wrong or missing argument
+    name, :class:`TypeError`), worded by :func:`python_error`.
+
+    Parameters
+    ----------
+    cls : type
+        The class body: annotated fields, validators, methods.
+
+    Returns
+    -------
+    type
+        The settings class.
+    """
+    made = pydantic.dataclasses.dataclass(
+        frozen=True, kw_only=True, config=ConfigDict(extra="forbid")
+    )(cls)
+    init = made.__init__
+
+    @functools.wraps(init)
+    def __init__(self: Any, *args: Any, **kwargs: Any) -> None:
+        try:
+            init(self, *args, **kwargs)
+        except ValidationError as exc:
+            raise python_error(made.__name__, exc) from None
+
+    made.__init__ = __init__  # type: ignore[method-assign]
+    return typing.cast(type[_T], made)
+
+
+def first_error(exc: ValidationError) -> ErrorDetails:
+    """The error to report: the first one, preferring unknown keys.
+
+    Parameters
+    ----------
+    exc : pydantic.ValidationError
+        All errors of one validation.
+
+    Returns
+    -------
+    pydantic_core.ErrorDetails
+        One of them.
+    """
+    errors = exc.errors()
+    return next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
+
+
+def render_refs(text: str, name: Callable[[str], str | None]) -> str:
+    """Replace ``{field}`` references in ``text`` by ``name(field)``.
+
+    Examples
+    --------
+    >>> render_refs("must be less than {duration}", lambda f: repr(f))
+    "must be less than 'duration'"
+    """
+
+    def sub(match: re.Match[str]) -> str:
+        found = name(match.group(1))
+        return match.group(0) if found is None else found
+
+    return _REF.sub(sub, text)
+
+
+def violation_of(error: ErrorDetails) -> Violation:
+    """The trainctl violation of a pydantic error (a generic one for others)."""
+    ctx = error.get("ctx") or {}
+    if error["type"] == ERROR_TYPE and isinstance(ctx.get("violation"), Violation):
+        return ctx["violation"]
+    return Violation(text=f"is invalid: {error['msg']}", got=error.get("input", NOTHING))
+
+
+def python_path(loc: Sequence[str | int]) -> str:
+    """``('neighbourhood', 0, 1)`` -> ``"'neighbourhood'[0][1]"``."""
+    parts = [f"[{p}]" if isinstance(p, int) else f"[{p!r}]" for p in loc[1:]]
+    return (repr(loc[0]) if loc else "") + "".join(parts)
+
+
+def python_error(owner: str, exc: ValidationError, prefix: Sequence[str] = ()) -> Exception:
+    """Word a validation error of a settings class built in Python.
+
+    Parameters
+    ----------
+    owner : str
+        The class name, the message's first word.
+    exc : pydantic.ValidationError
+        The error.
+    prefix : sequence of str
+        Field the validated value belongs to, when it was checked alone.
+
+    Returns
+    -------
+    Exception
+        :class:`~trainctl.exceptions.ModelError` for a wrong value,
+        :class:`TypeError` for a wrong or missing argument name.
+    """
+    error = first_error(exc)
+    loc = (*prefix, *error["loc"])
+    if error["type"] in _SIGNATURE_ERRORS:
+        return TypeError(f"{owner}: {_SIGNATURE_ERRORS[error['type']]} {python_path(loc)}.")
+    v = violation_of(error)
+    text = render_refs(v.python_text or v.text, repr)
+    got = "" if v.got is NOTHING and not v.got_text else f" (got {v.got_text or repr(v.got)})"
+    where = f"{python_path(loc)} " if loc else ""
+    return ModelError(f"{owner}: {where}{text}{got}.{v.hint}")
+
+
+@functools.cache
+def _adapter(rule: Rule) -> TypeAdapter[Any]:
+    return TypeAdapter(Annotated[Any, rule])
+
+
+def check_fields(owner: str, obj: object, rules: Mapping[str, Rule]) -> None:
+    """Check attributes of ``obj`` against rules (a plain dataclass's ``__post_init__``).
+
+    Parameters
+    ----------
+    owner : str
+        The message's first words, e.g. ``"Vehicle 'T'"``.
+    obj : object
+        The object whose attributes are checked.
+    rules : mapping of str to Rule
+        Attribute name to rule.
+
+    Raises
+    ------
+    ModelError
+        For the first attribute that breaks its rule, worded by :func:`python_error`.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> from trainctl.constraints import POSITIVE
+    >>> check_fields("Car", SimpleNamespace(mass=-1.0), {"mass": POSITIVE})
+    Traceback (most recent call last):
+    ...
+    trainctl.exceptions.ModelError: Car: 'mass' must be a finite number > 0 (got -1.0).
+    """
+    for name, rule in rules.items():
+        try:
+            _adapter(rule).validate_python(getattr(obj, name))
+        except ValidationError as exc:
+            raise python_error(owner, exc, prefix=(name,)) from None

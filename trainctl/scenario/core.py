@@ -1,0 +1,340 @@
+# The parsed scenario and the vocabulary a scenario file draws on (defined where it lives).
+"""The :class:`Scenario` and the names its files may use.
+
+The vocabularies are imported from where the things they name live (the
+controller families in :mod:`trainctl.controllers.registry`, the model
+checks in :mod:`trainctl.analysis.review`); the functions here combine them
+for one scenario: which strategies ``[simulation]`` may list and which checks
+``[expected]`` may name, given the controller families present.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Generic, NoReturn, TypeVar
+
+from ..constraints import Violation, suggest
+from ..exceptions import ModelError
+from ..models.track import Track
+from ..models.train import Train
+from .settings import ModelSettings, SimulationSettings
+
+__all__ = [
+    "RESERVED_SECTIONS",
+    "SCHEMA_VERSION",
+    "BuiltinScenario",
+    "FrozenMapping",
+    "Scenario",
+    "check_names",
+    "check_statuses",
+    "expectation_violation",
+    "family_of",
+    "model_check_names",
+    "strategy_names",
+]
+
+SCHEMA_VERSION = 1
+"""The only ``schema_version`` this release reads."""
+
+RESERVED_SECTIONS = ("report", "communication", "sweep")
+"""Top-level sections reserved for later releases (rejected today)."""
+
+_V = TypeVar("_V")
+
+
+def model_check_names() -> tuple[str, ...]:
+    """The model-level checks, which need no controller."""
+    from ..analysis.review import MODEL_CHECK_NAMES
+
+    return MODEL_CHECK_NAMES
+
+
+def check_statuses() -> tuple[str, ...]:
+    """The statuses a check may have (``[expected]`` values)."""
+    from ..analysis.review import STATUSES
+
+    return STATUSES
+
+
+def _families(names: Iterable[str] | None = None) -> list[Any]:
+    from ..controllers.registry import family_names, get_family
+
+    return [get_family(n) for n in (family_names() if names is None else names)]
+
+
+def check_names(families: Sequence[str] | None = None) -> tuple[str, ...]:
+    """Checks ``[expected]`` may name: the model's, then each family's.
+
+    Parameters
+    ----------
+    families : sequence of str, optional
+        Family names; every known family when omitted.
+
+    Returns
+    -------
+    tuple of str
+        Check names, without repeats.
+
+    Examples
+    --------
+    >>> check_names(["lqr"])
+    ('open_loop_stability', 'controllability', 'observability', 'sampling', 'input_collapse', \
+'lqr_closed_loop', 'lqr_decentralised_closed_loop')
+    """
+    names = [*model_check_names(), *(c for f in _families(families) for c in f.check_names)]
+    return tuple(dict.fromkeys(names))
+
+
+def strategy_names(families: Sequence[str] | None = None) -> tuple[str, ...]:
+    """Strategies ``[simulation]`` may list: bare for the first family, else qualified.
+
+    Parameters
+    ----------
+    families : sequence of str, optional
+        The scenario's families, primary first. When omitted, every bare and
+        qualified name of every known family (for settings built in Python).
+
+    Returns
+    -------
+    tuple of str
+        ``"ndmpc"`` for the primary family, ``"lqr.centralised"`` for another.
+
+    Examples
+    --------
+    >>> strategy_names(["mpc", "lqr"])
+    ('centralised', 'decentralised', 'ndmpc', 'cooperative', 'lqr.centralised', \
+'lqr.decentralised')
+    """
+    if families is None:
+        known = _families()
+        bare = [s for f in known for s in f.strategies]
+        return tuple(dict.fromkeys(bare + [f"{f.name}.{s}" for f in known for s in f.strategies]))
+    primary, *others = _families(families)
+    return (*primary.strategies, *(f"{f.name}.{s}" for f in others for s in f.strategies))
+
+
+def family_of(settings: object) -> str:
+    """The family name of a settings object (its ``family`` or its registry type).
+
+    Raises
+    ------
+    ModelError
+        If no known family has settings of this type.
+    """
+    name = getattr(type(settings), "family", None)
+    if isinstance(name, str):
+        return name
+    for family in _families():
+        if isinstance(settings, family.settings):
+            return str(family.name)
+    raise ModelError(
+        f"Scenario: 'controller' must be the settings of a controller family (got "
+        f"{type(settings).__name__})."
+    )
+
+
+def expectation_violation(check: str, families: Sequence[str]) -> Violation | None:
+    """Why ``check`` may not be declared with ``families`` present, or None.
+
+    Parameters
+    ----------
+    check : str
+        A known check name.
+    families : sequence of str
+        The scenario's controller families.
+
+    Returns
+    -------
+    Violation or None
+        For a controller check whose family is absent.
+    """
+    owners = [f.name for f in _families() if check in f.check_names]
+    if not owners or any(o in families for o in owners):
+        return None
+    if not families:
+        return Violation(
+            text="needs a [controller] section", python_text="needs a controller", got_text="none",
+            hint=f" The check {check!r} runs only for a controller design: add [controller] or "
+            "remove the expectation.",
+        )
+    return Violation(
+        text=f"needs a controller of family {owners[0]!r}", got_text=", ".join(families),
+        hint=f" The check {check!r} runs only for a design of family {owners[0]!r}: add "
+        f"[controller.{owners[0]}] or remove the expectation.",
+    )
+
+
+class FrozenMapping(Mapping[str, _V], Generic[_V]):
+    """A read-only, hashable, picklable mapping with string keys, in insertion order."""
+
+    __slots__ = ("_data",)
+    _data: dict[str, _V]
+
+    def __init__(self, items: Mapping[str, _V] | Iterable[tuple[str, _V]] = ()) -> None:
+        object.__setattr__(self, "_data", dict(items))
+
+    def __setattr__(self, name: str, value: Any) -> NoReturn:
+        raise AttributeError(f"{type(self).__name__} is read-only")
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (type(self), (tuple(self._data.items()),))
+
+    def __getitem__(self, key: str) -> _V:
+        return self._data[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._data)
+
+    def __len__(self) -> int:
+        return len(self._data)
+
+    def __hash__(self) -> int:
+        return hash(frozenset(self._data.items()))
+
+    def __repr__(self) -> str:
+        return repr(self._data)
+
+
+def _fail(message: str) -> NoReturn:
+    raise ModelError(f"Scenario: {message}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Scenario:
+    """A parsed scenario: train, track, model and controller settings, all SI.
+
+    Parameters
+    ----------
+    name : str
+        Display name (any text); see :attr:`slug` for a file-name-safe form.
+    description : str
+        One-line description shown by ``trainctl list``.
+    seed : int
+        Random seed [-], >= 0.
+    train : Train
+        The train, head vehicle first.
+    track : Track or None
+        Track grade and curvature; ``None`` for flat, straight track.
+    model : ModelSettings
+        Linearisation and sampling settings.
+    controller : settings object or None
+        The primary controller family's settings (e.g.
+        :class:`~trainctl.controllers.mpc.settings.ControllerSettings`);
+        ``None`` when the file has no ``[controller]``.
+    controllers : Mapping of str to settings object
+        Every controller family of the scenario, name to settings, the
+        primary first, then the ``[controller.<family>]`` sub-tables in file
+        order; read-only. Built from ``controller`` when not given.
+    simulation : SimulationSettings or None
+        The closed-loop simulation run; ``None`` when the file has no
+        ``[simulation]``. Needs a ``controller``, its duration must be a
+        whole multiple of ``model.sample_time`` and its strategies must
+        belong to the scenario's families.
+    expected : Mapping of str to str
+        Declared outcome of the design checks, check name (a model check or
+        a check of one of the scenario's families) to status (``"pass"``,
+        ``"warn"`` or ``"fail"``), in file order; read-only, empty when the
+        file has no ``[expected]``.
+    source : str
+        Where the scenario came from: the file path as given, ``"builtin:NAME"``
+        or ``"<string>"``.
+
+    Examples
+    --------
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> scenario.slug
+    'crh2-half-train-n-dmpc-as-printed-li-zheng-ch-12'
+    >>> scenario.simulation.n_steps(scenario.model.sample_time)
+    60
+    >>> list(scenario.controllers)
+    ['mpc']
+    """
+
+    name: str
+    description: str
+    seed: int = 0
+    train: Train
+    track: Track | None = None
+    model: ModelSettings
+    controller: Any = None
+    controllers: Mapping[str, Any] = field(default_factory=FrozenMapping)
+    simulation: SimulationSettings | None = None
+    expected: Mapping[str, str] = field(default_factory=FrozenMapping)
+    source: str = "<string>"
+
+    def __post_init__(self) -> None:
+        controllers = self._controllers()
+        object.__setattr__(self, "controllers", controllers)
+        if controllers:
+            object.__setattr__(self, "controller", next(iter(controllers.values())))
+        families = tuple(controllers)
+        object.__setattr__(self, "expected", self._expected(families))
+        n = self.train.n_vehicles
+        for settings in controllers.values():
+            for method in ("neighbourhoods", "cooperative_weight_vector"):
+                if hasattr(settings, method):
+                    getattr(settings, method)(n)
+        if self.simulation is not None:
+            if self.controller is None:
+                _fail("'simulation' needs a controller (got none).")
+            self.simulation.n_steps(self.model.sample_time)
+            self.simulation.check_strategies(strategy_names(families))
+
+    def _controllers(self) -> FrozenMapping[Any]:
+        given = dict(self.controllers)
+        if self.controller is None:
+            return FrozenMapping(given)
+        primary = family_of(self.controller)
+        rest = {name: s for name, s in given.items() if name != primary}
+        return FrozenMapping({primary: self.controller, **rest})
+
+    def _expected(self, families: Sequence[str]) -> FrozenMapping[str]:
+        expected = FrozenMapping(self.expected)
+        known = check_names()
+        statuses = check_statuses()
+        for check, status in expected.items():
+            if check not in known:
+                _fail(f"'expected' names an unknown check {check!r}.{suggest(check, known)} "
+                      f"Checks: {', '.join(known)}.")
+            if status not in statuses:
+                _fail(f"'expected'[{check!r}] must be one of {statuses} (got {status!r}).")
+            problem = expectation_violation(check, families)
+            if problem is not None:
+                _fail(f"'expected'[{check!r}] {problem.python_text or problem.text} "
+                      f"(got {problem.got_text}).")
+        return expected
+
+    @property
+    def slug(self) -> str:
+        """File-name-safe form of :attr:`name` (see :func:`~trainctl.scenario.slugify`)."""
+        from .files import slugify
+
+        return slugify(self.name)
+
+
+@dataclass(frozen=True, kw_only=True)
+class BuiltinScenario:
+    """A scenario file shipped with trainctl.
+
+    Parameters
+    ----------
+    name : str
+        Built-in name (the file stem), e.g. ``"crh2-dmpc"``.
+    description : str
+        The file's one-line ``description``.
+    path : pathlib.Path
+        Location of the file.
+
+    Examples
+    --------
+    >>> from trainctl.scenario import builtin_scenarios
+    >>> builtin_scenarios()[0].name
+    'crh2-dmpc'
+    """
+
+    name: str
+    description: str
+    path: Path

@@ -1,0 +1,205 @@
+# The schema tables of analyses/README.md, generated from the key declarations.
+"""Markdown tables of the scenario-file keys, from the declarations.
+
+Each table lists a file table's keys with their type (and constraint), unit
+(and conversion to SI), default and meaning, all taken from the same
+declarations the parser uses. ``analyses/README.md`` holds them between
+marker comments ``<!-- schema:NAME -->`` and ``<!-- /schema:NAME -->``; a
+test fails when they drift. Regenerate them with::
+
+    python -m trainctl.scenario.docs --write    # or: trainctl schema --markdown
+
+Examples
+--------
+>>> print(markdown_tables()["model"].splitlines()[2])
+| `speed_kmh` | number > 0 | km/h → m/s (÷ 3.6) | required | Cruise (linearisation) speed |
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel
+
+from ..constraints import Choice
+from ..declare import DeclaredField, Key, declared_fields
+from .filemodel import file_model, rule_of, sub_model, table_kind
+from .settings import ModelSettings, SimulationSettings
+from .tables import CouplerTable, SectionTable, TopLevel, TrackTable, TrainTable, VehicleTable
+
+__all__ = ["README", "main", "markdown_tables", "markdown_text", "table", "update_readme"]
+
+README = Path(__file__).resolve().parents[2] / "analyses" / "README.md"
+"""The README these tables live in (a source checkout)."""
+
+_HEADER = "| Key | Type | Unit | Default | Meaning |\n|---|---|---|---|---|"
+_MARKER = re.compile(r"(<!-- schema:(?P<name>[\w-]+) -->\n).*?(<!-- /schema:(?P=name) -->)",
+                     re.DOTALL)
+
+
+def _toml(value: Any) -> str:
+    if isinstance(value, bool):
+        return f"`{str(value).lower()}`"
+    if isinstance(value, str):
+        return f'`"{value}"`'
+    if isinstance(value, list | tuple):
+        return "`[" + ", ".join(_toml(v).strip("`") for v in value) + "]`"
+    return f"`{value!r}`"
+
+
+def _unit(key: Key | None) -> str:
+    if key is None:
+        return "-"
+    unit = key.unit or "-"
+    if key.si_text:
+        return f"{unit} ({key.si_text})"
+    if key.to_si is None or key.vector:
+        return unit
+    factor = float(key.to_si(1.0))
+    scale = f"× {factor:g}" if factor >= 1 else f"÷ {1 / factor:g}"
+    return f"{unit} → {key.si_unit} ({scale})"
+
+
+def _name(f: DeclaredField, dotted: str) -> str:
+    kind = table_kind(f)
+    if kind == "table":
+        return f"`[{dotted}.{f.name}]`" if dotted else f"`[{f.name}]`"
+    if kind == "tables":
+        return f"`[[{dotted}.{f.name}]]`"
+    if kind == "either":
+        return f"`[{dotted}.{f.name}]` / `[[{dotted}.{f.name}]]`"
+    return f"`{f.name}`"
+
+
+def _type(f: DeclaredField) -> str:
+    kind = table_kind(f)
+    if kind != "value":
+        return {"table": "table", "tables": "array of tables",
+                "either": "table or array of tables"}[kind]
+    rule = rule_of(f)
+    return rule.doc_type() if rule is not None else "any"
+
+
+def _default(f: DeclaredField, groups: Sequence[tuple[str, ...]]) -> str:
+    group = next((g for g in groups if f.name in g), None)
+    if group is not None:
+        return f"one of {({2: 'two', 3: 'three'}).get(len(group), len(group))}"
+    if f.required:
+        return "required"
+    if f.key is not None and f.key.omitted:
+        return f.key.omitted
+    default = f.default
+    if default is None or (isinstance(default, float) and math.isinf(default)):
+        return "-"
+    return _toml(default)
+
+
+def _row(cells: Sequence[str]) -> str:
+    return "| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |"
+
+
+def table(model: type[BaseModel], dotted: str = "", *, extra: Sequence[str] = ()) -> str:
+    """The Markdown table of a file table's keys.
+
+    Parameters
+    ----------
+    model : type of pydantic.BaseModel
+        The file table (declared keys).
+    dotted : str
+        Its TOML table name, for sub-table rows (``"train"``).
+    extra : sequence of str
+        Rows to put first (already formatted).
+
+    Returns
+    -------
+    str
+        Header and one row per key, in declaration order.
+    """
+    groups = getattr(model, "one_of_keys", ())
+    rows = list(extra)
+    for f in declared_fields(model):
+        key = f.key
+        rows.append(_row([_name(f, dotted), _type(f), _unit(key), _default(f, groups),
+                          key.doc if key is not None else ""]))
+    return "\n".join([_HEADER, *rows])
+
+
+def _family_row(default: str, names: Sequence[str]) -> str:
+    return _row(["`family`", Choice(tuple(names)).doc_type(), "-", f'`"{default}"`',
+                 "The primary controller family; further families go in "
+                 "`[controller.<family>]` sub-tables"])
+
+
+def markdown_tables() -> dict[str, str]:
+    """Every schema table of the README, by marker name.
+
+    Returns
+    -------
+    dict of str to str
+        ``"top"``, ``"train"``, ``"vehicle"``, ``"coupler"``, ``"track"``,
+        ``"section"``, ``"model"``, ``"controller-<family>"`` for each
+        built-in family, ``"simulation"`` and ``"reference"``.
+    """
+    from ..controllers.registry import DEFAULT_FAMILY, FAMILY_MODULES, get_family
+
+    simulation = file_model(SimulationSettings)
+    reference = next(f for f in declared_fields(simulation) if f.name == "reference")
+    tables = {
+        "top": table(TopLevel),
+        "train": table(TrainTable, "train"),
+        "vehicle": table(VehicleTable),
+        "coupler": table(CouplerTable),
+        "track": table(TrackTable, "track"),
+        "section": table(SectionTable),
+        "model": table(file_model(ModelSettings)),
+        "simulation": table(simulation, "simulation"),
+        "reference": table(sub_model(reference) or simulation),
+    }
+    names = tuple(FAMILY_MODULES)
+    for name in names:
+        settings = file_model(get_family(name).settings)
+        tables[f"controller-{name}"] = table(settings, extra=[_family_row(DEFAULT_FAMILY, names)])
+    return tables
+
+
+def markdown_text() -> str:
+    """Every schema table between its README markers, one after the other."""
+    return "".join(f"<!-- schema:{name} -->\n{markdown}\n<!-- /schema:{name} -->\n\n"
+                   for name, markdown in markdown_tables().items())
+
+
+def update_readme(text: str) -> str:
+    """``text`` with every marked table replaced by the generated one.
+
+    Raises
+    ------
+    KeyError
+        If a marker names no generated table.
+    """
+    tables = markdown_tables()
+    return _MARKER.sub(lambda m: f"{m.group(1)}{tables[m.group('name')]}\n{m.group(3)}", text)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m trainctl.scenario.docs [--write] [README]``."""
+    parser = argparse.ArgumentParser(prog="python -m trainctl.scenario.docs",
+                                     description="Print or rewrite the schema tables.")
+    parser.add_argument("readme", nargs="?", default=str(README), help="the README to update")
+    parser.add_argument("--write", action="store_true", help="rewrite the README in place")
+    args = parser.parse_args(argv)
+    if not args.write:
+        print(markdown_text(), end="")
+        return 0
+    path = Path(args.readme)
+    path.write_text(update_readme(path.read_text(encoding="utf-8")), encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

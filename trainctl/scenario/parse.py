@@ -1,0 +1,359 @@
+# parse_scenario: validate each table with its declaration, build the SI objects.
+"""Parse scenario TOML text into a :class:`~trainctl.scenario.Scenario`.
+
+The document is validated table by table, in file order: the top level,
+``[train]``, ``[track]``, ``[model]``, ``[controller]`` (its family from the
+registry, at parse time), ``[simulation]`` and ``[expected]``. Tables that
+depend on earlier ones get them through the validation context: the number
+of coaches, the sample time, the strategies and checks of the controller
+families present. The first error becomes a ScenarioError with its key path
+(:mod:`trainctl.scenario.errors`).
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import math
+import tomllib
+from collections.abc import Callable, Mapping
+from typing import Any, Literal, TypeVar
+
+from pydantic import BaseModel, ConfigDict, ValidationError, create_model
+
+from ..constraints import Violation, suggest
+from ..exceptions import ModelError, ScenarioError
+from ..models.track import Track, TrackSection
+from ..models.train import Train
+from ..models.vehicle import Coupler, TractionEnvelope, Vehicle
+from .core import (
+    FrozenMapping,
+    Scenario,
+    check_names,
+    check_statuses,
+    expectation_violation,
+    strategy_names,
+)
+from .errors import _Table, describe, got, scenario_error
+from .filemodel import FileTable, convert, field_at, file_model, load_settings
+from .settings import ModelSettings, SimulationSettings
+from .tables import (
+    DAVIS_KEYS,
+    CouplerTable,
+    SectionTable,
+    TopLevel,
+    TrackTable,
+    TrainTable,
+    VehicleTable,
+    expected_table,
+    family_table,
+)
+
+__all__ = ["load_toml", "parse_scenario"]
+
+_T = TypeVar("_T")
+
+
+def load_toml(text: str, source: str) -> dict[str, Any]:
+    """The TOML document, or ScenarioError naming the syntax error."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{source}: not valid TOML: {exc}.") from None
+
+
+def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:
+    """Parse scenario TOML text.
+
+    Parameters
+    ----------
+    text : str
+        The TOML document.
+    source : str
+        Label used in error messages and stored as ``Scenario.source``.
+
+    Returns
+    -------
+    Scenario
+        The scenario, SI inside.
+
+    Raises
+    ------
+    ScenarioError
+        If the text is not TOML or does not follow the schema.
+
+    Examples
+    --------
+    >>> text = '''
+    ... schema_version = 1
+    ... name = "Two coaches"
+    ... description = "Smallest coupled train"
+    ... [train]
+    ... vehicle = [{mass_t = 40.0, count = 2, davis_si = [0.01, 0.0, 1e-5]}]
+    ... coupler = {stiffness_kn_per_m = 10000.0}
+    ... [model]
+    ... speed_kmh = 90.0
+    ... sample_time = 0.5
+    ... '''
+    >>> scenario = parse_scenario(text)
+    >>> scenario.train.stiffness.tolist(), scenario.model.speed
+    ([10000000.0], 25.0)
+    >>> scenario.controller is None, dict(scenario.expected)
+    (True, {})
+
+    A controller design, a second controller family and the expected
+    outcome of their checks:
+
+    >>> text += '''
+    ... [controller]
+    ... form = "du"
+    ... prediction_horizon = 4
+    ... control_horizon = 2
+    ... r_per_n2 = 1e-5
+    ... [controller.lqr]
+    ... r_per_kn2 = 1.0
+    ... [expected]
+    ... ndmpc_convergence = "pass"
+    ... '''
+    >>> scenario = parse_scenario(text)
+    >>> scenario.controller.input_weight_per_kn2(), scenario.controller.neighbourhoods(2)
+    (10.0, ((0, 1), (0, 1)))
+    >>> list(scenario.controllers), scenario.controllers["lqr"].input_bounds
+    (['mpc', 'lqr'], True)
+    >>> scenario.expected["ndmpc_convergence"]
+    'pass'
+    """
+    if not isinstance(text, str):
+        raise TypeError(f"parse_scenario: 'text' must be a str (got {type(text).__name__}).")
+    return _Parser(source, load_toml(text, source)).scenario()
+
+
+class _Parser:
+    """One document being parsed: its label, its TOML data and the error context."""
+
+    def __init__(self, file: str, doc: dict[str, Any]) -> None:
+        self.file, self.doc = file, doc
+
+    def validate(self, model: type[BaseModel], prefix: tuple[Any, ...], data: Any = None,
+                 **extra: Any) -> Any:
+        """Validate the table at ``prefix`` (or ``data`` found there) with a file model."""
+        if data is None:
+            data = self.doc
+            for part in prefix:
+                data = data[part]
+        try:
+            return model.model_validate(data, context=extra.pop("context", None))
+        except ValidationError as exc:
+            raise scenario_error(self.file, exc, doc=self.doc, prefix=prefix, model=model,
+                                 **extra) from None
+
+    def settings(self, cls: type, table: Mapping[str, Any], prefix: tuple[Any, ...],
+                 context: dict[str, Any], extra_keys: tuple[str, ...] = ()) -> Any:
+        """Validate a table with a settings class (its file model, then its rules)."""
+        try:
+            return load_settings(cls, table, context)
+        except ValidationError as exc:
+            raise scenario_error(self.file, exc, doc=self.doc, prefix=prefix,
+                                 model=file_model(cls), settings=cls,
+                                 extra_keys=extra_keys) from None
+
+    def fail(self, violation: Violation, prefix: tuple[Any, ...], loc: tuple[Any, ...] = (),
+             model: type[BaseModel] | None = None) -> ScenarioError:
+        """The ScenarioError of a violation found by the parser itself."""
+        table = _Table(self.doc, prefix, model, None)
+        return ScenarioError(f"{self.file}: {describe(violation, table, loc)}")
+
+    def build(self, loc: tuple[Any, ...], make: Callable[[], _T],
+              catch: tuple[type[Exception], ...] = (ModelError,)) -> _T:
+        """Call ``make``; a model-level error becomes a ScenarioError at ``loc``."""
+        try:
+            return make()
+        except ScenarioError:
+            raise
+        except catch as exc:
+            where = _Table(self.doc, loc, None, None).path(())
+            raise ScenarioError(f"{self.file}: {where}: {exc}") from exc
+
+    def scenario(self) -> Scenario:
+        """Validate every table in order and build the scenario."""
+        top = self.validate(TopLevel, ())
+        train = self.train()
+        track = None if top.track is None else self.track()
+        model = self.settings(ModelSettings, top.model, ("model",), {})
+        controllers = self.controllers(top.controller, train.n_vehicles)
+        simulation = self.simulation(top.simulation, model.sample_time, tuple(controllers))
+        expected = self.expected(top.expected, tuple(controllers))
+        return self.build((), lambda: Scenario(
+            name=top.name, description=top.description, seed=top.seed, train=train,
+            track=track, model=model, controllers=FrozenMapping(controllers),
+            simulation=simulation, expected=expected, source=self.file,
+        ))
+
+    def train(self) -> Train:
+        """``[train]``: a preset, or vehicle groups and couplers."""
+        table: TrainTable = self.validate(TrainTable, ("train",))
+        if table.preset is not None:
+            return self.preset(table)
+        vehicles: list[Vehicle] = []
+        for i, group in enumerate(table.vehicle or ()):
+            vehicle = self.build(("train", "vehicle", i), functools.partial(_vehicle, group))
+            vehicles += [vehicle] * group.count
+        couplers = []
+        for i in range(len(vehicles) - 1):
+            link = table.coupler
+            loc: tuple[Any, ...] = ("train", "coupler")
+            if isinstance(link, list):
+                link, loc = link[i], (*loc, i)
+            front, rear = vehicles[i].length, vehicles[i + 1].length
+            couplers.append(self.build(loc, functools.partial(_coupler, link, front, rear)))
+        return self.build(("train",), lambda: Train(
+            vehicles=tuple(vehicles), couplers=tuple(couplers), name=_formation(vehicles)))
+
+    def preset(self, table: TrainTable) -> Train:
+        """A preset train, called with the checked ``[train.preset_options]``."""
+        name = table.preset or ""
+        try:
+            from ..models.presets import PRESETS
+        except ImportError as exc:
+            raise ScenarioError(f"{self.file}: [train].preset: presets are not available "
+                                f"({exc}).") from None
+        if name not in PRESETS:
+            raise ScenarioError(
+                f"{self.file}: [train].preset must name a preset (got {name!r})."
+                f"{suggest(name, PRESETS)} Available: {', '.join(sorted(PRESETS))}.")
+        factory = PRESETS[name]
+        options = table.preset_options or {}
+        self.validate(_options_table(factory), ("train", "preset_options"), options)
+        loc = ("train", "preset_options") if options else ("train",)
+        train = self.build(loc, lambda: factory(**options), (ValueError, TypeError))
+        if not isinstance(train, Train):
+            raise ScenarioError(f"{self.file}: [train].preset: preset {name!r} did not return a "
+                                "Train.")
+        return train
+
+    def track(self) -> Track:
+        """``[track]`` and its sections."""
+        table: TrackTable = self.validate(TrackTable, ("track",))
+        sections = tuple(
+            self.build(("track", "section", i), functools.partial(_section, s))
+            for i, s in enumerate(table.section)
+        )
+        return self.build(("track",), lambda: Track(
+            sections=sections, formula=table.formula, wheelbase=table.wheelbase))
+
+    def controllers(self, raw: dict[str, Any] | None, n: int) -> dict[str, Any]:
+        """``[controller]``: the primary family, then ``[controller.<family>]`` sub-tables."""
+        if raw is None:
+            return {}
+        from ..controllers.registry import DEFAULT_FAMILY, family_names, get_family
+
+        names = family_names()
+        family = self.validate(family_table(names, DEFAULT_FAMILY), ("controller",)).family
+        subs = [k for k in raw if k in names]
+        for k in subs:
+            if not isinstance(raw[k], dict) or k == family:
+                text = (f"must be a table (got {got(raw[k])})" if k != family else
+                        f"repeats the primary family {family!r}: its keys belong in "
+                        "[controller] itself")
+                raise ScenarioError(f"{self.file}: [controller.{k}] {text}.")
+        primary = {k: v for k, v in raw.items() if k != "family" and k not in subs}
+        context = {"n_coaches": n}
+        found = {family: self.settings(get_family(family).settings, primary, ("controller",),
+                                       context, ("family", *names))}
+        for k in subs:
+            found[k] = self.settings(get_family(k).settings, raw[k], ("controller", k), context)
+        return found
+
+    def simulation(self, raw: dict[str, Any] | None, sample_time: float,
+                   families: tuple[str, ...]) -> SimulationSettings | None:
+        """``[simulation]``, checked against the sample time and the families present."""
+        if raw is None:
+            return None
+        if not families:
+            raise self.fail(Violation(
+                text="needs a [controller] section", got_text="none",
+                hint=" The simulation runs the design given in [controller]. Add [controller] "
+                "or remove [simulation]."), ("simulation",))
+        context = {"sample_time": sample_time, "strategies": strategy_names(families)}
+        simulation: SimulationSettings = self.settings(SimulationSettings, raw, ("simulation",),
+                                                       context)
+        return simulation
+
+    def expected(self, raw: dict[str, Any] | None, families: tuple[str, ...]) -> FrozenMapping[str]:
+        """``[expected]``: known checks, statuses, and each check's family present."""
+        if raw is None:
+            return FrozenMapping()
+        model = expected_table(dict.fromkeys(check_names(), ""), check_statuses())
+        self.validate(model, ("expected",))
+        for check in raw:
+            problem = expectation_violation(check, families)
+            if problem is not None:
+                raise self.fail(problem, ("expected",), (check,), model)
+        return FrozenMapping(raw)
+
+
+def _si(table: FileTable, name: str, absent: float = math.inf) -> Any:
+    """The SI value of key ``name`` of a validated table (``absent`` if omitted)."""
+    value = getattr(table, name)
+    if value is None:
+        return absent
+    f = field_at(type(table), (name,))
+    return convert(value, f.key if f is not None else None)
+
+
+def _vehicle(group: VehicleTable) -> Vehicle:
+    davis = next(k for k in DAVIS_KEYS if getattr(group, k) is not None)
+    a0, a1, a2 = _si(group, davis)
+    envelope = TractionEnvelope(
+        max_traction=_si(group, "max_traction_kn"),
+        max_power=_si(group, "max_power_kw"),
+        max_braking=_si(group, "max_braking_kn"),
+        max_braking_power=_si(group, "max_braking_power_kw"),
+        adhesion=_si(group, "adhesion"),
+    )
+    return Vehicle(mass=_si(group, "mass_t"), a0=a0, a1=a1, a2=a2, name=group.name,
+                   length=group.length, traction_share=group.traction_share, envelope=envelope)
+
+
+def _coupler(link: CouplerTable, front: float, rear: float) -> Coupler:
+    return Coupler(
+        stiffness=_si(link, "stiffness_kn_per_m", 0.0),
+        damping=_si(link, "damping_kn_s_per_m"),
+        spacing=(front + rear) / 2.0 + link.gap,
+        virtual=link.virtual,
+    )
+
+
+def _section(section: SectionTable) -> TrackSection:
+    return TrackSection(start=section.start, grade_permille=section.grade_permille,
+                        curve_radius=_si(section, "curve_radius"))
+
+
+def _formation(vehicles: list[Vehicle]) -> str:
+    """The formation: 'T-M-M-T', 'unit train ×4', run-length coded when long."""
+    names = [v.name for v in vehicles]
+    if len(set(names)) > 1 and len(names) <= 12:
+        return "-".join(names)
+    runs: list[tuple[str, int]] = []
+    for v in vehicles:
+        if runs and runs[-1][0] == v.name:
+            runs[-1] = (v.name, runs[-1][1] + 1)
+        else:
+            runs.append((v.name, 1))
+    return "-".join(name if count == 1 else f"{name} ×{count}" for name, count in runs)
+
+
+_KEYWORD = (inspect.Parameter.KEYWORD_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+
+
+def _options_table(factory: Callable[..., Train]) -> type[BaseModel]:
+    """The keyword arguments of a preset function as a file table."""
+    params = inspect.signature(factory).parameters
+    extra: Literal["allow", "forbid"] = (
+        "allow" if any(p.kind is p.VAR_KEYWORD for p in params.values()) else "forbid"
+    )
+    fields: dict[str, Any] = {
+        name: (Any, ... if p.kind is p.KEYWORD_ONLY and p.default is p.empty else None)
+        for name, p in params.items() if p.kind in _KEYWORD
+    }
+    return create_model("PresetOptions", __config__=ConfigDict(extra=extra), **fields)

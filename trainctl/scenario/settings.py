@@ -1,0 +1,284 @@
+# The [model] and [simulation] settings, each key declared once (SI field, file key, unit, rule).
+"""Settings of the ``[model]`` and ``[simulation]`` tables.
+
+Each field is declared once (:mod:`trainctl.declare`): its SI type and rule,
+its file key with unit and converter, its default and one line of
+documentation. Objects built in Python and tables read from files are
+checked by the same declarations and validators.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any, ClassVar
+
+from pydantic import TypeAdapter, ValidationError, ValidationInfo, model_validator
+
+from ..constraints import Array, Choice, Flag, NameList, Number, Violation, raise_at
+from ..declare import Alt, Key, python_error, settings
+from ..models.discrete import DISCRETISATIONS
+from ..models.dynamics import ALLOCATIONS
+from ..models.linear import LINEARISATIONS
+from ..units import kmh_to_ms
+
+__all__ = ["ModelSettings", "SimulationSettings"]
+
+_MULTIPLE_TOL = 1e-9  # relative tolerance of "duration is a whole multiple of sample_time"
+
+
+@settings
+class ModelSettings:
+    """How the train model is linearised and sampled.
+
+    Parameters
+    ----------
+    speed : float
+        Cruise (linearisation) speed [m/s], > 0.
+    linearisation : {"jacobian", "book"}
+        Jacobian of the Davis law at ``speed``, or the book's printed matrices.
+    dummy_state : bool
+        Keep the book's dummy state in the linear model.
+    allocation : {"shares", "own"}
+        Cruise traction spread by ``traction_share`` within each physically
+        coupled group, or each vehicle carrying its own resistance.
+    sample_time : float
+        Sample time of the discrete model [s], > 0.
+    discretisation : {"zoh", "tustin"}
+        Continuous-to-discrete method.
+
+    Examples
+    --------
+    >>> ModelSettings(speed=25.0, sample_time=0.1).discretisation
+    'zoh'
+    """
+
+    speed: Annotated[float, Number(gt=0), Key(
+        "Cruise (linearisation) speed", file="speed_kmh", unit="km/h", to_si=kmh_to_ms,
+        si_unit="m/s")]
+    linearisation: Annotated[str, Choice(LINEARISATIONS), Key(
+        "Jacobian of the Davis law at the cruise speed, or the book's printed matrices"
+    )] = "jacobian"
+    dummy_state: Annotated[bool, Flag(), Key(
+        "Keep the book's dummy state in the linear model")] = True
+    allocation: Annotated[str, Choice(ALLOCATIONS), Key(
+        "Cruise traction spread by traction_share within each coupled group, or each "
+        "vehicle carrying its own resistance")] = "shares"
+    sample_time: Annotated[float, Number(gt=0), Key(
+        "Sample time of the discrete model", unit="s")]
+    discretisation: Annotated[str, Choice(DISCRETISATIONS), Key(
+        "Continuous-to-discrete method")] = "zoh"
+
+
+def _strategies(context: dict[str, Any] | None) -> tuple[str, ...]:
+    """The strategies of the scenario's families, or of every family."""
+    if isinstance(context, dict) and "strategies" in context:
+        return tuple(context["strategies"])
+    from .core import strategy_names
+
+    return strategy_names()
+
+
+def _qualified_hint(item: object) -> str:
+    """How to name another family's strategy, for a qualified name that is not offered."""
+    if not (isinstance(item, str) and "." in item):
+        return ""
+    return (f" A strategy of another controller family ({item!r}) needs that family's "
+            f"[controller.{item.split('.')[0]}] table.")
+
+
+_STRATEGIES = NameList(_strategies, noun="strategy", hint=_qualified_hint)
+_STRATEGY_LIST: TypeAdapter[tuple[str, ...]] = TypeAdapter(
+    Annotated[tuple[str, ...], _STRATEGIES]
+)
+_SAMPLE_TIME: TypeAdapter[float] = TypeAdapter(Annotated[float, Number(gt=0)])
+_SPEEDS = Array(Number(ge=0))
+
+
+def _whole_steps(duration: float, sample_time: float) -> int | None:
+    """``duration / sample_time`` if it is a whole number >= 1 (relative 1e-9), else None."""
+    steps = round(duration / sample_time)
+    if steps < 1 or abs(steps * sample_time - duration) > _MULTIPLE_TOL * duration:
+        return None
+    return steps
+
+
+def _duration_violation(duration: float, sample_time: float) -> Violation:
+    steps = duration / sample_time
+    below = max(math.floor(steps), 1) * sample_time
+    above = max(math.ceil(steps), 1) * sample_time
+    options = f"{below!r}" if below == above else f"{below!r} or {above!r}"
+    return Violation(
+        text=f"must be a whole multiple of [model].sample_time = {sample_time!r} s",
+        python_text=f"must be a whole multiple of the sample time {sample_time!r} s",
+        got_text=f"{duration!r} s, {steps:.6g} samples",
+        hint=f" Use e.g. {options}.",
+    )
+
+
+@settings
+class SimulationSettings:
+    """A closed-loop simulation run: duration, strategies, reference, judgement.
+
+    Each field is declared once, with its ``[simulation]`` key; invalid values
+    raise :class:`~trainctl.exceptions.ModelError`. The check against the
+    sample time happens in :meth:`n_steps`, the check against the scenario's
+    controller families in :meth:`check_strategies` (and, with key paths,
+    when a scenario file is read).
+
+    Parameters
+    ----------
+    duration : float
+        Simulated time [s], > 0; a whole multiple of the sample time.
+    strategies : tuple of str
+        Strategies to simulate, distinct, at least one, in this order:
+        strategy names of the primary controller family (e.g. ``"ndmpc"``),
+        ``"family.strategy"`` for another family of the scenario (e.g.
+        ``"lqr.centralised"``).
+    reference_times : tuple of float
+        Breakpoint times of the reference speed [s]: finite, strictly
+        increasing, the first 0. The reference is piecewise linear through
+        the breakpoints and constant after the last one.
+    reference_speeds : tuple of float
+        Reference speed at each breakpoint [m/s], finite, >= 0, one per time.
+    initial_speed_error : float
+        Common speed offset of every vehicle at t = 0 [m/s], finite; the
+        initial speed ``reference_speeds[0] + initial_speed_error`` must be
+        >= 0.
+    measurement_noise : float
+        Standard deviation of the Gaussian speed-measurement noise [m/s], >= 0.
+    settle_time : float
+        Tracking is judged after this time [s], 0 <= settle_time < duration.
+    tracking_tolerance : float
+        Largest admissible absolute speed error after ``settle_time`` [m/s], > 0.
+    regen_efficiency : float
+        Share of the braking energy credited back [-], 0 to 1.
+
+    Examples
+    --------
+    >>> sim = SimulationSettings(duration=1200.0, strategies=("ndmpc",),
+    ...                          reference_times=(0.0, 600.0), reference_speeds=(20.0, 80.0))
+    >>> sim.n_steps(20.0), sim.tracking_tolerance, sim.regen_efficiency
+    (60, 1.0, 1.0)
+    """
+
+    tables: ClassVar[dict[str, str]] = {
+        "reference": "Reference speed profile: piecewise linear through the breakpoints, "
+        "constant after the last one",
+    }
+
+    duration: Annotated[float, Number(gt=0), Key(
+        "Simulated time, a whole multiple of [model].sample_time (relative 1e-9)", unit="s")]
+    strategies: Annotated[tuple[str, ...], _STRATEGIES, Key(
+        "Strategies to simulate, in this order: the primary family's by name, another "
+        "family's as 'family.strategy'")]
+    reference_times: Annotated[tuple[float, ...], _SPEEDS, Key(
+        "Breakpoint times: the first exactly 0, strictly increasing", file="reference.times",
+        unit="s")]
+    reference_speeds: Annotated[tuple[float, ...], _SPEEDS, Key(
+        "Reference speed at each breakpoint, one per time", si_unit="m/s",
+        one_of=(Alt("reference.speeds_kmh", unit="km/h", to_si=kmh_to_ms),
+                Alt("reference.speeds", unit="m/s")),
+        hint=" speeds_kmh is in km/h, speeds in m/s.")]
+    initial_speed_error: Annotated[float, Number(), Key(
+        "Common speed offset of every vehicle at t = 0", unit="m/s")] = 0.0
+    measurement_noise: Annotated[float, Number(ge=0), Key(
+        "Standard deviation of Gaussian speed-measurement noise (drawn with seed)",
+        unit="m/s")] = 0.0
+    settle_time: Annotated[float, Number(ge=0), Key(
+        "Tracking is judged after this time (< duration)", unit="s")] = 0.0
+    tracking_tolerance: Annotated[float, Number(gt=0), Key(
+        "Largest admissible |speed error| after settle_time", unit="m/s")] = 1.0
+    regen_efficiency: Annotated[float, Number(ge=0, le=1), Key(
+        "Share of the braking energy credited back",
+        hint=" It is the share of the braking energy credited back.")] = 1.0
+
+    @model_validator(mode="after")
+    def _cross_field_rules(self, info: ValidationInfo) -> SimulationSettings:
+        context = info.context if isinstance(info.context, dict) else {}
+        dt = context.get("sample_time")
+        if dt is not None and _whole_steps(self.duration, dt) is None:
+            raise_at(("duration",), _duration_violation(self.duration, dt), self.duration)
+        if self.settle_time >= self.duration:
+            raise_at(("settle_time",), Violation(
+                text=f"must be less than {{duration}} = {self.duration!r} s",
+                got=self.settle_time, hint=" Tracking is judged after settle_time."),
+                self.settle_time)
+        self._check_reference()
+        return self
+
+    def _check_reference(self) -> None:
+        times, speeds = self.reference_times, self.reference_speeds
+        if times[0] != 0.0:
+            raise_at(("reference_times", 0), Violation(
+                text="must be 0", got=times[0], hint=" The reference starts at t = 0."))
+        for i in range(1, len(times)):
+            if times[i] <= times[i - 1]:
+                raise_at(("reference_times", i), Violation(
+                    text=f"must be greater than the previous time {times[i - 1]!r}",
+                    got=times[i], hint=" List the times in increasing order."))
+        if len(speeds) != len(times):
+            raise_at(("reference_speeds",), Violation(
+                text="must have as many entries as {reference_times}",
+                got_text=f"{len(speeds)} for {len(times)} time{'s' if len(times) > 1 else ''}",
+                hint=" Give one speed per time.", value=False))
+        if speeds[0] + self.initial_speed_error < 0:
+            raise_at(("initial_speed_error",), Violation(
+                text=f"must be >= {-speeds[0]!r} m/s, minus the reference speed at t = 0, so "
+                "that no vehicle starts backwards", got=self.initial_speed_error))
+
+    def n_steps(self, sample_time: float) -> int:
+        """The number of samples that make up :attr:`duration`.
+
+        Parameters
+        ----------
+        sample_time : float
+            Sample time of the model and controller [s], > 0.
+
+        Returns
+        -------
+        int
+            ``duration / sample_time`` [-], >= 1.
+
+        Raises
+        ------
+        ModelError
+            If ``sample_time`` is not a number > 0 or ``duration`` is not a
+            whole multiple of it (relative tolerance 1e-9).
+
+        Examples
+        --------
+        >>> sim = SimulationSettings(duration=1.5, strategies=("centralised",),
+        ...                          reference_times=(0.0,), reference_speeds=(25.0,))
+        >>> sim.n_steps(0.1)
+        15
+        """
+        try:
+            dt = _SAMPLE_TIME.validate_python(sample_time)
+        except ValidationError as exc:
+            raise python_error("SimulationSettings", exc, prefix=("sample_time",)) from None
+        steps = _whole_steps(self.duration, dt)
+        if steps is None:
+            try:
+                raise_at(("duration",), _duration_violation(self.duration, dt))
+            except ValidationError as exc:
+                raise python_error("SimulationSettings", exc) from None
+        return steps
+
+    def check_strategies(self, names: tuple[str, ...]) -> None:
+        """Check :attr:`strategies` against the strategies a scenario offers.
+
+        Parameters
+        ----------
+        names : tuple of str
+            The strategy names of the scenario's controller families
+            (:func:`trainctl.scenario.strategy_names`).
+
+        Raises
+        ------
+        ModelError
+            If a strategy is not among ``names``.
+        """
+        try:
+            _STRATEGY_LIST.validate_python(self.strategies, context={"strategies": names})
+        except ValidationError as exc:
+            raise python_error("SimulationSettings", exc, prefix=("strategies",)) from None

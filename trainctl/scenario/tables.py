@@ -1,0 +1,361 @@
+# The file tables of the train, the track and the top level, each key declared once.
+"""Declarations of the scenario-file tables that are not settings classes.
+
+The top level, ``[train]`` with its vehicle groups and couplers, and
+``[track]`` with its sections are pydantic models whose fields are the file
+keys, each declared once with its rule (:mod:`trainctl.constraints`), unit,
+converter to SI, default and documentation (:class:`~trainctl.declare.Key`);
+model validators hold the rules that span several keys. The domain objects
+(:class:`~trainctl.models.vehicle.Vehicle`, ...) are built from validated
+tables by :mod:`trainctl.scenario.parse`.
+"""
+
+from __future__ import annotations
+
+import typing
+from collections.abc import Mapping
+from typing import Annotated, Any, ClassVar
+
+from pydantic import (
+    ConfigDict,
+    Field,
+    GetCoreSchemaHandler,
+    TypeAdapter,
+    create_model,
+    model_validator,
+)
+from pydantic_core import CoreSchema, core_schema
+
+from ..constraints import (
+    Array,
+    Choice,
+    Flag,
+    Integer,
+    Number,
+    Rule,
+    Text,
+    Violation,
+    fail,
+    raise_at,
+)
+from ..declare import Key
+from ..models.track import SECTION_RULES, TRACK_RULES
+from ..models.vehicle import COUPLER_RULES, ENVELOPE_RULES, VEHICLE_RULES
+from ..units import (
+    davis_book_literal,
+    davis_from_unit_resistance_kmh,
+    kn_per_m_to_n_per_m,
+    kn_s_per_m_to_n_s_per_m,
+    kn_to_n,
+    kw_to_w,
+    tonnes_to_kg,
+)
+from .core import SCHEMA_VERSION
+from .filemodel import FileTable, Section, exactly_one, one_of_schema
+
+__all__ = [
+    "MAX_VEHICLES",
+    "CouplerTable",
+    "SectionTable",
+    "TableRule",
+    "TopLevel",
+    "TrackTable",
+    "TrainTable",
+    "VehicleTable",
+    "expected_table",
+    "family_table",
+]
+
+_ENVELOPE = {name: rule.for_file() for name, rule in ENVELOPE_RULES.items()}
+
+MAX_VEHICLES = 10_000
+"""Longest train a scenario file may describe (vehicles after ``count``)."""
+
+DAVIS_KEYS = ("davis_n_per_kn_kmh", "davis_si", "davis_book_literal")
+_DAVIS = Array(VEHICLE_RULES["a0"], length=3)
+_DAVIS_HINT = (" davis_n_per_kn_kmh is N/kN with V in km/h; davis_si is [a0 m/s², a1 1/s, "
+               "a2 1/m].")
+
+
+class TableRule(Rule):
+    """A TOML table (its keys checked elsewhere)."""
+
+    is_table = True
+
+    def want(self, *, python: bool = False) -> str:
+        """``"a table"``."""
+        return "a table"
+
+    def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
+        """A dict."""
+        return core_schema.dict_schema(strict=True)
+
+    def json_extra(self) -> dict[str, Any]:
+        """An object."""
+        return {"type": "object"}
+
+
+class PresetName(Text):
+    """A preset name of :data:`trainctl.models.presets.PRESETS` (checked when parsed)."""
+
+    def json_extra(self) -> dict[str, Any]:
+        """The presets as an enumeration."""
+        from ..models.presets import PRESETS
+
+        return {"enum": sorted(PRESETS)}
+
+
+class TableOrTables(Rule):
+    """One table for every entry, or an array of tables (``model`` each)."""
+
+    def __init__(self, model: type[FileTable]) -> None:
+        self.model = model
+
+    def want(self, *, python: bool = False) -> str:
+        """``"a table or an array of tables"``."""
+        return "a table or an array of tables"
+
+    def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
+        """Anything; :meth:`check` dispatches on dict or list."""
+        return core_schema.any_schema()
+
+    def check(self, value: Any, info: Any) -> Any:
+        """Validate the table, or each table of the array."""
+        if isinstance(value, dict):
+            return self.model.model_validate(value)
+        if isinstance(value, list):
+            return TypeAdapter(list[self.model]).validate_python(value)  # type: ignore[name-defined]
+        raise fail(Violation(text=f"must be {self.want()}", got=value))
+
+    def json_extra(self) -> dict[str, Any]:
+        """The table's schema, or an array of it."""
+        table = self.model.model_json_schema()
+        return {"anyOf": [table, {"type": "array", "items": table}]}
+
+
+class VehicleTable(FileTable):
+    """A group of identical vehicles (``[[train.vehicle]]``)."""
+
+    model_config = ConfigDict(**FileTable.model_config, json_schema_extra=one_of_schema(DAVIS_KEYS))
+    one_of_keys: ClassVar[tuple[tuple[str, ...], ...]] = (DAVIS_KEYS,)
+
+    name: Annotated[str, Text(), Key("Label, e.g. 'T' (trailer) or 'M' (motor coach)")] = (
+        "vehicle"
+    )
+    count: Annotated[int, Integer(ge=1), Key("This many identical vehicles in a row")] = 1
+    mass_t: Annotated[float, VEHICLE_RULES["mass"], Key(
+        "Mass", unit="t", to_si=tonnes_to_kg, si_unit="kg")]
+    length: Annotated[float, VEHICLE_RULES["length"], Key("Length over couplers", unit="m")] = 25.0
+    davis_n_per_kn_kmh: Annotated[tuple[float, ...] | None, _DAVIS, Key(
+        "Unit running resistance c0 + c1 V + c2 V² (one of three Davis keys)",
+        unit="N/kN, V in km/h", to_si=lambda c: davis_from_unit_resistance_kmh(*c),
+        vector=True, si_text="c·g/1000, × 3.6, × 3.6² → a0, a1, a2")] = None
+    davis_si: Annotated[tuple[float, ...] | None, _DAVIS, Key(
+        "Davis coefficients per unit mass (one of three Davis keys)", unit="m/s², 1/s, 1/m",
+        si_text="used as a0, a1, a2")] = None
+    davis_book_literal: Annotated[tuple[float, ...] | None, _DAVIS, Key(
+        "Coefficients as printed in the book (one of three Davis keys; reproduction only)",
+        unit="as printed", to_si=lambda c: davis_book_literal(*c), vector=True,
+        si_text="used literally as a0, a1, a2")] = None
+    traction_share: Annotated[float, VEHICLE_RULES["traction_share"], Key(
+        "Share of the cruise traction within its coupled group")] = 1.0
+    max_traction_kn: Annotated[float | None, _ENVELOPE["max_traction"], Key(
+        "Largest tractive force", unit="kN", to_si=kn_to_n, si_unit="N",
+        omitted="no limit")] = None
+    max_power_kw: Annotated[float | None, _ENVELOPE["max_power"], Key(
+        "Largest traction power at the wheel", unit="kW", to_si=kw_to_w, si_unit="W",
+        omitted="no limit")] = None
+    max_braking_kn: Annotated[float | None, _ENVELOPE["max_braking"], Key(
+        "Largest braking force", unit="kN", to_si=kn_to_n, si_unit="N",
+        omitted="no limit")] = None
+    max_braking_power_kw: Annotated[float | None, _ENVELOPE["max_braking_power"], Key(
+        "Largest braking power", unit="kW", to_si=kw_to_w, si_unit="W",
+        omitted="no limit")] = None
+    adhesion: Annotated[float | None, _ENVELOPE["adhesion"], Key(
+        "Adhesion coefficient mu", omitted="no limit")] = None
+
+    @model_validator(mode="after")
+    def _one_davis_key(self) -> VehicleTable:
+        exactly_one(self, DAVIS_KEYS, _DAVIS_HINT)
+        return self
+
+
+class CouplerTable(FileTable):
+    """A coupler or virtual link (``[train.coupler]`` or ``[[train.coupler]]``)."""
+
+    model_config = ConfigDict(**FileTable.model_config, json_schema_extra={
+        "if": {"properties": {"virtual": {"const": True}}, "required": ["virtual"]},
+        "then": {"properties": {"stiffness_kn_per_m": {"const": 0}}},
+        "else": {"required": ["stiffness_kn_per_m"],
+                 "properties": {"stiffness_kn_per_m": {"exclusiveMinimum": 0}}},
+    })
+
+    stiffness_kn_per_m: Annotated[float | None, COUPLER_RULES["stiffness"], Key(
+        "Spring stiffness k: > 0, required unless virtual (then 0 or omitted)", unit="kN/m",
+        to_si=kn_per_m_to_n_per_m, si_unit="N/m")] = None
+    damping_kn_s_per_m: Annotated[float, COUPLER_RULES["damping"], Key(
+        "Viscous damping d (0 when virtual)", unit="kN·s/m", to_si=kn_s_per_m_to_n_s_per_m,
+        si_unit="N·s/m")] = 0.0
+    virtual: Annotated[bool, Flag(), Key(
+        "A virtual (communication-only) link: no force, the gap is kept by control")] = False
+    gap: Annotated[float, Number(ge=0), Key(
+        "Extra centre spacing beyond the two half-lengths", unit="m")] = 0.0
+
+    @model_validator(mode="after")
+    def _stiffness(self) -> CouplerTable:
+        stiffness = self.stiffness_kn_per_m
+        if stiffness is None and not self.virtual:
+            raise_at((), Violation(
+                text="missing required key {stiffness_kn_per_m} (a number > 0): a physical "
+                "coupler needs a stiffness", where=False))
+        bound = Number(ge=0) if self.virtual else Number(gt=0)
+        if stiffness is not None and (stiffness < 0 or (stiffness == 0 and not self.virtual)):
+            raise_at(("stiffness_kn_per_m",), Violation(
+                text=f"must be {bound.want()}", got=stiffness,
+                hint="" if self.virtual else " Set virtual = true for a link without coupling."))
+        return self
+
+
+class SectionTable(FileTable):
+    """A stretch of constant grade and curvature (``[[track.section]]``)."""
+
+    start: Annotated[float, SECTION_RULES["start"], Key(
+        "Where the section starts; it runs to the next section's start", unit="m")]
+    grade_permille: Annotated[float, SECTION_RULES["grade_permille"], Key(
+        "Grade, positive uphill", unit="‰")] = 0.0
+    curve_radius: Annotated[float | None, SECTION_RULES["curve_radius"].for_file(), Key(
+        "Curve radius", unit="m", omitted="straight track")] = None
+
+
+class TrackTable(FileTable):
+    """Grade and curvature along the line (``[track]``)."""
+
+    formula: Annotated[str, TRACK_RULES["formula"], Key(
+        "Line-resistance formula: TB/T unit resistances, or Ning et al. (2016) as printed"
+    )] = "tbt"
+    wheelbase: Annotated[float, TRACK_RULES["wheelbase"], Key(
+        "Wheelset spacing, used by 'ning2016' for D = 0.5·wheelbase/R", unit="m")] = 1.83
+    section: Annotated[list[SectionTable], Field(min_length=1), Key(
+        "Sections in track order, starts strictly increasing")]
+
+    @model_validator(mode="after")
+    def _starts_increase(self) -> TrackTable:
+        for i in range(1, len(self.section)):
+            previous, start = self.section[i - 1].start, self.section[i].start
+            if start <= previous:
+                raise_at(("section", i, "start"), Violation(
+                    text=f"must be greater than the previous section's start {previous!r}",
+                    got=start, hint=" List sections in track order."))
+        return self
+
+
+class TrainTable(FileTable):
+    """The train (``[train]``): a preset, or vehicle groups and couplers."""
+
+    model_config = ConfigDict(**FileTable.model_config, json_schema_extra={"oneOf": [
+        {"required": ["preset"], "not": {"anyOf": [{"required": ["vehicle"]},
+                                                   {"required": ["coupler"]}]}},
+        {"required": ["vehicle"], "not": {"anyOf": [{"required": ["preset"]},
+                                                    {"required": ["preset_options"]}]}},
+    ]})
+
+    preset: Annotated[str | None, PresetName(), Key(
+        "A preset of trainctl.models.presets (instead of vehicles and couplers)")] = None
+    preset_options: Annotated[dict[str, Any] | None, TableRule(), Key(
+        "Keyword arguments of the preset function (names are checked)")] = None
+    vehicle: Annotated[list[VehicleTable] | None, Field(min_length=1), Key(
+        "Vehicle groups, head first (needed without a preset)")] = None
+    coupler: Annotated[Any, TableOrTables(CouplerTable), Key(
+        "One coupler for every link, or exactly n-1 couplers front to rear (n vehicles)")] = None
+
+    @model_validator(mode="after")
+    def _preset_or_vehicles(self) -> TrainTable:
+        given = self.model_fields_set
+        if self.preset is not None:
+            for key in ("vehicle", "coupler"):
+                if key in given:
+                    raise_at(("preset",), Violation(
+                        text=f"cannot be combined with {{{key}}}: give either a preset or "
+                        "explicit vehicles"))
+            return self
+        if "preset_options" in given:
+            raise_at(("preset_options",), Violation(text="needs {preset}", got_text="no preset"))
+        if not self.vehicle:
+            raise_at((), Violation(
+                text="missing required key {preset} or {vehicle}: the train needs a preset "
+                "name or at least one [{vehicle}] group", where=False))
+        self._check_counts(self.vehicle)
+        return self
+
+    def _check_counts(self, groups: list[VehicleTable]) -> None:
+        total = 0
+        for i, group in enumerate(groups):
+            if total + group.count > MAX_VEHICLES:
+                raise_at(("vehicle", i, "count"), Violation(
+                    text=f"makes the train longer than {MAX_VEHICLES} vehicles",
+                    got_text=f"{group.count} after {total}"))
+            total += group.count
+        links = total - 1
+        if self.coupler is None and links:
+            raise_at((), Violation(
+                text=f"missing required key {{coupler}}: a train of {total} vehicles needs a "
+                f"{{coupler}} table or {links} [{{coupler}}] entries", where=False))
+        if isinstance(self.coupler, list) and len(self.coupler) != links:
+            raise_at((), Violation(
+                text=f"[{{coupler}}] must have exactly {links} entries, one per link between "
+                f"{total} vehicles", got=len(self.coupler), where=False,
+                hint=" Use a single [train.coupler] table to apply one coupler to every link."))
+
+
+_SECTION = TableRule()
+
+
+class TopLevel(FileTable):
+    """The top level of a scenario file."""
+
+    schema_version: Annotated[int, Integer(ge=1), Key(f"Must be {SCHEMA_VERSION}")]
+    name: Annotated[str, Text(nonblank=True), Key(
+        "Display name, any text (file names use its slug)")]
+    description: Annotated[str, Text(single_line=True), Key(
+        "One line, shown by trainctl list")]
+    seed: Annotated[int, Integer(ge=0), Key("Random seed")] = 0
+    train: Annotated[dict[str, Any], _SECTION, Section(TrainTable), Key(
+        "The train: a preset, or vehicle groups and couplers")]
+    track: Annotated[dict[str, Any] | None, _SECTION, Section(TrackTable), Key(
+        "Grade and curvature", omitted="flat, straight track")] = None
+    model: Annotated[dict[str, Any], _SECTION, Section(None), Key(
+        "Linearisation and sampling")]
+    controller: Annotated[dict[str, Any] | None, _SECTION, Section(None), Key(
+        "Controller design(s): the primary family's keys, other families as sub-tables",
+        omitted="no controller")] = None
+    simulation: Annotated[dict[str, Any] | None, _SECTION, Section(None), Key(
+        "Closed-loop simulation run; needs [controller]", omitted="no simulation")] = None
+    expected: Annotated[dict[str, Any] | None, _SECTION, Section(None), Key(
+        "Declared status of the design checks", omitted="none declared")] = None
+
+    @model_validator(mode="after")
+    def _version(self) -> TopLevel:
+        if self.schema_version != SCHEMA_VERSION:
+            raise_at(("schema_version",), Violation(
+                text=f"must be {SCHEMA_VERSION}", got=self.schema_version,
+                hint=f" This trainctl release reads schema version {SCHEMA_VERSION} only."))
+        return self
+
+
+def family_table(names: tuple[str, ...], default: str) -> type[FileTable]:
+    """The ``family`` key of ``[controller]``, for the registry's families ``names``."""
+    family = Annotated[str, Choice(names), Key(
+        "The primary controller family: the rest of [controller] holds its settings")]
+    model = create_model(
+        "ControllerFamily", __config__=ConfigDict(extra="ignore"), family=(family, default)
+    )
+    return typing.cast(type[FileTable], model)
+
+
+def expected_table(checks: Mapping[str, str], statuses: tuple[str, ...]) -> type[FileTable]:
+    """The ``[expected]`` table: one optional status key per check (name -> doc)."""
+    fields: dict[str, Any] = {
+        name: (Annotated[str | None, Choice(statuses), Key(doc)], None)
+        for name, doc in checks.items()
+    }
+    return create_model("Expected", __base__=FileTable, **fields)
