@@ -242,7 +242,7 @@ class TestLQR:
         np.testing.assert_allclose(np.sort_complex(sys.poles()), np.sort_complex(want),
                                    atol=1e-12)
         [check] = [c for c in LQR.checks(design)
-                   if c.name == dict(zip(LQR.strategies, LQR.check_names))[strategy]]
+                   if c.name == dict(zip(LQR.strategies, LQR.check_names, strict=True))[strategy]]
         assert check.value == pytest.approx(float(np.max(np.abs(want))), rel=1e-12)
         assert check.status == "pass"
 

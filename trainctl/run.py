@@ -98,15 +98,16 @@ class AnalysisRun:
 def _metrics_table(run: AnalysisRun) -> str:
     sim = run.scenario.simulation
     assert sim is not None  # metrics exist only with a [simulation] section
+    w = max([15] + [len(name) + 2 for name in run.metrics])
     lines = [f"Closed-loop simulations ({sim.duration:g} s, nonlinear plant; errors after "
              f"{sim.settle_time:g} s, tolerance {sim.tracking_tolerance:g} m/s):",
-             f"  {'strategy':<15}{'RMS err':>9}{'max err':>9}{'max |f|':>9}{'energy':>9}"
+             f"  {'strategy':<{w}}{'RMS err':>9}{'max err':>9}{'max |f|':>9}{'energy':>9}"
              f"{'iters':>7}{'solve p50':>10}  statuses",
-             f"  {'':<15}{'[m/s]':>9}{'[m/s]':>9}{'[kN]':>9}{'[kWh]':>9}{'mean':>7}{'[ms]':>10}"]
+             f"  {'':<{w}}{'[m/s]':>9}{'[m/s]':>9}{'[kN]':>9}{'[kWh]':>9}{'mean':>7}{'[ms]':>10}"]
     for name, m in run.metrics.items():
         ok = "" if run.tracking_ok(name) else "  (tracking outside tolerance)"
         statuses = ", ".join(f"{k} {v}" for k, v in m.status_counts.items() if v)
-        lines.append(f"  {name:<15}{float(np.sqrt(np.mean(m.rms_error**2))):>9.3f}"
+        lines.append(f"  {name:<{w}}{float(np.sqrt(np.mean(m.rms_error**2))):>9.3f}"
                      f"{float(np.max(m.max_error)):>9.3f}{m.max_coupler_force / 1e3:>9.2f}"
                      f"{m.energy:>9.2f}{m.iterations_mean:>7.1f}"
                      f"{m.solve_time_median * 1e3:>10.2f}  {statuses}{ok}")

@@ -123,10 +123,11 @@ class DesignReview:
 
     def format_text(self) -> str:
         """The review as a plain-text table with hints."""
+        w = max([24] + [len(c.name) + 2 for c in self.checks])
         lines = ["Design checks:",
-                 f"  {'check':<24}{'status':<8}{'value':>12}{'threshold':>12}  unit"]
+                 f"  {'check':<{w}}{'status':<8}{'value':>12}{'threshold':>12}  unit"]
         for c in self.checks:
-            lines.append(f"  {c.name:<24}{c.status.upper():<8}{_fmt(c.value):>12}"
+            lines.append(f"  {c.name:<{w}}{c.status.upper():<8}{_fmt(c.value):>12}"
                          f"{_fmt(c.threshold):>12}  {c.unit}")
             lines.append(f"      {c.message}")
             if c.hint:
