@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Iterator
+from pathlib import Path
 from types import SimpleNamespace
 
 import control as ct
 import numpy as np
+import pydantic
 import pytest
 import scipy.linalg
 
@@ -266,3 +269,151 @@ class TestLQR:
         unbounded = LQR.make(dataclasses.replace(design, settings=_lqr_settings(
             input_bounds=False)), "centralised")
         assert np.max(unbounded.step(0.0, Measurement(state=state), ref).inputs) > max(high)
+
+
+# --------------------------------------------------------------------------- a toy family
+
+TOY_SCENARIO = """\
+schema_version = 1
+name = "Two coaches under a toy controller"
+description = "A family defined in the test file, run through analyse and report"
+
+[[train.vehicle]]
+name = "M"
+mass_t = 40.0
+count = 2
+davis_si = [0.01, 0.0, 1e-5]
+max_traction_kn = 200.0
+max_braking_kn = 200.0
+
+[train.coupler]
+stiffness_kn_per_m = 10000.0
+damping_kn_s_per_m = 20.0
+
+[model]
+speed_kmh = 90.0
+sample_time = 0.05
+
+[controller]
+family = "toy"
+gain_per_s = 0.4
+
+[simulation]
+duration = 30.0
+strategies = ["proportional"]
+initial_speed_error = -1.0
+settle_time = 20.0
+tracking_tolerance = 0.5
+
+[simulation.reference]
+times = [0.0]
+speeds_kmh = [90.0]
+
+[expected]
+toy_closed_loop = "pass"
+"""
+
+
+class ToySettings(pydantic.BaseModel):
+    """The toy family's [controller] table: one speed-feedback gain."""
+
+    model_config = pydantic.ConfigDict(extra="forbid", frozen=True)
+    gain_per_s: float = pydantic.Field(default=0.2, gt=0)
+
+
+@dataclasses.dataclass(frozen=True)
+class ToyDesign:
+    """Per-vehicle speed feedback u_i = u_ff,i + g m_i (v_ref - v_i) on the design model."""
+
+    model: object
+    settings: ToySettings
+
+    def gain(self) -> np.ndarray:
+        model = self.model
+        n, nx = model.n_vehicles, model.n_states  # type: ignore[attr-defined]
+        K = np.zeros((n, nx))
+        K[:, :n] = np.diag(self.settings.gain_per_s * model.train.mass / 1e3)  # type: ignore
+        return K
+
+
+class ToyFamily:
+    """A controller family that lives only in this test file."""
+
+    name = "toy"
+    title = "Toy speed feedback"
+    strategies = ("proportional",)
+    check_names = ("toy_closed_loop",)
+    settings = ToySettings
+    report_partial = "<p class=\"toy\">Toy gain {{ data.gain }} per second.</p>\n"
+
+    def design(self, scenario: object, model: object, settings: ToySettings) -> ToyDesign:
+        return ToyDesign(model=model, settings=settings)
+
+    def make(self, design: ToyDesign, strategy: str) -> object:
+        from trainctl.controllers.lqr.controller import LQRController
+
+        return LQRController(design.model.train, design.gain(),  # type: ignore[attr-defined]
+                             dt=design.model.settings.sample_time,  # type: ignore[attr-defined]
+                             name=strategy)
+
+    def checks(self, design: ToyDesign) -> list[object]:
+        from trainctl.analysis.review import radius_check
+
+        return [radius_check("toy_closed_loop", self._matrix(design),
+                             design.model.train.state_labels(),  # type: ignore[attr-defined]
+                             "toy feedback", marginal_hint="", unstable_hint="lower the gain")]
+
+    def closed_loop(self, design: ToyDesign, strategy: str) -> ct.StateSpace:
+        model = design.model
+        return ct.ss(self._matrix(design), model.disturbance_matrix(),  # type: ignore
+                     np.eye(model.n_states), 0, dt=model.settings.sample_time)  # type: ignore
+
+    def report_data(self, design: ToyDesign) -> dict[str, object]:
+        return {"gain": design.settings.gain_per_s}
+
+    def report_figures(self, data: object) -> list[object]:
+        return []
+
+    @staticmethod
+    def _matrix(design: ToyDesign) -> np.ndarray:
+        sysd = design.model.discrete  # type: ignore[attr-defined]
+        return np.asarray(sysd.A) - np.asarray(sysd.B) @ design.gain()
+
+
+@pytest.fixture
+def toy_family() -> Iterator[ToyFamily]:
+    """The toy family, registered for one test."""
+    family = ToyFamily()
+    register_family(family)  # type: ignore[arg-type]
+    try:
+        yield family
+    finally:
+        unregister_family("toy")
+
+
+class TestToyFamily:
+    """A family defined in a test runs through `trainctl analyse` and `trainctl report`."""
+
+    def test_analyse_and_report(self, toy_family: ToyFamily, tmp_path: Path,
+                                capsys: pytest.CaptureFixture[str]) -> None:
+        """Checks, the simulation, the report section and the closed loop, all from the toy."""
+        import json
+
+        from trainctl.cli import main
+
+        path = tmp_path / "toy.toml"
+        path.write_text(TOY_SCENARIO, encoding="utf-8")
+        assert main(["analyse", str(path), "--json", "--strict"]) == 0
+        result = json.loads(capsys.readouterr().out)
+        checks = {c["name"]: c for c in result["checks"]}
+        assert checks["toy_closed_loop"]["status"] == "pass"
+        assert result["simulations"]["proportional"]["tracking_ok"] is True
+        out = tmp_path / "toy.html"
+        assert main(["report", str(path), "-o", str(out), "--deterministic"]) == 0
+        html = out.read_text(encoding="utf-8")
+        assert '<section id="family-toy">' in html and "Toy gain 0.4 per second." in html
+        assert "toy_closed_loop" in html and ">proportional<" in html
+        design = build_design(load_scenario(str(path)))
+        loop = design.closed_loop("proportional")
+        radius = checks["toy_closed_loop"]["value"]
+        assert float(np.max(np.abs(loop.poles()))) == pytest.approx(radius, rel=1e-12)

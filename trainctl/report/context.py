@@ -118,11 +118,13 @@ def _sections(data: ReportData) -> list[dict[str, Any]]:
 
 def _scenario(data: ReportData) -> dict[str, Any]:
     scenario = data.scenario
-    settings = []
-    for title, obj in (("Model", scenario.model), ("Controller", scenario.controller),
-                       ("Simulation", scenario.simulation)):
-        if obj is not None:
-            settings.append({"title": title, "rows": _settings_rows(obj)})
+    blocks: list[tuple[str, Any]] = [("Model", scenario.model)]
+    controllers = dict(scenario.controllers)
+    for name, obj in controllers.items():
+        blocks.append(("Controller" if len(controllers) == 1 else f"Controller ({name})", obj))
+    blocks.append(("Simulation", scenario.simulation))
+    settings = [{"title": title, "rows": _settings_rows(obj)}
+                for title, obj in blocks if obj is not None]
     return {
         "name": scenario.name,
         "description": scenario.description,
@@ -137,20 +139,30 @@ def _scenario(data: ReportData) -> dict[str, Any]:
     }
 
 
+def _field_names(settings: Any) -> list[str]:
+    """Field names of a settings object: a dataclass, a pydantic model or a plain object."""
+    if dataclasses.is_dataclass(settings):
+        return [f.name for f in dataclasses.fields(settings)]
+    fields = getattr(type(settings), "model_fields", None)
+    if isinstance(fields, Mapping):
+        return list(fields)
+    return [k for k in vars(settings) if not k.startswith("_")]
+
+
 def _settings_rows(settings: Any) -> list[dict[str, str]]:
     units = docstring_units(type(settings))
     rows = []
-    for f in dataclasses.fields(settings):
-        value = getattr(settings, f.name)
+    for name in _field_names(settings):
+        value = getattr(settings, name)
         numeric = is_real(value) or (
             isinstance(value, tuple) and bool(value) and all(is_real(v) for v in value))
-        unit = units.get(f.name, "") if numeric else ""
-        if f.name == "input_weight":
+        unit = units.get(name, "") if numeric else ""
+        if name == "input_weight":
             unit = f"per {settings.input_weight_unit}²"
         unit = unit.replace("^2", "²")
-        rows.append({"name": humanise(f.name), "key": f.name, "value": format_value(value),
+        rows.append({"name": humanise(name), "key": name, "value": format_value(value),
                      "unit": unit})
-        if f.name == "speed" and is_real(value):
+        if name == "speed" and is_real(value):
             rows.append({"name": "Speed", "key": "speed_kmh",
                          "value": format_number(float(value) * 3.6), "unit": "km/h"})
     return rows

@@ -219,7 +219,7 @@ def input_envelope(
         Lower (negative) and upper limits per sample, shape (N,); None
         when the controller does not bound its inputs.
     """
-    if scenario.controller is None or not scenario.controller.input_bounds:
+    if scenario.controller is None or not getattr(scenario.controller, "input_bounds", True):
         return None
     speeds = result.velocities[:, :-1]
     up = np.max([veh.envelope.traction_limit(speeds[i], mass=veh.mass)
