@@ -49,7 +49,7 @@ from numpy.typing import NDArray
 from ...analysis.mpc import MPCDesign, Prediction, prediction
 from ...exceptions import ModelError
 from ...models.train import Train
-from ...models.vehicle import TractionEnvelope, _limit
+from ...models.vehicle import TractionEnvelope, envelope_limit
 from ..base import Measurement, ReferencePreview, StepRecord
 from ..observer import KalmanObserver, ObserverSettings
 from ..qp import ParametricQP
@@ -61,7 +61,7 @@ __all__ = ["STRATEGIES", "MPCConstraints", "MPCController", "make_mpc"]
 KN = 1e3
 Array = NDArray[np.float64]
 
-_ENVELOPE_LIMIT: Callable[..., Array] = _limit
+_ENVELOPE_LIMIT: Callable[..., Array] = envelope_limit
 """The stock envelope's limit function; elementwise numpy, so it also broadcasts over
 vehicles given per-vehicle arrays (annotated for scalars, hence this alias)."""
 
