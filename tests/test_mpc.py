@@ -352,4 +352,4 @@ def test_stock_envelopes_give_the_per_vehicle_bounds(fast):
                                 for v in train.vehicles])
         np.testing.assert_array_equal(ub, up.ravel() / 1e3)
         np.testing.assert_array_equal(lb, -down.ravel() / 1e3)
-    assert ctl._envelopes is None  # the subclass took the per-vehicle path
+    assert ctl._input_bounds.envelopes is None  # the subclass took the per-vehicle path
