@@ -58,11 +58,11 @@ KN = 1e3
 Array = NDArray[np.float64]
 
 _DESIGN_MSG = (
-    "{where}: the train MPC needs the design model of the train's deviation dynamics: "
-    "{nx} states [v (n = {n}); delta (n-1)] and {n} inputs, one force per vehicle "
-    "(got {got_x} states and {got_u} inputs). {hint}"
-    "For an MPC on any other discrete (A, B) model use "
-    "trainctl.controllers.mpc.make_linear_mpc(sysd, Q=..., R=..., prediction_horizon=...)."
+    "{where}: the train MPC needs a design model of this train's deviation dynamics, "
+    "{nx} state(s) [v (n = {n}); delta (n-1)] and {n} input(s), one force per vehicle "
+    "(got {got_x} state(s) and {got_u} input(s)). For an MPC on any other discrete (A, B) model "
+    "use trainctl.controllers.mpc.make_linear_mpc(sysd, Q=..., R=..., prediction_horizon=...)."
+    "{hint}"
 )
 
 
@@ -340,7 +340,11 @@ def _check_design(where: str, train: Train, design: MPCDesign, force_matrix: Arr
     nx, nu = design.B.shape
     if nx == 2 * n - 1 and nu == n and force_matrix.shape == (n - 1, nx):
         return
-    hint = ("If the design includes the position state, build it without that dummy "
-            "state (trainctl.analysis.design_model does). " if nx == 2 * n and nu == n else "")
+    # A trailing dummy state: nothing depends on it (zero column in A above it, in C).
+    dummy = (nx == 2 * n and nu == n and not np.any(design.A[:-1, -1])
+             and not np.any(design.C[:, -1]))
+    hint = (" Nothing depends on the last state, as on the dummy state: build the design "
+            "without it (linearise(..., dummy_state=False), as "
+            "trainctl.analysis.design_model does)." if dummy else "")
     raise ModelError(_DESIGN_MSG.format(where=where, nx=2 * n - 1, n=n, got_x=nx, got_u=nu,
                                         hint=hint))
