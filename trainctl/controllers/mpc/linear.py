@@ -252,6 +252,8 @@ class LinearMPC:
                   status: str, iterations: int, solve_time: float) -> MPCSolution:
         s, nu = self._settings, self.n_inputs
         (Phi, Su, G), (Phix, Sux, Gx) = self._y, self._x
+        if not is_usable(status):  # OSQP may leave its last iterate: report no solution
+            z, slack = np.full(z.shape, np.nan), np.full(slack.shape, np.nan)
         moves = self.maps.L @ z + (np.tile(u_prev, s.M) if s.form == "du" else 0.0)
         moves = moves.reshape(s.M, nu)
         inputs = np.vstack([moves, np.repeat(moves[-1:], s.P - s.M, axis=0)])
@@ -261,8 +263,6 @@ class LinearMPC:
                      + self.soft.linear @ slack + 0.5 * slack @ (self.soft.quadratic * slack))
         if s.Qf is not None:
             cost += float(states[-1] @ s.Qf @ states[-1])
-        if not is_usable(status):
-            cost = float("nan")
         return MPCSolution(inputs=inputs, states=states, outputs=states @ s.C.T,
                            plan=z.reshape(s.M, nu), status=status, cost=cost, slack=slack,
                            iterations=iterations, solve_time=solve_time)
