@@ -112,6 +112,8 @@ class MPCController:
                 f"MPCController: 'strategy' must be one of {STRATEGIES} (got {strategy!r}).")
         if not 0 < relaxation <= 1:
             raise ModelError(f"MPCController: 'relaxation' must be in (0, 1] (got {relaxation!r}).")
+        if path not in ("fast", "cvxpy"):
+            raise ModelError(f"MPCController: 'path' must be 'fast' or 'cvxpy' (got {path!r}).")
         _check_design("MPCController", train, design, force_matrix)
         self.train, self.design, self.dt = train, design, float(dt)
         self.strategy, self.constraints, self.path = strategy, constraints, path
