@@ -112,13 +112,13 @@ def replay_raw_osqp(ctl, log, steps):
 
     solvers = []
     for block in ctl.blocks:
-        fast = block.qp._fast
+        fast = block.qp.fast_path
         solver = osqp.OSQP()
-        q, lo, up = fast._qlu(fast.offset)
+        q, lo, up = fast.qlu(fast.offset)
         solver.setup(sp.csc_matrix(sp.triu(fast.P, format="csc")), q, sp.csc_matrix(fast.Amat),
                      lo, up, verbose=False, warm_starting=True, **OSQP_SETTINGS)
         solvers.append((solver, fast))
-    prepared = [(i, *solvers[i][1]._qlu(data)) for i, data in log]
+    prepared = [(i, *solvers[i][1].qlu(data)) for i, data in log]
     start = time.perf_counter()
     for i, q, lo, up in prepared:
         solver = solvers[i][0]

@@ -19,7 +19,7 @@ from trainctl.analysis.mpc import (
 )
 from trainctl.controllers.base import Measurement, ReferencePreview
 from trainctl.controllers.mpc import MPCConstraints, make_mpc
-from trainctl.controllers.qp import ParametricQP, _osqp_runner
+from trainctl.controllers.qp import ParametricQP
 from trainctl.design import build_design
 from trainctl.models import equilibrium
 from trainctl.scenario import load_scenario
@@ -286,7 +286,7 @@ def _random_qp_data(rng, nz, nh, ns, infeasible=False):
 
 
 class TestOSQPRoutes:
-    """The fast path calls OSQP's compiled solver directly (qp._osqp_runner)."""
+    """The fast path calls OSQP's compiled solver directly (fastqp.osqp_runner)."""
 
     @staticmethod
     def _pair(rng, nz=6, nh=9, ns=4):
@@ -295,8 +295,8 @@ class TestOSQPRoutes:
         C, F = rng.normal(size=(nh, nz)), rng.normal(size=(ns, nz))
         internal = ParametricQP(H, C, F, name="internal")
         public = ParametricQP(H, C, F, name="public")
-        assert public._fast is not None
-        public._fast._run, public._fast.route = _osqp_runner(public._fast.solver, internal=False)
+        assert public.fast_path is not None
+        public.fast_path.use_public_route()
         return internal, public
 
     def test_internal_route_equals_public_route(self, rng):
@@ -304,7 +304,7 @@ class TestOSQPRoutes:
         statuses = set()
         for trial in range(4):
             internal, public = self._pair(rng, nz=4 + trial, nh=2 * (4 + trial), ns=trial)
-            assert public._fast is not None and public._fast.route == "public"
+            assert public.fast_path is not None and public.fast_path.route == "public"
             for k in range(6):  # a warm-started sequence, as in a closed loop
                 data = _random_qp_data(rng, internal.nz, internal.nh, internal.ns,
                                        infeasible=k == 4)
@@ -322,10 +322,10 @@ class TestOSQPRoutes:
         """Guards the speed-up: fails if an OSQP release no longer offers the internals.
 
         Results stay right then (the public update/solve are used); adapt
-        ``_osqp_runner`` to the new interface to get the speed back.
+        ``osqp_runner`` to the new interface to get the speed back.
         """
         internal, _ = self._pair(rng)
-        assert internal._fast is not None and internal._fast.route == "internal"
+        assert internal.fast_path is not None and internal.fast_path.route == "internal"
 
 
 def test_stock_envelopes_give_the_per_vehicle_bounds(fast):
@@ -352,4 +352,4 @@ def test_stock_envelopes_give_the_per_vehicle_bounds(fast):
                                 for v in train.vehicles])
         np.testing.assert_array_equal(ub, up.ravel() / 1e3)
         np.testing.assert_array_equal(lb, -down.ravel() / 1e3)
-    assert ctl._envelopes is None  # the subclass took the per-vehicle path
+    assert ctl._input_bounds.envelopes is None  # the subclass took the per-vehicle path

@@ -52,6 +52,7 @@ __all__ = [
     "iteration_matrices",
     "nash_gain",
     "prediction",
+    "prediction_matrices",
     "relaxation",
     "shift_matrix",
     "spectral_radius",
@@ -208,8 +209,55 @@ def prediction(design: MPCDesign) -> Prediction:
     >>> prediction(d).G.tolist()
     [[1.0, 0.0], [1.0, 1.0], [1.0, 2.0]]
     """
-    A, B, C = design.A, design.B, design.C
     P, M = design.prediction_horizon, design.control_horizon
+    nu = design.n_inputs
+    Phi, Su, G = prediction_matrices(design.A, design.B, design.C, prediction_horizon=P,
+                                     control_horizon=M, form=design.form)
+    Qbar = np.asarray(np.kron(np.eye(P), np.diag(design.q)), dtype=np.float64)
+    Rbar = np.asarray(np.kron(np.eye(M), np.diag(design.r)), dtype=np.float64)
+    columns = tuple(np.arange(M) * nu + i for i in range(nu))
+    first = np.zeros((nu, M * nu))
+    first[:, :nu] = np.eye(nu)
+    return Prediction(Phi=Phi, Su=Su, G=G, Qbar=Qbar, Rbar=Rbar, columns=columns, first_move=first)
+
+
+def prediction_matrices(A: Array, B: Array, C: Array, *, prediction_horizon: int,
+                        control_horizon: int, form: str) -> tuple[Array, Array, Array]:
+    """Condensed prediction Y = Φ x + S_u u(k-1) + G U of y = C x over P steps.
+
+    Y stacks y(k+1), ..., y(k+P); U stacks the M moves (u-form: the inputs
+    u(k), ..., u(k+M-1), held after move M; Δu-form: their increments, with
+    u(k+j) = u(k-1) + Σ_{m<=min(j, M-1)} Δu(k+m)).
+
+    Parameters
+    ----------
+    A, B, C : ndarray
+        Discrete model x(k+1) = A x + B u, y = C x.
+    prediction_horizon : int
+        P >= 1 steps.
+    control_horizon : int
+        M free moves, 1 <= M <= P.
+    form : {"u", "du"}
+        Decision: the inputs or their increments.
+
+    Returns
+    -------
+    Phi : ndarray
+        Free response from x, shape (P·ny, nx).
+    Su : ndarray
+        Free response from u(k-1), shape (P·ny, nu) (zeros in the u-form).
+    G : ndarray
+        Forced response from U, shape (P·ny, M·nu).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> Phi, Su, G = prediction_matrices(np.eye(1), np.eye(1), np.eye(1), prediction_horizon=3,
+    ...                                  control_horizon=2, form="du")
+    >>> G.tolist(), Su.ravel().tolist()
+    ([[1.0, 0.0], [2.0, 1.0], [3.0, 2.0]], [1.0, 2.0, 3.0])
+    """
+    P, M = prediction_horizon, control_horizon
     nx, nu = B.shape
     ny = C.shape[0]
     powers = [np.eye(nx)]
@@ -225,18 +273,13 @@ def prediction(design: MPCDesign) -> Prediction:
         for step in range(j):
             block = markov[j - 1 - step]
             move = min(step, M - 1)
-            if design.form == "u":
+            if form == "u":
                 G[rows, move * nu:(move + 1) * nu] += block
             else:
                 Su[rows] += block
                 for m in range(move + 1):
                     G[rows, m * nu:(m + 1) * nu] += block
-    Qbar = np.asarray(np.kron(np.eye(P), np.diag(design.q)), dtype=np.float64)
-    Rbar = np.asarray(np.kron(np.eye(M), np.diag(design.r)), dtype=np.float64)
-    columns = tuple(np.arange(M) * nu + i for i in range(nu))
-    first = np.zeros((nu, M * nu))
-    first[:, :nu] = np.eye(nu)
-    return Prediction(Phi=Phi, Su=Su, G=G, Qbar=Qbar, Rbar=Rbar, columns=columns, first_move=first)
+    return Phi, Su, G
 
 
 def _local_weight(design: MPCDesign, members: Sequence[int]) -> Array:

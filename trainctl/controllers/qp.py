@@ -1,12 +1,12 @@
 # A parametric QP modelled once in cvxpy and re-solved fast.
 """Parametric quadratic programs for MPC: built once, re-solved many times.
 
-Every MPC problem in trainctl (centralised, one coach's local problem) has the
-form
+Every MPC problem in trainctl (the core's, the train's centralised problem,
+one coach's local problem) has the form
 
-    minimise    ½ zᵀ H z + gᵀ z + w1·Σ s + ½ w2·Σ s²
-    subject to  lb ≤ C z ≤ ub          (hard rows: input and rate bounds)
-                hl - s ≤ F z ≤ hu + s  (soft rows: coupler forces), s ≥ 0
+    minimise    ½ zᵀ H z + gᵀ z + w1ᵀ s + ½ sᵀ diag(w2) s
+    subject to  lb ≤ C z ≤ ub          (hard rows: input, rate, state bounds)
+                hl - s ≤ F z ≤ hu + s  (soft rows: coupler forces, soft bounds), s ≥ 0
 
 with constant matrices and the vectors g, lb, ub, hl, hu changing every
 step. :class:`ParametricQP` models it once in cvxpy with those vectors as
@@ -16,14 +16,8 @@ step. :class:`ParametricQP` models it once in cvxpy with those vectors as
     ``Problem.solve(warm_start=True)``: the plain re-solve, which pays
     cvxpy's per-solve canonicalisation (about 2 ms here).
 ``solve(..., path="fast")``
-    Build time: probe ``Problem.get_problem_data(cp.OSQP)`` at the zero
-    parameter and at each unit parameter, which identifies the affine map
-    from the parameters to OSQP's (q, l, u) (P and A are constant because no
-    parameter multiplies a variable), check the map at a random point, and
-    locate z in the solver's variable vector. Solve time: one matrix-vector
-    product and an OSQP data update + solve, warm-started, through
-    ``_osqp_runner`` (the compiled solver called directly, without the
-    per-call bookkeeping of ``osqp.OSQP.update``/``solve``).
+    The probed OSQP data of :class:`~trainctl.controllers.fastqp.FastOSQP`:
+    one matrix-vector product and an OSQP data update + solve, warm-started.
 
 Both paths use OSQP with the same settings, so they return the same
 solutions to solver tolerance (tested).
@@ -32,53 +26,20 @@ solutions to solver tolerance (tested).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Any
 
 import cvxpy as cp
 import numpy as np
-import scipy.sparse as sp
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
-from ..exceptions import SolverError
-from .status import from_cvxpy, from_osqp
+from ..exceptions import ModelError, SolverError
+from .fastqp import OSQP_SETTINGS, FastOSQP, QPSolution
+from .status import from_cvxpy
 
 __all__ = ["OSQP_SETTINGS", "ParametricQP", "QPSolution"]
 
-OSQP_SETTINGS = {"eps_abs": 1e-6, "eps_rel": 1e-6, "max_iter": 20000, "polishing": True}
-"""OSQP settings used by both solve paths."""
-
 Array = NDArray[np.float64]
-_HUGE = 1e19  # data beyond this came from an infinite bound
-
-_OSQPRunner = Callable[[Array, Array | None, Array], tuple[Array | None, int, int]]
-"""``run(q, l, u) -> (x, status_val, iterations)``: update OSQP's vectors, solve, report."""
-
-
-@dataclass(frozen=True)
-class QPSolution:
-    """Result of one QP solve.
-
-    Parameters
-    ----------
-    z : ndarray
-        Decision vector (NaN when no solution is available).
-    slack : ndarray
-        Soft-constraint slacks s >= 0.
-    status : str
-        Step status (:mod:`trainctl.controllers.status`).
-    iterations : int
-        Solver iterations.
-    solve_time : float
-        Wall time of the solve [s].
-    """
-
-    z: Array
-    slack: Array
-    status: str
-    iterations: int
-    solve_time: float
+PARAMETERS = ("g", "lb", "ub", "hl", "hu")
+"""The parametric vectors, in the order of the stacked parameter vector."""
 
 
 class ParametricQP:
@@ -92,10 +53,12 @@ class ParametricQP:
         Hard constraint rows (nh, nz); may have zero rows.
     F : ndarray
         Soft constraint rows (ns, nz); may have zero rows.
-    soft_linear : float
-        Linear slack penalty w1 (>= 0) [cost per unit of violation].
-    soft_quadratic : float
-        Quadratic slack penalty w2 (> 0 when there are soft rows).
+    soft_linear : float or array_like
+        Linear slack penalty w1 (>= 0) [cost per unit of violation]; one
+        number for every soft row or one per row.
+    soft_quadratic : float or array_like
+        Quadratic slack penalty w2 (> 0 when there are soft rows); one number
+        or one per row.
     name : str
         Label for error messages and variable names.
     fast : bool
@@ -110,8 +73,9 @@ class ParametricQP:
     ('optimal', [0.5, -0.5])
     """
 
-    def __init__(self, H: Array, C: Array, F: Array, *, soft_linear: float = 1e3,
-                 soft_quadratic: float = 1e2, name: str = "qp", fast: bool = True) -> None:
+    def __init__(self, H: Array, C: Array, F: Array, *, soft_linear: float | ArrayLike = 1e3,
+                 soft_quadratic: float | ArrayLike = 1e2, name: str = "qp",
+                 fast: bool = True) -> None:
         self.nz = H.shape[0]
         self.nh, self.ns = C.shape[0], F.shape[0]
         self.name = name
@@ -128,20 +92,27 @@ class ParametricQP:
         if self.nh:
             cons += [C @ self._z >= self._lb, C @ self._z <= self._ub]
         if self._s is not None:
-            cost = (cost + soft_linear * cp.sum(self._s)
-                    + 0.5 * soft_quadratic * cp.sum_squares(self._s))
+            linear, quadratic = _slack_penalty(self._s, soft_linear, soft_quadratic)
+            cost = cost + linear + quadratic
             cons += [F @ self._z >= self._hl - self._s, F @ self._z <= self._hu + self._s]
         self.problem = cp.Problem(cp.Minimize(cost), cons)
         if not self.problem.is_dpp():
             raise SolverError(f"{name}: the QP is not DPP; a parameter multiplies another "
                               "parameter or a variable. Precompute such products in numpy.")
-        self._params = [p for p in (self._g, self._lb, self._ub, self._hl, self._hu) if p.size]
-        self._fast: _FastOSQP | None = _FastOSQP(self) if fast else None
+        self._all = dict(zip(PARAMETERS, (self._g, self._lb, self._ub, self._hl, self._hu),
+                             strict=True))
+        self._fast: FastOSQP | None = (FastOSQP(self.problem, self._all, self._z, self._s,
+                                                name=name) if fast else None)
 
     @property
     def has_fast_path(self) -> bool:
         """True when the probed OSQP path was built."""
         return self._fast is not None
+
+    @property
+    def fast_path(self) -> FastOSQP | None:
+        """The probed OSQP path (None when built with ``fast=False``)."""
+        return self._fast
 
     def data_map(self) -> tuple[Array, dict[str, Array]]:
         """The identified affine map from parameters to OSQP's stacked (q, l, u) data.
@@ -164,8 +135,7 @@ class ParametricQP:
         return self._fast.solve_vector(data)
 
     def _assign(self, values: dict[str, Array]) -> None:
-        for p, key in ((self._g, "g"), (self._lb, "lb"), (self._ub, "ub"),
-                       (self._hl, "hl"), (self._hu, "hu")):
+        for key, p in self._all.items():
             if p.size:
                 p.value = np.asarray(values[key], dtype=float)
 
@@ -195,7 +165,7 @@ class ParametricQP:
         if path == "fast" and self._fast is not None:
             return self._fast.solve(values)
         if path not in ("fast", "cvxpy"):
-            raise ValueError(
+            raise ModelError(
                 f"ParametricQP.solve: 'path' must be 'fast' or 'cvxpy' (got {path!r}).")
         return self._solve_cvxpy(values)
 
@@ -217,216 +187,15 @@ class ParametricQP:
                           elapsed)
 
 
-def _differs(a: sp.spmatrix, b: sp.spmatrix) -> bool:
-    return a.shape != b.shape or (a != b).nnz > 0
-
-
 def _or(x: Array | None, n: int, fill: float) -> Array:
     return np.full(n, fill) if x is None else np.asarray(x, dtype=float)
 
 
-def _as_slice(index: NDArray[np.int64]) -> slice | NDArray[np.int64]:
-    """A run of consecutive indices as a slice (indexing gives a view), else the indices."""
-    if index.size and np.array_equal(index, np.arange(index[0], index[0] + index.size)):
-        return slice(int(index[0]), int(index[0]) + index.size)
-    return index
-
-
-def _osqp_runner(solver: Any, *, internal: bool = True) -> tuple[_OSQPRunner, str]:
-    """Update-and-solve function of a set-up ``osqp.OSQP``; the one use of OSQP internals.
-
-    ``osqp.OSQP.update`` and ``osqp.OSQP.solve`` (OSQP 1.x) are thin Python
-    wrappers of the compiled solver object ``solver._solver``: ``update``
-    clamps l and u to ±OSQP_INFTY (looking the constant up through
-    ``importlib`` on every call), calls ``_solver.update_data_vec(q, l, u)``
-    and refreshes a cache kept for OSQP's derivatives; ``solve`` calls
-    ``_solver.solve()`` and copies every field of ``_solver.info`` into a new
-    namespace. For the small QPs of MPC that bookkeeping costs about as much
-    as the solve.
-
-    The internal route makes the same compiled calls with the same data: it
-    clamps l and u as ``update`` does, passes C-contiguous float64 arrays
-    (the binding reads raw buffers and ignores strides) and reads only
-    ``info.status_val``, ``info.iter`` and ``solution.x`` (a fresh copy per
-    access). It does not maintain the derivative cache, so OSQP's
-    ``adjoint_derivative_*`` methods are not available after it. It is used
-    only when ``solver._solver`` has the expected attributes and the solver
-    works in float64; otherwise, or with ``internal=False``, the public
-    ``update`` + ``solve(raise_error=False)`` are called, so an OSQP release
-    that changes the internals falls back to the public API instead of
-    breaking.
-
-    Parameters
-    ----------
-    solver : osqp.OSQP
-        A solver after ``setup``.
-    internal : bool
-        Use the internal route when available.
-
-    Returns
-    -------
-    run : callable
-        ``run(q, l, u) -> (x, status_val, iterations)`` with x the primal
-        solution (None when OSQP gives none), the OSQP status code and the
-        ADMM iteration count; ``l=None`` keeps the current l. Its arguments
-        are not modified.
-    route : {"internal", "public"}
-        The route taken.
-
-    Examples
-    --------
-    >>> import numpy as np, osqp, scipy.sparse as sp
-    >>> solver = osqp.OSQP()
-    >>> eye = sp.csc_matrix(np.eye(2))
-    >>> solver.setup(eye, np.zeros(2), eye, -np.ones(2), np.ones(2), verbose=False,
-    ...              **OSQP_SETTINGS)
-    >>> run, route = _osqp_runner(solver)
-    >>> x, status, _ = run(np.array([-5.0, 0.5]), np.full(2, -np.inf), np.ones(2))
-    >>> route, status, np.round(x, 6).tolist()
-    ('internal', 1, [1.0, -0.5])
-    """
-    core = getattr(solver, "_solver", None)
-    big = float(solver.constant("OSQP_INFTY")) if hasattr(solver, "constant") else 1e30
-    if internal and core is not None and getattr(solver, "_dtype", None) is np.float64 \
-            and all(hasattr(core, name) for name in ("update_data_vec", "solve", "info",
-                                                      "solution")):
-        update, solve = core.update_data_vec, core.solve
-
-        def run_internal(q: Array, lower: Array | None,
-                         upper: Array) -> tuple[Array | None, int, int]:
-            update(np.ascontiguousarray(q, dtype=np.float64),
-                   None if lower is None else np.maximum(lower, -big, dtype=np.float64),
-                   np.minimum(upper, big, dtype=np.float64))
-            solve()
-            info = core.info
-            return core.solution.x, info.status_val, info.iter
-
-        return run_internal, "internal"
-
-    def run_public(q: Array, lower: Array | None, upper: Array) -> tuple[Array | None, int, int]:
-        solver.update(q=q, l=lower, u=upper)
-        res = solver.solve(raise_error=False)
-        return res.x, res.info.status_val, res.info.iter
-
-    return run_public, "public"
-
-
-class _FastOSQP:
-    """OSQP driven directly with data identified from cvxpy at build time."""
-
-    def __init__(self, qp: ParametricQP) -> None:
-        import osqp
-
-        self.qp = qp
-        sizes = [p.size for p in qp._params]
-        self._k = int(sum(sizes))
-        base = self._data(np.zeros(self._k))
-        self.P = base["P"]
-        self.Amat = sp.vstack([base["A"], base["F"]]).tocsc()
-        vec0 = self._vector(base)
-        cols = []
-        for k in range(self._k):
-            probe = np.zeros(self._k)
-            probe[k] = 1.0
-            data = self._data(probe)
-            self._check_constant(data, f"unit probe {k}")
-            cols.append(self._vector(data) - vec0)
-        self.offset = vec0
-        self.jac = np.column_stack(cols) if cols else np.zeros((vec0.size, 0))
-        self.blocks: dict[str, Array] = {}
-        start = 0
-        for key, p in zip(("g", "lb", "ub", "hl", "hu"), (qp._g, qp._lb, qp._ub, qp._hl, qp._hu),
-                          strict=True):
-            self.blocks[key] = self.jac[:, start:start + p.size]
-            start += p.size
-        check = np.random.default_rng(0).normal(size=self._k)
-        if not np.allclose(self._vector(self._data(check)), vec0 + self.jac @ check,
-                           rtol=1e-9, atol=1e-9):
-            raise SolverError(f"{qp.name}: the problem data are not affine in the parameters; "
-                              "the fast path cannot be used (solve with path='cvxpy').")
-        self.n_eq = base["A"].shape[0]
-        self.z_index = self._locate(base)
-        self._n = self.P.shape[0]
-        self._lower = np.full(self.Amat.shape[0], -np.inf)  # template of l (inequality rows)
-        self._zi, self._si = _as_slice(self.z_index["z"]), _as_slice(self.z_index["s"])
-        self.solver = osqp.OSQP()
-        q, lower, upper = self._qlu(vec0)
-        P_triu = sp.csc_matrix(sp.triu(self.P, format="csc"))  # OSQP wants csc_matrix
-        self.solver.setup(P_triu, q, sp.csc_matrix(self.Amat), lower, upper, verbose=False,
-                          warm_starting=True, **OSQP_SETTINGS)
-        self._run, self.route = _osqp_runner(self.solver)
-
-    def _data(self, flat: Array) -> dict:
-        start = 0
-        for p in self.qp._params:
-            p.value = flat[start:start + p.size].reshape(p.shape)
-            start += p.size
-        data, _, inverse = self.qp.problem.get_problem_data(cp.OSQP)
-        data["_inverse"] = inverse
-        return data
-
-    def _check_constant(self, data: dict, where: str) -> None:
-        A = sp.vstack([data["A"], data["F"]]).tocsc()
-        if _differs(data["P"], self.P) or _differs(A, self.Amat):
-            raise SolverError(f"{self.qp.name}: a parameter changes the QP matrices ({where}); "
-                              "the fast path needs parameters in q, l, u only.")
-
-    @staticmethod
-    def _vector(data: dict) -> Array:
-        return np.concatenate([data["q"], data["b"], data["G"]])
-
-    def _qlu(self, vec: Array) -> tuple[Array, Array, Array]:
-        """OSQP's (q, l, u) from the stacked data [q; b; h]: l = [b; -inf], u = [b; h].
-
-        l and u are new arrays; q is a view of ``vec``.
-        """
-        q, upper = self._qu(vec)
-        lower = self._lower.copy()
-        if self.n_eq:
-            lower[:self.n_eq] = vec[self._n:self._n + self.n_eq]
-            lower[lower <= -_HUGE] = -np.inf
-        return q, lower, upper
-
-    def _qu(self, vec: Array) -> tuple[Array, Array]:
-        """q and u of :meth:`_qlu` (without equality rows, l = -inf throughout)."""
-        q = vec[:self._n]
-        upper = vec[self._n:].copy()
-        # Parameters were clipped to ±1e20 for the map; give OSQP true infinities.
-        upper[upper >= _HUGE] = np.inf
-        return q, upper
-
-    def _locate(self, data: dict) -> dict[str, NDArray[np.int64]]:
-        # The solver's variable vector stacks cvxpy variables at recorded offsets.
-        offsets: dict[int, int] = {}
-        for inv in data["_inverse"]:
-            offsets.update(getattr(inv, "var_offsets", {}) or {})
-        out = {}
-        for key, var in (("z", self.qp._z), ("s", self.qp._s)):
-            if var is None:
-                out[key] = np.zeros(0, dtype=np.int64)
-                continue
-            if var.id not in offsets:
-                raise SolverError(f"{self.qp.name}: cannot locate {var.name()} in the solver data.")
-            out[key] = np.arange(offsets[var.id], offsets[var.id] + var.size)
-        return out
-
-    def solve(self, values: dict[str, Array]) -> QPSolution:
-        flat = np.concatenate([np.clip(np.asarray(values[key], dtype=float).ravel(), -1e20, 1e20)
-                               for key, p in zip(("g", "lb", "ub", "hl", "hu"),
-                                                 (self.qp._g, self.qp._lb, self.qp._ub,
-                                                  self.qp._hl, self.qp._hu), strict=True)
-                               if p.size])
-        return self.solve_vector(self.offset + self.jac @ flat)
-
-    def solve_vector(self, data: Array) -> QPSolution:
-        start = time.perf_counter()
-        if self.n_eq:
-            q, lower, upper = self._qlu(data)
-            x, status_val, iters = self._run(q, lower, upper)
-        else:  # l = -inf, as set up: update q and u only
-            q, upper = self._qu(data)
-            x, status_val, iters = self._run(q, None, upper)
-        elapsed = time.perf_counter() - start
-        status = from_osqp(status_val)
-        x = np.full(self._n, np.nan) if x is None else np.asarray(x, dtype=float)
-        return QPSolution(x[self._zi], x[self._si], status, int(iters), elapsed)
+def _slack_penalty(s: cp.Variable, linear: float | ArrayLike,
+                   quadratic: float | ArrayLike) -> tuple[cp.Expression, cp.Expression]:
+    """The terms w1ᵀ s and ½ sᵀ diag(w2) s (scalar weights: w1·Σs and ½w2·Σs²)."""
+    w1, w2 = np.asarray(linear, dtype=float), np.asarray(quadratic, dtype=float)
+    if w1.ndim == 0 and w2.ndim == 0:
+        return float(w1) * cp.sum(s), 0.5 * float(w2) * cp.sum_squares(s)
+    w1, w2 = np.broadcast_to(w1, s.shape), np.broadcast_to(w2, s.shape)
+    return w1 @ s, 0.5 * cp.sum_squares(cp.multiply(np.sqrt(w2), s))

@@ -21,7 +21,7 @@ from ..exceptions import ModelError
 from ..units import GRAVITY
 
 __all__ = ["COUPLER_RULES", "ENVELOPE_RULES", "VEHICLE_RULES", "Coupler", "TractionEnvelope",
-           "Vehicle"]
+           "Vehicle", "envelope_limit"]
 
 _FORCE_LIMIT = Number(ge=0, allow_inf=True)
 _POWER_LIMIT = Number(gt=0, allow_inf=True)
@@ -106,7 +106,7 @@ class TractionEnvelope:
         ndarray
             Tractive force limit [N], >= 0, same shape as ``speed``.
         """
-        return _limit(speed, self.max_traction, self.max_power, self.adhesion, mass)
+        return envelope_limit(speed, self.max_traction, self.max_power, self.adhesion, mass)
 
     def braking_limit(self, speed: ArrayLike, *, mass: float) -> NDArray[np.float64]:
         """Largest braking force (positive number) available at ``speed``.
@@ -123,12 +123,36 @@ class TractionEnvelope:
         ndarray
             Braking force limit [N], >= 0, same shape as ``speed``.
         """
-        return _limit(speed, self.max_braking, self.max_braking_power, self.adhesion, mass)
+        return envelope_limit(speed, self.max_braking, self.max_braking_power, self.adhesion, mass)
 
 
-def _limit(
-    speed: ArrayLike, force: float, power: float, adhesion: float, mass: float
+def envelope_limit(
+    speed: ArrayLike, force: float | NDArray[np.float64], power: float | NDArray[np.float64],
+    adhesion: float | NDArray[np.float64], mass: float | NDArray[np.float64],
 ) -> NDArray[np.float64]:
+    """Force limit min(force, power / v, adhesion · mass · g) of an envelope at ``speed``.
+
+    The function behind :meth:`TractionEnvelope.traction_limit` and
+    :meth:`TractionEnvelope.braking_limit` (v below 0.1 m/s counts as 0.1 m/s).
+    Elementwise numpy, so it also broadcasts over vehicles given per-vehicle arrays.
+
+    Parameters
+    ----------
+    speed : array_like
+        Speed [m/s].
+    force, power, adhesion, mass : float or ndarray
+        Force limit [N], power limit [W], adhesion coefficient [-] and mass [kg].
+
+    Returns
+    -------
+    ndarray
+        The limit [N], broadcast over the arguments.
+
+    Examples
+    --------
+    >>> float(envelope_limit(83.333, 80e3, 1.2e6, float("inf"), 48e3).round())
+    14400.0
+    """
     v = np.maximum(np.abs(np.asarray(speed, dtype=float)), _MIN_SPEED)
     limit = np.minimum(force, power / v)
     return np.minimum(limit, adhesion * mass * GRAVITY)

@@ -1,9 +1,12 @@
 # The MPC family: centralised, decentralised, N-DMPC and cooperative DMPC of the train.
-"""The MPC controller family.
+"""The MPC controller family and the MPC core.
 
-Importing this package is light (no cvxpy): the controller, its QPs and the
-family's design are imported on first use of :func:`make_mpc`,
-:class:`MPCController` or the family's methods.
+:func:`make_linear_mpc` builds an MPC on any discrete linear model (the
+core); :func:`make_mpc` the train MPC of the four strategies, made of the
+same building blocks. Importing this package is light (no cvxpy): the
+controllers, their QPs and the family's design are imported on first use of
+:func:`make_mpc`, :class:`MPCController`, :func:`make_linear_mpc`,
+:class:`LinearMPC` or the family's methods.
 """
 
 from __future__ import annotations
@@ -17,10 +20,17 @@ from .settings import MPCConstraints as MPCConstraints
 if TYPE_CHECKING:
     from .controller import MPCController as MPCController
     from .controller import make_mpc as make_mpc
+    from .linear import LinearMPC as LinearMPC
+    from .linear import LinearMPCController as LinearMPCController
+    from .linear import MPCSolution as MPCSolution
+    from .linear import make_linear_mpc as make_linear_mpc
 
-__all__ = ["FAMILY", "STRATEGIES", "MPCConstraints", "MPCController", "make_mpc"]
+__all__ = ["FAMILY", "STRATEGIES", "LinearMPC", "LinearMPCController", "MPCConstraints",
+           "MPCController", "MPCSolution", "make_linear_mpc", "make_mpc"]
 
-_LAZY = {"MPCController": ".controller", "make_mpc": ".controller"}
+_LAZY = {"MPCController": ".controller", "make_mpc": ".controller", "LinearMPC": ".linear",
+         "LinearMPCController": ".linear", "MPCSolution": ".linear",
+         "make_linear_mpc": ".linear"}
 
 
 def __getattr__(name: str) -> Any:

@@ -1,0 +1,72 @@
+# Input bounds of the train MPC: the vehicles' traction and braking envelopes.
+"""The traction/braking envelopes of a train, evaluated over a speed preview."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...models.train import Train
+from ...models.vehicle import TractionEnvelope, envelope_limit
+
+__all__ = ["EnvelopeBounds"]
+
+KN = 1e3
+Array = NDArray[np.float64]
+
+
+class EnvelopeBounds:
+    """Absolute input bounds [kN] of every vehicle at previewed speeds.
+
+    Parameters
+    ----------
+    train : Train
+        The train (its vehicles' envelopes and masses).
+    enabled : bool
+        False: no bounds (-inf, inf).
+
+    Attributes
+    ----------
+    envelopes : tuple of ndarray or None
+        The stock envelopes' parameters stacked for one broadcast evaluation
+        (forces, powers, adhesions as [braking; traction] x 1 x vehicles, and
+        the masses); None when some vehicle has another envelope type, which
+        is then called one vehicle at a time.
+    """
+
+    def __init__(self, train: Train, *, enabled: bool) -> None:
+        self.train, self.enabled, self.n = train, enabled, train.n_vehicles
+        self.envelopes: tuple[Array, ...] | None = None
+        if all(type(veh.envelope) is TractionEnvelope for veh in train.vehicles):
+            env = [veh.envelope for veh in train.vehicles]
+
+            def stack(*fields: str) -> Array:
+                return np.array([[getattr(e, f) for e in env] for f in fields],
+                                dtype=float)[:, None, :]
+
+            self.envelopes = (stack("max_braking", "max_traction"),
+                              stack("max_braking_power", "max_power"),
+                              stack("adhesion", "adhesion"), train.mass.copy())
+
+    def pair(self, speeds: Array) -> Array:
+        """Bounds [lb; ub] at ``speeds``, shape (2, moves·n), move by move."""
+        v = np.asarray(speeds, dtype=float)
+        if not self.enabled:
+            pair = np.empty((2, v.size * self.n))
+            pair[0], pair[1] = -np.inf, np.inf
+            return pair
+        if self.envelopes is not None:
+            # Stock envelopes: one call for [braking; traction] x moves x vehicles.
+            force, power, adhesion, mass = self.envelopes
+            limits = envelope_limit(v[:, None], force, power, adhesion, mass)
+            limits /= KN
+        else:
+            # One vectorised envelope call per vehicle over the previewed speeds: (moves, n).
+            vehicles = self.train.vehicles
+            limits = np.stack([
+                np.column_stack([veh.envelope.braking_limit(v, mass=veh.mass)
+                                 for veh in vehicles]),
+                np.column_stack([veh.envelope.traction_limit(v, mass=veh.mass)
+                                 for veh in vehicles])]) / KN
+        np.negative(limits[0], out=limits[0])
+        return limits.reshape(2, -1)

@@ -1,0 +1,270 @@
+# The train MPC's condensed QPs and their per-step parameters.
+"""The problem of the train MPC: the condensed core plus the train's data.
+
+With x̃ = [v - v_ref; delta - delta_ff] and ũ = u - u_ff (kN) about the
+feedforward u_ff, the prediction of :mod:`trainctl.analysis.mpc` gives
+Y = Φx̃ + S_u ũ(k-1) + G U for the design outputs (speed errors,
+coupler-force deviations in kN) and a second prediction for the coupler
+forces that the constraints bound. The QPs are the blocks of
+:mod:`.condensed` — one per optimiser of the strategy (:mod:`.strategies`) —
+with the train's data:
+
+- hard rows on the input moves (the traction/braking envelope less the
+  feedforward, :class:`StepContext` ``bounds``) and on their rates, which
+  include the feedforward's own change;
+- soft rows on the absolute coupler forces (the feedforward's static forces
+  plus the predicted deviations) at the chosen prediction steps;
+- the cost of the outputs of the block's members (its neighbourhood).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...analysis.mpc import MPCDesign, Prediction, prediction
+from ..qp import ParametricQP
+from .condensed import (
+    BlockParameters,
+    QPBlock,
+    block_parameters,
+    build_block,
+    input_rows,
+    move_maps,
+)
+from .settings import MPCConstraints
+from .strategies import Strategy
+
+__all__ = ["StepContext", "TrainProblem"]
+
+KN = 1e3
+Array = NDArray[np.float64]
+Index = NDArray[np.int64]
+
+
+@dataclass(frozen=True, slots=True)
+class StepContext:
+    """What one step of the train MPC works with (deviation coordinates, kN).
+
+    Parameters
+    ----------
+    x : ndarray
+        Deviation state x̃ = [v - v_ref; delta - delta_ff], (2n-1,).
+    u_ff : ndarray
+        Feedforward inputs at the M moves, (M, n) [kN].
+    f_ff : ndarray
+        Feedforward coupler forces at steps 1..P, stacked step by step (P·nf,) [kN].
+    u_prev : ndarray
+        The input applied at the previous sample (absolute) [kN].
+    u_dev_prev : ndarray
+        ũ(k-1) = u(k-1) - u_ff(k-1) (Δu-form; zeros in the u-form) [kN].
+    u_dev_prev_tiled : ndarray
+        ũ(k-1) repeated for every move, (M·n,) [kN].
+    bounds : ndarray
+        Lower and upper bounds of the input moves ũ, (2, M·n) [kN].
+    """
+
+    x: Array
+    u_ff: Array
+    f_ff: Array
+    u_prev: Array
+    u_dev_prev: Array
+    u_dev_prev_tiled: Array
+    bounds: Array
+
+    @property
+    def lb(self) -> Array:
+        """Lower bounds of the input moves ũ [kN]."""
+        return self.bounds[0]
+
+    @property
+    def ub(self) -> Array:
+        """Upper bounds of the input moves ũ [kN]."""
+        return self.bounds[1]
+
+
+class TrainProblem:
+    """The QP blocks of a train MPC and their per-step parameters.
+
+    Parameters
+    ----------
+    design : MPCDesign
+        Discrete design model in kN.
+    force_matrix : ndarray
+        Rows mapping the design state to coupler-force deviations [kN].
+    constraints : MPCConstraints
+        Bounds.
+    strategy : Strategy
+        Decides the blocks, their costs and their force rows.
+    name : str
+        Label of the QPs.
+    path : {"fast", "cvxpy"}
+        QP solve path.
+    """
+
+    def __init__(self, design: MPCDesign, force_matrix: Array, constraints: MPCConstraints,
+                 strategy: Strategy, *, name: str, path: str) -> None:
+        self.design, self.constraints, self.strategy = design, constraints, strategy
+        self.name, self.path = name, path
+        n, M, P = design.n_inputs, design.control_horizon, design.prediction_horizon
+        self.n, self.M, self.P = n, M, P
+        self.pred: Prediction = prediction(design)
+        self.fpred: Prediction = prediction(replace(design, C=force_matrix,
+                                                    q=np.ones(force_matrix.shape[0]),
+                                                    output_owner=tuple(range(force_matrix.shape[0]))))
+        self.maps = move_maps(n, M, design.form)
+        self._du = design.form == "du"
+        self._layout()
+        self.blocks: list[QPBlock] = []
+        g_start = self._source_g
+        for inputs in strategy.block_inputs(n):
+            self.blocks.append(self._build_block(inputs, g_start))
+            g_start += self.blocks[-1].cols.size
+        self._source_buffer(g_start)
+        self.fast = all(b.offset is not None for b in self.blocks)
+        covered = np.unique(np.concatenate([b.cols for b in self.blocks]))
+        # Iteration residual over the blocks' columns; None: they cover the whole plan.
+        self.residual_cols = None if covered.size == M * n else covered
+
+    # -- construction -------------------------------------------------------------------------
+    def _layout(self) -> None:
+        """The bounded force rows and the source layout, before the blocks locate theirs in it."""
+        P, MN = self.P, self.M * self.n
+        nf = self.fpred.G.shape[0] // P
+        chosen = self.constraints.force_steps
+        steps = (range(P) if chosen is None
+                 else sorted({int(j) - 1 for j in chosen if 1 <= j <= P}))
+        self._force_steps = list(steps)
+        if math.isfinite(self.constraints.coupler_force_limit):
+            bounded = sorted({j * nf + c for j in steps for c in range(nf)})
+        else:
+            bounded = []
+        self._bounded_rows = np.array(bounded, dtype=np.int64)
+        self._fPhi = self.fpred.Phi[self._bounded_rows]
+        self._fSu = self.fpred.Su[self._bounded_rows]
+        nb = self._bounded_rows.size
+        # Source layout (see sources): [lb_u; ub_u; lb_rate; ub_rate; hl; hu; g of each block].
+        self._source_hl, self._source_hu = 4 * MN, 4 * MN + nb
+        self._source_g = 4 * MN + 2 * nb
+
+    def _source_buffer(self, size: int) -> None:
+        """The source vector of :meth:`sources` and views of the parts it writes.
+
+        One buffer, rewritten every step; parts that no problem uses stay zero.
+        """
+        MN, nb = self.M * self.n, self._bounded_rows.size
+        self._src = np.zeros(size)
+        self._src_bounds = self._src[:2 * MN].reshape(2, MN)
+        self._src_rate = self._src[2 * MN:4 * MN].reshape(2, MN)
+        self._src_force = self._src[4 * MN:4 * MN + 2 * nb].reshape(2, nb)
+        self._src_g = [self._src[int(b.params["g"][0]):int(b.params["g"][-1]) + 1]
+                       for b in self.blocks]
+        limit = self.constraints.coupler_force_limit / KN
+        rate = self.constraints.rate_limit / KN
+        self._force_pair = np.array([[-limit], [limit]])  # hl, hu = ∓limit - f0
+        self._rate_pair = np.array([[-rate], [rate]])     # rate bounds ∓du - offset
+
+    def _build_block(self, inputs: tuple[int, ...], g_start: int) -> QPBlock:
+        """The block of ``inputs``: its members' cost, its rows and its QP."""
+        d, pred, c = self.design, self.pred, self.constraints
+        cols = np.sort(np.concatenate([pred.columns[i] for i in inputs]))
+        members = self.strategy.members(inputs, d)
+        mask = np.array([o in members for o in d.output_owner], dtype=float)
+        weight = np.tile(d.q * mask, self.P)
+        Gi = pred.G[:, cols]
+        H = 2.0 * (Gi.T @ (weight[:, None] * Gi) + pred.Rbar[np.ix_(cols, cols)])
+        rows = self._force_rows(inputs)
+        F = self.fpred.G[np.ix_(rows, cols)] if rows.size else np.zeros((0, cols.size))
+        hard = input_rows(self.maps, cols, bounds=c.input_bounds,
+                          rate=math.isfinite(c.rate_limit))
+        qp = ParametricQP(H, hard, F, soft_linear=c.soft_linear, soft_quadratic=c.soft_quadratic,
+                          name=f"{self.name}[{','.join(map(str, inputs))}]",
+                          fast=self.path == "fast")
+        Kc = 2.0 * Gi.T * weight[None, :]
+        Ko = Kc @ pred.G
+        Ko[:, cols] = 0.0
+        Fo = self.fpred.G[rows, :].copy()
+        Fo[:, cols] = 0.0
+        return build_block(qp, inputs=inputs, cols=cols, Kc=Kc,
+                           params=self._positions(cols, rows, g_start), Ko=Ko, Fo=Fo)
+
+    def _force_rows(self, inputs: tuple[int, ...]) -> Index:
+        """Rows of the force prediction that the block of ``inputs`` bounds."""
+        if not math.isfinite(self.constraints.coupler_force_limit):
+            return np.zeros(0, dtype=np.int64)
+        nf = self.fpred.G.shape[0] // self.P
+        couplers = self.strategy.couplers(inputs, nf)
+        return np.array([j * nf + c for j in self._force_steps for c in couplers],
+                        dtype=np.int64)
+
+    def _positions(self, cols: Index, rows: Index, g_start: int) -> dict[str, Index]:
+        """Positions of the block's g, lb, ub, hl, hu in the source vector."""
+        MN = self.M * self.n
+        empty = np.zeros(0, dtype=np.int64)
+        bounds = self.constraints.input_bounds
+        rate = math.isfinite(self.constraints.rate_limit)
+        where = np.searchsorted(self._bounded_rows, rows)
+        return {"g": g_start + np.arange(cols.size),
+                "lb": np.concatenate([cols if bounds else empty,
+                                      2 * MN + cols if rate else empty]),
+                "ub": np.concatenate([MN + cols if bounds else empty,
+                                      3 * MN + cols if rate else empty]),
+                "hl": self._source_hl + where, "hu": self._source_hu + where}
+
+    # -- one step -----------------------------------------------------------------------------
+    def sources(self, ctx: StepContext) -> Array:
+        """Every block's QP parameters at U = 0, stacked; each block gathers its own.
+
+        Layout (M·n entries each for the first four): lower and upper bounds
+        of the hard rows on the input moves, then on the move rates, then hl
+        and hu for the bounded rows of the force prediction, then g of each
+        block in turn (``QPBlock.params`` holds the positions). Parts that no
+        problem uses are zero. The array is the problem's buffer, rewritten
+        by the next call.
+
+        Input moves are ũ = L U + t0; absolute forces u_ff + ũ. The rate of
+        move m is (u_ff(m) - u_ff(m-1)) + (ũ(m) - ũ(m-1)), with the applied
+        u(k-1) before move 0. L and the difference matrix are block diagonal
+        by coach, so the other coaches' moves do not enter a block's bounds.
+        """
+        # In the u-form ũ(k-1) = 0 and S_u = 0: their terms are left out.
+        pred, n = self.pred, self.n
+        base = ctx.u_dev_prev_tiled
+        if self.constraints.input_bounds:
+            if self._du:
+                np.subtract(ctx.bounds, base, out=self._src_bounds)
+            else:
+                self._src_bounds[...] = ctx.bounds
+        if math.isfinite(self.constraints.rate_limit):
+            ff = ctx.u_ff.ravel()
+            # u_ff(m) - u_ff(m-1), with the applied u(k-1) before move 0
+            offset = ff - np.concatenate((ctx.u_prev, ff[:-n]))
+            if self._du:
+                offset += self.maps.D @ base
+            np.subtract(self._rate_pair, offset, out=self._src_rate)
+        if self._bounded_rows.size:
+            f0 = self._fPhi @ ctx.x
+            if self._du:
+                f0 += self._fSu @ ctx.u_dev_prev
+            f0 += ctx.f_ff[self._bounded_rows]
+            np.subtract(self._force_pair, f0, out=self._src_force)
+        c0 = pred.Phi @ ctx.x
+        if self._du:
+            c0 += pred.Su @ ctx.u_dev_prev
+        for block, out in zip(self.blocks, self._src_g, strict=True):
+            np.matmul(block.Kc, c0, out=out)  # block by block: stacking changes the rounding
+        return self._src
+
+    def parameters(self, ctx: StepContext) -> list[BlockParameters]:
+        """Per-sample parameters of every block's QP (independent of the other plans)."""
+        return block_parameters(self.blocks, self.sources(ctx), self.fast)
+
+    def fallback(self, block: QPBlock, ctx: StepContext, plan0: Array) -> Array:
+        """The block's moves of the shifted previous plan, clipped to its input bounds (u-form)."""
+        z = plan0[block.cols].copy()
+        if self.constraints.input_bounds and self.design.form == "u":
+            z = np.clip(z, ctx.lb[block.cols], ctx.ub[block.cols])
+        return z

@@ -1,0 +1,257 @@
+# The MPC strategies as small coordinators of the QP blocks.
+"""How the train MPC splits its plan among optimisers and combines their answers.
+
+A strategy says which inputs each optimiser (QP block) decides for, whose
+outputs its cost counts, which coupler-force rows it bounds, and how the
+blocks' solutions become one plan:
+
+``Centralised``
+    One block over every coach's moves and the whole-train cost.
+``Decentralised``
+    One block per coach over its own outputs, the other coaches' inputs at
+    their feedforward (one solve each, no exchange).
+``NDMPC``
+    One block per coach over its neighbourhood's cost, the others' plans
+    fixed at the previous iterate; relaxed Jacobi iterations from the shifted
+    previous plan until every change is below the tolerance.
+``Cooperative``
+    One block per coach over the whole-train cost; the new plan is the
+    convex combination Σ_i w_i (plan with block i replaced).
+
+A block whose solve gives no usable solution takes the fallback plan it is
+given (the shifted previous plan) and the step is recorded as ``"fallback"``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...analysis.mpc import MPCDesign
+from ..status import is_usable
+from .condensed import BlockParameters, QPBlock
+
+__all__ = ["Centralised", "Cooperative", "Decentralised", "NDMPC", "PlanResult", "Strategy",
+           "make_strategy"]
+
+Array = NDArray[np.float64]
+FallbackPlan = Callable[[QPBlock], Array]
+"""``fallback(block) -> z``: the block's moves when its solve failed."""
+
+FALLBACK = "shifted plan"
+"""Fallback recorded when a block's solve gave no usable solution."""
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    """The plan of one step and how it was reached.
+
+    Parameters
+    ----------
+    plan : ndarray
+        The decision vector U.
+    status : str
+        The step status (the worst block status, ``"fallback"`` after a fallback).
+    iterations : int
+        Iterations (1 for the single-solve strategies).
+    residuals : list of float
+        Largest change of the plan per iteration [kN].
+    fallback : str
+        The fallback applied ("" when none).
+    """
+
+    plan: Array
+    status: str
+    iterations: int
+    residuals: list[float]
+    fallback: str
+
+
+class Blocks(Protocol):
+    """What a strategy needs of the problem: its blocks and how to solve them."""
+
+    blocks: list[QPBlock]
+    path: str
+    residual_cols: NDArray[np.int64] | None
+
+
+class Strategy(Protocol):
+    """The protocol of the four strategies."""
+
+    name: str
+
+    def block_inputs(self, n: int) -> list[tuple[int, ...]]:
+        """The inputs each block decides for."""
+        ...
+
+    def members(self, inputs: tuple[int, ...], design: MPCDesign) -> tuple[int, ...]:
+        """The coaches whose outputs a block's cost counts."""
+        ...
+
+    def couplers(self, inputs: tuple[int, ...], n_couplers: int) -> list[int]:
+        """The couplers whose force rows a block bounds."""
+        ...
+
+    def plan(self, problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
+             fallback: FallbackPlan) -> PlanResult:
+        """Solve the blocks and combine their solutions into the plan."""
+        ...
+
+
+class _PerCoach:
+    """One block per coach bounding the couplers next to it."""
+
+    def block_inputs(self, n: int) -> list[tuple[int, ...]]:
+        return [(i,) for i in range(n)]
+
+    def couplers(self, inputs: tuple[int, ...], n_couplers: int) -> list[int]:
+        return sorted({c for i in inputs for c in (i - 1, i) if 0 <= c < n_couplers})
+
+
+class Centralised:
+    """One QP over every coach's moves and the whole-train cost."""
+
+    name = "centralised"
+
+    def block_inputs(self, n: int) -> list[tuple[int, ...]]:
+        return [tuple(range(n))]
+
+    def members(self, inputs: tuple[int, ...], design: MPCDesign) -> tuple[int, ...]:
+        return tuple(range(design.n_inputs))
+
+    def couplers(self, inputs: tuple[int, ...], n_couplers: int) -> list[int]:
+        return list(range(n_couplers))
+
+    def plan(self, problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
+             fallback: FallbackPlan) -> PlanResult:
+        return solve_once(problem, params, plan0, fallback)
+
+
+class Decentralised(_PerCoach):
+    """Each coach over its own outputs; the others' inputs at their feedforward."""
+
+    name = "decentralised"
+
+    def members(self, inputs: tuple[int, ...], design: MPCDesign) -> tuple[int, ...]:
+        return inputs
+
+    def plan(self, problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
+             fallback: FallbackPlan) -> PlanResult:
+        return solve_once(problem, params, plan0, fallback)
+
+
+@dataclass(frozen=True)
+class NDMPC(_PerCoach):
+    """Neighbourhood optimisation, relaxed Jacobi iterations (relaxation ω in (0, 1])."""
+
+    max_iterations: int
+    tolerance: float
+    relaxation: float
+    name = "ndmpc"
+
+    def members(self, inputs: tuple[int, ...], design: MPCDesign) -> tuple[int, ...]:
+        return design.neighbourhoods[inputs[0]]
+
+    def plan(self, problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
+             fallback: FallbackPlan) -> PlanResult:
+        weights = [self.relaxation] * len(problem.blocks)
+        return jacobi(problem, params, plan0, fallback, weights=weights,
+                      max_iterations=self.max_iterations, tolerance=self.tolerance)
+
+
+@dataclass(frozen=True)
+class Cooperative(_PerCoach):
+    """Every coach over the whole-train cost; convex combination with weights w."""
+
+    max_iterations: int
+    tolerance: float
+    weights: Array
+    name = "cooperative"
+
+    def members(self, inputs: tuple[int, ...], design: MPCDesign) -> tuple[int, ...]:
+        return tuple(range(design.n_inputs))
+
+    def plan(self, problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
+             fallback: FallbackPlan) -> PlanResult:
+        weights = [self.weights[block.inputs[0]] for block in problem.blocks]
+        return jacobi(problem, params, plan0, fallback, weights=weights,
+                      max_iterations=self.max_iterations, tolerance=self.tolerance)
+
+
+def make_strategy(name: str, *, max_iterations: int, tolerance: float, relaxation: float,
+                  weights: Array) -> Strategy:
+    """The strategy called ``name`` (one of :data:`~.settings.STRATEGIES`)."""
+    if name == "centralised":
+        return Centralised()
+    if name == "decentralised":
+        return Decentralised()
+    if name == "ndmpc":
+        return NDMPC(max_iterations=max_iterations, tolerance=tolerance, relaxation=relaxation)
+    return Cooperative(max_iterations=max_iterations, tolerance=tolerance, weights=weights)
+
+
+def solve_once(problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
+               fallback: FallbackPlan) -> PlanResult:
+    """Solve every block once with the other blocks' moves at zero (their feedforward)."""
+    U = np.zeros(plan0.shape)
+    statuses, applied = [], ""
+    for block, prep in zip(problem.blocks, params, strict=True):
+        sol = block.solve(prep, None, problem.path)
+        z, status = sol.z, sol.status
+        if not is_usable(status):
+            z, applied = fallback(block), FALLBACK
+        U[block.cols] = z
+        statuses.append(status)
+    return PlanResult(U, worst_status(statuses, applied), 1, [], applied)
+
+
+def jacobi(problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
+           fallback: FallbackPlan, *, weights: Sequence[float], max_iterations: int,
+           tolerance: float) -> PlanResult:
+    """Weighted Jacobi iterations U ← (1 - w_i) U_i + w_i z_i from ``plan0``.
+
+    Stops when the largest change of the blocks' moves is at most ``tolerance``.
+    """
+    U = plan0.copy()
+    residuals: list[float] = []
+    statuses, applied = [], ""
+    converged = False
+    cols = problem.residual_cols
+    for _ in range(max_iterations):
+        new = U.copy()
+        for block, prep, w in zip(problem.blocks, params, weights, strict=True):
+            sol = block.solve(prep, U, problem.path)
+            z, status = sol.z, sol.status
+            if not is_usable(status):
+                z, applied = fallback(block), FALLBACK
+            statuses.append(status)
+            if w == 1.0:
+                new[block.cols] = z  # = 1·z + 0·U (up to the sign of a zero)
+            else:
+                new[block.cols] = w * z + (1 - w) * U[block.cols]
+        # Largest change of any block's moves (the blocks' columns, usually all of U).
+        step = new - U if cols is None else new[cols] - U[cols]
+        change = float(np.maximum.reduce(np.abs(step)))
+        residuals.append(change)
+        U = new
+        if change <= tolerance:
+            converged = True
+            break
+    status = worst_status(statuses, applied)
+    if not converged and status == "optimal":
+        status = "max_iterations"
+    return PlanResult(U, status, len(residuals), residuals, applied)
+
+
+def worst_status(statuses: list[str], fallback: str) -> str:
+    """The step status: ``"fallback"`` after a fallback, else the worst block status."""
+    if fallback:
+        return "fallback"
+    for status in ("error", "infeasible", "max_iterations", "optimal_inaccurate"):
+        if status in statuses:
+            return status
+    return "optimal"

@@ -1,0 +1,237 @@
+# Argument checks of the MPC core: one place for its messages.
+"""Checks of the MPC core's arguments (:func:`~.linear.make_linear_mpc`, ``solve``).
+
+Every failure is a trainctl error with the message shape
+``where: what must hold (got what). hint.``: :class:`DimensionError` for
+shapes, :class:`ModelError` for values, ``TypeError`` for a system that is
+not a ``control.StateSpace``.
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import control as ct
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ...analysis.mpc import FORMS
+from ...exceptions import DimensionError, ModelError
+
+__all__ = ["BOUND_GROUPS", "SOFT_PENALTY", "CoreSettings", "as_bound", "as_soft", "as_vector",
+           "as_weight", "check_horizons", "check_system", "core_settings"]
+
+Array = NDArray[np.float64]
+
+BOUND_GROUPS = ("u", "du", "x", "y")
+"""Bounded quantities: inputs, input rates, states, outputs."""
+
+SOFT_PENALTY = (1e3, 1e2)
+"""Default (linear, quadratic) penalty of a soft bound, as :class:`~.settings.MPCConstraints`."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class CoreSettings:
+    """Validated arguments of :func:`~.linear.make_linear_mpc` (see there)."""
+
+    A: Array
+    B: Array
+    C: Array
+    dt: float
+    Q: Array
+    R: Array
+    Qf: Array | None
+    P: int
+    M: int
+    form: str
+    bounds: dict[str, tuple[Array, Array]]
+    soft: dict[str, tuple[float, float] | None]
+
+
+_DISCRETISE = ("Discretise it first, e.g. control.sample_system(sys, T) or "
+               "trainctl.models.discretise(sys, T).")
+
+
+def check_system(where: str, sysd: object) -> tuple[Array, Array, Array, float]:
+    """(A, B, C, dt) of a discrete, strictly proper ``control.StateSpace``."""
+    if not isinstance(sysd, ct.StateSpace):
+        raise TypeError(f"{where}: 'sysd' must be a discrete control.StateSpace (got "
+                        f"{type(sysd).__name__}). Build one with control.ss(A, B, C, 0, dt=T).")
+    dt = sysd.dt
+    if dt is None or isinstance(dt, bool) or not dt > 0:
+        kind = ("a continuous-time system" if dt == 0 else
+                "a discrete system without a sample time" if dt is True
+                else "an unspecified time base")
+        raise ModelError(f"{where}: 'sysd' must be discrete-time with a sample time dt > 0 "
+                         f"(got dt = {dt!r}, {kind}). {_DISCRETISE}")
+    A, B, C, D = (np.asarray(m, dtype=float) for m in (sysd.A, sysd.B, sysd.C, sysd.D))
+    if A.shape[0] == 0 or B.shape[1] == 0:
+        raise DimensionError(f"{where}: 'sysd' needs at least one state and one input "
+                             f"(got {A.shape[0]} states, {B.shape[1]} inputs).")
+    if np.any(D != 0):
+        raise ModelError(f"{where}: 'sysd' must have no direct feedthrough, D = 0 (got max |D| = "
+                         f"{float(np.max(np.abs(D))):.3g}). The MPC predicts y = C x; put the "
+                         "feedthrough into the model (augment the state with u) or leave it out.")
+    for name, m in (("A", A), ("B", B), ("C", C)):
+        if not np.all(np.isfinite(m)):
+            raise ModelError(f"{where}: 'sysd' has non-finite entries in {name}.")
+    return A, B, C, float(dt)
+
+
+def check_horizons(where: str, prediction_horizon: object,
+                   control_horizon: object | None) -> tuple[int, int]:
+    """(P, M) as ints with 1 <= M <= P (M = P when None)."""
+    P = _int(where, "prediction_horizon", prediction_horizon)
+    if P < 1:
+        raise ModelError(f"{where}: 'prediction_horizon' must be an int >= 1 (got {P}).")
+    M = P if control_horizon is None else _int(where, "control_horizon", control_horizon)
+    if not 1 <= M <= P:
+        raise ModelError(f"{where}: 'control_horizon' must be an int with 1 <= M <= P = {P} "
+                         f"(got M = {M}). The plan has at most one move per prediction step; "
+                         "leave control_horizon out for M = P.")
+    return P, M
+
+
+def _int(where: str, name: str, value: object) -> int:
+    if isinstance(value, bool):
+        raise ModelError(f"{where}: {name!r} must be an int (got {value!r}).")
+    try:
+        return operator.index(value)  # type: ignore[arg-type]
+    except TypeError:
+        raise ModelError(f"{where}: {name!r} must be an int (got {value!r}).") from None
+
+
+def _array(where: str, name: str, value: object) -> Array:
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(f"{where}: {name!r} must be real numbers in a scalar, vector or "
+                         f"matrix (got {value!r}).") from None
+    if np.any(np.isnan(arr)):
+        raise ModelError(f"{where}: {name!r} must not contain NaN (got {arr.tolist()}).")
+    return arr
+
+
+def as_weight(where: str, name: str, value: ArrayLike, n: int, what: str) -> Array:
+    """An (n, n) symmetric positive semidefinite weight from a scalar, a diagonal or a matrix."""
+    arr = _array(where, name, value)
+    if arr.ndim == 0:
+        arr = float(arr) * np.eye(n)
+    elif arr.ndim == 1 and arr.shape == (n,):
+        arr = np.diag(arr)
+    elif arr.shape != (n, n):
+        raise DimensionError(f"{where}: {name!r} weights the {n} {what} and must be an ({n}, {n}) "
+                             f"matrix, a length-{n} diagonal or a scalar (got shape {arr.shape}).")
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(f"{where}: {name!r} must be finite (got {arr.tolist()}).")
+    scale = max(1.0, float(np.max(np.abs(arr))))
+    if not np.allclose(arr, arr.T, rtol=0.0, atol=1e-10 * scale):
+        raise ModelError(f"{where}: {name!r} must be symmetric (max |{name} - {name}ᵀ| = "
+                         f"{float(np.max(np.abs(arr - arr.T))):.3g}). Use ({name} + {name}ᵀ)/2, "
+                         "which has the same cost.")
+    smallest = float(np.min(np.linalg.eigvalsh(arr)))
+    if smallest < -1e-10 * scale:
+        raise ModelError(f"{where}: {name!r} must be positive semidefinite (got smallest "
+                         f"eigenvalue {smallest:.3g}). A weight is a cost: every eigenvalue "
+                         "must be >= 0, e.g. W = Lᵀ L.")
+    return np.asarray(arr, dtype=np.float64)
+
+
+def as_vector(where: str, name: str, value: ArrayLike, n: int, what: str) -> Array:
+    """A length-n float vector from a length-n sequence or column (finite entries)."""
+    arr = _array(where, name, value)
+    if arr.shape == (n, 1):
+        arr = arr[:, 0]
+    if arr.ndim != 1 or arr.shape[0] != n:
+        raise DimensionError(f"{where}: {name!r} must be a vector of the {n} {what} "
+                             f"(got shape {arr.shape}).")
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(f"{where}: {name!r} must be finite (got {arr.tolist()}).")
+    return np.asarray(arr, dtype=np.float64)
+
+
+def as_bound(where: str, name: str, value: ArrayLike | None, n: int, what: str,
+             fill: float) -> Array:
+    """A length-n bound from None (``fill``), a scalar or a vector; ±inf allowed."""
+    if value is None:
+        return np.full(n, fill)
+    arr = _array(where, name, value)
+    if arr.ndim == 0:
+        return np.full(n, float(arr))
+    if arr.shape != (n,):
+        raise DimensionError(f"{where}: {name!r} bounds the {n} {what} and must be a scalar or "
+                             f"a length-{n} vector (got shape {arr.shape}).")
+    return np.asarray(arr, dtype=np.float64)
+
+
+def check_order(where: str, lower: tuple[str, Array], upper: tuple[str, Array]) -> None:
+    """Raise unless lower <= upper elementwise."""
+    (lname, lo), (uname, hi) = lower, upper
+    bad = np.flatnonzero(lo > hi)
+    if bad.size:
+        i = int(bad[0])
+        raise ModelError(f"{where}: {lname!r} must not exceed {uname!r} (got {lname}[{i}] = "
+                         f"{lo[i]!r} > {uname}[{i}] = {hi[i]!r}).")
+
+
+def as_soft(where: str, soft: Mapping[str, object] | None,
+            bounded: Mapping[str, bool]) -> dict[str, tuple[float, float] | None]:
+    """Per bound group: None (hard) or the (linear, quadratic) penalty of its slack."""
+    out: dict[str, tuple[float, float] | None] = dict.fromkeys(BOUND_GROUPS)
+    for key, value in (soft or {}).items():
+        if key not in BOUND_GROUPS:
+            raise ModelError(f"{where}: the keys of 'soft' must be among {BOUND_GROUPS} "
+                             f"(got {key!r}).")
+        if value is False:
+            continue
+        if not bounded[key]:
+            raise ModelError(f"{where}: soft[{key!r}] is given but no {key} bound is (set "
+                             f"{key}_min/{key}_max, or du_max for 'du').")
+        out[key] = SOFT_PENALTY if value is True else _penalty(where, key, value)
+    return out
+
+
+def _penalty(where: str, key: str, value: object) -> tuple[float, float]:
+    msg = (f"{where}: soft[{key!r}] must be True (default penalties {SOFT_PENALTY}) or a pair "
+           f"(linear >= 0, quadratic > 0) of finite slack penalties (got {value!r}).")
+    try:
+        linear, quadratic = (float(v) for v in value)  # type: ignore[attr-defined]
+    except (TypeError, ValueError):
+        raise ModelError(msg) from None
+    if not (math.isfinite(linear) and math.isfinite(quadratic) and linear >= 0
+            and quadratic > 0):
+        raise ModelError(msg)
+    return linear, quadratic
+
+
+def core_settings(where: str, sysd: object, *, Q: ArrayLike, R: ArrayLike, P: object,
+                  M: object | None, Qf: ArrayLike | None, form: str,
+                  bounds: Mapping[str, tuple[ArrayLike | None, ArrayLike | None]],
+                  soft: Mapping[str, object] | None) -> CoreSettings:
+    """Validate the arguments of :func:`~.linear.make_linear_mpc`."""
+    A, B, C, dt = check_system(where, sysd)
+    (nx, nu), ny = B.shape, C.shape[0]
+    P, M = check_horizons(where, P, M)
+    if form not in FORMS:
+        raise ModelError(f"{where}: 'form' must be one of {FORMS} (got {form!r}).")
+    sizes = {"u": (nu, "inputs"), "du": (nu, "inputs"), "x": (nx, "states"),
+             "y": (ny, "outputs")}
+    checked: dict[str, tuple[Array, Array]] = {}
+    for key, (lower, upper) in bounds.items():
+        n, what = sizes[key]
+        lname, uname = (f"{key}_min", f"{key}_max")
+        hi = as_bound(where, uname, upper, n, what, np.inf)
+        lo = -hi if key == "du" else as_bound(where, lname, lower, n, what, -np.inf)
+        if key == "du" and np.any(hi < 0):
+            raise ModelError(f"{where}: 'du_max' must be >= 0 (got {hi.tolist()}).")
+        check_order(where, (lname, lo), (uname, hi))
+        if np.any(np.isfinite(lo)) or np.any(np.isfinite(hi)):
+            checked[key] = (lo, hi)
+    Qf_checked = None if Qf is None else as_weight(where, "terminal_weight", Qf, nx, "states")
+    return CoreSettings(A=A, B=B, C=C, dt=dt, Q=as_weight(where, "Q", Q, ny, "outputs"),
+                        R=as_weight(where, "R", R, nu, "inputs"), Qf=Qf_checked, P=P, M=M,
+                        form=form, bounds=checked,
+                        soft=as_soft(where, soft, {k: k in checked for k in sizes}))
