@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...exceptions import DimensionError, ModelError
+from ...models.envelope import EnvelopeBounds
 from ...models.feedforward import ForceSplit
 from ...models.train import Train
 from ..base import Measurement, ReferencePreview, StepRecord
@@ -75,6 +76,7 @@ class LQRController:
         self.train, self.gain, self.dt = train, K, float(dt)
         self.input_bounds, self.name = bool(input_bounds), name
         self._split = ForceSplit(train, where=name)
+        self._envelope = EnvelopeBounds(train, enabled=self.input_bounds)
 
     def reset(self) -> None:
         """Nothing to forget: the law is static."""
@@ -84,7 +86,7 @@ class LQRController:
         start = time.perf_counter()
         if measurement.state is None:
             raise ModelError(f"{self.name}: needs full-state measurement (got state=None).")
-        train, n = self.train, self.train.n_vehicles
+        n = self.train.n_vehicles
         speed = float(reference.speed[0])
         ff = self._split([max(speed, 0.1)], [float(reference.acceleration[0])])
         x = np.asarray(measurement.state, dtype=float)
@@ -92,7 +94,7 @@ class LQRController:
         inputs = ff.inputs[0] - KN * (self.gain @ deviation)
         saturated = 0
         if self.input_bounds:
-            low, high = _envelope(train, x[:n])
+            low, high = self._envelope.at(x[:n])
             clipped = np.clip(inputs, low, high)
             saturated = int(np.count_nonzero(clipped != inputs))
             inputs = clipped
@@ -100,11 +102,3 @@ class LQRController:
                           solve_time=time.perf_counter() - start,
                           info={"saturated": saturated})
 
-
-def _envelope(train: Train, speeds: Array) -> tuple[Array, Array]:
-    """Braking (negative) and traction limits [N] of every vehicle at its speed."""
-    low = np.array([-veh.envelope.braking_limit(v, mass=veh.mass)
-                    for veh, v in zip(train.vehicles, speeds, strict=True)], dtype=float)
-    high = np.array([veh.envelope.traction_limit(v, mass=veh.mass)
-                     for veh, v in zip(train.vehicles, speeds, strict=True)], dtype=float)
-    return low, high

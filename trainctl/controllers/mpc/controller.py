@@ -43,12 +43,12 @@ from numpy.typing import NDArray
 
 from ...analysis.mpc import MPCDesign
 from ...exceptions import ModelError
+from ...models.envelope import EnvelopeBounds
 from ...models.feedforward import ForceSplit
 from ...models.train import Train
 from ..base import Measurement, ReferencePreview, StepRecord
 from ..observer import KalmanObserver, ObserverSettings
 from .condensed import QPBlock, shifted
-from .envelope import EnvelopeBounds
 from .problem import StepContext, TrainProblem
 from .settings import STRATEGIES, MPCConstraints
 from .strategies import make_strategy

@@ -1,13 +1,19 @@
-# Input bounds of the train MPC: the vehicles' traction and braking envelopes.
-"""The traction/braking envelopes of a train, evaluated over a speed preview."""
+# The traction and braking envelopes of a whole train, evaluated at once.
+"""The traction/braking envelopes of a train, evaluated for all vehicles at once.
+
+:meth:`EnvelopeBounds.pair` gives the bounds over a speed preview (every
+vehicle at the previewed speed: the MPC's input bounds);
+:meth:`EnvelopeBounds.at` gives each vehicle's bounds at its own speed (the
+saturation of a feedback law).
+"""
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ...models.train import Train
-from ...models.vehicle import TractionEnvelope, envelope_limit
+from .train import Train
+from .vehicle import TractionEnvelope, envelope_limit
 
 __all__ = ["EnvelopeBounds"]
 
@@ -70,3 +76,37 @@ class EnvelopeBounds:
                                  for veh in vehicles])]) / KN
         np.negative(limits[0], out=limits[0])
         return limits.reshape(2, -1)
+
+    def at(self, speeds: Array) -> tuple[Array, Array]:
+        """Each vehicle's braking (negative) and traction limits [N] at its own speed.
+
+        Parameters
+        ----------
+        speeds : ndarray
+            One speed per vehicle [m/s], shape (n,).
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            Lower and upper bounds [N], shape (n,); (-inf, inf) when not ``enabled``.
+
+        Examples
+        --------
+        >>> from trainctl.models import crh2_half
+        >>> low, high = EnvelopeBounds(crh2_half(), enabled=True).at(np.full(4, 80.0))
+        >>> (high / 1e3).round(1).tolist(), bool(np.all(low < 0))
+        ([0.0, 15.0, 15.0, 0.0], True)
+        """
+        v = np.asarray(speeds, dtype=float)
+        if not self.enabled:
+            return np.full(self.n, -np.inf), np.full(self.n, np.inf)
+        if self.envelopes is not None:
+            force, power, adhesion, mass = self.envelopes
+            limits = envelope_limit(v[None, None, :], force, power, adhesion, mass)[:, 0]
+        else:
+            vehicles = self.train.vehicles
+            limits = np.array([[veh.envelope.braking_limit(s, mass=veh.mass)
+                                for veh, s in zip(vehicles, v, strict=True)],
+                               [veh.envelope.traction_limit(s, mass=veh.mass)
+                                for veh, s in zip(vehicles, v, strict=True)]], dtype=float)
+        return -limits[0], limits[1]
