@@ -77,6 +77,11 @@ class KalmanObserver:
         Speed at which the gain is designed [m/s].
     settings : ObserverSettings
         Noise levels.
+    model : control.StateSpace or None
+        The continuous linear model at ``speed`` (states ``[v, delta]``,
+        inputs [N], outputs the speeds), e.g. the run's design model
+        (:meth:`trainctl.design.DesignModel.observer_model`); None linearises
+        the train here (Jacobian).
 
     Examples
     --------
@@ -92,16 +97,17 @@ class KalmanObserver:
     0.02
     """
 
-    def __init__(self, train: Train, dt: float, speed: float, settings: ObserverSettings) -> None:
+    def __init__(self, train: Train, dt: float, speed: float, settings: ObserverSettings, *,
+                 model: ct.StateSpace | None = None) -> None:
         self.train, self.settings = train, settings
         self.dt = check_positive("KalmanObserver", "dt", dt)
         self.plant = Plant(train=train)
-        self.gain = self._gain(speed)
+        self.gain = self._gain(speed, model)
         self.reset()
 
-    def _gain(self, speed: float) -> Array:
+    def _gain(self, speed: float, model: ct.StateSpace | None) -> Array:
         n = self.train.n_vehicles
-        sys = linearise(self.train, speed)
+        sys = linearise(self.train, speed) if model is None else model
         nx = sys.nstates
         b_r = np.zeros((nx, 1))
         b_r[:n, 0] = -1.0  # a specific force r decelerates every vehicle by r

@@ -146,6 +146,20 @@ class DesignModel:
         return ct.ss(sys.A, sys.B, sys.C[:n], sys.D[:n], states=sys.state_labels,
                      inputs=sys.input_labels, outputs=sys.output_labels[:n], name=sys.name)
 
+    def observer_model(self) -> ct.StateSpace:
+        """The continuous SI model without the dummy state, outputs the speeds (for observers).
+
+        Returns
+        -------
+        control.StateSpace
+            States ``[v, delta]``, inputs ``u[i]`` [N], outputs ``v[i]`` [m/s].
+        """
+        n, nx = self.n_vehicles, self.n_states
+        sys = self.linear
+        return ct.ss(np.asarray(sys.A)[:nx, :nx], np.asarray(sys.B)[:nx],
+                     np.asarray(sys.C)[:n, :nx], 0, states=sys.state_labels[:nx],
+                     inputs=sys.input_labels, outputs=sys.output_labels[:n], name=sys.name)
+
     def force_rows(self) -> Array:
         """Coupler forces [N] as rows on the design state (no dummy), shape (n-1, 2n-1)."""
         n, nx = self.n_vehicles, self.n_states

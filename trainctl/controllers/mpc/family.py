@@ -148,7 +148,8 @@ def make_mpc_controller(design: MPCFamilyDesign, strategy: str) -> MPCController
         noise = scenario.simulation.measurement_noise if scenario.simulation else 0.0
         settings = ObserverSettings(measurement_noise=max(noise, 0.01),
                                     disturbance_noise=ctl.observer_disturbance_noise)
-        observer = KalmanObserver(scenario.train, dt, scenario.model.speed, settings)
+        observer = KalmanObserver(scenario.train, dt, scenario.model.speed, settings,
+                                  model=design.model.observer_model())
     force_rows = design.model.force_rows() / 1e3  # coupler forces [kN] on the design state
     return MPCController(scenario.train, design.mpc, force_rows, dt=dt, strategy=strategy,
                          constraints=ctl.mpc_constraints(), max_iterations=ctl.max_iterations,
