@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from trainctl.analysis.mpc import MPCDesign
-from trainctl.analysis.review import design_model
+from trainctl.design import build_design
 from trainctl.controllers.base import Controller, Measurement
 from trainctl.controllers.mpc import MPCConstraints, MPCController, make_linear_mpc, make_mpc
 from trainctl.exceptions import DimensionError, ModelError
@@ -168,7 +168,7 @@ class TestTrainMPCIsTheCore:
     def test_unconstrained_centralised_plan_equals_the_core(self, rng):
         """The train MPC's centralised plan = the core's on the design model (no bounds)."""
         scenario = load_scenario("crh2-dmpc")
-        train, d = scenario.train, design_model(scenario)[1]
+        train, d = scenario.train, build_design(scenario).family("mpc").mpc
         T = scenario.model.sample_time
         ctl = make_mpc(train, d, dt=T, strategy="centralised",
                        constraints=MPCConstraints(input_bounds=False))

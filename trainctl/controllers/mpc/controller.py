@@ -316,6 +316,6 @@ def _check_design(where: str, train: Train, design: MPCDesign, force_matrix: Arr
              and not np.any(design.C[:, -1]))
     hint = (" Nothing depends on the last state, as on the dummy state: build the design "
             "without it (linearise(..., dummy_state=False), as "
-            "trainctl.analysis.design_model does)." if dummy else "")
+            "the design model of trainctl.design.build_model does)." if dummy else "")
     raise ModelError(_DESIGN_MSG.format(where=where, nx=2 * n - 1, n=n, got_x=nx, got_u=nu,
                                         hint=hint))
