@@ -30,10 +30,10 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from trainctl.design import build_design
 from trainctl.controllers.base import Measurement, ReferencePreview
 from trainctl.controllers.mpc import MPCConstraints, make_mpc
 from trainctl.controllers.qp import OSQP_SETTINGS
+from trainctl.design import build_design
 from trainctl.models import Coupler, Train, equilibrium
 from trainctl.scenario import load_scenario
 
