@@ -178,7 +178,8 @@ SCALING_R = {4: 0.2, 8: 0.505, 16: 0.757, 32: 2.05, 64: 2.76}
 
 
 def part2(sizes, steps, compute_r=False):
-    from trainctl.analysis.mpc import MPCDesign, threshold_weight
+    from trainctl.analysis.iteration import threshold_weight
+    from trainctl.analysis.mpc import MPCDesign
     from trainctl.models import discretise, linearise
 
     print(f"\nScaling (fast path, N-DMPC, adjacent neighbourhoods, T = 0.05 s, P = 40, M = 5, "

@@ -13,18 +13,17 @@ from trainctl.analysis.controllability import (
     finite_horizon_gramian,
     kalman_matrix,
 )
-from trainctl.analysis.mpc import (
-    MPCDesign,
+from trainctl.analysis.iteration import (
     closed_loop_matrix,
     cooperative_iteration,
     finite_iteration_closed_loop,
     iteration_matrices,
     nash_gain,
-    prediction,
     relaxation,
     spectral_radius,
     threshold_weight,
 )
+from trainctl.analysis.mpc import MPCDesign, prediction
 from trainctl.analysis.sampling import analyse_sampling
 from trainctl.analysis.stability import analyse_stability
 from trainctl.models import crh2_half, discretise, linearise

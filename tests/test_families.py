@@ -169,7 +169,7 @@ class TestMPCClosedLoop:
 
     def test_decentralised_loop_is_one_sweep_of_own_cost(self) -> None:
         """Decentralised: U = D1(self) e, the closed loop of the coaches' own problems."""
-        from trainctl.analysis.mpc import closed_loop_matrix, iteration_matrices
+        from trainctl.analysis.iteration import closed_loop_matrix, iteration_matrices
 
         design = build_design(load_scenario("crh2-dmpc-well-sampled")).family("mpc")
         own = design.mpc.with_neighbourhoods([(i,) for i in range(design.mpc.n_inputs)])

@@ -10,13 +10,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from trainctl.analysis.mpc import (
-    MPCDesign,
-    cooperative_iteration,
-    iteration_matrices,
-    nash_gain,
-    prediction,
-)
+from trainctl.analysis.iteration import cooperative_iteration, iteration_matrices, nash_gain
+from trainctl.analysis.mpc import MPCDesign, prediction
 from trainctl.controllers.base import Measurement, ReferencePreview
 from trainctl.controllers.mpc import MPCConstraints, make_mpc
 from trainctl.controllers.qp import ParametricQP

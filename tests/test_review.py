@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from trainctl.analysis.dmpc import analyse_dmpc
-from trainctl.analysis.mpc import iteration_matrices, spectral_radius, threshold_weight
+from trainctl.analysis.iteration import iteration_matrices, spectral_radius, threshold_weight
 from trainctl.analysis.review import review_design
 from trainctl.cli import main
 from trainctl.run import run_scenario

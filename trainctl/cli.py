@@ -84,10 +84,20 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for add in (_add_list, _add_schema, _add_export, _add_analyse, _add_report):
+        add(sub)
+    return parser
+
+
+def _add_list(sub: Any) -> None:
+    """The ``list`` subcommand."""
 
     p_list = sub.add_parser("list", help="list the built-in scenarios")
     p_list.set_defaults(func=_cmd_list)
 
+
+def _add_schema(sub: Any) -> None:
+    """The ``schema`` subcommand."""
     p_schema = sub.add_parser(
         "schema",
         help="print the JSON Schema of scenario files",
@@ -100,6 +110,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p_schema.set_defaults(func=_cmd_schema)
 
+
+def _add_export(sub: Any) -> None:
+    """The ``export`` subcommand."""
     p_export = sub.add_parser(
         "export",
         help="write a built-in scenario's TOML file, to start your own",
@@ -115,6 +128,9 @@ def build_parser() -> argparse.ArgumentParser:
     p_export.add_argument("-f", "--force", action="store_true", help="overwrite PATH if it exists")
     p_export.set_defaults(func=_cmd_export)
 
+
+def _add_analyse(sub: Any) -> None:
+    """The ``analyse`` subcommand."""
     p_analyse = sub.add_parser(
         "analyse",
         aliases=["analyze"],
@@ -147,6 +163,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p_analyse.set_defaults(func=_cmd_analyse)
 
+
+def _add_report(sub: Any) -> None:
+    """The ``report`` subcommand."""
     p_report = sub.add_parser(
         "report",
         help="write the HTML design report of a scenario (or of all built-ins)",
@@ -190,7 +209,6 @@ def build_parser() -> argparse.ArgumentParser:
         "are long, else 1)",
     )
     p_report.set_defaults(func=_cmd_report)
-    return parser
 
 
 def _positive_int(text: str) -> int:

@@ -7,11 +7,11 @@ from .controllability import analyse_observability as analyse_observability
 from .controllability import finite_horizon_gramian as finite_horizon_gramian
 from .dmpc import DMPCAnalysis as DMPCAnalysis
 from .dmpc import analyse_dmpc as analyse_dmpc
+from .iteration import convergence_sweep as convergence_sweep
 from .modes import Mode as Mode
 from .modes import continuous_modes as continuous_modes
 from .modes import nyquist_sample_time as nyquist_sample_time
 from .mpc import MPCDesign as MPCDesign
-from .mpc import convergence_sweep as convergence_sweep
 from .mpc import prediction as prediction
 from .review import Check as Check
 from .review import DesignReview as DesignReview

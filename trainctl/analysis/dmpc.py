@@ -9,19 +9,18 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .mpc import (
-    MPCDesign,
+from .iteration import (
     RelaxationResult,
     closed_loop_matrix,
     cooperative_iteration,
     finite_iteration_closed_loop,
     iteration_matrices,
     nash_gain,
-    prediction,
     relaxation,
     spectral_radius,
     threshold_weight,
 )
+from .mpc import MPCDesign, prediction
 
 __all__ = ["DMPCAnalysis", "analyse_dmpc"]
 

@@ -25,7 +25,7 @@ import time as _time
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_nonnegative, check_positive
 from ..controllers.base import Controller, Measurement, StepRecord
@@ -110,6 +110,51 @@ def simulate(
     >>> bool(np.allclose(result.velocities, 50.0))
     True
     """
+    dt, steps, noise, x = _check_arguments(plant, controller, reference, duration=duration,
+                                           initial_state=initial_state,
+                                           preview_steps=preview_steps,
+                                           measurement_noise=measurement_noise, seed=seed)
+    n = plant.train.n_vehicles
+    rng = np.random.default_rng(int(seed))
+    log = _Log(n, steps, dt, x)
+    previous = np.zeros(n)
+    horizon = int(preview_steps)
+    wall = _time.perf_counter()
+    controller.reset()
+    for k in range(steps):
+        t = float(log.times[k])
+        x = log.states[:, k]
+        measured = x[:n] + noise * rng.standard_normal(n)
+        measurement = Measurement(state=x.copy() if full_state else None, outputs=measured)
+        record = controller.step(t, measurement, reference.preview(t, dt, horizon))
+        u = log.record(k, t, controller.name, record, previous)
+        log.states[:, k + 1] = plant.advance(x, u, dt)
+        previous = u
+    wall = _time.perf_counter() - wall
+    meta: dict[str, Any] = environment()
+    meta.update({
+        "train": plant.train.name,
+        "n_vehicles": n,
+        "track": _track_meta(plant),
+        "max_substep": plant.max_substep,
+        "substeps_per_sample": plant.substeps(dt),
+        "duration": steps * dt,
+        "preview_steps": int(preview_steps),
+        "measurement_noise": noise,
+        "full_state": bool(full_state),
+        "wall_time": wall,
+    })
+    to_dict = getattr(reference, "to_dict", None)
+    if callable(to_dict):
+        meta["reference"] = to_dict()
+    return log.result(plant, controller, reference, seed=int(seed), meta=meta)
+
+
+def _check_arguments(
+    plant: Plant, controller: Controller, reference: Reference, *, duration: float,
+    initial_state: ArrayLike, preview_steps: int, measurement_noise: float, seed: int,
+) -> tuple[float, int, float, NDArray[np.float64]]:
+    """Validate :func:`simulate`'s arguments; return (dt, steps, noise, initial state)."""
     where = "simulate"
     if not isinstance(plant, Plant):
         raise ModelError(
@@ -141,8 +186,7 @@ def simulate(
     noise = check_nonnegative(where, "measurement_noise", measurement_noise)
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
         raise ModelError(f"{where}: 'seed' must be an int (got {seed!r}).")
-    train = plant.train
-    n = train.n_vehicles
+    n = plant.train.n_vehicles
     x = np.array(initial_state, dtype=float)
     if x.shape != (2 * n,):
         raise DimensionError(
@@ -151,86 +195,74 @@ def simulate(
         )
     if not np.all(np.isfinite(x)):
         raise ModelError(f"{where}: 'initial_state' must be finite (got {x.tolist()}).")
+    return dt, steps, noise, x
 
-    rng = np.random.default_rng(int(seed))
-    times = dt * np.arange(steps + 1, dtype=np.float64)
-    states = np.empty((2 * n, steps + 1))
-    states[:, 0] = x
-    inputs = np.empty((n, steps))
-    statuses: list[str] = []
-    iterations = np.empty(steps, dtype=np.int64)
-    residuals: list[tuple[float, ...]] = []
-    solve_times = np.empty(steps)
-    fallbacks: list[str] = []
-    previous = np.zeros(n)
-    horizon = int(preview_steps)
-    wall = _time.perf_counter()
-    controller.reset()
-    for k in range(steps):
-        t = float(times[k])
-        x = states[:, k]
-        measured = x[:n] + noise * rng.standard_normal(n)
-        measurement = Measurement(state=x.copy() if full_state else None, outputs=measured)
-        record = controller.step(t, measurement, reference.preview(t, dt, horizon))
+
+class _Log:
+    """The history the loop collects: states, inputs and the controller's step records."""
+
+    def __init__(self, n: int, steps: int, dt: float, x0: NDArray[np.float64]) -> None:
+        self.n, self.steps, self.dt = n, steps, dt
+        self.times = dt * np.arange(steps + 1, dtype=np.float64)
+        self.states = np.empty((2 * n, steps + 1))
+        self.states[:, 0] = x0
+        self.inputs = np.empty((n, steps))
+        self.statuses: list[str] = []
+        self.iterations = np.empty(steps, dtype=np.int64)
+        self.residuals: list[tuple[float, ...]] = []
+        self.solve_times = np.empty(steps)
+        self.fallbacks: list[str] = []
+
+    def record(self, k: int, t: float, name: str, record: StepRecord,
+               previous: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Check and store step k's record; return the input to apply (held if not finite)."""
         if not isinstance(record, StepRecord):
             raise TypeError(
-                f"{where}: {controller.name!r}.step must return a StepRecord "
+                f"simulate: {name!r}.step must return a StepRecord "
                 f"(got {type(record).__name__} at t={t!r} s)."
             )
         u = np.array(record.inputs, dtype=float)
-        if u.shape != (n,):
+        if u.shape != (self.n,):
             raise DimensionError(
-                f"{where}: {controller.name!r}.step must return inputs of shape ({n},) "
+                f"simulate: {name!r}.step must return inputs of shape ({self.n},) "
                 f"(got {u.shape} at t={t!r} s)."
             )
         status, fallback = str(record.status), str(record.fallback)
         if not np.isfinite(u).all():
             u = previous.copy()
             status, fallback = "error", HOLD_FALLBACK
-        inputs[:, k] = u
-        statuses.append(status)
-        iterations[k] = int(record.iterations)
-        residuals.append(tuple(map(float, record.residuals)))
-        solve_times[k] = float(record.solve_time)
-        fallbacks.append(fallback)
-        states[:, k + 1] = plant.advance(x, u, dt)
-        previous = u
-    wall = _time.perf_counter() - wall
+        self.inputs[:, k] = u
+        self.statuses.append(status)
+        self.iterations[k] = int(record.iterations)
+        self.residuals.append(tuple(map(float, record.residuals)))
+        self.solve_times[k] = float(record.solve_time)
+        self.fallbacks.append(fallback)
+        return u
 
-    meta: dict[str, Any] = environment()
-    meta.update({
-        "train": train.name,
-        "n_vehicles": n,
-        "track": _track_meta(plant),
-        "max_substep": plant.max_substep,
-        "substeps_per_sample": plant.substeps(dt),
-        "duration": steps * dt,
-        "preview_steps": int(preview_steps),
-        "measurement_noise": noise,
-        "full_state": bool(full_state),
-        "wall_time": wall,
-    })
-    to_dict = getattr(reference, "to_dict", None)
-    if callable(to_dict):
-        meta["reference"] = to_dict()
-    return SimulationResult(
-        time=times,
-        states=states,
-        velocities=states[:n].copy(),
-        coupler_forces=coupler_forces(train, states) if n > 1 else np.zeros((0, steps + 1)),
-        inputs=inputs,
-        reference_speed=np.asarray(reference.speed(times), dtype=float),
-        reference_acceleration=np.asarray(reference.acceleration(times), dtype=float),
-        statuses=tuple(statuses),
-        iterations=iterations,
-        residuals=tuple(residuals),
-        solve_times=solve_times,
-        fallbacks=tuple(fallbacks),
-        controller_name=str(controller.name),
-        seed=int(seed),
-        dt=dt,
-        meta=meta,
-    )
+    def result(self, plant: Plant, controller: Controller, reference: Reference, *, seed: int,
+               meta: dict[str, Any]) -> SimulationResult:
+        """The collected history as a :class:`SimulationResult`."""
+        n, states, times = self.n, self.states, self.times
+        forces = (coupler_forces(plant.train, states) if n > 1
+                  else np.zeros((0, self.steps + 1)))
+        return SimulationResult(
+            time=times,
+            states=states,
+            velocities=states[:n].copy(),
+            coupler_forces=forces,
+            inputs=self.inputs,
+            reference_speed=np.asarray(reference.speed(times), dtype=float),
+            reference_acceleration=np.asarray(reference.acceleration(times), dtype=float),
+            statuses=tuple(self.statuses),
+            iterations=self.iterations,
+            residuals=tuple(self.residuals),
+            solve_times=self.solve_times,
+            fallbacks=tuple(self.fallbacks),
+            controller_name=str(controller.name),
+            seed=seed,
+            dt=self.dt,
+            meta=meta,
+        )
 
 
 def _track_meta(plant: Plant) -> list[dict[str, object]] | None:

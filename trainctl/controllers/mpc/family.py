@@ -203,7 +203,8 @@ def mpc_closed_loop(design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:
 
 
 def _decentralised_closed_loop(mpc: MPCDesign) -> np.ndarray:
-    from ...analysis.mpc import closed_loop_matrix, iteration_matrices, prediction
+    from ...analysis.iteration import closed_loop_matrix, iteration_matrices
+    from ...analysis.mpc import prediction
 
     own = mpc.with_neighbourhoods([(i,) for i in range(mpc.n_inputs)])
     pred = prediction(own)

@@ -51,7 +51,7 @@ def mpc_report_data(design: MPCFamilyDesign) -> dict[str, Any]:
         ``threshold`` R* (None when infinite) and ``design_weight`` R, in
         ``unit``; plus display values for the section.
     """
-    from ...analysis.mpc import convergence_sweep, threshold_weight
+    from ...analysis.iteration import convergence_sweep, threshold_weight
 
     ctl, res = design.settings, design.analysis
     k = ctl.iterations
