@@ -99,3 +99,22 @@ def test_infeasible_scenario_records_statuses_falls_back_and_completes():
     assert len(result.statuses) == 60 and np.all(np.isfinite(result.inputs))
     assert result.statuses[0] == "fallback"
     assert "shifted plan" in result.fallbacks
+
+
+class TestBaselines:
+    """The LQR baseline beside the MPC strategies on the well-sampled CRH2 scenario."""
+
+    def test_lqr_tracks_and_is_compared_in_the_report(self, fast_run):
+        """Analyse text and the report's table, spectra and sections hold the LQR runs."""
+        from trainctl.report import build_report_context, collect_report_data
+
+        strategies = list(fast_run.scenario.simulation.strategies)
+        assert {"lqr.centralised", "lqr.decentralised"} <= set(strategies)
+        for name in ("lqr.centralised", "lqr.decentralised"):
+            assert fast_run.tracking_ok(name)
+            assert name in fast_run.format_text()
+        data = collect_report_data(fast_run, scenario_text="")
+        context = build_report_context(data, deterministic=True)
+        assert [row["cells"][0] for row in context["controllers"]["rows"]] == strategies
+        assert {"LQR centralised", "LQR decentralised", "N-DMPC (Nash)"} <= set(data.spectra)
+        assert "family-lqr" in [s["id"] for s in context["sections"]]

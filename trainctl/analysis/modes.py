@@ -26,9 +26,9 @@ from dataclasses import dataclass
 import control as ct
 import numpy as np
 
-__all__ = ["Mode", "continuous_modes", "nyquist_sample_time"]
+__all__ = ["ZERO_TOL", "Mode", "classify_mode", "continuous_modes", "nyquist_sample_time"]
 
-_ZERO_TOL = 1e-9
+ZERO_TOL = 1e-9
 """Eigenvalues with |lambda| below this times max(1, ||A||) count as zero."""
 
 
@@ -107,22 +107,43 @@ def continuous_modes(sys: ct.StateSpace, *, n_vehicles: int) -> tuple[Mode, ...]
     modes = []
     for k in np.argsort(np.abs(lam), kind="stable"):
         value = complex(lam[k])
-        if value.imag < -_ZERO_TOL * scale:
+        if value.imag < -ZERO_TOL * scale:
             continue
-        kind = _classify(value, vec[:, k], n_vehicles, labels, scale)
+        kind = classify_mode(value, vec[:, k], n_vehicles, labels, scale)
         wn = abs(value)
-        zeta = -value.real / wn if wn > _ZERO_TOL * scale else math.nan
-        pair = 2 if value.imag > _ZERO_TOL * scale else 1
+        zeta = -value.real / wn if wn > ZERO_TOL * scale else math.nan
+        pair = 2 if value.imag > ZERO_TOL * scale else 1
         modes.append(Mode(eigenvalue=value, kind=kind, natural_frequency=wn,
                           damping_ratio=zeta, multiplicity=pair))
     return tuple(modes)
 
 
-def _classify(value: complex, vec: np.ndarray, n: int, labels: list[str], scale: float) -> str:
-    if abs(value.imag) > _ZERO_TOL * scale:
+def classify_mode(value: complex, vec: np.ndarray, n: int, labels: list[str], scale: float) -> str:
+    """The structural kind of an eigenvalue of a train model with states ``[v, delta]``.
+
+    Parameters
+    ----------
+    value : complex
+        The eigenvalue (continuous time) [1/s].
+    vec : ndarray
+        Its eigenvector.
+    n : int
+        Number of vehicles (the first n states are speeds).
+    labels : list of str
+        State names (``delta[n-1]`` is seed 000's dummy state).
+    scale : float
+        max(1, ||A||): the zero tolerance is :data:`ZERO_TOL` times this.
+
+    Returns
+    -------
+    str
+        ``"coupler"`` (oscillatory), ``"dummy"``, ``"integrator"`` (zero),
+        ``"rigid-body"`` (all speeds of one sign) or ``"real"``.
+    """
+    if abs(value.imag) > ZERO_TOL * scale:
         return "coupler"
     weights = np.abs(vec)
-    if abs(value) <= _ZERO_TOL * scale:
+    if abs(value) <= ZERO_TOL * scale:
         top = int(np.argmax(weights))
         dummy = f"delta[{n - 1}]"
         if labels[top] == dummy and weights[top] > 0.999 * np.linalg.norm(vec):

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from .controllability import analyse_controllability, analyse_observability
 from .sampling import analyse_sampling
-from .stability import _direction, analyse_stability
+from .stability import analyse_stability, mode_direction
 
 if TYPE_CHECKING:
     from ..design import Design, DesignModel
@@ -234,7 +234,7 @@ def radius_check(name: str, A_cl: NDArray[np.float64], labels: list[str], what: 
     rho = float(np.max(np.abs(lam)))
     on_circle = np.flatnonzero(np.abs(np.abs(lam) - 1) <= _UNIT_TOL)
     circle = [{"eigenvalue": [float(lam[k].real), float(lam[k].imag)],
-               "direction": _direction(vec[:, k], labels)} for k in on_circle]
+               "direction": mode_direction(vec[:, k], labels)} for k in on_circle]
     details = {"spectral_radius": rho, "unit_circle": circle}
     if rho > 1 + _UNIT_TOL:
         return Check(name=name, status="fail", value=rho, threshold=1.0, unit="",

@@ -28,9 +28,9 @@ import control as ct
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .modes import _ZERO_TOL, _classify
+from .modes import ZERO_TOL, classify_mode
 
-__all__ = ["ModeStability", "StabilityResult", "analyse_stability"]
+__all__ = ["ModeStability", "StabilityResult", "analyse_stability", "mode_direction"]
 
 CLASSES = ("stable", "marginal-semisimple", "marginal-defective", "unstable")
 """Stability classes, from best to worst."""
@@ -192,9 +192,9 @@ def analyse_stability(
         modes.append(ModeStability(
             eigenvalue=complex(value), status=status, algebraic_multiplicity=alg,
             geometric_multiplicity=min(geo, alg), natural_frequency=wn,
-            damping_ratio=-s.real / wn if wn > _ZERO_TOL else math.nan,
+            damping_ratio=-s.real / wn if wn > ZERO_TOL else math.nan,
             name=_structural_name(s, vec[:, k], labels, n_vehicles),
-            direction=_direction(vec[:, k], labels),
+            direction=mode_direction(vec[:, k], labels),
         ))
     return StabilityResult(discrete=discrete, dt=float(dt), tol=tol, modes=tuple(modes))
 
@@ -221,11 +221,32 @@ def _continuous_equivalent(value: complex, dt: float) -> complex:
 def _structural_name(s: complex, vec: np.ndarray, labels: list[str], n: int | None) -> str:
     if n is None or not math.isfinite(s.real):
         return ""
-    kind = _classify(s, vec, n, labels, 1.0)
+    kind = classify_mode(s, vec, n, labels, 1.0)
     return kind if kind in ("rigid-body", "dummy", "coupler") else ""
 
 
-def _direction(vec: np.ndarray, labels: list[str], keep: int = 4) -> dict[str, float]:
+def mode_direction(vec: np.ndarray, labels: list[str], keep: int = 4) -> dict[str, float]:
+    """The states an eigenvector mostly lies along, with their normalised weights.
+
+    Parameters
+    ----------
+    vec : ndarray
+        The eigenvector.
+    labels : list of str
+        State names, one per entry of ``vec``.
+    keep : int
+        How many states to list at most.
+
+    Returns
+    -------
+    dict of str to float
+        State name -> |component| / ||vec|| for the largest components above 1e-3.
+
+    Examples
+    --------
+    >>> mode_direction(np.array([3.0, 4.0, 0.0]), ["a", "b", "c"])
+    {'b': 0.8, 'a': 0.6}
+    """
     w = np.abs(vec) / max(float(np.linalg.norm(vec)), 1e-300)
     order = np.argsort(-w)[:keep]
     return {labels[i]: round(float(w[i]), 6) for i in order if w[i] > 1e-3}

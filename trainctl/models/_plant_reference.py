@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import solve_ivp
 
 from ..exceptions import SolverError
-from .dynamics import _positions, train_rhs
+from .dynamics import train_rhs, vehicle_positions
 from .train import Train
 
 if TYPE_CHECKING:
@@ -96,7 +96,7 @@ def _section_bounds(
     """
     starts, per_mass = track[0], track[1]
     n = train.n_vehicles
-    p = _positions(train, x)
+    p = vehicle_positions(train, x)
     v = x[:n]
     sec = np.clip(np.searchsorted(starts, p, side="right") - 1, 0, starts.size - 1)
     near = np.clip(np.searchsorted(starts, p), 0, starts.size - 1)
@@ -119,7 +119,7 @@ def _leave_event(
     finite_lo, finite_hi = np.isfinite(lo), np.isfinite(hi)
 
     def event(t: float, x: NDArray[np.float64]) -> float:
-        p = _positions(train, x)
+        p = vehicle_positions(train, x)
         gaps = np.r_[(p - lo)[finite_lo], (hi - p)[finite_hi]]
         return float(gaps.min()) if gaps.size else 1.0
 

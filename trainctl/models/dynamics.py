@@ -40,6 +40,7 @@ __all__ = [
     "equilibrium",
     "nonlinear_system",
     "train_rhs",
+    "vehicle_positions",
 ]
 
 def coupler_forces(train: Train, state: ArrayLike) -> NDArray[np.float64]:
@@ -117,14 +118,37 @@ def train_rhs(
     m = train.mass.reshape(shape)
     accel = u / m - (a0 + a1 * v + a2 * v * v)
     if track is not None and not track.is_flat:
-        accel = accel - track.resistance_per_mass(_positions(train, x))
+        accel = accel - track.resistance_per_mass(vehicle_positions(train, x))
     out = np.empty((2 * n,) + np.broadcast_shapes(x.shape[1:], accel.shape[1:]))
     out[:n] = accel
     train_chain(train).couple(x, out)
     return out
 
 
-def _positions(train: Train, x: NDArray[np.float64]) -> NDArray[np.float64]:
+def vehicle_positions(train: Train, x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Position of every vehicle from the head position and the coupler elongations.
+
+    p_i = s - Σ_{j<i} (spacing_j + delta_j), vectorised over trailing axes of ``x``.
+
+    Parameters
+    ----------
+    train : Train
+        The train (nominal spacings).
+    x : ndarray
+        State ``[v (n), delta (n-1), s]``, shape (2n,) or (2n, m).
+
+    Returns
+    -------
+    ndarray
+        Positions [m], shape (n,) or (n, m); the head vehicle first.
+
+    Examples
+    --------
+    >>> from trainctl.models.presets import crh2_half
+    >>> train = crh2_half()
+    >>> vehicle_positions(train, np.r_[np.zeros(4), np.zeros(3), 100.0]).tolist()
+    [100.0, 75.0, 50.0, 25.0]
+    """
     n = train.n_vehicles
     shape = (-1,) + (1,) * (x.ndim - 1)
     gaps = train.spacing.reshape(shape) + x[n : 2 * n - 1]
@@ -307,5 +331,5 @@ def _line_resistance(
     if track is None:
         return np.full(train.n_vehicles, permille_to_accel(grade))
     x = np.concatenate([np.zeros(train.n_vehicles), np.zeros(train.n_couplers), [position]])
-    return track.resistance_per_mass(_positions(train, x))
+    return track.resistance_per_mass(vehicle_positions(train, x))
 
