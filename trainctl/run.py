@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from concurrent.futures import Executor, Future
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -14,6 +15,7 @@ from .analysis.review import DesignReview, review_design
 from .analysis.summary import ModelSummary, model_summary
 
 if TYPE_CHECKING:
+    from .analysis.loops import ClosedLoopResponse
     from .controllers.base import Controller
     from .design import Design
     from .scenario import Scenario
@@ -76,6 +78,16 @@ class AnalysisRun:
         return {name: (want, found.get(name, "missing"))
                 for name, want in self.scenario.expected.items() if found.get(name) != want}
 
+    @cached_property
+    def frequency(self) -> dict[str, ClosedLoopResponse]:
+        """Frequency and grade-step responses of each strategy's linear closed loop.
+
+        Computed once, on first use (:func:`trainctl.analysis.analyse_closed_loops`).
+        """
+        from .analysis.loops import analyse_closed_loops
+
+        return analyse_closed_loops(self.design)
+
     def to_dict(self) -> dict[str, object]:
         """JSON-safe dict: the summary plus the review."""
         out = self.summary.to_dict()
@@ -85,6 +97,7 @@ class AnalysisRun:
             out["simulations"] = {
                 name: {**m.to_dict(), "tracking_ok": self.tracking_ok(name)}
                 for name, m in self.metrics.items()}
+        out["frequency"] = frequency_dict(self)
         return out
 
     def format_text(self) -> str:
@@ -93,6 +106,24 @@ class AnalysisRun:
         if self.metrics:
             text += "\n\n" + _metrics_table(self)
         return text
+
+
+def frequency_dict(run: AnalysisRun) -> dict[str, object]:
+    """The ``frequency`` entry of :meth:`AnalysisRun.to_dict`: numbers per strategy.
+
+    Parameters
+    ----------
+    run : AnalysisRun
+        The run.
+
+    Returns
+    -------
+    dict
+        Strategy → peak gains with their frequencies [rad/s], the bandwidth
+        and the 1 ‰ grade-step peaks (:meth:`ClosedLoopResponse.to_dict`);
+        empty without linear closed loops.
+    """
+    return {name: response.to_dict() for name, response in run.frequency.items()}
 
 
 def _metrics_table(run: AnalysisRun) -> str:
