@@ -104,6 +104,17 @@ class FrequencyResult:
         """The Nyquist frequency π/T [rad/s]."""
         return math.pi / self.dt
 
+    @property
+    def bandwidth_note(self) -> str:
+        """Why there is no finite bandwidth ("" when there is one)."""
+        if math.isfinite(self.bandwidth):
+            return ""
+        if self.complementary_sigma is None:
+            return "no S and T: the loop is not state feedback around the plant"
+        if math.isinf(self.bandwidth):
+            return "the common-mode T does not drop 3 dB below the Nyquist frequency"
+        return "infinite DC gain: a closed-loop pole at z = 1"
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe numbers: peaks (gain, frequency [rad/s]) and the bandwidth."""
         def peak(p: Peak | None) -> dict[str, float | None] | None:
@@ -117,6 +128,7 @@ class FrequencyResult:
             "sensitivity_peak": peak(self.sensitivity_peak),
             "complementary_sensitivity_peak": peak(self.complementary_peak),
             "bandwidth": _finite(self.bandwidth),
+            "bandwidth_note": self.bandwidth_note,
             "units": {"speed_error_peak": "(m/s)/(m/s²)", "coupler_force_peak": "kN/(m/s²)",
                       "sensitivity_peak": "-", "complementary_sensitivity_peak": "-",
                       "frequency": "rad/s", "bandwidth": "rad/s"},
