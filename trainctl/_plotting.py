@@ -194,7 +194,8 @@ def legend_outside(target: Figure | Axes, handles: Sequence[Artist] | None = Non
         Legend entries, labelled by their labels; None takes the labelled
         artists of ``target`` (of its first axes for a figure).
     ncols : int or None
-        Columns of a figure legend (default: all in one row, at most 5).
+        Columns of a figure legend (default: one row of up to 6 entries, else
+        two rows); entries read row by row.
     """
     source = target.axes[0] if isinstance(target, Figure) else target
     if handles is None:
@@ -203,8 +204,23 @@ def legend_outside(target: Figure | Axes, handles: Sequence[Artist] | None = Non
         return
     labels = [str(h.get_label()) for h in handles]
     if isinstance(target, Figure):
-        target.legend(list(handles), labels, loc="outside upper center", fontsize="small",
-                      ncols=ncols or min(len(handles), 5), frameon=False)
+        count = len(handles)
+        cols = ncols or (count if count <= 6 else -(-count // 2))
+        order = _row_major(count, cols)  # matplotlib fills columns first; read rows first
+        target.legend([handles[k] for k in order], [labels[k] for k in order],
+                      loc="outside upper center", fontsize="small", ncols=cols, frameon=False)
     else:
         target.legend(list(handles), labels, loc="upper left", bbox_to_anchor=(1.01, 1.0),
                       borderaxespad=0.0, fontsize="small", frameon=False)
+
+
+def _row_major(count: int, cols: int) -> list[int]:
+    """The order that makes a column-filled legend of ``cols`` columns read row by row.
+
+    Examples
+    --------
+    >>> _row_major(7, 4)
+    [0, 4, 1, 5, 2, 6, 3]
+    """
+    rows = -(-count // cols)
+    return [r * cols + c for c in range(cols) for r in range(rows) if r * cols + c < count]

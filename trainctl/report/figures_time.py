@@ -162,7 +162,7 @@ def _speed(scenario: Scenario, sims: Mapping[str, SimulationResult],
         handles.append(Line2D([], [], color="0.3", linestyle=":", label="settle time"))
     legend_outside(figure, handles)
     caption = ("Top: every vehicle's speed [m/s] against the reference (wide grey line); at "
-               "this scale the traces coincide. Below, one panel per vehicle (1 = head): "
+               "this scale the traces mostly coincide. Below, one panel per vehicle (1 = head): "
                "speed minus reference [m/s], every strategy overlaid; dots mark the sample "
                "instants, lines between them the between-sample speeds when the run "
                "recorded them; the dotted line is the settle time after which the metrics "
