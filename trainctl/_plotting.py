@@ -15,7 +15,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from matplotlib.axes import Axes
+from matplotlib.axis import Axis
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter
 from numpy.typing import ArrayLike, NDArray
 
 if TYPE_CHECKING:
@@ -24,8 +26,8 @@ if TYPE_CHECKING:
     from .sim.results import SimulationResult
 
 __all__ = [
-    "LEGEND_MAX", "MARK_MAX", "legend_outside", "limit_lines", "mark_samples", "new_axes",
-    "series_style", "trace",
+    "LEGEND_MAX", "MARK_MAX", "legend_outside", "limit_lines", "line_style", "mark_samples",
+    "new_axes", "picked", "plain_log_labels", "series_style", "trace",
 ]
 
 LEGEND_MAX = 10
@@ -53,6 +55,24 @@ def new_axes(ax: Axes | None) -> Axes:
 def series_style(k: int) -> dict[str, Any]:
     """Colour and line style of the k-th compared series (strategy), distinct when overlaid."""
     return {"color": _COLOURS[k % len(_COLOURS)], "linestyle": _DASHES[k % len(_DASHES)]}
+
+
+def line_style(color: Any, label: str | None, default: str,
+               extra: dict[str, Any]) -> dict[str, Any]:
+    """Line properties of a trace: width 1, ``label`` (else ``default``), colour, extras."""
+    style: dict[str, Any] = {"linewidth": 1.0, "label": default if label is None else label}
+    if color is not None:
+        style["color"] = color
+    return {**style, **extra}
+
+
+def picked(count: int, index: int | None) -> range:
+    """All ``count`` signals, or the one at ``index`` (IndexError outside 0..count-1)."""
+    if index is None:
+        return range(count)
+    if not 0 <= index < count:
+        raise IndexError(f"index {index} out of range for {count} signals")
+    return range(index, index + 1)
 
 
 def trace(result: SimulationResult, name: str) -> tuple[NDArray[np.float64],
@@ -224,3 +244,33 @@ def _row_major(count: int, cols: int) -> list[int]:
     """
     rows = -(-count // cols)
     return [r * cols + c for c in range(cols) for r in range(rows) if r * cols + c < count]
+
+
+_SUPERSCRIPTS = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def _power_of_ten(x: float, _pos: int | None = None) -> str:
+    """``10⁻⁶`` for a power of ten, else the number (plain text, no mathtext)."""
+    if x <= 0:
+        return ""
+    exponent = float(np.log10(x))
+    if abs(exponent - round(exponent)) < 1e-9:
+        return "10" + str(int(round(exponent))).translate(_SUPERSCRIPTS)
+    return f"{x:g}"
+
+
+def plain_log_labels(axis: Axis) -> None:
+    """Label a logarithmic axis as ``10ⁿ`` in plain text (minor ticks 2 and 5 on short spans).
+
+    matplotlib's default labels are mathtext, whose parsing costs about a
+    second per figure; plain Unicode superscripts look the same in an SVG.
+    """
+    def minor(x: float, _pos: int | None = None) -> str:
+        lo, hi = sorted(abs(v) for v in axis.get_view_interval())
+        if x <= 0 or lo <= 0 or hi / lo > 100:  # two decades or more: majors suffice
+            return ""
+        lead = x / 10 ** np.floor(np.log10(x))
+        return f"{x:g}" if round(lead) in (2, 5) else ""
+
+    axis.set_major_formatter(FuncFormatter(_power_of_ten))
+    axis.set_minor_formatter(FuncFormatter(minor))

@@ -23,7 +23,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from numpy.typing import ArrayLike
 
-from ._plotting import new_axes
+from ._plotting import new_axes, plain_log_labels
 
 __all__ = ["sigma_plot", "step_response_plot"]
 
@@ -74,6 +74,8 @@ def sigma_plot(
         ax.plot(w[positive], row, linewidth=0.6, alpha=0.45, color=line.get_color())
     ax.set_xscale("log")
     ax.set_yscale("log")
+    plain_log_labels(ax.xaxis)
+    plain_log_labels(ax.yaxis)
     ax.set_xlabel("frequency ω [rad/s]")
     ax.set_ylabel(ylabel)
     ax.grid(True, which="major", color="0.9", linewidth=0.6)

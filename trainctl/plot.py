@@ -31,7 +31,17 @@ import numpy as np
 from matplotlib.axes import Axes
 from numpy.typing import ArrayLike
 
-from ._plotting import LEGEND_MAX, legend_outside, limit_lines, mark_samples, new_axes, trace
+from ._plotting import (
+    LEGEND_MAX,
+    legend_outside,
+    limit_lines,
+    line_style,
+    mark_samples,
+    new_axes,
+    picked,
+    plain_log_labels,
+    trace,
+)
 
 if TYPE_CHECKING:
     from .sim.results import SimulationResult
@@ -50,21 +60,6 @@ def _legend(ax: Axes, count: int) -> None:
     """A legend right of the axes (off the data), for at most ``LEGEND_MAX`` traces."""
     if count <= LEGEND_MAX:
         legend_outside(ax)
-
-
-def _style(color: Any, label: str | None, default: str, extra: dict[str, Any]) -> dict[str, Any]:
-    style: dict[str, Any] = {"linewidth": 1.0, "label": default if label is None else label}
-    if color is not None:
-        style["color"] = color
-    return {**style, **extra}
-
-
-def _picked(count: int, index: int | None) -> range:
-    if index is None:
-        return range(count)
-    if not 0 <= index < count:
-        raise IndexError(f"index {index} out of range for {count} signals")
-    return range(index, index + 1)
 
 
 def velocity_plot(result: SimulationResult, *, ax: Axes | None = None) -> Axes:
@@ -143,10 +138,10 @@ def speed_error_plot(
     reference = getattr(result, "dense_reference_speed", None) if dense else None
     if reference is None:
         reference = np.interp(t, result.time, result.reference_speed)
-    shown = _picked(result.n_vehicles, vehicle)
+    shown = picked(result.n_vehicles, vehicle)
     for i in shown:
         (line,) = ax.plot(t, speeds[i] - reference,
-                          **_style(color, label, f"vehicle {i + 1}", kwargs))
+                          **line_style(color, label, f"vehicle {i + 1}", kwargs))
         mark_samples(ax, result.time, result.velocities[i] - result.reference_speed,
                      line.get_color())
     ax.axhline(0.0, color="0.6", linewidth=0.6, zorder=0)
@@ -201,10 +196,10 @@ def coupler_force_plot(
     ax = new_axes(ax)
     t, forces, dense = trace(result, "coupler_forces")
     count = result.coupler_forces.shape[0]
-    shown = _picked(count, coupler) if count else range(0)
+    shown = picked(count, coupler) if count else range(0)
     for i in shown:
         (line,) = ax.plot(t, forces[i] / 1e3,
-                          **_style(color, label, f"coupler {i + 1}–{i + 2}", kwargs))
+                          **line_style(color, label, f"coupler {i + 1}–{i + 2}", kwargs))
         mark_samples(ax, result.time, result.coupler_forces[i] / 1e3, line.get_color())
     if bounds is not None:
         limit_lines(ax, result.time, bounds[0], bounds[1],
@@ -253,12 +248,12 @@ def input_plot(
         The axes, labelled ``time [s]`` and ``force [kN]``.
     """
     ax = new_axes(ax)
-    shown = _picked(result.n_vehicles, vehicle)
+    shown = picked(result.n_vehicles, vehicle)
     if result.n_samples:
         for i in shown:
             held = np.append(result.inputs[i], result.inputs[i, -1]) / 1e3
             ax.step(result.time, held, where="post",
-                    **_style(color, label, f"vehicle {i + 1}", kwargs))
+                    **line_style(color, label, f"vehicle {i + 1}", kwargs))
     if bounds is not None:
         limit_lines(ax, result.time, bounds[0], bounds[1],
                     labels=("braking limit", "traction limit"))
@@ -304,6 +299,7 @@ def iterations_plot(result: SimulationResult, *, ax: Axes | None = None) -> Axes
         handles += twin.step(t, shown, where="post", color="tab:orange", linewidth=0.8,
                              label="final residual")
         twin.set_yscale("log")
+        plain_log_labels(twin.yaxis)
         twin.set_ylabel("residual [kN]")
     ax.set_ylim(bottom=0)
     if len(handles) > 1:
@@ -408,9 +404,10 @@ def convergence_plot(
         ax.plot([design_weight], [at], "o", color="tab:green",
                 label=f"design R = {design_weight:.4g}")
     ax.set_xscale("log")
+    plain_log_labels(ax.xaxis)
     ax.set_ylim(bottom=0)
     ax.set_xlabel(f"R [{unit}]")
     ax.set_ylabel("ρ(D0) [-]")
     ax.set_title("N-DMPC iteration: ρ(D0) against the input weight")
-    ax.legend(loc="best", fontsize="small")
+    legend_outside(ax)
     return ax
