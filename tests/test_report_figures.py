@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 from trainctl import plot
 from trainctl._plotting import limit_lines
 from trainctl.report import build_report_context, collect_report_data
+from trainctl.report.figures import eigenvalue_figure
 from trainctl.report.figures_frequency import frequency_figures
 from trainctl.report.figures_time import time_figures, vehicle_limits
 from trainctl.run import run_scenario
@@ -276,3 +277,34 @@ def test_frequency_figures_one_per_quantity() -> None:
         for ax in figure.axes:
             assert ax.get_legend() is None
     assert figures["sigma-speed"].axes[0].get_xscale() == "log"
+
+
+def _inside(figure: Figure) -> bool:
+    """Everything drawn (labels, legends, notes) lies on the canvas: nothing is clipped."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(figure)
+    canvas.draw()
+    box = figure.get_tightbbox(canvas.get_renderer())
+    width, height = figure.get_size_inches()
+    return box.x0 >= -0.01 and box.y0 >= -0.01 and box.x1 <= width + 0.01 and \
+        box.y1 <= height + 0.01
+
+
+def test_nothing_clipped(scenario) -> None:
+    """Every report figure keeps its labels and legend inside the SVG's canvas."""
+    figures: dict[str, Figure] = {}
+    sims = {"centralised": _result("centralised"), "lqr.decentralised":
+            _result("lqr.decentralised", iterations=2)}
+    list(time_figures(scenario, sims, _capture(figures)))
+    eigenvalue_figure({"open loop": np.array([0.97, 0.5 + 0.5j, 0.5 - 0.5j, -0.8 + 0.6j]),
+                       "N-DMPC (10 iterations)": np.array([0.9, 0.2, -0.3])},
+                      _capture(figures))
+    from trainctl.analysis import analyse_closed_loops
+    from trainctl.design import build_design
+
+    loops = analyse_closed_loops(build_design(load_scenario("crh2-dmpc")))
+    list(frequency_figures({k: r.curves() for k, r in loops.items()}, _capture(figures)))
+    assert len(figures) == 10
+    for key, figure in figures.items():
+        assert _inside(figure), key

@@ -346,7 +346,7 @@ def eigenvalue_plot(
                 label=f"{label} (ρ = {np.max(np.abs(z)) if z.size else 0.0:.4g})")
     ax.axhline(0.0, color="0.85", linewidth=0.6, zorder=0)
     ax.axvline(0.0, color="0.85", linewidth=0.6, zorder=0)
-    ax.set_aspect("equal", adjustable="box")
+    ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("Re(λ) [-]")
     ax.set_ylabel("Im(λ) [-]")
     ax.set_title("Eigenvalues and the unit circle")

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import io
 import re
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -31,7 +31,10 @@ from .. import plot
 if TYPE_CHECKING:
     from .data import ReportData
 
-__all__ = ["OPEN_LOOP_LABEL", "ReportFigure", "encode", "figure_svg", "report_figures"]
+__all__ = [
+    "OPEN_LOOP_LABEL", "ReportFigure", "eigenvalue_figure", "encode", "figure_svg",
+    "report_figures",
+]
 
 SVG_HASH_SALT = "trainctl"
 """``svg.hashsalt``: makes matplotlib's clip-path ids reproducible."""
@@ -122,7 +125,7 @@ def figure_svg(figure: Figure, *, prefix: str) -> Markup:
 # --------------------------------------------------------------------------- the figure set
 
 
-OPEN_LOOP_LABEL = "open loop, design model (no dummy state)"
+OPEN_LOOP_LABEL = "open loop (design model)"
 """Legend label of the open-loop eigenvalues (``spectra["open loop"]``)."""
 
 
@@ -173,7 +176,7 @@ def _figures(data: ReportData) -> Iterator[ReportFigure]:
     if data.simulations:
         yield from time_figures(data.scenario, data.simulations, encode)
     if data.spectra:
-        yield _eigenvalues(data.spectra)
+        yield eigenvalue_figure(data.spectra)
     yield from frequency_figures(data.frequency, encode)
     from ..controllers.registry import get_family
 
@@ -181,12 +184,23 @@ def _figures(data: ReportData) -> Iterator[ReportFigure]:
         yield from get_family(name).report_figures(family_data)
 
 
-def _eigenvalues(spectra: Mapping[str, NDArray[np.complex128]]) -> ReportFigure:
-    figure = Figure(figsize=(7.5, 4.4), layout="constrained")
+def eigenvalue_figure(spectra: Mapping[str, NDArray[np.complex128]],
+                      make: Callable[..., ReportFigure] = encode) -> ReportFigure:
+    """The eigenvalue map of the report (``make`` as for :func:`encode`)."""
+    # A fixed layout: constrained layout misplaces an equal-aspect box beside a legend.
+    figure = Figure(figsize=(7.5, 4.4))
+    ax = figure.add_axes((0.11, 0.11, 0.47, 0.80))
     labelled = {OPEN_LOOP_LABEL if k == "open loop" else k: v for k, v in spectra.items()}
-    plot.eigenvalue_plot(labelled, ax=figure.add_subplot())
-    return encode("eigenvalues", "Eigenvalues against the unit circle",
+    plot.eigenvalue_plot(labelled, ax=ax)
+    ax.set_aspect("equal", adjustable="box")  # a round circle in a square box
+    handles = ax.get_legend_handles_labels()[0]
+    legend = ax.get_legend()
+    if legend is not None:
+        legend.remove()
+    figure.legend(handles, [str(h.get_label()) for h in handles], loc="upper left",
+                  bbox_to_anchor=(0.61, 0.91), fontsize="small", frameon=False)
+    return make("eigenvalues", "Eigenvalues against the unit circle",
                   "Discrete-time eigenvalues of the open loop (the design model, without the "
-                  "book's dummy state) and of the unconstrained closed loops; ρ in the legend "
-                  "is the spectral radius (the dummy state adds an eigenvalue 1 to the open "
-                  "loop: see the model table).", figure)
+                  "book's dummy state) and of the unconstrained closed loops, legend beside "
+                  "the circle; ρ is the spectral radius (the dummy state would add an "
+                  "eigenvalue 1 to the open loop: both radii are in the model table).", figure)
