@@ -236,6 +236,17 @@ class TestContext:
         assert "u_prev[3]" in raw["closed_loop_nash"] and "u_prev₄" in nash["message"]
         assert not any("[0]" in r["message"] for r in rows)
 
+    def test_forces_of_checks_in_kn(self, context) -> None:
+        """A check whose value is a force in N is shown in kN."""
+        data = context["data"]
+        check = {"name": "braking_feasible", "status": "fail", "value": -250e3,
+                 "threshold": -200e3, "unit": "N", "message": "vehicle[0] needs more",
+                 "hint": ""}
+        odd = dataclasses.replace(data, results={**data.results, "checks": [check]})
+        row = build_report_context(odd, deterministic=True)["checks"]["rows"][0]
+        assert (row["value"], row["threshold"], row["unit"]) == ("−250", "−200", "kN")
+        assert row["message"] == "vehicle₁ needs more"
+
     def test_open_loop_radius_with_and_without_the_dummy(self, context) -> None:
         """Two labelled rows: the design model's radius (as in the figure) and 1 with the dummy."""
         data, ctx = context["data"], context["ctx"]

@@ -26,6 +26,7 @@ from ._format import (
     is_real,
     one_based,
 )
+from .checks import checks_context
 from .comparison import controllers_context
 from .data import ReportData
 from .figures import report_figures
@@ -44,9 +45,6 @@ SECTIONS = (
     ("reproducibility", "Reproducibility"),
 )
 """Section anchors and titles, in page order."""
-
-_BADGES = {"pass": "pass", "warn": "warn", "fail": "fail"}
-
 
 def utc_now() -> str:
     """The current UTC time, ISO 8601 to the second (``2026-11-22T05:30:00Z``)."""
@@ -83,7 +81,7 @@ def build_report_context(
     if generated_at is None and not deterministic:
         generated_at = utc_now()
     scenario = data.scenario
-    checks = _checks(data)
+    checks = checks_context(data)
     return {
         "title": f"{scenario.name} — trainctl design report",
         "sections": _sections(data),
@@ -309,26 +307,6 @@ def _coach(coach: Mapping[str, Any]) -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------------- checks
-
-
-def _checks(data: ReportData) -> dict[str, Any]:
-    rows = []
-    counts = {"pass": 0, "warn": 0, "fail": 0}
-    for check in data.results.get("checks", []):
-        status = str(check["status"])
-        counts[status] = counts.get(status, 0) + 1
-        expected = data.expected.get(check["name"], "")
-        rows.append({
-            "name": check["name"], "status": status, "badge": _BADGES.get(status, "other"),
-            "value": format_value(check["value"]), "threshold": format_value(check["threshold"]),
-            "unit": check["unit"] or "-", "message": one_based(str(check["message"])),
-            "hint": one_based(str(check["hint"] or "")),
-            "expected": expected,
-            "unexpected": bool(expected) and expected != status,
-        })
-    return {"rows": rows, "counts": counts, "total": len(rows),
-            "unexpected": [{"name": k, "expected": v[0], "found": v[1]}
-                           for k, v in data.unexpected.items()]}
 
 
 def headline(data: ReportData) -> str:
