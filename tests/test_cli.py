@@ -499,7 +499,7 @@ class TestReport:
         path = tmp_path / "r.html"
         assert main(["report", str(saved), "-o", str(path), "--deterministic"]) == 0
         html = path.read_text(encoding="utf-8")
-        assert html.count("<svg") == 11  # 6 closed-loop and eigenvalue, 5 frequency-domain
+        assert html.count("<svg") == 11  # 4 closed-loop, 5 frequency domain, eigenvalues, ρ(D0)
         assert "trainctl analyse crh2-dmpc --save saved" in html
 
     def test_save_refuses_foreign_directory(
