@@ -55,7 +55,7 @@ class TestBookSettings:
         assert check.status == "fail"
         assert check.value == pytest.approx(27.7699 * 20, rel=1e-5)
         assert check.threshold == pytest.approx(math.pi)
-        assert "0.0566" in check.hint and "555" in check.message
+        assert "T < 0.0565 s" in check.hint and "555" in check.message
 
     def test_rho_r_star_and_closed_loop_radius_are_reported(self):
         """ρ(D0), R* and the closed-loop radius equal an independently built design's."""
