@@ -348,10 +348,11 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
     if args.save:
         print(f"saved results to {args.save}", file=sys.stderr)
     if args.strict:
-        failed = summary.failed_checks
-        if failed:
-            noun = "check" if len(failed) == 1 else "checks"
-            print(f"{PROG}: {len(failed)} {noun} failed: " + "; ".join(failed), file=sys.stderr)
+        failures = summary.strict_failures()
+        if failures:
+            noun = "reason" if len(failures) == 1 else "reasons"
+            print(f"{PROG}: --strict: {len(failures)} {noun}: "
+                  + "; ".join(f"{f.kind} {f.name}" for f in failures), file=sys.stderr)
             return EXIT_CHECK_FAILED
     return EXIT_OK
 
