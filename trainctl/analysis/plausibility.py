@@ -123,7 +123,9 @@ def plausibility_check(scenario: Scenario) -> Check:
 # -- findings: (text, 1-based vehicle or coupler number, 0 for the scenario) --------------------
 def _vehicle_findings(scenario: Scenario) -> list[tuple[str, int]]:
     found: list[tuple[str, int]] = []
-    speed = scenario.model.speed
+    # Resistance judged at the model speed, at most the speed range's top (a speed slip is
+    # reported by itself, not again as a resistance slip).
+    speed = min(scenario.model.speed, RANGES["speed"].high / 3.6)
     for i, vehicle in enumerate(scenario.train.vehicles, start=1):
         for text in (_mass(vehicle), _resistance(vehicle, speed), *_envelope(vehicle)):
             if text:

@@ -326,8 +326,11 @@ class Scenario:
         tonnes). The scenario's TOML document is copied, changed and parsed
         again, so every rule a file obeys holds (cross-table ones too).
         Setting one key of a group of alternatives removes the others
-        (``r_per_kn2`` replaces ``r_per_n2``); ``None`` removes the key.
-        This scenario is left unchanged.
+        (``r_per_kn2`` replaces ``r_per_n2``); ``None`` removes the key (or
+        a whole table, ``"simulation"``). This scenario is left unchanged.
+        Each call validates the whole scenario, so keys that constrain each
+        other change in an order in which every step is valid (shorten
+        ``control_horizon`` before ``prediction_horizon``).
 
         Parameters
         ----------
