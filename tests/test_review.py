@@ -409,7 +409,7 @@ class TestMPCReviewChecks:
         assert ok.status == "pass" and ok.value == pytest.approx(f1, rel=1e-6)
 
 
-# -- API edges --------------------------------------------------------------------------------------
+# -- API edges ---------------------------------------------------------------------------------
 class TestReviewAPI:
     def test_unknown_check_raises_trainctl_error_with_suggestion(self):
         """check('sampling_time') lists the checks and suggests 'sampling'; also a KeyError."""

@@ -95,8 +95,9 @@ def strict_failures(run: AnalysisRun) -> tuple[StrictFailure, ...]:
                     f"the tracking_tolerance {sim.tracking_tolerance:g} m/s"))
         found += _saturation(run.metrics, getattr(sim, "max_saturation_time", None))
     for name, (want, got) in run.unexpected_checks().items():
-        found.append(StrictFailure(kind="expected", name=name,
-                                   detail=f"[expected] declares {want!r}, the review found {got!r}"))
+        found.append(StrictFailure(
+            kind="expected", name=name,
+            detail=f"[expected] declares {want!r}, the review found {got!r}"))
     return tuple(found)
 
 

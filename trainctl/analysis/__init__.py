@@ -2,9 +2,9 @@
 """Analysis layer: each check is a public function returning a frozen result."""
 
 from .controllability import ControllabilityResult as ControllabilityResult
+from .controllability import ObservabilityResult as ObservabilityResult
 from .controllability import analyse_controllability as analyse_controllability
 from .controllability import analyse_observability as analyse_observability
-from .controllability import ObservabilityResult as ObservabilityResult
 from .controllability import finite_horizon_gramian as finite_horizon_gramian
 from .dmpc import DMPCAnalysis as DMPCAnalysis
 from .dmpc import analyse_dmpc as analyse_dmpc
@@ -27,7 +27,8 @@ from .summary import model_summary as model_summary
 
 __all__ = [
     "Check", "ControllabilityResult", "DMPCAnalysis", "DesignReview", "MPCDesign", "Mode",
-    "ModelSummary", "ObservabilityResult", "SamplingResult", "StabilityResult", "analyse_controllability",
+    "ModelSummary", "ObservabilityResult", "SamplingResult", "StabilityResult",
+    "analyse_controllability",
     "analyse_dmpc", "analyse_observability", "analyse_sampling", "analyse_stability",
     "continuous_modes", "convergence_sweep", "finite_horizon_gramian", "model_checks",
     "model_summary", "nyquist_sample_time", "prediction", "review_design",

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from ..models.envelope import EnvelopeBounds
 from ..models.feedforward import ForceSplit
 from ..models.track import Track, TrackSection
-from .check import Check
+from .check import Check, finite_or_none
 
 if TYPE_CHECKING:
     from ..models.train import Train
@@ -234,32 +234,38 @@ def feasibility_check(scenario: Scenario, route: RouteForces | None = None) -> C
     worst = float(np.max(ratio)) if ratio.size else 0.0
     bad = route.infeasible()
     details: dict[str, object] = {"mode": route.mode, "points": int(route.speeds.size),
-                                  "max_utilisation": _finite(worst)}
-    if not bad.any():
-        k, i = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
-        use = "" if worst <= 0 else (
-            f"; highest use {100 * worst:.3g} % (vehicle {i + 1}, "
-            f"{'traction' if route.inputs[k, i] >= 0 else 'braking'}, {_where(route, k)})")
-        return Check(name="feasibility", status="pass", value=worst, threshold=1.0, unit="",
-                     message=f"{_scope(route)} within every vehicle's traction and braking "
-                     f"envelope{use}", details=details)
+                                  "max_utilisation": finite_or_none(worst)}
+    if bad.any():
+        return _failed(route, bad, worst, details)
+    k, i = (int(x) for x in np.unravel_index(int(np.argmax(ratio)), ratio.shape))
+    use = "" if worst <= 0 else (
+        f"; highest use {100 * worst:.3g} % (vehicle {i + 1}, "
+        f"{'traction' if route.inputs[k, i] >= 0 else 'braking'}, {_where(route, k)})")
+    return Check(name="feasibility", status="pass", value=worst, threshold=1.0, unit="",
+                 message=f"{_scope(route)} within every vehicle's traction and braking "
+                 f"envelope{use}", details=details)
+
+
+def _failed(route: RouteForces, bad: NDArray[np.bool_], worst: float,
+            details: dict[str, object]) -> Check:
+    """The failing check: the first point with a vehicle out of its envelope."""
     k = int(np.flatnonzero(bad.any(axis=1))[0])
-    vehicles = np.flatnonzero(bad[k])
+    vehicles = [int(i) for i in np.flatnonzero(bad[k])]
     section = int(route.sections[k, vehicles[0]])
-    found = [_vehicle_need(route, k, int(i)) for i in vehicles]
+    found = [_vehicle_need(route, k, i) for i in vehicles]
     details["first"] = {"time": float(route.times[k]) if route.mode == "reference" else None,
                         "head_position": float(route.head_positions[k]),
                         "speed": float(route.speeds[k]),
                         "acceleration": float(route.accelerations[k]),
-                        **_section_dict(route.track, section), "vehicles": found}
-    listed = "; ".join(f"vehicle {v['vehicle']} needs {abs(v['required_kn']):.1f} kN "
-                       f"{v['direction']}, {v['available_kn']:.1f} kN available"
-                       for v in found[:_SHOWN])
+                        **_section_dict(route.track, section),
+                        "vehicles": [need._asdict() for need in found]}
+    listed = "; ".join(f"vehicle {v.vehicle} needs {abs(v.required_kn):.1f} kN "
+                       f"{v.direction}, {v.available_kn:.1f} kN available" for v in found[:_SHOWN])
     more = f"; and {len(found) - _SHOWN} more vehicle(s)" if len(found) > _SHOWN else ""
     return Check(name="feasibility", status="fail", value=worst, threshold=1.0, unit="",
                  message=f"infeasible {_where(route, k)}, section {section + 1} "
                  f"({_describe(route.track, section)}): {listed}{more}",
-                 hint=_hint(route, k, found[0]["direction"]), details=details)
+                 hint=_hint(route, k, found[0].direction), details=details)
 
 
 # -- evaluation ---------------------------------------------------------------------------------
@@ -328,12 +334,21 @@ def _section_index(track: Track, positions: Array) -> NDArray[np.intp]:
 
 
 # -- wording ------------------------------------------------------------------------------------
-def _vehicle_need(route: RouteForces, k: int, i: int) -> dict[str, object]:
+class _Need(NamedTuple):
+    """One vehicle's required and available force at a point [kN]; vehicle 1-based."""
+
+    vehicle: int
+    direction: str
+    required_kn: float
+    available_kn: float
+
+
+def _vehicle_need(route: RouteForces, k: int, i: int) -> _Need:
     u = float(route.inputs[k, i])
     traction = u >= 0
     available = float(route.traction_limit[k, i] if traction else route.braking_limit[k, i])
-    return {"vehicle": i + 1, "direction": "traction" if traction else "braking",
-            "required_kn": u / KN, "available_kn": available / KN}
+    return _Need(vehicle=i + 1, direction="traction" if traction else "braking",
+                 required_kn=u / KN, available_kn=available / KN)
 
 
 def _section_dict(track: Track, index: int) -> dict[str, object]:
@@ -380,14 +395,6 @@ def _hint(route: RouteForces, k: int, direction: str) -> str:
         total = float(np.sum(route.traction_limit[k]))
         fix = ("lower the speed or the acceleration of the reference, or raise max_traction_kn "
                "/ max_power_kw (or add motor vehicles)")
-    whole = (f"; the train as a whole needs {abs(need) / KN:.1f} kN {direction} against "
-             f"{total / KN:.1f} kN")
-    if abs(need) <= total:
-        whole += " available: spread the force over more vehicles (traction_share)"
-    else:
-        whole += " available"
-    return fix + whole
-
-
-def _finite(x: float) -> float | None:
-    return x if math.isfinite(x) else None
+    spread = ": spread the force over more vehicles (traction_share)" if abs(need) <= total else ""
+    return (f"{fix}; the train as a whole needs {abs(need) / KN:.1f} kN {direction} against "
+            f"{total / KN:.1f} kN available{spread}")

@@ -10,15 +10,16 @@ for one scenario: which strategies ``[simulation]`` may list and which checks
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Generic, NoReturn, TypeVar
+from typing import Any, NoReturn
 
 from ..constraints import Violation, suggest
 from ..exceptions import ModelError
 from ..models.track import Track
 from ..models.train import Train
+from .frozen import FrozenMapping as FrozenMapping
 from .settings import ModelSettings, SimulationSettings
 
 __all__ = [
@@ -40,9 +41,6 @@ SCHEMA_VERSION = 1
 
 RESERVED_SECTIONS = ("report", "communication", "sweep")
 """Top-level sections reserved for later releases (rejected today)."""
-
-_V = TypeVar("_V")
-
 
 def model_check_names() -> tuple[str, ...]:
     """The model-level checks, which need no controller."""
@@ -164,37 +162,6 @@ def expectation_violation(check: str, families: Sequence[str]) -> Violation | No
         hint=f" The check {check!r} runs only for a design of family {owners[0]!r}: add "
         f"[controller.{owners[0]}] or remove the expectation.",
     )
-
-
-class FrozenMapping(Mapping[str, _V], Generic[_V]):
-    """A read-only, hashable, picklable mapping with string keys, in insertion order."""
-
-    __slots__ = ("_data",)
-    _data: dict[str, _V]
-
-    def __init__(self, items: Mapping[str, _V] | Iterable[tuple[str, _V]] = ()) -> None:
-        object.__setattr__(self, "_data", dict(items))
-
-    def __setattr__(self, name: str, value: Any) -> NoReturn:
-        raise AttributeError(f"{type(self).__name__} is read-only")
-
-    def __reduce__(self) -> tuple[Any, ...]:
-        return (type(self), (tuple(self._data.items()),))
-
-    def __getitem__(self, key: str) -> _V:
-        return self._data[key]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._data)
-
-    def __len__(self) -> int:
-        return len(self._data)
-
-    def __hash__(self) -> int:
-        return hash(frozenset(self._data.items()))
-
-    def __repr__(self) -> str:
-        return repr(self._data)
 
 
 def _fail(message: str) -> NoReturn:
@@ -337,8 +304,7 @@ class Scenario:
         key : str
             File key path.
         value : object
-            New value in file units (a TOML value: number, str, bool, list,
-            table), or None to remove the key.
+            New value in file units (a TOML value), or None to remove the key.
 
         Returns
         -------
@@ -348,8 +314,8 @@ class Scenario:
         Raises
         ------
         ScenarioError
-            If the key path or the value is invalid (the message names the
-            key path), or the scenario was built in Python (no document).
+            If the key path or the value is invalid (the message names the key
+            path), or the scenario was built in Python (no document).
 
         Examples
         --------

@@ -185,7 +185,8 @@ def _one_of_groups() -> tuple[tuple[str, ...], ...]:
     from .settings import ModelSettings, SimulationSettings
     from .tables import TrackTable, TrainTable
 
-    roots = [TrainTable, TrackTable, file_model(ModelSettings), file_model(SimulationSettings)]
+    roots: list[type | None] = [TrainTable, TrackTable, file_model(ModelSettings),
+                                file_model(SimulationSettings)]
     roots += [file_model(get_family(name).settings) for name in family_names()]
     groups: list[tuple[str, ...]] = []
     seen: set[type] = set()

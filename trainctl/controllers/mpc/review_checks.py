@@ -265,7 +265,7 @@ def _force_steps(design: MPCFamilyDesign) -> tuple[dict[str, float], dict[str, f
     T = scenario.model.sample_time
     steps = sim.n_steps(T)
     stride = max(1, math.ceil(steps / _MAX_SAMPLES))
-    times = np.arange(0, steps + 1, stride) * T
+    times = np.arange(0, steps + 1, stride, dtype=np.float64) * T
     route = route_forces(scenario, times)
     change = np.abs(np.diff(route.inputs, axis=0)) / stride / KN
     corners = np.asarray(sim.reference_times, dtype=float)
