@@ -160,12 +160,44 @@ Did you mean 'sampling'? Checks: sampling.
 
 
 def finite_or_none(x: float | None) -> float | None:
-    """``x`` as a float, or None when it is None or not finite (JSON-safe)."""
+    """``x`` as a float, or None when it is None or not finite (JSON-safe).
+
+    Parameters
+    ----------
+    x : float or None
+        A number.
+
+    Returns
+    -------
+    float or None
+        ``float(x)``, or None.
+
+    Examples
+    --------
+    >>> finite_or_none(2), finite_or_none(math.inf)
+    (2.0, None)
+    """
     return None if x is None or not math.isfinite(x) else float(x)
 
 
 def format_number(x: float | None) -> str:
-    """A check value for the text table: 4 significant digits, "-" for none."""
+    """A check value for the text table: 4 significant digits, "-" for none.
+
+    Parameters
+    ----------
+    x : float or None
+        A check's value or threshold.
+
+    Returns
+    -------
+    str
+        The text.
+
+    Examples
+    --------
+    >>> format_number(555.39799), format_number(None), format_number(math.inf)
+    ('555.4', '-', 'inf')
+    """
     if x is None or (isinstance(x, float) and math.isnan(x)):
         return "-"
     if math.isinf(x):

@@ -119,7 +119,23 @@ def replaced_document(document: Mapping[str, Any], path: str, value: Any) -> dic
 
 
 def freeze(value: Any) -> Any:
-    """A read-only deep copy of a TOML value: tables as FrozenMapping, arrays as tuples."""
+    """A read-only deep copy of a TOML value: tables as FrozenMapping, arrays as tuples.
+
+    Parameters
+    ----------
+    value : object
+        A TOML value (dicts, lists, scalars).
+
+    Returns
+    -------
+    object
+        The frozen copy.
+
+    Examples
+    --------
+    >>> freeze({"vehicle": [{"mass_t": 40.0}]})["vehicle"]
+    ({'mass_t': 40.0},)
+    """
     if isinstance(value, Mapping):
         return FrozenMapping((k, freeze(v)) for k, v in value.items())
     if isinstance(value, list | tuple):
@@ -128,7 +144,23 @@ def freeze(value: Any) -> Any:
 
 
 def thaw(value: Any) -> Any:
-    """A mutable deep copy of a (frozen) TOML value: dicts and lists, as ``tomllib`` gives."""
+    """A mutable deep copy of a (frozen) TOML value: dicts and lists, as ``tomllib`` gives.
+
+    Parameters
+    ----------
+    value : object
+        A (frozen) TOML value.
+
+    Returns
+    -------
+    object
+        Dicts, lists and scalars.
+
+    Examples
+    --------
+    >>> thaw(freeze({"speeds": [20.0, 80.0]}))
+    {'speeds': [20.0, 80.0]}
+    """
     if isinstance(value, Mapping):
         return {k: thaw(v) for k, v in value.items()}
     if isinstance(value, list | tuple):

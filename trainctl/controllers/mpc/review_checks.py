@@ -79,6 +79,14 @@ def horizon_check(design: MPCFamilyDesign) -> Check:
     -------
     Check
         Value P·T / τ, threshold :data:`HORIZON_WARN`.
+
+    Examples
+    --------
+    >>> from trainctl.design import build_design
+    >>> from trainctl.scenario import load_scenario
+    >>> check = horizon_check(build_design(load_scenario("crh2-dmpc")).family("mpc"))
+    >>> check.status, round(check.details["tau_s"])
+    ('pass', 101)
     """
     T = design.model.settings.sample_time
     P = design.mpc.prediction_horizon
@@ -124,6 +132,14 @@ def qp_conditioning_check(design: MPCFamilyDesign) -> Check:
     Check
         Value cond(H), threshold :data:`COND_WARN`; details with the
         condition number after diagonal scaling.
+
+    Examples
+    --------
+    >>> from trainctl.design import build_design
+    >>> from trainctl.scenario import load_scenario
+    >>> check = qp_conditioning_check(build_design(load_scenario("crh2-dmpc")).family("mpc"))
+    >>> check.status, round(check.value, 2)
+    ('pass', 1.74)
     """
     from ...analysis.mpc import prediction
 
@@ -163,6 +179,15 @@ def rate_limit_check(design: MPCFamilyDesign) -> Check:
     Check
         Value: the largest change per sample of a vehicle's needed force
         [kN]; threshold the rate limit [kN].
+
+    Examples
+    --------
+    >>> from trainctl.design import build_design
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc").replace("controller.rate_limit_kn", 2.0)
+    >>> check = rate_limit_check(build_design(scenario).family("mpc"))
+    >>> check.status, round(check.details["jump"]["kn"], 2)
+    ('warn', 8.96)
     """
     limit = design.settings.rate_limit
     sim = design.scenario.simulation
@@ -209,6 +234,14 @@ def coupler_force_check(design: MPCFamilyDesign) -> Check:
     Check
         Value: the largest static |coupler force| [kN]; threshold the
         coupler-force bound [kN].
+
+    Examples
+    --------
+    >>> from trainctl.design import build_design
+    >>> from trainctl.scenario import load_scenario
+    >>> check = coupler_force_check(build_design(load_scenario("crh2-dmpc")).family("mpc"))
+    >>> check.status, round(check.value, 3)
+    ('pass', 7.564)
     """
     from ...analysis.feasibility import route_forces
 
