@@ -62,7 +62,7 @@ class AnalysisRun:
 
     @property
     def failed_checks(self) -> tuple[str, ...]:
-        """Names of failed design checks (``--strict`` exits 1 when non-empty)."""
+        """Names of failed design checks (one reason for `--strict`; see strict_failures)."""
         return self.review.failed_checks
 
     def unexpected_checks(self) -> dict[str, tuple[str, str]]:

@@ -8,16 +8,21 @@ from .controllability import analyse_observability as analyse_observability
 from .controllability import finite_horizon_gramian as finite_horizon_gramian
 from .dmpc import DMPCAnalysis as DMPCAnalysis
 from .dmpc import analyse_dmpc as analyse_dmpc
+from .feasibility import RouteForces as RouteForces
+from .feasibility import feasibility_check as feasibility_check
+from .feasibility import route_forces as route_forces
 from .iteration import convergence_sweep as convergence_sweep
 from .modes import Mode as Mode
 from .modes import continuous_modes as continuous_modes
 from .modes import nyquist_sample_time as nyquist_sample_time
 from .mpc import MPCDesign as MPCDesign
 from .mpc import prediction as prediction
+from .plausibility import plausibility_check as plausibility_check
 from .review import Check as Check
 from .review import DesignReview as DesignReview
 from .review import model_checks as model_checks
 from .review import review_design as review_design
+from .review import scenario_checks as scenario_checks
 from .sampling import SamplingResult as SamplingResult
 from .sampling import analyse_sampling as analyse_sampling
 from .stability import StabilityResult as StabilityResult
@@ -27,9 +32,9 @@ from .summary import model_summary as model_summary
 
 __all__ = [
     "Check", "ControllabilityResult", "DMPCAnalysis", "DesignReview", "MPCDesign", "Mode",
-    "ModelSummary", "ObservabilityResult", "SamplingResult", "StabilityResult",
-    "analyse_controllability",
-    "analyse_dmpc", "analyse_observability", "analyse_sampling", "analyse_stability",
-    "continuous_modes", "convergence_sweep", "finite_horizon_gramian", "model_checks",
-    "model_summary", "nyquist_sample_time", "prediction", "review_design",
+    "ModelSummary", "ObservabilityResult", "RouteForces", "SamplingResult", "StabilityResult",
+    "analyse_controllability", "analyse_dmpc", "analyse_observability", "analyse_sampling",
+    "analyse_stability", "continuous_modes", "convergence_sweep", "feasibility_check",
+    "finite_horizon_gramian", "model_checks", "model_summary", "nyquist_sample_time",
+    "plausibility_check", "prediction", "review_design", "route_forces", "scenario_checks",
 ]
