@@ -358,7 +358,7 @@ class TestReport:
         out = capsys.readouterr().out
         match = self.WROTE.fullmatch(out.strip())
         assert match, out
-        assert match["path"] == str(path) and match["checks"] == "12"
+        assert match["path"] == str(path) and match["checks"] == "18"
         html = path.read_text(encoding="utf-8")
         page = parse_page(html)
         name = load_scenario("crh2-dmpc").name

@@ -20,7 +20,8 @@ Subcommands
     ``reports/<name>.html``, see :func:`trainctl.report.batch.default_report_path`);
     ``--all`` writes every built-in's report and an ``index.html`` gallery.
 
-Exit status: 0 the command ran; 1 ``--strict`` found a failing check; 2 a
+Exit status: 0 the command ran; 1 ``--strict`` found a failure (a failing check, a
+missed tracking tolerance, too long a saturation, or an ``[expected]`` mismatch); 2 a
 usage, scenario or file error (``trainctl: error: <message>`` on stderr, no
 traceback, no file written). Any other exception is a bug and propagates.
 
@@ -79,7 +80,7 @@ def build_parser() -> argparse.ArgumentParser:
             "and HTML reports for the built-in or your own scenarios."
         ),
         epilog=(
-            "exit status: 0 ran; 1 --strict found a failing check; 2 usage, scenario or file error"
+            "exit status: 0 ran; 1 --strict found a failure; 2 usage, scenario or file error"
         ),
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
@@ -145,7 +146,10 @@ def _add_analyse(sub: Any) -> None:
         "--json", action="store_true", help="print the summary as JSON on standard output"
     )
     p_analyse.add_argument(
-        "--strict", action="store_true", help="exit with status 1 if any check fails"
+        "--strict", action="store_true",
+        help="exit with status 1 if a check fails, a simulated strategy misses its tracking "
+        "tolerance, a vehicle saturates longer than [simulation] allows, or a check's status "
+        "differs from [expected]"
     )
     p_analyse.add_argument(
         "--no-simulate", action="store_true",
@@ -232,7 +236,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     Returns
     -------
     int
-        Exit status: 0 ran, 1 a ``--strict`` check failed, 2 user error.
+        Exit status: 0 ran, 1 ``--strict`` found a failure, 2 user error.
         (argparse exits with 2 by itself on a usage error, 0 for ``--help``.)
     """
     parser = build_parser()
@@ -348,10 +352,11 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
     if args.save:
         print(f"saved results to {args.save}", file=sys.stderr)
     if args.strict:
-        failed = summary.failed_checks
-        if failed:
-            noun = "check" if len(failed) == 1 else "checks"
-            print(f"{PROG}: {len(failed)} {noun} failed: " + "; ".join(failed), file=sys.stderr)
+        failures = summary.strict_failures()
+        if failures:
+            noun = "reason" if len(failures) == 1 else "reasons"
+            print(f"{PROG}: --strict: {len(failures)} {noun}: "
+                  + "; ".join(f"{f.kind} {f.name}" for f in failures), file=sys.stderr)
             return EXIT_CHECK_FAILED
     return EXIT_OK
 

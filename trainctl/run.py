@@ -21,6 +21,7 @@ if TYPE_CHECKING:
     from .scenario import Scenario
     from .sim.metrics import Metrics
     from .sim.results import SimulationResult
+    from .strict import StrictFailure
 
 __all__ = [
     "AnalysisRun", "make_controller", "run_scenario", "simulate_strategy", "submit_simulations",
@@ -63,7 +64,7 @@ class AnalysisRun:
 
     @property
     def failed_checks(self) -> tuple[str, ...]:
-        """Names of failed design checks (``--strict`` exits 1 when non-empty)."""
+        """Names of failed design checks (one reason for `--strict`; see strict_failures)."""
         return self.review.failed_checks
 
     def unexpected_checks(self) -> dict[str, tuple[str, str]]:
@@ -88,24 +89,58 @@ class AnalysisRun:
 
         return analyse_closed_loops(self.design)
 
+    def strict_failures(self) -> tuple[StrictFailure, ...]:
+        """Every reason ``trainctl analyse --strict`` exits 1 (see :mod:`trainctl.strict`).
+
+        Returns
+        -------
+        tuple of StrictFailure
+            Failed checks, strategies outside their tracking tolerance,
+            vehicles saturated too long, ``[expected]`` mismatches; empty
+            when the run is strict-clean.
+        """
+        from .strict import strict_failures
+
+        return strict_failures(self)
+
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict: the summary plus the review."""
+        """JSON-safe dict: the summary, the review, ``[expected]`` and the strict verdict."""
         out = self.summary.to_dict()
         out["checks"] = self.review.to_dict()["checks"]
         out["failed_checks"] = list(self.failed_checks)
+        out["expected"] = dict(self.scenario.expected)
+        out["unexpected_checks"] = {name: {"expected": want, "found": got}
+                                    for name, (want, got) in self.unexpected_checks().items()}
         if self.metrics:
             out["simulations"] = {
                 name: {**m.to_dict(), "tracking_ok": self.tracking_ok(name)}
                 for name, m in self.metrics.items()}
+        out["strict_failures"] = [f.to_dict() for f in self.strict_failures()]
         out["frequency"] = frequency_dict(self)
         return out
 
     def format_text(self) -> str:
         """The text ``trainctl analyse`` prints."""
+        from .strict import format_strict
+
         text = self.summary.format_text() + "\n\n" + self.review.format_text()
+        if self.scenario.expected:
+            text += "\n\n" + _expected_text(self)
         if self.metrics:
             text += "\n\n" + _metrics_table(self)
-        return text
+        return text + "\n\n" + format_strict(self.strict_failures())
+
+
+def _expected_text(run: AnalysisRun) -> str:
+    declared = run.scenario.expected
+    wrong = run.unexpected_checks()
+    if not wrong:
+        return f"Expected outcomes ([expected]): all {len(declared)} declared statuses match."
+    lines = [f"Expected outcomes ([expected]): {len(wrong)} of {len(declared)} declared "
+             "statuses differ:"]
+    lines += [f"  {name}: expected {want.upper()}, found {got.upper()}"
+              for name, (want, got) in wrong.items()]
+    return "\n".join(lines)
 
 
 def frequency_dict(run: AnalysisRun) -> dict[str, object]:
