@@ -118,8 +118,8 @@ def step_response_plot(
     --------
     >>> ax = step_response_plot([0, 1, 2], [[0, 1, 1], [0, 0.5, 1]], label="demo",
     ...                         ylabel="speed deviation [m/s]")
-    >>> len(ax.lines), ax.lines[0].get_label()
-    (2, 'demo')
+    >>> len(ax.lines), ax.lines[0].get_label()  # two responses and the zero line
+    (3, 'demo')
     """
     ax = new_axes(ax)
     t = np.asarray(time, dtype=float)
