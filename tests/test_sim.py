@@ -231,8 +231,10 @@ def test_full_heavy_haul_chain_runs() -> None:
     eq = equilibrium(train, 20.0, allocation="own")
     plant = Plant(train=train)
     ctrl = ProportionalFeedforward(train, 0.05, 0.1)
+    # The stand-in asks every wagon for its own resistance, which the wagons (no traction)
+    # cannot give: without the plant's saturation the train stays at the equilibrium.
     result = simulate(plant, ctrl, ramp_profile(20.0, 20.0, 0.0, 1.0), duration=0.15,
-                      initial_state=eq.state(position=0.0), preview_steps=0)
+                      initial_state=eq.state(position=0.0), preview_steps=0, saturation=False)
     assert result.velocities.shape == (204, 4)
     assert np.allclose(result.velocities, 20.0, rtol=1e-9)
 
@@ -288,10 +290,12 @@ def crh2_run() -> tuple[SimulationResult, ProportionalFeedforward]:
     ctrl = ProportionalFeedforward(train, 1.0, 0.2)
     ctrl.nan_at = {5}
     eq = equilibrium(train, 40.0)
+    # The stand-in asks the trailers for traction they do not have: these tests are about
+    # the loop's bookkeeping, so the plant applies the requests as asked.
     result = simulate(Plant(train=train, track=grade_track()), ctrl,
                       ramp_profile(40.0, 50.0, 5.0, 25.0), duration=30.0,
                       initial_state=eq.state(position=0.0), preview_steps=3,
-                      measurement_noise=0.01, seed=7)
+                      measurement_noise=0.01, seed=7, saturation=False)
     return result, ctrl
 
 
@@ -313,6 +317,13 @@ def test_simulation_records_every_sample(crh2_run) -> None:
     assert all(ctrl.seen_states)
     assert result.controller_name == "p+ff" and result.seed == 7 and result.dt == 1.0
     assert result.meta["n_vehicles"] == 4 and result.meta["substeps_per_sample"] == 20
+    assert result.meta["plant_saturation"] is False and result.divergence is None
+    assert np.array_equal(result.requested_inputs, result.inputs)
+    assert not result.saturation.any() and result.saturation.dtype == np.int8
+    # The dense grid: the 20 substeps of every 1 s sample, the samples among them.
+    assert result.dense_time.shape == (20 * N + 1,)
+    assert np.array_equal(result.dense_time[result.dense_sample_index], result.time)
+    assert np.array_equal(result.dense_states[:, ::20], result.states)
     # Tracks the ramp; on the 6 ‰ climb the proportional law leaves ~0.22 m/s.
     assert np.abs(result.velocities[:, -1] - 50.0).max() < 0.3
 
@@ -334,7 +345,7 @@ def test_measurement_noise_is_reproducible() -> None:
         return simulate(plant, ProportionalFeedforward(train, 2.0, 0.2),
                         ramp_profile(40.0, 40.0, 0.0, 1.0), duration=10.0,
                         initial_state=eq.state(position=0.0), preview_steps=1,
-                        measurement_noise=noise, seed=seed)
+                        measurement_noise=noise, seed=seed, saturation=False)
 
     a, b, c, quiet = run(1, 0.05), run(1, 0.05), run(2, 0.05), run(1, 0.0)
     assert np.array_equal(a.inputs, b.inputs) and np.array_equal(a.states, b.states)

@@ -82,9 +82,14 @@ one expm of a 612 × 612 matrix (0.1–0.3 s; with a track also four squarings
 for the crossing ladder); every substep is then one dense (408 × 611)
 product. The caches keep at most 128 MiB each, least recently used first.
 
-The propagators live in :mod:`trainctl.models._plant_propagators`, the section
-crossings in :mod:`trainctl.models._plant_crossings` and the ``solve_ivp``
-reference in :mod:`trainctl.models._plant_reference`.
+:meth:`Plant.advance_dense` also returns the states at the substep
+boundaries (the between-sample truth of a simulation), with the same
+integration bit for bit.
+
+The propagators live in :mod:`trainctl.models._plant_propagators`, the
+substep loop and its dense output in :mod:`trainctl.models._plant_integrate`,
+the section crossings in :mod:`trainctl.models._plant_crossings` and the
+``solve_ivp`` reference in :mod:`trainctl.models._plant_reference`.
 """
 
 from __future__ import annotations
@@ -99,14 +104,12 @@ from numpy.typing import ArrayLike, NDArray
 from .._validation import check_positive
 from ..exceptions import DimensionError, ModelError
 from ._plant_crossings import SectionTracker
+from ._plant_integrate import DenseRecord, integrate
 from ._plant_propagators import (
     CACHE_BYTES,
     LRU,
     Propagator,
     TrackArrays,
-    drag_flow,
-    grid_speed,
-    propagator,
 )
 from ._plant_reference import advance_reference
 from .chain import Chain
@@ -314,6 +317,60 @@ class Plant:
         (True, True)
         """
         x, u, dt = self._check("Plant.advance", state, inputs, dt)
+        return self._advance(x, u, dt, None)
+
+    def advance_dense(
+        self, state: ArrayLike, inputs: ArrayLike, dt: float, every: int = 1
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """:meth:`advance`, returning the states at the substep boundaries as well.
+
+        Parameters
+        ----------
+        state : array_like
+            ``[v (n) [m/s], delta (n-1) [m], s [m]]``.
+        inputs : array_like
+            Force per vehicle [N], held over ``dt``.
+        dt : float
+            Interval [s], > 0.
+        every : int
+            Keep every ``every``-th substep boundary (>= 1) and always the
+            last one, the end of the interval.
+
+        Returns
+        -------
+        offsets : ndarray
+            Times of the kept boundaries after the start [s], shape (m,);
+            the last is ``dt``.
+        states : ndarray
+            The states there, shape (2n, m). The last column is exactly what
+            :meth:`advance` returns; the integration is the same bit for bit.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from trainctl.models import crh2_half
+        >>> plant = Plant(train=crh2_half())
+        >>> x0 = np.r_[np.full(4, 50.0), 1e-4, 0.0, 0.0, 0.0]
+        >>> offsets, states = plant.advance_dense(x0, np.zeros(4), 1.0, every=5)
+        >>> offsets.tolist(), states.shape
+        ([0.25, 0.5, 0.75, 1.0], (8, 4))
+        >>> bool(np.array_equal(states[:, -1], plant.advance(x0, np.zeros(4), 1.0)))
+        True
+        """
+        x, u, dt = self._check("Plant.advance_dense", state, inputs, dt)
+        if isinstance(every, bool) or not isinstance(every, int | np.integer) or every < 1:
+            raise ModelError(f"Plant.advance_dense: 'every' must be an int >= 1 (got {every!r}).")
+        steps = self._substeps(dt)
+        record = DenseRecord(self.train.n_vehicles, steps, int(every))
+        end = self._advance(x, u, dt, record)
+        record.rows[-1] = end
+        return record.index * (dt / steps), record.rows.T.copy()
+
+    def _advance(
+        self, x: NDArray[np.float64], u: NDArray[np.float64], dt: float,
+        record: DenseRecord | None,
+    ) -> NDArray[np.float64]:
+        """:meth:`advance` on checked arguments, recording into ``record`` (or not)."""
         n = self.train.n_vehicles
         steps = self._substeps(dt)
         base = u - self._forces[0]
@@ -325,59 +382,11 @@ class Plant:
         z[: 2 * n - 1] = x[: 2 * n - 1]
         s = x[2 * n - 1]
         tracker = None if track is None else SectionTracker(self, track, s, z)
-        s = self._integrate(z, s, base, dt / steps, steps, tracker)
+        s = integrate(self, z, s, base, dt / steps, steps, tracker, record)
         out = np.empty(2 * n)
         out[: 2 * n - 1] = z[: 2 * n - 1]
         out[2 * n - 1] = s
         return out
-
-    def _integrate(
-        self,
-        z: NDArray[np.float64],
-        s: float,
-        base: NDArray[np.float64],
-        h: float,
-        steps: int,
-        tracker: SectionTracker | None,
-    ) -> float:
-        """``steps`` substeps of length h on z = [v, delta, F] (in place); returns s.
-
-        ``base`` [N] is the held input less the constant Davis term (and a
-        uniform grade); ``tracker`` follows the track sections (None: flat).
-        """
-        n = self.train.n_vehicles
-        quadratic = self._quadratic
-        half, full = self._drag_steps(h)
-        vbar = grid_speed(z[0]) if quadratic else 0.0
-        prop = propagator(self, h, vbar)
-        force = base + self._forces[1] * vbar**2 if quadratic else base
-        z[2 * n - 1 :] = force
-        if quadratic:
-            drag_flow(z, n, half, vbar)
-        for j in range(steps + 1):
-            if tracker is not None:
-                s = tracker.visit(z, s, force, vbar, h, j == steps)
-            if j == steps:
-                break
-            new = prop.step @ z
-            s += new[2 * n - 1]
-            z[: 2 * n - 1] = new[: 2 * n - 1]
-            if not quadratic:
-                continue
-            if j == steps - 1:
-                drag_flow(z, n, half, vbar)
-                continue
-            nbar = grid_speed(z[0])
-            if nbar == vbar:
-                drag_flow(z, n, full, vbar)
-                continue
-            drag_flow(z, n, half, vbar)
-            vbar = nbar
-            prop = propagator(self, h, vbar)
-            force = base + self._forces[1] * vbar**2
-            z[2 * n - 1 :] = force if tracker is None else force - tracker.resist
-            drag_flow(z, n, half, vbar)
-        return s
 
     # ------------------------------------------------------------- reference
     def advance_reference(
