@@ -97,8 +97,8 @@ def test_infeasible_scenario_records_statuses_falls_back_and_completes():
     assert scenario.simulation.reference_times == (0.0, 60.0, 1200.0)
     result = simulate_strategy(scenario, "ndmpc")
     assert len(result.statuses) == 60 and np.all(np.isfinite(result.inputs))
-    assert result.statuses[0] == "fallback"
-    assert "shifted plan" in result.fallbacks
+    assert result.statuses[0] == "infeasible" and result.fallbacks[0] == "shifted plan"
+    assert "fallback" not in result.statuses
 
 
 class TestBaselines:

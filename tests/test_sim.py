@@ -469,9 +469,11 @@ def hand_result(
     return SimulationResult(
         time=dt * np.arange(cols), states=states, velocities=velocities,
         coupler_forces=np.zeros((n - 1, cols)), inputs=inputs, reference_speed=reference,
-        reference_acceleration=np.zeros(cols), statuses=("optimal",) * (steps - 1) + ("fallback",),
+        reference_acceleration=np.zeros(cols),
+        statuses=("optimal",) * (steps - 1) + ("infeasible",),
         iterations=np.arange(1, steps + 1), residuals=((),) * steps,
-        solve_times=np.linspace(0.01, 0.1, steps), fallbacks=("",) * steps,
+        solve_times=np.linspace(0.01, 0.1, steps),
+        fallbacks=("",) * (steps - 1) + ("shifted plan",),
         controller_name="hand", seed=0, dt=dt,
     )
 
@@ -511,8 +513,8 @@ def test_tracking_jerk_and_solver_statistics_by_hand() -> None:
     assert metrics.iterations_mean == 2.5 and metrics.iterations_max == 4
     assert metrics.solve_time_median == pytest.approx(0.055)
     assert metrics.solve_time_max == pytest.approx(0.1)
-    assert metrics.status_counts["optimal"] == 3 and metrics.status_counts["fallback"] == 1
-    assert metrics.status_counts["infeasible"] == 0
+    assert metrics.status_counts["optimal"] == 3 and metrics.status_counts["infeasible"] == 1
+    assert metrics.fallback_counts == {"shifted plan": 1}
     d = json.loads(json.dumps(metrics.to_dict()))
     assert d["max_error"] == [2.0, 0.0]
     with pytest.raises(ModelError, match="settle_time"):
