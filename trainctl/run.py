@@ -119,13 +119,21 @@ def _metrics_table(run: AnalysisRun) -> str:
         ok = "" if run.tracking_ok(name) else "  (tracking outside tolerance)"
         statuses = ", ".join(f"{k} {v}" for k, v in m.status_counts.items() if v)
         statuses += "".join(f"; {f} {c}" for f, c in m.fallback_counts.items())
-        lines.append(f"  {name:<{w}}{float(np.sqrt(np.mean(m.rms_error**2))):>9.3f}"
-                     f"{float(np.max(m.max_error)):>9.3f}{m.max_coupler_force / 1e3:>9.2f}"
-                     f"{m.energy:>9.2f}{float(np.max(m.saturation_time)):>7.0f}"
+        lines.append(f"  {name:<{w}}{_cell(float(np.sqrt(np.mean(m.rms_error**2))), 9, 3)}"
+                     f"{_cell(float(np.max(m.max_error)), 9, 3)}"
+                     f"{_cell(m.max_coupler_force / 1e3, 9, 2)}{_cell(m.energy, 9, 2)}"
+                     f"{_cell(float(np.max(m.saturation_time)), 7, 0)}"
                      f"{m.iterations_mean:>7.1f}{m.solve_time_median * 1e3:>10.2f}  "
                      f"{statuses}{ok}")
         notes += _run_notes(name, m)
     return "\n".join(lines + notes)
+
+
+def _cell(x: float, width: int, decimals: int) -> str:
+    """``x`` right-aligned in ``width`` with ``decimals``, or in 3 significant digits
+    when that would not fit."""
+    text = f"{x:>{width}.{decimals}f}"
+    return text if len(text) <= width else f" {x:>{width - 1}.3g}"
 
 
 def _run_notes(name: str, m: Metrics) -> list[str]:

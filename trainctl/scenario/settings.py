@@ -249,6 +249,12 @@ class SimulationSettings:
             raise_at(("initial_speed_error",), Violation(
                 text=f"must be >= {-speeds[0]!r} m/s, minus the reference speed at t = 0, so "
                 "that no vehicle starts backwards", got=self.initial_speed_error))
+        if abs(self.initial_speed_error) >= self.divergence_speed_error:
+            raise_at(("initial_speed_error",), Violation(
+                text=f"must be smaller in magnitude than {{divergence_speed_error}} = "
+                f"{self.divergence_speed_error!r} m/s, the speed error of a diverged run",
+                got=self.initial_speed_error,
+                hint=" Raise divergence_speed_error to start this far off the reference."))
 
     def n_steps(self, sample_time: float) -> int:
         """The number of samples that make up :attr:`duration`.
