@@ -320,10 +320,11 @@ def test_simulation_records_every_sample(crh2_run) -> None:
     assert result.meta["plant_saturation"] is False and result.divergence is None
     assert np.array_equal(result.requested_inputs, result.inputs)
     assert not result.saturation.any() and result.saturation.dtype == np.int8
-    # The dense grid: the 20 substeps of every 1 s sample, the samples among them.
-    assert result.dense_time.shape == (20 * N + 1,)
+    # The dense grid: 3 points in each of the 20 substeps of a 1 s sample (the 27.8 rad/s
+    # coupler mode turns by 0.46 rad in 50 / 3 ms), the samples among them.
+    assert result.meta["dense_points_per_sample"] == 60 and result.dense_time.shape == (1801,)
     assert np.array_equal(result.dense_time[result.dense_sample_index], result.time)
-    assert np.array_equal(result.dense_states[:, ::20], result.states)
+    assert np.array_equal(result.dense_states[:, ::60], result.states)
     # Tracks the ramp; on the 6 ‰ climb the proportional law leaves ~0.22 m/s.
     assert np.abs(result.velocities[:, -1] - 50.0).max() < 0.3
 

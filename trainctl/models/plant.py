@@ -159,6 +159,12 @@ class Plant:
     _chains: dict[float, Chain] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
+    _inner_flows: dict[tuple[float, float, int], NDArray[np.float64]] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
+    _offsets: dict[tuple[float, int, int], NDArray[np.float64]] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
 
     def __post_init__(self) -> None:
         if not isinstance(self.train, Train):
@@ -198,6 +204,19 @@ class Plant:
                 self.train, davis[1] + 2.0 * vbar * davis[2], position=True
             )
         return chain
+
+    @cached_property
+    def fastest_rate(self) -> float:
+        """Largest |eigenvalue| of the linear part at rest [rad/s]: the fastest coupler mode.
+
+        Examples
+        --------
+        >>> from trainctl.models import crh2_half
+        >>> round(Plant(train=crh2_half()).fastest_rate, 2)
+        27.77
+        """
+        eigenvalues = np.linalg.eigvals(self._linear[0])
+        return float(np.abs(eigenvalues).max()) if eigenvalues.size else 0.0
 
     @cached_property
     def _quadratic(self) -> bool:
@@ -320,9 +339,9 @@ class Plant:
         return self._advance(x, u, dt, None)
 
     def advance_dense(
-        self, state: ArrayLike, inputs: ArrayLike, dt: float, every: int = 1
+        self, state: ArrayLike, inputs: ArrayLike, dt: float, every: int = 1, inner: int = 1
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """:meth:`advance`, returning the states at the substep boundaries as well.
+        """:meth:`advance`, returning the states between the start and the end as well.
 
         Parameters
         ----------
@@ -335,12 +354,16 @@ class Plant:
         every : int
             Keep every ``every``-th substep boundary (>= 1) and always the
             last one, the end of the interval.
+        inner : int
+            Points per substep (>= 1); > 1 (with ``every`` = 1) also keeps
+            the points that split each substep evenly, on its exact linear
+            flow (:mod:`trainctl.models._plant_integrate`).
 
         Returns
         -------
         offsets : ndarray
-            Times of the kept boundaries after the start [s], shape (m,);
-            the last is ``dt``.
+            Times of the kept points after the start [s], shape (m,); the
+            last is ``dt``.
         states : ndarray
             The states there, shape (2n, m). The last column is exactly what
             :meth:`advance` returns; the integration is the same bit for bit.
@@ -358,13 +381,51 @@ class Plant:
         True
         """
         x, u, dt = self._check("Plant.advance_dense", state, inputs, dt)
-        if isinstance(every, bool) or not isinstance(every, int | np.integer) or every < 1:
-            raise ModelError(f"Plant.advance_dense: 'every' must be an int >= 1 (got {every!r}).")
+        for name, value in (("every", every), ("inner", inner)):
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+                raise ModelError(
+                    f"Plant.advance_dense: {name!r} must be an int >= 1 (got {value!r}).")
+        if inner > 1 and every != 1:
+            raise ModelError(f"Plant.advance_dense: 'every' must be 1 with inner = {inner} > 1 "
+                             f"(got every={every!r}).")
         steps = self._substeps(dt)
-        record = DenseRecord(self.train.n_vehicles, steps, int(every))
+        record = DenseRecord(self.train.n_vehicles, steps, int(every), int(inner))
         end = self._advance(x, u, dt, record)
         record.rows[-1] = end
-        return record.index * (dt / steps), record.rows.T.copy()
+        return self.dense_offsets(dt, every, inner), record.rows.T.copy()
+
+    def dense_offsets(self, dt: float, every: int = 1, inner: int = 1) -> NDArray[np.float64]:
+        """Times after the start [s] of the states :meth:`advance_dense` returns.
+
+        Parameters
+        ----------
+        dt : float
+            Interval [s], > 0.
+        every, inner : int
+            As in :meth:`advance_dense`.
+
+        Returns
+        -------
+        ndarray
+            Increasing offsets in (0, dt], the last exactly ``dt``.
+
+        Examples
+        --------
+        >>> from trainctl.models import crh2_half
+        >>> Plant(train=crh2_half()).dense_offsets(0.1, inner=2).tolist()
+        [0.025, 0.05, 0.07500000000000001, 0.1]
+        """
+        key = (dt, every, inner)
+        offsets = self._offsets.get(key)
+        if offsets is None:
+            steps = self._substeps(check_positive("Plant.dense_offsets", "dt", dt))
+            offsets = DenseRecord(self.train.n_vehicles, steps, every, inner).offsets
+            offsets *= dt / steps
+            offsets[-1] = dt
+            if len(self._offsets) >= 8:
+                self._offsets.clear()
+            self._offsets[key] = offsets
+        return offsets.copy()
 
     def _advance(
         self, x: NDArray[np.float64], u: NDArray[np.float64], dt: float,

@@ -160,8 +160,9 @@ class SimulationSettings:
         >= 0; inf (the default) for no limit (judged by ``--strict``).
     output_interval : float or None
         Spacing of the dense output grid between the samples [s], > 0,
-        rounded to whole plant substeps; None: every substep (capped, see
-        :func:`trainctl.sim.dense_every`).
+        rounded to whole plant substeps (or whole points per substep); None:
+        fine enough for the plant's fastest mode (capped, see
+        :func:`trainctl.sim.dense_grid`).
     divergence_speed_error : float
         Speed error at which a diverging run is stopped [m/s], > 0; inf: only
         an overflow stops it.
@@ -211,8 +212,9 @@ class SimulationSettings:
         "Longest time a vehicle's force may stay saturated (--strict)", unit="s",
         omitted="no limit")] = math.inf
     output_interval: Annotated[Annotated[float, Number(gt=0)] | None, Key(
-        "Spacing of the dense output grid between the samples, in whole plant substeps",
-        unit="s", omitted="every substep (at most 200 000 points)")] = None
+        "Spacing of the dense output grid between the samples (rounded to the plant's "
+        "substeps)", unit="s",
+        omitted="fine enough for the fastest coupler mode, at most 200 000 points")] = None
     divergence_speed_error: Annotated[float, Number(gt=0, allow_inf=True), Key(
         "Stop a run whose speed error exceeds this (diverged)", unit="m/s")] = 50.0
 

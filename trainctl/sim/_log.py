@@ -1,15 +1,25 @@
 # The history a closed loop collects: samples, requests, saturation and the dense grid.
 """The record :func:`trainctl.sim.simulate` keeps while it runs (private to the loop).
 
-The dense grid: the plant's substeps of length h = T / S (S =
-``Plant.substeps(T)``), every ``every``-th substep boundary of each sample
-interval and always its end, the next sample instant. ``every`` is 1 by
-default, or the whole number of substeps nearest ``output_interval`` [s].
-It is then raised until the grid holds at most :data:`MAX_DENSE_POINTS`
-points and :data:`MAX_DENSE_VALUES` numbers (3n - 1 per point: the states
-and the coupler forces), but never beyond S: the dense grid always holds the
-samples. With S = 1 (T no longer than the plant's substep) the dense grid is
-the samples.
+The dense grid splits every sample interval of length T into points spaced
+Δ apart, ending on the next sample instant. The plant integrates in S =
+``Plant.substeps(T)`` substeps of h = T / S; the grid takes either every
+``every``-th substep boundary (Δ = every·h >= h) or ``inner`` points per
+substep (Δ = h / inner < h, on the substep's exact linear flow). Δ is
+
+- ``output_interval`` when given, rounded to a whole number of substeps or
+  of points per substep;
+- otherwise the substep h, refined so that the fastest mode of the plant
+  (:attr:`Plant.fastest_rate`, ω) advances at most :data:`DENSE_PHASE_STEP`
+  = 0.5 rad between points: inner = ceil(ω h / 0.5). A peak of that mode is
+  then missed by at most 1 - cos(0.25) ≈ 3 % of its amplitude (CRH2: ω =
+  27.8 rad/s, h = 0.05 s, 3 points per substep, Δ = 16.7 ms).
+
+The grid is then coarsened (fewer inner points first, then a larger
+``every``) until it holds at most :data:`MAX_DENSE_POINTS` points and
+:data:`MAX_DENSE_VALUES` numbers (3n - 1 per point: states and coupler
+forces), but never beyond the samples: the dense grid always holds every
+sample instant, where its values equal the sampled ones.
 """
 
 from __future__ import annotations
@@ -22,12 +32,14 @@ from numpy.typing import NDArray
 
 from ..controllers.base import StepRecord
 from ..exceptions import DimensionError
-from ..models._plant_integrate import dense_indices
 from ..models.dynamics import coupler_forces
 from ..models.plant import Plant
 from .reference import Reference
 
-__all__ = ["HOLD_FALLBACK", "MAX_DENSE_POINTS", "MAX_DENSE_VALUES", "Log", "dense_every"]
+__all__ = [
+    "DENSE_PHASE_STEP", "HOLD_FALLBACK", "MAX_DENSE_POINTS", "MAX_DENSE_VALUES", "Log",
+    "dense_grid",
+]
 
 HOLD_FALLBACK = "hold_previous_input"
 """Fallback recorded when the loop replaced a non-finite input by the previous one."""
@@ -38,12 +50,15 @@ MAX_DENSE_POINTS = 200_000
 MAX_DENSE_VALUES = 8_000_000
 """Most numbers of a run's dense states and coupler forces (64 MB of float64)."""
 
+DENSE_PHASE_STEP = 0.5
+"""Largest phase [rad] of the plant's fastest mode between default dense points."""
+
 Array = NDArray[np.float64]
 
 
-def dense_every(substeps: int, samples: int, n_vehicles: int, dt: float,
-                output_interval: float | None) -> int:
-    """Substeps between the points of the dense grid (module docstring).
+def dense_grid(substeps: int, samples: int, n_vehicles: int, dt: float,
+               output_interval: float | None, fastest_rate: float) -> tuple[int, int]:
+    """``(every, inner)`` of the dense grid (module docstring).
 
     Parameters
     ----------
@@ -56,32 +71,52 @@ def dense_every(substeps: int, samples: int, n_vehicles: int, dt: float,
     dt : float
         Sample time T [s].
     output_interval : float or None
-        Wanted spacing of the dense grid [s]; None: every substep.
+        Wanted spacing of the dense grid [s]; None: resolve ``fastest_rate``.
+    fastest_rate : float
+        The plant's fastest mode ω [rad/s] (:attr:`Plant.fastest_rate`).
 
     Returns
     -------
-    int
-        ``every`` in 1..S (S: the samples only).
+    (int, int)
+        Substeps between grid points (1..S; S: the samples only) and grid
+        points per substep (>= 1; > 1 only with ``every`` = 1).
 
     Examples
     --------
-    >>> dense_every(400, 60, 4, 20.0, None), dense_every(400, 60, 4, 20.0, 1.0)
-    (1, 20)
-    >>> dense_every(400, 24000, 4, 20.0, None)  # 8 points per sample: 192 001 <= 200 000
-    50
+    >>> dense_grid(400, 60, 4, 20.0, None, 27.77)   # the book's T = 20 s: 16.7 ms
+    (1, 3)
+    >>> dense_grid(400, 60, 4, 20.0, 1.0, 27.77), dense_grid(1, 24000, 4, 0.05, None, 27.77)
+    ((20, 1), (1, 3))
+    >>> dense_grid(400, 24000, 4, 20.0, None, 27.77)  # capped: 8 points a sample
+    (50, 1)
     """
-    every = 1 if output_interval is None else max(1, round(output_interval * substeps / dt))
+    h = dt / substeps
+    if output_interval is None:
+        inner = max(1, math.ceil(fastest_rate * h / DENSE_PHASE_STEP - 1e-9))
+        every = 1
+    elif output_interval < h:
+        inner, every = max(1, round(h / output_interval)), 1
+    else:
+        inner, every = 1, max(1, round(output_interval / h))
     cap = min(MAX_DENSE_POINTS, MAX_DENSE_VALUES // max(3 * n_vehicles - 1, 1))
     per = (cap - 1) // max(samples, 1)  # points per sample interval the cap allows
-    every = max(every, math.ceil(substeps / per) if per >= 1 else substeps)
-    return min(every, substeps)
+    inner = max(1, min(inner, per // substeps))
+    if inner == 1:
+        every = max(every, math.ceil(substeps / per) if per >= 1 else substeps)
+    return min(every, substeps), inner
 
 
 class Log:
-    """The loop's history: states, requested and applied inputs, records, dense grid."""
+    """The loop's history: states, requested and applied inputs, records, dense grid.
 
-    def __init__(self, n: int, steps: int, dt: float, x0: Array, *, substeps: int,
-                 every: int) -> None:
+    The dense grid's times and the reference speed there are laid out at the
+    start (every interval has the same points); the states fill in as the
+    plant advances.
+    """
+
+    def __init__(self, plant: Plant, reference: Reference, steps: int, dt: float, x0: Array, *,
+                 every: int, inner: int) -> None:
+        n = plant.train.n_vehicles
         self.n, self.steps, self.dt = n, steps, dt
         self.times = dt * np.arange(steps + 1, dtype=np.float64)
         self.states = np.empty((2 * n, steps + 1))
@@ -94,13 +129,20 @@ class Log:
         self.residuals: list[tuple[float, ...]] = []
         self.solve_times = np.empty(steps)
         self.fallbacks: list[str] = []
-        self.every, self.done = every, steps
-        self.per = dense_indices(substeps, every).size if every < substeps else 1
+        self.every, self.inner, self.done = every, inner, steps
+        offsets = plant.dense_offsets(dt, every, inner)
+        self.per = offsets.size
         if self.per > 1:
-            self.dense_time = np.empty(steps * self.per + 1)
-            self.dense_time[0] = 0.0
+            self.dense_time = (self.times[:-1, None] + offsets).ravel()
+            self.dense_time = np.insert(self.dense_time, 0, 0.0)
+            self.dense_time[self.per :: self.per] = self.times[1:]  # the samples exactly
             self.dense_states = np.empty((2 * n, steps * self.per + 1))
             self.dense_states[:, 0] = x0
+        else:
+            self.dense_time, self.dense_states = self.times, self.states
+        self.dense_reference = np.asarray(reference.speed(self.dense_time), dtype=float)
+        self.spacing = float(offsets[0])
+        """Spacing of the dense grid [s] (the last point of an interval may be closer)."""
 
     def record(self, k: int, t: float, name: str, record: StepRecord,
                previous: Array) -> Array:
@@ -136,20 +178,18 @@ class Log:
         if self.per == 1:
             self.states[:, k + 1] = plant.advance(x, applied, self.dt)
             return
-        offsets, states = plant.advance_dense(x, applied, self.dt, self.every)
-        cols = slice(k * self.per + 1, (k + 1) * self.per + 1)
-        self.dense_time[cols] = self.times[k] + offsets
-        self.dense_time[(k + 1) * self.per] = self.times[k + 1]
-        self.dense_states[:, cols] = states
+        _, states = plant.advance_dense(x, applied, self.dt, self.every, self.inner)
+        self.dense_states[:, k * self.per + 1 : (k + 1) * self.per + 1] = states
         self.states[:, k + 1] = states[:, -1]
 
-    def segment(self, k: int) -> tuple[Array, Array]:
-        """Times [s] and states of the dense points in (t_k, t_{k+1}] (the sample alone
-        without a dense grid)."""
-        if self.per == 1:
-            return self.times[k + 1 : k + 2], self.states[:, k + 1 : k + 2]
-        cols = slice(k * self.per + 1, (k + 1) * self.per + 1)
-        return self.dense_time[cols], self.dense_states[:, cols]
+    def speed_error(self, k: int) -> tuple[float, int, int]:
+        """Largest |v_i - v_ref| over the dense points in (t_k, t_{k+1}] (k = -1: at t = 0),
+        with its vehicle and dense column."""
+        cols = slice(0, 1) if k < 0 else slice(k * self.per + 1, (k + 1) * self.per + 1)
+        error = np.abs(self.dense_states[: self.n, cols] - self.dense_reference[cols])
+        flat = int(np.argmax(error))
+        i, j = divmod(flat, error.shape[1])
+        return float(error[i, j]), i, (cols.start or 0) + j
 
     def stop(self, done: int) -> None:
         """End the record after ``done`` samples (the plant diverged)."""
@@ -176,8 +216,7 @@ class Log:
             dense = self.dense_states[:, :points]
             out.update(dense_time=self.dense_time[:points], dense_states=dense,
                        dense_coupler_forces=_forces(plant, dense),
-                       dense_reference_speed=np.asarray(
-                           reference.speed(self.dense_time[:points]), dtype=float))
+                       dense_reference_speed=self.dense_reference[:points])
         return out
 
 

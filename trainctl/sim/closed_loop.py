@@ -44,7 +44,7 @@ from ..controllers.base import Controller, Measurement
 from ..exceptions import DimensionError, ModelError
 from ..models.actuator import SATURATION_TOLERANCE, ActuatorLimits
 from ..models.plant import Plant
-from ._log import HOLD_FALLBACK, Log, dense_every
+from ._log import HOLD_FALLBACK, Log, dense_grid
 from .reference import Reference
 from .results import SimulationResult, environment
 
@@ -99,8 +99,9 @@ def simulate(
         requests as asked (a linear-analysis study).
     output_interval : float or None
         Spacing of the dense grid between the samples [s], rounded to whole
-        substeps of the plant; None: every substep. Capped as
-        :mod:`trainctl.sim` documents (:func:`trainctl.sim.dense_every`).
+        substeps of the plant or of points per substep; None: fine enough
+        for the plant's fastest mode. Capped as :func:`trainctl.sim.dense_grid`
+        documents.
     divergence_speed_error : float
         Stop the run when a vehicle's speed error exceeds this [m/s], > 0
         (inf: only an overflow stops it).
@@ -134,7 +135,7 @@ def simulate(
     >>> result = simulate(Plant(train=train), Hold(), ramp_profile(50.0, 50.0, 0.0, 1.0),
     ...                   duration=3.0, initial_state=x0, preview_steps=2)
     >>> result.velocities.shape, result.statuses, result.dense_time.size
-    ((4, 4), ('optimal', 'optimal', 'optimal'), 61)
+    ((4, 4), ('optimal', 'optimal', 'optimal'), 181)
     >>> bool(np.allclose(result.velocities, 50.0)), int(np.count_nonzero(result.saturation))
     (True, 0)
     """
@@ -145,8 +146,9 @@ def simulate(
     interval, bound = _check_options(output_interval, divergence_speed_error)
     n = plant.train.n_vehicles
     substeps = plant.substeps(dt)
-    log = Log(n, steps, dt, x, substeps=substeps,
-              every=dense_every(substeps, steps, n, dt, interval))
+    every, inner = dense_grid(substeps, steps, n, dt, interval,
+                              plant.fastest_rate if interval is None else 0.0)
+    log = Log(plant, reference, steps, dt, x, every=every, inner=inner)
     actuators = ActuatorLimits(plant.train, enabled=bool(saturation))
     wall = _time.perf_counter()
     controller.reset()
@@ -167,7 +169,8 @@ def simulate(
         "plant_saturation": bool(saturation),
         "saturation_tolerance": SATURATION_TOLERANCE,
         "output_interval": interval,
-        "substeps_per_dense_point": log.every if log.per > 1 else substeps,
+        "dense_spacing": log.spacing,
+        "dense_points_per_sample": log.per,
         "divergence_speed_error": bound if math.isfinite(bound) else None,
         "divergence": divergence,
         "wall_time": wall,
@@ -185,7 +188,7 @@ def _run(plant: Plant, controller: Controller, reference: Reference, log: Log,
          full_state: bool, bound: float) -> dict[str, Any] | None:
     """The loop over the samples; returns the divergence record (None: ran to the end)."""
     n, dt = log.n, log.dt
-    divergence = _speed_divergence(log, reference, bound, -1)
+    divergence = _speed_divergence(log, bound, -1)
     if divergence is not None:
         log.stop(0)
         return divergence
@@ -205,7 +208,7 @@ def _run(plant: Plant, controller: Controller, reference: Reference, log: Log,
             log.stop(k)
             return _divergence(k, t, "state", None, math.nan, bound,
                                f"the plant's state overflowed ({err})")
-        divergence = _speed_divergence(log, reference, bound, k)
+        divergence = _speed_divergence(log, bound, k)
         if divergence is not None:
             log.stop(k + 1)
             return divergence
@@ -213,26 +216,20 @@ def _run(plant: Plant, controller: Controller, reference: Reference, log: Log,
     return None
 
 
-def _speed_divergence(log: Log, reference: Reference, bound: float,
-                      k: int) -> dict[str, Any] | None:
+def _speed_divergence(log: Log, bound: float, k: int) -> dict[str, Any] | None:
     """The divergence record when a speed error in sample k's interval (k = -1: at t = 0)
     exceeds ``bound``, else None."""
     if not math.isfinite(bound):
         return None
-    if k < 0:
-        times, states = log.times[:1], log.states[:, :1]
-    else:
-        times, states = log.segment(k)
-    error = states[: log.n] - np.asarray(reference.speed(times), dtype=float)
-    peak = np.abs(error)
-    if not peak.max() > bound:
+    peak, i, column = log.speed_error(k)
+    if not peak > bound:
         return None
-    i, j = np.unravel_index(int(np.argmax(peak)), peak.shape)
-    return _divergence(max(k, 0), float(times[j]), f"v[{i}]", int(i) + 1,
-                       float(error[i, j]), bound,
+    t = float(log.dense_time[column])
+    error = float(log.dense_states[i, column] - log.dense_reference[column])
+    return _divergence(max(k, 0), t, f"v[{i}]", i + 1, error, bound,
                        f"the speed error of vehicle {i + 1}, v[{i}] - v_ref = "
-                       f"{float(error[i, j]):.6g} m/s at t = {float(times[j]):.6g} s, "
-                       f"exceeds divergence_speed_error = {bound:g} m/s")
+                       f"{error:.6g} m/s at t = {t:.6g} s, exceeds divergence_speed_error = "
+                       f"{bound:g} m/s")
 
 
 def _divergence(k: int, t: float, signal: str, vehicle: int | None, value: float,
