@@ -104,7 +104,8 @@ from numpy.typing import ArrayLike, NDArray
 from .._validation import check_positive
 from ..exceptions import DimensionError, ModelError
 from ._plant_crossings import SectionTracker
-from ._plant_integrate import DenseRecord, integrate
+from ._plant_dense import DenseOutput, DenseRecord
+from ._plant_integrate import integrate
 from ._plant_propagators import (
     CACHE_BYTES,
     LRU,
@@ -119,7 +120,7 @@ from .train import Train
 __all__ = ["Plant"]
 
 @dataclass(frozen=True, kw_only=True)
-class Plant:
+class Plant(DenseOutput):
     """The nonlinear train on its track, advanced over held-input intervals.
 
     Parameters
@@ -204,19 +205,6 @@ class Plant:
                 self.train, davis[1] + 2.0 * vbar * davis[2], position=True
             )
         return chain
-
-    @cached_property
-    def fastest_rate(self) -> float:
-        """Largest |eigenvalue| of the linear part at rest [rad/s]: the fastest coupler mode.
-
-        Examples
-        --------
-        >>> from trainctl.models import crh2_half
-        >>> round(Plant(train=crh2_half()).fastest_rate, 2)
-        27.77
-        """
-        eigenvalues = np.linalg.eigvals(self._linear[0])
-        return float(np.abs(eigenvalues).max()) if eigenvalues.size else 0.0
 
     @cached_property
     def _quadratic(self) -> bool:
@@ -337,95 +325,6 @@ class Plant:
         """
         x, u, dt = self._check("Plant.advance", state, inputs, dt)
         return self._advance(x, u, dt, None)
-
-    def advance_dense(
-        self, state: ArrayLike, inputs: ArrayLike, dt: float, every: int = 1, inner: int = 1
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """:meth:`advance`, returning the states between the start and the end as well.
-
-        Parameters
-        ----------
-        state : array_like
-            ``[v (n) [m/s], delta (n-1) [m], s [m]]``.
-        inputs : array_like
-            Force per vehicle [N], held over ``dt``.
-        dt : float
-            Interval [s], > 0.
-        every : int
-            Keep every ``every``-th substep boundary (>= 1) and always the
-            last one, the end of the interval.
-        inner : int
-            Points per substep (>= 1); > 1 (with ``every`` = 1) also keeps
-            the points that split each substep evenly, on its exact linear
-            flow (:mod:`trainctl.models._plant_integrate`).
-
-        Returns
-        -------
-        offsets : ndarray
-            Times of the kept points after the start [s], shape (m,); the
-            last is ``dt``.
-        states : ndarray
-            The states there, shape (2n, m). The last column is exactly what
-            :meth:`advance` returns; the integration is the same bit for bit.
-
-        Examples
-        --------
-        >>> import numpy as np
-        >>> from trainctl.models import crh2_half
-        >>> plant = Plant(train=crh2_half())
-        >>> x0 = np.r_[np.full(4, 50.0), 1e-4, 0.0, 0.0, 0.0]
-        >>> offsets, states = plant.advance_dense(x0, np.zeros(4), 1.0, every=5)
-        >>> offsets.tolist(), states.shape
-        ([0.25, 0.5, 0.75, 1.0], (8, 4))
-        >>> bool(np.array_equal(states[:, -1], plant.advance(x0, np.zeros(4), 1.0)))
-        True
-        """
-        x, u, dt = self._check("Plant.advance_dense", state, inputs, dt)
-        for name, value in (("every", every), ("inner", inner)):
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-                raise ModelError(
-                    f"Plant.advance_dense: {name!r} must be an int >= 1 (got {value!r}).")
-        if inner > 1 and every != 1:
-            raise ModelError(f"Plant.advance_dense: 'every' must be 1 with inner = {inner} > 1 "
-                             f"(got every={every!r}).")
-        steps = self._substeps(dt)
-        record = DenseRecord(self.train.n_vehicles, steps, int(every), int(inner))
-        end = self._advance(x, u, dt, record)
-        record.rows[-1] = end
-        return self.dense_offsets(dt, every, inner), record.rows.T.copy()
-
-    def dense_offsets(self, dt: float, every: int = 1, inner: int = 1) -> NDArray[np.float64]:
-        """Times after the start [s] of the states :meth:`advance_dense` returns.
-
-        Parameters
-        ----------
-        dt : float
-            Interval [s], > 0.
-        every, inner : int
-            As in :meth:`advance_dense`.
-
-        Returns
-        -------
-        ndarray
-            Increasing offsets in (0, dt], the last exactly ``dt``.
-
-        Examples
-        --------
-        >>> from trainctl.models import crh2_half
-        >>> Plant(train=crh2_half()).dense_offsets(0.1, inner=2).tolist()
-        [0.025, 0.05, 0.07500000000000001, 0.1]
-        """
-        key = (dt, every, inner)
-        offsets = self._offsets.get(key)
-        if offsets is None:
-            steps = self._substeps(check_positive("Plant.dense_offsets", "dt", dt))
-            offsets = DenseRecord(self.train.n_vehicles, steps, every, inner).offsets
-            offsets *= dt / steps
-            offsets[-1] = dt
-            if len(self._offsets) >= 8:
-                self._offsets.clear()
-            self._offsets[key] = offsets
-        return offsets.copy()
 
     def _advance(
         self, x: NDArray[np.float64], u: NDArray[np.float64], dt: float,

@@ -5,9 +5,10 @@
 splitting, exact for the stiff couplers); :class:`SpeedProfile` gives the
 reference; :func:`simulate` runs any :class:`~trainctl.controllers.base.Controller`
 in closed loop and returns a :class:`SimulationResult` (save/load, pandas,
-python-control and matplotlib views); :func:`compute_metrics` summarises it. The loop saturates every
-controller's forces to the vehicles' envelopes and records the plant between
-the samples on a dense grid (:func:`dense_grid` gives its rule).
+python-control and matplotlib views); :func:`compute_metrics` summarises it.
+The loop saturates every controller's forces to the vehicles' envelopes and
+records the plant between the samples on a dense grid (:func:`dense_grid`
+gives its rule).
 Importing this package loads neither pandas nor :mod:`trainctl.plot`; they are
 imported when a view needs them.
 """

@@ -8,7 +8,7 @@ python-control and :mod:`trainctl.plot`, importing each only when called.
 from __future__ import annotations
 
 import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -18,6 +18,8 @@ from ..exceptions import MissingDependencyError, ModelError
 if TYPE_CHECKING:
     import control as ct
     from matplotlib.axes import Axes
+
+    from .results import SimulationResult
 
 __all__ = ["PLOT_KINDS", "ResultViews"]
 
@@ -166,4 +168,4 @@ class ResultViews:
             raise ModelError(
                 f"SimulationResult.plot: 'kind' must be one of {PLOT_KINDS} (got {kind!r})."
             )
-        return functions[kind](self, ax=ax)
+        return functions[kind](cast("SimulationResult", self), ax=ax)

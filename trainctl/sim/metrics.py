@@ -209,7 +209,8 @@ def compute_metrics(
     after, dense_after = _after(result, settle, settle_time)
     error = result.velocities[:, after] - result.reference_speed[after]
     rms_error = np.sqrt(np.mean(error**2, axis=1))
-    dense_error = result.dense_velocities[:, dense_after] - result.dense_reference_speed[dense_after]
+    dense_error = (result.dense_velocities[:, dense_after]
+                   - result.dense_reference_speed[dense_after])
     max_error = np.abs(dense_error).max(axis=1)
     forces = result.dense_coupler_forces
     max_force = float(np.abs(forces).max()) if forces.size else 0.0
