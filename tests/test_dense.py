@@ -175,7 +175,8 @@ class TestRunDenseGrid:
         """Re-advancing each sample with advance_dense gives the dense columns exactly."""
         plant = Plant(train=crh2_half())
         for k in (0, 4, 9):
-            _, states = plant.advance_dense(held_run.states[:, k], held_run.inputs[:, k], held_run.dt, 1, 3)
+            _, states = plant.advance_dense(held_run.states[:, k], held_run.inputs[:, k],
+                                            held_run.dt, 1, 3)
             assert np.array_equal(held_run.dense_states[:, k * 120 + 1:(k + 1) * 120 + 1], states)
 
     def test_output_interval(self):
@@ -195,8 +196,8 @@ class TestRunDenseGrid:
             assert np.array_equal(getattr(loaded, name), getattr(held_run, name)), name
         assert loaded.saturation.dtype == np.int8
 
-    def test_a_run_saved_without_the_new_arrays_loads_with_sample_defaults(self, held_run, tmp_path):
-        """A held_run saved before the dense grid existed: dense = samples, requests = inputs."""
+    def test_a_run_saved_without_the_new_arrays_loads_with_defaults(self, held_run, tmp_path):
+        """A run saved before the dense grid existed: dense = samples, requests = inputs."""
         path = held_run.save(tmp_path / "old")
         with np.load(path / "arrays.npz") as data:
             old = {name: data[name] for name in data.files

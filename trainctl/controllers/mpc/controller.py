@@ -37,9 +37,11 @@ replaced by the shifted previous plan, or the feedforward when there is
 none, clipped to the rate limit and the envelope (fallback ``"shifted
 plan"``). A measurement (or reference) that is not finite never reaches a
 solver or the observer: the step is ``"error"`` with the reason in
-``info["reason"]`` and holds the previous input, clipped to the envelope at
-the reference speed (the feedforward at the first step; fallback
-``"hold input"``); the next finite measurement is handled as usual.
+``info["reason"]`` and applies the feedforward of the reference plus the
+last correction u(k-1) - u_ff(k-1), clipped to the rate limit and then to the
+envelope at the reference speed (fallback ``"hold correction"``; the
+observer predicts without a correction); the next finite measurement is
+handled as usual. Without a finite reference the previous input is held.
 :meth:`MPCController.reset` also restarts every QP workspace cold.
 """
 
@@ -65,8 +67,9 @@ from .strategies import make_strategy
 __all__ = ["HOLD_INPUT", "STRATEGIES", "MPCConstraints", "MPCController", "make_mpc"]
 
 KN = 1e3
-HOLD_INPUT = "hold input"
-"""Fallback of a step whose measurement was not finite: the previous input, made safe."""
+HOLD_INPUT = "hold correction"
+"""Fallback of a step whose measurement was not finite: the feedforward plus the last
+correction, within the rate limit and the envelope."""
 Array = NDArray[np.float64]
 
 _DESIGN_MSG = (
@@ -222,17 +225,21 @@ class MPCController:
         return ""
 
     def _hold(self, reference: ReferencePreview, reason: str, start: float) -> StepRecord:
-        """The step of a fault: hold the previous input, clipped to the envelope (status error)."""
+        """The step of a fault: the feedforward plus the last correction, made safe (error)."""
         speed = np.asarray(reference.speed[:1], dtype=float)
-        fallback = HOLD_INPUT
-        if np.isfinite(speed).all() and np.isfinite(reference.acceleration[:1]).all():
-            ff = self._feedforward(speed, np.asarray(reference.acceleration[:1], dtype=float))[0][0]
-            u = ff.copy() if self._u_prev is None else self._u_prev.copy()
+        accel = np.asarray(reference.acceleration[:1], dtype=float)
+        if np.isfinite(speed).all() and np.isfinite(accel).all():
+            ff = self._feedforward(speed, accel + self._disturbance)[0][0]
+            u = ff.copy()
+            if self._u_prev is not None and self._ff_prev is not None:
+                u += self._u_prev - self._ff_prev
+                rate = self.constraints.rate_limit / KN
+                np.clip(u, self._u_prev - rate, self._u_prev + rate, out=u)
             if self.constraints.input_bounds:
                 lb, ub = self._bounds(speed)
                 np.clip(u, lb, ub, out=u)
             self._ff_prev = ff
-        else:  # no reference to bound by: the previous input as it was (or none)
+        else:  # no reference to follow: the previous input as it was (or none)
             u = np.zeros(self.n) if self._u_prev is None else self._u_prev.copy()
         self._u_prev = u
         self._plan = None if self._plan is None else shifted(self.problem.maps, self._plan)
@@ -240,7 +247,7 @@ class MPCController:
             self.observer.skip()
             self.observer.predict(u * KN)
         return StepRecord(inputs=u * KN, status="error", iterations=0,
-                          solve_time=time.perf_counter() - start, fallback=fallback,
+                          solve_time=time.perf_counter() - start, fallback=HOLD_INPUT,
                           info={"reason": reason})
 
     def _state(self, measurement: Measurement) -> Array:
