@@ -100,20 +100,20 @@ class ActuatorLimits:
             +1 where the traction limit saturated, -1 where the braking limit
             did, 0 elsewhere (always 0 when not ``enabled``).
         """
-        u = self._vector("requested", requested)
+        u = self._vector("requested", requested).copy()
         side = np.zeros(u.size, dtype=np.int8)
         if not self.enabled:
             return u, side
         low, high = self.limits(speeds)
         over, under = u > high + self.tolerance, u < low - self.tolerance
         if over.any() or under.any():
-            u = np.where(over, high, np.where(under, low, u))
+            u[over], u[under] = high[over], low[under]
             side[over], side[under] = 1, -1
         return u, side
 
     def _vector(self, name: str, value: ArrayLike) -> NDArray[np.float64]:
-        x = np.array(value, dtype=float)
-        n = self.train.n_vehicles
+        x = np.asarray(value, dtype=float)
+        n = self._bounds.n
         if x.shape != (n,):
             raise DimensionError(
                 f"ActuatorLimits: {name!r} must have shape ({n},), one per vehicle "
