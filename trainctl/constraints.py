@@ -226,7 +226,7 @@ class Number(Rule):
             raise ValueError(f"{to_si!r} is not a positive scale factor; the bounds of "
                              f"{self!r} cannot be converted to its unit")
         def unit(b: float | None) -> float | None:
-            return None if b is None else float(f"{b / scale:.{_BOUND_DIGITS}g}")
+            return b if b is None or b == 0 else float(f"{b / scale:.{_BOUND_DIGITS}g}")
 
         return replace(self, gt=unit(self.gt), ge=unit(self.ge), le=unit(self.le))
 
