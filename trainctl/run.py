@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ._validation import numerical_errors
 from .analysis.review import DesignReview, review_design
 from .analysis.summary import ModelSummary, model_summary
 
@@ -290,14 +291,15 @@ def simulate_strategy(
     start = equilibrium(scenario.train, max(v0, 0.1), acceleration=float(profile.acceleration(0.0)))
     state = start.state(position=0.0)
     state[: scenario.train.n_vehicles] = v0 + sim.initial_speed_error
-    controller = make_controller(scenario, strategy, design)
-    return simulate(Plant(train=scenario.train, track=scenario.track), controller, profile,
-                    duration=sim.duration, initial_state=state,
-                    preview_steps=_preview_steps(controller),
-                    measurement_noise=sim.measurement_noise, seed=scenario.seed,
-                    full_state=getattr(controller, "needs_full_state", True),
-                    saturation=sim.plant_saturation, output_interval=sim.output_interval,
-                    divergence_speed_error=sim.divergence_speed_error)
+    with numerical_errors(f"{scenario.source}: simulating {strategy!r}"):
+        controller = make_controller(scenario, strategy, design)
+        return simulate(Plant(train=scenario.train, track=scenario.track), controller, profile,
+                        duration=sim.duration, initial_state=state,
+                        preview_steps=_preview_steps(controller),
+                        measurement_noise=sim.measurement_noise, seed=scenario.seed,
+                        full_state=getattr(controller, "needs_full_state", True),
+                        saturation=sim.plant_saturation, output_interval=sim.output_interval,
+                        divergence_speed_error=sim.divergence_speed_error)
 
 
 def _preview_steps(controller: Controller) -> int:
@@ -381,12 +383,13 @@ def run_scenario(
     sims: dict[str, SimulationResult] = {}
     metrics: dict[str, Metrics] = {}
     sim = scenario.simulation if simulate else None
-    if design is None:
-        design = build_design(scenario)
-    if sim is not None and pending is None and executor is not None:
-        pending = submit_simulations(scenario, executor, design)
-    summary = model_summary(scenario, design.model)
-    review = review_design(scenario, design)
+    with numerical_errors(scenario.source):
+        if design is None:
+            design = build_design(scenario)
+        if sim is not None and pending is None and executor is not None:
+            pending = submit_simulations(scenario, executor, design)
+        summary = model_summary(scenario, design.model)
+        review = review_design(scenario, design)
     if sim is not None:
         from .sim.metrics import compute_metrics
 

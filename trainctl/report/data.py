@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .._validation import numerical_errors
 from ..exceptions import ScenarioError
 
 if TYPE_CHECKING:
@@ -284,9 +285,10 @@ def collect_report_data(
     from ..sim.results import environment
 
     design = run.design
-    families = {name: get_family(name).report_data(family_design)
-                for name, family_design in design.families.items()}
-    spectra = {"open loop": _eig(np.asarray(design.model.discrete.A, dtype=float))}
+    with numerical_errors(run.scenario.source):
+        families = {name: get_family(name).report_data(family_design)
+                    for name, family_design in design.families.items()}
+        spectra = {"open loop": _eig(np.asarray(design.model.discrete.A, dtype=float))}
     for data in families.values():
         for label, values in data.get("spectra", {}).items():
             spectra[label] = np.array([complex(re, im) for re, im in values], dtype=complex)
