@@ -72,7 +72,7 @@ class QPSolution:
 
 
 class SolverOutput:
-    """Where ``sys.stdout`` points while OSQP solves: the text is dropped (and counted).
+    r"""Where ``sys.stdout`` points while OSQP solves: the text is dropped (and counted).
 
     OSQP 1.x prints "Polishing not needed - no active set detected at optimal
     point" whenever polishing finds no active constraint, whatever ``verbose``
