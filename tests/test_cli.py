@@ -358,7 +358,7 @@ class TestReport:
         out = capsys.readouterr().out
         match = self.WROTE.fullmatch(out.strip())
         assert match, out
-        assert match["path"] == str(path) and match["checks"] == "12"
+        assert match["path"] == str(path) and match["checks"] == "18"
         html = path.read_text(encoding="utf-8")
         page = parse_page(html)
         name = load_scenario("crh2-dmpc").name
@@ -499,7 +499,7 @@ class TestReport:
         path = tmp_path / "r.html"
         assert main(["report", str(saved), "-o", str(path), "--deterministic"]) == 0
         html = path.read_text(encoding="utf-8")
-        assert html.count("<svg") == 7
+        assert html.count("<svg") == 11  # 4 closed-loop, 5 frequency domain, eigenvalues, ρ(D0)
         assert "trainctl analyse crh2-dmpc --save saved" in html
 
     def test_save_refuses_foreign_directory(

@@ -118,6 +118,7 @@ class TestBaselines:
             assert name in fast_run.format_text()
         data = collect_report_data(fast_run, scenario_text="")
         context = build_report_context(data, deterministic=True)
-        assert [row["cells"][0] for row in context["controllers"]["rows"]] == strategies
+        for table in context["controllers"]["tables"]:  # metrics, solver, linear loops
+            assert [row["cells"][0] for row in table["rows"]] == strategies, table["key"]
         assert {"LQR centralised", "LQR decentralised", "N-DMPC (Nash)"} <= set(data.spectra)
         assert "family-lqr" in [s["id"] for s in context["sections"]]

@@ -367,7 +367,7 @@ class TestParameters:
         assert TractionEnvelope(max_traction=0.0).traction_limit(10.0, mass=1e3) == 0.0
 
     @pytest.mark.parametrize(("factory", "match"), [
-        (lambda: Vehicle(mass=-1.0, a0=0, a1=0, a2=0), "'mass' must be a finite number > 0"),
+        (lambda: Vehicle(mass=-1.0, a0=0, a1=0, a2=0), "'mass' must be a finite number >= 1 "),
         (lambda: Vehicle(mass=math.inf, a0=0, a1=0, a2=0), "'mass' must be a finite number"),
         (lambda: Coupler(stiffness=0.0), "'stiffness' must be > 0"),
         (lambda: Coupler(stiffness=1.0, virtual=True), "virtual link transmits no force"),

@@ -16,6 +16,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from trainctl.exceptions import ModelError, ScenarioError
+from trainctl.limits import SAMPLE_TIME
 from trainctl.models.train import Train
 from trainctl.models.vehicle import Coupler, Vehicle
 from trainctl.scenario import (
@@ -178,9 +179,9 @@ class TestBuiltins:
         assert (ctl.iterations, ctl.input_weight) == (10, 10.0)
 
     def test_crh2_potential_formation(self) -> None:
-        """crh2-potential is the 8-car T-M-M-T-T-M-M-T train at 0.01 s."""
+        """crh2-potential is the 8-car CRH2C-type T-M-M-M-M-M-M-T train at 0.01 s."""
         scenario = load_scenario("crh2-potential")
-        assert [v.name for v in scenario.train.vehicles] == list("TMMTTMMT")
+        assert [v.name for v in scenario.train.vehicles] == list("TMMMMMMT")
         assert scenario.train.mass.tolist() == [
             42800.0, 48000.0, 46500.0, 42000.0, 42000.0, 46500.0, 48000.0, 42800.0,
         ]  # fmt: skip
@@ -305,7 +306,8 @@ class TestLoadScenario:
         path.write_text(edit("sample_time = 20.0", "sample_time = -1.0"), encoding="utf-8")
         with pytest.raises(ScenarioError) as info:
             load_scenario(path)
-        assert str(info.value) == (f"{path}: [model].sample_time must be a number > 0 (got -1.0).")
+        assert str(info.value) == (f"{path}: [model].sample_time must be a number >= 0.0001 "
+                                   f"(got -1.0). {SAMPLE_TIME.why}")
 
 
 class TestParseValid:
@@ -516,12 +518,12 @@ class TestWrongType:
             (
                 "mass_t = 42.8",
                 "mass_t = true",
-                "[train.vehicle][0].mass_t must be a number > 0 (got true, a boolean)",
+                "[train.vehicle][0].mass_t must be a number >= 0.001 (got true, a boolean)",
             ),
             (
                 "sample_time = 20.0",
                 'sample_time = "20"',
-                "[model].sample_time must be a number > 0 (got '20', a string)",
+                "[model].sample_time must be a number >= 0.0001 (got '20', a string)",
             ),
             (
                 "count = 2",
@@ -598,14 +600,14 @@ class TestNonFinite:
         """Non-finite mass is rejected with the key path."""
         check_fails(
             edit("mass_t = 42.8", f"mass_t = {value}"),
-            "[train.vehicle][0].mass_t must be a finite number > 0",
+            "[train.vehicle][0].mass_t must be a finite number >= 0.001",
         )
 
     def test_sample_time_nan(self) -> None:
         """nan sample time is rejected and shown as nan."""
         check_fails(
             edit("sample_time = 20.0", "sample_time = nan"),
-            "[model].sample_time must be a finite number > 0 (got nan)",
+            "[model].sample_time must be a finite number >= 0.0001 (got nan)",
         )
 
     def test_inf_limit_hint(self) -> None:
@@ -640,12 +642,12 @@ class TestBounds:
             (
                 "mass_t = 42.8",
                 "mass_t = 0",
-                "[train.vehicle][0].mass_t must be a number > 0 (got 0)",
+                "[train.vehicle][0].mass_t must be a number >= 0.001 (got 0)",
             ),
             (
                 "mass_t = 48.0",
                 "mass_t = -1.0",
-                "[train.vehicle][1].mass_t must be a number > 0 (got -1.0)",
+                "[train.vehicle][1].mass_t must be a number >= 0.001 (got -1.0)",
             ),
             (
                 "stiffness_kn_per_m = 10488.0",
@@ -660,7 +662,7 @@ class TestBounds:
             (
                 "sample_time = 20.0",
                 "sample_time = 0.0",
-                "[model].sample_time must be a number > 0 (got 0.0)",
+                "[model].sample_time must be a number >= 0.0001 (got 0.0)",
             ),
             (
                 "speed_kmh = 300.0",
@@ -706,7 +708,7 @@ class TestBounds:
     def test_curve_radius_zero(self) -> None:
         """A zero curve radius is rejected with the section index."""
         text = SINGLE + "[track]\n[[track.section]]\nstart = 0.0\ncurve_radius = 0.0\n"
-        check_fails(text, "[track.section][0].curve_radius must be a number > 0")
+        check_fails(text, "[track.section][0].curve_radius must be a number >= 10")
 
     def test_vehicle_count_limit(self) -> None:
         """An absurd count is rejected before expanding the train."""
@@ -975,7 +977,7 @@ class TestDataclasses:
 
     def test_model_settings_validates(self) -> None:
         """ModelSettings built directly rejects bad values with ModelError."""
-        with pytest.raises(ModelError, match="'sample_time' must be a finite number > 0"):
+        with pytest.raises(ModelError, match="'sample_time' must be a finite number >= 0.0001"):
             ModelSettings(speed=1.0, sample_time=0.0)
         with pytest.raises(ModelError, match="'linearisation' must be one of"):
             ModelSettings(speed=1.0, sample_time=1.0, linearisation="book2")
@@ -1149,7 +1151,7 @@ class TestControllerErrors:
             ("form", "missing required key [controller].form (one of 'u', 'du')"),
             (
                 "prediction_horizon",
-                "missing required key [controller].prediction_horizon (an integer >= 1)",
+                "missing required key [controller].prediction_horizon (an integer from 1 to 2000)",
             ),
             ("control_horizon", "missing required key [controller].control_horizon"),
         ],
@@ -1958,7 +1960,7 @@ class TestSimulationErrors:
     @pytest.mark.parametrize(
         ("key", "fragment"),
         [
-            ("duration", "missing required key [simulation].duration (a number > 0)"),
+            ("duration", "missing required key [simulation].duration (a number in (0, 604800])"),
             ("strategies", "missing required key [simulation].strategies"),
         ],
     )
@@ -2263,7 +2265,7 @@ class TestSimulationSettings:
     @pytest.mark.parametrize("dt", [0.0, -1.0, math.nan, math.inf, "20"])
     def test_n_steps_bad_sample_time(self, dt: object) -> None:
         """The sample time must be a finite number > 0."""
-        with pytest.raises(ModelError, match="'sample_time' must be a finite number > 0"):
+        with pytest.raises(ModelError, match="'sample_time' must be a finite number >= 0.0001"):
             make_simulation().n_steps(dt)  # type: ignore[arg-type]
 
     def test_scenario_needs_controller(self) -> None:

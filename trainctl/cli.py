@@ -9,7 +9,7 @@ Subcommands
     The JSON Schema of scenario files (or the README's schema tables).
 ``export NAME [-o PATH] [--force]``
     Write a built-in scenario's TOML text to ``PATH`` (default ``./NAME.toml``).
-``analyse SCENARIO [--json] [--strict] [--no-simulate] [--jobs N] [--save DIR]``
+``analyse SCENARIO [--json] [--deterministic] [--strict] [--no-simulate] [--jobs N] [--save DIR]``
     Print the model summary, the design checks and — when the scenario has a
     ``[simulation]`` section — the closed-loop metrics of a scenario (a
     built-in name or a file path); ``--save`` also writes everything a report
@@ -20,7 +20,17 @@ Subcommands
     ``reports/<name>.html``, see :func:`trainctl.report.batch.default_report_path`);
     ``--all`` writes every built-in's report and an ``index.html`` gallery.
 
-Exit status: 0 the command ran; 1 ``--strict`` found a failing check; 2 a
+Output paths (``-o``): a regular file is replaced atomically; ``-``, a
+character device (``/dev/null``) or a pipe is written through, never
+replaced; a path ending in ``/`` is a directory that receives the default
+file name; anything else is refused before any work
+(:mod:`trainctl.report.output`). ``analyse`` and ``report`` estimate the run
+first (:mod:`trainctl.budget`): a long one prints its estimate on stderr, one
+over ``--max-time`` (default one hour) is refused, and a run that outlives
+it is stopped. Solver chatter never reaches stdout (:mod:`trainctl._runtime`).
+
+Exit status: 0 the command ran; 1 ``--strict`` found a failure (a failing check, a
+missed tracking tolerance, too long a saturation, or an ``[expected]`` mismatch); 2 a
 usage, scenario or file error (``trainctl: error: <message>`` on stderr, no
 traceback, no file written). Any other exception is a bug and propagates.
 
@@ -35,16 +45,23 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
-import signal
 import sys
-import threading
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 from . import __version__
+from ._cli_support import (
+    add_budget_option,
+    check_cost,
+    describe_error,
+    positive_int,
+    without_wall_clock,
+)
+from ._runtime import BudgetExceeded, quiet_c_stdout, signal_guard
 from .exceptions import TrainctlError
 
 __all__ = ["DEFAULT_SCENARIO", "build_parser", "main"]
@@ -79,7 +96,7 @@ def build_parser() -> argparse.ArgumentParser:
             "and HTML reports for the built-in or your own scenarios."
         ),
         epilog=(
-            "exit status: 0 ran; 1 --strict found a failing check; 2 usage, scenario or file error"
+            "exit status: 0 ran; 1 --strict found a failure; 2 usage, scenario or file error"
         ),
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
@@ -123,9 +140,10 @@ def _add_export(sub: Any) -> None:
         "-o",
         "--output",
         metavar="PATH",
-        help="output file ('-' for standard output; default: ./NAME.toml)",
+        help="output file, DIR/ or a device ('-' for standard output; default: ./NAME.toml)",
     )
-    p_export.add_argument("-f", "--force", action="store_true", help="overwrite PATH if it exists")
+    p_export.add_argument("-f", "--force", action="store_true",
+                          help="replace PATH if it is an existing file")
     p_export.set_defaults(func=_cmd_export)
 
 
@@ -145,14 +163,21 @@ def _add_analyse(sub: Any) -> None:
         "--json", action="store_true", help="print the summary as JSON on standard output"
     )
     p_analyse.add_argument(
-        "--strict", action="store_true", help="exit with status 1 if any check fails"
+        "--deterministic", action="store_true",
+        help="leave out wall-clock values (solve times): same input, same bytes",
+    )
+    p_analyse.add_argument(
+        "--strict", action="store_true",
+        help="exit with status 1 if a check fails, a simulated strategy misses its tracking "
+        "tolerance, a vehicle saturates longer than [simulation] allows, or a check's status "
+        "differs from [expected]"
     )
     p_analyse.add_argument(
         "--no-simulate", action="store_true",
         help="skip the [simulation] runs (model summary and design checks only)",
     )
     p_analyse.add_argument(
-        "-j", "--jobs", metavar="N", type=_positive_int,
+        "-j", "--jobs", metavar="N", type=positive_int,
         help="worker processes for the simulations (default: all CPUs when the simulations "
         "are long, else 1)",
     )
@@ -161,6 +186,7 @@ def _add_analyse(sub: Any) -> None:
         help="also write the results to DIR (new, empty, or an earlier --save); "
         "'trainctl report DIR' renders them without re-running",
     )
+    add_budget_option(p_analyse)
     p_analyse.set_defaults(func=_cmd_analyse)
 
 
@@ -184,9 +210,9 @@ def _add_report(sub: Any) -> None:
         "--output",
         metavar="PATH",
         help=(
-            "output HTML file (default: reports/NAME.html for a built-in, "
-            "reports/<slug of the scenario name>.html otherwise); with --all, the output "
-            "directory (default: reports)"
+            "output HTML file, DIR/, a device or '-' for standard output (default: "
+            "reports/NAME.html for a built-in, reports/<slug of the scenario name>.html "
+            "otherwise); with --all, the output directory (default: reports)"
         ),
     )
     p_report.add_argument(
@@ -204,21 +230,12 @@ def _add_report(sub: Any) -> None:
         "SOURCE_DATE_EPOCH when set)",
     )
     p_report.add_argument(
-        "-j", "--jobs", metavar="N", type=_positive_int,
+        "-j", "--jobs", metavar="N", type=positive_int,
         help="worker processes for the simulations (default: all CPUs when the simulations "
         "are long, else 1)",
     )
+    add_budget_option(p_report)
     p_report.set_defaults(func=_cmd_report)
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1 (got {text!r})") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1 (got {text!r})")
-    return value
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -232,50 +249,34 @@ def main(argv: Sequence[str] | None = None) -> int:
     Returns
     -------
     int
-        Exit status: 0 ran, 1 a ``--strict`` check failed, 2 user error.
+        Exit status: 0 ran, 1 ``--strict`` found a failure, 2 user error.
         (argparse exits with 2 by itself on a usage error, 0 for ``--help``.)
     """
     parser = build_parser()
     args = parser.parse_args(list(argv) if argv is not None else None)
     func: Callable[[argparse.Namespace], int] = args.func
-    previous = _terminate_as_interrupt()
     try:
-        return func(args)
+        # SIGTERM unwinds like Ctrl-C (temporary files removed); a watchdog ends a process
+        # stuck in C code; C libraries' prints stay off stdout.
+        with quiet_c_stdout(), signal_guard(max_time=getattr(args, "max_time", math.inf)):
+            return func(args)
     except (TrainctlError, OSError) as exc:
-        _error(_describe(exc))
+        _error(describe_error(exc))
+        return EXIT_ERROR
+    except BudgetExceeded as exc:
+        from .budget import format_duration
+
+        _error(f"stopped after {format_duration(exc.seconds)}: the run outlived its time budget "
+               "(--max-time); no partial output was written. Give a larger --max-time, or "
+               "make the train, the horizon or the run shorter.")
         return EXIT_ERROR
     except KeyboardInterrupt:
         print(f"\n{PROG}: interrupted; no partial output was written", file=sys.stderr)
         return EXIT_INTERRUPTED
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
-
-
-def _terminate_as_interrupt() -> Any:
-    """Make SIGTERM unwind like Ctrl-C, so that temporary files are removed.
-
-    Returns the previous handler (None when not in the main thread).
-    """
-    if threading.current_thread() is not threading.main_thread():
-        return None
-
-    def handler(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt
-
-    return signal.signal(signal.SIGTERM, handler)
 
 
 def _error(message: str) -> None:
     print(f"{PROG}: error: {message}", file=sys.stderr)
-
-
-def _describe(exc: BaseException) -> str:
-    if isinstance(exc, OSError) and not isinstance(exc, TrainctlError):
-        if exc.filename is not None and exc.strerror:
-            return f"{exc.strerror}: {os.fsdecode(exc.filename)}"
-    message = str(exc)
-    return message or type(exc).__name__
 
 
 def _cmd_list(args: argparse.Namespace) -> int:
@@ -302,21 +303,16 @@ def _cmd_schema(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
+    from .report.output import output_target, write_output
     from .scenario import builtin_scenario_text
 
     text = builtin_scenario_text(args.name)
-    if args.output == "-":
-        sys.stdout.write(text)
-        return EXIT_OK
-    path = Path(args.output) if args.output else Path(f"{args.name}.toml")
-    if path.exists() and not args.force:
-        raise _UserError(f"{path} already exists; use --force to overwrite it")
-    if path.is_dir():
-        raise _UserError(f"{path} is a directory; give a file path with -o")
-    from .report.render import write_text_atomic
-
-    write_text_atomic(text, path)
-    print(f"wrote {path}")
+    target = output_target(args.output or f"{args.name}.toml", default_name=f"{args.name}.toml")
+    if target.kind == "file" and target.exists and not args.force:
+        raise _UserError(f"{target} already exists; use --force to overwrite it")
+    write_output(text, target)
+    if not target.is_stdout:
+        print(f"wrote {target}", file=sys.stderr if target.kind == "fd" else sys.stdout)
     return EXIT_OK
 
 
@@ -330,6 +326,7 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
         from .report.data import check_save_target
 
         check_save_target(args.save)
+    check_cost([scenario], args.max_time, simulate=not args.no_simulate)
     from .parallel import want_pool, worker_pool
 
     workers = 0 if args.no_simulate else want_pool([scenario], args.jobs)
@@ -342,16 +339,18 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
         data = collect_report_data(summary, scenario_text=text, command=command)
         data.save(args.save)
     if args.json:
-        print(json.dumps(summary.to_dict(), indent=2))
+        found = summary.to_dict()
+        print(json.dumps(without_wall_clock(found) if args.deterministic else found, indent=2))
     else:
         print(summary.format_text().rstrip("\n"))
     if args.save:
         print(f"saved results to {args.save}", file=sys.stderr)
     if args.strict:
-        failed = summary.failed_checks
-        if failed:
-            noun = "check" if len(failed) == 1 else "checks"
-            print(f"{PROG}: {len(failed)} {noun} failed: " + "; ".join(failed), file=sys.stderr)
+        failures = summary.strict_failures()
+        if failures:
+            noun = "reason" if len(failures) == 1 else "reasons"
+            print(f"{PROG}: --strict: {len(failures)} {noun}: "
+                  + "; ".join(f"{f.kind} {f.name}" for f in failures), file=sys.stderr)
             return EXIT_CHECK_FAILED
     return EXIT_OK
 
@@ -392,6 +391,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
         jobs = [_report_job(item.name, args) for item in builtin_scenarios()]
         outdir = Path(args.output) if args.output else Path("reports")
+        check_cost([j.scenario for j in jobs], args.max_time)
         index, written = report_all(jobs, outdir, generated_at=generated_at,
                                     deterministic=args.deterministic,
                                     workers=want_pool([j.scenario for j in jobs], args.jobs))
@@ -405,16 +405,19 @@ def _cmd_report(args: argparse.Namespace) -> int:
             raise _UserError(f"{source}: is a directory but not one written by 'trainctl analyse "
                              "--save'; give a scenario file, a built-in name or a saved run")
         data = ReportData.load(source)
-        path = Path(args.output) if args.output else default_report_path(data.scenario)
-        check_report_output(path)
+        default = default_report_path(data.scenario)
+        path = check_report_output(args.output or default, default_name=default.name)
         write_report_file(data, path, generated_at=generated_at,
                           deterministic=args.deterministic)
     else:
         job = _report_job(source, args)
-        path = Path(args.output) if args.output else default_report_path(job.scenario)
+        default = default_report_path(job.scenario)
+        path = check_report_output(args.output or default, default_name=default.name)
+        check_cost([job.scenario], args.max_time)
         data = report_scenario(job, path, workers=want_pool([job.scenario], args.jobs),
                                generated_at=generated_at, deterministic=args.deterministic)
-    print(f"wrote {path} ({summary_line(data)}; {time.perf_counter() - start:.1f} s)")
+    print(f"wrote {path} ({summary_line(data)}; {time.perf_counter() - start:.1f} s)",
+          file=sys.stderr if path.kind == "fd" else sys.stdout)
     return EXIT_OK
 
 

@@ -51,6 +51,9 @@ from .violations import suggest as suggest
 __all__ = ["FINITE", "NONNEGATIVE", "NOTHING", "POSITIVE", "Array", "Choice", "Flag", "Integer",
            "NameList", "Number", "Rule", "Text", "Violation", "fail", "raise_at", "suggest"]
 
+_BOUND_DIGITS = 12
+"""Significant digits of a bound converted to a key's unit (drops rounding noise)."""
+
 
 def _fmt(x: float) -> str:
     return f"{x:g}"
@@ -86,6 +89,15 @@ class Rule:
 
     def for_file(self) -> Rule:
         """The rule for a scenario file (TOML values; no inf, no shortcuts)."""
+        return self
+
+    def in_unit(self, to_si: Callable[[float], float] | None) -> Rule:
+        """The rule for values in a key's unit, given the key's converter to SI.
+
+        Rules declare their bounds in SI; a file key in another unit
+        (``mass_t``, ``speed_kmh``) checks the same bounds converted to its
+        unit. Rules without bounds are returned unchanged.
+        """
         return self
 
     def explain(self, error_type: str, value: Any) -> Violation:
@@ -161,6 +173,9 @@ class Number(Rule):
     le: float | None = None
     allow_inf: bool = False
     inf: str = "no limit"
+    why: str = ""
+    """Why the bounds are where they are: a sentence added to a message about a value
+    outside them (limits of what trainctl can compute, :mod:`trainctl.limits`)."""
 
     def _range(self) -> str:
         low = self.gt if self.gt is not None else self.ge
@@ -195,17 +210,49 @@ class Number(Rule):
         """Files give finite numbers only (an omitted limit means no limit)."""
         return replace(self, allow_inf=False)
 
+    def in_unit(self, to_si: Callable[[float], float] | None) -> Number:
+        """The bounds divided by the converter's scale (``to_si`` must be linear).
+
+        Examples
+        --------
+        >>> Number(gt=0, le=1e9).in_unit(lambda t: t * 1000.0).want()
+        'a number in (0, 1e+06]'
+        """
+        bounds = {k: getattr(self, k) for k in ("gt", "ge", "le")}
+        if to_si is None or all(b is None or b == 0 for b in bounds.values()):
+            return self
+        scale = float(to_si(1.0))
+        if to_si(0.0) != 0.0 or not math.isclose(to_si(2.0), 2.0 * scale) or scale <= 0:
+            raise ValueError(f"{to_si!r} is not a positive scale factor; the bounds of "
+                             f"{self!r} cannot be converted to its unit")
+        def unit(b: float | None) -> float | None:
+            return b if b is None or b == 0 else float(f"{b / scale:.{_BOUND_DIGITS}g}")
+
+        return replace(self, gt=unit(self.gt), ge=unit(self.ge), le=unit(self.le))
+
+    def _side(self, error_type: str) -> Number:
+        """A hard limit (with ``why``) names the bound that failed: the upper one, or else
+        the lower one (type and finiteness errors too); other rules their whole range."""
+        if not self.why:
+            return self
+        if error_type == "less_than_equal":
+            return replace(self, gt=None, ge=None)
+        return replace(self, le=None) if self.gt is not None or self.ge is not None else self
+
     def explain(self, error_type: str, value: Any) -> Violation:
-        """Type, finiteness or bound; a quoted number gets a hint."""
+        """Type, finiteness or bound; a quoted number gets a hint, a bound its reason."""
         finite = error_type == "finite_number" or (
             isinstance(_real(value), float) and not math.isfinite(_real(value))
         )
+        value_error = error_type != "float_type"
+        side = self._side(error_type)
         return Violation(
-            text=f"must be {self.want(finite=finite)}",
-            python_text=f"must be {self.want(python=True)}",
+            text=f"must be {side.want(finite=finite)}",
+            python_text=f"must be {side.want(python=True)}",
             got=_real(value) if finite else value,
+            hint=f" {self.why}" if self.why and value_error and not finite else "",
             file_hint=" Write numbers without quotes." if isinstance(value, str) else "",
-            value=error_type != "float_type",
+            value=value_error,
             finite=finite,
         )
 
@@ -221,19 +268,36 @@ class Integer(Rule):
     """
 
     ge: int = 0
+    le: int | None = None
+    why: str = ""
+    """Why the bounds are where they are (see :class:`Number`)."""
+
+    def _range(self) -> str:
+        return f" >= {self.ge}" if self.le is None else f" from {self.ge} to {self.le}"
 
     def want(self, *, python: bool = False) -> str:
-        """``"an integer >= ge"``."""
-        return f"an integer >= {self.ge}"
+        """``"an integer >= ge"`` or ``"an integer from ge to le"``."""
+        return f"an integer{self._range()}"
 
     def plural(self) -> str:
         """``"integers >= ge"``."""
-        return f"integers >= {self.ge}"
+        return f"integers{self._range()}"
 
     def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
         """Strict int; NumPy integers are accepted."""
-        integer = core_schema.int_schema(ge=self.ge, strict=True)
+        integer = core_schema.int_schema(ge=self.ge, le=self.le, strict=True)
         return core_schema.no_info_before_validator_function(_integral, integer)
+
+    def explain(self, error_type: str, value: Any) -> Violation:
+        """Type or bound (the one that failed, with its reason)."""
+        side = replace(self, le=None) if error_type != "less_than_equal" else self
+        violation = super(Integer, side).explain(error_type, value)
+        if error_type == "less_than_equal":
+            violation = replace(violation, text=f"must be an integer <= {self.le}",
+                                python_text=f"must be an integer <= {self.le}")
+        if self.why and violation.value:
+            return replace(violation, hint=f" {self.why}")
+        return violation
 
 
 @dataclass(frozen=True)
@@ -410,6 +474,10 @@ class Array(Rule):
     def for_file(self) -> Array:
         """The item rule for files."""
         return replace(self, item=self.item.for_file())
+
+    def in_unit(self, to_si: Callable[[float], float] | None) -> Array:
+        """The item rule in the key's unit."""
+        return replace(self, item=self.item.in_unit(to_si))
 
     def json_extra(self) -> dict[str, Any]:
         """Extra keywords declared with the array."""

@@ -34,9 +34,12 @@ if TYPE_CHECKING:
     from .scenario import Scenario
 
 __all__ = [
-    "PARALLEL_MIN_STEPS", "available_cpus", "estimated_steps", "process_pool", "want_pool",
-    "worker_pool",
+    "PARALLEL_MIN_STEPS", "available_cpus", "estimated_steps", "process_pool",
+    "terminate_workers", "want_pool", "worker_pool",
 ]
+
+_LIVE: set[Executor] = set()
+"""Pools of :func:`worker_pool` that are running (for :func:`terminate_workers`)."""
 
 PARALLEL_MIN_STEPS = 5000
 """Simulated controller steps (summed over strategies) from which a pool pays off.
@@ -101,8 +104,12 @@ def want_pool(scenarios: Iterable[Scenario], jobs: int | None) -> int:
     return max(0, min(int(jobs), tasks)) if jobs > 1 else 0
 
 
-def _ignore_sigint() -> None:
+def _init_worker() -> None:
+    """Workers ignore SIGINT (the main process cancels the pool) and print nothing to stdout."""
+    from ._runtime import silence_c_stdout
+
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    silence_c_stdout()
 
 
 def process_pool(workers: int) -> Executor:
@@ -126,7 +133,7 @@ def process_pool(workers: int) -> Executor:
     except ValueError:  # pragma: no cover - platforms without forkserver
         context = multiprocessing.get_context("spawn")
     return ProcessPoolExecutor(max_workers=workers, mp_context=context,
-                               initializer=_ignore_sigint)
+                               initializer=_init_worker)
 
 
 @contextlib.contextmanager
@@ -150,14 +157,32 @@ def worker_pool(workers: int) -> Iterator[Executor | None]:
         yield None
         return
     pool = process_pool(workers)
+    _LIVE.add(pool)
     try:
         yield pool
     except BaseException:
-        # ProcessPoolExecutor keeps its workers in _processes (no public handle).
-        procs = list((getattr(pool, "_processes", None) or {}).values())
-        pool.shutdown(wait=False, cancel_futures=True)
-        for process in procs:
-            process.terminate()
+        _terminate(pool)
         raise
     else:
         pool.shutdown(wait=True)
+    finally:
+        _LIVE.discard(pool)
+
+
+def _terminate(pool: Executor) -> None:
+    """Cancel queued work and terminate the workers at once (SIGTERM, then SIGKILL)."""
+    # ProcessPoolExecutor keeps its workers in _processes (no public handle).
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in procs:
+        process.terminate()
+    for process in procs:
+        process.join(timeout=0.3)
+        if process.is_alive():
+            process.kill()
+
+
+def terminate_workers() -> None:
+    """Terminate the workers of every running :func:`worker_pool` (a process about to end)."""
+    for pool in list(_LIVE):
+        _terminate(pool)

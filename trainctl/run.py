@@ -6,19 +6,23 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from concurrent.futures import Executor, Future
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ._validation import numerical_errors
 from .analysis.review import DesignReview, review_design
 from .analysis.summary import ModelSummary, model_summary
 
 if TYPE_CHECKING:
+    from .analysis.loops import ClosedLoopResponse
     from .controllers.base import Controller
     from .design import Design
     from .scenario import Scenario
     from .sim.metrics import Metrics
     from .sim.results import SimulationResult
+    from .strict import StrictFailure
 
 __all__ = [
     "AnalysisRun", "make_controller", "run_scenario", "simulate_strategy", "submit_simulations",
@@ -61,7 +65,7 @@ class AnalysisRun:
 
     @property
     def failed_checks(self) -> tuple[str, ...]:
-        """Names of failed design checks (``--strict`` exits 1 when non-empty)."""
+        """Names of failed design checks (one reason for `--strict`; see strict_failures)."""
         return self.review.failed_checks
 
     def unexpected_checks(self) -> dict[str, tuple[str, str]]:
@@ -76,11 +80,38 @@ class AnalysisRun:
         return {name: (want, found.get(name, "missing"))
                 for name, want in self.scenario.expected.items() if found.get(name) != want}
 
+    @cached_property
+    def frequency(self) -> dict[str, ClosedLoopResponse]:
+        """Frequency and grade-step responses of each strategy's linear closed loop.
+
+        Computed once, on first use (:func:`trainctl.analysis.analyse_closed_loops`).
+        """
+        from .analysis.loops import analyse_closed_loops
+
+        return analyse_closed_loops(self.design)
+
+    def strict_failures(self) -> tuple[StrictFailure, ...]:
+        """Every reason ``trainctl analyse --strict`` exits 1 (see :mod:`trainctl.strict`).
+
+        Returns
+        -------
+        tuple of StrictFailure
+            Failed checks, strategies outside their tracking tolerance,
+            vehicles saturated too long, ``[expected]`` mismatches; empty
+            when the run is strict-clean.
+        """
+        from .strict import strict_failures
+
+        return strict_failures(self)
+
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict: the summary plus the review."""
+        """JSON-safe dict: the summary, the review, ``[expected]`` and the strict verdict."""
         out = self.summary.to_dict()
         out["checks"] = self.review.to_dict()["checks"]
         out["failed_checks"] = list(self.failed_checks)
+        out["expected"] = dict(self.scenario.expected)
+        out["unexpected_checks"] = {name: {"expected": want, "found": got}
+                                    for name, (want, got) in self.unexpected_checks().items()}
         if self.metrics:
             sim = self.scenario.simulation
             saturation = True if sim is None else sim.plant_saturation
@@ -88,14 +119,50 @@ class AnalysisRun:
                 name: {**m.to_dict(), "tracking_ok": self.tracking_ok(name),
                        "plant_saturation": saturation}
                 for name, m in self.metrics.items()}
+        out["strict_failures"] = [f.to_dict() for f in self.strict_failures()]
+        out["frequency"] = frequency_dict(self)
         return out
 
     def format_text(self) -> str:
         """The text ``trainctl analyse`` prints."""
+        from .strict import format_strict
+
         text = self.summary.format_text() + "\n\n" + self.review.format_text()
+        if self.scenario.expected:
+            text += "\n\n" + _expected_text(self)
         if self.metrics:
             text += "\n\n" + _metrics_table(self)
-        return text
+        return text + "\n\n" + format_strict(self.strict_failures())
+
+
+def _expected_text(run: AnalysisRun) -> str:
+    declared = run.scenario.expected
+    wrong = run.unexpected_checks()
+    if not wrong:
+        return f"Expected outcomes ([expected]): all {len(declared)} declared statuses match."
+    lines = [f"Expected outcomes ([expected]): {len(wrong)} of {len(declared)} declared "
+             "statuses differ:"]
+    lines += [f"  {name}: expected {want.upper()}, found {got.upper()}"
+              for name, (want, got) in wrong.items()]
+    return "\n".join(lines)
+
+
+def frequency_dict(run: AnalysisRun) -> dict[str, object]:
+    """The ``frequency`` entry of :meth:`AnalysisRun.to_dict`: numbers per strategy.
+
+    Parameters
+    ----------
+    run : AnalysisRun
+        The run.
+
+    Returns
+    -------
+    dict
+        Strategy → peak gains with their frequencies [rad/s], the bandwidth
+        and the 1 ‰ grade-step peaks (:meth:`ClosedLoopResponse.to_dict`);
+        empty without linear closed loops.
+    """
+    return {name: response.to_dict() for name, response in run.frequency.items()}
 
 
 _NOTED = 8
@@ -224,14 +291,15 @@ def simulate_strategy(
     start = equilibrium(scenario.train, max(v0, 0.1), acceleration=float(profile.acceleration(0.0)))
     state = start.state(position=0.0)
     state[: scenario.train.n_vehicles] = v0 + sim.initial_speed_error
-    controller = make_controller(scenario, strategy, design)
-    return simulate(Plant(train=scenario.train, track=scenario.track), controller, profile,
-                    duration=sim.duration, initial_state=state,
-                    preview_steps=_preview_steps(controller),
-                    measurement_noise=sim.measurement_noise, seed=scenario.seed,
-                    full_state=getattr(controller, "needs_full_state", True),
-                    saturation=sim.plant_saturation, output_interval=sim.output_interval,
-                    divergence_speed_error=sim.divergence_speed_error)
+    with numerical_errors(f"{scenario.source}: simulating {strategy!r}"):
+        controller = make_controller(scenario, strategy, design)
+        return simulate(Plant(train=scenario.train, track=scenario.track), controller, profile,
+                        duration=sim.duration, initial_state=state,
+                        preview_steps=_preview_steps(controller),
+                        measurement_noise=sim.measurement_noise, seed=scenario.seed,
+                        full_state=getattr(controller, "needs_full_state", True),
+                        saturation=sim.plant_saturation, output_interval=sim.output_interval,
+                        divergence_speed_error=sim.divergence_speed_error)
 
 
 def _preview_steps(controller: Controller) -> int:
@@ -315,12 +383,13 @@ def run_scenario(
     sims: dict[str, SimulationResult] = {}
     metrics: dict[str, Metrics] = {}
     sim = scenario.simulation if simulate else None
-    if design is None:
-        design = build_design(scenario)
-    if sim is not None and pending is None and executor is not None:
-        pending = submit_simulations(scenario, executor, design)
-    summary = model_summary(scenario, design.model)
-    review = review_design(scenario, design)
+    with numerical_errors(scenario.source):
+        if design is None:
+            design = build_design(scenario)
+        if sim is not None and pending is None and executor is not None:
+            pending = submit_simulations(scenario, executor, design)
+        summary = model_summary(scenario, design.model)
+        review = review_design(scenario, design)
     if sim is not None:
         from .sim.metrics import compute_metrics
 

@@ -17,6 +17,8 @@ result record :class:`QPSolution`.
 
 from __future__ import annotations
 
+import signal
+import sys
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -30,13 +32,15 @@ from numpy.typing import NDArray
 from ..exceptions import SolverError
 from .status import from_osqp
 
-__all__ = ["OSQP_SETTINGS", "FastOSQP", "QPSolution", "osqp_runner"]
+__all__ = ["OSQP_SETTINGS", "SOLVER_OUTPUT", "FastOSQP", "QPSolution", "SolverOutput",
+           "osqp_runner", "pass_on_interrupt"]
 
 OSQP_SETTINGS = {"eps_abs": 1e-6, "eps_rel": 1e-6, "max_iter": 20000, "polishing": True}
 """OSQP settings used by both solve paths."""
 
 Array = NDArray[np.float64]
 _HUGE = 1e19  # data beyond this came from an infinite bound
+_OSQP_SIGINT = (10, -5)  # OSQP >= 1.0, and before: "interrupted by user"
 
 OSQPRunner = Callable[[Array, Array | None, Array], tuple[Array | None, int, int]]
 """``run(q, l, u) -> (x, status_val, iterations)``: update OSQP's vectors, solve, report."""
@@ -65,6 +69,62 @@ class QPSolution:
     status: str
     iterations: int
     solve_time: float
+
+
+class SolverOutput:
+    r"""Where ``sys.stdout`` points while OSQP solves: the text is dropped (and counted).
+
+    OSQP 1.x prints "Polishing not needed - no active set detected at optimal
+    point" whenever polishing finds no active constraint, whatever ``verbose``
+    says, and it prints through Python's ``sys.stdout``
+    (``PySys_WriteStdout``). Both solve paths point ``sys.stdout`` here for
+    the duration of the solve (two attribute assignments, nothing per step
+    beyond that), so solver chatter never mixes with a command's output.
+    Text printed by other threads during a solve is dropped too.
+
+    Examples
+    --------
+    >>> import sys
+    >>> sink = SolverOutput()
+    >>> sink.write("Polishing not needed\n"), sink.dropped
+    (21, 21)
+    """
+
+    def __init__(self) -> None:
+        self.dropped = 0
+
+    def write(self, text: str) -> int:
+        """Drop ``text``; return its length."""
+        self.dropped += len(text)
+        return len(text)
+
+    def flush(self) -> None:
+        """Nothing to flush."""
+
+
+SOLVER_OUTPUT = SolverOutput()
+"""The sink of both solve paths."""
+
+
+def pass_on_interrupt(status_val: int) -> None:
+    """Deliver a Ctrl-C that OSQP caught during a solve to Python.
+
+    OSQP installs its own SIGINT handler while it solves and answers Ctrl-C
+    with the status "interrupted" instead of letting the signal through; a
+    closed loop would record a failed step and go on. This re-raises the
+    signal, so Python's handler (``KeyboardInterrupt``) stops the run.
+
+    Parameters
+    ----------
+    status_val : int
+        OSQP's ``info.status_val`` after a solve.
+
+    Examples
+    --------
+    >>> pass_on_interrupt(1)  # solved: nothing happens
+    """
+    if int(status_val) in _OSQP_SIGINT:
+        signal.raise_signal(signal.SIGINT)
 
 
 def osqp_runner(solver: Any, *, internal: bool = True) -> tuple[OSQPRunner, str]:
@@ -312,13 +372,18 @@ class FastOSQP:
             return QPSolution(nan[self._zi], nan[self._si], "error", 0,
                               time.perf_counter() - start)
         self._used = True
-        if self.n_eq:
-            q, lower, upper = self.qlu(data)
-            x, status_val, iters = self._run(q, lower, upper)
-        else:  # l = -inf, as set up: update q and u only
-            q, upper = self._qu(data)
-            x, status_val, iters = self._run(q, None, upper)
+        stdout, sys.stdout = sys.stdout, SOLVER_OUTPUT
+        try:
+            if self.n_eq:
+                q, lower, upper = self.qlu(data)
+                x, status_val, iters = self._run(q, lower, upper)
+            else:  # l = -inf, as set up: update q and u only
+                q, upper = self._qu(data)
+                x, status_val, iters = self._run(q, None, upper)
+        finally:
+            sys.stdout = stdout
         elapsed = time.perf_counter() - start
+        pass_on_interrupt(status_val)
         status = from_osqp(status_val)
         x = np.full(self._n, np.nan) if x is None else np.asarray(x, dtype=float)
         if status == "error" and not np.isfinite(x).all():

@@ -25,6 +25,7 @@ solutions to solver tolerance (tested).
 
 from __future__ import annotations
 
+import sys
 import time
 
 import cvxpy as cp
@@ -32,7 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..exceptions import ModelError, SolverError
-from .fastqp import OSQP_SETTINGS, FastOSQP, QPSolution
+from .fastqp import OSQP_SETTINGS, SOLVER_OUTPUT, FastOSQP, QPSolution, pass_on_interrupt
 from .status import from_cvxpy
 
 __all__ = ["OSQP_SETTINGS", "ParametricQP", "QPSolution"]
@@ -185,10 +186,15 @@ class ParametricQP:
         # cvxpy refuses infinite parameter values in constraints; clip to a huge finite bound.
         self._assign({k: np.clip(v, -1e20, 1e20) for k, v in values.items()})
         warm, self._cold = not self._cold, False
+        stdout, sys.stdout = sys.stdout, SOLVER_OUTPUT
         try:
-            self.problem.solve(solver=cp.OSQP, warm_start=warm, **OSQP_SETTINGS)
+            self.problem.solve(solver=cp.OSQP, warm_start=warm, verbose=False, **OSQP_SETTINGS)
         except cp.SolverError as err:
+            sys.stdout = stdout
+            pass_on_interrupt(_last_osqp_status(self.problem))
             raise SolverError(f"{self.name}: OSQP failed: {err}") from err
+        finally:
+            sys.stdout = stdout
         elapsed = time.perf_counter() - start
         status = from_cvxpy(self.problem.status)
         z = self._z.value if self._z.value is not None else np.full(self.nz, np.nan)
@@ -197,6 +203,14 @@ class ParametricQP:
         iters = int(self.problem.solver_stats.num_iters or 0) if self.problem.solver_stats else 0
         return QPSolution(np.asarray(z, dtype=float), np.asarray(s, dtype=float), status, iters,
                           elapsed)
+
+
+def _last_osqp_status(problem: cp.Problem) -> int:
+    """OSQP's status code of the problem's last solve (cvxpy keeps it in its solver cache)."""
+    cached = (getattr(problem, "_solver_cache", None) or {}).get(cp.OSQP)
+    result = cached[2] if isinstance(cached, tuple) and len(cached) > 2 else None
+    info = getattr(result, "info", None)
+    return int(getattr(info, "status_val", 0) or 0)
 
 
 def _or(x: Array | None, n: int, fill: float) -> Array:

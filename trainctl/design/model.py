@@ -26,6 +26,8 @@ import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
+from .._validation import check_finite_arrays
+from ..exceptions import ModelError
 from ..models.discrete import discretise
 from ..models.dynamics import Equilibrium, equilibrium
 from ..models.linear import linearise
@@ -213,6 +215,14 @@ def build_model(scenario: Scenario, *, outputs: tuple[str, ...] | None = None) -
     linear = linearise(train, cfg.speed, method=cfg.linearisation, dummy_state=cfg.dummy_state,
                        outputs=("v", "force"))
     design = _design_system(linear, train)
+    try:
+        eq = equilibrium(train, cfg.speed, allocation=cfg.allocation, track=scenario.track)
+    except (OverflowError, FloatingPointError) as exc:
+        raise ModelError(f"build_model: the cruise equilibrium at {cfg.speed!r} m/s overflows "
+                         f"({exc}). {_FINITE_HINT}") from None
+    check_finite_arrays("build_model: the cruise equilibrium", f" {_FINITE_HINT}",
+                        inputs=eq.inputs, coupler_forces=eq.coupler_forces,
+                        elongations=eq.elongations)
     return DesignModel(
         train=train,
         settings=cfg,
@@ -222,9 +232,12 @@ def build_model(scenario: Scenario, *, outputs: tuple[str, ...] | None = None) -
         discrete=discretise(design, cfg.sample_time, method=cfg.discretisation),
         subsystems=coach_subsystems(train, cfg.speed, method=cfg.linearisation,
                                     dummy_state=cfg.dummy_state),
-        equilibrium=equilibrium(train, cfg.speed, allocation=cfg.allocation,
-                                track=scenario.track),
+        equilibrium=eq,
     )
+
+
+_FINITE_HINT = ("Check the masses, couplers, Davis terms, grades and the speed for values far "
+                "outside a train's (see trainctl.limits).")
 
 
 _SYSTEMS = ("linear", "design", "discrete")

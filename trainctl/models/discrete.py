@@ -15,8 +15,9 @@ stable. Even at small T it only approximates; use ZOH.
 from __future__ import annotations
 
 import control as ct
+import numpy as np
 
-from .._validation import check_positive
+from .._validation import check_finite_arrays, check_positive
 from ..exceptions import ModelError
 
 __all__ = ["DISCRETISATIONS", "discretise"]
@@ -63,4 +64,21 @@ def discretise(sys: ct.StateSpace, dt: float, *, method: str = "zoh") -> ct.Stat
         )
     if not ct.isctime(sys, strict=True):
         raise ModelError(f"discretise: 'sys' must be a continuous-time system (got dt={sys.dt!r}).")
-    return sys.sample(dt, method=method, name=f"{sys.name}_d")
+    check_finite_arrays("discretise", " The continuous model must be finite before sampling.",
+                        A=sys.A, B=sys.B)
+    sysd = sys.sample(dt, method=method, name=f"{sys.name}_d")
+    check_finite_arrays(
+        "discretise", f" The model cannot be sampled with T = {dt!r} s: its fastest mode "
+        f"(|λ| = {_fastest(sys):.3g} 1/s) overflows exp(A·T). Use a shorter sample time.",
+        A=sysd.A, B=sysd.B)
+    return sysd
+
+
+def _fastest(sys: ct.StateSpace) -> float:
+    """Largest |eigenvalue| of the continuous A (inf when it has non-finite entries)."""
+    A = np.asarray(sys.A, dtype=float)
+    if A.size == 0:
+        return 0.0
+    if not np.all(np.isfinite(A)):
+        return float("inf")
+    return float(np.max(np.abs(np.linalg.eigvals(A))))

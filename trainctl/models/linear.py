@@ -25,7 +25,7 @@ import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
-from .._validation import check_positive
+from .._validation import check_finite_arrays, check_positive
 from ..exceptions import ModelError
 from .chain import Chain
 from .train import Train
@@ -151,6 +151,8 @@ def linearise(
     'delta[3]'
     """
     A, B = linear_matrices(train, speed, method=method, dummy_state=dummy_state)
+    check_finite_arrays("linearise", f" The train's parameters at {speed!r} m/s give a model "
+                        "beyond floating point; check masses, couplers and Davis terms.", A=A, B=B)
     C, out_labels = _output_matrix(train, outputs, A.shape[0])
     n = train.n_vehicles
     states = train.state_labels() + ([f"delta[{n - 1}]"] if dummy_state else [])

@@ -23,9 +23,10 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..constraints import FINITE, POSITIVE, Choice, Number, Rule
+from ..constraints import FINITE, POSITIVE, Choice, Rule
 from ..declare import check_fields
 from ..exceptions import ModelError
+from ..limits import CURVE_RADIUS, GRADE
 from ..units import GRAVITY
 
 __all__ = ["RESISTANCE_FORMULAS", "SECTION_RULES", "TRACK_RULES", "Track", "TrackSection"]
@@ -35,8 +36,8 @@ RESISTANCE_FORMULAS = ("tbt", "ning2016")
 
 SECTION_RULES: dict[str, Rule] = {
     "start": FINITE,
-    "grade_permille": FINITE,
-    "curve_radius": Number(gt=0, allow_inf=True, inf="straight track"),
+    "grade_permille": GRADE,
+    "curve_radius": CURVE_RADIUS,
 }
 """The rule of each :class:`TrackSection` field (also used by scenario files)."""
 

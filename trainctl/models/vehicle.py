@@ -15,9 +15,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..constraints import FINITE, NONNEGATIVE, POSITIVE, Number, Rule
+from ..constraints import NONNEGATIVE, POSITIVE, Number, Rule
 from ..declare import check_fields
 from ..exceptions import ModelError
+from ..limits import COUPLER_DAMPING, COUPLER_STIFFNESS, DAVIS, MASS
 from ..units import GRAVITY
 
 __all__ = ["COUPLER_RULES", "ENVELOPE_RULES", "VEHICLE_RULES", "Coupler", "TractionEnvelope",
@@ -36,16 +37,17 @@ ENVELOPE_RULES: dict[str, Rule] = {
 """The rule of each :class:`TractionEnvelope` field (also used by scenario files)."""
 
 VEHICLE_RULES: dict[str, Rule] = {
-    "mass": POSITIVE,
-    "a0": NONNEGATIVE,
-    "a1": NONNEGATIVE,
-    "a2": NONNEGATIVE,
+    "mass": MASS,
+    "a0": DAVIS["a0"],
+    "a1": DAVIS["a1"],
+    "a2": DAVIS["a2"],
     "length": POSITIVE,
     "traction_share": NONNEGATIVE,
 }
 """The rule of each numeric :class:`Vehicle` field (also used by scenario files)."""
 
-COUPLER_RULES: dict[str, Rule] = {"stiffness": FINITE, "damping": NONNEGATIVE, "spacing": POSITIVE}
+COUPLER_RULES: dict[str, Rule] = {"stiffness": COUPLER_STIFFNESS, "damping": COUPLER_DAMPING,
+                                  "spacing": POSITIVE}
 """The rule of each :class:`Coupler` field; a physical coupler's stiffness is also > 0."""
 
 _MIN_SPEED = 0.1

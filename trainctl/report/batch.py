@@ -13,9 +13,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ..exceptions import TrainctlError
 from .build import ReportJob, run_report_data, write_gallery, write_report_file
 from .data import ReportData
+from .output import OutputError as OutputError
+from .output import OutputTarget, output_target
 
 if TYPE_CHECKING:
     from ..scenario import Scenario
@@ -29,10 +30,6 @@ __all__ = [
     "report_scenario",
     "summary_line",
 ]
-
-
-class OutputError(TrainctlError, ValueError):
-    """An output path that cannot be written as asked (e.g. a directory for a file)."""
 
 
 def default_report_path(scenario: Scenario) -> Path:
@@ -67,21 +64,30 @@ def default_report_path(scenario: Scenario) -> Path:
     return Path("reports") / f"{stem}.html"
 
 
-def check_report_output(path: Path) -> None:
-    """Refuse an output file path that is a directory.
+def check_report_output(path: str | Path | OutputTarget, *,
+                        default_name: str | None = None) -> OutputTarget:
+    """Classify a report's output before the run (a refusal costs no work).
 
     Parameters
     ----------
-    path : pathlib.Path
-        The report file to write.
+    path : str, pathlib.Path or OutputTarget
+        The ``-o`` value: a file, ``dir/``, a device, a pipe or ``-``.
+    default_name : str or None
+        The file name used inside a directory (e.g. ``crh2-dmpc.html``);
+        None refuses directories.
+
+    Returns
+    -------
+    OutputTarget
+        Where the page goes.
 
     Raises
     ------
     OutputError
-        If ``path`` is a directory.
+        For a path that cannot take the page (see
+        :func:`~trainctl.report.output.output_target`).
     """
-    if path.is_dir():
-        raise OutputError(f"{path} is a directory; give a file path with -o")
+    return output_target(path, default_name=default_name)
 
 
 def progress_total(jobs: Sequence[ReportJob]) -> int:
@@ -123,7 +129,7 @@ def summary_line(data: ReportData) -> str:
     return text
 
 
-def report_scenario(job: ReportJob, path: Path, *, workers: int = 0,
+def report_scenario(job: ReportJob, path: Path | OutputTarget, *, workers: int = 0,
                     generated_at: str | None = None, deterministic: bool = False) -> ReportData:
     """Run one scenario and write its report, with a progress bar on a terminal.
 
@@ -131,8 +137,8 @@ def report_scenario(job: ReportJob, path: Path, *, workers: int = 0,
     ----------
     job : ReportJob
         The scenario.
-    path : pathlib.Path
-        Output file.
+    path : pathlib.Path or OutputTarget
+        Output file, device, pipe or standard output.
     workers : int
         Process-pool size for the simulations (0: run them here).
     generated_at, deterministic
@@ -145,11 +151,11 @@ def report_scenario(job: ReportJob, path: Path, *, workers: int = 0,
     """
     from .._progress import Progress
 
-    check_report_output(path)
+    target = check_report_output(path, default_name=default_report_path(job.scenario).name)
     with Progress(progress_total([job])) as bar:
         [data] = list(run_report_data([job], workers=workers, progress=bar))
         bar.set_label("rendering figures and page")
-        write_report_file(data, path, generated_at=generated_at, deterministic=deterministic)
+        write_report_file(data, target, generated_at=generated_at, deterministic=deterministic)
         bar.advance("written")
     return data
 

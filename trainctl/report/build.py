@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     from ..design import Design
     from ..scenario import Scenario
     from ..sim.results import SimulationResult
+    from .output import OutputTarget
 
 __all__ = [
     "ReportJob",
@@ -245,7 +246,7 @@ def _with_timings(data: ReportData, timings: dict[str, float]) -> ReportData:
 
 def write_report_file(
     data: ReportData,
-    path: str | os.PathLike[str],
+    path: str | os.PathLike[str] | OutputTarget,
     *,
     generated_at: str | None = None,
     deterministic: bool = False,
@@ -256,9 +257,11 @@ def write_report_file(
     ----------
     data : ReportData
         The report's data.
-    path : str or os.PathLike
-        Output file (parents created). Written to a temporary file and
+    path : str, os.PathLike or OutputTarget
+        Output file (parents created), written to a temporary file and
         renamed into place: an interrupted render leaves the previous file.
+        A device, a pipe or standard output is written through
+        (:func:`~trainctl.report.output.write_output`).
     generated_at : str or None
         Timestamp (see :func:`trainctl.report.build_report_context`).
     deterministic : bool

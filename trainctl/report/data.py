@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .._validation import numerical_errors
 from ..exceptions import ScenarioError
 
 if TYPE_CHECKING:
@@ -75,6 +76,11 @@ class ReportData:
         ``report_data()``), by family name; empty without a controller.
     simulations : dict of str to SimulationResult
         Closed-loop runs by strategy.
+    frequency : dict of str to dict
+        Curves of each strategy's linear closed loop
+        (:meth:`trainctl.analysis.ClosedLoopResponse.curves`: singular values
+        over frequency and grade-step responses), by strategy; empty without
+        linear closed loops.
     expected : dict of str to str
         The scenario's ``[expected]`` table.
     unexpected : dict of str to list of str
@@ -94,6 +100,7 @@ class ReportData:
     spectra: dict[str, NDArray[np.complex128]]
     families: dict[str, dict[str, Any]] = field(default_factory=dict)
     simulations: dict[str, SimulationResult] = field(default_factory=dict)
+    frequency: dict[str, dict[str, Any]] = field(default_factory=dict)
     expected: dict[str, str] = field(default_factory=dict)
     unexpected: dict[str, list[str]] = field(default_factory=dict)
     environment: dict[str, Any] = field(default_factory=dict)
@@ -158,6 +165,7 @@ class ReportData:
             "spectra": {label: [[float(z.real), float(z.imag)] for z in values]
                         for label, values in self.spectra.items()},
             "families": self.families,
+            "frequency": self.frequency,
             "expected": self.expected,
             "unexpected": self.unexpected,
             "environment": self.environment,
@@ -209,7 +217,7 @@ class ReportData:
                    for label, values in document["spectra"].items()}
         return cls(scenario=scenario, scenario_text=text, results=document["results"],
                    subsystems=document["subsystems"], spectra=spectra,
-                   families=document["families"],
+                   families=document["families"], frequency=document.get("frequency", {}),
                    simulations=sims, expected=document["expected"],
                    unexpected=document["unexpected"], environment=document["environment"],
                    command=document["command"], timings=document["timings"])
@@ -277,9 +285,10 @@ def collect_report_data(
     from ..sim.results import environment
 
     design = run.design
-    families = {name: get_family(name).report_data(family_design)
-                for name, family_design in design.families.items()}
-    spectra = {"open loop": _eig(np.asarray(design.model.discrete.A, dtype=float))}
+    with numerical_errors(run.scenario.source):
+        families = {name: get_family(name).report_data(family_design)
+                    for name, family_design in design.families.items()}
+        spectra = {"open loop": _eig(np.asarray(design.model.discrete.A, dtype=float))}
     for data in families.values():
         for label, values in data.get("spectra", {}).items():
             spectra[label] = np.array([complex(re, im) for re, im in values], dtype=complex)
@@ -291,6 +300,7 @@ def collect_report_data(
         spectra=spectra,
         families=families,
         simulations=dict(run.simulations),
+        frequency={name: response.curves() for name, response in run.frequency.items()},
         expected=dict(run.scenario.expected),
         unexpected={name: list(pair) for name, pair in run.unexpected_checks().items()},
         environment=environment(),

@@ -1,5 +1,5 @@
 # HTML report rendering: Jinja environment, package templates, atomic writes.
-"""Render report pages with the package templates and write them atomically.
+"""Render report pages with the package templates and write them (atomically to files).
 
 The templates (``templates/*.html.j2``) and the stylesheet
 (``static/report.css``) are package data, loaded by package name; the
@@ -12,7 +12,6 @@ printing nothing. Contexts come from :mod:`trainctl.report.context`.
 from __future__ import annotations
 
 import os
-import secrets
 from collections.abc import Mapping
 from functools import lru_cache
 from importlib import resources
@@ -21,6 +20,9 @@ from typing import Any
 
 import jinja2
 from markupsafe import Markup
+
+from .output import OutputTarget, write_output
+from .output import write_text_atomic as write_text_atomic
 
 __all__ = [
     "make_environment",
@@ -136,66 +138,27 @@ def render_index(context: Mapping[str, Any]) -> str:
     return template.render(**context, css=Markup(_stylesheet()))
 
 
-def write_text_atomic(text: str, path: str | os.PathLike[str]) -> Path:
-    """Write ``text`` (UTF-8) to ``path`` atomically.
-
-    The text goes to a temporary file in the destination directory, which is
-    then renamed over ``path`` with :func:`os.replace`; readers never see a
-    partial file, and on error nothing is left behind. Missing parent
-    directories are created.
-
-    Parameters
-    ----------
-    text : str
-        File content.
-    path : str or os.PathLike
-        Destination file.
-
-    Returns
-    -------
-    pathlib.Path
-        ``path`` as a :class:`~pathlib.Path`.
-
-    Examples
-    --------
-    >>> import tempfile
-    >>> with tempfile.TemporaryDirectory() as tmp:
-    ...     out = write_text_atomic("hi", Path(tmp) / "sub" / "a.txt")
-    ...     out.read_text(encoding="utf-8")
-    'hi'
-    """
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    data = text.encode("utf-8")
-    tmp = target.with_name(f".{target.name}.{secrets.token_hex(6)}.tmp")
-    # os.open honours the umask (unlike mkstemp's 0600), so the result gets the
-    # permissions a plain open() would give it.
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, target)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return target
-
-
-def write_report(html: str, path: str | os.PathLike[str]) -> Path:
-    """Write a rendered report atomically, creating the parent directory.
+def write_report(html: str, path: str | os.PathLike[str] | OutputTarget) -> Path:
+    """Write a rendered report: a file atomically, a device or pipe through.
 
     Parameters
     ----------
     html : str
         The page from :func:`render_report` or :func:`render_index`.
-    path : str or os.PathLike
-        Destination file, e.g. ``reports/crh2-dmpc.html``.
+    path : str, os.PathLike or OutputTarget
+        Destination, e.g. ``reports/crh2-dmpc.html``, ``/dev/null`` or an
+        :class:`~trainctl.report.output.OutputTarget` (``-`` for standard
+        output); see :func:`~trainctl.report.output.write_output`.
 
     Returns
     -------
     pathlib.Path
-        ``path`` as a :class:`~pathlib.Path`.
+        The path written.
+
+    Raises
+    ------
+    OutputError
+        For a target that is neither a regular file, a new path, a character
+        device, a pipe nor standard output.
     """
-    return write_text_atomic(html, path)
+    return write_output(html, path)

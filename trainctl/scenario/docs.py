@@ -12,7 +12,7 @@ test fails when they drift. Regenerate them with::
 Examples
 --------
 >>> print(markdown_tables()["model"].splitlines()[2])
-| `speed_kmh` | number > 0 | km/h → m/s (÷ 3.6) | required | Cruise (linearisation) speed |
+| `speed_kmh` | number in (0, 1000] | km/h → m/s (÷ 3.6) | required | Cruise (linearisation) speed |
 """
 
 from __future__ import annotations

@@ -118,12 +118,13 @@ def _file_fields(cls: type) -> Iterator[tuple[str, Any, Any]]:
         file_rule = rule.for_file()
         alts = key.one_of or (Alt(key.file or f.name, key.unit, key.to_si),)
         for alt in alts:
+            alt_rule = file_rule if key.vector else file_rule.in_unit(alt.to_si)
             meta = replace(key, file=alt.key, unit=alt.unit, to_si=alt.to_si, one_of=(),
                            si_text=alt.si_text or key.si_text)
             target = Target(f.name, alt.sets)
             default = None if key.one_of else _file_default(f, key)
             required = f.required and not key.one_of
-            yield alt.key, Annotated[Any, file_rule, meta, target], ... if required else default
+            yield alt.key, Annotated[Any, alt_rule, meta, target], ... if required else default
 
 
 _FILE_MODELS: dict[type, type[BaseModel]] = {}

@@ -12,7 +12,7 @@ from pathlib import Path
 from ..constraints import suggest
 from ..exceptions import ScenarioError
 from .core import BuiltinScenario, Scenario
-from .parse import load_toml, parse_scenario
+from .parse import MAX_TEXT_BYTES, check_size, load_toml, parse_scenario
 
 __all__ = [
     "builtin_scenario_text",
@@ -184,7 +184,8 @@ def read_scenario_text(source: str | os.PathLike[str]) -> tuple[str, str]:
         return builtin_scenario_text(source), f"builtin:{source}"
     label = os.fspath(source)
     try:
-        raw = Path(label).read_bytes()
+        with Path(label).open("rb") as handle:  # bounded: /dev/zero is a file too
+            raw = handle.read(MAX_TEXT_BYTES + 1)
     except FileNotFoundError:
         raise ScenarioError(
             f"{label}: file not found. Give an existing path, or a built-in name "
@@ -197,6 +198,7 @@ def read_scenario_text(source: str | os.PathLike[str]) -> tuple[str, str]:
         ) from None
     except OSError as exc:
         raise ScenarioError(f"{label}: cannot read the file ({exc.strerror or exc}).") from None
+    check_size(len(raw), label)
     return _decode(raw, label), label
 
 

@@ -49,17 +49,44 @@ from .tables import (
     family_table,
 )
 
-__all__ = ["load_toml", "parse_scenario"]
+__all__ = ["MAX_TEXT_BYTES", "check_size", "load_toml", "parse_document", "parse_scenario"]
 
 _T = TypeVar("_T")
 
 
+MAX_TEXT_BYTES = 4 * 1024 * 1024
+"""Largest scenario text trainctl reads [bytes] (the built-ins are under 10 kB; a train of
+:data:`~trainctl.limits.MAX_VEHICLES` vehicles written one table each stays under 2 MB)."""
+
+
 def load_toml(text: str, source: str) -> dict[str, Any]:
-    """The TOML document, or ScenarioError naming the syntax error."""
+    """The TOML document, or ScenarioError naming the syntax error (or the size or depth).
+
+    Examples
+    --------
+    >>> try:
+    ...     load_toml("a = " + "[" * 5000 + "]" * 5000, "deep.toml")
+    ... except ScenarioError as exc:
+    ...     print(str(exc).split(" (")[0])
+    deep.toml: not valid TOML: nested too deeply
+    """
+    check_size(len(text.encode("utf-8", "surrogatepass")), source)
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{source}: not valid TOML: {exc}.") from None
+    except RecursionError:
+        raise ScenarioError(f"{source}: not valid TOML: nested too deeply (arrays or inline "
+                            "tables inside each other, thousands of levels).") from None
+
+
+def check_size(size: int, source: str) -> None:
+    """Refuse scenario text over :data:`MAX_TEXT_BYTES` bytes (ScenarioError)."""
+    if size > MAX_TEXT_BYTES:
+        raise ScenarioError(
+            f"{source}: is too large for a scenario file (more than {MAX_TEXT_BYTES} bytes, "
+            f"{MAX_TEXT_BYTES // 2**20} MiB). Scenario files describe a train in kilobytes; "
+            "give the right file.")
 
 
 def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:
@@ -128,6 +155,40 @@ def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:
     return _Parser(source, load_toml(text, source)).scenario()
 
 
+def parse_document(document: dict[str, Any], *, source: str = "<string>") -> Scenario:
+    """Parse a scenario from its TOML document (the dict ``tomllib`` gives).
+
+    Parameters
+    ----------
+    document : dict
+        The document: tables as dicts, arrays as lists.
+    source : str
+        Label used in error messages and stored as ``Scenario.source``.
+
+    Returns
+    -------
+    Scenario
+        The scenario, SI inside, with ``document`` kept.
+
+    Raises
+    ------
+    ScenarioError
+        If the document does not follow the schema.
+
+    Examples
+    --------
+    >>> import tomllib
+    >>> from trainctl.scenario import builtin_scenario_text
+    >>> doc = tomllib.loads(builtin_scenario_text("crh2-dmpc"))
+    >>> parse_document(doc, source="mine").model.sample_time
+    20.0
+    """
+    if not isinstance(document, dict):
+        raise TypeError(f"parse_document: 'document' must be a dict (got "
+                        f"{type(document).__name__}).")
+    return _Parser(source, document).scenario()
+
+
 class _Parser:
     """One document being parsed: its label, its TOML data and the error context."""
 
@@ -186,7 +247,7 @@ class _Parser:
         return self.build((), lambda: Scenario(
             name=top.name, description=top.description, seed=top.seed, train=train,
             track=track, model=model, controllers=FrozenMapping(controllers),
-            simulation=simulation, expected=expected, source=self.file,
+            simulation=simulation, expected=expected, source=self.file, document=self.doc,
         ))
 
     def train(self) -> Train:

@@ -121,8 +121,8 @@ def json_schema() -> dict[str, Any]:
     Examples
     --------
     >>> speed = json_schema()["$defs"]["ModelSettings"]["properties"]["speed_kmh"]
-    >>> speed["unit"], speed["exclusiveMinimum"], speed["type"]
-    ('km/h', 0, 'number')
+    >>> speed["unit"], speed["exclusiveMinimum"], speed["maximum"], speed["type"]
+    ('km/h', 0, 1000.0, 'number')
     """
     from ..controllers.registry import DEFAULT_FAMILY, family_names, get_family
 

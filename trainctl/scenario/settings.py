@@ -16,6 +16,16 @@ from pydantic import TypeAdapter, ValidationError, ValidationInfo, model_validat
 
 from ..constraints import Array, Choice, Flag, NameList, Number, Violation, raise_at
 from ..declare import Alt, Key, python_error, settings
+from ..limits import (
+    DURATION,
+    MAX_SAMPLES,
+    SAMPLE_TIME,
+    SAMPLES_WHY,
+    SPEED,
+    SPEED_ERROR,
+    SPEED_NOISE,
+    SPEED_POINTS,
+)
 from ..models.discrete import DISCRETISATIONS
 from ..models.dynamics import ALLOCATIONS
 from ..models.linear import LINEARISATIONS
@@ -52,7 +62,7 @@ class ModelSettings:
     'zoh'
     """
 
-    speed: Annotated[float, Number(gt=0), Key(
+    speed: Annotated[float, SPEED, Key(
         "Cruise (linearisation) speed", file="speed_kmh", unit="km/h", to_si=kmh_to_ms,
         si_unit="m/s")]
     linearisation: Annotated[str, Choice(LINEARISATIONS), Key(
@@ -63,7 +73,7 @@ class ModelSettings:
     allocation: Annotated[str, Choice(ALLOCATIONS), Key(
         "Cruise traction spread by traction_share within each coupled group, or each "
         "vehicle carrying its own resistance")] = "shares"
-    sample_time: Annotated[float, Number(gt=0), Key(
+    sample_time: Annotated[float, SAMPLE_TIME, Key(
         "Sample time of the discrete model", unit="s")]
     discretisation: Annotated[str, Choice(DISCRETISATIONS), Key(
         "Continuous-to-discrete method")] = "zoh"
@@ -90,8 +100,9 @@ _STRATEGIES = NameList(_strategies, noun="strategy", hint=_qualified_hint)
 _STRATEGY_LIST: TypeAdapter[tuple[str, ...]] = TypeAdapter(
     Annotated[tuple[str, ...], _STRATEGIES]
 )
-_SAMPLE_TIME: TypeAdapter[float] = TypeAdapter(Annotated[float, Number(gt=0)])
-_SPEEDS = Array(Number(ge=0))
+_SAMPLE_TIME: TypeAdapter[float] = TypeAdapter(Annotated[float, SAMPLE_TIME])
+_TIMES = Array(Number(ge=0))
+_SPEEDS = Array(SPEED_POINTS)
 
 
 def _whole_steps(duration: float, sample_time: float) -> int | None:
@@ -100,6 +111,19 @@ def _whole_steps(duration: float, sample_time: float) -> int | None:
     if steps < 1 or abs(steps * sample_time - duration) > _MULTIPLE_TOL * duration:
         return None
     return steps
+
+
+def _samples_violation(duration: float, sample_time: float) -> Violation | None:
+    """The violation of a run longer than :data:`~trainctl.limits.MAX_SAMPLES` samples."""
+    samples = duration / sample_time
+    if samples <= MAX_SAMPLES * (1 + _MULTIPLE_TOL):
+        return None
+    return Violation(
+        text=f"must be at most {MAX_SAMPLES} samples of [model].sample_time = "
+        f"{sample_time!r} s, i.e. <= {MAX_SAMPLES * sample_time:.6g} s",
+        python_text=f"must be at most {MAX_SAMPLES} samples of the sample time "
+        f"{sample_time!r} s",
+        got_text=f"{duration!r} s, {samples:.6g} samples", hint=f" {SAMPLES_WHY}")
 
 
 def _duration_violation(duration: float, sample_time: float) -> Violation:
@@ -180,12 +204,12 @@ class SimulationSettings:
         "constant after the last one",
     }
 
-    duration: Annotated[float, Number(gt=0), Key(
+    duration: Annotated[float, DURATION, Key(
         "Simulated time, a whole multiple of [model].sample_time (relative 1e-9)", unit="s")]
     strategies: Annotated[tuple[str, ...], _STRATEGIES, Key(
         "Strategies to simulate, in this order: the primary family's by name, another "
         "family's as 'family.strategy'")]
-    reference_times: Annotated[tuple[float, ...], _SPEEDS, Key(
+    reference_times: Annotated[tuple[float, ...], _TIMES, Key(
         "Breakpoint times: the first exactly 0, strictly increasing", file="reference.times",
         unit="s")]
     reference_speeds: Annotated[tuple[float, ...], _SPEEDS, Key(
@@ -193,9 +217,9 @@ class SimulationSettings:
         one_of=(Alt("reference.speeds_kmh", unit="km/h", to_si=kmh_to_ms),
                 Alt("reference.speeds", unit="m/s")),
         hint=" speeds_kmh is in km/h, speeds in m/s.")]
-    initial_speed_error: Annotated[float, Number(), Key(
+    initial_speed_error: Annotated[float, SPEED_ERROR, Key(
         "Common speed offset of every vehicle at t = 0", unit="m/s")] = 0.0
-    measurement_noise: Annotated[float, Number(ge=0), Key(
+    measurement_noise: Annotated[float, SPEED_NOISE, Key(
         "Standard deviation of Gaussian speed-measurement noise (drawn with seed)",
         unit="m/s")] = 0.0
     settle_time: Annotated[float, Number(ge=0), Key(
@@ -222,8 +246,12 @@ class SimulationSettings:
     def _cross_field_rules(self, info: ValidationInfo) -> SimulationSettings:
         context = info.context if isinstance(info.context, dict) else {}
         dt = context.get("sample_time")
-        if dt is not None and _whole_steps(self.duration, dt) is None:
-            raise_at(("duration",), _duration_violation(self.duration, dt), self.duration)
+        if dt is not None:
+            too_long = _samples_violation(self.duration, dt)
+            if too_long is not None:
+                raise_at(("duration",), too_long, self.duration)
+            if _whole_steps(self.duration, dt) is None:
+                raise_at(("duration",), _duration_violation(self.duration, dt), self.duration)
         if self.settle_time >= self.duration:
             raise_at(("settle_time",), Violation(
                 text=f"must be less than {{duration}} = {self.duration!r} s",
@@ -274,8 +302,9 @@ class SimulationSettings:
         Raises
         ------
         ModelError
-            If ``sample_time`` is not a number > 0 or ``duration`` is not a
-            whole multiple of it (relative tolerance 1e-9).
+            If ``sample_time`` is outside its bounds, or ``duration`` is not a
+            whole multiple of it (relative tolerance 1e-9) or more than
+            :data:`~trainctl.limits.MAX_SAMPLES` samples.
 
         Examples
         --------
@@ -289,9 +318,10 @@ class SimulationSettings:
         except ValidationError as exc:
             raise python_error("SimulationSettings", exc, prefix=("sample_time",)) from None
         steps = _whole_steps(self.duration, dt)
-        if steps is None:
+        problem = _samples_violation(self.duration, dt)
+        if steps is None or problem is not None:
             try:
-                raise_at(("duration",), _duration_violation(self.duration, dt))
+                raise_at(("duration",), problem or _duration_violation(self.duration, dt))
             except ValidationError as exc:
                 raise python_error("SimulationSettings", exc) from None
         return steps

@@ -39,6 +39,7 @@ from ..constraints import (
     raise_at,
 )
 from ..declare import Key
+from ..limits import MAX_VEHICLES, VEHICLES_WHY
 from ..models.track import SECTION_RULES, TRACK_RULES
 from ..models.vehicle import COUPLER_RULES, ENVELOPE_RULES, VEHICLE_RULES
 from ..units import (
@@ -68,11 +69,8 @@ __all__ = [
 
 _ENVELOPE = {name: rule.for_file() for name, rule in ENVELOPE_RULES.items()}
 
-MAX_VEHICLES = 10_000
-"""Longest train a scenario file may describe (vehicles after ``count``)."""
-
 DAVIS_KEYS = ("davis_n_per_kn_kmh", "davis_si", "davis_book_literal")
-_DAVIS = Array(VEHICLE_RULES["a0"], length=3)
+_DAVIS = Array(Number(ge=0), length=3)  # bounded in SI by the Vehicle (trainctl.limits.DAVIS)
 _DAVIS_HINT = (" davis_n_per_kn_kmh is N/kN with V in km/h; davis_si is [a0 m/s², a1 1/s, "
                "a2 1/m].")
 
@@ -143,7 +141,7 @@ class VehicleTable(FileTable):
         "vehicle"
     )
     count: Annotated[int, Integer(ge=1), Key("This many identical vehicles in a row")] = 1
-    mass_t: Annotated[float, VEHICLE_RULES["mass"], Key(
+    mass_t: Annotated[float, VEHICLE_RULES["mass"].in_unit(tonnes_to_kg), Key(
         "Mass", unit="t", to_si=tonnes_to_kg, si_unit="kg")]
     length: Annotated[float, VEHICLE_RULES["length"], Key("Length over couplers", unit="m")] = 25.0
     davis_n_per_kn_kmh: Annotated[tuple[float, ...] | None, _DAVIS, Key(
@@ -190,10 +188,12 @@ class CouplerTable(FileTable):
                  "properties": {"stiffness_kn_per_m": {"exclusiveMinimum": 0}}},
     })
 
-    stiffness_kn_per_m: Annotated[float | None, COUPLER_RULES["stiffness"], Key(
+    stiffness_kn_per_m: Annotated[float | None,
+                                  COUPLER_RULES["stiffness"].in_unit(kn_per_m_to_n_per_m), Key(
         "Spring stiffness k: > 0, required unless virtual (then 0 or omitted)", unit="kN/m",
         to_si=kn_per_m_to_n_per_m, si_unit="N/m")] = None
-    damping_kn_s_per_m: Annotated[float, COUPLER_RULES["damping"], Key(
+    damping_kn_s_per_m: Annotated[float, COUPLER_RULES["damping"].in_unit(
+        kn_s_per_m_to_n_s_per_m), Key(
         "Viscous damping d (0 when virtual)", unit="kN·s/m", to_si=kn_s_per_m_to_n_s_per_m,
         si_unit="N·s/m")] = 0.0
     virtual: Annotated[bool, Flag(), Key(
@@ -293,7 +293,7 @@ class TrainTable(FileTable):
             if total + group.count > MAX_VEHICLES:
                 raise_at(("vehicle", i, "count"), Violation(
                     text=f"makes the train longer than {MAX_VEHICLES} vehicles",
-                    got_text=f"{group.count} after {total}"))
+                    got_text=f"{group.count} after {total}", hint=f" {VEHICLES_WHY}"))
             total += group.count
         links = total - 1
         if self.coupler is None and links:

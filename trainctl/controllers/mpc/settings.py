@@ -23,6 +23,7 @@ from pydantic import (
 
 from ...constraints import Array, Choice, Flag, Integer, Number, Violation, raise_at
 from ...declare import Key, python_error, settings
+from ...limits import HORIZON
 from ...units import kn_to_n
 from ..tracking import (
     InputWeight,
@@ -187,7 +188,7 @@ class ControllerSettings:
 
     form: Annotated[str, Choice(CONTROLLER_FORMS), Key(
         "Penalise the input deviation ('u') or the input increments ('du')")]
-    prediction_horizon: Annotated[int, Integer(ge=1), Key("Prediction horizon P", unit="steps")]
+    prediction_horizon: Annotated[int, HORIZON, Key("Prediction horizon P", unit="steps")]
     control_horizon: Annotated[int, Integer(ge=1), Key(
         "Control horizon M, the free moves inside P (M <= P)", unit="steps")]
     outputs: Outputs = ("v",)

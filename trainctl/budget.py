@@ -1,0 +1,386 @@
+# What a run will cost before it starts: steps, time and memory, and the budget it must fit.
+"""Estimate a scenario's run (steps, seconds, memory) and hold it to a budget.
+
+Scenario keys have hard limits (:mod:`trainctl.limits`), but values inside
+them can still combine into a run of days: 500 vehicles, a horizon of 2000
+steps, a million samples. :func:`estimate_run` predicts, from the scenario
+alone and before anything is built, how many controller steps the run takes
+(samples × strategies) and its work (samples × vehicles × prediction
+horizon, the size of what each step solves), and from those a rough time
+and memory; :func:`check_budget` refuses a run whose estimate exceeds a time
+budget (``trainctl analyse/report --max-time``, default
+:data:`DEFAULT_MAX_TIME`) or the machine's memory.
+
+The time model is an order-of-magnitude one, calibrated on a 2-core machine
+(trainctl 0.x, OSQP 1.1): the design review grows like (vehicles + 2) ×
+states⁴ for the modal and controllability checks and like vehicles^2.5 ×
+horizon^1.2 (plus a horizon³ term) for the MPC iteration analysis; each
+controller step costs the plant's substeps plus the strategy's QPs
+(centralised: one QP of vehicles × control-horizon moves, cubic in it;
+decentralised: one small QP per vehicle; N-DMPC and cooperative: that per
+iteration). Expect it within a factor of 3 or so; it is meant to tell a
+minute from an hour from a week.
+
+Examples
+--------
+>>> from trainctl.scenario import load_scenario
+>>> est = estimate_run(load_scenario("crh2-dmpc"))
+>>> est.samples, est.controller_steps, est.work
+(60, 180, 2880)
+>>> est.seconds < 60 < DEFAULT_MAX_TIME
+True
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+from .exceptions import TrainctlError
+
+if TYPE_CHECKING:
+    from .scenario import Scenario
+
+__all__ = [
+    "DEFAULT_MAX_TIME", "PRINT_ESTIMATE_FROM", "BudgetError", "RunEstimate", "check_budget",
+    "estimate_run", "format_bytes", "format_duration", "parse_duration", "physical_memory",
+    "total_estimate",
+]
+
+DEFAULT_MAX_TIME = 3600.0
+"""Default time budget of ``trainctl analyse`` and ``report`` [s]: an hour. The built-ins are
+estimated at seconds to a few minutes."""
+
+PRINT_ESTIMATE_FROM = 20.0
+"""Runs estimated at this many seconds or more print their estimate first [s]."""
+
+# Calibration (seconds), see the module docstring.
+_BASE = 0.3                 # scenario, model and review overhead
+_MODAL = 5e-11              # × (n + 2) · states⁴: modal, controllability, observability checks
+_MPC = 5e-4                 # × n^2.5 · P^1.2: N-DMPC iteration analysis
+_MPC_LONG = 3e-9            # × n^2.5 · P^3: the same at long horizons
+_SUBSTEP = 1e-4             # × (1 + n / 32) per plant substep
+_STEP = 5e-4                # controller overhead per step
+_QP = 2e-4                  # one small QP (a vehicle's)
+_CENTRAL = 3e-7             # × (n · M)³: the centralised QP
+_BUILD = 0.5                # building a strategy's controller (cvxpy), + _BUILD_SIZE·(n·P)^1.5
+_BUILD_SIZE = 1e-5
+_ITERATIONS = 5             # typical distributed iterations per sample (of max_iterations)
+_BYTES_PER_ROW = 8 * 6      # result arrays: bytes per sample and vehicle (plus dense grids)
+_DENSE_MATRICES = 5 * 8     # MPC analysis: about five dense (n·P)² float matrices alive
+
+
+class BudgetError(TrainctlError, ValueError):
+    """A run whose estimate exceeds the time budget or the machine's memory."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunEstimate:
+    """The predicted cost of running one or more scenarios.
+
+    Parameters
+    ----------
+    label : str
+        The scenario's source (or several, joined).
+    vehicles : int
+        Vehicles of the (largest) train.
+    horizon : int
+        Largest MPC prediction horizon P (1 without MPC).
+    samples : int
+        Samples per simulated strategy (0 without simulations).
+    strategies : int
+        Simulated strategies.
+    controller_steps : int
+        ``samples × strategies``, summed over scenarios.
+    work : int
+        ``controller_steps × vehicles × horizon``, summed over scenarios.
+    design_seconds : float
+        Estimated time of the design stage and review [s].
+    simulation_seconds : float
+        Estimated time of the simulations, run one after the other [s].
+    memory_bytes : float
+        Estimated peak memory of the largest stage [bytes].
+    dominant : str
+        What costs most, in words (for messages).
+    """
+
+    label: str
+    vehicles: int
+    horizon: int
+    samples: int
+    strategies: int
+    controller_steps: int
+    work: int
+    design_seconds: float
+    simulation_seconds: float
+    memory_bytes: float
+    dominant: str
+
+    @property
+    def seconds(self) -> float:
+        """Estimated total time [s]."""
+        return self.design_seconds + self.simulation_seconds
+
+    def describe(self) -> str:
+        """One line: steps, sizes, time and memory.
+
+        Examples
+        --------
+        >>> from trainctl.scenario import load_scenario
+        >>> estimate_run(load_scenario("crh2-dmpc")).describe().split(":")[0]
+        '60 samples × 3 strategies = 180 controller steps (4 vehicles, P = 4)'
+        """
+        if self.strategies:
+            steps = (f"{self.samples} samples × {self.strategies} strategies = "
+                     f"{self.controller_steps} controller steps")
+        else:
+            steps = "no simulation"
+        size = f"{self.vehicles} vehicles" + (f", P = {self.horizon}" if self.horizon > 1 else "")
+        return (f"{steps} ({size}): about {format_duration(self.seconds)}, "
+                f"{format_bytes(self.memory_bytes)}")
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-safe fields, with ``seconds``."""
+        return {"label": self.label, "vehicles": self.vehicles, "horizon": self.horizon,
+                "samples": self.samples, "strategies": self.strategies,
+                "controller_steps": self.controller_steps, "work": self.work,
+                "design_seconds": self.design_seconds,
+                "simulation_seconds": self.simulation_seconds, "seconds": self.seconds,
+                "memory_bytes": self.memory_bytes, "dominant": self.dominant}
+
+
+def estimate_run(scenario: Scenario, *, simulate: bool = True) -> RunEstimate:
+    """Predict the steps, time and memory of running a scenario.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A loaded scenario (nothing is built).
+    simulate : bool
+        Include the ``[simulation]`` strategies.
+
+    Returns
+    -------
+    RunEstimate
+        The estimate.
+    """
+    n = scenario.train.n_vehicles
+    horizon, moves = _horizons(scenario)
+    design, memory, dominant = _design_cost(n, horizon, scenario)
+    sim = scenario.simulation if simulate else None
+    samples = sim.n_steps(scenario.model.sample_time) if sim is not None else 0
+    strategies = tuple(sim.strategies) if sim is not None else ()
+    seconds = 0.0
+    for strategy in strategies:
+        seconds += _strategy_seconds(scenario, strategy, samples, horizon, moves)
+    memory = max(memory, float(samples) * n * _BYTES_PER_ROW * max(1, len(strategies)))
+    if seconds > design:
+        dominant = f"the simulations ({samples * len(strategies)} controller steps)"
+    return RunEstimate(
+        label=str(scenario.source), vehicles=n, horizon=horizon, samples=samples,
+        strategies=len(strategies), controller_steps=samples * len(strategies),
+        work=samples * len(strategies) * n * horizon, design_seconds=design,
+        simulation_seconds=seconds, memory_bytes=memory, dominant=dominant)
+
+
+def total_estimate(estimates: Iterable[RunEstimate]) -> RunEstimate:
+    """The estimate of several runs one after the other (``report --all``).
+
+    Parameters
+    ----------
+    estimates : iterable of RunEstimate
+        One per scenario.
+
+    Returns
+    -------
+    RunEstimate
+        Sums of steps, work and times; the largest sizes and memory; the
+        dominant part of the most expensive run.
+    """
+    items = list(estimates)
+    if not items:
+        raise ValueError("total_estimate: 'estimates' must not be empty")
+    worst = max(items, key=lambda e: e.seconds)
+    return replace(
+        worst,
+        label=", ".join(e.label for e in items),
+        vehicles=max(e.vehicles for e in items), horizon=max(e.horizon for e in items),
+        samples=max(e.samples for e in items), strategies=sum(e.strategies for e in items),
+        controller_steps=sum(e.controller_steps for e in items),
+        work=sum(e.work for e in items),
+        design_seconds=sum(e.design_seconds for e in items),
+        simulation_seconds=sum(e.simulation_seconds for e in items),
+        memory_bytes=max(e.memory_bytes for e in items))
+
+
+def check_budget(estimate: RunEstimate, max_time: float) -> None:
+    """Refuse a run estimated over ``max_time`` seconds or over the machine's memory.
+
+    Parameters
+    ----------
+    estimate : RunEstimate
+        From :func:`estimate_run` or :func:`total_estimate`.
+    max_time : float
+        Time budget [s]; ``math.inf`` for none.
+
+    Raises
+    ------
+    BudgetError
+        Naming the estimate, the budget and what dominates.
+
+    Examples
+    --------
+    >>> from trainctl.scenario import load_scenario
+    >>> check_budget(estimate_run(load_scenario("crh2-dmpc")), DEFAULT_MAX_TIME)
+    """
+    memory = physical_memory()
+    if memory is not None and estimate.memory_bytes > memory:
+        raise BudgetError(
+            f"{estimate.label}: the run would need about {format_bytes(estimate.memory_bytes)} "
+            f"of memory ({estimate.dominant}), more than this machine's "
+            f"{format_bytes(memory)}. {estimate.describe()}. Make the train, the horizon or "
+            "the run shorter.")
+    if estimate.seconds > max_time:
+        raise BudgetError(
+            f"{estimate.label}: the run is estimated at about {format_duration(estimate.seconds)}"
+            f" ({estimate.dominant}), over the time budget of {format_duration(max_time)}. "
+            f"{estimate.describe()}. Give --max-time {_suggest(estimate.seconds)} to run it "
+            "anyway, or make the train, the horizon or the run shorter.")
+
+
+def physical_memory() -> float | None:
+    """Total physical memory [bytes], or None where unknown."""
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE")) * float(os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, OSError, ValueError):  # pragma: no cover - not POSIX
+        return None
+
+
+def format_duration(seconds: float) -> str:
+    """A duration in the largest fitting unit.
+
+    Examples
+    --------
+    >>> format_duration(42), format_duration(150), format_duration(5400), format_duration(3e5)
+    ('42 s', '2.5 min', '1.5 h', '3.5 days')
+    >>> format_duration(float("inf"))
+    'no limit'
+    """
+    if math.isinf(seconds):
+        return "no limit"
+    for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        if seconds >= size:
+            return f"{seconds / size:.2g} {unit}"
+    return f"{seconds:.2g} s" if seconds < 10 else f"{seconds:.0f} s"
+
+
+def format_bytes(size: float) -> str:
+    """A memory size in MB, GB or TB (decimal).
+
+    Examples
+    --------
+    >>> format_bytes(2.5e6), format_bytes(3e10)
+    ('2.5 MB', '30 GB')
+    """
+    for unit, scale in (("TB", 1e12), ("GB", 1e9)):
+        if size >= scale:
+            return f"{size / scale:.2g} {unit}"
+    return f"{max(size / 1e6, 0.1):.2g} MB"
+
+
+def parse_duration(text: str) -> float:
+    """A time budget from ``"3600"``, ``"90s"``, ``"30min"``, ``"2h"``, ``"1d"`` or ``"inf"``.
+
+    Parameters
+    ----------
+    text : str
+        A positive number with an optional unit s, min, h or d (seconds by
+        default); ``inf`` or ``none`` for no budget.
+
+    Returns
+    -------
+    float
+        Seconds.
+
+    Raises
+    ------
+    ValueError
+        For anything else.
+
+    Examples
+    --------
+    >>> parse_duration("90"), parse_duration("30min"), parse_duration("2h"), parse_duration("none")
+    (90.0, 1800.0, 7200.0, inf)
+    """
+    value = text.strip().lower()
+    if value in ("inf", "none"):
+        return math.inf
+    for suffix, scale in (("min", 60.0), ("s", 1.0), ("h", 3600.0), ("d", 86400.0)):
+        if value.endswith(suffix):
+            value, factor = value[: -len(suffix)].strip(), scale
+            break
+    else:
+        factor = 1.0
+    seconds = float(value) * factor
+    if not (seconds > 0 and math.isfinite(seconds)):
+        raise ValueError(f"must be a positive duration (got {text!r})")
+    return seconds
+
+
+# --------------------------------------------------------------------------- the model
+
+
+def _horizons(scenario: Scenario) -> tuple[int, int]:
+    """The largest prediction and control horizons of the scenario's controllers (1 if none)."""
+    horizon = moves = 1
+    for settings in scenario.controllers.values():
+        horizon = max(horizon, int(getattr(settings, "prediction_horizon", 1) or 1))
+        moves = max(moves, int(getattr(settings, "control_horizon", 1) or 1))
+    return horizon, moves
+
+
+def _design_cost(n: int, horizon: int, scenario: Scenario) -> tuple[float, float, str]:
+    """Seconds and peak bytes of the design stage and review, and what dominates."""
+    states = 2 * n
+    modal = _MODAL * (n + 2) * states**4
+    mpc = 0.0
+    if any(hasattr(s, "prediction_horizon") for s in scenario.controllers.values()):
+        mpc = _MPC * n**2.5 * horizon**1.2 + _MPC_LONG * n**2.5 * horizon**3
+    memory = max(_DENSE_MATRICES * float(n * horizon) ** 2, 10 * 8 * float(states) ** 2)
+    if mpc > modal:
+        dominant = f"the MPC analysis of {n} vehicles with P = {horizon}"
+    else:
+        dominant = f"the design review of {n} vehicles ({states} states)"
+    return _BASE + modal + mpc, memory, dominant
+
+
+def _strategy_seconds(scenario: Scenario, strategy: str, samples: int, horizon: int,
+                      moves: int) -> float:
+    """Seconds to build and run one strategy for ``samples`` steps."""
+    from .sim.plant import Plant
+
+    n = scenario.train.n_vehicles
+    family, _, name = strategy.rpartition(".")
+    substeps = Plant(train=scenario.train).substeps(scenario.model.sample_time)
+    plant = _SUBSTEP * (1 + n / 32) * substeps
+    if family == "lqr":
+        return samples * (plant + _STEP)
+    settings = scenario.controllers.get(family) if family else scenario.controller
+    if name in ("ndmpc", "cooperative"):
+        limit = int(getattr(settings, "max_iterations", _ITERATIONS) or _ITERATIONS)
+        step = _QP * n * min(limit, _ITERATIONS)
+    elif name == "decentralised":
+        step = _QP * n
+    else:  # centralised, and other families' strategies
+        step = _QP + _CENTRAL * float(n * moves) ** 3
+    build = _BUILD + _BUILD_SIZE * float(n * horizon) ** 1.5
+    return build + samples * (plant + _STEP + step)
+
+
+def _suggest(seconds: float) -> str:
+    """A ``--max-time`` value comfortably above ``seconds``."""
+    hours = math.ceil(seconds * 1.5 / 3600.0)
+    return f"{hours}h" if hours < 48 else f"{math.ceil(hours / 24)}d"

@@ -1,0 +1,290 @@
+# Where command output goes: regular files replaced atomically, devices and pipes written through.
+"""Output targets of ``trainctl report -o`` and ``export -o``, classified before anything runs.
+
+A target is one of:
+
+``"file"``
+    A regular file (or a path that does not exist yet): written to a
+    temporary file beside it and renamed over it (:func:`write_text_atomic`),
+    so a reader never sees a partial file. A symbolic link to a regular file
+    keeps the link; the file it points to is replaced (with its permissions).
+``"stream"``
+    A character device (``/dev/null``, a terminal) or a named pipe: opened
+    and written through, never replaced or created.
+``"fd"``
+    ``-`` or an alias of an open descriptor (``/dev/stdout``,
+    ``/dev/fd/N``, ``/proc/self/fd/N``): written to that descriptor
+    (standard output through ``sys.stdout``).
+
+A path ending in ``/`` (or an existing directory) names a directory: the
+file is written inside it under the command's default name. Anything else
+(a block device, a socket, a directory where a file is needed) is refused
+with :class:`OutputError` before the command does any work.
+
+Examples
+--------
+>>> output_target("-").kind, output_target("/dev/null").kind
+('fd', 'stream')
+>>> target = output_target("reports/", default_name="crh2-dmpc.html")
+>>> target.kind, target.path.as_posix()
+('file', 'reports/crh2-dmpc.html')
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import secrets
+import stat
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..exceptions import TrainctlError
+
+__all__ = ["OutputError", "OutputTarget", "output_target", "write_output", "write_text_atomic"]
+
+_FD_ALIAS = re.compile(r"^/(?:dev|proc/self|proc/(?P<pid>\d+))/fd/(?P<fd>\d+)$")
+_STD_ALIAS = {"/dev/stdin": 0, "/dev/stdout": 1, "/dev/stderr": 2}
+_ACCEPTED = ("regular files, directories, character devices such as /dev/null, pipes, or '-' "
+             "for standard output")
+
+
+class OutputError(TrainctlError, ValueError):
+    """An output path that cannot be written as asked (a socket, a directory for a file, ...)."""
+
+
+@dataclass(frozen=True)
+class OutputTarget:
+    """A classified output destination.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        Where to write: the file (symbolic links resolved), the device or
+        pipe, or the descriptor alias (``/dev/stdout`` for ``-``).
+    kind : {"file", "stream", "fd"}
+        How it is written (see the module docstring).
+    display : str
+        The path as the user gave it (``-`` for standard output).
+    fd : int
+        The descriptor of an ``"fd"`` target (-1 otherwise).
+    exists : bool
+        True when a ``"file"`` target already exists.
+    """
+
+    path: Path
+    kind: str
+    display: str
+    fd: int = -1
+    exists: bool = False
+
+    @property
+    def is_stdout(self) -> bool:
+        """True when the output goes to standard output (status lines then go to stderr)."""
+        return self.kind == "fd" and self.fd == 1
+
+    def __fspath__(self) -> str:
+        """The path, so a target can be passed where a path is expected."""
+        return os.fspath(self.path)
+
+    def __str__(self) -> str:
+        """The path as the user gave it."""
+        return self.display
+
+
+def output_target(path: str | os.PathLike[str] | OutputTarget, *,
+                  default_name: str | None = None) -> OutputTarget:
+    """Classify an output path (nothing is written).
+
+    Parameters
+    ----------
+    path : str, os.PathLike or OutputTarget
+        ``-``, a file, a directory (``dir/``), a device, a pipe.
+    default_name : str or None
+        File name used inside a directory; None when a directory is not
+        accepted.
+
+    Returns
+    -------
+    OutputTarget
+        The classified target (an OutputTarget is returned unchanged).
+
+    Raises
+    ------
+    OutputError
+        For a directory without ``default_name``, a path ending in ``/``
+        that is not a directory, a broken symbolic link, a block device, a
+        socket or another kind of node.
+    """
+    if isinstance(path, OutputTarget):
+        return path
+    text = os.fspath(path)
+    if text == "-":
+        return OutputTarget(Path("/dev/stdout"), "fd", "-", fd=1)
+    target = Path(text)
+    if text.endswith(("/", os.sep)) or target.is_dir():
+        if default_name is None:
+            raise OutputError(f"{text}: is a directory; give a file path with -o")
+        if target.exists() and not target.is_dir():
+            raise OutputError(f"{text}: is not a directory (a path ending in '/' names one)")
+        target = target / default_name
+        text = os.fspath(target)
+    return _classify(target, text)
+
+
+def _classify(target: Path, text: str) -> OutputTarget:
+    fd = _fd_alias(target)
+    if fd is not None:
+        return OutputTarget(target, "fd", text, fd=fd)
+    try:
+        mode = os.stat(target).st_mode
+    except FileNotFoundError:
+        if os.path.lexists(target):
+            raise OutputError(f"{text}: is a broken symbolic link; remove it or give another "
+                              "path") from None
+        return OutputTarget(target, "file", text)
+    except NotADirectoryError:
+        raise OutputError(f"{text}: a parent of this path is not a directory") from None
+    if stat.S_ISREG(mode):
+        return OutputTarget(Path(os.path.realpath(target)), "file", text, exists=True)
+    if stat.S_ISCHR(mode) or stat.S_ISFIFO(mode):
+        return OutputTarget(target, "stream", text)
+    if stat.S_ISDIR(mode):
+        raise OutputError(f"{text}: is a directory; give a file path with -o")
+    raise OutputError(f"{text}: is a {_node_kind(mode)}; trainctl writes only to {_ACCEPTED}")
+
+
+def _node_kind(mode: int) -> str:
+    if stat.S_ISBLK(mode):
+        return "block device"
+    if stat.S_ISSOCK(mode):
+        return "socket"
+    return "special file"
+
+
+def _fd_alias(path: Path) -> int | None:
+    """The descriptor a path stands for (``/dev/stdout``, ``/dev/fd/3``, ...), or None."""
+    hop = os.path.abspath(path)
+    for _ in range(40):
+        if hop in _STD_ALIAS:
+            return _STD_ALIAS[hop]
+        match = _FD_ALIAS.match(hop)
+        if match and (match["pid"] is None or int(match["pid"]) == os.getpid()):
+            return int(match["fd"])
+        if not os.path.islink(hop):
+            return None
+        hop = os.path.normpath(os.path.join(os.path.dirname(hop), os.readlink(hop)))
+    return None
+
+
+def write_output(text: str, target: str | os.PathLike[str] | OutputTarget) -> Path:
+    """Write ``text`` (UTF-8) to an output target, each kind its way.
+
+    Parameters
+    ----------
+    text : str
+        The content.
+    target : str, os.PathLike or OutputTarget
+        Classified with :func:`output_target` when not already.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written (``/dev/stdout`` for ``-``).
+
+    Raises
+    ------
+    OutputError
+        For a target that is refused (see :func:`output_target`).
+
+    Examples
+    --------
+    >>> write_output("", "/dev/null").as_posix()
+    '/dev/null'
+    """
+    target = output_target(target)
+    if target.kind == "fd":
+        _write_fd(text, target.fd)
+    elif target.kind == "stream":
+        fd = os.open(target.path, os.O_WRONLY | getattr(os, "O_NOCTTY", 0))
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(text.encode("utf-8"))
+    else:
+        write_text_atomic(text, target.path)
+    return target.path
+
+
+def _write_fd(text: str, fd: int) -> None:
+    stream = {1: sys.stdout, 2: sys.stderr}.get(fd)
+    if stream is not None:
+        stream.write(text)
+        stream.flush()
+        return
+    data = memoryview(text.encode("utf-8"))
+    while data:
+        data = data[os.write(fd, data):]
+
+
+def write_text_atomic(text: str, path: str | os.PathLike[str]) -> Path:
+    """Write ``text`` (UTF-8) to the regular file ``path`` atomically.
+
+    The text goes to a temporary file in the destination directory, which is
+    then renamed over ``path`` with :func:`os.replace`; readers never see a
+    partial file, and on error nothing is left behind. Missing parent
+    directories are created. A symbolic link is followed (the link stays, its
+    regular file is replaced); an existing file keeps its permissions.
+
+    Parameters
+    ----------
+    text : str
+        File content.
+    path : str or os.PathLike
+        Destination file.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path`` as a :class:`~pathlib.Path`.
+
+    Raises
+    ------
+    OutputError
+        If ``path`` exists and is not a regular file (a device, a pipe, a
+        directory): those are never replaced (see :func:`write_output`).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     out = write_text_atomic("hi", Path(tmp) / "sub" / "a.txt")
+    ...     out.read_text(encoding="utf-8")
+    'hi'
+    """
+    given = Path(path)
+    target = Path(os.path.realpath(given)) if os.path.lexists(given) else given
+    mode = None
+    if target.exists():
+        st = os.stat(target)
+        if not stat.S_ISREG(st.st_mode):
+            raise OutputError(f"{given}: is not a regular file; it is never replaced (write "
+                              "through devices and pipes with write_output)")
+        mode = stat.S_IMODE(st.st_mode)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    data = text.encode("utf-8")
+    tmp = target.with_name(f".{target.name}.{secrets.token_hex(6)}.tmp")
+    # os.open honours the umask (unlike mkstemp's 0600), so a new file gets the
+    # permissions a plain open() would give it.
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+            handle.flush()
+            os.fsync(handle.fileno())
+        if mode is not None:
+            os.chmod(tmp, mode)
+        os.replace(tmp, target)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return given
