@@ -418,11 +418,16 @@ class TestReport:
         blocker = write_bytes(tmp_path / "file", "x")
         code = main(["report", "heavy-haul-hinf", "-o", str(blocker / "x.html")])
         assert_user_error(code, capsys.readouterr().err)
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
+
+    def test_existing_directory_receives_the_default_name(
+        self, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    ) -> None:
+        """-o DIR (an existing directory, with or without '/') writes DIR/<name>.html."""
         (tmp_path / "dir.html").mkdir()
         code = main(["report", "heavy-haul-hinf", "-o", str(tmp_path / "dir.html")])
-        assert_user_error(code, capsys.readouterr().err)
-        assert sorted(p.name for p in tmp_path.iterdir()) == ["dir.html", "file"]
-        assert list((tmp_path / "dir.html").iterdir()) == []
+        assert code == 0, capsys.readouterr().err
+        assert [p.name for p in (tmp_path / "dir.html").iterdir()] == ["heavy-haul-hinf.html"]
 
     def test_deterministic_renders_identical(
         self, tmp_path: Path, capsys: pytest.CaptureFixture[str]

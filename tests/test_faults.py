@@ -300,8 +300,12 @@ class TestDivergence:
         assert result.divergence["value"] == pytest.approx(1e5)
 
     def test_scenarios_refuse_a_start_beyond_the_bound(self):
-        with pytest.raises(ScenarioError, match="initial_speed_error must be smaller"):
+        # Far beyond any speed: the schema's hard limit refuses it first.
+        with pytest.raises(ScenarioError, match=r"initial_speed_error must be a number <="):
             edited("crh2-dmpc", simulation="initial_speed_error = 1e5")
+        # Within the hard limit but beyond the divergence bound (50 m/s by default).
+        with pytest.raises(ScenarioError, match="initial_speed_error must be smaller"):
+            edited("crh2-dmpc", simulation="initial_speed_error = 60.0")
 
 
 def edited_text(text: str, simulation: str):

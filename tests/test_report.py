@@ -343,7 +343,7 @@ class TestContext:
         keys = [c["key"] for c in table["columns"]]
         for row, result in zip(table["rows"], crh2.simulations.values(), strict=True):
             settle = crh2.scenario.simulation.settle_time
-            mask = result.dense_time >= settle  # maxima over the dense grid (between samples)
+            mask = result.dense_time >= settle  # maxima are taken between the samples too
             worst = np.max(np.abs(result.dense_velocities[:, mask]
                                   - result.dense_reference_speed[mask]))
             shown = float(row["cells"][keys.index("max_error")])
@@ -537,7 +537,7 @@ class TestWriteReport:
     def test_failure_leaves_nothing(self, tmp_path: Path) -> None:
         """If the rename fails, the destination and the temp file are absent."""
         (tmp_path / "r.html").mkdir()
-        with pytest.raises(OSError):
+        with pytest.raises((OSError, ValueError)):  # a directory is refused before writing
             write_report("x", tmp_path / "r.html")
         assert [p.name for p in tmp_path.iterdir()] == ["r.html"]
         assert list((tmp_path / "r.html").iterdir()) == []

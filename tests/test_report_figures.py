@@ -9,7 +9,6 @@ from typing import Any
 import numpy as np
 import pytest
 from matplotlib.figure import Figure
-from numpy.typing import NDArray
 
 from trainctl import plot
 from trainctl._plotting import limit_lines
@@ -40,23 +39,15 @@ def _result(name: str, *, steps: int = 30, dt: float = 20.0, iterations: int = 1
         fallbacks=("",) * steps, controller_name=name, seed=0, dt=dt)
 
 
-@dataclasses.dataclass(frozen=True, kw_only=True, eq=False)
-class DenseResult(SimulationResult):
-    """A run with a between-sample record, as the dense-grid simulation adds one."""
-
-    dense_time: NDArray[np.float64]
-    dense_velocities: NDArray[np.float64]
-    dense_coupler_forces: NDArray[np.float64]
-
-
-def _dense(result: SimulationResult, per_sample: int = 10) -> DenseResult:
+def _dense(result: SimulationResult, per_sample: int = 10) -> SimulationResult:
+    """The run with a between-sample record (interpolated), as the dense-grid simulation adds."""
     t = np.linspace(result.time[0], result.time[-1], result.n_samples * per_sample + 1)
-    fields = {f.name: getattr(result, f.name) for f in dataclasses.fields(SimulationResult)}
-    return DenseResult(
-        **fields, dense_time=t,
-        dense_velocities=np.array([np.interp(t, result.time, v) for v in result.velocities]),
+    return dataclasses.replace(
+        result, dense_time=t,
+        dense_states=np.array([np.interp(t, result.time, x) for x in result.states]),
         dense_coupler_forces=np.array([np.interp(t, result.time, f)
-                                       for f in result.coupler_forces]))
+                                       for f in result.coupler_forces]),
+        dense_reference_speed=np.interp(t, result.time, result.reference_speed))
 
 
 def _capture(store: dict[str, Figure]) -> Any:
