@@ -59,13 +59,16 @@ class TestActuatorLimits:
         assert applied.tolist() == low.tolist() and side.tolist() == [-1, -1, -1, -1]
 
     def test_requests_within_the_envelope_or_its_tolerance_pass_unchanged(self):
+        """Unchanged within 1 N; a force held at a (non-zero) limit still counts as saturated."""
         train = crh2_half()
         limits = ActuatorLimits(train)
         speeds = np.full(4, 80.0)
-        _, high = envelope(train, speeds)
-        ask = np.array([0.5, high[1] + 0.9, 0.5 * high[2], -1e3])  # 0.9 N over: solver noise
+        low, high = envelope(train, speeds)
+        ask = np.array([0.5, high[1] + 0.9, 0.5 * high[2], low[3] - 0.5])  # solver noise
         applied, side = limits.apply(ask, speeds)
-        assert applied.tolist() == ask.tolist() and not side.any()
+        assert applied.tolist() == ask.tolist() and side.tolist() == [0, 1, 0, -1]
+        applied, side = limits.apply(np.array([0.0, 1e3, -1e3, -0.5]), speeds)
+        assert not side.any()  # the trailers coast at their zero traction limit
         off = ActuatorLimits(train, enabled=False)
         applied, side = off.apply(np.full(4, 1e9), speeds)
         assert applied.tolist() == [1e9] * 4 and not side.any()

@@ -6,7 +6,11 @@ equipment can give at most its envelope at the vehicle's current speed —
 the force, power and adhesion limits of its
 :class:`~trainctl.models.TractionEnvelope` (trailers without traction give
 none). :class:`ActuatorLimits` clips a request to that envelope and says,
-per vehicle, whether and on which side it saturated. The simulation loop
+per vehicle, whether and on which side it saturated: the force is held at
+a limit, because the request went beyond it (and was cut) or asked for the
+limit itself (a controller that bounds its own inputs). A limit of zero —
+the traction of a trailer — counts only when a request is cut to it. The
+simulation loop
 (:func:`trainctl.sim.simulate`) applies it to every controller's inputs at
 each sample, at the speeds measured then, and holds the result over the
 sample interval (the drive latches its force command).
@@ -52,9 +56,9 @@ class ActuatorLimits:
     >>> applied, side = limits.apply(np.full(4, 1e5), np.full(4, 80.0))
     >>> (applied / 1e3).round(1).tolist(), side.tolist()
     ([0.0, 15.0, 15.0, 0.0], [1, 1, 1, 1])
-    >>> applied, side = limits.apply([0.0, 5e3, -1e6, 0.0], np.full(4, 80.0))
-    >>> side.tolist()
-    [0, 0, -1, 0]
+    >>> applied, side = limits.apply([0.0, 15e3, -1e6, 0.0], np.full(4, 80.0))
+    >>> side.tolist()  # at the traction limit, cut to the braking limit, trailers coasting
+    [0, 1, -1, 0]
     """
 
     def __init__(self, train: Train, *, enabled: bool = True,
@@ -97,18 +101,21 @@ class ActuatorLimits:
             The forces applied [N]: the request clipped to the envelope where
             it exceeds it by more than ``tolerance``, else the request itself.
         side : ndarray of int8
-            +1 where the traction limit saturated, -1 where the braking limit
-            did, 0 elsewhere (always 0 when not ``enabled``).
+            +1 where the force is held at the traction limit, -1 at the
+            braking limit (module docstring), 0 elsewhere (always 0 when not
+            ``enabled``).
         """
         u = self._vector("requested", requested).copy()
         side = np.zeros(u.size, dtype=np.int8)
         if not self.enabled:
             return u, side
         low, high = self.limits(speeds)
-        over, under = u > high + self.tolerance, u < low - self.tolerance
+        tol = self.tolerance
+        over, under = u > high + tol, u < low - tol
         if over.any() or under.any():
             u[over], u[under] = high[over], low[under]
-            side[over], side[under] = 1, -1
+        side[over | ((high > tol) & (u >= high - tol))] = 1
+        side[under | ((low < -tol) & (u <= low + tol))] = -1
         return u, side
 
     def _vector(self, name: str, value: ArrayLike) -> NDArray[np.float64]:

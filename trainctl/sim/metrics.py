@@ -11,9 +11,10 @@ accelerations between grid points, a_j = Δv / Δt and j = Δa over the
 spacing of the midpoints; a held input that steps changes the acceleration
 at once, which on a grid of spacing h reads as Δa / h.
 
-Saturation: the time each vehicle's request was cut to its traction or
+Saturation: the time each vehicle's force was held at its traction or
 braking limit (the samples flagged in ``result.saturation`` times their
-intervals), and when and where (the head position) it first happened.
+intervals: requests cut to the envelope, or asking for its limit), and when
+and where (the head position) it first happened.
 
 Energy quadrature: over interval k each vehicle's input u_k is held, and its
 speed is taken as the trapezoid (v_k + v_{k+1}) / 2, so the work is

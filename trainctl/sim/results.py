@@ -132,9 +132,10 @@ class SimulationResult(ResultViews):
         (n, N) (a non-finite request is recorded as the input held instead);
         None: equal to ``inputs`` (nothing saturated).
     saturation : ndarray of int8 or None
-        Per vehicle and sample: +1 when the request was cut to the traction
-        limit, -1 to the braking limit, 0 when applied as asked, shape
-        (n, N); None: zeros.
+        Per vehicle and sample: +1 when the force was held at the traction
+        limit (the request cut to it, or asking for it), -1 at the braking
+        limit, 0 elsewhere (:class:`~trainctl.models.ActuatorLimits`), shape
+        (n, N); None: zeros. ``requested_inputs != inputs`` shows the cuts.
     dense_time : ndarray or None
         The dense grid [s], strictly increasing, shape (D,), holding every
         sample instant; None: the samples (``time``).
