@@ -109,12 +109,7 @@ def scenario_controllers(scenario: Scenario) -> dict[str, Any]:
     dict of str to settings
         Empty without a ``[controller]`` section.
     """
-    controllers = getattr(scenario, "controllers", None)
-    if controllers is not None:
-        return dict(controllers)
-    if scenario.controller is None:
-        return {}
-    return {getattr(scenario.controller, "family", "mpc"): scenario.controller}
+    return dict(scenario.controllers)
 
 
 def split_strategy(scenario: Scenario, strategy: str) -> tuple[str, str]:
