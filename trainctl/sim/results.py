@@ -35,7 +35,7 @@ if TYPE_CHECKING:
     import control as ct
     from matplotlib.axes import Axes
 
-__all__ = ["FORMAT", "PLOT_KINDS", "SimulationResult", "environment"]
+__all__ = ["ARRAY_NAMES", "FORMAT", "PLOT_KINDS", "SimulationResult", "environment"]
 
 FORMAT = "trainctl.SimulationResult/1"
 """Format tag written to ``result.json``."""
@@ -47,6 +47,8 @@ _ARRAYS = (
     "time", "states", "velocities", "coupler_forces", "inputs", "reference_speed",
     "reference_acceleration", "iterations", "solve_times",
 )
+ARRAY_NAMES = _ARRAYS
+"""The arrays of a result, the members of its ``arrays.npz``."""
 _DEPENDENCIES = ("numpy", "scipy", "control", "cvxpy", "matplotlib", "pandas")
 
 
@@ -270,28 +272,21 @@ class SimulationResult:
         Raises
         ------
         ModelError
-            When ``result.json`` is not a trainctl simulation result.
+            When ``result.json`` is not a trainctl simulation result of this
+            format (a key missing, unknown or wrong), or ``arrays.npz`` lacks
+            an array or holds a non-finite or non-numeric one; the message
+            names the file and the key or array.
+        DimensionError
+            When the arrays' shapes do not fit together.
         """
+        from .resultfile import RESULT_HINT, read_result
+
         path = Path(directory)
-        document = json.loads((path / "result.json").read_text(encoding="utf-8"))
-        if not isinstance(document, dict) or document.get("format") != FORMAT:
-            found = document.get("format") if isinstance(document, dict) else type(document)
-            raise ModelError(
-                f"SimulationResult.load: {path / 'result.json'} must be a {FORMAT!r} file "
-                f"(got format {found!r}). Write it with SimulationResult.save."
-            )
-        with np.load(path / "arrays.npz", allow_pickle=False) as data:
-            arrays = {name: data[name] for name in _ARRAYS}
-        return cls(
-            **arrays,
-            statuses=tuple(document["statuses"]),
-            fallbacks=tuple(document["fallbacks"]),
-            residuals=tuple(tuple(r) for r in document["residuals"]),
-            controller_name=document["controller_name"],
-            seed=document["seed"],
-            dt=document["dt"],
-            meta=document["meta"],
-        )
+        fields = read_result(path)
+        try:
+            return cls(**fields)
+        except DimensionError as exc:
+            raise DimensionError(f"{path}: {exc}{RESULT_HINT}") from None
 
     # ----------------------------------------------------------------- views
     def to_dict(self) -> dict[str, object]:
