@@ -27,7 +27,7 @@ from pydantic import (
 )
 
 from ..exceptions import ModelError
-from ..jsonfile import FiniteFloat, load_json
+from ..jsonfile import FiniteFloat, read_json, validate_json
 from .results import ARRAY_NAMES, FORMAT
 
 __all__ = ["RESULT_HINT", "ResultFile", "read_result"]
@@ -78,7 +78,13 @@ def read_result(directory: str | Path) -> dict[str, Any]:
         Naming the file and the key or array at fault.
     """
     path = Path(directory)
-    doc = load_json(path / "result.json", ResultFile, hint=RESULT_HINT, error=ModelError)
+    raw = read_json(path / "result.json", hint=RESULT_HINT, error=ModelError)
+    found = raw.get("format") if isinstance(raw, dict) else None
+    if found != FORMAT:
+        raise ModelError(f"{path / 'result.json'}: must be a {FORMAT!r} file (got format "
+                         f"{found!r}). Write it with SimulationResult.save.")
+    doc = validate_json(raw, ResultFile, path / "result.json", hint=RESULT_HINT,
+                        error=ModelError)
     arrays = _read_arrays(path / "arrays.npz")
     return {**arrays, "statuses": tuple(doc.statuses), "fallbacks": tuple(doc.fallbacks),
             "residuals": tuple(tuple(r) for r in doc.residuals),
