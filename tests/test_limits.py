@@ -1,5 +1,5 @@
 # Hard limits: values that cannot be computed are refused up front, with the key and the reason.
-"""trainctl.limits, Rule.in_unit, non-finite models and oversized or deep TOML."""
+"""trainctl.limits (bounds in a key's unit), non-finite models and oversized or deep TOML."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from trainctl._validation import check_finite_arrays, numerical_errors
 from trainctl.cli import main
 from trainctl.constraints import Number
 from trainctl.exceptions import ModelError, ScenarioError
-from trainctl.limits import MASS, MAX_SAMPLES, SAMPLE_TIME, SPEED
+from trainctl.limits import MASS, MAX_SAMPLES, SAMPLE_TIME, SPEED, in_unit
 from trainctl.models import discretise
 from trainctl.models.vehicle import Coupler, Vehicle
 from trainctl.scenario import (
@@ -84,14 +84,14 @@ class TestBounds:
 
     def test_file_key_in_its_unit(self) -> None:
         """mass_t gets the kilogram bounds in tonnes; speed_kmh the m/s bound in km/h."""
-        assert MASS.in_unit(tonnes_to_kg).want() == "a number from 0.001 to 1e+06"
-        assert SPEED.in_unit(lambda kmh: kmh / 3.6).le == 1000.0
+        assert in_unit(MASS, tonnes_to_kg).want() == "a number from 0.001 to 1e+06"
+        assert in_unit(SPEED, lambda kmh: kmh / 3.6).le == 1000.0
 
     def test_in_unit_needs_a_scale_factor(self) -> None:
         """A converter that is not a positive scale cannot carry bounds (declaration error)."""
         with pytest.raises(ValueError, match="not a positive scale factor"):
-            Number(gt=0, le=10).in_unit(lambda x: x + 1.0)
-        assert Number().in_unit(lambda x: x + 1.0) == Number()  # nothing to convert
+            in_unit(Number(gt=0, le=10), lambda x: x + 1.0)
+        assert in_unit(Number(), lambda x: x + 1.0) == Number()  # nothing to convert
 
     def test_python_objects_share_the_bound(self) -> None:
         """A Vehicle built in Python is held to the same limit, in kg, with the reason."""
