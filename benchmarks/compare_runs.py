@@ -16,7 +16,8 @@ Each array is reported as ``identical`` (equal values, NaNs in the same places)
 or with its maximum relative difference: per signal (row of a 2-D array; a 1-D
 array is one signal) max |new - base| / max |base|, then the largest over the
 signals. A difference above ``--rtol`` (default 1e-12), a changed shape, or a
-missing scenario, strategy or array is a mismatch.
+missing scenario, strategy or array is a mismatch; an array only the new run
+has (a field added since the baseline) is listed as added.
 
 Exit status: 0 when everything agrees, 1 on any mismatch, 2 on a usage error.
 """
@@ -82,8 +83,11 @@ def compare_strategy(base: Path, new: Path, rtol: float) -> tuple[list[str], boo
             if name in WALL_CLOCK:
                 lines.append(f"  {name}: skipped (wall clock)")
                 continue
-            if name not in b.files or name not in c.files:
-                lines.append(f"  {name}: only in {'new' if name in c.files else 'base'}  MISMATCH")
+            if name not in b.files:
+                lines.append(f"  {name}: added (only in new)")
+                continue
+            if name not in c.files:
+                lines.append(f"  {name}: only in base  MISMATCH")
                 ok = False
                 continue
             line, good = compare_array(name, b[name], c[name], rtol)

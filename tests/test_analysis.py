@@ -70,8 +70,8 @@ class TestControllability:
         sys = linearise(crh2_half(), V300, dummy_state=True)
         for res in (analyse_controllability(sys), analyse_observability(sys)):
             assert res.rank == 7
-            assert len(res.uncontrollable) == 1
-            mode = res.uncontrollable[0]
+            assert len(res.modes) == 1
+            mode = res.modes[0]
             assert abs(mode.eigenvalue) < 1e-12 and mode.direction == {"delta[3]": 1.0}
 
     def test_seven_state_model_controllable_and_observable_from_velocities(self):
@@ -79,7 +79,7 @@ class TestControllability:
         sys = linearise(crh2_half(), V300)
         sys_kn = ct.ss(sys.A, sys.B * 1e3, sys.C, 0)
         for res in (analyse_controllability(sys_kn), analyse_observability(sys)):
-            assert res.full_rank and not res.uncontrollable
+            assert res.full_rank and not res.modes
 
     def test_kalman_matrix_agrees_with_python_control(self):
         """kalman_matrix equals control.ctrb/obsv, and the ranks agree on a well-scaled model."""

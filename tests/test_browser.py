@@ -6,13 +6,25 @@ loads reported by the page) to stderr as ``...:CONSOLE:...`` lines when run
 with ``--enable-logging=stderr``; a clean page logs none. The harness itself
 is checked on a page that does produce console errors.
 
+Width at 1280 px. The report runs no JavaScript, so the test measures a copy
+of it with one measuring script appended (:data:`MEASURE`): Chromium lays the
+page out in a 1280 px wide window, the script records the document's scroll
+width, every visible element that reaches outside the window and every
+element that scrolls horizontally (``overflow-x`` not visible and content
+wider than the box, e.g. a table in a scrolling wrapper), and
+``--dump-dom`` prints the page with that record. A page fits when the
+document is no wider than the window and the record is empty; the harness
+is checked on a page built to overflow both ways.
+
 Outside CI a missing browser skips these tests with a visible reason; with
 ``CI=true`` it is a failure (``.ci/run`` installs ``chromium``).
 """
 
 from __future__ import annotations
 
+import json
 import os
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -40,20 +52,75 @@ def _browser() -> str:
     pytest.skip(reason)
 
 
-def _load(page: Path, shot: Path, profile: Path, *, height: int = 3000) -> str:
-    """Load ``page`` headless, write a screenshot, return Chromium's stderr."""
+WIDTH = 1280
+"""Window width [px] the report must fit."""
+
+MEASURE = """
+(function () {
+  var vw = document.documentElement.clientWidth, found = [];
+  var all = document.body.querySelectorAll('*');
+  for (var k = 0; k < all.length; k++) {
+    var el = all[k], r = el.getBoundingClientRect();
+    if (r.width === 0 && r.height === 0) continue;  // not rendered (a closed <details>)
+    var name = el.tagName.toLowerCase() + (el.id ? '#' + el.id : '') +
+      (typeof el.className === 'string' && el.className ? '.' + el.className : '');
+    if (r.right > vw + 0.5 || r.left < -0.5)
+      found.push('outside ' + name + ' ' + Math.round(r.left) + '..' + Math.round(r.right));
+    if (getComputedStyle(el).overflowX !== 'visible' && el.scrollWidth > el.clientWidth + 1)
+      found.push('scrolls ' + name + ' ' + el.scrollWidth + ' > ' + el.clientWidth);
+  }
+  var out = document.createElement('pre');
+  out.id = 'trainctl-measure';
+  out.textContent = JSON.stringify({viewport: vw, width: document.documentElement.scrollWidth,
+                                    problems: found});
+  document.body.appendChild(out);
+})();
+"""
+"""Appended to a copy of the page: records what does not fit the window."""
+
+
+def _command(page: Path, profile: Path, height: int, *extra: str) -> list[str]:
     command = [
         _browser(), "--headless", "--disable-gpu", "--no-first-run", "--no-default-browser-check",
         "--disable-background-networking", "--disable-component-update", "--disable-sync",
         "--disable-extensions", "--hide-scrollbars", "--enable-logging=stderr", "--v=0",
-        f"--user-data-dir={profile}", f"--window-size=1280,{height}",
-        f"--screenshot={shot}", page.resolve().as_uri(),
+        f"--user-data-dir={profile}", f"--window-size={WIDTH},{height}", *extra,
+        page.resolve().as_uri(),
     ]
     if hasattr(os, "geteuid") and os.geteuid() == 0:
         command.insert(1, "--no-sandbox")  # Chromium refuses to run as root with the sandbox
+    return command
+
+
+def _load(page: Path, shot: Path, profile: Path, *, height: int = 3000) -> str:
+    """Load ``page`` headless, write a screenshot, return Chromium's stderr."""
+    command = _command(page, profile, height, f"--screenshot={shot}")
     result = subprocess.run(command, capture_output=True, text=True, timeout=180, check=False)
     assert result.returncode == 0, result.stderr[-2000:]
     return result.stderr
+
+
+def _measure(page: Path, tmp: Path) -> dict[str, object]:
+    """Lay out a copy of ``page`` with :data:`MEASURE` appended in a 1280 px window."""
+    html = page.read_text(encoding="utf-8")
+    assert "<script" not in html  # the report itself runs no JavaScript
+    copy = tmp / f"measured-{page.name}"
+    copy.write_text(html.replace("</body>", f"<script>{MEASURE}</script></body>"),
+                    encoding="utf-8")
+    result = subprocess.run(_command(copy, tmp / "profile-measure", 900, "--dump-dom"),
+                            capture_output=True, text=True, timeout=180, check=False)
+    assert result.returncode == 0, result.stderr[-2000:]
+    found = re.search(r'<pre id="trainctl-measure">(.*?)</pre>', result.stdout, re.DOTALL)
+    assert found, "the measuring script did not run"
+    text = found.group(1).replace("&gt;", ">").replace("&lt;", "<").replace("&amp;", "&")
+    return json.loads(text)
+
+
+def _figure_texts(html: str) -> dict[str, str]:
+    """The text of each figure's inline SVG (legends, labels), by figure key."""
+    figures = re.findall(r'<figure id="figure-([\w-]+)">(.*?)</figure>', html, re.DOTALL)
+    return {key: " ".join(re.findall(r"<text\b[^>]*>([^<]*)</text>", body))
+            for key, body in figures}
 
 
 def _console(stderr: str) -> list[str]:
@@ -65,6 +132,26 @@ def report(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The default report (crh2-dmpc), rendered by the CLI."""
     path = tmp_path_factory.mktemp("browser") / "crh2-dmpc.html"
     assert main(["report", "-o", str(path)]) == 0
+    return path
+
+
+@pytest.fixture(scope="module")
+def mixed(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """crh2-dmpc-well-sampled cut to 20 s: five strategies of two families (MPC, LQR)."""
+    from trainctl.scenario import read_scenario_text
+
+    text, _ = read_scenario_text("crh2-dmpc-well-sampled")
+    for old, new in (("duration = 1200.0", "duration = 20.0"),
+                     ("settle_time = 100.0", "settle_time = 5.0"),
+                     ("times = [0.0, 60.0, 460.0, 1020.0, 1200.0]", "times = [0.0, 5.0, 20.0]"),
+                     ("speeds_kmh = [72.0, 72.0, 216.0, 288.0, 288.0]",
+                      "speeds_kmh = [288.0, 288.0, 295.0]")):
+        assert old in text
+        text = text.replace(old, new)
+    root = tmp_path_factory.mktemp("mixed")
+    (root / "mixed.toml").write_text(text, encoding="utf-8")
+    path = root / "mixed.html"
+    assert main(["report", str(root / "mixed.toml"), "-o", str(path)]) == 0
     return path
 
 
@@ -94,3 +181,52 @@ def test_default_report_loads_cleanly(report: Path, tmp_path: Path) -> None:
     # Ink everywhere down the page, not only in a header.
     ink_rows = np.any(np.any(pixels != pixels[0, 0], axis=-1), axis=1)
     assert ink_rows[:1000].mean() > 0.3 and ink_rows[1000:].mean() > 0.3
+
+
+def test_harness_sees_overflow(tmp_path: Path) -> None:
+    """A page wider than the window, and a table scrolling in its box, are both caught."""
+    wide = tmp_path / "wide.html"
+    wide.write_text(
+        "<!DOCTYPE html><html><body style='margin:0'><div style='width:1500px'>wide</div>"
+        "<div style='overflow-x:auto;width:600px'><table><tr><td style='min-width:900px'>"
+        "x</td></tr></table></div></body></html>", encoding="utf-8")
+    record = _measure(wide, tmp_path)
+    assert record["viewport"] == WIDTH and record["width"] > WIDTH
+    problems = " ".join(record["problems"])
+    assert "outside div" in problems and "scrolls div" in problems
+
+
+def test_default_report_fits_1280(report: Path, tmp_path: Path) -> None:
+    """No horizontal overflow at 1280 px: nothing outside the window, nothing scrolling."""
+    record = _measure(report, tmp_path)
+    assert record["viewport"] == WIDTH
+    assert record["width"] <= WIDTH
+    assert record["problems"] == []
+
+
+def test_figures_for_every_strategy(report: Path) -> None:
+    """Each comparison figure names every strategy; the iterations figure only iterating ones."""
+    html = report.read_text(encoding="utf-8")
+    texts = _figure_texts(html)
+    strategies = ("centralised", "decentralised", "ndmpc")
+    for key in ("speed", "coupler-force", "input", "sigma-speed", "sigma-force",
+                "sensitivity", "complementary", "grade-step"):
+        assert key in texts, key
+        for name in strategies:
+            assert re.search(rf"(^|\s){name}(\s|$)", texts[key]), (key, name)
+    assert "ndmpc" in texts["iterations"]
+    assert not re.search(r"(^|\s)(de)?centralised(\s|$)", texts["iterations"])
+    for i in (1, 2, 3, 4):  # one panel per vehicle, numbered from 1
+        assert f"vehicle {i}" in texts["speed"] and f"{i} " in texts["input"]
+
+
+def test_mixed_families_report_fits_1280(mixed: Path, tmp_path: Path) -> None:
+    """Five strategies with long names (``lqr.decentralised``) still fit, every one drawn."""
+    record = _measure(mixed, tmp_path)
+    assert record["width"] <= WIDTH and record["problems"] == []
+    texts = _figure_texts(mixed.read_text(encoding="utf-8"))
+    for name in ("centralised", "decentralised", "ndmpc", "lqr.centralised",
+                 "lqr.decentralised"):
+        for key in ("speed", "coupler-force", "input", "sigma-speed", "sensitivity",
+                    "grade-step"):
+            assert re.search(rf"(^|\s){re.escape(name)}(\s|$)", texts[key]), (key, name)

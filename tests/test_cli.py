@@ -358,7 +358,7 @@ class TestReport:
         out = capsys.readouterr().out
         match = self.WROTE.fullmatch(out.strip())
         assert match, out
-        assert match["path"] == str(path) and match["checks"] == "12"
+        assert match["path"] == str(path) and match["checks"] == "18"
         html = path.read_text(encoding="utf-8")
         page = parse_page(html)
         name = load_scenario("crh2-dmpc").name
@@ -421,8 +421,14 @@ class TestReport:
         code = main(["report", "heavy-haul-hinf", "-o", f"{blocker}/"])
         assert_user_error(code, capsys.readouterr().err)
         assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
+
+    def test_existing_directory_receives_the_default_name(
+        self, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    ) -> None:
+        """-o DIR (an existing directory, with or without '/') writes DIR/<name>.html."""
         (tmp_path / "dir.html").mkdir()
-        assert main(["report", "heavy-haul-hinf", "-o", str(tmp_path / "dir.html")]) == 0
+        code = main(["report", "heavy-haul-hinf", "-o", str(tmp_path / "dir.html")])
+        assert code == 0, capsys.readouterr().err
         assert [p.name for p in (tmp_path / "dir.html").iterdir()] == ["heavy-haul-hinf.html"]
 
     def test_deterministic_renders_identical(
@@ -500,7 +506,7 @@ class TestReport:
         path = tmp_path / "r.html"
         assert main(["report", str(saved), "-o", str(path), "--deterministic"]) == 0
         html = path.read_text(encoding="utf-8")
-        assert html.count("<svg") == 7
+        assert html.count("<svg") == 11  # 4 closed-loop, 5 frequency domain, eigenvalues, ρ(D0)
         assert "trainctl analyse crh2-dmpc --save saved" in html
 
     def test_save_refuses_foreign_directory(

@@ -108,8 +108,12 @@ class TestBounds:
                 ModelSettings(speed=25.0, sample_time=dt)
         with pytest.raises(ModelError, match="'speed' must be a finite number <= 277.778"):
             ModelSettings(speed=1e3, sample_time=0.1)
-        assert SAMPLE_TIME.why in str(pytest.raises(ModelError, ModelSettings, speed=25.0,
-                                                    sample_time=0.0).value)
+        with pytest.raises(ModelError) as upper:
+            ModelSettings(speed=25.0, sample_time=1e4)
+        assert str(upper.value).endswith(SAMPLE_TIME.why)  # the reason of the upper bound
+        with pytest.raises(ModelError) as lower:
+            ModelSettings(speed=25.0, sample_time=0.0)
+        assert SAMPLE_TIME.why not in str(lower.value)
 
     def test_samples_per_run(self) -> None:
         """duration / sample_time above MAX_SAMPLES is refused, in Python and in files."""

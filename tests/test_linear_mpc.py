@@ -205,14 +205,14 @@ class TestController:
         assert np.linalg.norm(x) < 1e-2
 
     def test_infeasible_step_falls_back_to_the_shifted_plan(self):
-        """A state outside the hard bounds: status 'fallback', the last plan's next input."""
+        """A state outside the hard bounds: status 'infeasible', the last plan's next input."""
         mpc = make_linear_mpc(mpt3_system(), Q=np.eye(2), R=1, prediction_horizon=4, u_min=-1,
                               u_max=1, x_min=-5, x_max=5)
         ctl = mpc.controller()
         good = ctl.step(0.0, Measurement(state=np.array([4.0, 0.0])), None)
         bad = ctl.step(1.0, Measurement(state=np.array([40.0, 9.0])), None)
         assert good.status == "optimal"
-        assert (bad.status, bad.fallback) == ("fallback", "shifted plan")
+        assert (bad.status, bad.fallback) == ("infeasible", "shifted plan")
         plan = mpc.solve([4.0, 0.0]).inputs
         np.testing.assert_allclose(bad.inputs, plan[1], atol=1e-6)
 

@@ -136,6 +136,11 @@ def _svgs(html: str) -> list[str]:
     return re.findall(r"<svg\b.*?</svg>", html, flags=re.DOTALL)
 
 
+def _column_keys(context: dict[str, object]) -> list[str]:
+    """Column keys of every table of the controllers section."""
+    return [c["key"] for table in context["controllers"]["tables"] for c in table["columns"]]
+
+
 class TestEnvironment:
     """make_environment()."""
 
@@ -303,11 +308,10 @@ class TestContext:
         ctx = build_report_context(crh2, deterministic=True)
         assert ctx["generated_at"] == ""
         assert ctx["footer"]["timings"] == []
-        keys = [c["key"] for c in ctx["controllers"]["columns"]]
-        assert "solve_time" not in keys
+        assert "solve_time" not in _column_keys(ctx)
         live = build_report_context(crh2)
         assert re.fullmatch(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ", live["generated_at"])
-        assert "solve_time" in [c["key"] for c in live["controllers"]["columns"]]
+        assert "solve_time" in _column_keys(live)
 
     def test_checks_and_headline(self, crh2: ReportData, context: dict[str, object]) -> None:
         """Counts and badges follow the review; the headline names them."""
@@ -329,18 +333,20 @@ class TestContext:
         assert rows["input_weight"]["unit"] == "per kN²"
         assert rows["duration"]["unit"] == "s"
         assert rows["reference_speeds"]["unit"] == "m/s"
-        assert rows["coupler_force_limit"]["unit"] == "N"
+        assert rows["coupler_force_limit"]["unit"] == "kN"  # forces in kN everywhere
+        assert rows["coupler_force_limit"]["value"] == "500"
         assert rows["form"]["unit"] == ""
 
     def test_metrics_rows(self, crh2: ReportData, context: dict[str, object]) -> None:
         """One metrics row per simulated strategy, in order, with the worst speed error."""
-        table = context["controllers"]
+        table = context["controllers"]["tables"][0]
         assert [row["cells"][0] for row in table["rows"]] == list(crh2.simulations)
         keys = [c["key"] for c in table["columns"]]
         for row, result in zip(table["rows"], crh2.simulations.values(), strict=True):
             settle = crh2.scenario.simulation.settle_time
-            mask = result.time >= settle
-            worst = np.max(np.abs(result.velocities[:, mask] - result.reference_speed[mask]))
+            mask = result.dense_time >= settle  # maxima are taken between the samples too
+            worst = np.max(np.abs(result.dense_velocities[:, mask]
+                                  - result.dense_reference_speed[mask]))
             shown = float(row["cells"][keys.index("max_error")])
             assert shown == pytest.approx(worst, rel=1e-3)
 
@@ -387,8 +393,9 @@ class TestFigures:
     def test_every_figure_non_empty(self, context: dict[str, object]) -> None:
         """Each figure is an <svg> with a positive viewBox and drawn paths."""
         keys = [f.key for f in context["figures"]]
-        assert keys == ["velocity", "speed-error", "coupler-force", "input", "iterations",
-                        "eigenvalues", "convergence"]
+        assert keys == ["speed", "coupler-force", "input", "iterations", "eigenvalues",
+                        "sigma-speed", "sigma-force", "sensitivity", "complementary",
+                        "grade-step", "convergence"]
         for figure in context["figures"]:
             svg = str(figure.svg)
             width, height = map(float, re.search(
@@ -422,10 +429,10 @@ class TestPage:
         assert page.text_of("h2").count("Design checks") == 1
 
     def test_figures_are_inline_svg(self, html: str) -> None:
-        """Seven figures, each an inline SVG inside a <figure> with a caption."""
+        """Eleven figures, each an inline SVG inside a <figure> with a caption."""
         svgs = _svgs(html)
-        assert len(svgs) == 7
-        assert html.count("<figcaption>") == 7
+        assert len(svgs) == 11
+        assert html.count("<figcaption>") == 11
         assert "<img" not in html
 
     def test_tables_carry_units(self, html: str) -> None:

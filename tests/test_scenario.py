@@ -179,9 +179,9 @@ class TestBuiltins:
         assert (ctl.iterations, ctl.input_weight) == (10, 10.0)
 
     def test_crh2_potential_formation(self) -> None:
-        """crh2-potential is the 8-car T-M-M-T-T-M-M-T train at 0.01 s."""
+        """crh2-potential is the 8-car CRH2C-type T-M-M-M-M-M-M-T train at 0.01 s."""
         scenario = load_scenario("crh2-potential")
-        assert [v.name for v in scenario.train.vehicles] == list("TMMTTMMT")
+        assert [v.name for v in scenario.train.vehicles] == list("TMMMMMMT")
         assert scenario.train.mass.tolist() == [
             42800.0, 48000.0, 46500.0, 42000.0, 42000.0, 46500.0, 48000.0, 42800.0,
         ]  # fmt: skip

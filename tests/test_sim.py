@@ -231,8 +231,10 @@ def test_full_heavy_haul_chain_runs() -> None:
     eq = equilibrium(train, 20.0, allocation="own")
     plant = Plant(train=train)
     ctrl = ProportionalFeedforward(train, 0.05, 0.1)
+    # The stand-in asks every wagon for its own resistance, which the wagons (no traction)
+    # cannot give: without the plant's saturation the train stays at the equilibrium.
     result = simulate(plant, ctrl, ramp_profile(20.0, 20.0, 0.0, 1.0), duration=0.15,
-                      initial_state=eq.state(position=0.0), preview_steps=0)
+                      initial_state=eq.state(position=0.0), preview_steps=0, saturation=False)
     assert result.velocities.shape == (204, 4)
     assert np.allclose(result.velocities, 20.0, rtol=1e-9)
 
@@ -288,10 +290,12 @@ def crh2_run() -> tuple[SimulationResult, ProportionalFeedforward]:
     ctrl = ProportionalFeedforward(train, 1.0, 0.2)
     ctrl.nan_at = {5}
     eq = equilibrium(train, 40.0)
+    # The stand-in asks the trailers for traction they do not have: these tests are about
+    # the loop's bookkeeping, so the plant applies the requests as asked.
     result = simulate(Plant(train=train, track=grade_track()), ctrl,
                       ramp_profile(40.0, 50.0, 5.0, 25.0), duration=30.0,
                       initial_state=eq.state(position=0.0), preview_steps=3,
-                      measurement_noise=0.01, seed=7)
+                      measurement_noise=0.01, seed=7, saturation=False)
     return result, ctrl
 
 
@@ -313,6 +317,14 @@ def test_simulation_records_every_sample(crh2_run) -> None:
     assert all(ctrl.seen_states)
     assert result.controller_name == "p+ff" and result.seed == 7 and result.dt == 1.0
     assert result.meta["n_vehicles"] == 4 and result.meta["substeps_per_sample"] == 20
+    assert result.meta["plant_saturation"] is False and result.divergence is None
+    assert np.array_equal(result.requested_inputs, result.inputs)
+    assert not result.saturation.any() and result.saturation.dtype == np.int8
+    # The dense grid: 3 points in each of the 20 substeps of a 1 s sample (the 27.8 rad/s
+    # coupler mode turns by 0.46 rad in 50 / 3 ms), the samples among them.
+    assert result.meta["dense_points_per_sample"] == 60 and result.dense_time.shape == (1801,)
+    assert np.array_equal(result.dense_time[result.dense_sample_index], result.time)
+    assert np.array_equal(result.dense_states[:, ::60], result.states)
     # Tracks the ramp; on the 6 ‰ climb the proportional law leaves ~0.22 m/s.
     assert np.abs(result.velocities[:, -1] - 50.0).max() < 0.3
 
@@ -334,7 +346,7 @@ def test_measurement_noise_is_reproducible() -> None:
         return simulate(plant, ProportionalFeedforward(train, 2.0, 0.2),
                         ramp_profile(40.0, 40.0, 0.0, 1.0), duration=10.0,
                         initial_state=eq.state(position=0.0), preview_steps=1,
-                        measurement_noise=noise, seed=seed)
+                        measurement_noise=noise, seed=seed, saturation=False)
 
     a, b, c, quiet = run(1, 0.05), run(1, 0.05), run(2, 0.05), run(1, 0.0)
     assert np.array_equal(a.inputs, b.inputs) and np.array_equal(a.states, b.states)
@@ -458,9 +470,11 @@ def hand_result(
     return SimulationResult(
         time=dt * np.arange(cols), states=states, velocities=velocities,
         coupler_forces=np.zeros((n - 1, cols)), inputs=inputs, reference_speed=reference,
-        reference_acceleration=np.zeros(cols), statuses=("optimal",) * (steps - 1) + ("fallback",),
+        reference_acceleration=np.zeros(cols),
+        statuses=("optimal",) * (steps - 1) + ("infeasible",),
         iterations=np.arange(1, steps + 1), residuals=((),) * steps,
-        solve_times=np.linspace(0.01, 0.1, steps), fallbacks=("",) * steps,
+        solve_times=np.linspace(0.01, 0.1, steps),
+        fallbacks=("",) * (steps - 1) + ("shifted plan",),
         controller_name="hand", seed=0, dt=dt,
     )
 
@@ -500,8 +514,8 @@ def test_tracking_jerk_and_solver_statistics_by_hand() -> None:
     assert metrics.iterations_mean == 2.5 and metrics.iterations_max == 4
     assert metrics.solve_time_median == pytest.approx(0.055)
     assert metrics.solve_time_max == pytest.approx(0.1)
-    assert metrics.status_counts["optimal"] == 3 and metrics.status_counts["fallback"] == 1
-    assert metrics.status_counts["infeasible"] == 0
+    assert metrics.status_counts["optimal"] == 3 and metrics.status_counts["infeasible"] == 1
+    assert metrics.fallback_counts == {"shifted plan": 1}
     d = json.loads(json.dumps(metrics.to_dict()))
     assert d["max_error"] == [2.0, 0.0]
     with pytest.raises(ModelError, match="settle_time"):
@@ -514,8 +528,11 @@ def test_metrics_of_a_simulation(crh2_run) -> None:
     result, _ = crh2_run
     metrics = compute_metrics(result, settle_time=10.0)
     assert metrics.rms_error.shape == (4,) and np.all(metrics.rms_error < 0.5)
-    assert metrics.max_coupler_force == np.abs(result.coupler_forces).max() > 0
+    # The largest coupler force lies between the samples (the dense grid's 50 ms substeps).
+    assert metrics.max_coupler_force == np.abs(result.dense_coupler_forces).max()
+    assert metrics.max_coupler_force > 1.2 * np.abs(result.coupler_forces).max() > 0
     assert metrics.energy > 0 and metrics.status_counts["error"] == 1
+    assert metrics.fallback_counts == {HOLD_FALLBACK: 1} and not metrics.saturated
 
 
 # ----------------------------------------------------------------------------- plots

@@ -26,6 +26,7 @@ from .exceptions import ModelError as ModelError
 from .exceptions import ScenarioError as ScenarioError
 from .exceptions import SolverError as SolverError
 from .exceptions import TrainctlError as TrainctlError
+from .exceptions import UnknownNameError as UnknownNameError
 
 if TYPE_CHECKING:
     from .scenario import load_scenario as load_scenario
@@ -41,6 +42,7 @@ __all__ = [
     "ScenarioError",
     "SolverError",
     "TrainctlError",
+    "UnknownNameError",
     "__version__",
     "load_scenario",
 ]

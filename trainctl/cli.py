@@ -29,7 +29,8 @@ first (:mod:`trainctl.budget`): a long one prints its estimate on stderr, one
 over ``--max-time`` (default one hour) is refused, and a run that outlives
 it is stopped. Solver chatter never reaches stdout (:mod:`trainctl._runtime`).
 
-Exit status: 0 the command ran; 1 ``--strict`` found a failing check; 2 a
+Exit status: 0 the command ran; 1 ``--strict`` found a failure (a failing check, a
+missed tracking tolerance, too long a saturation, or an ``[expected]`` mismatch); 2 a
 usage, scenario or file error (``trainctl: error: <message>`` on stderr, no
 traceback, no file written). Any other exception is a bug and propagates.
 
@@ -95,7 +96,7 @@ def build_parser() -> argparse.ArgumentParser:
             "and HTML reports for the built-in or your own scenarios."
         ),
         epilog=(
-            "exit status: 0 ran; 1 --strict found a failing check; 2 usage, scenario or file error"
+            "exit status: 0 ran; 1 --strict found a failure; 2 usage, scenario or file error"
         ),
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
@@ -166,7 +167,10 @@ def _add_analyse(sub: Any) -> None:
         help="leave out wall-clock values (solve times): same input, same bytes",
     )
     p_analyse.add_argument(
-        "--strict", action="store_true", help="exit with status 1 if any check fails"
+        "--strict", action="store_true",
+        help="exit with status 1 if a check fails, a simulated strategy misses its tracking "
+        "tolerance, a vehicle saturates longer than [simulation] allows, or a check's status "
+        "differs from [expected]"
     )
     p_analyse.add_argument(
         "--no-simulate", action="store_true",
@@ -245,7 +249,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     Returns
     -------
     int
-        Exit status: 0 ran, 1 a ``--strict`` check failed, 2 user error.
+        Exit status: 0 ran, 1 ``--strict`` found a failure, 2 user error.
         (argparse exits with 2 by itself on a usage error, 0 for ``--help``.)
     """
     parser = build_parser()
@@ -342,10 +346,11 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
     if args.save:
         print(f"saved results to {args.save}", file=sys.stderr)
     if args.strict:
-        failed = summary.failed_checks
-        if failed:
-            noun = "check" if len(failed) == 1 else "checks"
-            print(f"{PROG}: {len(failed)} {noun} failed: " + "; ".join(failed), file=sys.stderr)
+        failures = summary.strict_failures()
+        if failures:
+            noun = "reason" if len(failures) == 1 else "reasons"
+            print(f"{PROG}: --strict: {len(failures)} {noun}: "
+                  + "; ".join(f"{f.kind} {f.name}" for f in failures), file=sys.stderr)
             return EXIT_CHECK_FAILED
     return EXIT_OK
 

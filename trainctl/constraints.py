@@ -218,7 +218,8 @@ class Number(Rule):
             text=f"must be {side.want(finite=finite)}",
             python_text=f"must be {side.want(python=True)}",
             got=_real(value) if finite else value,
-            hint=f" {self.why}" if self.why and value_error and not finite else "",
+            # The reason explains the upper bound; a value below the lower one needs none.
+            hint=f" {self.why}" if self.why and error_type == "less_than_equal" else "",
             file_hint=" Write numbers without quotes." if isinstance(value, str) else "",
             value=value_error,
             finite=finite,

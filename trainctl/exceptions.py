@@ -18,6 +18,7 @@ __all__ = [
     "ScenarioError",
     "SolverError",
     "TrainctlError",
+    "UnknownNameError",
 ]
 
 
@@ -43,6 +44,18 @@ class SolverError(TrainctlError, RuntimeError):
 
 class MissingDependencyError(TrainctlError, ImportError):
     """An optional dependency needed for this feature is not installed."""
+
+
+class UnknownNameError(TrainctlError, KeyError):
+    """A name (a check of a review, ...) that is not there; the message lists the known ones.
+
+    Also a ``KeyError`` (and so a ``LookupError``), so that ``except KeyError``
+    keeps working; unlike a plain ``KeyError`` its ``str()`` is the message
+    itself, not its quoted repr.
+    """
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
 
 
 class ConvergenceWarning(UserWarning):

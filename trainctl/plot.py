@@ -25,12 +25,23 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from matplotlib.axes import Axes
-from matplotlib.figure import Figure
 from numpy.typing import ArrayLike
+
+from ._plotting import (
+    LEGEND_MAX,
+    legend_outside,
+    limit_lines,
+    line_style,
+    mark_samples,
+    new_axes,
+    picked,
+    plain_log_labels,
+    trace,
+)
 
 if TYPE_CHECKING:
     from .sim.results import SimulationResult
@@ -45,53 +56,17 @@ __all__ = [
     "velocity_plot",
 ]
 
-_LEGEND_MAX = 10
-"""Show a legend only for at most this many traces."""
-
-
-def _axes(ax: Axes | None) -> Axes:
-    if ax is not None:
-        return ax
-    figure = Figure(figsize=(7.0, 3.5), layout="constrained")
-    return figure.add_subplot()
-
-
 def _legend(ax: Axes, count: int) -> None:
-    if count <= _LEGEND_MAX:
-        ax.legend(loc="best", fontsize="small")
-
-
-def _bounds(ax: Axes, bounds: tuple[ArrayLike, ArrayLike] | None,
-            time: ArrayLike | None = None) -> None:
-    """Dashed lines at the bounds given in N (drawn in kN).
-
-    A scalar bound is a horizontal line; an array bound is a curve over
-    ``time`` (one value per instant, or per sample held over its interval).
-    Infinite or missing values are not drawn.
-    """
-    if bounds is None:
-        return
-    labels = ("lower bound", "upper bound")
-    for value, label in zip(bounds, labels, strict=True):
-        if value is None:
-            continue
-        arr = np.asarray(value, dtype=float)
-        if arr.ndim == 0:
-            if np.isfinite(arr):
-                ax.axhline(float(arr) / 1e3, color="0.3", linestyle="--", linewidth=1.0,
-                           label=label)
-            continue
-        t = np.asarray(time, dtype=float)
-        if arr.shape[0] == t.shape[0] - 1:  # per sample: hold over the interval
-            arr = np.append(arr, arr[-1])
-        shown = np.where(np.isfinite(arr), arr / 1e3, np.nan)
-        if np.any(np.isfinite(shown)):
-            ax.step(t, shown, where="post", color="0.3", linestyle="--", linewidth=1.0,
-                    label=label)
+    """A legend right of the axes (off the data), for at most ``LEGEND_MAX`` traces."""
+    if count <= LEGEND_MAX:
+        legend_outside(ax)
 
 
 def velocity_plot(result: SimulationResult, *, ax: Axes | None = None) -> Axes:
     """Vehicle speeds and the reference speed against time.
+
+    Between-sample (dense) speeds are drawn when the run recorded them, with
+    the sample instants marked; otherwise the sampled speeds.
 
     Parameters
     ----------
@@ -105,10 +80,13 @@ def velocity_plot(result: SimulationResult, *, ax: Axes | None = None) -> Axes:
     matplotlib.axes.Axes
         The axes, labelled ``time [s]`` and ``speed [m/s]``.
     """
-    ax = _axes(ax)
+    ax = new_axes(ax)
     n = result.n_vehicles
+    t, speeds, dense = trace(result, "velocities")
     for i in range(n):
-        ax.plot(result.time, result.velocities[i], linewidth=1.0, label=f"vehicle {i + 1}")
+        (line,) = ax.plot(t, speeds[i], linewidth=1.0, label=f"vehicle {i + 1}")
+        if dense:
+            mark_samples(ax, result.time, result.velocities[i], line.get_color())
     ax.plot(result.time, result.reference_speed, "k--", linewidth=1.0, label="reference")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("speed [m/s]")
@@ -118,9 +96,20 @@ def velocity_plot(result: SimulationResult, *, ax: Axes | None = None) -> Axes:
 
 
 def speed_error_plot(
-    result: SimulationResult, *, settle_time: float | None = None, ax: Axes | None = None
+    result: SimulationResult,
+    *,
+    settle_time: float | None = None,
+    vehicle: int | None = None,
+    color: Any = None,
+    label: str | None = None,
+    ax: Axes | None = None,
+    **kwargs: Any,
 ) -> Axes:
-    """Speed minus reference speed of every vehicle against time.
+    """Speed minus reference speed of every vehicle (or of one) against time.
+
+    Between-sample (dense) errors are drawn when the run recorded them, with
+    the sample instants marked; otherwise the sampled errors, marked when
+    there are few samples.
 
     Parameters
     ----------
@@ -129,26 +118,40 @@ def speed_error_plot(
     settle_time : float or None
         Marked with a dotted vertical line when given [s] (tracking metrics
         start there).
+    vehicle : int or None
+        Draw only this vehicle (0-based index; labelled from 1); None: all.
+    color, label : optional
+        Line colour and legend label (for comparing runs in one axes);
+        default: matplotlib's cycle and ``"vehicle i"``.
     ax : matplotlib.axes.Axes or None
         Axes to draw into; None creates a new Figure.
+    **kwargs
+        Further line properties of the traces (e.g. ``linestyle``).
 
     Returns
     -------
     matplotlib.axes.Axes
         The axes, labelled ``time [s]`` and ``speed error [m/s]``.
     """
-    ax = _axes(ax)
-    n = result.n_vehicles
-    for i in range(n):
-        ax.plot(result.time, result.velocities[i] - result.reference_speed, linewidth=1.0,
-                label=f"vehicle {i + 1}")
-    ax.axhline(0.0, color="0.3", linewidth=0.8)
+    ax = new_axes(ax)
+    t, speeds, dense = trace(result, "velocities")
+    reference = getattr(result, "dense_reference_speed", None) if dense else None
+    if reference is None:
+        reference = np.interp(t, result.time, result.reference_speed)
+    shown = picked(result.n_vehicles, vehicle)
+    for i in shown:
+        (line,) = ax.plot(t, speeds[i] - reference,
+                          **line_style(color, label, f"vehicle {i + 1}", kwargs))
+        mark_samples(ax, result.time, result.velocities[i] - result.reference_speed,
+                     line.get_color())
+    ax.axhline(0.0, color="0.6", linewidth=0.6, zorder=0)
     if settle_time is not None:
         ax.axvline(settle_time, color="0.3", linestyle=":", linewidth=1.0, label="settle time")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("speed error [m/s]")
     ax.set_title(f"Speed error — {result.controller_name}")
-    _legend(ax, n + (settle_time is not None))
+    if vehicle is None:
+        _legend(ax, len(shown) + (settle_time is not None))
     return ax
 
 
@@ -156,34 +159,55 @@ def coupler_force_plot(
     result: SimulationResult,
     *,
     bounds: tuple[float, float] | None = None,
+    coupler: int | None = None,
+    color: Any = None,
+    label: str | None = None,
     ax: Axes | None = None,
+    **kwargs: Any,
 ) -> Axes:
     """Coupler forces (tension positive) against time, in kN.
+
+    The axes are scaled to the forces; the limits are dashed lines when near
+    them and named at the edge of the axes when far outside
+    (:func:`trainctl._plotting.limit_lines`). Between-sample (dense) forces
+    are drawn when the run recorded them, with the samples marked.
 
     Parameters
     ----------
     result : SimulationResult
         The run.
     bounds : (float, float) or None
-        Lower and upper coupler-force limits [N], drawn as dashed lines.
+        Lower and upper coupler-force limits [N].
+    coupler : int or None
+        Draw only this coupler (0-based; coupler i joins vehicles i + 1 and
+        i + 2 as labelled); None: all.
+    color, label : optional
+        Line colour and legend label (for comparing runs in one axes).
     ax : matplotlib.axes.Axes or None
         Axes to draw into; None creates a new Figure.
+    **kwargs
+        Further line properties of the traces (e.g. ``linestyle``).
 
     Returns
     -------
     matplotlib.axes.Axes
         The axes, labelled ``time [s]`` and ``coupler force [kN]``.
     """
-    ax = _axes(ax)
+    ax = new_axes(ax)
+    t, forces, dense = trace(result, "coupler_forces")
     count = result.coupler_forces.shape[0]
-    for i in range(count):
-        ax.plot(result.time, result.coupler_forces[i] / 1e3, linewidth=1.0,
-                label=f"coupler {i + 1}–{i + 2}")
-    _bounds(ax, bounds, result.time)
+    shown = picked(count, coupler) if count else range(0)
+    for i in shown:
+        (line,) = ax.plot(t, forces[i] / 1e3,
+                          **line_style(color, label, f"coupler {i + 1}–{i + 2}", kwargs))
+        mark_samples(ax, result.time, result.coupler_forces[i] / 1e3, line.get_color())
+    if bounds is not None:
+        limit_lines(ax, result.time, bounds[0], bounds[1],
+                    labels=("compression limit", "tension limit"))
     ax.set_xlabel("time [s]")
     ax.set_ylabel("coupler force [kN]")
     ax.set_title(f"Coupler forces — {result.controller_name}")
-    if count:
+    if count and coupler is None:
         _legend(ax, count)
     return ax
 
@@ -192,7 +216,11 @@ def input_plot(
     result: SimulationResult,
     *,
     bounds: tuple[ArrayLike, ArrayLike] | None = None,
+    vehicle: int | None = None,
+    color: Any = None,
+    label: str | None = None,
     ax: Axes | None = None,
+    **kwargs: Any,
 ) -> Axes:
     """Traction/braking forces, held over each sample interval, in kN.
 
@@ -201,28 +229,39 @@ def input_plot(
     result : SimulationResult
         The run.
     bounds : (float or ndarray, float or ndarray) or None
-        Lower (braking, negative) and upper (traction) limits [N], drawn as
-        dashed lines: scalars, or arrays over the samples (N values, held) or
-        the instants (N + 1 values), e.g. a speed-dependent envelope.
+        Lower (braking, negative) and upper (traction) limits [N]: scalars,
+        or arrays over the samples (N values, held) or the instants (N + 1
+        values), e.g. a vehicle's speed-dependent envelope. Drawn near the
+        data, named at the edge when far outside (the axes follow the data).
+    vehicle : int or None
+        Draw only this vehicle (0-based; labelled from 1); None: all.
+    color, label : optional
+        Line colour and legend label (for comparing runs in one axes).
     ax : matplotlib.axes.Axes or None
         Axes to draw into; None creates a new Figure.
+    **kwargs
+        Further line properties of the traces (e.g. ``linestyle``).
 
     Returns
     -------
     matplotlib.axes.Axes
         The axes, labelled ``time [s]`` and ``force [kN]``.
     """
-    ax = _axes(ax)
-    n = result.n_vehicles
+    ax = new_axes(ax)
+    shown = picked(result.n_vehicles, vehicle)
     if result.n_samples:
-        for i in range(n):
+        for i in shown:
             held = np.append(result.inputs[i], result.inputs[i, -1]) / 1e3
-            ax.step(result.time, held, where="post", linewidth=1.0, label=f"vehicle {i + 1}")
-    _bounds(ax, bounds, result.time)
+            ax.step(result.time, held, where="post",
+                    **line_style(color, label, f"vehicle {i + 1}", kwargs))
+    if bounds is not None:
+        limit_lines(ax, result.time, bounds[0], bounds[1],
+                    labels=("braking limit", "traction limit"))
     ax.set_xlabel("time [s]")
     ax.set_ylabel("force [kN]")
     ax.set_title(f"Inputs — {result.controller_name}")
-    _legend(ax, n + (2 if bounds is not None else 0))
+    if vehicle is None:
+        _legend(ax, len(shown) + (2 if bounds is not None else 0))
     return ax
 
 
@@ -247,7 +286,7 @@ def iterations_plot(result: SimulationResult, *, ax: Axes | None = None) -> Axes
         The iterations axes, labelled ``time [s]`` and ``iterations [-]``
         (the residual axes is its twin).
     """
-    ax = _axes(ax)
+    ax = new_axes(ax)
     t = result.time[:-1]
     handles = ax.step(t, result.iterations, where="post", linewidth=1.0, label="iterations")
     flagged = np.array([s != "optimal" for s in result.statuses], dtype=bool)
@@ -260,6 +299,7 @@ def iterations_plot(result: SimulationResult, *, ax: Axes | None = None) -> Axes
         handles += twin.step(t, shown, where="post", color="tab:orange", linewidth=0.8,
                              label="final residual")
         twin.set_yscale("log")
+        plain_log_labels(twin.yaxis)
         twin.set_ylabel("residual [kN]")
     ax.set_ylim(bottom=0)
     if len(handles) > 1:
@@ -285,7 +325,8 @@ def eigenvalue_plot(
     Returns
     -------
     matplotlib.axes.Axes
-        Equal-aspect axes labelled ``Re(λ) [-]`` and ``Im(λ) [-]``.
+        Equal-aspect axes labelled ``Re(λ) [-]`` and ``Im(λ) [-]``, the
+        legend to the right of them.
 
     Examples
     --------
@@ -293,7 +334,7 @@ def eigenvalue_plot(
     >>> ax.get_xlabel(), [line.get_label() for line in ax.lines][:2]
     ('Re(λ) [-]', ['unit circle', 'open loop (ρ = 1)'])
     """
-    ax = _axes(ax)
+    ax = new_axes(ax)
     theta = np.linspace(0.0, 2.0 * np.pi, 361)
     ax.plot(np.cos(theta), np.sin(theta), color="0.5", linewidth=0.8, label="unit circle")
     markers = ("o", "x", "+", "s", "^", "D")
@@ -309,7 +350,7 @@ def eigenvalue_plot(
     ax.set_xlabel("Re(λ) [-]")
     ax.set_ylabel("Im(λ) [-]")
     ax.set_title("Eigenvalues and the unit circle")
-    ax.legend(loc="best", fontsize="small")
+    legend_outside(ax)  # beside the circle, never over it
     return ax
 
 
@@ -350,7 +391,7 @@ def convergence_plot(
     >>> ax.get_xscale(), ax.get_ylabel()
     ('log', 'ρ(D0) [-]')
     """
-    ax = _axes(ax)
+    ax = new_axes(ax)
     r = np.asarray(weights, dtype=float)
     rho = np.asarray(radii, dtype=float)
     ax.plot(r, rho, linewidth=1.2, label="ρ(D0)")
@@ -363,9 +404,10 @@ def convergence_plot(
         ax.plot([design_weight], [at], "o", color="tab:green",
                 label=f"design R = {design_weight:.4g}")
     ax.set_xscale("log")
+    plain_log_labels(ax.xaxis)
     ax.set_ylim(bottom=0)
     ax.set_xlabel(f"R [{unit}]")
     ax.set_ylabel("ρ(D0) [-]")
     ax.set_title("N-DMPC iteration: ρ(D0) against the input weight")
-    ax.legend(loc="best", fontsize="small")
+    legend_outside(ax)
     return ax

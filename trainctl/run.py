@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from concurrent.futures import Executor, Future
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -15,11 +16,13 @@ from .analysis.review import DesignReview, review_design
 from .analysis.summary import ModelSummary, model_summary
 
 if TYPE_CHECKING:
+    from .analysis.loops import ClosedLoopResponse
     from .controllers.base import Controller
     from .design import Design
     from .scenario import Scenario
     from .sim.metrics import Metrics
     from .sim.results import SimulationResult
+    from .strict import StrictFailure
 
 __all__ = [
     "AnalysisRun", "make_controller", "run_scenario", "simulate_strategy", "submit_simulations",
@@ -62,7 +65,7 @@ class AnalysisRun:
 
     @property
     def failed_checks(self) -> tuple[str, ...]:
-        """Names of failed design checks (``--strict`` exits 1 when non-empty)."""
+        """Names of failed design checks (one reason for `--strict`; see strict_failures)."""
         return self.review.failed_checks
 
     def unexpected_checks(self) -> dict[str, tuple[str, str]]:
@@ -77,42 +80,145 @@ class AnalysisRun:
         return {name: (want, found.get(name, "missing"))
                 for name, want in self.scenario.expected.items() if found.get(name) != want}
 
+    @cached_property
+    def frequency(self) -> dict[str, ClosedLoopResponse]:
+        """Frequency and grade-step responses of each strategy's linear closed loop.
+
+        Computed once, on first use (:func:`trainctl.analysis.analyse_closed_loops`).
+        """
+        from .analysis.loops import analyse_closed_loops
+
+        return analyse_closed_loops(self.design)
+
+    def strict_failures(self) -> tuple[StrictFailure, ...]:
+        """Every reason ``trainctl analyse --strict`` exits 1 (see :mod:`trainctl.strict`).
+
+        Returns
+        -------
+        tuple of StrictFailure
+            Failed checks, strategies outside their tracking tolerance,
+            vehicles saturated too long, ``[expected]`` mismatches; empty
+            when the run is strict-clean.
+        """
+        from .strict import strict_failures
+
+        return strict_failures(self)
+
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict: the summary plus the review."""
+        """JSON-safe dict: the summary, the review, ``[expected]`` and the strict verdict."""
         out = self.summary.to_dict()
         out["checks"] = self.review.to_dict()["checks"]
         out["failed_checks"] = list(self.failed_checks)
+        out["expected"] = dict(self.scenario.expected)
+        out["unexpected_checks"] = {name: {"expected": want, "found": got}
+                                    for name, (want, got) in self.unexpected_checks().items()}
         if self.metrics:
+            sim = self.scenario.simulation
+            saturation = True if sim is None else sim.plant_saturation
             out["simulations"] = {
-                name: {**m.to_dict(), "tracking_ok": self.tracking_ok(name)}
+                name: {**m.to_dict(), "tracking_ok": self.tracking_ok(name),
+                       "plant_saturation": saturation}
                 for name, m in self.metrics.items()}
+        out["strict_failures"] = [f.to_dict() for f in self.strict_failures()]
+        out["frequency"] = frequency_dict(self)
         return out
 
     def format_text(self) -> str:
         """The text ``trainctl analyse`` prints."""
+        from .strict import format_strict
+
         text = self.summary.format_text() + "\n\n" + self.review.format_text()
+        if self.scenario.expected:
+            text += "\n\n" + _expected_text(self)
         if self.metrics:
             text += "\n\n" + _metrics_table(self)
-        return text
+        return text + "\n\n" + format_strict(self.strict_failures())
+
+
+def _expected_text(run: AnalysisRun) -> str:
+    declared = run.scenario.expected
+    wrong = run.unexpected_checks()
+    if not wrong:
+        return f"Expected outcomes ([expected]): all {len(declared)} declared statuses match."
+    lines = [f"Expected outcomes ([expected]): {len(wrong)} of {len(declared)} declared "
+             "statuses differ:"]
+    lines += [f"  {name}: expected {want.upper()}, found {got.upper()}"
+              for name, (want, got) in wrong.items()]
+    return "\n".join(lines)
+
+
+def frequency_dict(run: AnalysisRun) -> dict[str, object]:
+    """The ``frequency`` entry of :meth:`AnalysisRun.to_dict`: numbers per strategy.
+
+    Parameters
+    ----------
+    run : AnalysisRun
+        The run.
+
+    Returns
+    -------
+    dict
+        Strategy → peak gains with their frequencies [rad/s], the bandwidth
+        and the 1 ‰ grade-step peaks (:meth:`ClosedLoopResponse.to_dict`);
+        empty without linear closed loops.
+    """
+    return {name: response.to_dict() for name, response in run.frequency.items()}
+
+
+_NOTED = 8
+"""Saturated vehicles listed one by one under the metrics table, per strategy."""
 
 
 def _metrics_table(run: AnalysisRun) -> str:
     sim = run.scenario.simulation
     assert sim is not None  # metrics exist only with a [simulation] section
     w = max([15] + [len(name) + 2 for name in run.metrics])
-    lines = [f"Closed-loop simulations ({sim.duration:g} s, nonlinear plant; errors after "
-             f"{sim.settle_time:g} s, tolerance {sim.tracking_tolerance:g} m/s):",
+    plant = "nonlinear plant" + ("" if sim.plant_saturation else " without saturation")
+    lines = [f"Closed-loop simulations ({sim.duration:g} s, {plant}; errors after "
+             f"{sim.settle_time:g} s, tolerance {sim.tracking_tolerance:g} m/s; maxima "
+             "between samples too):",
              f"  {'strategy':<{w}}{'RMS err':>9}{'max err':>9}{'max |f|':>9}{'energy':>9}"
-             f"{'iters':>7}{'solve p50':>10}  statuses",
-             f"  {'':<{w}}{'[m/s]':>9}{'[m/s]':>9}{'[kN]':>9}{'[kWh]':>9}{'mean':>7}{'[ms]':>10}"]
+             f"{'sat':>7}{'iters':>7}{'solve p50':>10}  statuses",
+             f"  {'':<{w}}{'[m/s]':>9}{'[m/s]':>9}{'[kN]':>9}{'[kWh]':>9}{'[s]':>7}{'mean':>7}"
+             f"{'[ms]':>10}"]
+    notes = []
     for name, m in run.metrics.items():
         ok = "" if run.tracking_ok(name) else "  (tracking outside tolerance)"
         statuses = ", ".join(f"{k} {v}" for k, v in m.status_counts.items() if v)
-        lines.append(f"  {name:<{w}}{float(np.sqrt(np.mean(m.rms_error**2))):>9.3f}"
-                     f"{float(np.max(m.max_error)):>9.3f}{m.max_coupler_force / 1e3:>9.2f}"
-                     f"{m.energy:>9.2f}{m.iterations_mean:>7.1f}"
-                     f"{m.solve_time_median * 1e3:>10.2f}  {statuses}{ok}")
-    return "\n".join(lines)
+        statuses += "".join(f"; {f} {c}" for f, c in m.fallback_counts.items())
+        lines.append(f"  {name:<{w}}{_cell(float(np.sqrt(np.mean(m.rms_error**2))), 9, 3)}"
+                     f"{_cell(float(np.max(m.max_error)), 9, 3)}"
+                     f"{_cell(m.max_coupler_force / 1e3, 9, 2)}{_cell(m.energy, 9, 2)}"
+                     f"{_cell(float(np.max(m.saturation_time)), 7, 0)}"
+                     f"{m.iterations_mean:>7.1f}{m.solve_time_median * 1e3:>10.2f}  "
+                     f"{statuses}{ok}")
+        notes += _run_notes(name, m)
+    return "\n".join(lines + notes)
+
+
+def _cell(x: float, width: int, decimals: int) -> str:
+    """``x`` right-aligned in ``width`` with ``decimals``, or in 3 significant digits
+    when that would not fit."""
+    text = f"{x:>{width}.{decimals}f}"
+    return text if len(text) <= width else f" {x:>{width - 1}.3g}"
+
+
+def _run_notes(name: str, m: Metrics) -> list[str]:
+    """Lines under the table for a strategy whose run diverged or saturated."""
+    notes = []
+    if m.divergence is not None:
+        notes.append(f"  {name}: DIVERGED: {m.divergence.get('message', '')}")
+    saturated = np.flatnonzero(m.saturation_time > 0)
+    for i in saturated[:_NOTED]:
+        braking = m.braking_saturation_time[i]
+        side = ("braking" if braking == m.saturation_time[i] else
+                "traction" if braking == 0 else "traction and braking")
+        notes.append(f"  {name}: vehicle {i + 1} saturated ({side}) for "
+                     f"{m.saturation_time[i]:g} s, first at t = {m.first_saturation_time[i]:g} s, "
+                     f"head at {m.first_saturation_position[i]:.0f} m")
+    if saturated.size > _NOTED:
+        notes.append(f"  {name}: ... and {saturated.size - _NOTED} more vehicles saturated")
+    return notes
 
 
 def make_controller(scenario: Scenario, strategy: str, design: Design | None = None) -> Controller:
@@ -152,6 +258,9 @@ def simulate_strategy(
 
     The train starts at the feedforward equilibrium of the reference at t = 0
     (speed, acceleration) with every vehicle off by ``initial_speed_error``.
+    The plant saturates the forces to the envelopes (``plant_saturation``),
+    records the dense grid (``output_interval``) and stops a diverging run
+    (``divergence_speed_error``), as the ``[simulation]`` table says.
 
     Parameters
     ----------
@@ -188,7 +297,9 @@ def simulate_strategy(
                         duration=sim.duration, initial_state=state,
                         preview_steps=_preview_steps(controller),
                         measurement_noise=sim.measurement_noise, seed=scenario.seed,
-                        full_state=getattr(controller, "needs_full_state", True))
+                        full_state=getattr(controller, "needs_full_state", True),
+                        saturation=sim.plant_saturation, output_interval=sim.output_interval,
+                        divergence_speed_error=sim.divergence_speed_error)
 
 
 def _preview_steps(controller: Controller) -> int:

@@ -24,105 +24,27 @@ Observability is the dual problem (A^T, C^T).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import control as ct
 import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
+from .rank_results import ControllabilityResult as ControllabilityResult
+from .rank_results import ObservabilityResult as ObservabilityResult
+from .rank_results import UncontrollableMode as UncontrollableMode
+from .rank_results import UnobservableMode as UnobservableMode
+
 __all__ = [
     "ControllabilityResult",
+    "ObservabilityResult",
     "UncontrollableMode",
+    "UnobservableMode",
     "analyse_controllability",
     "analyse_observability",
     "finite_horizon_gramian",
     "kalman_matrix",
 ]
-
-
-@dataclass(frozen=True, kw_only=True)
-class UncontrollableMode:
-    """An eigenvalue that the inputs cannot move (or the outputs cannot see).
-
-    Parameters
-    ----------
-    eigenvalue : complex
-        The eigenvalue.
-    pbh_margin : float
-        Smallest singular value of [A - lambda I, B] relative to the largest.
-    direction : dict of str to float
-        Largest components of the left (controllability) or right
-        (observability) eigenvector, by state name.
-    """
-
-    eigenvalue: complex
-    pbh_margin: float
-    direction: dict[str, float]
-
-    def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict."""
-        return {"eigenvalue": [self.eigenvalue.real, self.eigenvalue.imag],
-                "pbh_margin": self.pbh_margin, "direction": dict(self.direction)}
-
-
-@dataclass(frozen=True, kw_only=True)
-class ControllabilityResult:
-    """Kalman rank, PBH and Gramian of (A, B) — or of (A^T, C^T) for observability.
-
-    Parameters
-    ----------
-    kind : str
-        ``"controllability"`` or ``"observability"``.
-    n_states : int
-        State dimension.
-    rank : int
-        Numerical rank of the Kalman matrix.
-    tol : float
-        Relative singular-value tolerance used for ranks.
-    singular_values : ndarray
-        Singular values of the scaled Kalman matrix (module docstring).
-    condition_number : float
-        Largest over n-th singular value of the scaled Kalman matrix.
-    uncontrollable : tuple of UncontrollableMode
-        Modes failing the PBH test.
-    gramian_horizon : float
-        Horizon T [s] (continuous) or number of steps N (discrete) of the Gramian.
-    gramian_eigenvalues : ndarray
-        Eigenvalues of the finite-horizon Gramian, ascending.
-    """
-
-    kind: str
-    n_states: int
-    rank: int
-    tol: float
-    singular_values: NDArray[np.float64]
-    condition_number: float
-    uncontrollable: tuple[UncontrollableMode, ...]
-    gramian_horizon: float
-    gramian_eigenvalues: NDArray[np.float64]
-
-    @property
-    def full_rank(self) -> bool:
-        """True when the Kalman rank equals the state dimension."""
-        return self.rank == self.n_states
-
-    def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict."""
-        cond = None if math.isinf(self.condition_number) else self.condition_number
-        return {
-            "kind": self.kind, "n_states": self.n_states, "rank": self.rank, "tol": self.tol,
-            "full_rank": self.full_rank, "condition_number": cond,
-            "singular_values": self.singular_values.tolist(),
-            "uncontrollable": [m.to_dict() for m in self.uncontrollable],
-            "gramian_horizon": self.gramian_horizon,
-            "gramian_eigenvalues": self.gramian_eigenvalues.tolist(),
-        }
-
-    def _repr_html_(self) -> str:
-        word = "uncontrollable" if self.kind == "controllability" else "unobservable"
-        return (f"<p><b>{self.kind.capitalize()}</b>: rank {self.rank}/{self.n_states}, "
-                f"cond {self.condition_number:.3g}, {len(self.uncontrollable)} {word} mode(s)</p>")
 
 
 def finite_horizon_gramian(
@@ -249,7 +171,8 @@ def analyse_controllability(
     >>> res.rank, [m.direction for m in res.uncontrollable]
     (7, [{'delta[3]': 1.0}])
     """
-    return _analyse(sys.A, sys.B, sys, tol, horizon, "controllability")
+    numbers, modes = _analyse(sys.A, sys.B, sys, tol, horizon, UncontrollableMode)
+    return ControllabilityResult(**numbers, uncontrollable=modes)
 
 
 def analyse_observability(
@@ -257,8 +180,11 @@ def analyse_observability(
     *,
     tol: float = 1e-9,
     horizon: float | None = None,
-) -> ControllabilityResult:
-    """Observability: the controllability analysis of (A^T, C^T).
+) -> ObservabilityResult:
+    """Observability: Kalman rank, PBH test and Gramian of (A, C).
+
+    Computed as the controllability of the dual pair (A^T, C^T), with the
+    same tolerances and scalings.
 
     Parameters
     ----------
@@ -271,19 +197,22 @@ def analyse_observability(
 
     Returns
     -------
-    ControllabilityResult
-        With ``kind="observability"``; directions are right eigenvectors.
+    ObservabilityResult
+        Rank, condition number, unobservable modes (their right
+        eigenvectors) and the observability Gramian's spectrum.
 
     Examples
     --------
     >>> from trainctl.models import crh2_half, linearise
-    >>> analyse_observability(linearise(crh2_half(), 300 / 3.6)).full_rank
-    True
+    >>> res = analyse_observability(linearise(crh2_half(), 300 / 3.6, dummy_state=True))
+    >>> res.rank, [m.direction for m in res.unobservable]
+    (7, [{'delta[3]': 1.0}])
     """
-    return _analyse(sys.A.T, sys.C.T, sys, tol, horizon, "observability")
+    numbers, modes = _analyse(sys.A.T, sys.C.T, sys, tol, horizon, UnobservableMode)
+    return ObservabilityResult(**numbers, unobservable=modes)
 
 
-def _analyse(A, B, sys, tol, horizon, kind) -> ControllabilityResult:
+def _analyse(A, B, sys, tol, horizon, mode_type):
     A = np.asarray(A, dtype=float)
     B = np.asarray(B, dtype=float)
     n = A.shape[0]
@@ -295,18 +224,18 @@ def _analyse(A, B, sys, tol, horizon, kind) -> ControllabilityResult:
         horizon = float(n) if discrete else 10.0
     W = finite_horizon_gramian(A, B, horizon, discrete=discrete)
     gramian_eigenvalues = np.asarray(np.linalg.eigvalsh(W), dtype=np.float64)
-    return ControllabilityResult(
-        kind=kind, n_states=n, rank=rank, tol=tol, singular_values=sv,
-        condition_number=cond, uncontrollable=_pbh(A, B, list(sys.state_labels), tol),
-        gramian_horizon=float(horizon), gramian_eigenvalues=gramian_eigenvalues,
-    )
+    numbers = {"n_states": n, "rank": rank, "tol": tol, "singular_values": sv,
+               "condition_number": cond, "gramian_horizon": float(horizon),
+               "gramian_eigenvalues": gramian_eigenvalues}
+    return numbers, _pbh(A, B, list(sys.state_labels), tol, mode_type)
 
 
 def _pbh(
-    A: NDArray[np.float64], B: NDArray[np.float64], labels: list[str], tol: float
-) -> tuple[UncontrollableMode, ...]:
+    A: NDArray[np.float64], B: NDArray[np.float64], labels: list[str], tol: float,
+    mode_type: type[UncontrollableMode],
+) -> tuple:
     n = A.shape[0]
-    found: list[UncontrollableMode] = []
+    found = []
     seen: list[complex] = []
     for value in np.linalg.eigvals(A):
         if any(abs(value - s) <= 1e-9 * max(1.0, abs(s)) for s in seen):
@@ -322,7 +251,7 @@ def _pbh(
             order = np.argsort(-weights)[:4]
             direction = {labels[i]: round(float(weights[i]), 6) for i in order
                          if weights[i] > 1e-3}
-            found.append(UncontrollableMode(eigenvalue=complex(value),
+            found.append(mode_type(eigenvalue=complex(value),
                                             pbh_margin=float(full[k] / sv[0]),
                                             direction=direction))
     return tuple(found)

@@ -4,22 +4,23 @@
 The review answers, before any simulation, whether the design can work:
 open-loop stability, controllability and observability, sampling adequacy
 (:func:`model_checks`, on the run's :class:`~trainctl.design.DesignModel`),
-then the checks of every controller family of the scenario
-(``checks()`` of each :mod:`~trainctl.controllers.registry` family, e.g. the
-N-DMPC conditions of the MPC family).
+whether every vehicle can supply its force where the train runs and whether
+the physical values are plausible (:func:`scenario_checks`), then the checks
+of every controller family of the scenario (``checks()`` of each
+:mod:`~trainctl.controllers.registry` family, e.g. the N-DMPC conditions of
+the MPC family).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
+from .check import STATUSES, Check, DesignReview
 from .controllability import analyse_controllability, analyse_observability
 from .sampling import analyse_sampling
 from .stability import analyse_stability, mode_direction
@@ -29,119 +30,30 @@ if TYPE_CHECKING:
     from ..scenario import Scenario
 
 __all__ = [
-    "MODEL_CHECK_NAMES", "STATUSES", "Check", "DesignReview", "model_checks", "radius_check",
-    "review_design",
+    "MODEL_CHECK_NAMES", "SAMPLING_FAIL", "SAMPLING_PASS", "STATUSES", "Check", "DesignReview",
+    "model_checks", "radius_check", "review_design", "scenario_checks",
 ]
 
 MODEL_CHECK_NAMES = (
     "open_loop_stability", "controllability", "observability", "sampling", "input_collapse",
+    "feasibility", "plausibility",
 )
-"""Names of the checks of the linear model (controller families add their own)."""
+"""Names of the checks that need no controller: the linear model's (:func:`model_checks`),
+then the scenario's (:func:`scenario_checks`); controller families add their own."""
 
-STATUSES = ("pass", "warn", "fail")
-"""Check statuses, from best to worst."""
-MODEL_CHECK_NAMES = ("open_loop_stability", "controllability", "observability", "sampling", "input_collapse")  # noqa: E501
+SAMPLING_PASS = math.pi / 2
+"""ω_max·T [rad] below which the sampling resolves the fastest coupler mode (pass): at
+least four samples per period of the fastest mode. The sampling hint asks for
+T < SAMPLING_PASS / ω_max."""
+
+SAMPLING_FAIL = math.pi
+"""ω_max·T [rad] at and above which the fastest coupler mode is aliased (Nyquist, fail)."""
 
 KN = 1e3
 """Newtons per kilonewton: inputs and coupler forces are in kN in the design model."""
 
 _UNIT_TOL = 1e-9
 """Closed-loop eigenvalues within this of the unit circle count as marginal."""
-
-
-@dataclass(frozen=True, kw_only=True)
-class Check:
-    """One named design check.
-
-    Parameters
-    ----------
-    name : str
-        Check name (see :data:`trainctl.scenario.CHECK_NAMES`).
-    status : {"pass", "warn", "fail"}
-        Outcome.
-    value : float or None
-        The measured number.
-    threshold : float or None
-        The number it is compared with.
-    unit : str
-        Unit of value and threshold ("" when dimensionless).
-    message : str
-        One line: what was found.
-    hint : str
-        One line: what to change ("" when nothing needs changing).
-    details : dict
-        JSON-safe supporting numbers (eigenvalues, directions, ...).
-    """
-
-    name: str
-    status: str
-    value: float | None
-    threshold: float | None
-    unit: str
-    message: str
-    hint: str = ""
-    details: Mapping[str, object] = field(default_factory=dict)
-
-    def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict (non-finite numbers as None)."""
-        return {"name": self.name, "status": self.status, "value": _finite(self.value),
-                "threshold": _finite(self.threshold), "unit": self.unit,
-                "message": self.message, "hint": self.hint, "details": dict(self.details)}
-
-
-@dataclass(frozen=True, kw_only=True)
-class DesignReview:
-    """The checks of one scenario, in a fixed order.
-
-    Parameters
-    ----------
-    scenario_name : str
-        Display name of the scenario.
-    checks : tuple of Check
-        The checks.
-    """
-
-    scenario_name: str
-    checks: tuple[Check, ...]
-
-    @property
-    def failed_checks(self) -> tuple[str, ...]:
-        """Names of the checks whose status is ``"fail"``."""
-        return tuple(c.name for c in self.checks if c.status == "fail")
-
-    def check(self, name: str) -> Check:
-        """The check called ``name`` (KeyError if the review has none)."""
-        for c in self.checks:
-            if c.name == name:
-                return c
-        raise KeyError(name)
-
-    def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict."""
-        return {"scenario": self.scenario_name, "checks": [c.to_dict() for c in self.checks],
-                "failed_checks": list(self.failed_checks)}
-
-    def format_text(self) -> str:
-        """The review as a plain-text table with hints."""
-        w = max([24] + [len(c.name) + 2 for c in self.checks])
-        lines = ["Design checks:",
-                 f"  {'check':<{w}}{'status':<8}{'value':>12}{'threshold':>12}  unit"]
-        for c in self.checks:
-            lines.append(f"  {c.name:<{w}}{c.status.upper():<8}{_fmt(c.value):>12}"
-                         f"{_fmt(c.threshold):>12}  {c.unit}")
-            lines.append(f"      {c.message}")
-            if c.hint:
-                lines.append(f"      hint: {c.hint}")
-        return "\n".join(lines)
-
-    def _repr_html_(self) -> str:
-        from html import escape
-        rows = "".join(
-            f"<tr><td>{escape(c.name)}</td><td>{c.status}</td><td>{_fmt(c.value)}</td>"
-            f"<td>{_fmt(c.threshold)}</td><td>{escape(c.unit)}</td><td>{escape(c.message)}</td></tr>"
-            for c in self.checks)
-        return ("<table><tr><th>check</th><th>status</th><th>value</th><th>threshold</th>"
-                f"<th>unit</th><th>finding</th></tr>{rows}</table>")
 
 
 def review_design(scenario: Scenario, design: Design | None = None) -> DesignReview:
@@ -158,8 +70,8 @@ def review_design(scenario: Scenario, design: Design | None = None) -> DesignRev
     Returns
     -------
     DesignReview
-        The model checks, then each controller family's checks (primary
-        family first).
+        The model checks, the scenario checks, then each controller family's
+        checks (primary family first).
 
     Examples
     --------
@@ -173,7 +85,7 @@ def review_design(scenario: Scenario, design: Design | None = None) -> DesignRev
 
     if design is None:
         design = build_design(scenario)
-    checks = model_checks(design.model)
+    checks = model_checks(design.model) + scenario_checks(scenario)
     for name, family_design in design.families.items():
         checks += get_family(name).checks(family_design)
     return DesignReview(scenario_name=scenario.name, checks=tuple(checks))
@@ -206,6 +118,35 @@ def model_checks(model: DesignModel) -> list[Check]:
     checks.append(_sampling_check(samp))
     checks.append(_collapse_check(samp))
     return checks
+
+
+def scenario_checks(scenario: Scenario) -> list[Check]:
+    """The checks of the scenario's physical values where the train runs.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A loaded scenario.
+
+    Returns
+    -------
+    list of Check
+        ``feasibility`` (:func:`~trainctl.analysis.feasibility.feasibility_check`:
+        every vehicle's force within its traction and braking envelope along
+        the route) and ``plausibility``
+        (:func:`~trainctl.analysis.plausibility.plausibility_check`: physical
+        values in their usual ranges, likely unit slips named).
+
+    Examples
+    --------
+    >>> from trainctl.scenario import load_scenario
+    >>> [c.status for c in scenario_checks(load_scenario("crh2-dmpc"))]
+    ['pass', 'pass']
+    """
+    from .feasibility import feasibility_check
+    from .plausibility import plausibility_check
+
+    return [feasibility_check(scenario), plausibility_check(scenario)]
 
 
 def radius_check(name: str, A_cl: NDArray[np.float64], labels: list[str], what: str, *,
@@ -297,7 +238,7 @@ def _rank_check(name: str, res, extra: list[bool] | None = None, virtual: bool =
         return Check(name=name, status="pass", value=float(res.rank), threshold=float(res.n_states),
                      unit="rank", message=f"rank {res.rank}/{res.n_states}, condition number "
                      f"{res.condition_number:.3g}{local}", details=details)
-    dirs = "; ".join(str(m.direction) for m in res.uncontrollable)
+    dirs = "; ".join(str(m.direction) for m in res.modes)
     if name == "controllability":
         hint = "add inputs or couple the vehicles"
     elif virtual:
@@ -316,13 +257,13 @@ def _sampling_check(samp) -> Check:
                      message=f"no coupler modes; T = {samp.sample_time:g} s",
                      details=samp.to_dict())
     wt = samp.omega_t
-    status = "pass" if wt < math.pi / 2 else ("warn" if wt < math.pi else "fail")
+    status = "pass" if wt < SAMPLING_PASS else ("warn" if wt < SAMPLING_FAIL else "fail")
     message = (f"ω_max·T = {samp.omega_max:.4g} rad/s × {samp.sample_time:g} s = {wt:.4g} rad "
                f"(π/ω_max = {samp.nyquist_sample_time:.4g} s)")
     hint = "" if status == "pass" else (
         f"the coupler modes are {'aliased' if status == 'fail' else 'barely resolved'}: use "
-        f"T ≤ {0.5 * samp.nyquist_sample_time:.3g} s to act on them")
-    return Check(name="sampling", status=status, value=wt, threshold=math.pi, unit="rad",
+        f"T < {_round_down(SAMPLING_PASS / samp.omega_max)} s (ω_max·T < π/2) to act on them")
+    return Check(name="sampling", status=status, value=wt, threshold=SAMPLING_FAIL, unit="rad",
                  message=message, hint=hint, details=samp.to_dict())
 
 
@@ -337,13 +278,7 @@ def _collapse_check(samp) -> Check:
                  details=samp.to_dict())
 
 
-def _finite(x: float | None) -> float | None:
-    return None if x is None or not math.isfinite(x) else float(x)
-
-
-def _fmt(x: float | None) -> str:
-    if x is None or (isinstance(x, float) and math.isnan(x)):
-        return "-"
-    if math.isinf(x):
-        return "inf"
-    return f"{x:.4g}"
+def _round_down(x: float, digits: int = 3) -> str:
+    """``x`` to ``digits`` significant digits, never rounded up (a bound quoted in a hint)."""
+    scale = 10.0 ** (digits - 1 - math.floor(math.log10(x)))
+    return f"{math.floor(x * scale) / scale:.{digits}g}"

@@ -96,6 +96,9 @@ class ModelSummary:
                 "traction_limit": [
                     None if math.isinf(x) else x for x in eq.traction_limit.tolist()
                 ],
+                "braking_limit": None if eq.braking_limit is None else [
+                    None if math.isinf(x) else x for x in eq.braking_limit.tolist()
+                ],
                 "feasible": eq.feasible,
             },
             "modes": [m.to_dict() for m in self.modes],
@@ -198,7 +201,9 @@ def _text_lines(s: ModelSummary) -> list[str]:
         lines.append(f"Static coupler forces [kN], tension positive: {forces}{more} "
                      f"(max |f| = {fmax / 1e3:.3f} kN)")
     lines.append(
-        f"Cruise traction within every vehicle's envelope: {'yes' if eq.feasible else 'NO'}"
+        "Cruise force within every vehicle's traction and braking envelope (at the model speed, "
+        f"head at 0 m): {'yes' if eq.feasible else 'NO'}; along the route: see the check "
+        "'feasibility'"
     )
     lines += ["", "Modes (continuous):",
               f"  {'kind':<12}{'Re [1/s]':>12}{'Im [rad/s]':>12}{'wn [rad/s]':>12}{'zeta':>10}"]

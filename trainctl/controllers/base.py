@@ -29,8 +29,13 @@ __all__ = [
     "StepRecord",
 ]
 
-STATUSES = ("optimal", "optimal_inaccurate", "max_iterations", "infeasible", "fallback", "error")
-"""Step statuses, mapped from solver statuses in one place (controllers.status)."""
+STATUSES = ("optimal", "optimal_inaccurate", "max_iterations", "infeasible", "error")
+"""Step statuses: the solver's outcome, mapped in one place (controllers.status).
+
+A step that applied a fallback input keeps the solver's outcome as its status
+(``"infeasible"``, ``"max_iterations"``, ``"error"``) and names the fallback in
+:attr:`StepRecord.fallback`; a step whose measurement or inputs were not
+finite is ``"error"`` with the reason in :attr:`StepRecord.info`."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -82,7 +87,8 @@ class StepRecord:
     inputs : ndarray
         Force per vehicle to apply until the next sample [N].
     status : str
-        One of :data:`STATUSES`.
+        One of :data:`STATUSES`: the solver's outcome, also when a fallback
+        was applied.
     iterations : int
         Distributed iterations (or solver iterations for centralised MPC).
     residuals : tuple of float
@@ -90,9 +96,10 @@ class StepRecord:
     solve_time : float
         Wall time spent in the step [s].
     fallback : str
-        Name of the fallback applied ("" when none).
+        Name of the fallback applied ("" when none), e.g. ``"shifted plan"``.
     info : mapping
-        Controller-specific extras (JSON-safe).
+        Controller-specific extras (JSON-safe); ``"reason"`` says why a step
+        is ``"error"``.
     """
 
     inputs: NDArray[np.float64]

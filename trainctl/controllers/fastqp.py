@@ -72,7 +72,7 @@ class QPSolution:
 
 
 class SolverOutput:
-    """Where ``sys.stdout`` points while OSQP solves: the text is dropped (and counted).
+    r"""Where ``sys.stdout`` points while OSQP solves: the text is dropped (and counted).
 
     OSQP 1.x prints "Polishing not needed - no active set detected at optimal
     point" whenever polishing finds no active constraint, whatever ``verbose``
@@ -260,12 +260,25 @@ class FastOSQP:
         self._n = self.P.shape[0]
         self._lower = np.full(self.Amat.shape[0], -np.inf)  # template of l (inequality rows)
         self._zi, self._si = _as_slice(self.z_index["z"]), _as_slice(self.z_index["s"])
-        self.solver = osqp.OSQP()
+        self._setup(osqp.OSQP, internal=True)
+
+    def _setup(self, make: Callable[[], Any], *, internal: bool) -> None:
+        """A fresh OSQP workspace with the data at zero parameters (cold: no warm start)."""
+        self.solver = make()
         q, lower, upper = self.qlu(self.offset)
         P_triu = sp.csc_matrix(sp.triu(self.P, format="csc"))  # OSQP wants csc_matrix
         self.solver.setup(P_triu, q, sp.csc_matrix(self.Amat), lower, upper, verbose=False,
                           warm_starting=True, **OSQP_SETTINGS)
-        self._run, self.route = osqp_runner(self.solver)
+        self._run, self.route = osqp_runner(self.solver, internal=internal)
+        self._used = False
+
+    def reset(self) -> None:
+        """Forget the warm start: a new OSQP workspace, as after construction.
+
+        A workspace that has not solved yet is kept (it is already clean).
+        """
+        if self._used:
+            self._setup(type(self.solver), internal=self.route == "internal")
 
     def _probe(self, vec0: Array) -> Array:
         """The map's columns from unit probes, checked affine at a random point."""
@@ -345,8 +358,19 @@ class FastOSQP:
         return self.solve_vector(self.offset + self.jac @ flat)
 
     def solve_vector(self, data: Array) -> QPSolution:
-        """Solve with OSQP's stacked data [q; b; h] already composed."""
+        """Solve with OSQP's stacked data [q; b; h] already composed.
+
+        Data with a NaN (or an infinite cost term) never reach OSQP: the
+        solution is then NaN with status ``"error"``. A solve that leaves no
+        finite solution with status ``"error"`` restarts the workspace cold,
+        so that no later solve warm-starts from it.
+        """
         start = time.perf_counter()
+        if np.isnan(data).any() or not np.isfinite(data[:self._n]).all():
+            nan = np.full(self._n, np.nan)
+            return QPSolution(nan[self._zi], nan[self._si], "error", 0,
+                              time.perf_counter() - start)
+        self._used = True
         stdout, sys.stdout = sys.stdout, SOLVER_OUTPUT
         try:
             if self.n_eq:
@@ -361,6 +385,8 @@ class FastOSQP:
         pass_on_interrupt(status_val)
         status = from_osqp(status_val)
         x = np.full(self._n, np.nan) if x is None else np.asarray(x, dtype=float)
+        if status == "error" and not np.isfinite(x).all():
+            self.reset()
         return QPSolution(x[self._zi], x[self._si], status, int(iters), elapsed)
 
     def use_public_route(self) -> None:

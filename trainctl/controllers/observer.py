@@ -147,7 +147,18 @@ class KalmanObserver:
         self.disturbance += float(update[-1])
         return self.estimate, self.disturbance
 
+    def skip(self) -> None:
+        """No usable measurement at this sample: the estimate is the prediction.
+
+        Before the first measurement there is nothing to estimate and nothing
+        changes (:meth:`predict` then does nothing either).
+        """
+        if self._started:
+            self.estimate = self.predicted.copy()
+
     def predict(self, inputs: Array) -> None:
         """Time update with the forces applied over the next sample [N]."""
+        if not self._started:
+            return
         effective = np.asarray(inputs, dtype=float) - self.train.mass * self.disturbance
         self.predicted = self.plant.advance(self.estimate, effective, self.dt)

@@ -104,6 +104,13 @@ class ParametricQP:
                              strict=True))
         self._fast: FastOSQP | None = (FastOSQP(self.problem, self._all, self._z, self._s,
                                                 name=name) if fast else None)
+        self._cold = False  # the next cvxpy solve sets OSQP up anew (after reset())
+
+    def reset(self) -> None:
+        """Forget every warm start: the next solve starts cold, on either path."""
+        if self._fast is not None:
+            self._fast.reset()
+        self._cold = True
 
     @property
     def has_fast_path(self) -> bool:
@@ -171,12 +178,17 @@ class ParametricQP:
         return self._solve_cvxpy(values)
 
     def _solve_cvxpy(self, values: dict[str, Array]) -> QPSolution:
+        start = time.perf_counter()
+        if any(np.isnan(v).any() for v in values.values()) or not np.isfinite(values["g"]).all():
+            # A NaN never reaches cvxpy (or the solver's warm start): no solution.
+            return QPSolution(np.full(self.nz, np.nan), np.zeros(self.ns), "error", 0,
+                              time.perf_counter() - start)
         # cvxpy refuses infinite parameter values in constraints; clip to a huge finite bound.
         self._assign({k: np.clip(v, -1e20, 1e20) for k, v in values.items()})
-        start = time.perf_counter()
+        warm, self._cold = not self._cold, False
         stdout, sys.stdout = sys.stdout, SOLVER_OUTPUT
         try:
-            self.problem.solve(solver=cp.OSQP, warm_start=True, verbose=False, **OSQP_SETTINGS)
+            self.problem.solve(solver=cp.OSQP, warm_start=warm, verbose=False, **OSQP_SETTINGS)
         except cp.SolverError as err:
             sys.stdout = stdout
             pass_on_interrupt(_last_osqp_status(self.problem))

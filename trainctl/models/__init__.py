@@ -1,6 +1,7 @@
 # Train models: parameters, nonlinear dynamics, linearisation, subsystems.
 """Train models in SI units (python-control systems with named signals)."""
 
+from .actuator import ActuatorLimits as ActuatorLimits
 from .chain import Chain as Chain
 from .discrete import DISCRETISATIONS as DISCRETISATIONS
 from .discrete import discretise as discretise
@@ -36,8 +37,9 @@ from .vehicle import Vehicle as Vehicle
 
 __all__ = [
     "ALLOCATIONS", "DISCRETISATIONS", "LINEARISATIONS", "PRESETS",
-    "Chain", "CoachSubsystems", "Coupler", "Equilibrium", "ForceSplit", "Neighbourhood",
-    "Plant", "QuasiStaticForces", "Track", "TrackSection", "TractionEnvelope", "Train", "Vehicle",
+    "ActuatorLimits", "Chain", "CoachSubsystems", "Coupler", "Equilibrium", "ForceSplit",
+    "Neighbourhood", "Plant", "QuasiStaticForces", "Track", "TrackSection", "TractionEnvelope",
+    "Train", "Vehicle",
     "coach_subsystems", "coupler_forces", "crh2_8car", "crh2_half", "discretise",
     "equilibrium", "heavy_haul_1p2p1", "linear_matrices", "linearise", "neighbourhood",
     "neighbourhoods", "nonlinear_system", "resistance_damping", "train_rhs",

@@ -49,6 +49,9 @@ class SectionTracker:
         """Line-resistance force of each vehicle in its section [N]."""
         self.budget, self.s_ref, self.d_ref = -1.0, s, z[n : 2 * n - 1]
         self.prev: _Start | None = None
+        self.crossed: tuple[NDArray[np.float64], NDArray[np.float64], float] | None = None
+        """The last visit's crossings in the previous substep: (τ [s], the jumps as forcing
+        columns G [N], v̄), or None (for the dense output inside the substep)."""
 
     def visit(
         self, z: NDArray[np.float64], s: float, force: NDArray[np.float64], vbar: float,
@@ -60,6 +63,7 @@ class SectionTracker:
         when a section changed); the head position is returned.
         """
         n = self.n
+        self.crossed = None
         if self.budget < 0.0 or (
             abs(s - self.s_ref) + float(np.abs(z[n : 2 * n - 1] - self.d_ref).sum())
             >= self.budget
@@ -77,7 +81,8 @@ class SectionTracker:
         p0, now = sections(plant.train, z, s, track)
         if prev is not None and np.any(now != prev[2]):
             # Crossings in the previous substep: add their exact effect.
-            fix = crossings(plant, h, prev, p0, z[:n], now, track)
+            fix, tau, jumps = crossings(plant, h, prev, p0, z[:n], now, track)
+            self.crossed = (tau, jumps, prev[3])
             z[: 2 * n - 1] += fix[: 2 * n - 1]
             s += fix[2 * n - 1]
             p0, now = sections(plant.train, z, s, track)
@@ -148,7 +153,7 @@ def crossings(
     v1: NDArray[np.float64],
     sec1: NDArray[np.intp],
     track: TrackArrays,
-) -> NDArray[np.float64]:
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Exact effect, at the end of a substep, of the section crossings within it.
 
     ``prev`` holds the substep's start ``(z, s, sections, vbar)``; ``p1``,
@@ -156,7 +161,8 @@ def crossings(
     crossing time τ is first estimated from the cubic Hermite interpolant of
     the vehicle's position, then refined by Newton's method on the exact
     linear flow of the substep; the jump ΔF of the vehicle's line
-    resistance then adds Γ(h - τ) e_i ΔF.
+    resistance then adds Γ(h - τ) e_i ΔF. Returns that sum over the
+    crossings, their times τ and their jumps as forcing columns e_i ΔF.
     """
     starts, per_mass = track[0], track[1]
     z0, s0, sec0, vbar = prev
@@ -199,7 +205,7 @@ def crossings(
     G = np.zeros((n, idx.size))
     G[idx, np.arange(idx.size)] = jumps
     response = linear_flow(plant, h, vbar, np.zeros((2 * n, idx.size)), G, h - tau)
-    return response.sum(axis=1)
+    return response.sum(axis=1), tau, G
 
 
 def hermite_root(

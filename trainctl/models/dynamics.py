@@ -223,6 +223,9 @@ class Equilibrium:
         Running plus line resistance of each vehicle [N].
     traction_limit : ndarray
         Traction available at ``speed`` per vehicle [N].
+    braking_limit : ndarray or None
+        Braking available at ``speed`` per vehicle, as positive numbers [N];
+        None: not limited.
     """
 
     speed: float
@@ -231,11 +234,21 @@ class Equilibrium:
     elongations: NDArray[np.float64]
     resistance: NDArray[np.float64]
     traction_limit: NDArray[np.float64]
+    braking_limit: NDArray[np.float64] | None = None
 
     @property
     def feasible(self) -> bool:
-        """True when every vehicle's equilibrium force is within its envelope."""
-        return bool(np.all(self.inputs <= self.traction_limit * (1 + 1e-12) + 1e-9))
+        """True when every vehicle's force is within its traction and braking envelope.
+
+        A positive (traction) force must not exceed :attr:`traction_limit`, a
+        negative (braking) one must not exceed :attr:`braking_limit` in
+        magnitude (relative tolerance 1e-12, absolute 1e-9 N).
+        """
+        u = self.inputs
+        traction_ok = np.all(u <= self.traction_limit * (1 + 1e-12) + 1e-9)
+        if self.braking_limit is None:
+            return bool(traction_ok)
+        return bool(traction_ok and np.all(-u <= self.braking_limit * (1 + 1e-12) + 1e-9))
 
     def state(self, *, position: float | None = None) -> NDArray[np.float64]:
         """Equilibrium state ``[v, delta]`` (plus ``s`` when ``position`` is given).
@@ -295,7 +308,9 @@ def equilibrium(
     Returns
     -------
     Equilibrium
-        Inputs, static coupler forces and elongations.
+        Inputs, static coupler forces and elongations, and the traction and
+        braking limits at ``speed`` (:attr:`Equilibrium.feasible` compares
+        the inputs with both).
 
     Examples
     --------
@@ -303,6 +318,13 @@ def equilibrium(
     >>> eq = equilibrium(crh2_half(), 300 / 3.6)
     >>> (eq.coupler_forces / 1e3).round(3).tolist()
     [-5.627, -0.151, 5.521]
+
+    Holding 300 km/h down a 30 ‰ grade needs braking, which the motor
+    coaches' 40 kN cannot give:
+
+    >>> steep = equilibrium(crh2_half(), 300 / 3.6, grade_permille=-30.0)
+    >>> (steep.inputs / 1e3).round(1).tolist(), steep.feasible
+    ([-0.0, -14.6, -14.6, -0.0], False)
     """
     speed = check_positive("equilibrium", "speed", speed)
     accel = check_finite("equilibrium", "acceleration", acceleration)
@@ -315,6 +337,7 @@ def equilibrium(
         extra = _line_resistance(train, grade, track, position) + accel
     q = split(np.array([speed]), np.zeros(1), extra)
     limits = np.array([v.envelope.traction_limit(speed, mass=v.mass) for v in train.vehicles])
+    braking = np.array([v.envelope.braking_limit(speed, mass=v.mass) for v in train.vehicles])
     return Equilibrium(
         speed=speed,
         inputs=q.inputs[0],
@@ -322,6 +345,7 @@ def equilibrium(
         elongations=q.elongations[0],
         resistance=q.resistance[0],
         traction_limit=limits,
+        braking_limit=braking,
     )
 
 

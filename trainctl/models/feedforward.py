@@ -126,9 +126,10 @@ class ForceSplit:
         accelerations : array_like
             Common accelerations a [m/s²], shape (k,).
         line : array_like or None
-            Line resistance per unit mass r_i [m/s²] of each vehicle, shape (n,)
-            (grade and curves; any extra specific force), the same for every
-            pair; None for none. Added as m_i r_i after m_i (davis + a).
+            Line resistance per unit mass r_i [m/s²] of each vehicle (grade and
+            curves; any extra specific force): shape (n,), the same for every
+            pair, or (k, n), one row per pair (the vehicles' sections along a
+            route); None for none. Added as m_i r_i after m_i (davis + a).
 
         Returns
         -------

@@ -82,9 +82,14 @@ one expm of a 612 × 612 matrix (0.1–0.3 s; with a track also four squarings
 for the crossing ladder); every substep is then one dense (408 × 611)
 product. The caches keep at most 128 MiB each, least recently used first.
 
-The propagators live in :mod:`trainctl.models._plant_propagators`, the section
-crossings in :mod:`trainctl.models._plant_crossings` and the ``solve_ivp``
-reference in :mod:`trainctl.models._plant_reference`.
+:meth:`Plant.advance_dense` also returns the states at the substep
+boundaries (the between-sample truth of a simulation), with the same
+integration bit for bit.
+
+The propagators live in :mod:`trainctl.models._plant_propagators`, the
+substep loop and its dense output in :mod:`trainctl.models._plant_integrate`,
+the section crossings in :mod:`trainctl.models._plant_crossings` and the
+``solve_ivp`` reference in :mod:`trainctl.models._plant_reference`.
 """
 
 from __future__ import annotations
@@ -99,14 +104,13 @@ from numpy.typing import ArrayLike, NDArray
 from .._validation import check_positive
 from ..exceptions import DimensionError, ModelError
 from ._plant_crossings import SectionTracker
+from ._plant_dense import DenseOutput, DenseRecord
+from ._plant_integrate import integrate
 from ._plant_propagators import (
     CACHE_BYTES,
     LRU,
     Propagator,
     TrackArrays,
-    drag_flow,
-    grid_speed,
-    propagator,
 )
 from ._plant_reference import advance_reference
 from .chain import Chain
@@ -116,7 +120,7 @@ from .train import Train
 __all__ = ["Plant"]
 
 @dataclass(frozen=True, kw_only=True)
-class Plant:
+class Plant(DenseOutput):
     """The nonlinear train on its track, advanced over held-input intervals.
 
     Parameters
@@ -154,6 +158,12 @@ class Plant:
         default_factory=dict, init=False, repr=False, compare=False
     )
     _chains: dict[float, Chain] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
+    _inner_flows: dict[tuple[float, float, int], NDArray[np.float64]] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
+    _offsets: dict[tuple[float, int, int], NDArray[np.float64]] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
 
@@ -314,6 +324,13 @@ class Plant:
         (True, True)
         """
         x, u, dt = self._check("Plant.advance", state, inputs, dt)
+        return self._advance(x, u, dt, None)
+
+    def _advance(
+        self, x: NDArray[np.float64], u: NDArray[np.float64], dt: float,
+        record: DenseRecord | None,
+    ) -> NDArray[np.float64]:
+        """:meth:`advance` on checked arguments, recording into ``record`` (or not)."""
         n = self.train.n_vehicles
         steps = self._substeps(dt)
         base = u - self._forces[0]
@@ -325,59 +342,11 @@ class Plant:
         z[: 2 * n - 1] = x[: 2 * n - 1]
         s = x[2 * n - 1]
         tracker = None if track is None else SectionTracker(self, track, s, z)
-        s = self._integrate(z, s, base, dt / steps, steps, tracker)
+        s = integrate(self, z, s, base, dt / steps, steps, tracker, record)
         out = np.empty(2 * n)
         out[: 2 * n - 1] = z[: 2 * n - 1]
         out[2 * n - 1] = s
         return out
-
-    def _integrate(
-        self,
-        z: NDArray[np.float64],
-        s: float,
-        base: NDArray[np.float64],
-        h: float,
-        steps: int,
-        tracker: SectionTracker | None,
-    ) -> float:
-        """``steps`` substeps of length h on z = [v, delta, F] (in place); returns s.
-
-        ``base`` [N] is the held input less the constant Davis term (and a
-        uniform grade); ``tracker`` follows the track sections (None: flat).
-        """
-        n = self.train.n_vehicles
-        quadratic = self._quadratic
-        half, full = self._drag_steps(h)
-        vbar = grid_speed(z[0]) if quadratic else 0.0
-        prop = propagator(self, h, vbar)
-        force = base + self._forces[1] * vbar**2 if quadratic else base
-        z[2 * n - 1 :] = force
-        if quadratic:
-            drag_flow(z, n, half, vbar)
-        for j in range(steps + 1):
-            if tracker is not None:
-                s = tracker.visit(z, s, force, vbar, h, j == steps)
-            if j == steps:
-                break
-            new = prop.step @ z
-            s += new[2 * n - 1]
-            z[: 2 * n - 1] = new[: 2 * n - 1]
-            if not quadratic:
-                continue
-            if j == steps - 1:
-                drag_flow(z, n, half, vbar)
-                continue
-            nbar = grid_speed(z[0])
-            if nbar == vbar:
-                drag_flow(z, n, full, vbar)
-                continue
-            drag_flow(z, n, half, vbar)
-            vbar = nbar
-            prop = propagator(self, h, vbar)
-            force = base + self._forces[1] * vbar**2
-            z[2 * n - 1 :] = force if tracker is None else force - tracker.resist
-            drag_flow(z, n, half, vbar)
-        return s
 
     # ------------------------------------------------------------- reference
     def advance_reference(

@@ -10,7 +10,8 @@ the source, *[reconstructed]* chosen here (the source is silent or lost),
   Davis 0.8806/0.007444/0.0001143 [book] read as N/kN with V in km/h
   (default) or literally (``davis_reading="book_literal"``).
 - :func:`crh2_8car` — seed 001, Zhao & Wang (2017): 8 cars, masses of seed 000
-  mirrored, Davis per unit mass c0 = 0.01176 N/kg, c1 = 7.7616e-4 N·s/(m·kg),
+  mirrored, the CRH2C's 6M2T arrangement with 1200 kW per motor car (7.2 MW)
+  [recalled], Davis per unit mass c0 = 0.01176 N/kg, c1 = 7.7616e-4 N·s/(m·kg),
   c2 = 1.6e-5 N·s²/(m²·kg) [recalled, widely reused HST values].
 - :func:`heavy_haul_1p2p1` — seed 003, Ning et al. (2016): 1+2+1 combined
   train, 4 SS4B locomotives + 200 C80 wagons; four locomotive subsystems or
@@ -116,9 +117,11 @@ def crh2_half(*, davis_reading: str = "n_per_kn_kmh") -> Train:
 def crh2_8car() -> Train:
     """Seed 001's 8-car high-speed train (reconstruction).
 
-    Masses mirror seed 000's half train, T-M-M-T-T-M-M-T; Davis per unit
-    mass a0 = 0.01176 m/s², a1 = 7.7616e-4 1/s, a2 = 1.6e-5 1/m [recalled];
-    couplers 10488 kN/m without damping.
+    Masses mirror seed 000's half train; motor arrangement T-M-M-M-M-M-M-T,
+    the 300 km/h CRH2C's 6M2T with 7.2 MW, 1200 kW per motor car [recalled]
+    (the CRH2A's 4M4T with 4.8 MW cannot hold 300 km/h against this
+    resistance); Davis per unit mass a0 = 0.01176 m/s², a1 = 7.7616e-4 1/s,
+    a2 = 1.6e-5 1/m [recalled]; couplers 10488 kN/m without damping.
 
     Returns
     -------
@@ -131,7 +134,7 @@ def crh2_8car() -> Train:
     8
     """
     masses = CRH2_HALF_MASS_T + CRH2_HALF_MASS_T[::-1]
-    kinds = "TMMTTMMT"
+    kinds = "TMMMMMMT"
     davis = (0.01176, 0.00077616, 1.6e-5)
     cars = tuple(
         _crh2_coach(m, kind == "M", davis, f"{kind}{i + 1}")

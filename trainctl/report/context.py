@@ -24,7 +24,10 @@ from ._format import (
     format_value,
     humanise,
     is_real,
+    one_based,
 )
+from .checks import checks_context
+from .comparison import controllers_context
 from .data import ReportData
 from .figures import report_figures
 
@@ -42,9 +45,6 @@ SECTIONS = (
     ("reproducibility", "Reproducibility"),
 )
 """Section anchors and titles, in page order."""
-
-_BADGES = {"pass": "pass", "warn": "warn", "fail": "fail"}
-
 
 def utc_now() -> str:
     """The current UTC time, ISO 8601 to the second (``2026-11-22T05:30:00Z``)."""
@@ -81,7 +81,7 @@ def build_report_context(
     if generated_at is None and not deterministic:
         generated_at = utc_now()
     scenario = data.scenario
-    checks = _checks(data)
+    checks = checks_context(data)
     return {
         "title": f"{scenario.name} — trainctl design report",
         "sections": _sections(data),
@@ -89,7 +89,7 @@ def build_report_context(
         "headline": headline(data),
         "model": _model(data),
         "checks": checks,
-        "controllers": _controllers(data, deterministic=deterministic),
+        "controllers": controllers_context(data, deterministic=deterministic),
         "figures": report_figures(data),
         "footer": _footer(data, generated_at=generated_at, deterministic=deterministic),
         "generated_at": generated_at or "",
@@ -160,8 +160,11 @@ def _settings_rows(settings: Any) -> list[dict[str, str]]:
         if name == "input_weight":
             unit = f"per {settings.input_weight_unit}²"
         unit = unit.replace("^2", "²")
-        rows.append({"name": humanise(name), "key": name, "value": format_value(value),
-                     "unit": unit})
+        shown = format_value(value)
+        if numeric and (unit == "N" or unit.startswith("N/")):  # forces in kN, as elsewhere
+            scaled = tuple(v / 1e3 for v in value) if isinstance(value, tuple) else value / 1e3
+            shown, unit = format_value(scaled), "k" + unit
+        rows.append({"name": humanise(name), "key": name, "value": shown, "unit": unit})
         if name == "speed" and is_real(value):
             rows.append({"name": "Speed", "key": "speed_kmh",
                          "value": format_number(float(value) * 3.6), "unit": "km/h"})
@@ -173,7 +176,7 @@ def _train(train: Any) -> dict[str, Any]:
     for i, v in enumerate(train.vehicles):
         env = v.envelope
         vehicles.append({
-            "index": str(i), "name": v.name, "mass_t": format_number(v.mass / 1e3),
+            "index": str(i + 1), "name": v.name, "mass_t": format_number(v.mass / 1e3),
             "a0": format_number(v.a0), "a1": format_number(v.a1), "a2": format_number(v.a2),
             "traction_share": format_number(v.traction_share),
             "max_traction_kn": format_number(env.max_traction / 1e3),
@@ -182,7 +185,8 @@ def _train(train: Any) -> dict[str, Any]:
             "length": format_number(v.length),
         })
     couplers = [{
-        "index": str(i), "between": f"{i}–{i + 1}", "kind": "virtual" if c.virtual else "physical",
+        "index": str(i + 1), "between": f"{i + 1}–{i + 2}",
+        "kind": "virtual" if c.virtual else "physical",
         "stiffness_kn_per_m": format_number(c.stiffness / 1e3),
         "damping_kn_s_per_m": format_number(c.damping / 1e3),
         "spacing": format_number(c.spacing),
@@ -210,11 +214,14 @@ def _track(track: Any) -> list[dict[str, str]]:
 def _model(data: ReportData) -> dict[str, Any]:
     r = data.results
     eq = r["equilibrium"]
+    dummy = bool(data.scenario.model.dummy_state)
     overview = [
-        {"name": "States", "value": str(r["n_states"]), "unit": "-"},
-        {"name": "Inputs (traction/braking force per vehicle)", "value": str(r["n_inputs"]),
-         "unit": "N"},
-        {"name": "Outputs", "value": ", ".join(r["outputs"]), "unit": "m/s"},
+        {"name": "States" + (" (with the book's dummy state)" if dummy else ""),
+         "value": str(r["n_states"]), "unit": "-"},
+        {"name": "Inputs (one traction/braking force per vehicle, in N)",
+         "value": str(r["n_inputs"]), "unit": "-"},
+        {"name": "Outputs (speeds)", "value": one_based(", ".join(r["outputs"])),
+         "unit": "m/s"},
         {"name": "Linearisation speed", "value": format_value(r["speed"]), "unit": "m/s"},
         {"name": "Linearisation speed", "value": format_value(r["speed_kmh"]), "unit": "km/h"},
         {"name": "Linearisation", "value": str(r["linearisation"]), "unit": ""},
@@ -224,16 +231,16 @@ def _model(data: ReportData) -> dict[str, Any]:
          "value": format_value(r["sampling"]["nyquist_sample_time"]), "unit": "s"},
         {"name": "ω_max·T", "value": format_value(r["sampling"]["omega_max_times_T"]),
          "unit": "rad"},
-        {"name": "Discrete open-loop spectral radius",
-         "value": format_value(r["sampling"]["discrete_spectral_radius"]), "unit": "-"},
+        *_open_loop_radius(data),
         {"name": "Cruise feasible within the traction envelope",
          "value": format_value(eq.get("feasible")), "unit": ""},
     ]
     equilibrium = [
-        {"index": str(i), "input_kn": _scaled(u, 1e-3), "limit_kn": _scaled(lim, 1e-3)}
+        {"index": str(i + 1), "input_kn": _scaled(u, 1e-3), "limit_kn": _scaled(lim, 1e-3)}
         for i, (u, lim) in enumerate(zip(eq["inputs"], eq["traction_limit"], strict=True))]
     couplers = [
-        {"index": f"{i}–{i + 1}", "force_kn": _scaled(f, 1e-3), "elongation_mm": _scaled(x, 1e3)}
+        {"index": f"{i + 1}–{i + 2}", "force_kn": _scaled(f, 1e-3),
+         "elongation_mm": _scaled(x, 1e3)}
         for i, (f, x) in enumerate(zip(eq["coupler_forces"], eq["elongations"], strict=True))]
     modes = [{
         "kind": m["kind"],
@@ -249,55 +256,57 @@ def _model(data: ReportData) -> dict[str, Any]:
             "coaches_hidden": max(0, len(data.subsystems) - MATRIX_COACHES_SHOWN)}
 
 
+def _open_loop_radius(data: ReportData) -> list[dict[str, str]]:
+    """The discrete open-loop spectral radius, of the design model and, if kept, with the dummy.
+
+    The design model (what the controllers and the eigenvalue figure use)
+    drops the book's dummy state; the dummy's eigenvalue 0 becomes e^(0·T) = 1
+    when sampled, so with it the radius is at least 1.
+    """
+    open_loop = data.spectra.get("open loop")
+    design = float(np.max(np.abs(open_loop))) if open_loop is not None and open_loop.size else None
+    n = data.results["n_states"] - int(bool(data.scenario.model.dummy_state))
+    rows = [{"name": f"Discrete open-loop spectral radius, design model ({n} states, "
+                     "no dummy state)", "value": format_value(design), "unit": "-"}]
+    if data.scenario.model.dummy_state:
+        rows.append({"name": "Discrete open-loop spectral radius with the book's dummy state "
+                             "(its eigenvalue is 1)",
+                     "value": format_value(data.results["sampling"]["discrete_spectral_radius"]),
+                     "unit": "-"})
+    return rows
+
+
 def _scaled(value: float | None, factor: float) -> str:
     """``value * factor`` formatted; None (a non-finite number in JSON) as a dash."""
     return "—" if value is None else format_number(value * factor)
 
 
 def _coach(coach: Mapping[str, Any]) -> dict[str, Any]:
+    """One coach's matrices, numbered from 1 (coach i + 1, signals v₁, δ₁, …)."""
     i = coach["index"]
-    states = list(coach["states"])
+    states = [one_based(x) for x in coach["states"]]
     roles = {"B": "input", "C": "output"}
     matrices = []
     for block in coach["blocks"]:
         kind, j = block["kind"], block["from"]
         if kind == "A":
-            columns = states if j == i else list(block["columns"])
-            role = "local dynamics" if j == i else f"coupling from coach {j}"
-            subscript = f"{i},{j}"
+            columns = states if j == i else [one_based(x) for x in block["columns"]]
+            role = "local dynamics" if j == i else f"coupling from coach {j + 1}"
+            subscript = f"{i + 1},{j + 1}"
         else:
-            columns = [f"u[{i}] [N]"] if kind == "B" else states
-            role, subscript = roles[kind], str(i)
-        row_labels = [f"y[{i}] [m/s]"] if kind == "C" else states
+            columns = [one_based(f"u[{i}]") + " [N]"] if kind == "B" else states
+            role, subscript = roles[kind], str(i + 1)
+        row_labels = [one_based(f"y[{i}]") + " [m/s]"] if kind == "C" else states
         matrices.append({
             "kind": kind, "subscript": subscript, "role": role, "columns": columns,
-            "rows": [{"label": row_labels[k] if k < len(row_labels) else str(k),
+            "rows": [{"label": row_labels[k] if k < len(row_labels) else str(k + 1),
                       "cells": [format_number(x) for x in row]}
                      for k, row in enumerate(block["matrix"])],
         })
-    return {"index": str(i), "states": ", ".join(states), "matrices": matrices}
+    return {"index": str(i + 1), "states": ", ".join(states), "matrices": matrices}
 
 
 # --------------------------------------------------------------------------- checks
-
-
-def _checks(data: ReportData) -> dict[str, Any]:
-    rows = []
-    counts = {"pass": 0, "warn": 0, "fail": 0}
-    for check in data.results.get("checks", []):
-        status = str(check["status"])
-        counts[status] = counts.get(status, 0) + 1
-        expected = data.expected.get(check["name"], "")
-        rows.append({
-            "name": check["name"], "status": status, "badge": _BADGES.get(status, "other"),
-            "value": format_value(check["value"]), "threshold": format_value(check["threshold"]),
-            "unit": check["unit"] or "-", "message": check["message"], "hint": check["hint"],
-            "expected": expected,
-            "unexpected": bool(expected) and expected != status,
-        })
-    return {"rows": rows, "counts": counts, "total": len(rows),
-            "unexpected": [{"name": k, "expected": v[0], "found": v[1]}
-                           for k, v in data.unexpected.items()]}
 
 
 def headline(data: ReportData) -> str:
@@ -323,60 +332,6 @@ def headline(data: ReportData) -> str:
     else:
         parts.append("no closed-loop simulation")
     return " · ".join(parts)
-
-
-# --------------------------------------------------------------------------- controllers
-
-
-def _controllers(data: ReportData, *, deterministic: bool) -> dict[str, Any]:
-    sims = data.results.get("simulations", {})
-    sim = data.scenario.simulation
-    columns = [
-        ("strategy", "Strategy", ""), ("rms_error", "RMS speed error", "m/s"),
-        ("max_error", "Max speed error", "m/s"), ("max_coupler_force", "Max |coupler force|", "kN"),
-        ("energy", "Net traction energy", "kWh"), ("max_jerk", "Max jerk (head)", "m/s³"),
-        ("iterations", "Iterations mean / max", "-"), ("tracking", "Tracking", ""),
-        ("statuses", "Step statuses", ""),
-    ]
-    if not deterministic:
-        columns.insert(7, ("solve_time", "Step time median / p95", "ms"))
-    rows = []
-    for name, m in sims.items():
-        rms = [x for x in m["rms_error"] if x is not None]
-        maxe = [x for x in m["max_error"] if x is not None]
-        cells = {
-            "strategy": name,
-            "rms_error": format_number(math.sqrt(sum(x * x for x in rms) / len(rms)), 4)
-            if rms else "—",
-            "max_error": format_number(max(maxe), 4) if maxe else "—",
-            "max_coupler_force": format_number((m["max_coupler_force"] or 0.0) / 1e3, 4),
-            "energy": format_value(_round(m["energy_kwh"])),
-            "max_jerk": format_value(_round(m["max_jerk"])),
-            "iterations": f"{format_number(m['iterations_mean'], 3)} / {m['iterations_max']}",
-            "solve_time": f"{format_number(_ms(m['solve_time_median']), 3)} / "
-                          f"{format_number(_ms(m['solve_time_p95']), 3)}",
-            "tracking": "within tolerance" if m.get("tracking_ok") else "outside tolerance",
-            "statuses": ", ".join(f"{k} {v}" for k, v in m["status_counts"].items() if v),
-        }
-        rows.append({"ok": bool(m.get("tracking_ok")),
-                     "cells": [cells[key] for key, _, _ in columns]})
-    note = ""
-    if sim is not None:
-        note = (f"{format_number(sim.duration)} s on the nonlinear plant, sample time "
-                f"{format_number(data.scenario.model.sample_time)} s; errors after "
-                f"{format_number(sim.settle_time)} s, tolerance "
-                f"{format_number(sim.tracking_tolerance)} m/s; measurement noise σ = "
-                f"{format_number(sim.measurement_noise)} m/s.")
-    return {"columns": [{"key": k, "title": t, "unit": u} for k, t, u in columns],
-            "rows": rows, "note": note}
-
-
-def _round(x: float | None) -> float | None:
-    return None if x is None else float(f"{x:.4g}")
-
-
-def _ms(x: float | None) -> float:
-    return math.nan if x is None else x * 1e3
 
 
 # --------------------------------------------------------------------------- footer

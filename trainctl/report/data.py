@@ -74,6 +74,11 @@ class ReportData:
         ``report_data()``), by family name; empty without a controller.
     simulations : dict of str to SimulationResult
         Closed-loop runs by strategy.
+    frequency : dict of str to dict
+        Curves of each strategy's linear closed loop
+        (:meth:`trainctl.analysis.ClosedLoopResponse.curves`: singular values
+        over frequency and grade-step responses), by strategy; empty without
+        linear closed loops.
     expected : dict of str to str
         The scenario's ``[expected]`` table.
     unexpected : dict of str to list of str
@@ -93,6 +98,7 @@ class ReportData:
     spectra: dict[str, NDArray[np.complex128]]
     families: dict[str, dict[str, Any]] = field(default_factory=dict)
     simulations: dict[str, SimulationResult] = field(default_factory=dict)
+    frequency: dict[str, dict[str, Any]] = field(default_factory=dict)
     expected: dict[str, str] = field(default_factory=dict)
     unexpected: dict[str, list[str]] = field(default_factory=dict)
     environment: dict[str, Any] = field(default_factory=dict)
@@ -158,6 +164,7 @@ class ReportData:
             "spectra": {label: [[float(z.real), float(z.imag)] for z in values]
                         for label, values in self.spectra.items()},
             "families": self.families,
+            "frequency": self.frequency,
             "expected": self.expected,
             "unexpected": self.unexpected,
             "environment": self.environment,
@@ -194,9 +201,10 @@ class ReportData:
                    for label, values in raw["spectra"].items()}
         return cls(scenario=run["scenario"], scenario_text=run["text"], results=raw["results"],
                    subsystems=raw["subsystems"], spectra=spectra, families=raw["families"],
-                   simulations=run["simulations"], expected=raw["expected"],
-                   unexpected=raw["unexpected"], environment=raw["environment"],
-                   command=raw["command"], timings=raw["timings"])
+                   frequency=raw["frequency"], simulations=run["simulations"],
+                   expected=raw["expected"], unexpected=raw["unexpected"],
+                   environment=raw["environment"], command=raw["command"],
+                   timings=raw["timings"])
 
 
 def check_save_target(path: str | os.PathLike[str]) -> None:
@@ -276,6 +284,7 @@ def collect_report_data(
         spectra=spectra,
         families=families,
         simulations=dict(run.simulations),
+        frequency={name: response.curves() for name, response in run.frequency.items()},
         expected=dict(run.scenario.expected),
         unexpected={name: list(pair) for name, pair in run.unexpected_checks().items()},
         environment=environment(),

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import io
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -29,11 +29,12 @@ from numpy.typing import NDArray
 from .. import plot
 
 if TYPE_CHECKING:
-    from ..scenario import Scenario
-    from ..sim.results import SimulationResult
     from .data import ReportData
 
-__all__ = ["ReportFigure", "figure_svg", "report_figures"]
+__all__ = [
+    "OPEN_LOOP_LABEL", "ReportFigure", "eigenvalue_figure", "encode", "figure_svg",
+    "report_figures",
+]
 
 SVG_HASH_SALT = "trainctl"
 """``svg.hashsalt``: makes matplotlib's clip-path ids reproducible."""
@@ -124,6 +125,10 @@ def figure_svg(figure: Figure, *, prefix: str) -> Markup:
 # --------------------------------------------------------------------------- the figure set
 
 
+OPEN_LOOP_LABEL = "open loop (design model)"
+"""Legend label of the open-loop eigenvalues (``spectra["open loop"]``)."""
+
+
 def report_figures(data: ReportData) -> list[ReportFigure]:
     """The report's figures, in page order.
 
@@ -135,95 +140,67 @@ def report_figures(data: ReportData) -> list[ReportFigure]:
     Returns
     -------
     list of ReportFigure
-        Closed-loop figures (one panel per strategy) when there are
-        simulations, then the eigenvalue map, then each controller family's
-        figures (MPC: the ρ(D0)-against-R curve).
+        Closed-loop figures when there are simulations
+        (:func:`~trainctl.report.figures_time.time_figures`), the eigenvalue
+        map, the frequency-domain figures of the linear closed loops
+        (:func:`~trainctl.report.figures_frequency.frequency_figures`), then
+        each controller family's figures (MPC: the ρ(D0)-against-R curve).
     """
     return list(_figures(data))
 
 
+def encode(key: str, title: str, caption: str, figure: Figure) -> ReportFigure:
+    """A :class:`ReportFigure` from a drawn figure (encoded as SVG, then released).
+
+    Parameters
+    ----------
+    key : str
+        Stable identifier, also the SVG id prefix ``fig-<key>``.
+    title, caption : str
+        Caption title and text.
+    figure : matplotlib.figure.Figure
+        The drawing.
+
+    Returns
+    -------
+    ReportFigure
+        The figure for the page.
+    """
+    return ReportFigure(key, title, caption, figure_svg(figure, prefix=f"fig-{key}"))
+
+
 def _figures(data: ReportData) -> Iterator[ReportFigure]:
-    sims = data.simulations
-    scenario = data.scenario
-    if sims:
-        limit = getattr(scenario.controller, "coupler_force_limit", np.inf)
-        force_bounds = (-limit, limit) if np.isfinite(limit) else None
-        settle = scenario.simulation.settle_time if scenario.simulation else None
-        yield _panels("velocity", "Speed tracking", sims,
-                      lambda r, ax: plot.velocity_plot(r, ax=ax),
-                      "Speed of every vehicle [m/s] against the reference (dashed), nonlinear "
-                      "plant, per strategy.")
-        yield _panels("speed-error", "Speed tracking error", sims,
-                      lambda r, ax: plot.speed_error_plot(r, settle_time=settle, ax=ax),
-                      "Speed minus reference speed of every vehicle [m/s]; the dotted line "
-                      "marks the settle time after which the metrics judge tracking.")
-        yield _panels("coupler-force", "Coupler forces", sims,
-                      lambda r, ax: plot.coupler_force_plot(r, bounds=force_bounds, ax=ax),
-                      "Coupler forces [kN], tension positive; dashed: the coupler-force limit "
-                      "(soft constraint) when the controller has one.")
-        yield _panels("input", "Traction and braking forces", sims,
-                      lambda r, ax: plot.input_plot(r, bounds=input_envelope(scenario, r), ax=ax),
-                      "Applied force per vehicle [kN], held over each sample; dashed: the "
-                      "traction and braking envelope at the measured speed (widest vehicle).")
-        yield _panels("iterations", "Iterations and residuals", sims,
-                      lambda r, ax: plot.iterations_plot(r, ax=ax),
-                      "Iterations per sample (left) and the last iteration's plan change [kN] "
-                      "(right, log scale) for iterating controllers; red crosses mark samples "
-                      "that were not solved to optimality.")
+    from .figures_frequency import frequency_figures
+    from .figures_time import time_figures
+
+    if data.simulations:
+        yield from time_figures(data.scenario, data.simulations, encode)
     if data.spectra:
-        figure = _figure(width=5.6, height=5.0)
-        plot.eigenvalue_plot(data.spectra, ax=figure.add_subplot())
-        yield ReportFigure("eigenvalues", "Eigenvalues against the unit circle",
-                           "Discrete-time eigenvalues of the design model (open loop) and of "
-                           "the unconstrained closed loops; ρ in the legend is the spectral "
-                           "radius.", figure_svg(figure, prefix="fig-eigenvalues"))
+        yield eigenvalue_figure(data.spectra)
+    yield from frequency_figures(data.frequency, encode)
     from ..controllers.registry import get_family
 
     for name, family_data in data.families.items():
         yield from get_family(name).report_figures(family_data)
 
 
-def _figure(*, width: float, height: float) -> Figure:
-    return Figure(figsize=(width, height), layout="constrained")
-
-
-def _panels(key: str, title: str, sims: dict[str, SimulationResult], draw: object,
-            caption: str) -> ReportFigure:
-    figure = _figure(width=7.5, height=2.6 * len(sims) + 0.4)
-    axes = figure.subplots(len(sims), 1, sharex=True, squeeze=False)[:, 0]
-    for ax, (name, result) in zip(axes, sims.items(), strict=True):
-        draw(result, ax)  # type: ignore[operator]
-        ax.set_title("")  # the panel is named by its strategy, the figure by its title
-        ax.set_title(name, loc="left", fontsize="medium")
-        if ax is not axes[-1]:
-            ax.set_xlabel("")
-    figure.suptitle(title)
-    return ReportFigure(key, title, caption, figure_svg(figure, prefix=f"fig-{key}"))
-
-
-def input_envelope(
-    scenario: Scenario, result: SimulationResult
-) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
-    """Widest braking and traction limits over the vehicles at the measured speeds [N].
-
-    Parameters
-    ----------
-    scenario : Scenario
-        The scenario (its train's traction envelopes).
-    result : SimulationResult
-        The run (speeds at each sample instant).
-
-    Returns
-    -------
-    (ndarray, ndarray) or None
-        Lower (negative) and upper limits per sample, shape (N,); None
-        when the controller does not bound its inputs.
-    """
-    if scenario.controller is None or not getattr(scenario.controller, "input_bounds", True):
-        return None
-    speeds = result.velocities[:, :-1]
-    up = np.max([veh.envelope.traction_limit(speeds[i], mass=veh.mass)
-                 for i, veh in enumerate(scenario.train.vehicles)], axis=0)
-    down = np.max([veh.envelope.braking_limit(speeds[i], mass=veh.mass)
-                   for i, veh in enumerate(scenario.train.vehicles)], axis=0)
-    return -np.asarray(down, dtype=float), np.asarray(up, dtype=float)
+def eigenvalue_figure(spectra: Mapping[str, NDArray[np.complex128]],
+                      make: Callable[..., ReportFigure] = encode) -> ReportFigure:
+    """The eigenvalue map of the report (``make`` as for :func:`encode`)."""
+    # A fixed layout: constrained layout misplaces an equal-aspect box beside a legend.
+    figure = Figure(figsize=(7.5, 4.4))
+    ax = figure.add_axes((0.11, 0.11, 0.47, 0.80))
+    labelled = {OPEN_LOOP_LABEL if k == "open loop" else k: v for k, v in spectra.items()}
+    plot.eigenvalue_plot(labelled, ax=ax)
+    ax.set_aspect("equal", adjustable="box")  # a round circle in a square box
+    handles = ax.get_legend_handles_labels()[0]
+    legend = ax.get_legend()
+    if legend is not None:
+        legend.remove()
+    figure.legend(handles, [str(h.get_label()) for h in handles], loc="upper left",
+                  bbox_to_anchor=(0.61, 0.91), fontsize="small", frameon=False)
+    return make("eigenvalues", "Eigenvalues against the unit circle",
+                  "Discrete-time eigenvalues of the open loop (the design model, without the "
+                  "book's dummy state) and of the unconstrained closed loops, legend beside "
+                  "the circle; ρ is the spectral radius (the dummy state would add an "
+                  "eigenvalue 1 to the open loop: both radii are in the model table).", figure)

@@ -152,6 +152,7 @@ class RunFile(_Closed):
     subsystems: list[Coach]
     spectra: dict[str, list[tuple[FiniteFloat, FiniteFloat]]]
     families: dict[str, dict[str, Any]]
+    frequency: dict[str, dict[str, Any]]
     expected: dict[str, StrictStr]
     unexpected: dict[str, tuple[StrictStr, StrictStr]]
     environment: dict[str, Any]

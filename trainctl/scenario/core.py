@@ -10,15 +10,16 @@ for one scenario: which strategies ``[simulation]`` may list and which checks
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Generic, NoReturn, TypeVar
+from typing import Any, NoReturn
 
 from ..constraints import Violation, suggest
 from ..exceptions import ModelError
 from ..models.track import Track
 from ..models.train import Train
+from .frozen import FrozenMapping as FrozenMapping
 from .settings import ModelSettings, SimulationSettings
 
 __all__ = [
@@ -40,9 +41,6 @@ SCHEMA_VERSION = 1
 
 RESERVED_SECTIONS = ("report", "communication", "sweep")
 """Top-level sections reserved for later releases (rejected today)."""
-
-_V = TypeVar("_V")
-
 
 def model_check_names() -> tuple[str, ...]:
     """The model-level checks, which need no controller."""
@@ -81,7 +79,7 @@ def check_names(families: Sequence[str] | None = None) -> tuple[str, ...]:
     --------
     >>> check_names(["lqr"])
     ('open_loop_stability', 'controllability', 'observability', 'sampling', 'input_collapse', \
-'lqr_closed_loop', 'lqr_decentralised_closed_loop')
+'feasibility', 'plausibility', 'lqr_closed_loop', 'lqr_decentralised_closed_loop')
     """
     names = [*model_check_names(), *(c for f in _families(families) for c in f.check_names)]
     return tuple(dict.fromkeys(names))
@@ -166,37 +164,6 @@ def expectation_violation(check: str, families: Sequence[str]) -> Violation | No
     )
 
 
-class FrozenMapping(Mapping[str, _V], Generic[_V]):
-    """A read-only, hashable, picklable mapping with string keys, in insertion order."""
-
-    __slots__ = ("_data",)
-    _data: dict[str, _V]
-
-    def __init__(self, items: Mapping[str, _V] | Iterable[tuple[str, _V]] = ()) -> None:
-        object.__setattr__(self, "_data", dict(items))
-
-    def __setattr__(self, name: str, value: Any) -> NoReturn:
-        raise AttributeError(f"{type(self).__name__} is read-only")
-
-    def __reduce__(self) -> tuple[Any, ...]:
-        return (type(self), (tuple(self._data.items()),))
-
-    def __getitem__(self, key: str) -> _V:
-        return self._data[key]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._data)
-
-    def __len__(self) -> int:
-        return len(self._data)
-
-    def __hash__(self) -> int:
-        return hash(frozenset(self._data.items()))
-
-    def __repr__(self) -> str:
-        return repr(self._data)
-
-
 def _fail(message: str) -> NoReturn:
     raise ModelError(f"Scenario: {message}")
 
@@ -239,7 +206,11 @@ class Scenario:
         file has no ``[expected]``.
     source : str
         Where the scenario came from: the file path as given, ``"builtin:NAME"``
-        or ``"<string>"``.
+        or ``"<string>"`` (a scenario made by :meth:`replace` adds the change).
+    document : Mapping or None
+        The TOML document the scenario was parsed from, read-only (tables as
+        mappings, arrays as tuples); None for a scenario built in Python.
+        :meth:`replace` edits a copy of it.
 
     Examples
     --------
@@ -264,8 +235,13 @@ class Scenario:
     simulation: SimulationSettings | None = None
     expected: Mapping[str, str] = field(default_factory=FrozenMapping)
     source: str = "<string>"
+    document: Mapping[str, Any] | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
+        if self.document is not None:
+            from .replace import freeze
+
+            object.__setattr__(self, "document", freeze(self.document))
         controllers = self._controllers()
         object.__setattr__(self, "controllers", controllers)
         if controllers:
@@ -306,6 +282,66 @@ class Scenario:
                 _fail(f"'expected'[{check!r}] {problem.python_text or problem.text} "
                       f"(got {problem.got_text}).")
         return expected
+
+    def replace(self, key: str, value: Any) -> Scenario:
+        """A new scenario with one file key changed, validated like a file.
+
+        The key is a file key path, as scenario files and error messages
+        spell it (``"controller.r_per_kn2"``, ``"model.sample_time"``,
+        ``"train.vehicle[1].mass_t"`` with 0-based array indices), and the
+        value is in the key's file unit (``r_per_kn2`` per kN², ``mass_t``
+        tonnes). The scenario's TOML document is copied, changed and parsed
+        again, so every rule a file obeys holds (cross-table ones too).
+        Setting one key of a group of alternatives removes the others
+        (``r_per_kn2`` replaces ``r_per_n2``); ``None`` removes the key (or
+        a whole table, ``"simulation"``). This scenario is left unchanged.
+        Each call validates the whole scenario, so keys that constrain each
+        other change in an order in which every step is valid (shorten
+        ``control_horizon`` before ``prediction_horizon``).
+
+        Parameters
+        ----------
+        key : str
+            File key path.
+        value : object
+            New value in file units (a TOML value), or None to remove the key.
+
+        Returns
+        -------
+        Scenario
+            The changed scenario; its ``source`` records the change.
+
+        Raises
+        ------
+        ScenarioError
+            If the key path or the value is invalid (the message names the key
+            path), or the scenario was built in Python (no document).
+
+        Examples
+        --------
+        >>> from trainctl.scenario import load_scenario
+        >>> book = load_scenario("crh2-dmpc")
+        >>> lighter = book.replace("controller.r_per_kn2", 1.0)
+        >>> book.controller.input_weight, lighter.controller.input_weight
+        (10.0, 1.0)
+        >>> lighter.source
+        'builtin:crh2-dmpc (controller.r_per_kn2 = 1.0)'
+        >>> book.replace("controller.r_per_kn2", -1.0)  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+            ...
+        trainctl.exceptions.ScenarioError: builtin:crh2-dmpc (controller.r_per_kn2 = -1.0): \
+[controller].r_per_kn2 must be a number > 0 (got -1.0). ...
+        """
+        from ..exceptions import ScenarioError
+        from .parse import parse_document
+        from .replace import replaced_document
+
+        if self.document is None:
+            raise ScenarioError(
+                f"Scenario.replace: {self.name!r} was built in Python, not read from a file, so "
+                "there is no file key to replace; use dataclasses.replace on its settings.")
+        label = f"{self.source} ({key} = {value!r})"
+        return parse_document(replaced_document(self.document, key, value), source=label)
 
     @property
     def slug(self) -> str:

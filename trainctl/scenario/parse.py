@@ -49,7 +49,7 @@ from .tables import (
     family_table,
 )
 
-__all__ = ["MAX_TEXT_BYTES", "check_size", "load_toml", "parse_scenario"]
+__all__ = ["MAX_TEXT_BYTES", "check_size", "load_toml", "parse_document", "parse_scenario"]
 
 _T = TypeVar("_T")
 
@@ -155,6 +155,40 @@ def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:
     return _Parser(source, load_toml(text, source)).scenario()
 
 
+def parse_document(document: dict[str, Any], *, source: str = "<string>") -> Scenario:
+    """Parse a scenario from its TOML document (the dict ``tomllib`` gives).
+
+    Parameters
+    ----------
+    document : dict
+        The document: tables as dicts, arrays as lists.
+    source : str
+        Label used in error messages and stored as ``Scenario.source``.
+
+    Returns
+    -------
+    Scenario
+        The scenario, SI inside, with ``document`` kept.
+
+    Raises
+    ------
+    ScenarioError
+        If the document does not follow the schema.
+
+    Examples
+    --------
+    >>> import tomllib
+    >>> from trainctl.scenario import builtin_scenario_text
+    >>> doc = tomllib.loads(builtin_scenario_text("crh2-dmpc"))
+    >>> parse_document(doc, source="mine").model.sample_time
+    20.0
+    """
+    if not isinstance(document, dict):
+        raise TypeError(f"parse_document: 'document' must be a dict (got "
+                        f"{type(document).__name__}).")
+    return _Parser(source, document).scenario()
+
+
 class _Parser:
     """One document being parsed: its label, its TOML data and the error context."""
 
@@ -213,7 +247,7 @@ class _Parser:
         return self.build((), lambda: Scenario(
             name=top.name, description=top.description, seed=top.seed, train=train,
             track=track, model=model, controllers=FrozenMapping(controllers),
-            simulation=simulation, expected=expected, source=self.file,
+            simulation=simulation, expected=expected, source=self.file, document=self.doc,
         ))
 
     def train(self) -> Train:

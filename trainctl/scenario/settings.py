@@ -176,6 +176,20 @@ class SimulationSettings:
         Largest admissible absolute speed error after ``settle_time`` [m/s], > 0.
     regen_efficiency : float
         Share of the braking energy credited back [-], 0 to 1.
+    plant_saturation : bool
+        Saturate every vehicle's force to its envelope at its speed in the
+        plant (False: a linear-analysis study; the results say so).
+    max_saturation_time : float
+        Longest admissible time a vehicle's force may stay saturated [s],
+        >= 0; inf (the default) for no limit (judged by ``--strict``).
+    output_interval : float or None
+        Spacing of the dense output grid between the samples [s], > 0,
+        rounded to whole plant substeps (or whole points per substep); None:
+        fine enough for the plant's fastest mode (capped, see
+        :func:`trainctl.sim.dense_grid`).
+    divergence_speed_error : float
+        Speed error at which a diverging run is stopped [m/s], > 0; inf: only
+        an overflow stops it.
 
     Examples
     --------
@@ -215,6 +229,18 @@ class SimulationSettings:
     regen_efficiency: Annotated[float, Number(ge=0, le=1), Key(
         "Share of the braking energy credited back",
         hint=" It is the share of the braking energy credited back.")] = 1.0
+    plant_saturation: Annotated[bool, Flag(), Key(
+        "Saturate each vehicle's force to its envelope at its speed in the plant (false: "
+        "forces applied as asked, for a linear-analysis study)")] = True
+    max_saturation_time: Annotated[float, Number(ge=0, allow_inf=True), Key(
+        "Longest time a vehicle's force may stay saturated (--strict)", unit="s",
+        omitted="no limit")] = math.inf
+    output_interval: Annotated[Annotated[float, Number(gt=0)] | None, Key(
+        "Spacing of the dense output grid between the samples (rounded to the plant's "
+        "substeps)", unit="s",
+        omitted="fine enough for the fastest coupler mode, at most 200 000 points")] = None
+    divergence_speed_error: Annotated[float, Number(gt=0, allow_inf=True), Key(
+        "Stop a run whose speed error exceeds this (diverged)", unit="m/s")] = 50.0
 
     @model_validator(mode="after")
     def _cross_field_rules(self, info: ValidationInfo) -> SimulationSettings:
@@ -253,6 +279,12 @@ class SimulationSettings:
             raise_at(("initial_speed_error",), Violation(
                 text=f"must be >= {-speeds[0]!r} m/s, minus the reference speed at t = 0, so "
                 "that no vehicle starts backwards", got=self.initial_speed_error))
+        if abs(self.initial_speed_error) >= self.divergence_speed_error:
+            raise_at(("initial_speed_error",), Violation(
+                text=f"must be smaller in magnitude than {{divergence_speed_error}} = "
+                f"{self.divergence_speed_error!r} m/s, the speed error of a diverged run",
+                got=self.initial_speed_error,
+                hint=" Raise divergence_speed_error to start this far off the reference."))
 
     def n_steps(self, sample_time: float) -> int:
         """The number of samples that make up :attr:`duration`.

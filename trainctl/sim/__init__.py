@@ -6,11 +6,19 @@ splitting, exact for the stiff couplers); :class:`SpeedProfile` gives the
 reference; :func:`simulate` runs any :class:`~trainctl.controllers.base.Controller`
 in closed loop and returns a :class:`SimulationResult` (save/load, pandas,
 python-control and matplotlib views); :func:`compute_metrics` summarises it.
+The loop saturates every controller's forces to the vehicles' envelopes and
+records the plant between the samples on a dense grid (:func:`dense_grid`
+gives its rule).
 Importing this package loads neither pandas nor :mod:`trainctl.plot`; they are
 imported when a view needs them.
 """
 
 from ..models.plant import Plant as Plant
+from ._log import DENSE_PHASE_STEP as DENSE_PHASE_STEP
+from ._log import MAX_DENSE_POINTS as MAX_DENSE_POINTS
+from ._log import MAX_DENSE_VALUES as MAX_DENSE_VALUES
+from ._log import dense_grid as dense_grid
+from .closed_loop import DIVERGENCE_SPEED_ERROR as DIVERGENCE_SPEED_ERROR
 from .closed_loop import HOLD_FALLBACK as HOLD_FALLBACK
 from .closed_loop import simulate as simulate
 from .metrics import Metrics as Metrics
@@ -22,6 +30,7 @@ from .results import SimulationResult as SimulationResult
 from .results import environment as environment
 
 __all__ = [
-    "HOLD_FALLBACK", "Metrics", "Plant", "Reference", "SimulationResult", "SpeedProfile",
-    "compute_metrics", "environment", "ramp_profile", "simulate",
+    "DENSE_PHASE_STEP", "DIVERGENCE_SPEED_ERROR", "HOLD_FALLBACK", "MAX_DENSE_POINTS",
+    "MAX_DENSE_VALUES", "Metrics", "Plant", "Reference", "SimulationResult", "SpeedProfile",
+    "compute_metrics", "dense_grid", "environment", "ramp_profile", "simulate",
 ]

@@ -9,13 +9,25 @@ At each sample k = 0 .. N-1 (t_k = k·T with T = ``controller.dt``) the loop
    whatever the noise level, so runs are reproducible);
 2. previews the reference over ``preview_steps`` steps;
 3. calls ``controller.step`` and records its :class:`StepRecord`;
-4. holds the inputs over [t_k, t_{k+1}) and advances the plant.
+4. saturates the requested forces to each vehicle's envelope at its speed
+   at t_k (:class:`~trainctl.models.ActuatorLimits`; unless ``saturation``
+   is False), holds them over [t_k, t_{k+1}) and advances the plant,
+   recording it on the dense grid between the samples;
+5. stops when the plant diverges (below).
 
 The controller keeps no history: the loop collects it. A controller that
 raises has a bug and the exception propagates. An input vector with a
 non-finite entry is replaced by the previous applied input (zeros at k = 0),
 and the sample is recorded with status ``"error"`` and fallback
 ``"hold_previous_input"``.
+
+Divergence: when some vehicle's speed error |v_i - v_ref| exceeds
+``divergence_speed_error`` [m/s] at a point of the dense grid (or already at
+t = 0), or the plant's state overflows, the run stops there. The result is
+then shorter than ``duration``: it ends with the sample whose interval
+diverged (or, after an overflow, with the last finite state), and
+``meta["divergence"]`` (:attr:`SimulationResult.divergence`) names the
+sample, the time, the signal, its value and the bound.
 """
 
 from __future__ import annotations
@@ -28,17 +40,18 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_nonnegative, check_positive
-from ..controllers.base import Controller, Measurement, StepRecord
+from ..controllers.base import Controller, Measurement
 from ..exceptions import DimensionError, ModelError
-from ..models.dynamics import coupler_forces
+from ..models.actuator import SATURATION_TOLERANCE, ActuatorLimits
 from ..models.plant import Plant
+from ._log import HOLD_FALLBACK, Log, dense_grid
 from .reference import Reference
 from .results import SimulationResult, environment
 
-__all__ = ["HOLD_FALLBACK", "simulate"]
+__all__ = ["DIVERGENCE_SPEED_ERROR", "HOLD_FALLBACK", "simulate"]
 
-HOLD_FALLBACK = "hold_previous_input"
-"""Fallback recorded when the loop replaced a non-finite input by the previous one."""
+DIVERGENCE_SPEED_ERROR = 50.0
+"""Default speed error [m/s] beyond which the loop stops a diverging run."""
 
 
 def simulate(
@@ -52,6 +65,9 @@ def simulate(
     measurement_noise: float = 0.0,
     seed: int = 0,
     full_state: bool = True,
+    saturation: bool = True,
+    output_interval: float | None = None,
+    divergence_speed_error: float = DIVERGENCE_SPEED_ERROR,
 ) -> SimulationResult:
     """Run ``controller`` in closed loop with ``plant`` for ``duration`` seconds.
 
@@ -77,11 +93,24 @@ def simulate(
         Seed of the noise generator.
     full_state : bool
         Give the controller the true state in ``Measurement.state`` (else None).
+    saturation : bool
+        Saturate every requested force to the vehicle's envelope at its
+        speed (:class:`~trainctl.models.ActuatorLimits`); False applies the
+        requests as asked (a linear-analysis study).
+    output_interval : float or None
+        Spacing of the dense grid between the samples [s], rounded to whole
+        substeps of the plant or of points per substep; None: fine enough
+        for the plant's fastest mode. Capped as :func:`trainctl.sim.dense_grid`
+        documents.
+    divergence_speed_error : float
+        Stop the run when a vehicle's speed error exceeds this [m/s], > 0
+        (inf: only an overflow stops it).
 
     Returns
     -------
     SimulationResult
-        States, inputs, reference and per-step records.
+        States, requested and applied inputs, saturation flags, the dense
+        grid, reference and per-step records.
 
     Raises
     ------
@@ -105,31 +134,26 @@ def simulate(
     >>> x0 = equilibrium(train, 50.0).state(position=0.0)
     >>> result = simulate(Plant(train=train), Hold(), ramp_profile(50.0, 50.0, 0.0, 1.0),
     ...                   duration=3.0, initial_state=x0, preview_steps=2)
-    >>> result.velocities.shape, result.statuses
-    ((4, 4), ('optimal', 'optimal', 'optimal'))
-    >>> bool(np.allclose(result.velocities, 50.0))
-    True
+    >>> result.velocities.shape, result.statuses, result.dense_time.size
+    ((4, 4), ('optimal', 'optimal', 'optimal'), 181)
+    >>> bool(np.allclose(result.velocities, 50.0)), int(np.count_nonzero(result.saturation))
+    (True, 0)
     """
     dt, steps, noise, x = _check_arguments(plant, controller, reference, duration=duration,
                                            initial_state=initial_state,
                                            preview_steps=preview_steps,
                                            measurement_noise=measurement_noise, seed=seed)
+    interval, bound = _check_options(output_interval, divergence_speed_error)
     n = plant.train.n_vehicles
-    rng = np.random.default_rng(int(seed))
-    log = _Log(n, steps, dt, x)
-    previous = np.zeros(n)
-    horizon = int(preview_steps)
+    substeps = plant.substeps(dt)
+    every, inner = dense_grid(substeps, steps, n, dt, interval,
+                              plant.fastest_rate if interval is None else 0.0)
+    log = Log(plant, reference, steps, dt, x, every=every, inner=inner)
+    actuators = ActuatorLimits(plant.train, enabled=bool(saturation))
     wall = _time.perf_counter()
     controller.reset()
-    for k in range(steps):
-        t = float(log.times[k])
-        x = log.states[:, k]
-        measured = x[:n] + noise * rng.standard_normal(n)
-        measurement = Measurement(state=x.copy() if full_state else None, outputs=measured)
-        record = controller.step(t, measurement, reference.preview(t, dt, horizon))
-        u = log.record(k, t, controller.name, record, previous)
-        log.states[:, k + 1] = plant.advance(x, u, dt)
-        previous = u
+    divergence = _run(plant, controller, reference, log, actuators, rng=np.random.default_rng(
+        int(seed)), noise=noise, horizon=int(preview_steps), full_state=full_state, bound=bound)
     wall = _time.perf_counter() - wall
     meta: dict[str, Any] = environment()
     meta.update({
@@ -137,17 +161,99 @@ def simulate(
         "n_vehicles": n,
         "track": _track_meta(plant),
         "max_substep": plant.max_substep,
-        "substeps_per_sample": plant.substeps(dt),
+        "substeps_per_sample": substeps,
         "duration": steps * dt,
         "preview_steps": int(preview_steps),
         "measurement_noise": noise,
         "full_state": bool(full_state),
+        "plant_saturation": bool(saturation),
+        "saturation_tolerance": SATURATION_TOLERANCE,
+        "output_interval": interval,
+        "dense_spacing": log.spacing,
+        "dense_points_per_sample": log.per,
+        "divergence_speed_error": bound if math.isfinite(bound) else None,
+        "divergence": divergence,
         "wall_time": wall,
     })
     to_dict = getattr(reference, "to_dict", None)
     if callable(to_dict):
         meta["reference"] = to_dict()
-    return log.result(plant, controller, reference, seed=int(seed), meta=meta)
+    return SimulationResult(**log.result_arrays(plant, reference),
+                            controller_name=str(controller.name), seed=int(seed), dt=dt,
+                            meta=meta)
+
+
+def _run(plant: Plant, controller: Controller, reference: Reference, log: Log,
+         actuators: ActuatorLimits, *, rng: np.random.Generator, noise: float, horizon: int,
+         full_state: bool, bound: float) -> dict[str, Any] | None:
+    """The loop over the samples; returns the divergence record (None: ran to the end)."""
+    n, dt = log.n, log.dt
+    divergence = _speed_divergence(log, bound, -1)
+    if divergence is not None:
+        log.stop(0)
+        return divergence
+    previous = np.zeros(n)
+    for k in range(log.steps):
+        t = float(log.times[k])
+        x = log.states[:, k]
+        measured = x[:n] + noise * rng.standard_normal(n)
+        measurement = Measurement(state=x.copy() if full_state else None, outputs=measured)
+        record = controller.step(t, measurement, reference.preview(t, dt, horizon))
+        requested = log.record(k, t, controller.name, record, previous)
+        applied, side = actuators.apply(requested, x[:n])
+        try:
+            with np.errstate(over="raise", invalid="raise"):
+                log.advance(plant, k, applied, side)
+        except (FloatingPointError, OverflowError, ValueError) as err:
+            log.stop(k)
+            return _divergence(k, t, "state", None, math.nan, bound,
+                               f"the plant's state overflowed ({err})")
+        divergence = _speed_divergence(log, bound, k)
+        if divergence is not None:
+            log.stop(k + 1)
+            return divergence
+        previous = applied
+    return None
+
+
+def _speed_divergence(log: Log, bound: float, k: int) -> dict[str, Any] | None:
+    """The divergence record when a speed error in sample k's interval (k = -1: at t = 0)
+    exceeds ``bound``, else None."""
+    if not math.isfinite(bound):
+        return None
+    peak, i, column = log.speed_error(k)
+    if not peak > bound:
+        return None
+    t = float(log.dense_time[column])
+    error = float(log.dense_states[i, column] - log.dense_reference[column])
+    return _divergence(max(k, 0), t, f"v[{i}]", i + 1, error, bound,
+                       f"the speed error of vehicle {i + 1}, v[{i}] - v_ref = "
+                       f"{error:.6g} m/s at t = {t:.6g} s, exceeds divergence_speed_error = "
+                       f"{bound:g} m/s")
+
+
+def _divergence(k: int, t: float, signal: str, vehicle: int | None, value: float,
+                bound: float, what: str) -> dict[str, Any]:
+    """The JSON-safe divergence record of ``meta["divergence"]``."""
+    return {"sample": k, "time": t, "signal": signal, "vehicle": vehicle,
+            "value": value if math.isfinite(value) else None,
+            "bound": bound if math.isfinite(bound) else None,
+            "message": f"simulate: the plant diverged in sample {k} (t = {t:.6g} s): {what}; "
+                       "the run stopped there."}
+
+
+def _check_options(output_interval: float | None,
+                   divergence_speed_error: float) -> tuple[float | None, float]:
+    """Validate the dense-grid and divergence options of :func:`simulate`."""
+    where = "simulate"
+    interval = (None if output_interval is None
+                else check_positive(where, "output_interval", output_interval))
+    if isinstance(divergence_speed_error, bool) or not isinstance(
+            divergence_speed_error, int | float | np.integer | np.floating) \
+            or not divergence_speed_error > 0:
+        raise ModelError(f"{where}: 'divergence_speed_error' must be a number > 0 or inf "
+                         f"(got {divergence_speed_error!r}).")
+    return interval, float(divergence_speed_error)
 
 
 def _check_arguments(
@@ -196,73 +302,6 @@ def _check_arguments(
     if not np.all(np.isfinite(x)):
         raise ModelError(f"{where}: 'initial_state' must be finite (got {x.tolist()}).")
     return dt, steps, noise, x
-
-
-class _Log:
-    """The history the loop collects: states, inputs and the controller's step records."""
-
-    def __init__(self, n: int, steps: int, dt: float, x0: NDArray[np.float64]) -> None:
-        self.n, self.steps, self.dt = n, steps, dt
-        self.times = dt * np.arange(steps + 1, dtype=np.float64)
-        self.states = np.empty((2 * n, steps + 1))
-        self.states[:, 0] = x0
-        self.inputs = np.empty((n, steps))
-        self.statuses: list[str] = []
-        self.iterations = np.empty(steps, dtype=np.int64)
-        self.residuals: list[tuple[float, ...]] = []
-        self.solve_times = np.empty(steps)
-        self.fallbacks: list[str] = []
-
-    def record(self, k: int, t: float, name: str, record: StepRecord,
-               previous: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Check and store step k's record; return the input to apply (held if not finite)."""
-        if not isinstance(record, StepRecord):
-            raise TypeError(
-                f"simulate: {name!r}.step must return a StepRecord "
-                f"(got {type(record).__name__} at t={t!r} s)."
-            )
-        u = np.array(record.inputs, dtype=float)
-        if u.shape != (self.n,):
-            raise DimensionError(
-                f"simulate: {name!r}.step must return inputs of shape ({self.n},) "
-                f"(got {u.shape} at t={t!r} s)."
-            )
-        status, fallback = str(record.status), str(record.fallback)
-        if not np.isfinite(u).all():
-            u = previous.copy()
-            status, fallback = "error", HOLD_FALLBACK
-        self.inputs[:, k] = u
-        self.statuses.append(status)
-        self.iterations[k] = int(record.iterations)
-        self.residuals.append(tuple(map(float, record.residuals)))
-        self.solve_times[k] = float(record.solve_time)
-        self.fallbacks.append(fallback)
-        return u
-
-    def result(self, plant: Plant, controller: Controller, reference: Reference, *, seed: int,
-               meta: dict[str, Any]) -> SimulationResult:
-        """The collected history as a :class:`SimulationResult`."""
-        n, states, times = self.n, self.states, self.times
-        forces = (coupler_forces(plant.train, states) if n > 1
-                  else np.zeros((0, self.steps + 1)))
-        return SimulationResult(
-            time=times,
-            states=states,
-            velocities=states[:n].copy(),
-            coupler_forces=forces,
-            inputs=self.inputs,
-            reference_speed=np.asarray(reference.speed(times), dtype=float),
-            reference_acceleration=np.asarray(reference.acceleration(times), dtype=float),
-            statuses=tuple(self.statuses),
-            iterations=self.iterations,
-            residuals=tuple(self.residuals),
-            solve_times=self.solve_times,
-            fallbacks=tuple(self.fallbacks),
-            controller_name=str(controller.name),
-            seed=seed,
-            dt=self.dt,
-            meta=meta,
-        )
 
 
 def _track_meta(plant: Plant) -> list[dict[str, object]] | None:

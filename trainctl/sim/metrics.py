@@ -1,10 +1,19 @@
 # Performance numbers of one closed-loop run.
-"""Tracking, coupler-force, energy, comfort and solver metrics of a run.
+"""Tracking, coupler-force, energy, comfort, saturation and solver metrics of a run.
 
-All are computed from the sampled signals of a
-:class:`~trainctl.sim.SimulationResult` (what happens between samples is
-not seen: at T = 20 s the coupler oscillations inside an interval are not in
-the maximum coupler force).
+Maxima — the speed errors, the coupler force and the jerk — are taken over
+the dense grid of a :class:`~trainctl.sim.SimulationResult` (the plant
+between the samples, ``dense_*``), so that what happens inside a sample
+interval counts: at T = 20 s the coupler oscillations inside an interval
+make the largest coupler force. RMS values are taken at the samples (the
+controller's view). The jerk is the finite difference of the head vehicle's
+accelerations between grid points, a_j = Δv / Δt and j = Δa over the
+spacing of the midpoints; a held input that steps changes the acceleration
+at once, which on a grid of spacing h reads as Δa / h.
+
+Saturation: the time each vehicle's request was cut to its traction or
+braking limit (the samples flagged in ``result.saturation`` times their
+intervals), and when and where (the head position) it first happened.
 
 Energy quadrature: over interval k each vehicle's input u_k is held, and its
 speed is taken as the trapezoid (v_k + v_{k+1}) / 2, so the work is
@@ -19,6 +28,7 @@ Positive work is motoring; negative work is braking, of which the fraction
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -46,9 +56,11 @@ class Metrics:
     rms_error : ndarray
         RMS of v_i - v_ref per vehicle after ``settle_time`` [m/s], shape (n,).
     max_error : ndarray
-        Max |v_i - v_ref| per vehicle after ``settle_time`` [m/s], shape (n,).
+        Max |v_i - v_ref| per vehicle after ``settle_time`` over the dense
+        grid [m/s], shape (n,).
     max_coupler_force : float
-        Max |coupler force| over couplers and samples [N] (0 for one vehicle).
+        Max |coupler force| over couplers and the dense grid [N] (0 for one
+        vehicle).
     energy : float
         Net traction energy [kWh] (module docstring).
     motoring_energy : float
@@ -58,9 +70,11 @@ class Metrics:
     regen_efficiency : float
         Fraction of braking energy recovered [-].
     max_jerk : float
-        Max |jerk| of the head vehicle [m/s³] (NaN with fewer than 2 samples).
+        Max |jerk| of the head vehicle over the dense grid [m/s³] (NaN with
+        fewer than 3 grid points).
     rms_jerk : float
-        RMS jerk of the head vehicle [m/s³] (NaN with fewer than 2 samples).
+        RMS jerk of the head vehicle at the samples [m/s³] (NaN with fewer
+        than 2 samples).
     iterations_mean : float
         Mean iterations per sample.
     iterations_max : int
@@ -73,6 +87,20 @@ class Metrics:
         Max step time [s].
     status_counts : mapping
         Samples per status.
+    saturation_time : ndarray
+        Time each vehicle's force was held at its traction or braking limit
+        [s], shape (n,).
+    braking_saturation_time : ndarray
+        The part of it at the braking limit [s], shape (n,).
+    first_saturation_time : ndarray
+        Start of each vehicle's first saturated sample [s], NaN when none, shape (n,).
+    first_saturation_position : ndarray
+        Head position s at that instant [m], NaN when none, shape (n,).
+    fallback_counts : mapping
+        Samples per fallback applied (``"shifted plan"``, ...); empty when none.
+    divergence : mapping or None
+        Where the run stopped because the plant diverged
+        (:attr:`SimulationResult.divergence`), None when it ran to the end.
     """
 
     settle_time: float
@@ -91,6 +119,17 @@ class Metrics:
     solve_time_p95: float
     solve_time_max: float
     status_counts: Mapping[str, int]
+    saturation_time: NDArray[np.float64]
+    braking_saturation_time: NDArray[np.float64]
+    first_saturation_time: NDArray[np.float64]
+    first_saturation_position: NDArray[np.float64]
+    fallback_counts: Mapping[str, int]
+    divergence: Mapping[str, object] | None = None
+
+    @property
+    def saturated(self) -> bool:
+        """True when some vehicle's force was cut to its envelope."""
+        return bool(np.any(self.saturation_time > 0))
 
     def to_dict(self) -> dict[str, object]:
         """JSON-safe dict (arrays as lists, non-finite numbers as None)."""
@@ -115,6 +154,13 @@ class Metrics:
             "solve_time_p95": num(self.solve_time_p95),
             "solve_time_max": num(self.solve_time_max),
             "status_counts": dict(self.status_counts),
+            "saturation_time": [float(x) for x in self.saturation_time],
+            "braking_saturation_time": [float(x) for x in self.braking_saturation_time],
+            "first_saturation_time": [num(x) for x in self.first_saturation_time],
+            "first_saturation_position": [num(x) for x in self.first_saturation_position],
+            "fallback_counts": dict(self.fallback_counts),
+            "diverged": self.divergence is not None,
+            "divergence": None if self.divergence is None else dict(self.divergence),
         }
 
 
@@ -136,9 +182,9 @@ def compute_metrics(
     Returns
     -------
     Metrics
-        The numbers. Tracking errors and coupler forces are taken at the
-        sample instants; the head jerk is the difference of the interval
-        accelerations a_k = (v_{k+1} - v_k) / T, j_k = (a_{k+1} - a_k) / T.
+        The numbers: maxima over the dense grid, RMS values at the samples
+        (module docstring). A run that diverged before ``settle_time`` has
+        its errors taken over the whole run.
 
     Examples
     --------
@@ -160,16 +206,13 @@ def compute_metrics(
         raise ModelError(
             f"compute_metrics: 'regen_efficiency' must be in [0, 1] (got {regen_efficiency!r})."
         )
-    after = result.time >= settle - 1e-9 * max(1.0, abs(settle))
-    if not np.any(after):
-        raise ModelError(
-            f"compute_metrics: 'settle_time' must leave at least one sample "
-            f"(got {settle_time!r} s; the run ends at {result.time[-1]!r} s)."
-        )
+    after, dense_after = _after(result, settle, settle_time)
     error = result.velocities[:, after] - result.reference_speed[after]
     rms_error = np.sqrt(np.mean(error**2, axis=1))
-    max_error = np.abs(error).max(axis=1)
-    forces = result.coupler_forces
+    dense_error = (result.dense_velocities[:, dense_after]
+                   - result.dense_reference_speed[dense_after])
+    max_error = np.abs(dense_error).max(axis=1)
+    forces = result.dense_coupler_forces
     max_force = float(np.abs(forces).max()) if forces.size else 0.0
 
     v = result.velocities
@@ -179,12 +222,8 @@ def compute_metrics(
     braking = float(np.maximum(-work, 0.0).sum()) / JOULES_PER_KWH
 
     accel = np.diff(v[0]) / dt_k
-    if accel.size >= 2:
-        jerk = np.diff(accel) / dt_k[1:]
-        max_jerk, rms_jerk = float(np.abs(jerk).max()), float(np.sqrt(np.mean(jerk**2)))
-    else:
-        max_jerk = rms_jerk = math.nan
-
+    rms_jerk = (float(np.sqrt(np.mean((np.diff(accel) / dt_k[1:]) ** 2))) if accel.size >= 2
+                else math.nan)
     iters = result.iterations
     times = result.solve_times
     has = iters.size > 0
@@ -197,7 +236,7 @@ def compute_metrics(
         motoring_energy=motoring,
         braking_energy=braking,
         regen_efficiency=eta,
-        max_jerk=max_jerk,
+        max_jerk=_max_jerk(result.dense_time, result.dense_velocities[0]),
         rms_jerk=rms_jerk,
         iterations_mean=float(iters.mean()) if has else math.nan,
         iterations_max=int(iters.max()) if has else 0,
@@ -205,4 +244,47 @@ def compute_metrics(
         solve_time_p95=float(np.percentile(times, 95)) if has else math.nan,
         solve_time_max=float(times.max()) if has else math.nan,
         status_counts=result.status_counts(),
+        **_saturation(result),
+        fallback_counts=dict(Counter(f for f in result.fallbacks if f)),
+        divergence=result.divergence,
     )
+
+
+def _after(result: SimulationResult, settle: float,
+           given: float) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Samples and dense points at or after the settle time (all of a run that diverged
+    before it)."""
+    tol = 1e-9 * max(1.0, abs(settle))
+    after = result.time >= settle - tol
+    if not np.any(after):
+        if result.divergence is None:
+            raise ModelError(
+                f"compute_metrics: 'settle_time' must leave at least one sample "
+                f"(got {given!r} s; the run ends at {result.time[-1]!r} s)."
+            )
+        return np.ones_like(after), np.ones(result.dense_time.shape, dtype=bool)
+    return after, result.dense_time >= settle - tol
+
+
+def _max_jerk(t: NDArray[np.float64], v: NDArray[np.float64]) -> float:
+    """Max |jerk| [m/s³] from speeds v at the grid points t (module docstring)."""
+    if t.size < 3:
+        return math.nan
+    step = np.diff(t)
+    accel = np.diff(v) / step
+    jerk = np.diff(accel) / (0.5 * (step[:-1] + step[1:]))
+    return float(np.abs(jerk).max())
+
+
+def _saturation(result: SimulationResult) -> dict[str, NDArray[np.float64]]:
+    """Saturation times per vehicle [s] and the first saturated sample's time and place."""
+    flags = result.saturation
+    step = np.diff(result.time)
+    first_time = np.full(result.n_vehicles, math.nan)
+    first_position = np.full(result.n_vehicles, math.nan)
+    hit = flags != 0
+    for i in np.flatnonzero(hit.any(axis=1)):
+        k = int(np.argmax(hit[i]))
+        first_time[i], first_position[i] = result.time[k], result.positions[k]
+    return {"saturation_time": hit @ step, "braking_saturation_time": (flags < 0) @ step,
+            "first_saturation_time": first_time, "first_saturation_position": first_position}

@@ -2,8 +2,10 @@
 """Validate a directory written by :meth:`SimulationResult.save` before loading it.
 
 ``result.json`` is declared by :class:`ResultFile` (format
-:data:`~trainctl.sim.results.FORMAT`); ``arrays.npz`` must hold exactly the
-result's arrays, numeric and finite, loadable without pickles. Problems are
+:data:`~trainctl.sim.results.FORMAT`); ``arrays.npz`` must hold the result's
+arrays (:data:`~trainctl.sim.results.ARRAY_NAMES`, and optionally
+:data:`~trainctl.sim.results.OPTIONAL_ARRAY_NAMES`, nothing else), numeric and
+finite, loadable without pickles. Problems are
 :class:`~trainctl.exceptions.ModelError` s naming the file and the key or
 array; the shapes are then checked by :class:`SimulationResult` itself, whose
 message gets the file name in front.
@@ -28,7 +30,7 @@ from pydantic import (
 
 from ..exceptions import ModelError
 from ..jsonfile import FiniteFloat, read_json, validate_json
-from .results import ARRAY_NAMES, FORMAT
+from .results import ARRAY_NAMES, FORMAT, OPTIONAL_ARRAY_NAMES
 
 __all__ = ["RESULT_HINT", "ResultFile", "read_result"]
 
@@ -102,10 +104,11 @@ def _read_arrays(path: Path) -> dict[str, np.ndarray]:
             if missing:
                 raise ModelError(f"{path}: missing array {missing[0]!r} (it must hold "
                                  f"{', '.join(ARRAY_NAMES)}).{RESULT_HINT}")
-            unknown = sorted(names - set(ARRAY_NAMES))
+            unknown = sorted(names - set(ARRAY_NAMES) - set(OPTIONAL_ARRAY_NAMES))
             if unknown:
                 raise ModelError(f"{path}: unknown array {unknown[0]!r}.{RESULT_HINT}")
-            arrays = {name: data[name] for name in ARRAY_NAMES}
+            arrays = {name: data[name] for name in (*ARRAY_NAMES, *OPTIONAL_ARRAY_NAMES)
+                      if name in names}
     except FileNotFoundError:
         raise ModelError(f"{path}: file not found.{RESULT_HINT}") from None
     except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:

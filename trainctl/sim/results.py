@@ -7,6 +7,15 @@ coupler forces, reference) have N + 1 columns, t_0 .. t_N, and per-step
 records (inputs held over the interval, statuses, iterations, solve times)
 have N.
 
+Between the samples the plant is recorded on a dense grid, the ``dense_*``
+arrays (:attr:`SimulationResult.dense_time` and the states, coupler forces and
+reference speed there): the integrator's substeps, or a coarser grid
+(:func:`trainctl.sim.simulate`, ``output_interval``), always including every
+sample instant, where the dense values equal the sampled ones. The applied
+inputs (``inputs``, saturated to the envelopes) sit beside the controller's
+requests (``requested_inputs``) and a per-vehicle saturation flag per sample
+(``saturation``).
+
 :meth:`SimulationResult.save` writes a directory with ``arrays.npz`` (plain
 numpy arrays, loadable with ``allow_pickle=False``) and ``result.json``
 (scalars, strings, statuses, residuals and ``meta``);
@@ -15,7 +24,6 @@ numpy arrays, loadable with ``allow_pickle=False``) and ``result.json``
 
 from __future__ import annotations
 
-import importlib
 import json
 import platform
 import sys
@@ -23,32 +31,37 @@ from collections import Counter
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..controllers.base import STATUSES
-from ..exceptions import DimensionError, MissingDependencyError, ModelError
+from ..exceptions import DimensionError
+from ._views import PLOT_KINDS, ResultViews
 
-if TYPE_CHECKING:
-    import control as ct
-    from matplotlib.axes import Axes
-
-__all__ = ["ARRAY_NAMES", "FORMAT", "PLOT_KINDS", "SimulationResult", "environment"]
+__all__ = ["ARRAY_NAMES", "FORMAT", "OPTIONAL_ARRAY_NAMES", "PLOT_KINDS", "SimulationResult",
+           "environment"]
 
 FORMAT = "trainctl.SimulationResult/1"
 """Format tag written to ``result.json``."""
-
-PLOT_KINDS = ("velocity", "coupler_force", "input", "iterations")
-"""Kinds accepted by :meth:`SimulationResult.plot`."""
 
 _ARRAYS = (
     "time", "states", "velocities", "coupler_forces", "inputs", "reference_speed",
     "reference_acceleration", "iterations", "solve_times",
 )
+_EXTRA_ARRAYS = (
+    "requested_inputs", "saturation", "dense_time", "dense_states", "dense_coupler_forces",
+    "dense_reference_speed",
+)
+"""Arrays added later: a saved run without them loads with their defaults."""
+_DENSE_DEFAULTS = {"requested_inputs": "inputs", "dense_time": "time", "dense_states": "states",
+                   "dense_coupler_forces": "coupler_forces",
+                   "dense_reference_speed": "reference_speed"}
 ARRAY_NAMES = _ARRAYS
-"""The arrays of a result, the members of its ``arrays.npz``."""
+"""The arrays every result has, the required members of its ``arrays.npz``."""
+OPTIONAL_ARRAY_NAMES = _EXTRA_ARRAYS
+"""Arrays a saved result may lack (saved before they existed); they take their defaults."""
 _DEPENDENCIES = ("numpy", "scipy", "control", "cvxpy", "matplotlib", "pandas")
 
 
@@ -80,7 +93,7 @@ def environment() -> dict[str, object]:
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
-class SimulationResult:
+class SimulationResult(ResultViews):
     """Everything one closed-loop simulation produced.
 
     Parameters
@@ -116,7 +129,28 @@ class SimulationResult:
     dt : float
         Sample time [s].
     meta : dict
-        JSON-safe extras: versions, train, plant and run settings.
+        JSON-safe extras: versions, train, plant and run settings; with
+        ``"plant_saturation"`` (bool) and ``"divergence"`` (None, or where
+        the run was stopped: see :attr:`divergence`).
+    requested_inputs : ndarray or None
+        Forces the controller asked for over [t_k, t_{k+1}) [N], shape
+        (n, N) (a non-finite request is recorded as the input held instead);
+        None: equal to ``inputs`` (nothing saturated).
+    saturation : ndarray of int8 or None
+        Per vehicle and sample: +1 when the request was cut to the traction
+        limit, -1 to the braking limit, 0 when applied as asked, shape
+        (n, N); None: zeros.
+    dense_time : ndarray or None
+        The dense grid [s], strictly increasing, shape (D,), holding every
+        sample instant; None: the samples (``time``).
+    dense_states : ndarray or None
+        Plant states on the dense grid, shape (2n, D); None: ``states``.
+    dense_coupler_forces : ndarray or None
+        Coupler forces on the dense grid [N], shape (n-1, D); None:
+        ``coupler_forces``.
+    dense_reference_speed : ndarray or None
+        Reference speed on the dense grid [m/s], shape (D,); None:
+        ``reference_speed``.
 
     Examples
     --------
@@ -148,16 +182,42 @@ class SimulationResult:
     seed: int
     dt: float
     meta: dict[str, Any] = field(default_factory=dict)
+    requested_inputs: NDArray[np.float64] = None  # type: ignore[assignment]
+    saturation: NDArray[np.int8] = None  # type: ignore[assignment]
+    dense_time: NDArray[np.float64] = None  # type: ignore[assignment]
+    dense_states: NDArray[np.float64] = None  # type: ignore[assignment]
+    dense_coupler_forces: NDArray[np.float64] = None  # type: ignore[assignment]
+    dense_reference_speed: NDArray[np.float64] = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
+        self._coerce()
+        n, steps = self._check_samples()
+        self._check_extra(n, steps)
+
+    def _coerce(self) -> None:
+        """Arrays as float64 (int64, int8 flags), the defaults filled in, tuples of str."""
         for name in _ARRAYS:
             dtype = np.int64 if name == "iterations" else np.float64
             object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=dtype))
+        for name, source in _DENSE_DEFAULTS.items():
+            value = getattr(self, name)
+            value = getattr(self, source) if value is None else value
+            object.__setattr__(self, name, np.asarray(value, dtype=np.float64))
+        flags = (np.zeros(self.inputs.shape, dtype=np.int8) if self.saturation is None
+                 else np.asarray(self.saturation))
+        if flags.dtype.kind not in "biuf" or not np.isin(flags, (-1, 0, 1)).all():
+            raise DimensionError(
+                "SimulationResult: 'saturation' must hold -1, 0 or +1 per vehicle and sample "
+                f"(got values {np.unique(flags)[:5].tolist()}).")
+        object.__setattr__(self, "saturation", flags.astype(np.int8))
         object.__setattr__(self, "statuses", tuple(str(s) for s in self.statuses))
         object.__setattr__(self, "fallbacks", tuple(str(s) for s in self.fallbacks))
         object.__setattr__(
             self, "residuals", tuple(tuple(float(r) for r in rs) for rs in self.residuals)
         )
+
+    def _check_samples(self) -> tuple[int, int]:
+        """Shapes of the sampled arrays and records; returns (n, N)."""
         n_t = self.time.shape[0] if self.time.ndim == 1 else -1
         n = self.velocities.shape[0] if self.velocities.ndim == 2 else -1
         steps = n_t - 1
@@ -189,18 +249,33 @@ class SimulationResult:
                     f"SimulationResult: {name!r} must hold one entry per sample ({steps}) "
                     f"(got {len(getattr(self, name))})."
                 )
+        return n, steps
+
+    def _check_extra(self, n: int, steps: int) -> None:
+        """Shapes of the requested inputs, saturation flags and dense arrays."""
+        n_d = self.dense_time.shape[0] if self.dense_time.ndim == 1 else -1
+        expected = {
+            "requested_inputs": (n, steps),
+            "saturation": (n, steps),
+            "dense_time": (n_d,),
+            "dense_states": (2 * n, n_d),
+            "dense_coupler_forces": (max(n - 1, 0), n_d),
+            "dense_reference_speed": (n_d,),
+        }
+        for name, shape in expected.items():
+            if getattr(self, name).shape != shape:
+                raise DimensionError(
+                    f"SimulationResult: {name!r} must have shape {shape} for {n} vehicles, "
+                    f"{steps} samples and {n_d} dense points (got {getattr(self, name).shape})."
+                )
+        where = np.searchsorted(self.dense_time, self.time)
+        if n_d < 1 or np.any(np.diff(self.dense_time) <= 0) or np.any(where >= n_d) \
+                or not np.array_equal(self.dense_time[np.minimum(where, n_d - 1)], self.time):
+            raise DimensionError(
+                "SimulationResult: 'dense_time' must increase strictly and hold every sample "
+                f"instant of 'time' ({self.time.shape[0]} instants, {n_d} dense points).")
 
     # ------------------------------------------------------------ shape info
-    @property
-    def n_vehicles(self) -> int:
-        """Number of vehicles n."""
-        return int(self.velocities.shape[0])
-
-    @property
-    def n_samples(self) -> int:
-        """Number of controller samples N."""
-        return int(self.inputs.shape[1])
-
     @property
     def duration(self) -> float:
         """Simulated time t_N - t_0 [s]."""
@@ -210,6 +285,28 @@ class SimulationResult:
     def positions(self) -> NDArray[np.float64]:
         """Head position s at the instants [m], shape (N+1,)."""
         return self.states[-1]
+
+    @property
+    def dense_velocities(self) -> NDArray[np.float64]:
+        """Vehicle speeds on the dense grid [m/s], shape (n, D) (a view of ``dense_states``)."""
+        return self.dense_states[: self.n_vehicles]
+
+    @property
+    def dense_sample_index(self) -> NDArray[np.int64]:
+        """Column of each sample instant in the dense arrays, shape (N+1,)."""
+        return np.searchsorted(self.dense_time, self.time).astype(np.int64)
+
+    @property
+    def divergence(self) -> dict[str, Any] | None:
+        """Where the run was stopped because the plant diverged, or None.
+
+        ``{"sample": k, "time": t [s], "signal": "v[i]" or "state", "value": ...,
+        "bound": ..., "message": ...}`` from ``meta["divergence"]``
+        (:func:`trainctl.sim.simulate`): the result then ends at the last
+        finite state, before ``duration``.
+        """
+        found = self.meta.get("divergence")
+        return dict(found) if isinstance(found, dict) else None
 
     def status_counts(self) -> dict[str, int]:
         """Number of samples per status, every known status listed (0 when absent).
@@ -241,7 +338,8 @@ class SimulationResult:
         """
         path = Path(directory)
         path.mkdir(parents=True, exist_ok=True)
-        np.savez(path / "arrays.npz", **{name: getattr(self, name) for name in _ARRAYS})
+        np.savez(path / "arrays.npz",
+                 **{name: getattr(self, name) for name in (*_ARRAYS, *_EXTRA_ARRAYS)})
         document = {
             "format": FORMAT,
             "controller_name": self.controller_name,
@@ -295,8 +393,10 @@ class SimulationResult:
         Returns
         -------
         dict
-            Controller, sample time, seed, sizes, final speeds, status counts,
-            iteration and solve-time statistics, and ``meta``.
+            Controller, sample time, seed, sizes, final speeds, the largest
+            coupler force on the dense grid, saturated samples per vehicle,
+            whether the run diverged, status counts, iteration and
+            solve-time statistics, and ``meta``.
         """
         iters = self.iterations
         return {
@@ -309,8 +409,12 @@ class SimulationResult:
             "final_speeds": self.velocities[:, -1].tolist(),
             "final_reference_speed": float(self.reference_speed[-1]),
             "max_abs_coupler_force": (
-                float(np.abs(self.coupler_forces).max()) if self.coupler_forces.size else 0.0
+                float(np.abs(self.dense_coupler_forces).max())
+                if self.dense_coupler_forces.size else 0.0
             ),
+            "dense_points": int(self.dense_time.size),
+            "saturated_samples": np.count_nonzero(self.saturation, axis=1).tolist(),
+            "diverged": self.divergence is not None,
             "status_counts": self.status_counts(),
             "iterations_mean": float(iters.mean()) if iters.size else 0.0,
             "iterations_max": int(iters.max()) if iters.size else 0,
@@ -318,120 +422,3 @@ class SimulationResult:
             "fallbacks": sum(1 for f in self.fallbacks if f),
             "meta": self.meta,
         }
-
-    def labels(self) -> dict[str, list[str]]:
-        """Signal names in python-control's indexed syntax.
-
-        Returns
-        -------
-        dict
-            ``{"v": ["v[0]", ...], "delta": [...], "f": [...], "u": [...]}``.
-        """
-        n = self.n_vehicles
-        return {
-            "v": [f"v[{i}]" for i in range(n)],
-            "delta": [f"delta[{i}]" for i in range(n - 1)],
-            "f": [f"f[{i}]" for i in range(n - 1)],
-            "u": [f"u[{i}]" for i in range(n)],
-        }
-
-    def to_pandas(self) -> Any:
-        """The time series as a ``pandas.DataFrame`` indexed by time [s].
-
-        Columns ``v[i]`` [m/s], ``delta[i]`` [m], ``s`` [m], ``f[i]`` [N],
-        ``u[i]`` [N], ``v_ref`` [m/s], ``a_ref`` [m/s²], ``status``,
-        ``iterations``, ``solve_time`` [s], ``fallback``. Per-step columns
-        hold the value of the interval starting at that time; the last row
-        (t_N) has NaN / None there.
-
-        Returns
-        -------
-        pandas.DataFrame
-            N + 1 rows.
-
-        Raises
-        ------
-        MissingDependencyError
-            When pandas is not installed.
-        """
-        try:
-            pd = importlib.import_module("pandas")  # optional: trainctl[pandas]
-        except ImportError:
-            raise MissingDependencyError(
-                "SimulationResult.to_pandas: pandas must be installed (got ImportError). "
-                "pip install 'trainctl[pandas]'"
-            ) from None
-        labels = self.labels()
-        n = self.n_vehicles
-        columns: dict[str, Any] = {}
-        for i, name in enumerate(labels["v"] + labels["delta"]):
-            columns[name] = self.states[i]
-        columns["s"] = self.states[2 * n - 1]
-        for i, name in enumerate(labels["f"]):
-            columns[name] = self.coupler_forces[i]
-        for i, name in enumerate(labels["u"]):
-            columns[name] = np.append(self.inputs[i], np.nan)
-        columns["v_ref"] = self.reference_speed
-        columns["a_ref"] = self.reference_acceleration
-        columns["status"] = [*self.statuses, None]
-        columns["iterations"] = pd.array([*self.iterations.tolist(), None], dtype="Int64")
-        columns["solve_time"] = np.append(self.solve_times, np.nan)
-        columns["fallback"] = [*self.fallbacks, None]
-        return pd.DataFrame(columns, index=pd.Index(self.time, name="time"))
-
-    def to_time_response(self) -> ct.TimeResponseData:
-        """The run as a python-control ``TimeResponseData`` (outputs = speeds).
-
-        Inputs get one more column than :attr:`inputs` (the last input is
-        held to t_N), as python-control expects one input per time point.
-
-        Returns
-        -------
-        control.TimeResponseData
-            Outputs ``v[i]`` [m/s], states ``v[i]``, ``delta[i]``, ``s``,
-            inputs ``u[i]`` [N].
-        """
-        import control as ct
-
-        labels = self.labels()
-        held = np.hstack([self.inputs, self.inputs[:, -1:]]) if self.n_samples else self.inputs
-        return ct.TimeResponseData(
-            self.time,
-            self.velocities,
-            states=self.states,
-            inputs=held,
-            output_labels=labels["v"],
-            state_labels=labels["v"] + labels["delta"] + ["s"],
-            input_labels=labels["u"],
-            title=f"trainctl simulation: {self.controller_name}",
-            sysname=self.controller_name,
-        )
-
-    def plot(self, kind: str = "velocity", ax: Axes | None = None) -> Axes:
-        """Plot one view of the run with :mod:`trainctl.plot`.
-
-        Parameters
-        ----------
-        kind : {"velocity", "coupler_force", "input", "iterations"}
-            What to plot.
-        ax : matplotlib.axes.Axes or None
-            Axes to draw into; None creates a new figure.
-
-        Returns
-        -------
-        matplotlib.axes.Axes
-            The axes drawn into.
-        """
-        from .. import plot
-
-        functions = {
-            "velocity": plot.velocity_plot,
-            "coupler_force": plot.coupler_force_plot,
-            "input": plot.input_plot,
-            "iterations": plot.iterations_plot,
-        }
-        if kind not in functions:
-            raise ModelError(
-                f"SimulationResult.plot: 'kind' must be one of {PLOT_KINDS} (got {kind!r})."
-            )
-        return functions[kind](self, ax=ax)

@@ -30,8 +30,17 @@ def mpc_checks(design: MPCFamilyDesign) -> list[Check]:
     list of Check
         ``ndmpc_convergence``, ``relaxation``, ``closed_loop_nash``,
         ``closed_loop_iterations``, ``nash_gap``, ``cooperative_convergence``,
-        ``centralised_closed_loop``.
+        ``centralised_closed_loop``, then the review()-grade checks of
+        :mod:`~trainctl.controllers.mpc.review_checks`: ``prediction_horizon``,
+        ``qp_conditioning``, ``rate_limit_conflict``, ``coupler_force_conflict``.
     """
+    from .review_checks import (
+        coupler_force_check,
+        horizon_check,
+        qp_conditioning_check,
+        rate_limit_check,
+    )
+
     ctl, res = design.settings, design.analysis
     unit_scale = 1.0 if ctl.input_weight_unit == "kN" else 1e-6   # per kN² -> per N²
     unit = f"per {ctl.input_weight_unit}²"
@@ -52,6 +61,10 @@ def mpc_checks(design: MPCFamilyDesign) -> list[Check]:
               hint="" if res.rho_cooperative < 1 else "use convex weights summing to 1"),
         _radius(design, "centralised_closed_loop", res.closed_loop_centralised, labels,
                 "centralised MPC"),
+        horizon_check(design),
+        qp_conditioning_check(design),
+        rate_limit_check(design),
+        coupler_force_check(design),
     ]
 
 

@@ -29,9 +29,20 @@ Constraints: the traction/braking envelope of every coach at the reference
 speed (hard; trailers brake only), the input rate (hard, per step), and the
 absolute coupler force including its static part (soft, with slack
 penalties). A local problem carries the bounds of its own inputs and the
-force rows of the couplers next to its coach (centralised: all). A solve that
-returns no usable solution is recorded and replaced by the shifted previous
-plan (clipped to the bounds), or by the feedforward when there is none.
+force rows of the couplers next to its coach (centralised: all).
+
+Faults: a solve that returns no usable solution keeps its outcome as the
+step status (``"infeasible"``, ``"max_iterations"``, ``"error"``) and is
+replaced by the shifted previous plan, or the feedforward when there is
+none, clipped to the rate limit and the envelope (fallback ``"shifted
+plan"``). A measurement (or reference) that is not finite never reaches a
+solver or the observer: the step is ``"error"`` with the reason in
+``info["reason"]`` and applies the feedforward of the reference plus the
+last correction u(k-1) - u_ff(k-1), clipped to the rate limit and then to the
+envelope at the reference speed (fallback ``"hold correction"``; the
+observer predicts without a correction); the next finite measurement is
+handled as usual. Without a finite reference the previous input is held.
+:meth:`MPCController.reset` also restarts every QP workspace cold.
 """
 
 from __future__ import annotations
@@ -53,9 +64,12 @@ from .problem import StepContext, TrainProblem
 from .settings import STRATEGIES, MPCConstraints
 from .strategies import make_strategy
 
-__all__ = ["STRATEGIES", "MPCConstraints", "MPCController", "make_mpc"]
+__all__ = ["HOLD_INPUT", "STRATEGIES", "MPCConstraints", "MPCController", "make_mpc"]
 
 KN = 1e3
+HOLD_INPUT = "hold correction"
+"""Fallback of a step whose measurement was not finite: the feedforward plus the last
+correction, within the rate limit and the envelope."""
 Array = NDArray[np.float64]
 
 _DESIGN_MSG = (
@@ -154,13 +168,14 @@ class MPCController:
 
     # -- protocol -----------------------------------------------------------------------------
     def reset(self) -> None:
-        """Forget the previous plan and input."""
+        """Forget the previous plan and input, the estimate and every QP's warm start."""
         self._plan: Array | None = None         # decision vector of the last step
         self._u_prev: Array | None = None       # last applied absolute input [kN]
         self._ff_prev: Array | None = None      # feedforward at the last step [kN]
         self._disturbance = 0.0                 # estimated specific force [m/s²]
         if self.observer is not None:
             self.observer.reset()
+        self.problem.reset()
 
     @property
     def needs_full_state(self) -> bool:
@@ -170,6 +185,9 @@ class MPCController:
     def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
         """One MPC step: feedforward + optimised deviation, first move applied."""
         start = time.perf_counter()
+        reason = self._fault(measurement, reference)
+        if reason:
+            return self._hold(reference, reason, start)
         state = self._state(measurement)
         ctx = self._context(state, reference)
         problem = self.problem
@@ -177,6 +195,8 @@ class MPCController:
         result = self._strategy.plan(problem, problem.parameters(ctx), plan0,
                                      lambda block: problem.fallback(block, ctx, plan0))
         U = result.plan
+        if result.fallback:  # the combined plan too: within the rate limit and the envelope
+            U = problem.safe_plan(ctx, U)
         moves = problem.maps.first @ U + ctx.u_dev_prev_tiled[: self.n]
         u_abs = ctx.u_ff[0] + moves
         self._plan, self._u_prev, self._ff_prev = U, u_abs, ctx.u_ff[0]
@@ -188,6 +208,47 @@ class MPCController:
                           residuals=tuple(result.residuals),
                           solve_time=time.perf_counter() - start, fallback=result.fallback,
                           info=info)
+
+    def _fault(self, measurement: Measurement, reference: ReferencePreview) -> str:
+        """Why the step cannot be solved ("" when it can): a non-finite measurement or preview."""
+        used = measurement.state if self.observer is None else measurement.outputs
+        if used is not None:
+            values = np.asarray(used, dtype=float)
+            if not np.isfinite(values).all():
+                bad = int(np.flatnonzero(~np.isfinite(values))[0])
+                what = "state" if self.observer is None else "outputs"
+                return f"non-finite measurement: {what}[{bad}] = {values[bad]!r}"
+        for name in ("speed", "acceleration"):
+            preview = np.asarray(getattr(reference, name)[: self.P + 1], dtype=float)
+            if not np.isfinite(preview).all():
+                return f"non-finite reference {name} in the preview"
+        return ""
+
+    def _hold(self, reference: ReferencePreview, reason: str, start: float) -> StepRecord:
+        """The step of a fault: the feedforward plus the last correction, made safe (error)."""
+        speed = np.asarray(reference.speed[:1], dtype=float)
+        accel = np.asarray(reference.acceleration[:1], dtype=float)
+        if np.isfinite(speed).all() and np.isfinite(accel).all():
+            ff = self._feedforward(speed, accel + self._disturbance)[0][0]
+            u = ff.copy()
+            if self._u_prev is not None and self._ff_prev is not None:
+                u += self._u_prev - self._ff_prev
+                rate = self.constraints.rate_limit / KN
+                np.clip(u, self._u_prev - rate, self._u_prev + rate, out=u)
+            if self.constraints.input_bounds:
+                lb, ub = self._bounds(speed)
+                np.clip(u, lb, ub, out=u)
+            self._ff_prev = ff
+        else:  # no reference to follow: the previous input as it was (or none)
+            u = np.zeros(self.n) if self._u_prev is None else self._u_prev.copy()
+        self._u_prev = u
+        self._plan = None if self._plan is None else shifted(self.problem.maps, self._plan)
+        if self.observer is not None:
+            self.observer.skip()
+            self.observer.predict(u * KN)
+        return StepRecord(inputs=u * KN, status="error", iterations=0,
+                          solve_time=time.perf_counter() - start, fallback=HOLD_INPUT,
+                          info={"reason": reason})
 
     def _state(self, measurement: Measurement) -> Array:
         if self.observer is None:

@@ -40,6 +40,10 @@ CHECK_NAMES = (
     "nash_gap",
     "cooperative_convergence",
     "centralised_closed_loop",
+    "prediction_horizon",
+    "qp_conditioning",
+    "rate_limit_conflict",
+    "coupler_force_conflict",
 )
 """The MPC family's design checks."""
 

@@ -295,9 +295,12 @@ class LinearMPCController:
 
     Each step solves at ``measurement.state`` with the input applied at the
     previous step and returns the first move. A solve without a usable
-    solution applies the next input of the last good plan (status
-    ``"fallback"``, fallback ``"shifted plan"``) or, when none is left, holds
-    the previous input. The ``reference`` argument of :meth:`step` (the
+    solution keeps its outcome as the status (``"infeasible"``, ...) and
+    applies the next input of the last good plan (fallback ``"shifted
+    plan"``) or, when none is left, holds the previous input (fallback
+    ``"hold input"``). A state that is not finite is not solved: the step is
+    ``"error"`` (reason in ``info``) and holds the previous input. The
+    ``reference`` argument of :meth:`step` (the
     train's speed preview) is ignored: the output reference is fixed when the
     controller is built. Build it with :meth:`LinearMPC.controller`.
     """
@@ -323,12 +326,17 @@ class LinearMPCController:
         start = time.perf_counter()
         if measurement.state is None:
             raise ModelError(f"{self.name}: needs the state in measurement.state (got None).")
+        if not np.isfinite(np.asarray(measurement.state, dtype=float)).all():
+            self._planned = self._planned[1:]
+            return StepRecord(inputs=self._u_prev.copy(), status="error",
+                              solve_time=time.perf_counter() - start, fallback="hold input",
+                              info={"reason": "non-finite measurement: state"})
         sol = self.mpc.solve(measurement.state, u_prev=self._u_prev, reference=self._ref)
         status, fallback = sol.status, ""
         if is_usable(status):
             u, self._planned = sol.first_move.copy(), sol.inputs[1:]
         else:
-            status, fallback = "fallback", "shifted plan"
+            fallback = "shifted plan" if len(self._planned) else "hold input"
             u = self._planned[0].copy() if len(self._planned) else self._u_prev.copy()
             self._planned = self._planned[1:]
         self._u_prev = u

@@ -262,9 +262,44 @@ class TrainProblem:
         """Per-sample parameters of every block's QP (independent of the other plans)."""
         return block_parameters(self.blocks, self.sources(ctx), self.fast)
 
+    def reset(self) -> None:
+        """Forget every QP's warm start (:meth:`ParametricQP.reset`)."""
+        for block in self.blocks:
+            block.qp.reset()
+
     def fallback(self, block: QPBlock, ctx: StepContext, plan0: Array) -> Array:
-        """The block's moves of the shifted previous plan, clipped to its input bounds (u-form)."""
-        z = plan0[block.cols].copy()
-        if self.constraints.input_bounds and self.design.form == "u":
-            z = np.clip(z, ctx.lb[block.cols], ctx.ub[block.cols])
+        """The block's part of the shifted previous plan, made safe (:meth:`safe_plan`)."""
+        return self.safe_plan(ctx, plan0)[block.cols]
+
+    def safe_plan(self, ctx: StepContext, plan: Array) -> Array:
+        """``plan`` with its moves clipped to the rate limit, then to the envelope.
+
+        Move by move, each coach's absolute force u_ff + ũ is clipped to
+        within ``rate_limit`` of the force before it (the applied u(k-1) for
+        the first move), then to its envelope at the previewed speed (the
+        bounds of ``ctx``). Where the two conflict — the envelope moved
+        further than the rate limit allows — the envelope wins: the force
+        stays within what the vehicle can apply. Works in the u- and the
+        Δu-form (the plan is converted to moves and back).
+        """
+        bounds, rate = self.constraints.input_bounds, self.constraints.rate_limit / KN
+        if not bounds and not math.isfinite(rate):
+            return plan.copy()
+        n, maps = self.n, self.maps
+        ff = ctx.u_ff.ravel()
+        force = maps.L @ plan + ctx.u_dev_prev_tiled + ff   # absolute forces [kN], move by move
+        before = ctx.u_prev
+        for m in range(self.M):
+            now = force[m * n:(m + 1) * n]
+            if math.isfinite(rate):
+                np.clip(now, before - rate, before + rate, out=now)
+            if bounds:
+                np.clip(now, ctx.lb[m * n:(m + 1) * n] + ff[m * n:(m + 1) * n],
+                        ctx.ub[m * n:(m + 1) * n] + ff[m * n:(m + 1) * n], out=now)
+            before = now
+        moves = force - ff
+        if not self._du:
+            return moves
+        z = maps.D @ moves
+        z[:n] -= ctx.u_dev_prev
         return z

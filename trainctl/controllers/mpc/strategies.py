@@ -19,7 +19,10 @@ blocks' solutions become one plan:
     convex combination Σ_i w_i (plan with block i replaced).
 
 A block whose solve gives no usable solution takes the fallback plan it is
-given (the shifted previous plan) and the step is recorded as ``"fallback"``.
+given (the shifted previous plan, clipped to the rate limit and the
+envelope); the step keeps the solver's own outcome as its status
+(``"infeasible"``, ``"max_iterations"``, ``"error"``) and names the fallback
+(``"shifted plan"``).
 """
 
 from __future__ import annotations
@@ -55,7 +58,8 @@ class PlanResult:
     plan : ndarray
         The decision vector U.
     status : str
-        The step status (the worst block status, ``"fallback"`` after a fallback).
+        The step status: the worst block status (:func:`worst_status`), also
+        after a fallback.
     iterations : int
         Iterations (1 for the single-solve strategies).
     residuals : list of float
@@ -248,10 +252,22 @@ def jacobi(problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
 
 
 def worst_status(statuses: list[str], fallback: str) -> str:
-    """The step status: ``"fallback"`` after a fallback, else the worst block status."""
-    if fallback:
-        return "fallback"
+    """The step status: the worst of the blocks' solver outcomes.
+
+    The order is error, infeasible, max_iterations, optimal_inaccurate,
+    optimal. ``fallback`` (the fallback applied, "" when none) does not
+    change it: the step records the solver's outcome beside the fallback.
+    A fallback without a failed solve cannot happen; it is recorded as
+    ``"error"``.
+
+    Examples
+    --------
+    >>> worst_status(["optimal", "infeasible", "max_iterations"], "shifted plan")
+    'infeasible'
+    >>> worst_status(["optimal", "optimal_inaccurate"], "")
+    'optimal_inaccurate'
+    """
     for status in ("error", "infeasible", "max_iterations", "optimal_inaccurate"):
         if status in statuses:
             return status
-    return "optimal"
+    return "error" if fallback else "optimal"

@@ -1,0 +1,312 @@
+# Tests of what the report's figures and tables show: limits, panels, legends, numbering.
+"""trainctl.report figures (time and frequency domain), plot helpers and display rules."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+
+from trainctl import plot
+from trainctl._plotting import limit_lines
+from trainctl.report import build_report_context, collect_report_data
+from trainctl.report.figures import eigenvalue_figure
+from trainctl.report.figures_frequency import frequency_figures
+from trainctl.report.figures_time import time_figures, vehicle_limits
+from trainctl.run import run_scenario
+from trainctl.scenario import load_scenario, read_scenario_text
+from trainctl.sim.results import SimulationResult
+
+
+def _result(name: str, *, steps: int = 30, dt: float = 20.0, iterations: int = 1,
+            force_kn: float = 10.0, n: int = 4) -> SimulationResult:
+    """A synthetic run of the CRH2 half train: small speed errors, motors pulling."""
+    t = dt * np.arange(steps + 1)
+    ref = 20.0 + 0.05 * t
+    phase = np.arange(n)[:, None]
+    speeds = ref + 0.1 * np.sin(t / 200.0 + phase)
+    forces = force_kn * 1e3 * np.sin(t / 150.0 + np.arange(n - 1)[:, None])
+    inputs = np.zeros((n, steps))
+    inputs[1:3] = np.linspace(2e3, 30e3, steps)  # the motors pull, up to 30 kN
+    return SimulationResult(
+        time=t, states=np.zeros((2 * n, steps + 1)), velocities=speeds, coupler_forces=forces,
+        inputs=inputs, reference_speed=ref, reference_acceleration=np.full(steps + 1, 0.05),
+        statuses=("optimal",) * steps, iterations=np.full(steps, iterations),
+        residuals=((1e-3,),) * steps, solve_times=np.full(steps, 1e-3),
+        fallbacks=("",) * steps, controller_name=name, seed=0, dt=dt)
+
+
+def _dense(result: SimulationResult, per_sample: int = 10) -> SimulationResult:
+    """The run with a between-sample record (interpolated), as the dense-grid simulation adds."""
+    t = np.linspace(result.time[0], result.time[-1], result.n_samples * per_sample + 1)
+    return dataclasses.replace(
+        result, dense_time=t,
+        dense_states=np.array([np.interp(t, result.time, x) for x in result.states]),
+        dense_coupler_forces=np.array([np.interp(t, result.time, f)
+                                       for f in result.coupler_forces]),
+        dense_reference_speed=np.interp(t, result.time, result.reference_speed))
+
+
+def _capture(store: dict[str, Figure]) -> Any:
+    """A ``make`` that keeps the drawn figures (instead of encoding them)."""
+    def make(key: str, title: str, caption: str, figure: Figure) -> str:
+        store[key] = figure
+        return key
+    return make
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return load_scenario("crh2-dmpc")
+
+
+class TestLimits:
+    """limit_lines(): axes scaled to the data, limits drawn near and named far."""
+
+    def test_far_limit_is_named_not_drawn(self) -> None:
+        """±500 kN beside ±10 kN: no line, two notes, the axes stay near the data."""
+        ax = Figure().add_subplot()
+        t = np.arange(11.0)
+        ax.plot(t, 10 * np.sin(t))
+        drawn = limit_lines(ax, t, -500e3, 500e3, labels=("limit", "limit"))
+        assert drawn == []
+        lo, hi = ax.get_ylim()
+        assert -20 < lo < -9 and 9 < hi < 20
+        notes = [a.get_text() for a in ax.texts]
+        assert any("↑" in n and "500" in n for n in notes)
+        assert any("↓" in n and "−500" in n for n in notes)
+
+    def test_near_limit_is_drawn(self) -> None:
+        """A traction limit falling from 48 to 15 kN over forces up to 16 kN is a line."""
+        ax = Figure().add_subplot()
+        t = np.arange(11.0)
+        ax.plot(t, np.linspace(2, 16, 11))
+        upper = np.linspace(48e3, 15e3, 11)
+        drawn = limit_lines(ax, t, None, upper)
+        assert len(drawn) == 1
+        np.testing.assert_allclose(drawn[0].get_ydata(), upper / 1e3)
+        lo, hi = ax.get_ylim()
+        assert 16 < hi < 48  # clipped to the data's neighbourhood
+
+    def test_trailer_zero_traction_is_drawn(self) -> None:
+        """Zero forces, traction limit 0, braking −40 kN: the 0 line drawn, −40 named."""
+        ax = Figure().add_subplot()
+        t = np.arange(11.0)
+        ax.plot(t, np.zeros(11))
+        drawn = limit_lines(ax, t, -40e3, 0.0, labels=("braking limit", "traction limit"))
+        assert [line.get_label() for line in drawn] == ["traction limit"]
+        assert np.all(np.asarray(drawn[0].get_ydata()) == 0)
+        assert any("braking limit" in a.get_text() and "−40" in a.get_text() for a in ax.texts)
+        lo, hi = ax.get_ylim()
+        assert lo < 0 < hi and hi - lo < 40
+
+
+class TestTimeFigures:
+    """time_figures(): small multiples, strategies overlaid, legends above the panels."""
+
+    def test_panels_and_legends(self, scenario) -> None:
+        """One panel per vehicle / coupler; the legend is the figure's, no axes legend."""
+        sims = {"centralised": _result("centralised"), "ndmpc": _result("ndmpc", iterations=3)}
+        figures: dict[str, Figure] = {}
+        list(time_figures(scenario, sims, _capture(figures)))
+        assert list(figures) == ["speed", "coupler-force", "input", "iterations"]
+        assert len(figures["speed"].axes) == 1 + 4
+        assert len(figures["coupler-force"].axes) == 3
+        assert len(figures["input"].axes) == 4
+        for key, figure in figures.items():
+            assert figure.legends, key
+            assert all(ax.get_legend() is None for ax in figure.axes), key
+            labels = [t.get_text() for t in figure.legends[0].get_texts()]
+            if key != "iterations":
+                assert labels[:2] == ["centralised", "ndmpc"], key
+
+    def test_iterations_only_for_iterating_strategies(self, scenario) -> None:
+        """One-iteration strategies get no iterations panel; none iterating, no figure."""
+        figures: dict[str, Figure] = {}
+        sims = {"centralised": _result("centralised"), "ndmpc": _result("ndmpc", iterations=3)}
+        list(time_figures(scenario, sims, _capture(figures)))
+        iterations = figures["iterations"]
+        titles = [ax.get_title(loc="left") for ax in iterations.axes if ax.get_title(loc="left")]
+        assert titles == ["ndmpc"]
+        figures.clear()
+        list(time_figures(scenario, {"centralised": _result("centralised")}, _capture(figures)))
+        assert "iterations" not in figures
+
+    def test_each_vehicle_its_own_limits(self, scenario) -> None:
+        """Trailers (1, 4) show a zero traction limit, motors (2, 3) their envelope."""
+        result = _result("centralised")
+        figures: dict[str, Figure] = {}
+        list(time_figures(scenario, {"centralised": result}, _capture(figures)))
+        panels = figures["input"].axes
+        for i, ax in enumerate(panels):
+            dashed = [line for line in ax.lines if line.get_linestyle() == "--"]
+            _, upper = vehicle_limits(scenario, result, i)
+            traction = [line for line in dashed
+                        if np.allclose(line.get_ydata(), upper / 1e3)]
+            assert traction, i
+            if scenario.train.vehicles[i].name == "T":
+                assert np.all(upper == 0)
+            assert ax.get_ylabel().startswith(f"{i + 1} ")
+
+    def test_coupler_axes_follow_the_forces(self, scenario) -> None:
+        """Forces of ±10 kN under a 500 kN limit: the axes span tens of kN, the limit named."""
+        figures: dict[str, Figure] = {}
+        list(time_figures(scenario, {"c": _result("c")}, _capture(figures)))
+        for ax in figures["coupler-force"].axes:
+            lo, hi = ax.get_ylim()
+            assert hi - lo < 60
+            assert any("500" in a.get_text() for a in ax.texts)
+
+
+class TestDenseTraces:
+    """Between-sample records are drawn when present; samples only otherwise."""
+
+    def test_dense_line_with_sample_dots(self) -> None:
+        """The trace has the dense points, the dots the sample instants."""
+        sampled = _result("c")
+        dense = _dense(sampled)
+        ax = plot.speed_error_plot(dense, vehicle=0)
+        assert len(ax.lines[0].get_xdata()) == dense.dense_time.size
+        assert len(ax.lines[1].get_xdata()) == sampled.time.size
+        assert ax.lines[1].get_marker() == "o"
+        ax = plot.coupler_force_plot(dense, coupler=1)
+        assert len(ax.lines[0].get_xdata()) == dense.dense_time.size
+
+    def test_samples_only_without_a_dense_record(self) -> None:
+        """Without ``dense_time`` the trace is the samples."""
+        sampled = _result("c")
+        ax = plot.speed_error_plot(sampled, vehicle=0)
+        assert len(ax.lines[0].get_xdata()) == sampled.time.size
+        ax = plot.velocity_plot(sampled)
+        assert len(ax.lines[0].get_xdata()) == sampled.time.size
+
+
+def test_eigenvalue_legend_outside_the_circle() -> None:
+    """The legend sits right of the axes, never over the unit circle."""
+    figure = Figure(figsize=(7.5, 4.4), layout="constrained")
+    ax = plot.eigenvalue_plot({"open loop": [0.9, 0.5 + 0.5j, 0.5 - 0.5j],
+                               "closed": [0.2, -0.3]}, ax=figure.add_subplot())
+    figure.canvas.draw()
+    legend = ax.get_legend().get_window_extent()
+    assert legend.x0 >= ax.get_window_extent().x1 - 1
+
+
+@pytest.fixture(scope="module")
+def context() -> dict[str, Any]:
+    """crh2-dmpc's report data without simulations, and its deterministic context."""
+    text, _ = read_scenario_text("crh2-dmpc")
+    run = run_scenario(load_scenario("crh2-dmpc"), simulate=False)
+    data = collect_report_data(run, scenario_text=text)
+    return {"data": data, "ctx": build_report_context(data, deterministic=True)}
+
+
+class TestContext:
+    """Numbering, units and the spectral radius in the page's tables."""
+
+    def test_vehicles_numbered_from_one(self, context) -> None:
+        """Vehicles, couplers, coaches and signal names count from 1, head first."""
+        ctx = context["ctx"]
+        train = ctx["scenario"]["train"]
+        assert [v["index"] for v in train["vehicles"]] == ["1", "2", "3", "4"]
+        assert [c["between"] for c in train["couplers"]] == ["1–2", "2–3", "3–4"]
+        assert [r["index"] for r in ctx["model"]["equilibrium"]] == ["1", "2", "3", "4"]
+        assert ctx["model"]["couplers"][0]["index"] == "1–2"
+        coach = ctx["model"]["coaches"][0]
+        assert coach["index"] == "1" and coach["states"] == "v₁, δ₁"
+        assert coach["matrices"][0]["subscript"] == "1,1"
+        assert coach["matrices"][1]["role"] == "coupling from coach 2"
+
+    def test_check_messages_numbered_from_one(self, context) -> None:
+        """Signal names in the review's messages are shown 1-based (u_prev[3] → u_prev₄)."""
+        rows = context["ctx"]["checks"]["rows"]
+        raw = {c["name"]: c["message"] for c in context["data"].results["checks"]}
+        nash = next(r for r in rows if r["name"] == "closed_loop_nash")
+        assert "u_prev[3]" in raw["closed_loop_nash"] and "u_prev₄" in nash["message"]
+        assert not any("[0]" in r["message"] for r in rows)
+
+    def test_forces_of_checks_in_kn(self, context) -> None:
+        """A check whose value is a force in N is shown in kN."""
+        data = context["data"]
+        check = {"name": "braking_feasible", "status": "fail", "value": -250e3,
+                 "threshold": -200e3, "unit": "N", "message": "vehicle[0] needs more",
+                 "hint": ""}
+        odd = dataclasses.replace(data, results={**data.results, "checks": [check]})
+        row = build_report_context(odd, deterministic=True)["checks"]["rows"][0]
+        assert (row["value"], row["threshold"], row["unit"]) == ("−250", "−200", "kN")
+        assert row["message"] == "vehicle₁ needs more"
+
+    def test_open_loop_radius_with_and_without_the_dummy(self, context) -> None:
+        """Two labelled rows: the design model's radius (as in the figure) and 1 with the dummy."""
+        data, ctx = context["data"], context["ctx"]
+        rows = {r["name"]: r["value"] for r in ctx["model"]["overview"]}
+        design = next(v for k, v in rows.items() if "design model" in k)
+        dummy = next(v for k, v in rows.items() if "dummy state (its eigenvalue is 1)" in k)
+        assert float(design) == pytest.approx(np.max(np.abs(data.spectra["open loop"])),
+                                              rel=1e-5)
+        assert dummy == "1"
+
+    def test_linear_loop_table(self, context) -> None:
+        """Without simulations the linear closed loops are still compared."""
+        tables = context["ctx"]["controllers"]["tables"]
+        assert [t["key"] for t in tables] == ["loops"]
+        rows = tables[0]["rows"]
+        assert [r["cells"][0] for r in rows] == ["centralised", "decentralised", "ndmpc"]
+        assert all(" at " in r["cells"][1] for r in rows)
+        assert all("pole at z = 1" in r["cells"][5] for r in rows)
+
+
+def test_frequency_figures_one_per_quantity() -> None:
+    """S and T figures only for loops that have them; every strategy in each legend."""
+    from trainctl.analysis import analyse_closed_loops
+    from trainctl.design import build_design
+
+    loops = analyse_closed_loops(build_design(load_scenario("crh2-dmpc")))
+    curves = {name: response.curves() for name, response in loops.items()}
+    curves["odd"] = {**curves["ndmpc"], "frequency": {**curves["ndmpc"]["frequency"],
+                                                      "sensitivity": None,
+                                                      "complementary": None}}
+    figures: dict[str, Figure] = {}
+    list(frequency_figures(curves, _capture(figures)))
+    assert list(figures) == ["sigma-speed", "sigma-force", "sensitivity", "complementary",
+                             "grade-step"]
+    for key, figure in figures.items():
+        names = [t.get_text() for t in figure.legends[0].get_texts()]
+        expected = list(curves) if key not in ("sensitivity", "complementary") else list(loops)
+        assert names == expected, key
+        for ax in figure.axes:
+            assert ax.get_legend() is None
+    assert figures["sigma-speed"].axes[0].get_xscale() == "log"
+
+
+def _inside(figure: Figure) -> bool:
+    """Everything drawn (labels, legends, notes) lies on the canvas: nothing is clipped."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(figure)
+    canvas.draw()
+    box = figure.get_tightbbox(canvas.get_renderer())
+    width, height = figure.get_size_inches()
+    return box.x0 >= -0.01 and box.y0 >= -0.01 and box.x1 <= width + 0.01 and \
+        box.y1 <= height + 0.01
+
+
+def test_nothing_clipped(scenario) -> None:
+    """Every report figure keeps its labels and legend inside the SVG's canvas."""
+    figures: dict[str, Figure] = {}
+    sims = {"centralised": _result("centralised"), "lqr.decentralised":
+            _result("lqr.decentralised", iterations=2)}
+    list(time_figures(scenario, sims, _capture(figures)))
+    eigenvalue_figure({"open loop": np.array([0.97, 0.5 + 0.5j, 0.5 - 0.5j, -0.8 + 0.6j]),
+                       "N-DMPC (10 iterations)": np.array([0.9, 0.2, -0.3])},
+                      _capture(figures))
+    from trainctl.analysis import analyse_closed_loops
+    from trainctl.design import build_design
+
+    loops = analyse_closed_loops(build_design(load_scenario("crh2-dmpc")))
+    list(frequency_figures({k: r.curves() for k, r in loops.items()}, _capture(figures)))
+    assert len(figures) == 10
+    for key, figure in figures.items():
+        assert _inside(figure), key

@@ -1,0 +1,276 @@
+# Helpers shared by the plot functions: axes, styles, dense traces, limits, legends.
+"""Private helpers of :mod:`trainctl.plot` and :mod:`trainctl.freqplot`.
+
+Limits are drawn the way an engineer reads them: the axes are scaled to the
+data, a limit near the data is drawn as a dashed line, and a limit far
+outside it (a coupler-force limit of ±500 kN beside forces of a few kN) is
+named at the edge of the axes with an arrow instead of squashing the data
+into a flat line (:func:`limit_lines`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.axis import Axis
+from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter
+from numpy.typing import ArrayLike, NDArray
+
+if TYPE_CHECKING:
+    from matplotlib.artist import Artist
+
+    from .sim.results import SimulationResult
+
+__all__ = [
+    "LEGEND_MAX", "MARK_MAX", "legend_outside", "limit_lines", "line_style", "mark_samples",
+    "new_axes", "picked", "plain_log_labels", "series_style", "trace",
+]
+
+LEGEND_MAX = 10
+"""Show a legend only for at most this many traces."""
+
+MARK_MAX = 250
+"""Mark the sample instants with dots when a run has at most this many samples."""
+
+NEAR = 1.0
+"""A limit within this many data spans of the data is drawn; farther ones are named."""
+
+_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown",
+            "tab:pink", "tab:olive", "tab:cyan", "tab:gray")
+_DASHES: tuple[Any, ...] = ("-", "--", "-.", ":", (0, (5, 1, 1, 1)))
+
+
+def new_axes(ax: Axes | None) -> Axes:
+    """``ax``, or the axes of a new 7 × 3.5 in constrained-layout Figure (no pyplot)."""
+    if ax is not None:
+        return ax
+    figure = Figure(figsize=(7.0, 3.5), layout="constrained")
+    return figure.add_subplot()
+
+
+def series_style(k: int) -> dict[str, Any]:
+    """Colour and line style of the k-th compared series (strategy), distinct when overlaid."""
+    return {"color": _COLOURS[k % len(_COLOURS)], "linestyle": _DASHES[k % len(_DASHES)]}
+
+
+def line_style(color: Any, label: str | None, default: str,
+               extra: dict[str, Any]) -> dict[str, Any]:
+    """Line properties of a trace: width 1, ``label`` (else ``default``), colour, extras."""
+    style: dict[str, Any] = {"linewidth": 1.0, "label": default if label is None else label}
+    if color is not None:
+        style["color"] = color
+    return {**style, **extra}
+
+
+def picked(count: int, index: int | None) -> range:
+    """All ``count`` signals, or the one at ``index`` (IndexError outside 0..count-1)."""
+    if index is None:
+        return range(count)
+    if not 0 <= index < count:
+        raise IndexError(f"index {index} out of range for {count} signals")
+    return range(index, index + 1)
+
+
+def trace(result: SimulationResult, name: str) -> tuple[NDArray[np.float64],
+                                                        NDArray[np.float64], bool]:
+    """Time and values of a signal: the dense between-sample record when the run has one.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        The run.
+    name : {"velocities", "coupler_forces"}
+        The signal.
+
+    Returns
+    -------
+    (ndarray, ndarray, bool)
+        Times [s], values (signal, time) and whether they are the dense record
+        (``result.dense_time`` with ``result.dense_<name>``).
+    """
+    dense_time = getattr(result, "dense_time", None)
+    dense = getattr(result, f"dense_{name}", None)
+    if dense_time is not None and dense is not None and np.size(dense_time):
+        return np.asarray(dense_time, dtype=float), np.asarray(dense, dtype=float), True
+    return np.asarray(result.time, dtype=float), np.asarray(getattr(result, name)), False
+
+
+def mark_samples(ax: Axes, time: ArrayLike, values: ArrayLike, color: Any) -> None:
+    """Dots at the sample instants (runs of at most :data:`MARK_MAX` samples)."""
+    t = np.asarray(time, dtype=float)
+    if t.size - 1 <= MARK_MAX:
+        ax.plot(t, np.asarray(values, dtype=float), linestyle="none", marker="o",
+                markersize=2.2, color=color)
+
+
+def limit_lines(
+    ax: Axes,
+    time: ArrayLike,
+    lower: ArrayLike | None,
+    upper: ArrayLike | None,
+    *,
+    labels: tuple[str, str] = ("lower limit", "upper limit"),
+    scale: float = 1e-3,
+    unit: str = "kN",
+) -> list[Artist]:
+    """Draw limits near the data, name those far from it; scale the axes to the data.
+
+    Call after the data are drawn. A limit is a scalar or an array over
+    ``time`` (N + 1 values at the instants, or N per sample, held); infinite
+    or missing values are not drawn. The y-axis spans the data plus
+    :data:`NEAR` data spans at most; a limit inside that window is a dashed
+    line (partly clipped when it reaches beyond), one wholly outside it is
+    written at the top or bottom edge with an arrow.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        Axes holding the data.
+    time : array_like
+        Sample instants [s].
+    lower, upper : array_like or None
+        Limits in SI (N); drawn times ``scale``.
+    labels : (str, str)
+        Names of the lower and the upper limit.
+    scale : float
+        Factor to the plotted unit (N → kN).
+    unit : str
+        Plotted unit, for the written values.
+
+    Returns
+    -------
+    list of Artist
+        The drawn lines (for a legend).
+    """
+    lo, hi = (float(x) for x in ax.dataLim.intervaly) if ax.has_data() else (0.0, 0.0)
+    values = [None if v is None else _held(v, time) * scale for v in (lower, upper)]
+    finite = [v[np.isfinite(v)] for v in values if v is not None]
+    reach = max([abs(lo), abs(hi)] + [float(np.max(np.abs(v))) for v in finite if v.size])
+    span = hi - lo
+    if span <= 1e-9 * max(abs(lo), abs(hi), 1.0):  # flat data (a trailer's zero traction)
+        span = max(0.05 * reach, 1e-12)
+    window = (lo - NEAR * span, hi + NEAR * span)
+    drawn: list[Artist] = []
+    shown_lo, shown_hi = lo, hi
+    named = {True: False, False: False}  # a far limit named above / below the data
+    for value, label in zip(values, labels, strict=True):
+        if value is None or not np.any(np.isfinite(value)):
+            continue
+        near = value[np.isfinite(value) & (value >= window[0]) & (value <= window[1])]
+        if near.size:
+            t = np.asarray(time, dtype=float)
+            drawn += ax.step(t, np.where(np.isfinite(value), value, np.nan), where="post",
+                             color="0.3", linestyle="--", linewidth=1.0, label=label)
+            shown_lo, shown_hi = min(shown_lo, float(near.min())), max(shown_hi, float(near.max()))
+        else:
+            top = bool(np.nanmin(value) > hi)
+            named[top] = True
+            _name_far_limit(ax, label, value, top=top, unit=unit)
+    pad = 0.08 * (shown_hi - shown_lo) if shown_hi > shown_lo else span
+    room = 0.22 * (shown_hi - shown_lo + 2 * pad)  # a strip for a named limit, off the data
+    ax.set_ylim(shown_lo - pad - room * named[False], shown_hi + pad + room * named[True])
+    return drawn
+
+
+def _held(value: ArrayLike, time: ArrayLike) -> NDArray[np.float64]:
+    """A limit as N + 1 values: a scalar repeated, N per-sample values held over the last."""
+    arr = np.asarray(value, dtype=float)
+    n = np.asarray(time).shape[0]
+    if arr.ndim == 0:
+        return np.full(n, float(arr))
+    if arr.shape[0] == n - 1:
+        return np.append(arr, arr[-1])
+    return arr
+
+
+def _name_far_limit(ax: Axes, label: str, value: NDArray[np.float64], *, top: bool,
+                    unit: str) -> None:
+    finite = value[np.isfinite(value)]
+    lo, hi = float(finite.min()), float(finite.max())
+    amount = f"{_fmt(lo)} {unit}" if np.isclose(lo, hi) else f"{_fmt(lo)} … {_fmt(hi)} {unit}"
+    ax.annotate(f"{'↑' if top else '↓'} {label} {amount} (off scale)",
+                xy=(0.99, 0.96 if top else 0.04), xycoords="axes fraction",
+                ha="right", va="top" if top else "bottom", fontsize="x-small", color="0.25")
+
+
+def _fmt(x: float) -> str:
+    return f"{x:.3g}".replace("-", "−")
+
+
+def legend_outside(target: Figure | Axes, handles: Sequence[Artist] | None = None, *,
+                   ncols: int | None = None) -> None:
+    """A legend off the data: above the panels of a figure, or right of a single axes.
+
+    Parameters
+    ----------
+    target : Figure or Axes
+        A constrained-layout figure (legend above its axes) or an axes
+        (legend to its right).
+    handles : sequence of Artist or None
+        Legend entries, labelled by their labels; None takes the labelled
+        artists of ``target`` (of its first axes for a figure).
+    ncols : int or None
+        Columns of a figure legend (default: one row of up to 6 entries, else
+        two rows); entries read row by row.
+    """
+    source = target.axes[0] if isinstance(target, Figure) else target
+    if handles is None:
+        handles = source.get_legend_handles_labels()[0]
+    if not handles:
+        return
+    labels = [str(h.get_label()) for h in handles]
+    if isinstance(target, Figure):
+        count = len(handles)
+        cols = ncols or (count if count <= 6 else -(-count // 2))
+        order = _row_major(count, cols)  # matplotlib fills columns first; read rows first
+        target.legend([handles[k] for k in order], [labels[k] for k in order],
+                      loc="outside upper center", fontsize="small", ncols=cols, frameon=False)
+    else:
+        target.legend(list(handles), labels, loc="upper left", bbox_to_anchor=(1.01, 1.0),
+                      borderaxespad=0.0, fontsize="small", frameon=False)
+
+
+def _row_major(count: int, cols: int) -> list[int]:
+    """The order that makes a column-filled legend of ``cols`` columns read row by row.
+
+    Examples
+    --------
+    >>> _row_major(7, 4)
+    [0, 4, 1, 5, 2, 6, 3]
+    """
+    rows = -(-count // cols)
+    return [r * cols + c for c in range(cols) for r in range(rows) if r * cols + c < count]
+
+
+_SUPERSCRIPTS = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def _power_of_ten(x: float, _pos: int | None = None) -> str:
+    """``10⁻⁶`` for a power of ten, else the number (plain text, no mathtext)."""
+    if x <= 0:
+        return ""
+    exponent = float(np.log10(x))
+    if abs(exponent - round(exponent)) < 1e-9:
+        return "10" + str(int(round(exponent))).translate(_SUPERSCRIPTS)
+    return f"{x:g}"
+
+
+def plain_log_labels(axis: Axis) -> None:
+    """Label a logarithmic axis as ``10ⁿ`` in plain text (minor ticks 2 and 5 on short spans).
+
+    matplotlib's default labels are mathtext, whose parsing costs about a
+    second per figure; plain Unicode superscripts look the same in an SVG.
+    """
+    def minor(x: float, _pos: int | None = None) -> str:
+        lo, hi = sorted(abs(v) for v in axis.get_view_interval())
+        if x <= 0 or lo <= 0 or hi / lo > 100:  # two decades or more: majors suffice
+            return ""
+        lead = x / 10 ** np.floor(np.log10(x))
+        return f"{x:g}" if round(lead) in (2, 5) else ""
+
+    axis.set_major_formatter(FuncFormatter(_power_of_ten))
+    axis.set_minor_formatter(FuncFormatter(minor))

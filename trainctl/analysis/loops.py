@@ -1,0 +1,118 @@
+# Every linear closed loop of a run, in the frequency and the time domain.
+"""The frequency-domain view and the grade-step responses of a run's strategies.
+
+:func:`analyse_closed_loops` takes each strategy's linear closed loop from the
+run's design (``Design.closed_loop``) and returns its
+:class:`~trainctl.analysis.frequency.FrequencyResult` (with the run's
+discrete design model as the plant, for S and T) and its
+:class:`~trainctl.analysis.steps.StepResult`. ``trainctl analyse --json``
+prints their numbers under ``frequency``; the report draws their curves.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from .frequency import FrequencyResult, analyse_frequency
+from .steps import StepResult, analyse_grade_step, step_duration
+
+if TYPE_CHECKING:
+    from ..design import Design
+
+__all__ = ["ClosedLoopResponse", "analyse_closed_loops", "loop_strategies"]
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class ClosedLoopResponse:
+    """Frequency and grade-step responses of one strategy's linear closed loop.
+
+    Parameters
+    ----------
+    strategy : str
+        The strategy (as ``[simulation] strategies`` names it).
+    frequency : FrequencyResult
+        Singular values, sensitivities, peaks and bandwidth.
+    steps : StepResult
+        Responses to 1 ‰ grade steps.
+    """
+
+    strategy: str
+    frequency: FrequencyResult
+    steps: StepResult
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe numbers: the frequency peaks and bandwidth, and ``grade_step``."""
+        return {**self.frequency.to_dict(), "grade_step": self.steps.to_dict()}
+
+    def curves(self) -> dict[str, Any]:
+        """JSON-safe curves for the report: ``frequency`` and ``steps``."""
+        return {"frequency": self.frequency.curves(), "steps": self.steps.curves()}
+
+
+def loop_strategies(design: Design) -> tuple[str, ...]:
+    """The strategies whose loops a run analyses.
+
+    Parameters
+    ----------
+    design : Design
+        The run's design.
+
+    Returns
+    -------
+    tuple of str
+        ``[simulation] strategies`` when the scenario has them, else every
+        strategy of its controller families (other than the primary family's
+        as ``"family.strategy"``); empty without a controller.
+    """
+    from ..controllers.registry import get_family
+
+    sim = design.scenario.simulation
+    if sim is not None:
+        return tuple(sim.strategies)
+    names: list[str] = []
+    for k, family in enumerate(design.families):
+        prefix = "" if k == 0 else f"{family}."
+        names += [prefix + s for s in get_family(family).strategies]
+    return tuple(names)
+
+
+def analyse_closed_loops(
+    design: Design, strategies: Sequence[str] | None = None
+) -> dict[str, ClosedLoopResponse]:
+    """Frequency and grade-step responses of each strategy's linear closed loop.
+
+    Parameters
+    ----------
+    design : Design
+        The run's design (:func:`trainctl.design.build_design`).
+    strategies : sequence of str or None
+        The strategies; None: :func:`loop_strategies`.
+
+    Returns
+    -------
+    dict of str to ClosedLoopResponse
+        By strategy, in order; strategies whose loop is not linear (the
+        family's ``closed_loop`` returns None) are left out. The step
+        responses share one duration (:func:`~trainctl.analysis.steps.step_duration`).
+
+    Examples
+    --------
+    >>> from trainctl.design import build_design
+    >>> from trainctl.scenario import load_scenario
+    >>> loops = analyse_closed_loops(build_design(load_scenario("crh2-dmpc")))
+    >>> list(loops), loops["ndmpc"].frequency.dt
+    (['centralised', 'decentralised', 'ndmpc'], 20.0)
+    """
+    names = loop_strategies(design) if strategies is None else tuple(strategies)
+    loops = {name: design.closed_loop(name) for name in names}
+    linear = {name: loop for name, loop in loops.items() if loop is not None}
+    if not linear:
+        return {}
+    duration = step_duration(list(linear.values()))
+    plant = design.model.discrete
+    return {name: ClosedLoopResponse(strategy=name,
+                                     frequency=analyse_frequency(loop, plant=plant),
+                                     steps=analyse_grade_step(loop, duration=duration))
+            for name, loop in linear.items()}

@@ -1,0 +1,160 @@
+# The "Controllers compared" section: closed-loop metrics, solver effort, linear loops.
+"""Context of the report's comparison of the simulated strategies.
+
+Three narrow tables instead of one wide one, so that the section fits a
+1280 px window without scrolling: tracking, forces and energy; the solver's
+effort; and the frequency-domain numbers of the linear closed loops
+(:func:`trainctl.analysis.analyse_closed_loops`). Every header carries its
+unit; forces are in kN.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+from ._format import format_number, format_value
+from .data import ReportData
+
+__all__ = ["controllers_context"]
+
+_METRICS = (
+    ("strategy", "Strategy", ""), ("rms_error", "RMS speed error", "m/s"),
+    ("max_error", "Max speed error", "m/s"), ("max_coupler_force", "Max |coupler force|", "kN"),
+    ("energy", "Net traction energy", "kWh"), ("max_jerk", "Max jerk (head)", "m/s³"),
+    ("tracking", "Tracking", ""),
+)
+_SOLVER = (
+    ("strategy", "Strategy", ""), ("iterations", "Iterations mean / max", "-"),
+    ("solve_time", "Step time median / p95", "ms"), ("statuses", "Step statuses", ""),
+)
+_LOOPS = (
+    ("strategy", "Strategy", ""),
+    ("speed", "Grade → speed error: peak σ at ω", "(m/s)/(m/s²) at rad/s"),
+    ("force", "Grade → coupler force: peak σ at ω", "kN/(m/s²) at rad/s"),
+    ("sensitivity", "‖S‖∞ at ω", "- at rad/s"),
+    ("complementary", "‖T‖∞ at ω", "- at rad/s"),
+    ("bandwidth", "Bandwidth", "rad/s"),
+    ("step", "1 ‰ grade step: peak speed / force", "m/s / kN"),
+)
+
+
+def controllers_context(data: ReportData, *, deterministic: bool) -> dict[str, Any]:
+    """The comparison tables of the simulated strategies and their linear loops.
+
+    Parameters
+    ----------
+    data : ReportData
+        The report's data (``results["simulations"]`` and ``["frequency"]``).
+    deterministic : bool
+        Leave out the wall-clock step times.
+
+    Returns
+    -------
+    dict
+        ``tables``: list of ``{"key", "caption", "columns", "rows"}`` (columns
+        ``{"key", "title", "unit"}``; rows ``{"ok", "cells"}``), and ``note``.
+    """
+    sims = data.results.get("simulations", {})
+    tables = []
+    if sims:
+        tables.append(_table("metrics", "Tracking, forces and energy", _METRICS,
+                             {name: _metric_cells(m) for name, m in sims.items()}, sims))
+        solver = [c for c in _SOLVER if not (deterministic and c[0] == "solve_time")]
+        tables.append(_table("solver", "Solver effort and step outcomes", tuple(solver),
+                             {name: _solver_cells(m) for name, m in sims.items()}, sims))
+    loops = data.results.get("frequency", {})
+    if loops:
+        tables.append(_table(
+            "loops", "Linear closed loops (unconstrained, at the linearisation speed): peaks "
+            "over frequency, S and T at the plant input (figures below); “≤ ω”: still "
+            "rising at the lowest frequency shown", _LOOPS,
+            {name: _loop_cells(entry) for name, entry in loops.items()}, {}))
+    return {"tables": tables, "note": _note(data), "simulated": bool(sims)}
+
+
+def _table(key: str, caption: str, columns: tuple[tuple[str, str, str], ...],
+           cells: Mapping[str, Mapping[str, str]], sims: Mapping[str, Any]) -> dict[str, Any]:
+    rows = [{"ok": bool(sims[name].get("tracking_ok")) if name in sims else True,
+             "cells": [name] + [row[k] for k, _, _ in columns[1:]]}
+            for name, row in cells.items()]
+    return {"key": key, "caption": caption,
+            "columns": [{"key": k, "title": t, "unit": u} for k, t, u in columns], "rows": rows}
+
+
+def _metric_cells(m: Mapping[str, Any]) -> dict[str, str]:
+    rms = [x for x in m["rms_error"] if x is not None]
+    maxe = [x for x in m["max_error"] if x is not None]
+    return {
+        "rms_error": format_number(math.sqrt(sum(x * x for x in rms) / len(rms)), 4)
+        if rms else "—",
+        "max_error": format_number(max(maxe), 4) if maxe else "—",
+        "max_coupler_force": format_number((m["max_coupler_force"] or 0.0) / 1e3, 4),
+        "energy": format_value(_round(m["energy_kwh"])),
+        "max_jerk": format_value(_round(m["max_jerk"])),
+        "tracking": "within tolerance" if m.get("tracking_ok") else "outside tolerance",
+    }
+
+
+def _solver_cells(m: Mapping[str, Any]) -> dict[str, str]:
+    return {
+        "iterations": f"{format_number(m['iterations_mean'], 3)} / {m['iterations_max']}",
+        "solve_time": f"{format_number(_ms(m['solve_time_median']), 3)} / "
+                      f"{format_number(_ms(m['solve_time_p95']), 3)}",
+        "statuses": ", ".join(f"{k} {v}" for k, v in m["status_counts"].items() if v),
+    }
+
+
+def _loop_cells(entry: Mapping[str, Any]) -> dict[str, str]:
+    step = entry.get("grade_step", {})
+    bandwidth = entry.get("bandwidth")
+    low = (entry.get("omega_range") or [0.0])[0]
+    note = str(entry.get("bandwidth_note") or "")
+    return {
+        "speed": _peak(entry.get("speed_error_peak"), low),
+        "force": _peak(entry.get("coupler_force_peak"), low),
+        "sensitivity": _peak(entry.get("sensitivity_peak"), low),
+        "complementary": _peak(entry.get("complementary_sensitivity_peak"), low),
+        "bandwidth": format_number(bandwidth, 4) if bandwidth is not None
+        else "none: pole at z = 1" if "z = 1" in note
+        else "> π/T" if "does not drop" in note else "—",
+        "step": f"{_num(step.get('peak_speed'))} / {_num(step.get('peak_force'))}",
+    }
+
+
+def _peak(peak: Mapping[str, Any] | None, low: float) -> str:
+    """``gain at ω``; ``at DC`` for ω = 0, ``at ≤ ω`` at the grid's lowest frequency (rising)."""
+    if not peak or peak.get("gain") is None:
+        return "—"
+    frequency = peak.get("frequency")
+    if frequency == 0:
+        where = "DC"
+    elif frequency is not None and frequency <= low * (1 + 1e-9):
+        where = f"≤ {_num(frequency, 3)}"
+    else:
+        where = _num(frequency, 3)
+    return f"{_num(peak['gain'])} at {where}"
+
+
+def _num(x: float | None, digits: int = 4) -> str:
+    return "—" if x is None else format_number(x, digits)
+
+
+def _note(data: ReportData) -> str:
+    sim = data.scenario.simulation
+    if sim is None:
+        return ""
+    return (f"{format_number(sim.duration)} s on the nonlinear plant, sample time "
+            f"{format_number(data.scenario.model.sample_time)} s; errors after "
+            f"{format_number(sim.settle_time)} s, tolerance "
+            f"{format_number(sim.tracking_tolerance)} m/s; measurement noise σ = "
+            f"{format_number(sim.measurement_noise)} m/s.")
+
+
+def _round(x: float | None) -> float | None:
+    return None if x is None else float(f"{x:.4g}")
+
+
+def _ms(x: float | None) -> float:
+    return math.nan if x is None else x * 1e3
