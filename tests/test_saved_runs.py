@@ -91,7 +91,7 @@ TAMPERS: dict[str, tuple[Callable[[Path], object], str]] = {
         "must be the strategies of results.simulations"),
     "non-finite manifest number": (
         lambda d: replace_text(d / MANIFEST, '"speed": ', '"speed": NaN, "was": '),
-        "not a valid trainctl file (the non-finite number NaN"),
+        "results.speed must be a finite number (got nan)"),
     "missing result.json key": (
         lambda d: edit_json(d / RESULT, lambda x: x.pop("dt")),
         f"{RESULT}: missing required key 'dt'"),

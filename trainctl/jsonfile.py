@@ -122,8 +122,8 @@ def _no_constant(name: str) -> float:
     raise ValueError(f"the non-finite number {name} (JSON has no NaN or Infinity)")
 
 
-def read_json(path: Path, *, hint: str = "",
-              error: type[TrainctlError] = ScenarioError) -> Any:
+def read_json(path: Path, *, hint: str = "", error: type[TrainctlError] = ScenarioError,
+              finite: bool = True) -> Any:
     """Parse a JSON file; a missing, unreadable or non-JSON file is a trainctl error.
 
     Parameters
@@ -134,6 +134,10 @@ def read_json(path: Path, *, hint: str = "",
         Sentences appended to every message (how to get a good file).
     error : type
         The trainctl error class to raise.
+    finite : bool
+        Refuse the ``NaN`` and ``Infinity`` tokens (Python's JSON writes
+        them for non-finite floats); False leaves them to the model, whose
+        :data:`FiniteFloat` fields refuse them where a number must be finite.
 
     Returns
     -------
@@ -154,7 +158,7 @@ def read_json(path: Path, *, hint: str = "",
     except OSError as exc:
         raise error(f"{path}: cannot read the file ({exc.strerror or exc}).{hint}") from None
     try:
-        return json.loads(text, parse_constant=_no_constant)
+        return json.loads(text, parse_constant=_no_constant if finite else None)
     except json.JSONDecodeError as exc:
         raise error(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno}, column "
                     f"{exc.colno}).{hint}") from None

@@ -37,7 +37,7 @@ RUN_HINT = (" The saved run was edited or damaged; re-create it with 'trainctl a
 """The sentence every message about a saved run ends with."""
 
 Scalar = StrictBool | StrictInt | StrictFloat | StrictStr | None
-Number = StrictFloat | None  # a number, or null for a non-finite one
+Number = StrictFloat | None  # a number (the page shows inf and nan as such), or null
 
 
 class _Open(BaseModel):
@@ -83,7 +83,7 @@ class Mode(_Open):
     """One mode of ``results.modes``."""
 
     kind: StrictStr
-    eigenvalue: tuple[StrictFloat, StrictFloat]
+    eigenvalue: tuple[FiniteFloat, FiniteFloat]
     natural_frequency: Number
     damping_ratio: Number
     period: Number
@@ -202,7 +202,7 @@ def read_saved_run(directory: str | Path) -> dict[str, Any]:
     if not manifest.is_file():
         raise ScenarioError(f"{path}: not a complete saved run ({MANIFEST} is missing). Write "
                             "one with 'trainctl analyse SCENARIO --save DIR'.")
-    raw = read_json(manifest, hint=RUN_HINT)
+    raw = read_json(manifest, hint=RUN_HINT, finite=False)  # free-form sections may hold NaN
     _check_format(manifest, raw)
     doc = validate_json(raw, RunFile, manifest, hint=RUN_HINT)
     text = _scenario_text(path, doc)

@@ -80,7 +80,7 @@ def read_result(directory: str | Path) -> dict[str, Any]:
         Naming the file and the key or array at fault.
     """
     path = Path(directory)
-    raw = read_json(path / "result.json", hint=RESULT_HINT, error=ModelError)
+    raw = read_json(path / "result.json", hint=RESULT_HINT, error=ModelError, finite=False)
     found = raw.get("format") if isinstance(raw, dict) else None
     if found != FORMAT:
         raise ModelError(f"{path / 'result.json'}: must be a {FORMAT!r} file (got format "
