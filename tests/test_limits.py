@@ -128,6 +128,14 @@ class TestBounds:
                                                 r"10000000 samples .*1\.2e\+07 samples"):
             parse_scenario(text, source="t.toml")
 
+    @pytest.mark.parametrize("key", ["iterations", "max_iterations"])
+    def test_iteration_counts(self, key: str) -> None:
+        """An iteration count of 1e9 (a run of days) is refused; 10000 is accepted."""
+        with pytest.raises(ScenarioError, match=rf"\[controller\]\.{key} must be an integer "
+                                                r"<= 10000 \(got 1000000000\)\. A distributed"):
+            parse_scenario(set_key(builtin_scenario_text("crh2-dmpc"), key, "1000000000"))
+        parse_scenario(set_key(builtin_scenario_text("crh2-dmpc"), key, "10000"))
+
     def test_builtins_within_bounds(self) -> None:
         """Every built-in loads: the limits are far from real trains."""
         for item in builtin_scenarios():

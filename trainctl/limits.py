@@ -21,8 +21,8 @@ Examples
 >>> try:
 ...     ModelSettings(speed=25.0, sample_time=1e-9)
 ... except ModelError as exc:
-...     print(str(exc).split(". ")[0])
-ModelSettings: 'sample_time' must be a finite number >= 0.0001 (got 1e-09)
+...     print(exc)
+ModelSettings: 'sample_time' must be a finite number >= 0.0001 (got 1e-09).
 >>> SAMPLE_TIME.want(), in_unit(MASS, lambda t: t * 1000.0).want()
 ('a number from 0.0001 to 3600', 'a number from 0.001 to 1e+06')
 """
@@ -38,9 +38,9 @@ from .units import KMH_PER_MS
 
 __all__ = [
     "COUPLER_DAMPING", "COUPLER_STIFFNESS", "CURVE_RADIUS", "DAVIS", "DURATION", "GRADE",
-    "HORIZON", "MASS", "MAX_DURATION", "MAX_HORIZON", "MAX_SAMPLES", "MAX_SPEED", "MAX_SPEED_KMH",
-    "MAX_VEHICLES", "SAMPLES_WHY", "SAMPLE_TIME", "SPEED", "SPEED_ERROR", "SPEED_NOISE",
-    "SPEED_POINTS", "VEHICLES_WHY", "in_unit",
+    "HORIZON", "ITERATIONS", "MASS", "MAX_DURATION", "MAX_HORIZON", "MAX_SAMPLES", "MAX_SPEED",
+    "MAX_SPEED_KMH", "MAX_VEHICLES", "SAMPLES_WHY", "SAMPLE_TIME", "SPEED", "SPEED_ERROR",
+    "SPEED_NOISE", "SPEED_POINTS", "VEHICLES_WHY", "in_unit",
 ]
 
 _BOUND_DIGITS = 12
@@ -138,6 +138,11 @@ HORIZON = Integer(ge=1, le=MAX_HORIZON, why=(
     "takes time growing with their cube; 2000 steps is far beyond any train's settling time "
     "at a sensible sample time."))
 """An MPC prediction horizon [steps]."""
+
+ITERATIONS = Integer(ge=1, le=10_000, why=(
+    "A distributed MPC iteration that converges does so in tens of iterations; a limit "
+    "beyond 10000 per sample only turns a non-converging design into a run of days."))
+"""An iteration count or limit per sample of distributed MPC."""
 
 MAX_VEHICLES = 2000
 """Longest train a scenario may describe (vehicles after ``count``)."""
