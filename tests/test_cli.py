@@ -414,9 +414,11 @@ class TestReport:
         assert page.text_of("h1").strip() == XSS_NAME
 
     def test_unwritable_output(self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-        """An output path that cannot be written is a user error, not a traceback."""
+        """An output path that cannot be written is a user error; a directory gets the file."""
         blocker = write_bytes(tmp_path / "file", "x")
         code = main(["report", "heavy-haul-hinf", "-o", str(blocker / "x.html")])
+        assert_user_error(code, capsys.readouterr().err)
+        code = main(["report", "heavy-haul-hinf", "-o", f"{blocker}/"])
         assert_user_error(code, capsys.readouterr().err)
         assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
 

@@ -32,6 +32,7 @@ from trainctl.report import (
 )
 from trainctl.report.build import TimestampError
 from trainctl.report.data import MANIFEST
+from trainctl.report.output import OutputError
 from trainctl.run import run_scenario
 from trainctl.scenario import read_scenario_text
 
@@ -534,13 +535,22 @@ class TestWriteReport:
             os.umask(old)
         assert stat.S_IMODE(target.stat().st_mode) == 0o644
 
-    def test_failure_leaves_nothing(self, tmp_path: Path) -> None:
+    def test_failure_leaves_nothing(self, tmp_path: Path,
+                                    monkeypatch: pytest.MonkeyPatch) -> None:
         """If the rename fails, the destination and the temp file are absent."""
         (tmp_path / "r.html").mkdir()
-        with pytest.raises((OSError, ValueError)):  # a directory is refused before writing
+        with pytest.raises(OutputError, match="is a directory"):
             write_report("x", tmp_path / "r.html")
         assert [p.name for p in tmp_path.iterdir()] == ["r.html"]
         assert list((tmp_path / "r.html").iterdir()) == []
+
+        def fail(src: object, dst: object) -> None:
+            raise OSError("rename failed")
+
+        monkeypatch.setattr("os.replace", fail)
+        with pytest.raises(OSError, match="rename failed"):
+            write_report("x", tmp_path / "new.html")
+        assert [p.name for p in tmp_path.iterdir()] == ["r.html"]
 
 
 def test_sequential_and_pool_runs_agree() -> None:

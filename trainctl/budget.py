@@ -137,7 +137,7 @@ class RunEstimate:
             steps = (f"{self.samples} samples × {self.strategies} strategies = "
                      f"{self.controller_steps} controller steps")
         else:
-            steps = "no simulation"
+            steps = "design review only"
         size = f"{self.vehicles} vehicles" + (f", P = {self.horizon}" if self.horizon > 1 else "")
         return (f"{steps} ({size}): about {format_duration(self.seconds)}, "
                 f"{format_bytes(self.memory_bytes)}")
@@ -178,7 +178,8 @@ def estimate_run(scenario: Scenario, *, simulate: bool = True) -> RunEstimate:
         seconds += _strategy_seconds(scenario, strategy, samples, horizon, moves)
     memory = max(memory, float(samples) * n * _BYTES_PER_ROW * max(1, len(strategies)))
     if seconds > design:
-        dominant = f"the simulations ({samples * len(strategies)} controller steps)"
+        dominant = (f"the simulations: {samples * len(strategies)} controller steps "
+                    "([simulation].duration / [model].sample_time, × strategies)")
     return RunEstimate(
         label=str(scenario.source), vehicles=n, horizon=horizon, samples=samples,
         strategies=len(strategies), controller_steps=samples * len(strategies),
@@ -240,15 +241,16 @@ def check_budget(estimate: RunEstimate, max_time: float) -> None:
     if memory is not None and estimate.memory_bytes > memory:
         raise BudgetError(
             f"{estimate.label}: the run would need about {format_bytes(estimate.memory_bytes)} "
-            f"of memory ({estimate.dominant}), more than this machine's "
-            f"{format_bytes(memory)}. {estimate.describe()}. Make the train, the horizon or "
-            "the run shorter.")
+            f"of memory, more than this machine's {format_bytes(memory)}; most of it goes to "
+            f"{estimate.dominant}. Estimate: {estimate.describe()}. Make the train, the "
+            "horizon or the run shorter.")
     if estimate.seconds > max_time:
         raise BudgetError(
-            f"{estimate.label}: the run is estimated at about {format_duration(estimate.seconds)}"
-            f" ({estimate.dominant}), over the time budget of {format_duration(max_time)}. "
-            f"{estimate.describe()}. Give --max-time {_suggest(estimate.seconds)} to run it "
-            "anyway, or make the train, the horizon or the run shorter.")
+            f"{estimate.label}: the run is estimated at about {format_duration(estimate.seconds)},"
+            f" over the time budget of {format_duration(max_time)}; most of it goes to "
+            f"{estimate.dominant}. Estimate: {estimate.describe()}. Give --max-time "
+            f"{_suggest(estimate.seconds)} to run it anyway, or make the train, the horizon or "
+            "the run shorter.")
 
 
 def physical_memory() -> float | None:
@@ -351,9 +353,10 @@ def _design_cost(n: int, horizon: int, scenario: Scenario) -> tuple[float, float
         mpc = _MPC * n**2.5 * horizon**1.2 + _MPC_LONG * n**2.5 * horizon**3
     memory = max(_DENSE_MATRICES * float(n * horizon) ** 2, 10 * 8 * float(states) ** 2)
     if mpc > modal:
-        dominant = f"the MPC analysis of {n} vehicles with P = {horizon}"
+        dominant = (f"the MPC analysis of {n} vehicles with [controller].prediction_horizon = "
+                    f"{horizon}")
     else:
-        dominant = f"the design review of {n} vehicles ({states} states)"
+        dominant = f"the design review of {n} vehicles ({states} states; [train] vehicles)"
     return _BASE + modal + mpc, memory, dominant
 
 

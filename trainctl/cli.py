@@ -372,10 +372,11 @@ def _rebuild_argv(args: argparse.Namespace) -> list[str]:
 
 def _cmd_report(args: argparse.Namespace) -> int:
     from .parallel import want_pool
-    from .report import ReportData, is_saved_run, normalise_timestamp, write_report_file
+    from .report import ReportData, is_saved_run, normalise_timestamp
     from .report.batch import (
         check_report_output,
         default_report_path,
+        render_saved_run,
         report_all,
         report_scenario,
         summary_line,
@@ -407,8 +408,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
         data = ReportData.load(source)
         default = default_report_path(data.scenario)
         path = check_report_output(args.output or default, default_name=default.name)
-        write_report_file(data, path, generated_at=generated_at,
-                          deterministic=args.deterministic)
+        render_saved_run(data, source, path, generated_at=generated_at,
+                         deterministic=args.deterministic)
     else:
         job = _report_job(source, args)
         default = default_report_path(job.scenario)

@@ -51,9 +51,6 @@ from .violations import suggest as suggest
 __all__ = ["FINITE", "NONNEGATIVE", "NOTHING", "POSITIVE", "Array", "Choice", "Flag", "Integer",
            "NameList", "Number", "Rule", "Text", "Violation", "fail", "raise_at", "suggest"]
 
-_BOUND_DIGITS = 12
-"""Significant digits of a bound converted to a key's unit (drops rounding noise)."""
-
 
 def _fmt(x: float) -> str:
     return f"{x:g}"
@@ -89,15 +86,6 @@ class Rule:
 
     def for_file(self) -> Rule:
         """The rule for a scenario file (TOML values; no inf, no shortcuts)."""
-        return self
-
-    def in_unit(self, to_si: Callable[[float], float] | None) -> Rule:
-        """The rule for values in a key's unit, given the key's converter to SI.
-
-        Rules declare their bounds in SI; a file key in another unit
-        (``mass_t``, ``speed_kmh``) checks the same bounds converted to its
-        unit. Rules without bounds are returned unchanged.
-        """
         return self
 
     def explain(self, error_type: str, value: Any) -> Violation:
@@ -209,26 +197,6 @@ class Number(Rule):
     def for_file(self) -> Number:
         """Files give finite numbers only (an omitted limit means no limit)."""
         return replace(self, allow_inf=False)
-
-    def in_unit(self, to_si: Callable[[float], float] | None) -> Number:
-        """The bounds divided by the converter's scale (``to_si`` must be linear).
-
-        Examples
-        --------
-        >>> Number(gt=0, le=1e9).in_unit(lambda t: t * 1000.0).want()
-        'a number in (0, 1e+06]'
-        """
-        bounds = {k: getattr(self, k) for k in ("gt", "ge", "le")}
-        if to_si is None or all(b is None or b == 0 for b in bounds.values()):
-            return self
-        scale = float(to_si(1.0))
-        if to_si(0.0) != 0.0 or not math.isclose(to_si(2.0), 2.0 * scale) or scale <= 0:
-            raise ValueError(f"{to_si!r} is not a positive scale factor; the bounds of "
-                             f"{self!r} cannot be converted to its unit")
-        def unit(b: float | None) -> float | None:
-            return b if b is None or b == 0 else float(f"{b / scale:.{_BOUND_DIGITS}g}")
-
-        return replace(self, gt=unit(self.gt), ge=unit(self.ge), le=unit(self.le))
 
     def _side(self, error_type: str) -> Number:
         """A hard limit (with ``why``) names the bound that failed: the upper one, or else
@@ -474,10 +442,6 @@ class Array(Rule):
     def for_file(self) -> Array:
         """The item rule for files."""
         return replace(self, item=self.item.for_file())
-
-    def in_unit(self, to_si: Callable[[float], float] | None) -> Array:
-        """The item rule in the key's unit."""
-        return replace(self, item=self.item.in_unit(to_si))
 
     def json_extra(self) -> dict[str, Any]:
         """Extra keywords declared with the array."""

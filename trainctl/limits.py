@@ -9,7 +9,7 @@ Each bound is declared here once, in SI, as a :class:`~trainctl.constraints.Rule
 with the reason; the model classes (:class:`~trainctl.models.vehicle.Vehicle`,
 the settings classes) and the scenario-file keys use the same rules, a file
 key in another unit (``mass_t``, ``speed_kmh``) with the bound converted to it
-(:meth:`~trainctl.constraints.Rule.in_unit`). A value outside a bound is a
+(:func:`in_unit`). A value outside a bound is a
 :class:`~trainctl.exceptions.ScenarioError` (files) or
 :class:`~trainctl.exceptions.ModelError` (Python) naming the key, the bound and
 the reason, before anything runs.
@@ -21,23 +21,30 @@ Examples
 >>> try:
 ...     ModelSettings(speed=25.0, sample_time=1e-9)
 ... except ModelError as exc:
-...     print(str(exc).split(". ")[0])
-ModelSettings: 'sample_time' must be a finite number >= 0.0001 (got 1e-09)
->>> SAMPLE_TIME.want(), MASS.in_unit(lambda t: t * 1000.0).want()
+...     print(exc)
+ModelSettings: 'sample_time' must be a finite number >= 0.0001 (got 1e-09).
+>>> SAMPLE_TIME.want(), in_unit(MASS, lambda t: t * 1000.0).want()
 ('a number from 0.0001 to 3600', 'a number from 0.001 to 1e+06')
 """
 
 from __future__ import annotations
 
-from .constraints import Integer, Number
+import math
+from collections.abc import Callable
+from dataclasses import replace
+
+from .constraints import Array, Integer, Number, Rule
 from .units import KMH_PER_MS
 
 __all__ = [
     "COUPLER_DAMPING", "COUPLER_STIFFNESS", "CURVE_RADIUS", "DAVIS", "DURATION", "GRADE",
-    "HORIZON", "MASS", "MAX_DURATION", "MAX_HORIZON", "MAX_SAMPLES", "MAX_SPEED", "MAX_SPEED_KMH",
-    "MAX_VEHICLES", "SAMPLES_WHY", "SAMPLE_TIME", "SPEED", "SPEED_ERROR", "SPEED_NOISE",
-    "SPEED_POINTS", "VEHICLES_WHY",
+    "HORIZON", "ITERATIONS", "MASS", "MAX_DURATION", "MAX_HORIZON", "MAX_SAMPLES", "MAX_SPEED",
+    "MAX_SPEED_KMH", "MAX_VEHICLES", "SAMPLES_WHY", "SAMPLE_TIME", "SPEED", "SPEED_ERROR",
+    "SPEED_NOISE", "SPEED_POINTS", "VEHICLES_WHY", "in_unit",
 ]
+
+_BOUND_DIGITS = 12
+"""Significant digits of a bound converted to a key's unit (drops rounding noise)."""
 
 MAX_SPEED_KMH = 1000.0
 """Fastest speed trainctl models [km/h] (the rail speed record is 603 km/h, maglev)."""
@@ -132,6 +139,11 @@ HORIZON = Integer(ge=1, le=MAX_HORIZON, why=(
     "at a sensible sample time."))
 """An MPC prediction horizon [steps]."""
 
+ITERATIONS = Integer(ge=1, le=10_000, why=(
+    "A distributed MPC iteration that converges does so in tens of iterations; a limit "
+    "beyond 10000 per sample only turns a non-converging design into a run of days."))
+"""An iteration count or limit per sample of distributed MPC."""
+
 MAX_VEHICLES = 2000
 """Longest train a scenario may describe (vehicles after ``count``)."""
 
@@ -140,3 +152,50 @@ VEHICLES_WHY = (
     "(2·vehicles)² entries, in time growing with the cube or faster; the longest trains run "
     "about 700 wagons.")
 """Why :data:`MAX_VEHICLES`."""
+
+
+def in_unit(rule: Rule, to_si: Callable[[float], float] | None) -> Rule:
+    """The rule for values in a key's unit, given the key's converter to SI.
+
+    Rules declare their bounds in SI; a file key in another unit (``mass_t``,
+    ``speed_kmh``) checks the same bounds divided by the converter's scale.
+    Rules without bounds (and arrays of them) come back unchanged.
+
+    Parameters
+    ----------
+    rule : Rule
+        A rule (a :class:`~trainctl.constraints.Number`, or an
+        :class:`~trainctl.constraints.Array` of them, carries bounds).
+    to_si : callable or None
+        The key's converter; it must be a positive scale factor.
+
+    Returns
+    -------
+    Rule
+        The rule with its bounds in the key's unit.
+
+    Raises
+    ------
+    ValueError
+        If the converter is not a positive scale factor (a declaration error).
+
+    Examples
+    --------
+    >>> in_unit(Number(gt=0, le=1e9), lambda t: t * 1000.0).want()
+    'a number in (0, 1e+06]'
+    """
+    if isinstance(rule, Array):
+        return replace(rule, item=in_unit(rule.item, to_si))
+    if not isinstance(rule, Number) or to_si is None:
+        return rule
+    if all(b is None or b == 0 for b in (rule.gt, rule.ge, rule.le)):
+        return rule
+    scale = float(to_si(1.0))
+    if to_si(0.0) != 0.0 or not math.isclose(to_si(2.0), 2.0 * scale) or scale <= 0:
+        raise ValueError(f"{to_si!r} is not a positive scale factor; the bounds of {rule!r} "
+                         "cannot be converted to its unit")
+
+    def unit(bound: float | None) -> float | None:
+        return bound if bound is None or bound == 0 else float(f"{bound / scale:.{_BOUND_DIGITS}g}")
+
+    return replace(rule, gt=unit(rule.gt), ge=unit(rule.ge), le=unit(rule.le))

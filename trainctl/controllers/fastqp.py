@@ -84,10 +84,9 @@ class SolverOutput:
 
     Examples
     --------
-    >>> import sys
     >>> sink = SolverOutput()
-    >>> sink.write("Polishing not needed\n"), sink.dropped
-    (21, 21)
+    >>> sink.write("Polishing not needed"), sink.dropped
+    (20, 20)
     """
 
     def __init__(self) -> None:

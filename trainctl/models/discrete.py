@@ -66,7 +66,8 @@ def discretise(sys: ct.StateSpace, dt: float, *, method: str = "zoh") -> ct.Stat
         raise ModelError(f"discretise: 'sys' must be a continuous-time system (got dt={sys.dt!r}).")
     check_finite_arrays("discretise", " The continuous model must be finite before sampling.",
                         A=sys.A, B=sys.B)
-    sysd = sys.sample(dt, method=method, name=f"{sys.name}_d")
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported below
+        sysd = sys.sample(dt, method=method, name=f"{sys.name}_d")
     check_finite_arrays(
         "discretise", f" The model cannot be sampled with T = {dt!r} s: its fastest mode "
         f"(|λ| = {_fastest(sys):.3g} 1/s) overflows exp(A·T). Use a shorter sample time.",

@@ -24,6 +24,7 @@ if TYPE_CHECKING:
 __all__ = [
     "OutputError",
     "check_report_output",
+    "render_saved_run",
     "default_report_path",
     "progress_total",
     "report_all",
@@ -88,6 +89,49 @@ def check_report_output(path: str | Path | OutputTarget, *,
         :func:`~trainctl.report.output.output_target`).
     """
     return output_target(path, default_name=default_name)
+
+
+def render_saved_run(data: ReportData, source: str, target: Path | OutputTarget, *,
+                     generated_at: str | None = None, deterministic: bool = False) -> Path:
+    """Write the report of a loaded saved run; data the page cannot use is a ScenarioError.
+
+    :meth:`ReportData.load` validates what the report reads; a controller
+    family's own report data is checked only by rendering it. A saved run
+    whose data still does not render was edited or damaged (a fresh run of
+    the same code renders), so the failure names the directory instead of
+    showing a traceback.
+
+    Parameters
+    ----------
+    data : ReportData
+        From :meth:`ReportData.load`.
+    source : str
+        The saved run's directory, for the message.
+    target : pathlib.Path or OutputTarget
+        Where the page goes.
+    generated_at, deterministic
+        As for :func:`~trainctl.report.write_report_file`.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+
+    Raises
+    ------
+    ScenarioError
+        If the page cannot be built from the saved data.
+    """
+    from ..exceptions import ScenarioError
+    from .runfile import RUN_HINT
+
+    try:
+        return write_report_file(data, target, generated_at=generated_at,
+                                 deterministic=deterministic)
+    except (KeyError, IndexError, TypeError, AttributeError) as exc:
+        what = f"key {exc.args[0]!r} is missing" if isinstance(exc, KeyError) else str(exc)
+        raise ScenarioError(f"{source}: the saved run's data does not fit the report ({what})."
+                            f"{RUN_HINT}") from None
 
 
 def progress_total(jobs: Sequence[ReportJob]) -> int:

@@ -8,7 +8,8 @@
 DIR`` writes it with :meth:`ReportData.save`; ``trainctl report DIR`` reads
 it back with :meth:`ReportData.load` and renders without re-running anything.
 
-Directory layout (format :data:`FORMAT`)::
+Directory layout (format :data:`FORMAT`, declared and checked on loading by
+:mod:`trainctl.report.runfile`)::
 
     DIR/trainctl-run.json          everything except the time series
     DIR/scenario.toml              the scenario text as read
@@ -31,6 +32,9 @@ from numpy.typing import NDArray
 
 from .._validation import numerical_errors
 from ..exceptions import ScenarioError
+from .runfile import FORMAT as FORMAT
+from .runfile import MANIFEST as MANIFEST
+from .runfile import text_digest
 
 if TYPE_CHECKING:
     from ..models.subsystems import CoachSubsystems
@@ -42,12 +46,6 @@ __all__ = [
     "FORMAT", "MANIFEST", "ReportData", "check_save_target", "collect_report_data",
     "is_saved_run",
 ]
-
-FORMAT = "trainctl.ReportData/2"
-"""Format tag of ``trainctl-run.json``."""
-
-MANIFEST = "trainctl-run.json"
-"""File that marks a saved-results directory."""
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -159,6 +157,7 @@ class ReportData:
         return {
             "format": FORMAT,
             "source": self.scenario.source,
+            "scenario_sha256": text_digest(self.scenario_text),
             "strategies": list(self.simulations),
             "results": self.results,
             "subsystems": self.subsystems,
@@ -190,37 +189,22 @@ class ReportData:
         Raises
         ------
         ScenarioError
-            If the directory is not a readable saved run of this format.
+            If the directory is not a readable saved run of this format, or
+            was edited: the message names the file and the key or array at
+            fault (:mod:`trainctl.report.runfile`).
         """
-        from ..scenario import parse_scenario
-        from ..sim.results import SimulationResult
+        from .runfile import read_saved_run
 
-        path = Path(directory)
-        manifest = path / MANIFEST
-        try:
-            document = json.loads(manifest.read_text(encoding="utf-8"))
-            text = (path / "scenario.toml").read_text(encoding="utf-8")
-        except FileNotFoundError as exc:
-            raise ScenarioError(f"{path}: not a complete saved run ({Path(exc.filename).name} "
-                                "is missing). Write one with 'trainctl analyse SCENARIO "
-                                "--save DIR'.") from None
-        except (OSError, ValueError) as exc:
-            raise ScenarioError(f"{manifest}: cannot read the saved run ({exc}).") from None
-        if not isinstance(document, dict) or document.get("format") != FORMAT:
-            found = document.get("format") if isinstance(document, dict) else None
-            raise ScenarioError(f"{manifest}: must be a {FORMAT!r} file (got format {found!r}). "
-                                "Re-create it with 'trainctl analyse SCENARIO --save DIR'.")
-        scenario = parse_scenario(text, source=document["source"])
-        sims = {name: SimulationResult.load(path / "simulations" / name)
-                for name in document["strategies"]}
+        run = read_saved_run(Path(directory))
+        raw = run["raw"]  # validated by run["document"]; kept as read for an exact round trip
         spectra = {label: np.array([complex(re, im) for re, im in values], dtype=complex)
-                   for label, values in document["spectra"].items()}
-        return cls(scenario=scenario, scenario_text=text, results=document["results"],
-                   subsystems=document["subsystems"], spectra=spectra,
-                   families=document["families"], frequency=document.get("frequency", {}),
-                   simulations=sims, expected=document["expected"],
-                   unexpected=document["unexpected"], environment=document["environment"],
-                   command=document["command"], timings=document["timings"])
+                   for label, values in raw["spectra"].items()}
+        return cls(scenario=run["scenario"], scenario_text=run["text"], results=raw["results"],
+                   subsystems=raw["subsystems"], spectra=spectra, families=raw["families"],
+                   frequency=raw["frequency"], simulations=run["simulations"],
+                   expected=raw["expected"], unexpected=raw["unexpected"],
+                   environment=raw["environment"], command=raw["command"],
+                   timings=raw["timings"])
 
 
 def check_save_target(path: str | os.PathLike[str]) -> None:

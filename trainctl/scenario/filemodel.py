@@ -35,6 +35,7 @@ from pydantic_core import InitErrorDetails
 
 from ..constraints import ERROR_TYPE, Rule, Violation, fail, raise_at
 from ..declare import Alt, DeclaredField, Key, declared_fields
+from ..limits import in_unit
 
 __all__ = [
     "FileTable",
@@ -118,7 +119,7 @@ def _file_fields(cls: type) -> Iterator[tuple[str, Any, Any]]:
         file_rule = rule.for_file()
         alts = key.one_of or (Alt(key.file or f.name, key.unit, key.to_si),)
         for alt in alts:
-            alt_rule = file_rule if key.vector else file_rule.in_unit(alt.to_si)
+            alt_rule = file_rule if key.vector else in_unit(file_rule, alt.to_si)
             meta = replace(key, file=alt.key, unit=alt.unit, to_si=alt.to_si, one_of=(),
                            si_text=alt.si_text or key.si_text)
             target = Target(f.name, alt.sets)

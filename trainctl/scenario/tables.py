@@ -39,7 +39,7 @@ from ..constraints import (
     raise_at,
 )
 from ..declare import Key
-from ..limits import MAX_VEHICLES, VEHICLES_WHY
+from ..limits import MAX_VEHICLES, VEHICLES_WHY, in_unit
 from ..models.track import SECTION_RULES, TRACK_RULES
 from ..models.vehicle import COUPLER_RULES, ENVELOPE_RULES, VEHICLE_RULES
 from ..units import (
@@ -141,7 +141,7 @@ class VehicleTable(FileTable):
         "vehicle"
     )
     count: Annotated[int, Integer(ge=1), Key("This many identical vehicles in a row")] = 1
-    mass_t: Annotated[float, VEHICLE_RULES["mass"].in_unit(tonnes_to_kg), Key(
+    mass_t: Annotated[float, in_unit(VEHICLE_RULES["mass"], tonnes_to_kg), Key(
         "Mass", unit="t", to_si=tonnes_to_kg, si_unit="kg")]
     length: Annotated[float, VEHICLE_RULES["length"], Key("Length over couplers", unit="m")] = 25.0
     davis_n_per_kn_kmh: Annotated[tuple[float, ...] | None, _DAVIS, Key(
@@ -189,11 +189,11 @@ class CouplerTable(FileTable):
     })
 
     stiffness_kn_per_m: Annotated[float | None,
-                                  COUPLER_RULES["stiffness"].in_unit(kn_per_m_to_n_per_m), Key(
+                                  in_unit(COUPLER_RULES["stiffness"], kn_per_m_to_n_per_m), Key(
         "Spring stiffness k: > 0, required unless virtual (then 0 or omitted)", unit="kN/m",
         to_si=kn_per_m_to_n_per_m, si_unit="N/m")] = None
-    damping_kn_s_per_m: Annotated[float, COUPLER_RULES["damping"].in_unit(
-        kn_s_per_m_to_n_s_per_m), Key(
+    damping_kn_s_per_m: Annotated[float, in_unit(COUPLER_RULES["damping"],
+                                                 kn_s_per_m_to_n_s_per_m), Key(
         "Viscous damping d (0 when virtual)", unit="kN·s/m", to_si=kn_s_per_m_to_n_s_per_m,
         si_unit="N·s/m")] = 0.0
     virtual: Annotated[bool, Flag(), Key(

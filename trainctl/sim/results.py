@@ -37,10 +37,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..controllers.base import STATUSES
-from ..exceptions import DimensionError, ModelError
+from ..exceptions import DimensionError
 from ._views import PLOT_KINDS, ResultViews
 
-__all__ = ["FORMAT", "PLOT_KINDS", "SimulationResult", "environment"]
+__all__ = ["ARRAY_NAMES", "FORMAT", "OPTIONAL_ARRAY_NAMES", "PLOT_KINDS", "SimulationResult",
+           "environment"]
 
 FORMAT = "trainctl.SimulationResult/1"
 """Format tag written to ``result.json``."""
@@ -57,6 +58,10 @@ _EXTRA_ARRAYS = (
 _DENSE_DEFAULTS = {"requested_inputs": "inputs", "dense_time": "time", "dense_states": "states",
                    "dense_coupler_forces": "coupler_forces",
                    "dense_reference_speed": "reference_speed"}
+ARRAY_NAMES = _ARRAYS
+"""The arrays every result has, the required members of its ``arrays.npz``."""
+OPTIONAL_ARRAY_NAMES = _EXTRA_ARRAYS
+"""Arrays a saved result may lack (saved before they existed); they take their defaults."""
 _DEPENDENCIES = ("numpy", "scipy", "control", "cvxpy", "matplotlib", "pandas")
 
 
@@ -366,29 +371,21 @@ class SimulationResult(ResultViews):
         Raises
         ------
         ModelError
-            When ``result.json`` is not a trainctl simulation result.
+            When ``result.json`` is not a trainctl simulation result of this
+            format (a key missing, unknown or wrong), or ``arrays.npz`` lacks
+            an array or holds a non-finite or non-numeric one; the message
+            names the file and the key or array.
+        DimensionError
+            When the arrays' shapes do not fit together.
         """
+        from .resultfile import RESULT_HINT, read_result
+
         path = Path(directory)
-        document = json.loads((path / "result.json").read_text(encoding="utf-8"))
-        if not isinstance(document, dict) or document.get("format") != FORMAT:
-            found = document.get("format") if isinstance(document, dict) else type(document)
-            raise ModelError(
-                f"SimulationResult.load: {path / 'result.json'} must be a {FORMAT!r} file "
-                f"(got format {found!r}). Write it with SimulationResult.save."
-            )
-        with np.load(path / "arrays.npz", allow_pickle=False) as data:
-            arrays = {name: data[name] for name in _ARRAYS}
-            arrays.update({name: data[name] for name in _EXTRA_ARRAYS if name in data.files})
-        return cls(
-            **arrays,
-            statuses=tuple(document["statuses"]),
-            fallbacks=tuple(document["fallbacks"]),
-            residuals=tuple(tuple(r) for r in document["residuals"]),
-            controller_name=document["controller_name"],
-            seed=document["seed"],
-            dt=document["dt"],
-            meta=document["meta"],
-        )
+        fields = read_result(path)
+        try:
+            return cls(**fields)
+        except DimensionError as exc:
+            raise DimensionError(f"{path}: {exc}{RESULT_HINT}") from None
 
     # ----------------------------------------------------------------- views
     def to_dict(self) -> dict[str, object]:

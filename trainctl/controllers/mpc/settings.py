@@ -23,7 +23,7 @@ from pydantic import (
 
 from ...constraints import Array, Choice, Flag, Integer, Number, Violation, raise_at
 from ...declare import Key, python_error, settings
-from ...limits import HORIZON
+from ...limits import HORIZON, ITERATIONS
 from ...units import kn_to_n
 from ..tracking import (
     InputWeight,
@@ -199,11 +199,11 @@ class ControllerSettings:
     neighbourhood: Annotated[str | tuple[tuple[int, ...], ...], NeighbourhoodRule(), Key(
         "Whose outputs coach i weighs: 'adjacent' {i-1, i, i+1}, 'all', 'self' {i}, "
         "or one array of coach indices per coach")] = "adjacent"
-    iterations: Annotated[int, Integer(ge=1), Key(
+    iterations: Annotated[int, ITERATIONS, Key(
         "N-DMPC iterations per sample analysed for the finite-iteration closed loop")] = 10
     cooperative_weights: Annotated[str | tuple[float, ...], CooperativeWeightsRule(), Key(
         "Cooperative DMPC weights: 'uniform' (1/n each) or one weight per coach")] = "uniform"
-    max_iterations: Annotated[int, Integer(ge=1), Key(
+    max_iterations: Annotated[int, ITERATIONS, Key(
         "Iteration limit per sample of N-DMPC / cooperative DMPC in simulation")] = 50
     iteration_tolerance: Annotated[float, Number(gt=0), Key(
         "Stop iterating when every coach's plan changes by less than this",

@@ -1,0 +1,177 @@
+# Run estimates and the time budget: long runs announced, impossible ones refused up front.
+"""trainctl.budget and ``--max-time``: estimates, refusals, announcements, the runtime stop."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from trainctl.budget import (
+    DEFAULT_MAX_TIME,
+    BudgetError,
+    RunEstimate,
+    check_budget,
+    estimate_run,
+    parse_duration,
+    total_estimate,
+)
+from trainctl.cli import main
+from trainctl.scenario import builtin_scenario_text, builtin_scenarios, load_scenario
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def edited(name: str, key: str, value: str) -> str:
+    """A built-in's text with the first ``key = ...`` line's value replaced."""
+    text, count = re.subn(rf"^({key}\s*=\s*)[^#\n]+", rf"\g<1>{value} ",
+                          builtin_scenario_text(name), count=1, flags=re.M)
+    assert count == 1
+    return text
+
+
+class TestEstimate:
+    """estimate_run()."""
+
+    def test_counts(self) -> None:
+        """Steps are samples × strategies; work is steps × vehicles × horizon."""
+        est = estimate_run(load_scenario("crh2-dmpc"))
+        assert (est.samples, est.strategies, est.controller_steps) == (60, 3, 180)
+        assert est.work == 180 * 4 * 4
+        assert est.to_dict()["seconds"] == est.seconds
+        assert estimate_run(load_scenario("crh2-dmpc"), simulate=False).controller_steps == 0
+
+    def test_builtins_well_inside_the_default_budget(self) -> None:
+        """Every built-in, and all of them together, stay far below the default budget."""
+        estimates = [estimate_run(load_scenario(b.name)) for b in builtin_scenarios()]
+        assert all(e.seconds < DEFAULT_MAX_TIME / 10 for e in estimates)
+        total = total_estimate(estimates)
+        assert total.seconds < DEFAULT_MAX_TIME / 5
+        assert total.controller_steps == sum(e.controller_steps for e in estimates)
+        check_budget(total, DEFAULT_MAX_TIME)
+
+    def test_grows_with_the_train_and_the_horizon(self) -> None:
+        """Longer trains and horizons cost more; the dominant part is named with its key."""
+        from trainctl.scenario import parse_scenario
+
+        base = estimate_run(load_scenario("crh2-dmpc"))
+        wide = estimate_run(parse_scenario(edited("crh2-dmpc", "prediction_horizon", "2000")))
+        assert wide.design_seconds > 100 * base.design_seconds
+        assert "prediction_horizon = 2000" in wide.dominant
+        long = estimate_run(parse_scenario(edited("crh2-dmpc", "mass_t", "42.8\ncount = 100")))
+        assert long.vehicles == 103 and long.seconds > 10 * base.seconds
+
+    def test_refuses_over_budget_and_memory(self) -> None:
+        """check_budget names the estimate, the budget and how to raise it."""
+        est = estimate_run(load_scenario("crh2-dmpc"))
+        with pytest.raises(BudgetError, match=r"over the time budget of 1 s.*--max-time"):
+            check_budget(est, 1.0)
+        check_budget(est, math.inf)
+        huge = dataclasses.replace(est, memory_bytes=1e18)
+        with pytest.raises(BudgetError, match="of memory"):
+            check_budget(huge, math.inf)
+
+    def test_parse_duration(self) -> None:
+        """Durations with units, and refusals."""
+        assert parse_duration("1d") == 86400.0 and parse_duration("inf") == math.inf
+        for bad in ("0", "-5", "soon", "nan"):
+            with pytest.raises(ValueError):
+                parse_duration(bad)
+
+    def test_total_needs_estimates(self) -> None:
+        """total_estimate of nothing is an error."""
+        with pytest.raises(ValueError):
+            total_estimate([])
+        assert isinstance(total_estimate([estimate_run(load_scenario("heavy-haul-hinf"))]),
+                          RunEstimate)
+
+
+class TestIssueCases:
+    """The 500-vehicle, horizon-10000 and 1e-9 s cases: refused or estimated up front."""
+
+    @pytest.mark.parametrize("name", ["heavy-haul-hinf", "heavy-haul-flocking"])
+    def test_500_vehicles_refused_by_the_budget(self, name: str, tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+        """count = 500: exit 2 at once, with the estimate and the option to raise it."""
+        path = tmp_path / "long.toml"
+        path.write_text(edited(name, "count", "500"), encoding="utf-8")
+        assert main(["analyse", str(path)]) == 2
+        err = capsys.readouterr().err
+        assert "estimated at about" in err and "500 vehicles" in err
+        assert "--max-time" in err and "Traceback" not in err
+
+    def test_500_vehicle_report_refused(self, tmp_path: Path,
+                                        capsys: pytest.CaptureFixture[str]) -> None:
+        """The same for report, which writes nothing."""
+        path = tmp_path / "long.toml"
+        path.write_text(edited("heavy-haul-hinf", "count", "500"), encoding="utf-8")
+        assert main(["report", str(path), "-o", str(tmp_path / "r.html")]) == 2
+        assert "estimated at about" in capsys.readouterr().err
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["long.toml"]
+
+    @pytest.mark.parametrize("key, value", [("prediction_horizon", "10000"),
+                                            ("sample_time", "1e-9")])
+    def test_refused_by_the_schema(self, key: str, value: str, tmp_path: Path,
+                                   capsys: pytest.CaptureFixture[str]) -> None:
+        """A horizon of 10000 or a sample time of 1 ns is refused naming the key and bound."""
+        path = tmp_path / "s.toml"
+        path.write_text(edited("crh2-dmpc", key, value), encoding="utf-8")
+        assert main(["analyse", str(path)]) == 2
+        err = capsys.readouterr().err
+        assert f"{key} must be" in err and "Traceback" not in err
+
+    def test_long_run_announced_first(self, monkeypatch: pytest.MonkeyPatch,
+                                      capsys: pytest.CaptureFixture[str]) -> None:
+        """A run estimated at minutes prints its estimate on stderr before anything runs."""
+        from trainctl.exceptions import TrainctlError
+
+        def stop(*args: object, **kwargs: object) -> None:
+            raise TrainctlError("stopped by the test")
+
+        monkeypatch.setattr("trainctl.run.run_scenario", stop)
+        assert main(["analyse", "crh2-dmpc-well-sampled"]) == 2
+        err = capsys.readouterr().err.splitlines()
+        assert err[0].startswith("trainctl: estimate: 24000 samples × 5 strategies = 120000 "
+                                 "controller steps (4 vehicles, P = 40): about ")
+        assert err[1] == "trainctl: error: stopped by the test"
+
+    def test_bad_max_time(self, capsys: pytest.CaptureFixture[str]) -> None:
+        """--max-time takes a positive duration (argparse usage error)."""
+        with pytest.raises(SystemExit) as exc:
+            main(["analyse", "crh2-dmpc", "--max-time", "soon"])
+        assert exc.value.code == 2
+        assert "--max-time" in capsys.readouterr().err
+
+
+_UNDERESTIMATE = """
+import sys
+import trainctl.budget as budget
+real = budget.estimate_run
+def quick(scenario, **kwargs):
+    import dataclasses
+    return dataclasses.replace(real(scenario, **kwargs), design_seconds=0.1,
+                               simulation_seconds=0.1)
+budget.estimate_run = quick
+from trainctl.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.mark.slow
+def test_runtime_budget_stops_the_run(tmp_path: Path) -> None:
+    """A run that outlives --max-time (its estimate too low) is stopped: exit 2, no file."""
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    out = tmp_path / "r.html"
+    proc = subprocess.run([sys.executable, "-c", _UNDERESTIMATE, "report", "crh2-dmpc",
+                           "--max-time", "2", "-o", str(out)], env=env, cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120, check=False)
+    assert proc.returncode == 2, proc.stderr
+    assert "stopped after 2 s: the run outlived its time budget" in proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert list(tmp_path.iterdir()) == []

@@ -1,0 +1,228 @@
+# Reading trainctl's own JSON files back: parsed, validated by a pydantic model, worded once.
+"""Read a JSON file that trainctl wrote and validate it with a declared model.
+
+Saved runs (``trainctl-run.json``, ``result.json``) are declared as pydantic
+models, as scenario files are; :func:`load_json` reads one, and any problem —
+a missing file, text that is not JSON, a number that is not finite, a key
+missing, unknown or of the wrong type — becomes one trainctl error whose
+message names the file and the key path (``results.checks[3].status``), says
+what must hold and what was found, and how to get a good file again.
+
+Examples
+--------
+>>> import tempfile, pathlib
+>>> from pydantic import BaseModel
+>>> class Doc(BaseModel):
+...     format: str
+...     dt: FiniteFloat
+>>> with tempfile.TemporaryDirectory() as tmp:
+...     path = pathlib.Path(tmp) / "doc.json"
+...     _ = path.write_text('{"format": "x", "dt": "fast"}')
+...     try:
+...         load_json(path, Doc)
+...     except ValueError as exc:
+...         print(str(exc).split(": ", 1)[1])
+dt must be a valid number (got 'fast', a string).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Annotated, Any, TypeVar
+
+from pydantic import AfterValidator, BaseModel, StrictFloat, ValidationError
+
+from .declare import first_error, violation_of
+from .exceptions import ScenarioError, TrainctlError
+from .violations import ERROR_TYPE, NOTHING
+
+__all__ = ["FiniteFloat", "json_path", "load_json", "model_error", "read_json", "validate_json"]
+
+_M = TypeVar("_M", bound=BaseModel)
+
+
+def _finite(value: float) -> float:
+    if not math.isfinite(value):
+        raise ValueError("must be a finite number")
+    return value
+
+
+FiniteFloat = Annotated[StrictFloat, AfterValidator(_finite)]
+"""A JSON number that must be finite (JSON files may hold NaN and Infinity tokens)."""
+
+
+def json_path(loc: Sequence[str | int]) -> str:
+    """``("results", "checks", 3, "status")`` -> ``"results.checks[3].status"``.
+
+    Examples
+    --------
+    >>> json_path(("results", "checks", 3, "status")), json_path(())
+    ('results.checks[3].status', 'the document')
+    """
+    text = ""
+    for part in loc:
+        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+    return text or "the document"
+
+
+def _got(value: Any) -> str:
+    if value is NOTHING:
+        return ""
+    if isinstance(value, bool):
+        return f" (got {str(value).lower()}, a boolean)"
+    if isinstance(value, int | float):
+        return f" (got {value!r})"
+    if isinstance(value, str):
+        short = value if len(value) <= 40 else value[:37] + "..."
+        return f" (got {short!r}, a string)"
+    if isinstance(value, list):
+        return f" (got a list of {len(value)} items)"
+    if isinstance(value, dict):
+        return " (got an object)"
+    return f" (got {type(value).__name__})" if value is not None else " (got null)"
+
+
+def model_error(exc: ValidationError) -> str:
+    """One sentence for the first error of a validation: the key path, what must hold, the value.
+
+    Parameters
+    ----------
+    exc : pydantic.ValidationError
+        The validation error.
+
+    Returns
+    -------
+    str
+        ``"missing required key 'results.equilibrium'"``, ``"unknown key 'x'"``
+        or ``"dt must be a valid number (got 'fast', a string)"``.
+    """
+    errors = exc.errors()
+    error = next((e for e in errors if e["type"] == "missing"), None) or first_error(exc)
+    path = json_path(error["loc"])
+    kind = error["type"]
+    if kind == "missing":
+        return f"missing required key {path!r}"
+    if kind == "extra_forbidden":
+        return f"unknown key {path!r}"
+    if kind == ERROR_TYPE:
+        violation = violation_of(error)
+        return f"{path} {violation.text}{_got(violation.got)}"
+    message = str(error["msg"])
+    message = message.removeprefix("Value error, ").removeprefix("Input ")
+    message = message.replace("should be", "must be", 1)
+    if not message.startswith("must"):
+        message = f"is invalid: {message}"
+    return f"{path} {message}{_got(error.get('input', NOTHING))}"
+
+
+def _no_constant(name: str) -> float:
+    raise ValueError(f"the non-finite number {name} (JSON has no NaN or Infinity)")
+
+
+def read_json(path: Path, *, hint: str = "", error: type[TrainctlError] = ScenarioError,
+              finite: bool = True) -> Any:
+    """Parse a JSON file; a missing, unreadable or non-JSON file is a trainctl error.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file.
+    hint : str
+        Sentences appended to every message (how to get a good file).
+    error : type
+        The trainctl error class to raise.
+    finite : bool
+        Refuse the ``NaN`` and ``Infinity`` tokens (Python's JSON writes
+        them for non-finite floats); False leaves them to the model, whose
+        :data:`FiniteFloat` fields refuse them where a number must be finite.
+
+    Returns
+    -------
+    object
+        The document.
+
+    Raises
+    ------
+    TrainctlError
+        Of class ``error``, naming the file.
+    """
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise error(f"{path}: file not found.{hint}") from None
+    except UnicodeDecodeError as exc:
+        raise error(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start}).{hint}") from None
+    except OSError as exc:
+        raise error(f"{path}: cannot read the file ({exc.strerror or exc}).{hint}") from None
+    try:
+        return json.loads(text, parse_constant=_no_constant if finite else None)
+    except json.JSONDecodeError as exc:
+        raise error(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno}, column "
+                    f"{exc.colno}).{hint}") from None
+    except (ValueError, RecursionError) as exc:
+        raise error(f"{path}: not a valid trainctl file ({exc}).{hint}") from None
+
+
+def load_json(path: Path, model: type[_M], *, hint: str = "",
+              error: type[TrainctlError] = ScenarioError) -> _M:
+    """Read ``path`` and validate it with ``model``.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file.
+    model : type of pydantic.BaseModel
+        Its declaration.
+    hint : str
+        Sentences appended to every message.
+    error : type
+        The trainctl error class to raise.
+
+    Returns
+    -------
+    pydantic.BaseModel
+        The validated document.
+
+    Raises
+    ------
+    TrainctlError
+        Of class ``error``: ``"FILE: KEY must ... (got ...).hint"``.
+    """
+    return validate_json(read_json(path, hint=hint, error=error), model, path, hint=hint,
+                         error=error)
+
+
+def validate_json(document: Any, model: type[_M], path: Path, *, hint: str = "",
+                  error: type[TrainctlError] = ScenarioError) -> _M:
+    """Validate a parsed document with ``model`` (see :func:`load_json`).
+
+    Parameters
+    ----------
+    document : object
+        From :func:`read_json`.
+    model : type of pydantic.BaseModel
+        Its declaration.
+    path : pathlib.Path
+        The file it came from (for the message).
+    hint : str
+        Sentences appended to the message.
+    error : type
+        The trainctl error class to raise.
+
+    Returns
+    -------
+    pydantic.BaseModel
+        The validated document.
+
+    Raises
+    ------
+    TrainctlError
+        Of class ``error``, naming the file and the key.
+    """
+    try:
+        return model.model_validate(document)
+    except ValidationError as exc:
+        raise error(f"{path}: {model_error(exc)}.{hint}") from None

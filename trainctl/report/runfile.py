@@ -1,0 +1,285 @@
+# The saved-run manifest (trainctl-run.json), declared: what `report DIR` may rely on.
+"""The declaration of ``trainctl-run.json`` and the checks of a saved run as a whole.
+
+:class:`RunFile` declares the manifest (format :data:`FORMAT`): its top level
+closed (an unknown key is an error), and in ``results`` every key the report
+reads, typed (further keys allowed, so that a run carries more than the page
+shows). :func:`read_saved_run` validates it and then the run as a whole: the
+scenario text matches the checksum recorded when it was saved (another
+scenario's TOML, or an edited one, is named as such), the strategies listed
+are the ones simulated and saved, and every simulation result
+(:mod:`trainctl.sim.resultfile`) belongs to its strategy and to the scenario's
+train and sample time.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictFloat, StrictInt, StrictStr
+
+from ..exceptions import DimensionError, ModelError, ScenarioError
+from ..jsonfile import FiniteFloat, read_json, validate_json
+
+__all__ = ["FORMAT", "MANIFEST", "RUN_HINT", "RunFile", "read_saved_run", "text_digest"]
+
+FORMAT = "trainctl.ReportData/3"
+"""Format tag of ``trainctl-run.json`` (3: the scenario text's checksum is recorded)."""
+
+MANIFEST = "trainctl-run.json"
+"""File that marks a saved-results directory."""
+
+RUN_HINT = (" The saved run was edited or damaged; re-create it with 'trainctl analyse SCENARIO "
+            "--save DIR'.")
+"""The sentence every message about a saved run ends with."""
+
+Scalar = StrictBool | StrictInt | StrictFloat | StrictStr | None
+Number = StrictFloat | None  # a number (the page shows inf and nan as such), or null
+
+
+class _Open(BaseModel):
+    model_config = ConfigDict(extra="allow", frozen=True)
+
+
+class _Closed(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+
+class Check(_Open):
+    """One design check of ``results.checks``."""
+
+    name: StrictStr
+    status: StrictStr
+    value: Scalar = None
+    threshold: Scalar = None
+    unit: StrictStr | None = None
+    message: StrictStr
+    hint: StrictStr
+
+
+class Equilibrium(_Open):
+    """``results.equilibrium``: the cruise inputs and static coupler forces [N, m]."""
+
+    feasible: StrictBool | None = None
+    inputs: list[Number]
+    traction_limit: list[Number]
+    coupler_forces: list[Number]
+    elongations: list[Number]
+
+
+class Sampling(_Open):
+    """``results.sampling``."""
+
+    sample_time: Number
+    nyquist_sample_time: Number
+    omega_max_times_T: Number
+    discrete_spectral_radius: Number
+
+
+class Mode(_Open):
+    """One mode of ``results.modes``."""
+
+    kind: StrictStr
+    eigenvalue: tuple[FiniteFloat, FiniteFloat]
+    natural_frequency: Number
+    damping_ratio: Number
+    period: Number
+    multiplicity: StrictInt
+
+
+class Metrics(_Open):
+    """One strategy's closed-loop metrics, ``results.simulations.<strategy>``."""
+
+    rms_error: list[Number] = Field(min_length=1)
+    max_error: list[Number] = Field(min_length=1)
+    max_coupler_force: Number
+    energy_kwh: Number
+    max_jerk: Number
+    iterations_mean: Number
+    iterations_max: StrictInt
+    solve_time_median: Number
+    solve_time_p95: Number
+    status_counts: dict[str, StrictInt]
+    tracking_ok: StrictBool
+
+
+class Results(_Open):
+    """``results``: the run's summary (``AnalysisRun.to_dict()``), as far as the report reads it."""
+
+    scenario: StrictStr
+    n_states: StrictInt
+    n_inputs: StrictInt
+    outputs: list[StrictStr]
+    speed: FiniteFloat
+    speed_kmh: FiniteFloat
+    linearisation: StrictStr
+    sampling: Sampling
+    equilibrium: Equilibrium
+    modes: list[Mode]
+    checks: list[Check]
+    failed_checks: list[StrictStr]
+    simulations: dict[str, Metrics] = Field(default_factory=dict)
+
+
+class Block(_Closed):
+    """One matrix of a coach's subsystem."""
+
+    kind: Literal["A", "B", "C"]
+    source: StrictInt = Field(alias="from")
+    matrix: list[list[FiniteFloat]]
+    columns: list[StrictStr] | None = None
+
+
+class Coach(_Closed):
+    """One coach's subsystem matrices (``subsystems[i]``)."""
+
+    index: StrictInt
+    states: list[StrictStr]
+    blocks: list[Block]
+
+
+class RunFile(_Closed):
+    """``trainctl-run.json``: everything of a saved run except the time series."""
+
+    format: StrictStr
+    source: StrictStr
+    scenario_sha256: str = Field(pattern=r"^[0-9a-f]{64}$")
+    strategies: list[StrictStr]
+    results: Results
+    subsystems: list[Coach]
+    spectra: dict[str, list[tuple[FiniteFloat, FiniteFloat]]]
+    families: dict[str, dict[str, Any]]
+    frequency: dict[str, dict[str, Any]]
+    expected: dict[str, StrictStr]
+    unexpected: dict[str, tuple[StrictStr, StrictStr]]
+    environment: dict[str, Any]
+    command: StrictStr
+    timings: dict[str, FiniteFloat]
+
+
+def text_digest(text: str) -> str:
+    """SHA-256 (hex) of a scenario's text as saved (UTF-8).
+
+    Examples
+    --------
+    >>> text_digest("")[:12]
+    'e3b0c44298fc'
+    """
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def read_saved_run(directory: str | Path) -> dict[str, Any]:
+    """Validate a saved run and return its parts.
+
+    Parameters
+    ----------
+    directory : str or pathlib.Path
+        A directory written by :meth:`~trainctl.report.ReportData.save`.
+
+    Returns
+    -------
+    dict
+        ``document`` (the validated :class:`RunFile`), ``raw`` (the JSON
+        as read, which it describes), ``text`` (the scenario TOML),
+        ``scenario`` and ``simulations`` (strategy →
+        :class:`~trainctl.sim.SimulationResult`).
+
+    Raises
+    ------
+    ScenarioError
+        Naming the file and key at fault: not a saved run, another format, a
+        key missing, unknown or of the wrong type, a scenario text that is
+        not the one saved, strategies that do not match the results, or a
+        simulation result that is damaged or belongs elsewhere.
+    """
+    from ..scenario import parse_scenario
+
+    path = Path(directory)
+    manifest = path / MANIFEST
+    if not manifest.is_file():
+        raise ScenarioError(f"{path}: not a complete saved run ({MANIFEST} is missing). Write "
+                            "one with 'trainctl analyse SCENARIO --save DIR'.")
+    raw = read_json(manifest, hint=RUN_HINT, finite=False)  # free-form sections may hold NaN
+    _check_format(manifest, raw)
+    doc = validate_json(raw, RunFile, manifest, hint=RUN_HINT)
+    text = _scenario_text(path, doc)
+    scenario = parse_scenario(text, source=doc.source)
+    _check_strategies(manifest, doc)
+    sims = {name: _simulation(path, name, scenario) for name in doc.strategies}
+    return {"document": doc, "raw": raw, "text": text, "scenario": scenario,
+            "simulations": sims}
+
+
+def _check_format(manifest: Path, raw: Any) -> None:
+    found = raw.get("format") if isinstance(raw, dict) else None
+    if found != FORMAT:
+        older = isinstance(found, str) and found.startswith("trainctl.ReportData/")
+        raise ScenarioError(
+            f"{manifest}: must be a {FORMAT!r} file (got format {found!r}). "
+            + ("It was saved by an earlier trainctl; re-create" if older else "Re-create")
+            + " it with 'trainctl analyse SCENARIO --save DIR'.")
+
+
+def _scenario_text(path: Path, doc: RunFile) -> str:
+    toml = path / "scenario.toml"
+    try:
+        text = toml.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ScenarioError(f"{path}: not a complete saved run (scenario.toml is missing)."
+                            f"{RUN_HINT}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"{toml}: cannot read the scenario ({exc}).{RUN_HINT}") from None
+    if text_digest(text) != doc.scenario_sha256:
+        name = _name_in(text)
+        what = (f"holds another scenario ({name!r}, not {doc.results.scenario!r})"
+                if name is not None and name != doc.results.scenario else "was edited")
+        raise ScenarioError(f"{toml}: {what}: it is not the text the run was saved with (its "
+                            f"SHA-256 differs from {MANIFEST}'s scenario_sha256).{RUN_HINT}")
+    return text
+
+
+def _name_in(text: str) -> str | None:
+    import tomllib
+
+    try:
+        name = tomllib.loads(text).get("name")
+    except (tomllib.TOMLDecodeError, RecursionError):
+        return None
+    return name if isinstance(name, str) else None
+
+
+def _check_strategies(manifest: Path, doc: RunFile) -> None:
+    listed, simulated = doc.strategies, list(doc.results.simulations)
+    if len(set(listed)) != len(listed):
+        raise ScenarioError(f"{manifest}: strategies must not repeat a name (got {listed}).")
+    if sorted(listed) != sorted(simulated):
+        raise ScenarioError(f"{manifest}: strategies {listed} must be the strategies of "
+                            f"results.simulations {simulated}.{RUN_HINT}")
+
+
+def _simulation(path: Path, strategy: str, scenario: Any) -> Any:
+    from ..sim.results import SimulationResult
+
+    where = path / "simulations" / strategy
+    if not where.is_dir():
+        raise ScenarioError(f"{where}: missing: the run lists strategy {strategy!r} but has no "
+                            f"saved result for it.{RUN_HINT}")
+    try:
+        result = SimulationResult.load(where)
+    except (ModelError, DimensionError) as exc:
+        raise ScenarioError(str(exc)) from None
+    problem = None
+    if result.controller_name != strategy:
+        problem = f"controller_name must be {strategy!r} (got {result.controller_name!r})"
+    elif not math.isclose(result.dt, scenario.model.sample_time, rel_tol=1e-12):
+        problem = (f"dt must be the scenario's sample time {scenario.model.sample_time!r} "
+                   f"(got {result.dt!r})")
+    elif result.n_vehicles != scenario.train.n_vehicles:
+        problem = (f"the arrays must be for the scenario's {scenario.train.n_vehicles} vehicles "
+                   f"(got {result.n_vehicles})")
+    if problem is not None:
+        raise ScenarioError(f"{where / 'result.json'}: {problem}.{RUN_HINT}")
+    return result

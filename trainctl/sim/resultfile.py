@@ -1,0 +1,126 @@
+# The saved form of a SimulationResult, declared and checked: result.json and arrays.npz.
+"""Validate a directory written by :meth:`SimulationResult.save` before loading it.
+
+``result.json`` is declared by :class:`ResultFile` (format
+:data:`~trainctl.sim.results.FORMAT`); ``arrays.npz`` must hold the result's
+arrays (:data:`~trainctl.sim.results.ARRAY_NAMES`, and optionally
+:data:`~trainctl.sim.results.OPTIONAL_ARRAY_NAMES`, nothing else), numeric and
+finite, loadable without pickles. Problems are
+:class:`~trainctl.exceptions.ModelError` s naming the file and the key or
+array; the shapes are then checked by :class:`SimulationResult` itself, whose
+message gets the file name in front.
+"""
+
+from __future__ import annotations
+
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    StrictFloat,
+    StrictInt,
+    StrictStr,
+    field_validator,
+)
+
+from ..exceptions import ModelError
+from ..jsonfile import FiniteFloat, read_json, validate_json
+from .results import ARRAY_NAMES, FORMAT, OPTIONAL_ARRAY_NAMES
+
+__all__ = ["RESULT_HINT", "ResultFile", "read_result"]
+
+RESULT_HINT = (" The saved result was edited or damaged; write it again with "
+               "SimulationResult.save (or 'trainctl analyse SCENARIO --save DIR').")
+"""The sentence every message about a saved result ends with."""
+
+
+class ResultFile(BaseModel):
+    """``result.json``: everything of a result except its arrays."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    format: StrictStr
+    controller_name: StrictStr
+    seed: StrictInt
+    dt: FiniteFloat = Field(gt=0)
+    statuses: list[StrictStr]
+    fallbacks: list[StrictStr]
+    residuals: list[list[StrictFloat]]
+    meta: dict[str, Any]
+
+    @field_validator("format")
+    @classmethod
+    def _this_format(cls, value: str) -> str:
+        if value != FORMAT:
+            raise ValueError(f"must be {FORMAT!r}")
+        return value
+
+
+def read_result(directory: str | Path) -> dict[str, Any]:
+    """The keyword arguments of :class:`SimulationResult` from a saved directory.
+
+    Parameters
+    ----------
+    directory : str or pathlib.Path
+        Holds ``result.json`` and ``arrays.npz``.
+
+    Returns
+    -------
+    dict
+        Arrays and fields, checked (not yet against each other's shapes).
+
+    Raises
+    ------
+    ModelError
+        Naming the file and the key or array at fault.
+    """
+    path = Path(directory)
+    raw = read_json(path / "result.json", hint=RESULT_HINT, error=ModelError, finite=False)
+    found = raw.get("format") if isinstance(raw, dict) else None
+    if found != FORMAT:
+        raise ModelError(f"{path / 'result.json'}: must be a {FORMAT!r} file (got format "
+                         f"{found!r}). Write it with SimulationResult.save.")
+    doc = validate_json(raw, ResultFile, path / "result.json", hint=RESULT_HINT,
+                        error=ModelError)
+    arrays = _read_arrays(path / "arrays.npz")
+    return {**arrays, "statuses": tuple(doc.statuses), "fallbacks": tuple(doc.fallbacks),
+            "residuals": tuple(tuple(r) for r in doc.residuals),
+            "controller_name": doc.controller_name, "seed": doc.seed, "dt": doc.dt,
+            "meta": doc.meta}
+
+
+def _read_arrays(path: Path) -> dict[str, np.ndarray]:
+    if path.is_file() and not zipfile.is_zipfile(path):
+        raise ModelError(f"{path}: not a NumPy .npz archive (no zip structure).{RESULT_HINT}")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            names = set(data.files)
+            missing = [name for name in ARRAY_NAMES if name not in names]
+            if missing:
+                raise ModelError(f"{path}: missing array {missing[0]!r} (it must hold "
+                                 f"{', '.join(ARRAY_NAMES)}).{RESULT_HINT}")
+            unknown = sorted(names - set(ARRAY_NAMES) - set(OPTIONAL_ARRAY_NAMES))
+            if unknown:
+                raise ModelError(f"{path}: unknown array {unknown[0]!r}.{RESULT_HINT}")
+            arrays = {name: data[name] for name in (*ARRAY_NAMES, *OPTIONAL_ARRAY_NAMES)
+                      if name in names}
+    except FileNotFoundError:
+        raise ModelError(f"{path}: file not found.{RESULT_HINT}") from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        if isinstance(exc, ModelError):
+            raise
+        raise ModelError(f"{path}: not a readable NumPy archive ({exc}).{RESULT_HINT}") from None
+    for name, value in arrays.items():
+        if value.dtype.kind not in "iuf":
+            raise ModelError(f"{path}: array {name!r} must hold numbers (got dtype "
+                             f"{value.dtype}).{RESULT_HINT}")
+        if value.dtype.kind == "f" and not np.all(np.isfinite(value)):
+            index = [int(i) for i in np.argwhere(~np.isfinite(value))[0]]
+            raise ModelError(f"{path}: array {name!r} must be finite (got "
+                             f"{value[tuple(index)]} at {index}).{RESULT_HINT}")
+    return arrays
