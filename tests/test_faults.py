@@ -324,3 +324,48 @@ def make_hold(train):
             return StepRecord(inputs=equilibrium(train, 20.0).inputs)
 
     return Hold()
+
+
+class TestOSQPStatus:
+    """OSQP's own outcomes reach the step record under their names (OSQP >= 1.0 codes)."""
+
+    @staticmethod
+    def solve(lower, upper, **settings):
+        import osqp
+        import scipy.sparse as sp
+
+        from trainctl.controllers.fastqp import OSQP_SETTINGS, osqp_runner
+        from trainctl.controllers.status import from_osqp
+
+        solver = osqp.OSQP()
+        eye = sp.csc_matrix(np.eye(2))
+        solver.setup(eye, np.zeros(2), sp.csc_matrix(np.array([[1.0, 1.0], [1.0, 1.0]])),
+                     np.asarray(lower, float), np.asarray(upper, float), verbose=False,
+                     **{**OSQP_SETTINGS, **settings})
+        run, _ = osqp_runner(solver)
+        _, code, _ = run(np.array([-3.0, 1.0]), np.asarray(lower, float),
+                         np.asarray(upper, float))
+        return from_osqp(code)
+
+    def test_solved(self):
+        assert self.solve([-10.0, -10.0], [10.0, 10.0]) == "optimal"
+
+    def test_primal_infeasible(self):
+        # x1 + x2 >= 1 and x1 + x2 <= -1 cannot both hold
+        assert self.solve([1.0, -np.inf], [np.inf, -1.0]) == "infeasible"
+
+    def test_max_iterations(self):
+        assert self.solve([0.5, -np.inf], [np.inf, 0.7], max_iter=1,
+                          check_termination=1) == "max_iterations"
+
+    def test_every_osqp_status_is_mapped_by_name(self):
+        from osqp import SolverStatus
+
+        from trainctl.controllers.status import from_osqp
+
+        names = {member.name: from_osqp(int(member.value)) for member in SolverStatus}
+        assert names["OSQP_SOLVED"] == "optimal"
+        assert names["OSQP_PRIMAL_INFEASIBLE_INACCURATE"] == "infeasible"
+        assert names["OSQP_MAX_ITER_REACHED"] == "max_iterations"
+        assert names["OSQP_TIME_LIMIT_REACHED"] == "max_iterations"
+        assert names["OSQP_DUAL_INFEASIBLE"] == "error"

@@ -40,7 +40,7 @@ OSQP_SETTINGS = {"eps_abs": 1e-6, "eps_rel": 1e-6, "max_iter": 20000, "polishing
 
 Array = NDArray[np.float64]
 _HUGE = 1e19  # data beyond this came from an infinite bound
-_OSQP_SIGINT = (10, -5)  # OSQP >= 1.0, and before: "interrupted by user"
+_OSQP_SIGINT = (10,)  # osqp.SolverStatus.OSQP_SIGINT: "interrupted by user"
 
 OSQPRunner = Callable[[Array, Array | None, Array], tuple[Array | None, int, int]]
 """``run(q, l, u) -> (x, status_val, iterations)``: update OSQP's vectors, solve, report."""

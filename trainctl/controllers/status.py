@@ -16,19 +16,32 @@ _CVXPY = {
     "solver_error": "error",
 }
 
-_OSQP = {
-    1: "optimal",               # solved
-    2: "optimal_inaccurate",    # solved inaccurate
-    -2: "max_iterations",       # maximum iterations reached
-    -3: "infeasible",           # primal infeasible
-    3: "infeasible",            # primal infeasible inaccurate
-    -4: "error",                # dual infeasible (unbounded)
-    4: "error",                 # dual infeasible inaccurate
-    -6: "max_iterations",       # time limit reached
-    -5: "error",                # interrupted
-    -7: "error",                # non-convex
-    -10: "error",               # unsolved
+# OSQP >= 1.0 (the version pyproject requires) numbers its statuses from 1
+# (``osqp.SolverStatus``); the names are the contract, the numbers are read
+# from the enum at import so a renumbering cannot silently remap them.
+_OSQP_BY_NAME = {
+    "OSQP_SOLVED": "optimal",
+    "OSQP_SOLVED_INACCURATE": "optimal_inaccurate",
+    "OSQP_PRIMAL_INFEASIBLE": "infeasible",
+    "OSQP_PRIMAL_INFEASIBLE_INACCURATE": "infeasible",
+    "OSQP_DUAL_INFEASIBLE": "error",            # unbounded: a modelling error
+    "OSQP_DUAL_INFEASIBLE_INACCURATE": "error",
+    "OSQP_MAX_ITER_REACHED": "max_iterations",
+    "OSQP_TIME_LIMIT_REACHED": "max_iterations",
+    "OSQP_NON_CVX": "error",
+    "OSQP_SIGINT": "error",                     # interrupted (re-raised by fastqp)
+    "OSQP_UNSOLVED": "error",
 }
+
+
+def _osqp_codes() -> dict[int, str]:
+    from osqp import SolverStatus  # OSQP >= 1.0
+
+    return {int(member.value): _OSQP_BY_NAME.get(member.name, "error")
+            for member in SolverStatus}
+
+
+_OSQP = _osqp_codes()
 
 
 def from_cvxpy(status: str | None) -> str:
@@ -67,8 +80,8 @@ def from_osqp(status_val: int) -> str:
 
     Examples
     --------
-    >>> from_osqp(1), from_osqp(-3)
-    ('optimal', 'infeasible')
+    >>> from_osqp(1), from_osqp(3), from_osqp(7)
+    ('optimal', 'infeasible', 'max_iterations')
     """
     return _OSQP.get(int(status_val), "error")
 
