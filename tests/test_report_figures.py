@@ -8,10 +8,12 @@ from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from matplotlib.figure import Figure
 
 from trainctl import plot
-from trainctl._plotting import limit_lines
+from trainctl._plotting import THIN_BUCKETS, limit_lines, thin
 from trainctl.report import build_report_context, collect_report_data
 from trainctl.report.figures import eigenvalue_figure
 from trainctl.report.figures_frequency import frequency_figures
@@ -175,6 +177,37 @@ class TestDenseTraces:
         ax = plot.coupler_force_plot(dense, coupler=1)
         assert len(ax.lines[0].get_xdata()) == dense.dense_time.size
 
+    def test_long_dense_trace_thinned_to_its_extremes(self) -> None:
+        """A 72 000-point record is drawn with far fewer points and the same extremes."""
+        sampled = _result("c", steps=60)
+        dense = _dense(sampled, per_sample=1200)
+        t = dense.dense_time
+        wiggle = 3e3 * np.sin(2 * np.pi * t / 0.23)  # a coupler mode between the samples
+        dense = dataclasses.replace(dense, dense_coupler_forces=dense.dense_coupler_forces
+                                    + wiggle)
+        ax = plot.coupler_force_plot(dense, coupler=0)
+        y = ax.lines[0].get_ydata()
+        assert len(y) <= 2 * THIN_BUCKETS + 2 < t.size
+        f = dense.dense_coupler_forces[0] / 1e3
+        assert y.max() == f.max() and y.min() == f.min()
+        assert np.all(np.diff(ax.lines[0].get_xdata()) > 0)
+
+    @given(st.lists(st.floats(-1e6, 1e6), min_size=1, max_size=400), st.integers(1, 50))
+    def test_thin_keeps_every_bucket_extremes(self, values, buckets) -> None:
+        """Within each bucket's time span the kept points reach its min and max (brute force)."""
+        y = np.array(values)
+        t = np.arange(y.size, dtype=float)
+        tt, yy = thin(t, y, buckets=buckets)
+        assert np.all(np.isin(tt, t)) and np.array_equal(yy, y[tt.astype(int)])
+        if y.size <= 2 * buckets:
+            assert tt.size == y.size
+            return
+        edges = np.linspace(0, y.size, buckets + 1).astype(int)
+        for a, b in zip(edges[:-1], edges[1:], strict=True):
+            inside = (tt >= a) & (tt < b)
+            assert yy[inside].max() == y[a:b].max() and yy[inside].min() == y[a:b].min()
+        assert tt[0] == 0 and tt[-1] == y.size - 1
+
     def test_samples_only_without_a_dense_record(self) -> None:
         """Without ``dense_time`` the trace is the samples."""
         sampled = _result("c")
@@ -310,3 +343,32 @@ def test_nothing_clipped(scenario) -> None:
     assert len(figures) == 10
     for key, figure in figures.items():
         assert _inside(figure), key
+
+
+def test_svg_paths_to_a_hundredth_of_a_point() -> None:
+    """Path coordinates are written to 0.01 pt, each within 0.005 pt of matplotlib's own."""
+    import io
+    import re
+
+    import matplotlib
+
+    from trainctl.report.figures import SVG_HASH_SALT, figure_svg
+
+    def figure() -> Figure:
+        fig = Figure(figsize=(3, 2))
+        x = np.linspace(0.0, 1.0, 50)
+        fig.add_subplot().plot(x, np.sin(7 * x) / 3.0)
+        return fig
+
+    raw = io.StringIO()
+    with matplotlib.rc_context({"svg.fonttype": "none", "svg.hashsalt": SVG_HASH_SALT}):
+        figure().savefig(raw, format="svg")
+    ours = str(figure_svg(figure(), prefix="p"))
+    d_raw = re.findall(r' d="([^"]*)"', raw.getvalue())
+    d_ours = re.findall(r' d="([^"]*)"', ours)
+    assert len(d_raw) == len(d_ours)
+    for a, b in zip(d_raw, d_ours, strict=True):
+        x_raw = np.array(re.findall(r"-?\d+(?:\.\d+)?", a), dtype=float)
+        x_ours = re.findall(r"-?\d+(?:\.\d+)?", b)
+        assert all(len(v.partition(".")[2]) <= 2 for v in x_ours)
+        assert np.allclose(x_raw, np.array(x_ours, dtype=float), rtol=0, atol=0.005 + 1e-9)

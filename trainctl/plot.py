@@ -40,6 +40,7 @@ from ._plotting import (
     new_axes,
     picked,
     plain_log_labels,
+    thin,
     trace,
 )
 
@@ -84,7 +85,7 @@ def velocity_plot(result: SimulationResult, *, ax: Axes | None = None) -> Axes:
     n = result.n_vehicles
     t, speeds, dense = trace(result, "velocities")
     for i in range(n):
-        (line,) = ax.plot(t, speeds[i], linewidth=1.0, label=f"vehicle {i + 1}")
+        (line,) = ax.plot(*thin(t, speeds[i]), linewidth=1.0, label=f"vehicle {i + 1}")
         if dense:
             mark_samples(ax, result.time, result.velocities[i], line.get_color())
     ax.plot(result.time, result.reference_speed, "k--", linewidth=1.0, label="reference")
@@ -140,7 +141,7 @@ def speed_error_plot(
         reference = np.interp(t, result.time, result.reference_speed)
     shown = picked(result.n_vehicles, vehicle)
     for i in shown:
-        (line,) = ax.plot(t, speeds[i] - reference,
+        (line,) = ax.plot(*thin(t, speeds[i] - reference),
                           **line_style(color, label, f"vehicle {i + 1}", kwargs))
         mark_samples(ax, result.time, result.velocities[i] - result.reference_speed,
                      line.get_color())
@@ -198,7 +199,7 @@ def coupler_force_plot(
     count = result.coupler_forces.shape[0]
     shown = picked(count, coupler) if count else range(0)
     for i in shown:
-        (line,) = ax.plot(t, forces[i] / 1e3,
+        (line,) = ax.plot(*thin(t, forces[i] / 1e3),
                           **line_style(color, label, f"coupler {i + 1}–{i + 2}", kwargs))
         mark_samples(ax, result.time, result.coupler_forces[i] / 1e3, line.get_color())
     if bounds is not None:
