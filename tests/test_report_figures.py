@@ -253,12 +253,25 @@ class TestContext:
         assert coach["matrices"][1]["role"] == "coupling from coach 2"
 
     def test_check_messages_numbered_from_one(self, context) -> None:
-        """Signal names in the review's messages are shown 1-based (u_prev[3] → u_prev₄)."""
+        """Signal names in the review's messages are 1-based, in the report and at the source.
+
+        The eigenvector directions are stored in the details under their
+        python-control names (``u_prev[3]``); the messages, which the report
+        and ``analyse`` text show, name them ``u_prev₄``.
+        """
+        import re
+
         rows = context["ctx"]["checks"]["rows"]
-        raw = {c["name"]: c["message"] for c in context["data"].results["checks"]}
-        nash = next(r for r in rows if r["name"] == "closed_loop_nash")
-        assert "u_prev[3]" in raw["closed_loop_nash"] and "u_prev₄" in nash["message"]
-        assert not any("[0]" in r["message"] for r in rows)
+        checks = {c["name"]: c for c in context["data"].results["checks"]}
+        nash = checks["closed_loop_nash"]
+        first = nash["details"]["unit_circle"][0]["direction"]
+        assert set(first) <= {f"u_prev[{i}]" for i in range(4)}
+        for name in first:
+            index = int(name[7:-1])
+            assert f"u_prev{chr(0x2081 + index)}" in nash["message"]
+        indexed = re.compile(r"\w\[\d+\]")
+        assert not any(indexed.search(c["message"]) for c in checks.values())
+        assert not any(indexed.search(r["message"]) for r in rows)
 
     def test_forces_of_checks_in_kn(self, context) -> None:
         """A check whose value is a force in N is shown in kN."""

@@ -20,6 +20,7 @@ import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
+from ..naming import describe_direction
 from .check import STATUSES, Check, DesignReview
 from .controllability import analyse_controllability, analyse_observability
 from .sampling import analyse_sampling
@@ -184,7 +185,8 @@ def radius_check(name: str, A_cl: NDArray[np.float64], labels: list[str], what: 
     if circle:
         return Check(name=name, status="warn", value=rho, threshold=1.0, unit="",
                      message=f"{what}: {len(circle)} eigenvalue(s) on the unit circle, e.g. "
-                     f"directions {circle[0]['direction']}", hint=marginal_hint, details=details)
+                     f"direction {describe_direction(circle[0]['direction'])}",
+                     hint=marginal_hint, details=details)
     return Check(name=name, status="pass", value=rho, threshold=1.0, unit="",
                  message=f"{what}: ρ = {rho:.6g} < 1", details=details)
 
@@ -238,7 +240,7 @@ def _rank_check(name: str, res, extra: list[bool] | None = None, virtual: bool =
         return Check(name=name, status="pass", value=float(res.rank), threshold=float(res.n_states),
                      unit="rank", message=f"rank {res.rank}/{res.n_states}, condition number "
                      f"{res.condition_number:.3g}{local}", details=details)
-    dirs = "; ".join(str(m.direction) for m in res.modes)
+    dirs = "; ".join(describe_direction(m.direction) for m in res.modes)
     if name == "controllability":
         hint = "add inputs or couple the vehicles"
     elif virtual:

@@ -9,6 +9,8 @@ import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from ..naming import one_based
+
 __all__ = [
     "docstring_units", "format_complex", "format_number", "format_value", "humanise", "one_based",
 ]
@@ -115,26 +117,3 @@ def docstring_units(cls: type) -> Mapping[str, str]:
     return units
 
 
-_INDEXED = re.compile(r"\b([A-Za-z_]\w*)\[(\d+)\]")
-_SUBSCRIPTS = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")
-_SYMBOLS = {"delta": "δ"}
-
-
-def one_based(text: str) -> str:
-    """Signal names in python-control's 0-based index syntax as the report numbers them.
-
-    The report numbers vehicles and couplers from 1, head first, as the seed
-    papers do; trainctl's signal names (``v[0]``, ``delta[2]``, ``u_prev[3]``)
-    index from 0. Every ``name[i]`` in ``text`` becomes ``name`` with the
-    subscript i + 1 (``delta`` as ``δ``); nothing else changes.
-
-    Examples
-    --------
-    >>> one_based("v[0], delta[2]; {'u_prev[3]': 0.5} in [controller].outputs")
-    "v₁, δ₃; {'u_prev₄': 0.5} in [controller].outputs"
-    """
-    def repl(match: re.Match[str]) -> str:
-        name = _SYMBOLS.get(match.group(1), match.group(1))
-        return name + str(int(match.group(2)) + 1).translate(_SUBSCRIPTS)
-
-    return _INDEXED.sub(repl, text)

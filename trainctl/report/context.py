@@ -232,7 +232,8 @@ def _model(data: ReportData) -> dict[str, Any]:
         {"name": "ω_max·T", "value": format_value(r["sampling"]["omega_max_times_T"]),
          "unit": "rad"},
         *_open_loop_radius(data),
-        {"name": "Cruise feasible within the traction envelope",
+        {"name": "Cruise force within the traction and braking envelopes (model speed; "
+                 "the route: check 'feasibility')",
          "value": format_value(eq.get("feasible")), "unit": ""},
     ]
     equilibrium = [
