@@ -455,3 +455,14 @@ class TestReviewAPI:
         assert check.status == "pass" and check.value < math.pi / 2
         just_above = fixed.replace("model.sample_time", quoted * 1.002)
         assert review_design(just_above).check("sampling").status == "warn"
+
+
+def test_a_failing_rank_check_names_a_few_modes_and_keeps_all_in_details():
+    """12 virtually coupled trains: 11 unobservable gaps; 4 named, the count given, 11 stored."""
+    text = builtin_scenario_text("heavy-haul-flocking").split("[expected]")[0]
+    text = re.sub(r"^count = 4 ", "count = 12 ", text, count=1, flags=re.M)
+    review = review_design(parse_scenario(text))
+    check = review.check("observability")
+    assert check.status == "fail"
+    assert check.message.count("δ") == 4 and "(11 modes in all)" in check.message
+    assert len(check.details["unobservable"]) == 11

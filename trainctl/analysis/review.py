@@ -230,6 +230,10 @@ def _local_controllability(model: DesignModel) -> list[bool]:
     return result
 
 
+_LISTED = 4
+"""Modes a failing rank check names in its message (all are in its details)."""
+
+
 def _rank_check(name: str, res, extra: list[bool] | None = None, virtual: bool = False) -> Check:
     word = "controllable" if name == "controllability" else "observable"
     local = ""
@@ -240,7 +244,9 @@ def _rank_check(name: str, res, extra: list[bool] | None = None, virtual: bool =
         return Check(name=name, status="pass", value=float(res.rank), threshold=float(res.n_states),
                      unit="rank", message=f"rank {res.rank}/{res.n_states}, condition number "
                      f"{res.condition_number:.3g}{local}", details=details)
-    dirs = "; ".join(describe_direction(m.direction) for m in res.modes)
+    dirs = "; ".join(describe_direction(m.direction) for m in res.modes[:_LISTED])
+    if len(res.modes) > _LISTED:
+        dirs += f"; … ({len(res.modes)} modes in all)"
     if name == "controllability":
         hint = "add inputs or couple the vehicles"
     elif virtual:
