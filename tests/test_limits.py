@@ -113,7 +113,10 @@ class TestBounds:
         assert str(upper.value).endswith(SAMPLE_TIME.why)  # the reason, on either bound
         with pytest.raises(ModelError) as lower:
             ModelSettings(speed=25.0, sample_time=0.0)
-        assert str(lower.value).endswith(SAMPLE_TIME.why)
+        assert str(lower.value).endswith(SAMPLE_TIME.why)  # 0.1 ms is a bound with a reason
+        with pytest.raises(ModelError) as sign:
+            ModelSettings(speed=-1.0, sample_time=0.1)
+        assert str(sign.value).endswith("(got -1.0).")  # "> 0" needs no reason
 
     def test_samples_per_run(self) -> None:
         """duration / sample_time above MAX_SAMPLES is refused, in Python and in files."""

@@ -207,6 +207,13 @@ class Number(Rule):
             return replace(self, gt=None, ge=None)
         return replace(self, le=None) if self.gt is not None or self.ge is not None else self
 
+    def _explained(self, error_type: str) -> bool:
+        """Whether ``why`` explains the bound that failed: any upper bound, and a lower
+        bound other than the plain sign conditions > 0 and >= 0 (which need no reason)."""
+        if error_type == "less_than_equal":
+            return True
+        return (self.gt, self.ge) not in ((0, None), (None, 0), (None, None))
+
     def explain(self, error_type: str, value: Any) -> Violation:
         """Type, finiteness or bound; a quoted number gets a hint, a bound its reason."""
         finite = error_type == "finite_number" or (
@@ -218,7 +225,8 @@ class Number(Rule):
             text=f"must be {side.want(finite=finite)}",
             python_text=f"must be {side.want(python=True)}",
             got=_real(value) if finite else value,
-            hint=f" {self.why}" if self.why and value_error and not finite else "",
+            hint=f" {self.why}" if self.why and value_error and not finite
+            and self._explained(error_type) else "",
             file_hint=" Write numbers without quotes." if isinstance(value, str) else "",
             value=value_error,
             finite=finite,

@@ -14,10 +14,10 @@ Examples
 >>> from trainctl.scenario import ModelSettings
 >>> ModelSettings(speed=25, sample_time=0.5).speed
 25.0
->>> ModelSettings(speed=-1.0, sample_time=0.5)  # doctest: +ELLIPSIS
+>>> ModelSettings(speed=-1.0, sample_time=0.5)
 Traceback (most recent call last):
 ...
-trainctl.exceptions.ModelError: ModelSettings: 'speed' must be a finite number > 0 (got -1.0). ...
+trainctl.exceptions.ModelError: ModelSettings: 'speed' must be a finite number > 0 (got -1.0).
 """
 
 from __future__ import annotations

@@ -21,8 +21,8 @@ Examples
 >>> try:
 ...     ModelSettings(speed=25.0, sample_time=1e-9)
 ... except ModelError as exc:
-...     print(exc)
-ModelSettings: 'sample_time' must be a finite number >= 0.0001 (got 1e-09).
+...     print(exc)  # doctest: +ELLIPSIS
+ModelSettings: 'sample_time' must be a finite number >= 0.0001 (got 1e-09). Sample times ...
 >>> SAMPLE_TIME.want(), in_unit(MASS, lambda t: t * 1000.0).want()
 ('a number from 0.0001 to 3600', 'a number from 0.001 to 1e+06')
 """

@@ -26,8 +26,8 @@ Examples
 >>> output_target("-").kind, output_target("/dev/null").kind
 ('fd', 'stream')
 >>> target = output_target("reports/", default_name="crh2-dmpc.html")
->>> target.kind, target.path.as_posix()
-('file', 'reports/crh2-dmpc.html')
+>>> target.kind, target.path.parent.name, target.path.name
+('file', 'reports', 'crh2-dmpc.html')
 """
 
 from __future__ import annotations
