@@ -122,3 +122,80 @@ def test_graph_figure_draws_every_link_once():
     ax = graph_plot(make_graph("bidirectional", 5, pinned="all"))
     arrows = [p for p in ax.patches if type(p).__name__ == "FancyArrowPatch"]
     assert len(arrows) == 4 + 5
+
+
+class TestCommunicationSection:
+    """[communication] in a scenario file: parsed, validated, defaulted, in the schema."""
+
+    @staticmethod
+    def text(section: str) -> str:
+        from trainctl.scenario import builtin_scenario_text
+
+        return builtin_scenario_text("heavy-haul-flocking").split("[expected]")[0] + section
+
+    def test_default_graph_without_the_section(self):
+        from trainctl.scenario import parse_scenario
+
+        scenario = parse_scenario(self.text(""))
+        assert scenario.communication is None
+        g = scenario.graph()
+        assert g.topology == "bidirectional" and g.pinning.tolist() == [1.0] * 4
+
+    def test_named_topology(self):
+        from trainctl.scenario import parse_scenario
+
+        scenario = parse_scenario(self.text(
+            '\n[communication]\ntopology = "predecessor"\npinned = "head"\nweight = 0.5\n'))
+        g = scenario.graph()
+        assert g.adjacency[1, 0] == 0.5 and g.adjacency[0, 1] == 0.0
+        assert g.pinning.tolist() == [0.5, 0.0, 0.0, 0.0]
+
+    def test_explicit_adjacency(self):
+        from trainctl.scenario import parse_scenario
+
+        rows = "[[0, 1, 0, 0], [1, 0, 0, 0], [0, 2, 0, 0], [0, 0, 1, 0]]"
+        scenario = parse_scenario(self.text(
+            f'\n[communication]\ntopology = "explicit"\nadjacency = {rows}\n'))
+        assert scenario.graph().adjacency[2, 1] == 2.0
+
+    @pytest.mark.parametrize(("section", "match"), [
+        ('topology = "ring"', r"\[communication\].topology must be one of"),
+        ('topology = "explicit"', r"\[communication\].adjacency must be given when"),
+        ('adjacency = [[0, 1], [1, 0]]', "is allowed only with"),
+        ('topology = "explicit"\nadjacency = [[0, 1], [1, 0]]', "must be 4 x 4"),
+        ('topology = "explicit"\nadjacency = [[0, 1, 0, 0], [1, 0, 0, 0], [0, 1, 0, 0], '
+         '[0, 0, -1, 0]]', r"adjacency\[3\]\[2\] must be a number >= 0"),
+        ('pinned = "tail"', "must be one of"),
+        ("colour = 1", "colour"),
+    ])
+    def test_bad_sections_are_scenario_errors(self, section, match):
+        from trainctl.exceptions import ScenarioError
+        from trainctl.scenario import parse_scenario
+
+        with pytest.raises(ScenarioError, match=match):
+            parse_scenario(self.text(f"\n[communication]\n{section}\n"))
+
+    def test_cli_exit_2_without_traceback(self, tmp_path, capsys):
+        from trainctl.cli import main
+
+        path = tmp_path / "bad.toml"
+        path.write_text(self.text('\n[communication]\ntopology = "explicit"\n'),
+                        encoding="utf-8")
+        assert main(["analyse", str(path)]) == 2
+        err = capsys.readouterr().err
+        assert "adjacency" in err and "Traceback" not in err
+
+    def test_json_schema_knows_the_section(self):
+        import tomllib
+
+        import jsonschema
+
+        from trainctl.scenario import json_schema
+
+        schema = json_schema()
+        document = tomllib.loads(self.text(""))
+        document["communication"] = {"topology": "predecessor", "pinned": "head"}
+        jsonschema.validate(document, schema)
+        document["communication"] = {"topology": "ring"}
+        with pytest.raises(jsonschema.ValidationError):
+            jsonschema.validate(document, schema)

@@ -466,8 +466,8 @@ def graph_plot(graph: CommunicationGraph, *, ax: Axes | None = None) -> Axes:
             (float(j), 0.0), (float(i), 0.0), arrowstyle=style, mutation_scale=8,
             connectionstyle=f"arc3,rad={0.0 if span == 1 else -0.35 * np.sign(i - j)}",
             shrinkA=5, shrinkB=5, linewidth=0.8, color="0.35"))
-    for i in np.flatnonzero(graph.pinning):
-        ax.add_patch(FancyArrowPatch((centre, top), (float(i), 0.0), arrowstyle="-|>",
+    for pinned in np.flatnonzero(graph.pinning):
+        ax.add_patch(FancyArrowPatch((centre, top), (float(pinned), 0.0), arrowstyle="-|>",
                                      mutation_scale=8, shrinkA=6, shrinkB=5, linewidth=0.8,
                                      linestyle="--", color="tab:red"))
     ax.add_patch(Rectangle((centre - 0.18, top - 0.09), 0.36, 0.18, color="tab:red", zorder=3))

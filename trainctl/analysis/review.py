@@ -175,8 +175,9 @@ def radius_check(name: str, A_cl: NDArray[np.float64], labels: list[str], what: 
     lam, vec = np.linalg.eig(A_cl)
     rho = float(np.max(np.abs(lam)))
     on_circle = np.flatnonzero(np.abs(np.abs(lam) - 1) <= _UNIT_TOL)
-    circle = [{"eigenvalue": [float(lam[k].real), float(lam[k].imag)],
-               "direction": mode_direction(vec[:, k], labels)} for k in on_circle]
+    directions = [mode_direction(vec[:, k], labels) for k in on_circle]
+    circle = [{"eigenvalue": [float(lam[k].real), float(lam[k].imag)], "direction": d}
+              for k, d in zip(on_circle, directions, strict=True)]
     details = {"spectral_radius": rho, "unit_circle": circle}
     if rho > 1 + _UNIT_TOL:
         return Check(name=name, status="fail", value=rho, threshold=1.0, unit="",
@@ -185,7 +186,7 @@ def radius_check(name: str, A_cl: NDArray[np.float64], labels: list[str], what: 
     if circle:
         return Check(name=name, status="warn", value=rho, threshold=1.0, unit="",
                      message=f"{what}: {len(circle)} eigenvalue(s) on the unit circle, e.g. "
-                     f"direction {describe_direction(circle[0]['direction'])}",
+                     f"direction {describe_direction(directions[0])}",
                      hint=marginal_hint, details=details)
     return Check(name=name, status="pass", value=rho, threshold=1.0, unit="",
                  message=f"{what}: ρ = {rho:.6g} < 1", details=details)
