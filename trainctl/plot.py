@@ -45,12 +45,14 @@ from ._plotting import (
 )
 
 if TYPE_CHECKING:
+    from .graphs import CommunicationGraph
     from .sim.results import SimulationResult
 
 __all__ = [
     "convergence_plot",
     "coupler_force_plot",
     "eigenvalue_plot",
+    "graph_plot",
     "input_plot",
     "iterations_plot",
     "speed_error_plot",
@@ -411,4 +413,71 @@ def convergence_plot(
     ax.set_ylabel("ρ(D0) [-]")
     ax.set_title("N-DMPC iteration: ρ(D0) against the input weight")
     legend_outside(ax)
+    return ax
+
+
+def graph_plot(graph: CommunicationGraph, *, ax: Axes | None = None) -> Axes:
+    """A communication graph: vehicles in a row (head left), links as arcs, reference above.
+
+    Links heard both ways are one arc with arrowheads at both ends; a link
+    heard one way points from sender to receiver; the reference (a square
+    above the train) points to the vehicles it pins. Arcs between
+    neighbours are straight; longer ones bend upwards, more the longer.
+
+    Parameters
+    ----------
+    graph : CommunicationGraph
+        The graph (:func:`trainctl.graphs.make_graph`).
+    ax : matplotlib.axes.Axes or None
+        Axes to draw into; None creates a new Figure.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        The axes (no ticks; vehicles labelled from 1).
+
+    Examples
+    --------
+    >>> from trainctl.graphs import make_graph
+    >>> ax = graph_plot(make_graph("predecessor", 4, pinned="head"))
+    >>> len(ax.patches)  # 3 links, 1 reference link, the reference square
+    5
+    """
+    from matplotlib.patches import FancyArrowPatch, Rectangle
+
+    ax = new_axes(ax)
+    n = graph.n
+    a = graph.adjacency
+    top = 1.0 + 0.15 * max(n - 1, 1) ** 0.5
+    centre = (n - 1) / 2.0
+    ax.plot(np.arange(n), np.zeros(n), "o", markersize=9 if n <= 30 else 4,
+            color="tab:blue", zorder=3)
+    if n <= 30:
+        for i in range(n):
+            ax.annotate(str(i + 1), (i, 0), xytext=(0, -13), textcoords="offset points",
+                        ha="center", fontsize=8)
+    for i, j in zip(*np.nonzero(a), strict=True):
+        both = a[j, i] > 0
+        if both and j > i:
+            continue  # drawn once, from the lower index
+        span = abs(int(i) - int(j))
+        style = "<|-|>" if both else "-|>"
+        ax.add_patch(FancyArrowPatch(
+            (float(j), 0.0), (float(i), 0.0), arrowstyle=style, mutation_scale=8,
+            connectionstyle=f"arc3,rad={0.0 if span == 1 else -0.35 * np.sign(i - j)}",
+            shrinkA=5, shrinkB=5, linewidth=0.8, color="0.35"))
+    for pinned in np.flatnonzero(graph.pinning):
+        ax.add_patch(FancyArrowPatch((centre, top), (float(pinned), 0.0), arrowstyle="-|>",
+                                     mutation_scale=8, shrinkA=6, shrinkB=5, linewidth=0.8,
+                                     linestyle="--", color="tab:red"))
+    ax.add_patch(Rectangle((centre - 0.18, top - 0.09), 0.36, 0.18, color="tab:red", zorder=3))
+    ax.annotate("reference", (centre, top), xytext=(0, 9), textcoords="offset points",
+                ha="center", fontsize=8, color="tab:red")
+    ax.set_xlim(-0.7, n - 0.3)
+    ax.set_ylim(-0.6 - 0.1 * n ** 0.5, top + 0.45)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    for spine in ax.spines.values():
+        spine.set_visible(False)
+    ax.set_title(f"Communication graph — {graph.topology}, head on the left")
     return ax

@@ -40,6 +40,7 @@ from ..controllers.tracking import CONTROLLER_OUTPUTS as CONTROLLER_OUTPUTS
 from ..models.discrete import DISCRETISATIONS as DISCRETISATIONS
 from ..models.dynamics import ALLOCATIONS as ALLOCATIONS
 from ..models.linear import LINEARISATIONS as LINEARISATIONS
+from .communication import CommunicationSettings as CommunicationSettings
 from .core import RESERVED_SECTIONS as RESERVED_SECTIONS
 from .core import SCHEMA_VERSION as SCHEMA_VERSION
 from .core import BuiltinScenario as BuiltinScenario
@@ -72,6 +73,7 @@ __all__ = [
     "SOLVER_PATHS",
     "BuiltinScenario",
     "ControllerSettings",
+    "CommunicationSettings",
     "ModelSettings",
     "Scenario",
     "SimulationSettings",

@@ -17,8 +17,10 @@ from typing import Any, NoReturn
 
 from ..constraints import Violation, suggest
 from ..exceptions import ModelError
+from ..graphs import CommunicationGraph
 from ..models.track import Track
 from ..models.train import Train
+from .communication import CommunicationSettings
 from .frozen import FrozenMapping as FrozenMapping
 from .settings import ModelSettings, SimulationSettings
 
@@ -39,7 +41,7 @@ __all__ = [
 SCHEMA_VERSION = 1
 """The only ``schema_version`` this release reads."""
 
-RESERVED_SECTIONS = ("report", "communication", "sweep")
+RESERVED_SECTIONS = ("report", "sweep")
 """Top-level sections reserved for later releases (rejected today)."""
 
 def model_check_names() -> tuple[str, ...]:
@@ -194,6 +196,10 @@ class Scenario:
         Every controller family of the scenario, name to settings, the
         primary first, then the ``[controller.<family>]`` sub-tables in file
         order; read-only. Built from ``controller`` when not given.
+    communication : CommunicationSettings or None
+        The communication graph of consensus controllers (``[communication]``);
+        None: a bidirectional chain with every vehicle hearing the reference
+        (:meth:`graph`).
     simulation : SimulationSettings or None
         The closed-loop simulation run; ``None`` when the file has no
         ``[simulation]``. Needs a ``controller``, its duration must be a
@@ -232,6 +238,7 @@ class Scenario:
     model: ModelSettings
     controller: Any = None
     controllers: Mapping[str, Any] = field(default_factory=FrozenMapping)
+    communication: CommunicationSettings | None = None
     simulation: SimulationSettings | None = None
     expected: Mapping[str, str] = field(default_factory=FrozenMapping)
     source: str = "<string>"
@@ -249,6 +256,8 @@ class Scenario:
         families = tuple(controllers)
         object.__setattr__(self, "expected", self._expected(families))
         n = self.train.n_vehicles
+        if self.communication is not None:
+            self.communication.check_vehicles(n)
         for settings in controllers.values():
             for method in ("neighbourhoods", "cooperative_weight_vector"):
                 if hasattr(settings, method):
@@ -258,6 +267,17 @@ class Scenario:
                 _fail("'simulation' needs a controller (got none).")
             self.simulation.n_steps(self.model.sample_time)
             self.simulation.check_strategies(strategy_names(families))
+
+    def graph(self) -> CommunicationGraph:
+        """The communication graph on the train's vehicles (``[communication]`` or the default).
+
+        Returns
+        -------
+        CommunicationGraph
+            The graph (:mod:`trainctl.graphs`).
+        """
+        settings = self.communication or CommunicationSettings()
+        return settings.graph(self.train.n_vehicles)
 
     def _controllers(self) -> FrozenMapping[Any]:
         given = dict(self.controllers)

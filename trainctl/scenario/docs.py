@@ -29,6 +29,7 @@ from pydantic import BaseModel
 
 from ..constraints import Choice
 from ..declare import DeclaredField, Key, declared_fields
+from .communication import CommunicationSettings
 from .filemodel import file_model, rule_of, sub_model, table_kind
 from .settings import ModelSettings, SimulationSettings
 from .tables import CouplerTable, SectionTable, TopLevel, TrackTable, TrainTable, VehicleTable
@@ -144,7 +145,8 @@ def markdown_tables() -> dict[str, str]:
     dict of str to str
         ``"top"``, ``"train"``, ``"vehicle"``, ``"coupler"``, ``"track"``,
         ``"section"``, ``"model"``, ``"controller-<family>"`` for each
-        built-in family, ``"simulation"`` and ``"reference"``.
+        built-in family, ``"communication"``, ``"simulation"`` and
+        ``"reference"``.
     """
     from ..controllers.registry import DEFAULT_FAMILY, FAMILY_MODULES, get_family
 
@@ -158,6 +160,7 @@ def markdown_tables() -> dict[str, str]:
         "track": table(TrackTable, "track"),
         "section": table(SectionTable),
         "model": table(file_model(ModelSettings)),
+        "communication": table(file_model(CommunicationSettings)),
         "simulation": table(simulation, "simulation"),
         "reference": table(sub_model(reference) or simulation),
     }

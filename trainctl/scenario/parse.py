@@ -26,6 +26,7 @@ from ..exceptions import ModelError, ScenarioError
 from ..models.track import Track, TrackSection
 from ..models.train import Train
 from ..models.vehicle import Coupler, TractionEnvelope, Vehicle
+from .communication import CommunicationSettings
 from .core import (
     FrozenMapping,
     Scenario,
@@ -242,12 +243,15 @@ class _Parser:
         track = None if top.track is None else self.track()
         model = self.settings(ModelSettings, top.model, ("model",), {})
         controllers = self.controllers(top.controller, train.n_vehicles)
+        communication = None if top.communication is None else self.settings(
+            CommunicationSettings, top.communication, ("communication",), {})
         simulation = self.simulation(top.simulation, model.sample_time, tuple(controllers))
         expected = self.expected(top.expected, tuple(controllers))
         return self.build((), lambda: Scenario(
             name=top.name, description=top.description, seed=top.seed, train=train,
             track=track, model=model, controllers=FrozenMapping(controllers),
-            simulation=simulation, expected=expected, source=self.file, document=self.doc,
+            communication=communication, simulation=simulation, expected=expected,
+            source=self.file, document=self.doc,
         ))
 
     def train(self) -> Train:

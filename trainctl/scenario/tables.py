@@ -328,6 +328,9 @@ class TopLevel(FileTable):
     controller: Annotated[dict[str, Any] | None, _SECTION, Section(None), Key(
         "Controller design(s): the primary family's keys, other families as sub-tables",
         omitted="no controller")] = None
+    communication: Annotated[dict[str, Any] | None, _SECTION, Section(None), Key(
+        "Communication graph of consensus controllers: who hears whom, who hears the "
+        "reference", omitted="bidirectional chain, every vehicle hears the reference")] = None
     simulation: Annotated[dict[str, Any] | None, _SECTION, Section(None), Key(
         "Closed-loop simulation run; needs [controller]", omitted="no simulation")] = None
     expected: Annotated[dict[str, Any] | None, _SECTION, Section(None), Key(
