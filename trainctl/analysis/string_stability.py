@@ -22,8 +22,8 @@ over the rear half of the train (at least :data:`MIN_FIT` channels), which
 tends to ‖H‖∞ for a homogeneous chain e_{i+1} = H e_i.
 
 The sup is taken on a logarithmic grid (:func:`~trainctl.analysis.sensitivity.frequency_grid`
-up to π/T for a discrete loop; python-control's default range for a
-continuous one), enriched with the loop's pole frequencies, refined around
+up to π/T for a discrete loop; two decades beyond the nonzero pole
+magnitudes for a continuous one), enriched with the loop's pole frequencies, refined around
 each channel's grid maximum (bounded scalar search) and compared with the
 DC gain. A channel that a closed-loop integrator (pole at z = 1 or s = 0)
 reaches has an infinite peak (``inf``, frequency 0): the check then cannot
@@ -272,10 +272,26 @@ def _grid(sys: ct.StateSpace) -> Array:
         grid = frequency_grid(float(sys.dt))
         extra = np.abs(np.angle(poles)) / float(sys.dt)
     else:
-        grid = np.asarray(ct.frequency_response(sys[0, 0]).omega, dtype=float)
+        grid = _continuous_grid(poles)
         extra = np.abs(poles.imag)
     inside = extra[(extra > grid[0]) & (extra < grid[-1])]
     return np.unique(np.concatenate([grid, np.round(inside, 12)]))
+
+
+def _continuous_grid(poles: Array) -> Array:
+    """Two decades beyond the loop's nonzero pole magnitudes each way, 50 points a decade.
+
+    Poles at s = 0 are left to :func:`_dc_gain`: near them the resolvent is
+    too ill-conditioned to evaluate (python-control's default range reaches
+    down to them).
+    """
+    size = np.abs(poles)
+    nonzero = size[size > UNIT_CIRCLE_TOL * max(float(np.max(size, initial=0.0)), 1.0)]
+    if not nonzero.size:
+        nonzero = np.ones(1)
+    lo = math.floor(math.log10(float(np.min(nonzero)))) - 2
+    hi = math.ceil(math.log10(float(np.max(nonzero)))) + 2
+    return np.logspace(lo, hi, 50 * (hi - lo) + 1)
 
 
 def _chain(sys: ct.StateSpace, q: str, rows: list[int], j: int, w: Array) -> ChainPeaks:
@@ -297,37 +313,34 @@ def _gain(g: ct.StateSpace, w: float) -> float:
     return float(np.abs(np.asarray(g(point, warn_infinite=False), dtype=complex)).max())
 
 
-def _integrator(g: ct.StateSpace) -> bool:
-    """True when the channel has a closed-loop pole at DC (z = 1, s = 0) that it sees.
+def _dc_gain(g: ct.StateSpace) -> float:
+    """|G| at DC; ``inf`` when a closed-loop pole at DC (z = 1, s = 0) reaches the channel.
 
-    Uncontrollable or unobservable integrators leave the gain finite towards
-    DC; one the channel sees makes it rise like 1/ω (:data:`_INTEGRATOR_GROWTH`).
+    The resolvent is singular at such a pole even when the channel cannot
+    see it (uncontrollable or unobservable), so there the DC gain is the
+    limit, the gain at a frequency 10⁻⁷ of the loop's scale; a channel that
+    sees the pole rises like 1/ω towards DC (:data:`_INTEGRATOR_GROWTH`).
     """
-    if not g.nstates:
-        return False
-    poles = np.linalg.eigvals(np.asarray(g.A, dtype=float))
-    at_dc = np.abs(poles - 1.0) if g.isdtime(strict=True) else np.abs(poles)
+    poles = np.linalg.eigvals(np.asarray(g.A, dtype=float)) if g.nstates else np.zeros(0)
+    discrete = g.isdtime(strict=True)
+    at_dc = np.abs(poles - 1.0) if discrete else np.abs(poles)
     if not np.any(at_dc < UNIT_CIRCLE_TOL):
-        return False
-    scale = math.pi / float(g.dt) if g.isdtime(strict=True) else max(float(np.max(np.abs(
-        poles))), 1.0)
-    eps = 1e-6 * scale
-    low, lower = _gain(g, eps), _gain(g, eps / 10)
-    return lower > _INTEGRATOR_GROWTH * low
+        return _gain(g, 0.0)
+    scale = math.pi / float(g.dt) if discrete else max(float(np.max(np.abs(poles))), 1.0)
+    low, lower = _gain(g, 1e-6 * scale), _gain(g, 1e-7 * scale)
+    return math.inf if lower > _INTEGRATOR_GROWTH * low else lower
 
 
 def _peak(g: ct.StateSpace, w: Array, curve: Array) -> tuple[float, float]:
     """(sup gain, frequency [rad/s]): the DC gain, the grid's maximum refined, or inf."""
-    if _integrator(g):
+    dc = _dc_gain(g)
+    if math.isinf(dc):
         return math.inf, 0.0
     k = int(np.argmax(curve))
     best = (float(curve[k]), float(w[k]))
-    dc = _gain(g, 0.0)
-    if math.isfinite(dc) and dc >= best[0]:
+    if dc >= best[0]:
         best = (dc, 0.0)
     lo, hi = float(w[max(k - 1, 0)]), float(w[min(k + 1, w.size - 1)])
-    if k == 0:
-        lo = 0.0
     if hi > lo:
         res = scipy.optimize.minimize_scalar(lambda x: -_gain(g, x), bounds=(lo, hi),
                                              method="bounded", options={"xatol": 1e-10 * hi})
