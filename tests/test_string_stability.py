@@ -178,7 +178,7 @@ class TestDiscreteChain:
             values = gain(i, grid)
             k = int(np.argmax(values))
             lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
-            best = scipy.optimize.minimize_scalar(lambda x: -gain(i, x), bounds=(lo, hi),
+            best = scipy.optimize.minimize_scalar(lambda x, i=i: -gain(i, x), bounds=(lo, hi),
                                                   method="bounded", options={"xatol": 1e-12})
             assert res.chains["d"].gains[i] == pytest.approx(
                 max(values[k], -best.fun), rel=1e-6)
@@ -241,7 +241,8 @@ class TestReviewAndJson:
         chains = check["details"]["chains"]
         gains = chains["d"]["peak_gains"]
         assert len(gains) == 3 and all(g > 0 for g in gains)
-        ratio = max(max(b / a for a, b in zip(c["peak_gains"], c["peak_gains"][1:]))
+        ratio = max(max(b / a for a, b in zip(c["peak_gains"][:-1], c["peak_gains"][1:],
+                                                strict=True))
                     for c in chains.values())
         assert check["value"] == pytest.approx(ratio)
         assert check["status"] == ("pass" if ratio <= 1 + 1e-6 else "fail")

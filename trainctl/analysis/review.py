@@ -14,7 +14,7 @@ the MPC family).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import control as ct
 import numpy as np
@@ -181,7 +181,7 @@ def radius_check(name: str, A_cl: NDArray[np.float64], labels: list[str], what: 
     lam, vec = np.linalg.eig(A_cl)
     rho = float(np.max(np.abs(lam)))
     on_circle = np.flatnonzero(np.abs(np.abs(lam) - 1) <= _UNIT_TOL)
-    circle = [{"eigenvalue": [float(lam[k].real), float(lam[k].imag)],
+    circle: list[dict[str, Any]] = [{"eigenvalue": [float(lam[k].real), float(lam[k].imag)],
                "direction": mode_direction(vec[:, k], labels)} for k in on_circle]
     details = {"spectral_radius": rho, "unit_circle": circle}
     if rho > 1 + _UNIT_TOL:

@@ -401,10 +401,7 @@ def string_stability_check(design: Design) -> Check | None:
 
 def _judge(res: StringStabilityResult, what: str) -> Check:
     """Status, message and hint of :func:`string_stability_check`."""
-    details = {"strategy": what, **res.to_dict()}
     ratio = res.max_ratio
-    base = {"name": "string_stability", "value": ratio, "threshold": 1.0, "unit": "",
-            "details": details}
     peaks = "; ".join(f"{QUANTITIES[c.quantity][0]} peaks "
                       + ", ".join(f"{g:.3g}" for g in c.gains) + f" {QUANTITIES[c.quantity][1]}"
                       for c in res.judged)
@@ -412,14 +409,18 @@ def _judge(res: StringStabilityResult, what: str) -> Check:
         why = ("no spacing or coupler-force output" if not res.judged else
                "infinite peak gain: a closed-loop integrator (pole at z = 1 or s = 0) "
                "reaches the spacings")
-        return Check(status="warn", message=f"{what}: string stability undefined, {why}",
-                     hint="remove the integrator from the spacing channels (weight the "
-                     "spacings or coupler forces) to judge the string", **base)
-    if res.string_stable:
-        return Check(status="pass", message=f"{what}: from the head's disturbance the peaks "
-                     f"do not grow along the train (largest ratio {ratio:.4g}); {peaks}",
-                     **base)
-    return Check(status="fail", message=f"{what}: a disturbance at the head grows along the "
-                 f"train (largest peak ratio {ratio:.4g} > 1); {peaks}",
-                 hint="damp the coupler modes (coupler-force or spacing weights) or let each "
-                 "vehicle see its predecessor's spacing", **base)
+        status, message = "warn", f"{what}: string stability undefined, {why}"
+        hint = ("remove the integrator from the spacing channels (weight the spacings or "
+                "coupler forces) to judge the string")
+    elif res.string_stable:
+        status, hint = "pass", ""
+        message = (f"{what}: from the head's disturbance the peaks do not grow along the "
+                   f"train (largest ratio {ratio:.4g}); {peaks}")
+    else:
+        status = "fail"
+        message = (f"{what}: a disturbance at the head grows along the train (largest peak "
+                   f"ratio {ratio:.4g} > 1); {peaks}")
+        hint = ("damp the coupler modes (coupler-force or spacing weights) or let each "
+                "vehicle see its predecessor's spacing")
+    return Check(name="string_stability", status=status, value=ratio, threshold=1.0, unit="",
+                 message=message, hint=hint, details={"strategy": what, **res.to_dict()})
