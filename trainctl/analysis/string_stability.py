@@ -384,7 +384,8 @@ def string_stability_check(design: Design) -> Check | None:
     -------
     Check or None
         Value the largest consecutive peak ratio γ_{i+1}/γ_i [-], threshold
-        1; None without a linear closed loop or with a single vehicle.
+        1; None without a linear closed loop, without a disturbance input
+        ``w[0]`` or with a single vehicle.
     """
     from ..controllers.registry import get_family
 
@@ -393,7 +394,7 @@ def string_stability_check(design: Design) -> Check | None:
     family = next(iter(design.families))
     strategy = get_family(family).strategies[0]
     loop = get_family(family).closed_loop(design.family(family), strategy)
-    if loop is None:
+    if loop is None or "w[0]" not in loop.input_labels:
         return None
     res = string_stability(loop)
     return _judge(res, f"{family} {strategy}")
