@@ -195,7 +195,7 @@ class TestGradeStep:
         head[0] = GRADE_STEP
         one = ct.forced_response(loop, res.time, head)
         np.testing.assert_allclose(res.speeds, every.outputs[:n], rtol=1e-9, atol=1e-15)
-        np.testing.assert_allclose(res.forces, every.outputs[n:], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(res.forces, every.outputs[n:2 * n - 1], rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(res.head_speeds, one.outputs[:n], rtol=1e-9, atol=1e-15)
         assert res.peak_speed == pytest.approx(np.abs(every.outputs[:n]).max(), rel=1e-12)
 

@@ -317,7 +317,11 @@ def test_frequency_figures_one_per_quantity() -> None:
     figures: dict[str, Figure] = {}
     list(frequency_figures(curves, _capture(figures)))
     assert list(figures) == ["sigma-speed", "sigma-force", "sensitivity", "complementary",
-                             "grade-step"]
+                             "grade-step", "string-stability"]
+    string = figures.pop("string-stability")  # one row per strategy, vehicles in the legend
+    assert [ax.get_title(loc="left") for ax in string.axes[::2]] == list(curves)
+    assert [t.get_text() for t in string.axes[0].get_legend().get_texts()] == [
+        "d[0]", "d[1]", "d[2]"]
     for key, figure in figures.items():
         names = [t.get_text() for t in figure.legends[0].get_texts()]
         expected = list(curves) if key not in ("sensitivity", "complementary") else list(loops)
@@ -353,7 +357,7 @@ def test_nothing_clipped(scenario) -> None:
 
     loops = analyse_closed_loops(build_design(load_scenario("crh2-dmpc")))
     list(frequency_figures({k: r.curves() for k, r in loops.items()}, _capture(figures)))
-    assert len(figures) == 10
+    assert len(figures) == 11  # with the string-stability figure
     for key, figure in figures.items():
         assert _inside(figure), key
 

@@ -1,5 +1,5 @@
 # Plots of closed-loop frequency and step responses (matplotlib Figure API, never pyplot).
-"""Singular-value and grade-step plots of the closed loops.
+"""Singular-value, grade-step and string-stability plots of the closed loops.
 
 They draw the arrays of :class:`~trainctl.analysis.FrequencyResult` and
 :class:`~trainctl.analysis.StepResult` (or their ``curves()``), one
@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike
 
 from ._plotting import new_axes, plain_log_labels
 
-__all__ = ["sigma_plot", "step_response_plot"]
+__all__ = ["sigma_plot", "step_response_plot", "string_gain_plot"]
 
 
 def sigma_plot(
@@ -132,4 +132,74 @@ def step_response_plot(
     ax.axhline(0.0, color="0.6", linewidth=0.6, zorder=0)
     ax.set_xlabel("time [s]")
     ax.set_ylabel(ylabel)
+    return ax
+
+
+def string_gain_plot(
+    omega: ArrayLike,
+    gains: ArrayLike,
+    *,
+    labels: list[str] | None = None,
+    ylabel: str = "|G| [-]",
+    cmap: str = "viridis",
+    ax: Axes | None = None,
+) -> Axes:
+    """Gain curves of a disturbance to each vehicle's signal along the train, overlaid, log-log.
+
+    One line per channel (spacing or coupler force), head first, coloured
+    from the colormap's dark end (head) to its light end (tail); a dot marks
+    each curve's largest value. Draws the ``curves()`` of
+    :class:`~trainctl.analysis.StringStabilityResult` (``omega`` and
+    ``chains[q]["gains"]``) or any |G_i(jω)|.
+
+    Parameters
+    ----------
+    omega : array_like
+        Frequencies [rad/s], positive.
+    gains : array_like
+        |G_i| per channel, shape (channels, len(omega)), in the unit of ``ylabel``.
+    labels : list of str or None
+        Legend label per channel (e.g. ``"d[0]"``); None: none.
+    ylabel : str
+        Label of the gain axis, with its unit.
+    cmap : str
+        Matplotlib colormap along the train.
+    ax : matplotlib.axes.Axes or None
+        Axes to draw into; None creates a new Figure.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        Log-log axes labelled ``frequency ω [rad/s]`` and ``ylabel``.
+
+    Examples
+    --------
+    >>> w = np.logspace(-1, 1, 50)
+    >>> H = np.abs(1 / (1 - w**2 + 1j * w))
+    >>> ax = string_gain_plot(w, [H, H**2, H**3], labels=["d[0]", "d[1]", "d[2]"],
+    ...                       ylabel="|G_wd| [m/(m/s²)]")
+    >>> len(ax.lines), ax.lines[0].get_label()  # three curves and their peak dots
+    (6, 'd[0]')
+    """
+    from matplotlib import colormaps
+
+    ax = new_axes(ax)
+    w = np.asarray(omega, dtype=float)
+    rows = np.atleast_2d(np.asarray(gains, dtype=float))
+    positive = w > 0
+    colours = colormaps[cmap](np.linspace(0.0, 0.85, max(rows.shape[0], 2)))
+    for k, row in enumerate(rows):
+        shown = np.where(row > 0, row, np.nan)[positive]
+        label = labels[k] if labels is not None else None
+        ax.plot(w[positive], shown, linewidth=1.1, color=colours[k], label=label)
+        if np.any(np.isfinite(shown)):
+            top = int(np.nanargmax(shown))
+            ax.plot(w[positive][top], shown[top], "o", markersize=3, color=colours[k])
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    plain_log_labels(ax.xaxis)
+    plain_log_labels(ax.yaxis)
+    ax.set_xlabel("frequency ω [rad/s]")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which="major", color="0.9", linewidth=0.6)
     return ax

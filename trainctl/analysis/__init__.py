@@ -35,16 +35,20 @@ from .stability import StabilityResult as StabilityResult
 from .stability import analyse_stability as analyse_stability
 from .steps import StepResult as StepResult
 from .steps import analyse_grade_step as analyse_grade_step
+from .string_stability import StringStabilityResult as StringStabilityResult
+from .string_stability import string_stability as string_stability
 from .summary import ModelSummary as ModelSummary
 from .summary import model_summary as model_summary
 
 __all__ = [
     "Check", "ClosedLoopResponse", "ControllabilityResult", "DMPCAnalysis", "DesignReview",
     "FrequencyResult", "MPCDesign", "Mode", "ModelSummary", "ObservabilityResult", "RouteForces",
-    "SamplingResult", "StabilityResult", "StepResult", "analyse_closed_loops",
+    "SamplingResult", "StabilityResult", "StepResult", "StringStabilityResult",
+    "analyse_closed_loops",
     "analyse_controllability", "analyse_dmpc", "analyse_frequency", "analyse_grade_step",
     "analyse_observability", "analyse_sampling", "analyse_stability", "bandwidth",
     "continuous_modes", "convergence_sweep", "feasibility_check", "finite_horizon_gramian",
     "loop_sensitivity", "model_checks", "model_summary", "nyquist_sample_time",
     "plausibility_check", "prediction", "review_design", "route_forces", "scenario_checks",
+    "string_stability",
 ]

@@ -4,8 +4,9 @@
 :func:`analyse_closed_loops` takes each strategy's linear closed loop from the
 run's design (``Design.closed_loop``) and returns its
 :class:`~trainctl.analysis.frequency.FrequencyResult` (with the run's
-discrete design model as the plant, for S and T) and its
-:class:`~trainctl.analysis.steps.StepResult`. ``trainctl analyse --json``
+discrete design model as the plant, for S and T), its
+:class:`~trainctl.analysis.steps.StepResult` and its
+:class:`~trainctl.analysis.string_stability.StringStabilityResult`. ``trainctl analyse --json``
 prints their numbers under ``frequency``; the report draws their curves.
 """
 
@@ -17,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 from .frequency import FrequencyResult, analyse_frequency
 from .steps import StepResult, analyse_grade_step, step_duration
+from .string_stability import StringStabilityResult, string_stability
 
 if TYPE_CHECKING:
     from ..design import Design
@@ -36,19 +38,27 @@ class ClosedLoopResponse:
         Singular values, sensitivities, peaks and bandwidth.
     steps : StepResult
         Responses to 1 ‰ grade steps.
+    string : StringStabilityResult or None
+        Peak gains from the head's disturbance along the train (None with a
+        single vehicle).
     """
 
     strategy: str
     frequency: FrequencyResult
     steps: StepResult
+    string: StringStabilityResult | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-safe numbers: the frequency peaks and bandwidth, and ``grade_step``."""
-        return {**self.frequency.to_dict(), "grade_step": self.steps.to_dict()}
+        """JSON-safe numbers: frequency peaks, bandwidth, ``grade_step``, ``string_stability``."""
+        string = None if self.string is None else self.string.to_dict()
+        return {**self.frequency.to_dict(), "grade_step": self.steps.to_dict(),
+                "string_stability": string}
 
     def curves(self) -> dict[str, Any]:
-        """JSON-safe curves for the report: ``frequency`` and ``steps``."""
-        return {"frequency": self.frequency.curves(), "steps": self.steps.curves()}
+        """JSON-safe curves for the report: ``frequency``, ``steps`` and ``string``."""
+        string = None if self.string is None else self.string.curves()
+        return {"frequency": self.frequency.curves(), "steps": self.steps.curves(),
+                "string": string}
 
 
 def loop_strategies(design: Design) -> tuple[str, ...]:
@@ -114,5 +124,13 @@ def analyse_closed_loops(
     plant = design.model.discrete
     return {name: ClosedLoopResponse(strategy=name,
                                      frequency=analyse_frequency(loop, plant=plant),
-                                     steps=analyse_grade_step(loop, duration=duration))
+                                     steps=analyse_grade_step(loop, duration=duration),
+                                     string=_string(loop))
             for name, loop in linear.items()}
+
+
+def _string(loop: Any) -> StringStabilityResult | None:
+    """:func:`string_stability` from the head's disturbance, when there is a train to judge."""
+    if loop.ninputs < 2 or "w[0]" not in loop.input_labels:
+        return None
+    return string_stability(loop)

@@ -25,6 +25,7 @@ from .check import STATUSES, Check, DesignReview
 from .controllability import analyse_controllability, analyse_observability
 from .sampling import analyse_sampling
 from .stability import analyse_stability, mode_direction
+from .string_stability import string_stability_check
 
 if TYPE_CHECKING:
     from ..design import Design, DesignModel
@@ -71,8 +72,10 @@ def review_design(scenario: Scenario, design: Design | None = None) -> DesignRev
     Returns
     -------
     DesignReview
-        The model checks, the scenario checks, then each controller family's
-        checks (primary family first).
+        The model checks, the scenario checks, each controller family's
+        checks (primary family first), then ``string_stability`` when the
+        primary family has a linear closed loop
+        (:func:`~trainctl.analysis.string_stability.string_stability_check`).
 
     Examples
     --------
@@ -89,6 +92,9 @@ def review_design(scenario: Scenario, design: Design | None = None) -> DesignRev
     checks = model_checks(design.model) + scenario_checks(scenario)
     for name, family_design in design.families.items():
         checks += get_family(name).checks(family_design)
+    string = string_stability_check(design)
+    if string is not None:
+        checks.append(string)
     return DesignReview(scenario_name=scenario.name, checks=tuple(checks))
 
 

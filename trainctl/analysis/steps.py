@@ -192,7 +192,8 @@ def analyse_grade_step(loop: ct.StateSpace, *, duration: float | None = None) ->
     labels = list(loop.output_labels)
     speed = [k for k, name in enumerate(labels) if name.startswith("v[")] or list(
         range(loop.ninputs))
-    force = [k for k in range(loop.noutputs) if k not in speed]
+    force = [k for k, name in enumerate(labels) if name.startswith("f[")] or [
+        k for k in range(loop.noutputs) if k not in speed]
     every = out.sum(axis=1)
     peak_v = np.max(np.abs(out[speed]), axis=(0, 2))
     peak_f = np.max(np.abs(out[force]), axis=(0, 2)) if force else np.zeros(loop.ninputs)

@@ -167,6 +167,40 @@ class DesignModel:
         n, nx = self.n_vehicles, self.n_states
         return np.asarray(self.linear.C[n:, :nx], dtype=float)
 
+    def spacing_rows(self) -> Array:
+        """Spacing deviations [m] as rows on the design state, shape (n-1, 2n-1).
+
+        Row i picks the elongation state ``delta[i]``: the deviation of the
+        spacing between vehicles i and i+1 from its equilibrium (the coupler
+        elongation for a physical coupler, the gap for a virtual link).
+        """
+        n, nx = self.n_vehicles, self.n_states
+        return np.eye(n - 1, nx, k=n)
+
+    def loop_outputs(self) -> tuple[Array, list[str]]:
+        """The output rows of every family's linear closed loop, on the design state.
+
+        Speed deviations ``v[i]`` [m/s], coupler-force deviations ``f[i]``
+        [kN], then spacing deviations ``d[i]`` [m] (:meth:`spacing_rows`).
+
+        Returns
+        -------
+        (ndarray, list of str)
+            Rows, shape (3n-2, 2n-1), and their labels.
+
+        Examples
+        --------
+        >>> from trainctl.scenario import load_scenario
+        >>> C, labels = build_model(load_scenario("crh2-dmpc")).loop_outputs()
+        >>> C.shape, labels[3:5], labels[-1]
+        ((10, 7), ['v[3]', 'f[0]'], 'd[2]')
+        """
+        n, nx = self.n_vehicles, self.n_states
+        C = np.vstack([np.eye(n, nx), self.force_rows() / KN, self.spacing_rows()])
+        labels = ([f"v[{i}]" for i in range(n)] + [f"f[{i}]" for i in range(n - 1)]
+                  + [f"d[{i}]" for i in range(n - 1)])
+        return C, labels
+
     def disturbance_matrix(self) -> Array:
         """Discrete input matrix of a specific-force disturbance per vehicle.
 

@@ -66,8 +66,11 @@ class Design:
 
         The family's ``closed_loop()``: a discrete ``control.StateSpace`` from
         the specific-force disturbances ``w[i]`` [m/s²] to the speed
-        deviations ``v[i]`` [m/s] and coupler forces ``f[i]`` [kN], which
-        every generic analysis (poles, frequency responses, norms) takes.
+        deviations ``v[i]`` [m/s], the coupler forces ``f[i]`` [kN] and the
+        spacing deviations ``d[i]`` [m] (the elongation deviation of coupler
+        i, the gap deviation of a virtual link), in that order, which every
+        generic analysis (poles, frequency responses, norms, string
+        stability) takes.
 
         Parameters
         ----------
@@ -84,7 +87,7 @@ class Design:
         >>> from trainctl.scenario import load_scenario
         >>> loop = build_design(load_scenario("crh2-dmpc")).closed_loop("ndmpc")
         >>> loop.dt, loop.ninputs, loop.noutputs
-        (20.0, 4, 7)
+        (20.0, 4, 10)
         """
         from ..controllers.registry import get_family
 

@@ -71,7 +71,8 @@ def frequency_figures(curves: Mapping[str, Mapping[str, Any]],
     ------
     ReportFigure
         Disturbance → speed error and → coupler force, S and T (when the
-        loops have them), then the grade-step responses.
+        loops have them), the grade-step responses, then the string-stability
+        gains (when the loops have spacing or coupler-force outputs).
     """
     if not curves:
         return
@@ -82,6 +83,10 @@ def frequency_figures(curves: Mapping[str, Mapping[str, Any]],
             yield make(key, title, caption,
                        _sigma_figure(present, quantity, ylabel, order=list(curves)))
     yield _steps(curves, make)
+    strings = {k: c["string"] for k, c in curves.items() if c.get("string")}
+    if strings:
+        yield make("string-stability", "String stability: head disturbance along the train",
+                   _STRING_CAPTION, _string_figure(strings))
 
 
 def _sigma_figure(curves: Mapping[str, Mapping[str, Any]], quantity: str, ylabel: str, *,
@@ -141,3 +146,33 @@ def _steps(curves: Mapping[str, Mapping[str, Any]],
                "vehicle (top) and on the head vehicle only (bottom). One line per vehicle or "
                "coupler, in the strategy's colour. control.step_response on each loop.")
     return make("grade-step", "Grade-step responses", caption, figure)
+
+
+_STRING_CAPTION = (
+    "Gain from a specific-force disturbance on the head vehicle, w[0] [m/s²], to each spacing "
+    "deviation d[i] [m] (left) and each coupler force f[i] [kN] (right), one line per coupler, "
+    "dark at the head, light at the tail; a dot marks each peak. The train is string stable "
+    "when the peaks do not grow towards the tail (trainctl.analysis.string_stability; the "
+    "review's check judges the primary family's first strategy). One row per strategy; "
+    "coupler forces are absent for virtual links.")
+
+_STRING_PANELS = (("d", "|G_wd| [m/(m/s²)]"), ("f", "|G_wf| [kN/(m/s²)]"))
+
+
+def _string_figure(strings: Mapping[str, Mapping[str, Any]]) -> Figure:
+    figure = Figure(figsize=(7.5, 0.6 + 2.1 * len(strings)), layout="constrained")
+    axes = figure.subplots(len(strings), 2, sharex=True, squeeze=False)
+    for row, (name, c) in zip(axes, strings.items(), strict=True):
+        for ax, (quantity, ylabel) in zip(row, _STRING_PANELS, strict=True):
+            chain = c["chains"].get(quantity)
+            if chain is None:
+                ax.set_axis_off()
+                continue
+            freqplot.string_gain_plot(c["omega"], chain["gains"], labels=chain["labels"],
+                                      ylabel=ylabel, ax=ax)
+            ax.set_title(name, loc="left", fontsize="small")
+            ax.tick_params(labelsize="small")
+            if c.get("nyquist"):
+                ax.axvline(c["nyquist"], color="0.5", linestyle=":", linewidth=0.9)
+        row[0].legend(fontsize="x-small", ncols=2, loc="lower left")
+    return figure

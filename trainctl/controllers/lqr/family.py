@@ -216,13 +216,16 @@ class LQRFamily:
                 for name, strategy in zip(CHECK_NAMES, STRATEGIES, strict=True)]
 
     def closed_loop(self, design: LQRDesign, strategy: str) -> ct.StateSpace:
-        """x⁺ = (A - BK) x + B_w w; outputs speed deviations [m/s] and coupler forces [kN]."""
+        """x⁺ = (A - BK) x + B_w w; outputs ``v[i]`` [m/s], ``f[i]`` [kN], ``d[i]`` [m].
+
+        Speed deviations, coupler-force deviations and spacing deviations
+        (:meth:`~trainctl.design.DesignModel.loop_outputs`).
+        """
         import control as ct
 
         model = design.model
-        n, nx = model.n_vehicles, model.n_states
-        C = np.vstack([np.eye(n, nx), model.force_rows() / 1e3])
-        outputs = [f"v[{i}]" for i in range(n)] + [f"f[{i}]" for i in range(n - 1)]
+        n = model.n_vehicles
+        C, outputs = model.loop_outputs()
         return ct.ss(design.closed_loop_matrix(strategy), model.disturbance_matrix(), C, 0,
                      dt=model.settings.sample_time, states=design.scenario.train.state_labels(),
                      inputs=[f"w[{i}]" for i in range(n)], outputs=outputs,

@@ -167,7 +167,8 @@ def mpc_closed_loop(design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:
 
     Inputs are specific-force disturbances ``w[i]`` [m/s²] per vehicle (a
     grade), entering the plant only; outputs the speed deviations ``v[i]``
-    [m/s] and coupler-force deviations ``f[i]`` [kN]. The state matrix is the
+    [m/s], the coupler-force deviations ``f[i]`` [kN] and the spacing
+    deviations ``d[i]`` [m] (:meth:`DesignModel.loop_outputs`). The state matrix is the
     one the checks judge: centralised and cooperative (whose fixed point is
     the centralised optimum) the centralised loop, ``ndmpc`` the converged
     Nash loop, ``decentralised`` each coach optimising its own outputs with
@@ -198,9 +199,8 @@ def mpc_closed_loop(design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:
     n, nx = model.n_vehicles, model.n_states
     extra = A_cl.shape[0] - nx
     B = np.vstack([model.disturbance_matrix(), np.zeros((extra, n))])
-    C = np.vstack([np.eye(n, nx), model.force_rows() / 1e3])
+    C, outputs = model.loop_outputs()
     C = np.hstack([C, np.zeros((C.shape[0], extra))])
-    outputs = [f"v[{i}]" for i in range(n)] + [f"f[{i}]" for i in range(n - 1)]
     return ct.ss(A_cl, B, C, 0, dt=model.settings.sample_time,
                  states=design.closed_loop_labels(), inputs=[f"w[{i}]" for i in range(n)],
                  outputs=outputs, name=f"mpc_{strategy}")
