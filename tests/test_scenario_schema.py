@@ -342,7 +342,7 @@ class TestOneDeclaration:
     def test_vocabularies_come_from_where_they_live(self) -> None:
         """The scenario package re-exports, never copies, the vocabularies."""
         import trainctl.scenario as scenario
-        from trainctl.analysis.review import MODEL_CHECK_NAMES
+        from trainctl.analysis.review import LOOP_CHECK_NAMES, MODEL_CHECK_NAMES
         from trainctl.models.discrete import DISCRETISATIONS
         from trainctl.models.dynamics import ALLOCATIONS
         from trainctl.models.linear import LINEARISATIONS
@@ -351,7 +351,8 @@ class TestOneDeclaration:
         assert scenario.DISCRETISATIONS is DISCRETISATIONS
         assert scenario.ALLOCATIONS is ALLOCATIONS
         assert SIMULATION_STRATEGIES is get_family("mpc").strategies
-        assert CHECK_NAMES == MODEL_CHECK_NAMES + get_family("mpc").check_names
+        assert CHECK_NAMES == (MODEL_CHECK_NAMES + get_family("mpc").check_names
+                               + LOOP_CHECK_NAMES)
 
     def test_builtins_hold_the_same_settings(self) -> None:
         """A built-in's settings equal the ones built from Python with SI values."""

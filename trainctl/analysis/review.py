@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     from ..scenario import Scenario
 
 __all__ = [
-    "MODEL_CHECK_NAMES", "SAMPLING_FAIL", "SAMPLING_PASS", "STATUSES", "Check", "DesignReview",
+    "LOOP_CHECK_NAMES", "MODEL_CHECK_NAMES", "SAMPLING_FAIL", "SAMPLING_PASS", "STATUSES", "Check", "DesignReview",
     "model_checks", "radius_check", "review_design", "scenario_checks",
 ]
 
@@ -40,6 +40,9 @@ MODEL_CHECK_NAMES = (
     "open_loop_stability", "controllability", "observability", "sampling", "input_collapse",
     "feasibility", "plausibility",
 )
+
+LOOP_CHECK_NAMES = ("string_stability",)
+"""Checks of the primary family's linear closed loop, whatever the family (after its own)."""
 """Names of the checks that need no controller: the linear model's (:func:`model_checks`),
 then the scenario's (:func:`scenario_checks`); controller families add their own."""
 
