@@ -32,8 +32,8 @@ if TYPE_CHECKING:
     from ..scenario import Scenario
 
 __all__ = [
-    "LOOP_CHECK_NAMES", "MODEL_CHECK_NAMES", "SAMPLING_FAIL", "SAMPLING_PASS", "STATUSES", "Check", "DesignReview",
-    "model_checks", "radius_check", "review_design", "scenario_checks",
+    "LOOP_CHECK_NAMES", "MODEL_CHECK_NAMES", "SAMPLING_FAIL", "SAMPLING_PASS", "STATUSES",
+    "Check", "DesignReview", "model_checks", "radius_check", "review_design", "scenario_checks",
 ]
 
 MODEL_CHECK_NAMES = (
