@@ -16,7 +16,8 @@
     [v̂, z] (the rigid mode removed). Pass when certified, warn when not.
 ``potential_spacing_bound``
     From V(t) ≤ V(0): |z_k(t)| ≤ √(V(0) · c_kᵀP⁻¹c_k) (the largest |z_k| on
-    the level set of V through the scenario's initial errors), against the
+    the level set of V through the scenario's initial errors), with the P
+    that makes this smallest (:func:`bound_lmi`, an SDP), against the
     family's ``spacing_limit`` [m]; the barrier's band |z| < Δ instead when
     the masses are equal (the energy argument of (P2) needs the potential
     to act equally on both cars; with unequal masses m_i U' is not a
@@ -49,7 +50,8 @@ from ...analysis.check import Check
 if TYPE_CHECKING:
     from .family import PotentialDesign
 
-__all__ = ["LMI_MARGIN", "SAMPLING_THRESHOLD", "lyapunov_lmi", "potential_checks"]
+__all__ = ["LMI_MARGIN", "SAMPLING_THRESHOLD", "bound_lmi", "lyapunov_lmi", "potential_checks",
+           "spacing_bound"]
 
 Array = NDArray[np.float64]
 
@@ -210,12 +212,91 @@ def lyapunov_check(design: PotentialDesign, certificate: tuple[str, Array] | Non
                           "condition_number": float(np.linalg.cond(P))})
 
 
-def spacing_bound(P: Array, xi0: Array, n: int) -> Array:
-    """max |z_k| [m] on {ξ : ξᵀPξ ≤ ξ₀ᵀPξ₀}, k = 0..n-2 (z_k is state n + k)."""
+def spacing_bound(P: Array, xi0: Array, rows: Array) -> Array:
+    """max |c_kᵀξ| on {ξ : ξᵀPξ ≤ ξ₀ᵀPξ₀} for each row c_k: √(ξ₀ᵀPξ₀ · c_kᵀP⁺c_k).
+
+    Parameters
+    ----------
+    P : ndarray
+        Positive semidefinite, (N, N); P⁺ its pseudo-inverse (a singular P
+        gives inf for rows outside its range).
+    xi0 : ndarray
+        Initial state, (N,).
+    rows : ndarray
+        (K, N).
+
+    Returns
+    -------
+    ndarray
+        (K,) bounds in the unit of the outputs.
+
+    Examples
+    --------
+    >>> spacing_bound(np.diag([1.0, 4.0]), np.array([1.0, 0.0]), np.eye(2)).tolist()
+    [1.0, 0.5]
+    """
     energy = float(xi0 @ P @ xi0)
-    Pinv = np.linalg.inv(P)
-    k = n + np.arange(n - 1)
-    return np.sqrt(np.maximum(energy * np.diag(Pinv)[k], 0.0))
+    Pinv = np.linalg.pinv(P)
+    reach = np.einsum("kn,nm,km->k", rows, Pinv, rows)
+    inside = np.linalg.norm(rows - rows @ Pinv @ P, axis=1) <= 1e-8 * np.linalg.norm(rows, axis=1)
+    return np.where(inside, np.sqrt(np.maximum(energy * reach, 0.0)), np.inf)
+
+
+def bound_lmi(A: Array, xi0: Array, rows: Array) -> Array | None:
+    """The invariant ellipsoid through ξ₀ that bounds ``rows @ ξ`` best (cvxpy SDP).
+
+    Minimises γ over P ⪰ 0 with AᵀP + PA ⪯ 0 (V = ξᵀPξ non-increasing),
+    ξ₀ᵀPξ₀ ≤ 1 and [[P, c_k], [c_kᵀ, γ]] ⪰ 0 for every row c_k, so that
+    |c_kᵀξ(t)| ≤ √γ along the linear loop; on the balanced matrix, as
+    :func:`lyapunov_lmi`.
+
+    Parameters
+    ----------
+    A : ndarray
+        Continuous state matrix [1/s], (N, N), with no eigenvalue in Re λ > 0.
+    xi0 : ndarray
+        Initial state, (N,).
+    rows : ndarray
+        The bounded outputs c_kᵀ, (K, N).
+
+    Returns
+    -------
+    ndarray or None
+        P on the original coordinates (verified: AᵀP + PA ⪯ 0 numerically),
+        or None when the solver does not reach optimality.
+
+    Examples
+    --------
+    >>> A = np.array([[0.0, 1.0], [-1.0, -0.1]])   # x'' + 0.1 x' + x = 0, energy ≤ E(0)
+    >>> P = bound_lmi(A, np.array([0.0, 1.0]), np.array([[1.0, 0.0]]))
+    >>> round(float(spacing_bound(P, np.array([0.0, 1.0]), np.array([[1.0, 0.0]]))[0]), 3)
+    1.0
+    """
+    import cvxpy as cp
+
+    _, (d, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
+    d = np.asarray(d, dtype=float)
+    At = A * (1.0 / d)[:, None] * d[None, :]
+    x0, C = xi0 / d, rows * d[None, :]
+    N = A.shape[0]
+    P, gamma = cp.Variable((N, N), symmetric=True), cp.Variable((1, 1))
+    lhs = At.T @ P + P @ At
+    cons = [P >> 0, 0.5 * (lhs + lhs.T) << 0, cp.quad_form(x0, P) <= 1.0]
+    cons += [cp.bmat([[P, c[:, None]], [c[None, :], gamma]]) >> 0
+             for c in C]
+    problem = cp.Problem(cp.Minimize(gamma[0, 0]), cons)
+    try:
+        problem.solve(solver=cp.CLARABEL)
+    except cp.error.SolverError:
+        return None
+    if problem.status != cp.OPTIMAL or P.value is None:
+        return None
+    Pd = 0.5 * (P.value + P.value.T) * (1.0 / d)[:, None] * (1.0 / d)[None, :]
+    Q = A.T @ Pd + Pd @ A
+    scale = float(np.linalg.norm(Pd, 2) * np.linalg.norm(A, 2))
+    if np.max(np.linalg.eigvalsh(0.5 * (Q + Q.T))) > 1e-7 * scale:
+        return None
+    return np.asarray(Pd, dtype=float)
 
 
 def spacing_check(design: PotentialDesign, certificate: tuple[str, Array] | None) -> Check:
@@ -234,7 +315,11 @@ def spacing_check(design: PotentialDesign, certificate: tuple[str, Array] | None
                      message="no Lyapunov certificate, so no spacing bound",
                      hint="see potential_lyapunov")
     P = certificate[1]
-    bound = float(np.max(spacing_bound(P, xi0[:P.shape[0]], n), initial=0.0))
+    N = P.shape[0]
+    rows = np.eye(n - 1, N, n)
+    best = bound_lmi(design.A_cl[:N, :N], xi0[:N], rows) if np.any(xi0) else None
+    P = P if best is None else best
+    bound = float(np.max(spacing_bound(P, xi0[:N], rows), initial=0.0))
     details = {"linear_bound": bound, "initial_max": z0, "limit": limit}
     equal = bool(np.allclose(law.mass, law.mass[0], rtol=1e-9))
     if delta is not None and equal:

@@ -32,7 +32,9 @@ class PotentialSettings:
     Parameters
     ----------
     potential : {"quadratic", "barrier", "sigma"}
-        The pair potential U(z) on the spacing deviation z [m].
+        The pair potential U(z) on the spacing deviation z [m] (file key
+        ``pair_potential``: a key ``potential`` would name the family's
+        sub-table).
     kappa : float
         Curvature of U at z = 0 [1/s²], > 0 (file key ``kappa_per_s2``): the
         virtual spring per unit mass of every potential.
@@ -73,7 +75,7 @@ class PotentialSettings:
 
     potential: Annotated[str, Choice(POTENTIALS), Key(
         "Pair potential on the spacing deviation: quadratic (P1), barrier (P2) or sigma "
-        "(P3, Olfati-Saber)")] = "quadratic"
+        "(P3, Olfati-Saber)", file="pair_potential")] = "quadratic"
     kappa: Annotated[float, Number(gt=0), Key(
         "Curvature of the pair potential at zero deviation (virtual spring per unit mass)",
         file="kappa_per_s2", unit="1/s²")] = 0.5
