@@ -64,7 +64,8 @@ def test_linear_closed_loop_is_the_jacobian_of_the_nonlinear_one(potential: str)
     for k in range(N):
         e = np.zeros(N)
         e[k] = steps[k]
-        J[:, k] = (_closed_loop_rhs(sc, design, e) - _closed_loop_rhs(sc, design, -e)) / (2 * steps[k])
+        diff = _closed_loop_rhs(sc, design, e) - _closed_loop_rhs(sc, design, -e)
+        J[:, k] = diff / (2 * steps[k])
     scale = np.abs(J).max(axis=0)
     assert np.allclose(J / scale, design.A_cl / scale, atol=1e-6)
     loop = FAMILY.closed_loop(design, "consensus")
@@ -113,7 +114,7 @@ def test_pinned_loop_converges() -> None:
 
 
 def test_unpinned_offset_is_the_rigid_mode_projection() -> None:
-    """position_gain = 0: speeds converge, the head keeps the offset the linear analysis predicts."""
+    """position_gain = 0: speeds converge; the head keeps the offset the analysis predicts."""
     sim = {"initial_speed_errors": [1.0, 0.5, 0.8, 0.2]}
     sc = _scenario({"input_bounds": False, "position_gain": 0.0}, sim)
     design = build_design(sc).family("potential")

@@ -270,8 +270,9 @@ def bound_lmi(A: Array, xi0: Array, rows: Array) -> Array | None:
     --------
     >>> A = np.array([[0.0, 1.0], [-1.0, -0.1]])   # x'' + 0.1 x' + x = 0, energy ≤ E(0)
     >>> P = bound_lmi(A, np.array([0.0, 1.0]), np.array([[1.0, 0.0]]))
-    >>> round(float(spacing_bound(P, np.array([0.0, 1.0]), np.array([[1.0, 0.0]]))[0]), 3)
-    1.0
+    >>> b = float(spacing_bound(P, np.array([0.0, 1.0]), np.array([[1.0, 0.0]]))[0])
+    >>> 0.924 < b < 1.0  # true peak e^(-0.05·π/2) ≈ 0.924; the energy bound is 1
+    True
     """
     import cvxpy as cp
 
