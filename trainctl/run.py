@@ -257,7 +257,9 @@ def simulate_strategy(
     """Simulate one strategy of the scenario's ``[simulation]`` on the nonlinear plant.
 
     The train starts at the feedforward equilibrium of the reference at t = 0
-    (speed, acceleration) with every vehicle off by ``initial_speed_error``.
+    (speed, acceleration) with every vehicle off by ``initial_speed_error``
+    plus its ``initial_speed_errors`` entry, and every coupler's elongation
+    off by its ``initial_spacing_errors`` entry.
     The plant saturates the forces to the envelopes (``plant_saturation``),
     records the dense grid (``output_interval``) and stops a diverging run
     (``divergence_speed_error``), as the ``[simulation]`` table says.
@@ -290,7 +292,12 @@ def simulate_strategy(
     v0 = float(profile.speed(0.0))
     start = equilibrium(scenario.train, max(v0, 0.1), acceleration=float(profile.acceleration(0.0)))
     state = start.state(position=0.0)
-    state[: scenario.train.n_vehicles] = v0 + sim.initial_speed_error
+    n = scenario.train.n_vehicles
+    state[:n] = v0 + sim.initial_speed_error
+    if sim.initial_speed_errors is not None:
+        state[:n] += np.asarray(sim.initial_speed_errors, dtype=float)
+    if sim.initial_spacing_errors is not None:
+        state[n:2 * n - 1] += np.asarray(sim.initial_spacing_errors, dtype=float)
     with numerical_errors(f"{scenario.source}: simulating {strategy!r}"):
         controller = make_controller(scenario, strategy, design)
         return simulate(Plant(train=scenario.train, track=scenario.track), controller, profile,

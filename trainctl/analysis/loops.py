@@ -7,6 +7,14 @@ run's design (``Design.closed_loop``) and returns its
 discrete design model as the plant, for S and T) and its
 :class:`~trainctl.analysis.steps.StepResult`. ``trainctl analyse --json``
 prints their numbers under ``frequency``; the report draws their curves.
+
+A family whose closed loop is continuous (dt = 0, e.g. the potential
+family's) is sampled first (:func:`as_discrete`: zero-order hold on the
+disturbance at ``[model].sample_time``), so that every loop is analysed on
+the same unit circle; below the Nyquist frequency π/T its response is the
+continuous one up to the hold. Such a loop is not state feedback around the
+discrete plant, so it has no S and T (:func:`~trainctl.analysis.sensitivity.loop_sensitivity`
+returns None for it).
 """
 
 from __future__ import annotations
@@ -15,13 +23,15 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+import control as ct
+
 from .frequency import FrequencyResult, analyse_frequency
 from .steps import StepResult, analyse_grade_step, step_duration
 
 if TYPE_CHECKING:
     from ..design import Design
 
-__all__ = ["ClosedLoopResponse", "analyse_closed_loops", "loop_strategies"]
+__all__ = ["ClosedLoopResponse", "analyse_closed_loops", "as_discrete", "loop_strategies"]
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -106,8 +116,9 @@ def analyse_closed_loops(
     (['centralised', 'decentralised', 'ndmpc'], 20.0)
     """
     names = loop_strategies(design) if strategies is None else tuple(strategies)
+    dt = float(design.model.settings.sample_time)
     loops = {name: design.closed_loop(name) for name in names}
-    linear = {name: loop for name, loop in loops.items() if loop is not None}
+    linear = {name: as_discrete(loop, dt) for name, loop in loops.items() if loop is not None}
     if not linear:
         return {}
     duration = step_duration(list(linear.values()))
@@ -116,3 +127,30 @@ def analyse_closed_loops(
                                      frequency=analyse_frequency(loop, plant=plant),
                                      steps=analyse_grade_step(loop, duration=duration))
             for name, loop in linear.items()}
+
+
+def as_discrete(loop: ct.StateSpace, dt: float) -> ct.StateSpace:
+    """A discrete loop as it is; a continuous one sampled at ``dt`` (zero-order hold).
+
+    Parameters
+    ----------
+    loop : control.StateSpace
+        A closed loop (``Design.closed_loop``).
+    dt : float
+        Sample time [s], > 0, for a continuous loop.
+
+    Returns
+    -------
+    control.StateSpace
+        Discrete, with the loop's signal names.
+
+    Examples
+    --------
+    >>> sys = ct.ss([[-1.0]], [[1.0]], [[1.0]], 0, inputs="w[0]", outputs="v[0]")
+    >>> d = as_discrete(sys, 0.1)
+    >>> d.dt, round(float(d.A[0, 0]), 6), d.output_labels
+    (0.1, 0.904837, ['v[0]'])
+    """
+    if loop.isdtime(strict=True):
+        return loop
+    return ct.sample_system(loop, dt, method="zoh", name=str(loop.name))

@@ -67,6 +67,7 @@ DEFAULT_FAMILY = "mpc"
 FAMILY_MODULES: Mapping[str, str] = {
     "mpc": "trainctl.controllers.mpc",
     "lqr": "trainctl.controllers.lqr",
+    "potential": "trainctl.controllers.potential",
 }
 """The built-in families: name -> module exposing ``FAMILY`` (imported on first use)."""
 

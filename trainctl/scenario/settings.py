@@ -16,6 +16,7 @@ from pydantic import TypeAdapter, ValidationError, ValidationInfo, model_validat
 
 from ..constraints import Array, Choice, Flag, NameList, Number, Violation, raise_at
 from ..declare import Alt, Key, python_error, settings
+from ..exceptions import ModelError
 from ..limits import (
     DURATION,
     MAX_SAMPLES,
@@ -102,6 +103,8 @@ _STRATEGY_LIST: TypeAdapter[tuple[str, ...]] = TypeAdapter(
 )
 _SAMPLE_TIME: TypeAdapter[float] = TypeAdapter(Annotated[float, SAMPLE_TIME])
 _TIMES = Array(Number(ge=0))
+_SPACING_ERROR = Number(ge=-10.0, le=10.0, why="a coupler is not stretched or compressed by "
+                        "more than 10 m")
 _SPEEDS = Array(SPEED_POINTS)
 
 
@@ -168,6 +171,14 @@ class SimulationSettings:
         Common speed offset of every vehicle at t = 0 [m/s], finite; the
         initial speed ``reference_speeds[0] + initial_speed_error`` must be
         >= 0.
+    initial_speed_errors : tuple of float or None
+        Per-vehicle speed offsets at t = 0 [m/s], one per vehicle (head
+        first), added to ``initial_speed_error``; None: none. The scenario
+        checks the count against the train (:meth:`check_vehicles`).
+    initial_spacing_errors : tuple of float or None
+        Per-coupler elongation offsets at t = 0 [m] from the start
+        equilibrium, one per coupler (head first, positive: stretched);
+        None: none.
     measurement_noise : float
         Standard deviation of the Gaussian speed-measurement noise [m/s], >= 0.
     settle_time : float
@@ -219,6 +230,12 @@ class SimulationSettings:
         hint=" speeds_kmh is in km/h, speeds in m/s.")]
     initial_speed_error: Annotated[float, SPEED_ERROR, Key(
         "Common speed offset of every vehicle at t = 0", unit="m/s")] = 0.0
+    initial_speed_errors: Annotated[tuple[float, ...] | None, Array(SPEED_ERROR), Key(
+        "Per-vehicle speed offsets at t = 0, head first, added to initial_speed_error",
+        unit="m/s", omitted="none")] = None
+    initial_spacing_errors: Annotated[tuple[float, ...] | None, Array(_SPACING_ERROR), Key(
+        "Per-coupler elongation offsets at t = 0 from the start equilibrium, head first "
+        "(positive: stretched)", unit="m", omitted="none")] = None
     measurement_noise: Annotated[float, SPEED_NOISE, Key(
         "Standard deviation of Gaussian speed-measurement noise (drawn with seed)",
         unit="m/s")] = 0.0
@@ -275,6 +292,12 @@ class SimulationSettings:
                 text="must have as many entries as {reference_times}",
                 got_text=f"{len(speeds)} for {len(times)} time{'s' if len(times) > 1 else ''}",
                 hint=" Give one speed per time.", value=False))
+        lowest = self.initial_speed_error + min(self.initial_speed_errors or (0.0,))
+        if speeds[0] + lowest < 0 and speeds[0] + self.initial_speed_error >= 0:
+            raise_at(("initial_speed_errors",), Violation(
+                text=f"must keep every initial speed >= 0 (the reference starts at "
+                f"{speeds[0]!r} m/s, plus initial_speed_error = {self.initial_speed_error!r})",
+                got=min(self.initial_speed_errors or (0.0,))))
         if speeds[0] + self.initial_speed_error < 0:
             raise_at(("initial_speed_error",), Violation(
                 text=f"must be >= {-speeds[0]!r} m/s, minus the reference speed at t = 0, so "
@@ -325,6 +348,35 @@ class SimulationSettings:
             except ValidationError as exc:
                 raise python_error("SimulationSettings", exc) from None
         return steps
+
+    def check_vehicles(self, n: int) -> None:
+        """Check the per-vehicle initial errors against a train of ``n`` vehicles.
+
+        Parameters
+        ----------
+        n : int
+            Vehicles [-], >= 1.
+
+        Raises
+        ------
+        ModelError
+            If ``initial_speed_errors`` does not have n entries or
+            ``initial_spacing_errors`` does not have n - 1.
+
+        Examples
+        --------
+        >>> sim = SimulationSettings(duration=1.0, strategies=("centralised",),
+        ...                          reference_times=(0.0,), reference_speeds=(25.0,),
+        ...                          initial_spacing_errors=(0.1, -0.1))
+        >>> sim.check_vehicles(3)
+        """
+        for key, want in (("initial_speed_errors", n), ("initial_spacing_errors", n - 1)):
+            given = getattr(self, key)
+            if given is not None and len(given) != want:
+                what = "vehicle" if key == "initial_speed_errors" else "coupler"
+                raise ModelError(
+                    f"SimulationSettings: {key!r} must have {want} entries, one per {what} of "
+                    f"the {n}-vehicle train (got {len(given)}).")
 
     def check_strategies(self, names: tuple[str, ...]) -> None:
         """Check :attr:`strategies` against the strategies a scenario offers.

@@ -1,0 +1,9 @@
+# The potential family: Zhao & Wang's consensus law with a pair potential between coupled cars.
+"""The potential controller family (see :mod:`trainctl.controllers.potential.family`)."""
+
+from __future__ import annotations
+
+from .family import FAMILY as FAMILY
+from .family import STRATEGIES as STRATEGIES
+
+__all__ = ["FAMILY", "STRATEGIES"]

@@ -1,0 +1,382 @@
+# Design checks of the potential family: stability, Lyapunov certificate, spacing bound, sampling.
+"""The potential family's design checks (spec §2.3, §5 items 13–14).
+
+``potential_closed_loop``
+    Hurwitz test of the continuous linear closed loop. Without position
+    pinning the head-position error p is a pure integrator of v̂_0 that
+    nothing feeds back: a semisimple zero eigenvalue (rigid translation),
+    reported as *warn* ("velocities converge, a constant position offset
+    remains"); a zero eigenvalue in a Jordan block or Re λ > 0 fails.
+``potential_lyapunov``
+    A quadratic V = ξᵀPξ with V̇ ≤ 0 along the linear loop. Equal masses and
+    a symmetric graph: the closed form of spec §2.3 item 3, checked
+    numerically (AᵀP + PA ⪯ 0, LaSalle); otherwise (or when that check
+    fails) an LMI solved with cvxpy: P ⪰ I, AᵀP + PA ⪯ −εI on the
+    balanced matrix (:func:`lyapunov_lmi`). Unpinned loops are certified on
+    [v̂, z] (the rigid mode removed). Pass when certified, warn when not.
+``potential_spacing_bound``
+    From V(t) ≤ V(0): |z_k(t)| ≤ √(V(0) · c_kᵀP⁻¹c_k) (the largest |z_k| on
+    the level set of V through the scenario's initial errors), with the P
+    that makes this smallest (:func:`bound_lmi`, an SDP), against the
+    family's ``spacing_limit`` [m]; the barrier's band |z| < Δ instead when
+    the masses are equal (the energy argument of (P2) needs the potential
+    to act equally on both cars; with unequal masses m_i U' is not a
+    gradient and only the linear bound is reported, as warn).
+``potential_sampling``
+    ω_max·T_c of the closed loop against :data:`SAMPLING_THRESHOLD` = 0.1 rad:
+    the zero-order hold delays the law by about T_c/2, a phase lag of
+    ω_max·T_c/2 ≤ 0.05 rad (3°) at the fastest mode, small enough to use the
+    continuous analysis. The sampled loop (exact ZOH of the plant, the law
+    held) is compared: its spectral radius against exp(max Re λ · T_c).
+    Warn above the threshold while the sampled loop is stable, fail when it
+    is not.
+``potential_linearisation``
+    Spec §2.3 item 5: the neglected a2·v̂² term is below 10 % of the linear
+    term (a1 + 2 a2 v_r)·v̂ when |v̂| < 0.1 (a1/a2 + 2 v_r), on the scenario's
+    initial speed errors (the simulated trajectory is not judged here).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+from ...analysis.check import Check
+
+if TYPE_CHECKING:
+    from .family import PotentialDesign
+
+__all__ = ["LMI_MARGIN", "SAMPLING_THRESHOLD", "bound_lmi", "lyapunov_lmi", "potential_checks",
+           "spacing_bound"]
+
+Array = NDArray[np.float64]
+
+SAMPLING_THRESHOLD = 0.1
+"""Largest ω_max·T_c [rad] for which the continuous analysis stands for the sampled law."""
+
+LMI_MARGIN = 1e-6
+"""ε of the strict LMI AᵀP + PA ⪯ −εI with P ⪰ I (on the balanced matrix)."""
+
+_ZERO = 1e-9  # |λ| below this times max(1, ||A||) is a zero eigenvalue
+
+
+def potential_checks(design: PotentialDesign) -> list[Check]:
+    """The five checks (module docstring).
+
+    Parameters
+    ----------
+    design : PotentialDesign
+        The family's design.
+
+    Returns
+    -------
+    list of Check
+        In :data:`~trainctl.controllers.potential.family.CHECK_NAMES` order.
+    """
+    certificate = design.certificate
+    return [closed_loop_check(design), lyapunov_check(design, certificate),
+            spacing_check(design, certificate), sampling_check(design),
+            linearisation_check(design)]
+
+
+def closed_loop_check(design: PotentialDesign) -> Check:
+    """Hurwitz test; a semisimple zero eigenvalue (no pinning) warns."""
+    A = design.A_cl
+    lam = np.linalg.eigvals(A)
+    tol = _ZERO * max(1.0, float(np.linalg.norm(A, 2)))
+    zero = np.abs(lam) <= tol
+    alpha = float(np.max(lam[~zero].real)) if np.any(~zero) else 0.0
+    details: dict[str, object] = {"max_real_part": alpha, "zero_eigenvalues": int(zero.sum()),
+                                  "eigenvalues": [[float(x.real), float(x.imag)] for x in lam]}
+    name = "potential_closed_loop"
+    if alpha >= -tol:
+        return Check(name=name, status="fail", value=alpha, threshold=0.0, unit="1/s",
+                     message=f"closed loop unstable: max Re λ = {alpha:.4g} 1/s",
+                     hint="raise speed_gain_per_s or lower the gains that excite the couplers",
+                     details=details)
+    if np.any(zero):
+        rank = np.linalg.matrix_rank(A, tol=tol)
+        if A.shape[0] - rank != int(zero.sum()):
+            return Check(name=name, status="fail", value=0.0, threshold=0.0, unit="1/s",
+                         message="zero eigenvalue in a Jordan block: the position error grows",
+                         hint="set position_gain > 0", details=details)
+        return Check(name=name, status="warn", value=0.0, threshold=0.0, unit="1/s",
+                     message="velocities converge, a constant position offset remains "
+                     f"(semisimple zero eigenvalue; other modes Re λ ≤ {alpha:.4g} 1/s)",
+                     hint="set position_gain > 0 to pin the cars to their reference positions",
+                     details=details)
+    return Check(name=name, status="pass", value=alpha, threshold=0.0, unit="1/s",
+                 message=f"continuous closed loop Hurwitz: max Re λ = {alpha:.4g} 1/s",
+                 details=details)
+
+
+def closed_form_certificate(design: PotentialDesign) -> Array | None:
+    """P of spec §2.3 item 3 on ξ = [v̂, z, p] when it applies and checks out, else None.
+
+    V = ½ v̂ᵀMv̂ + ½ x̂ᵀ(E diag(k) Eᵀ + K + m κ E Eᵀ) x̂ with x̂ = 1·p − S z;
+    it applies to equal masses and a symmetric consensus graph, and is kept
+    only when AᵀP + PA ⪯ 0 holds numerically.
+    """
+    from .law import cumulative, incidence
+
+    law, train = design.law, design.scenario.train
+    m = law.mass
+    if not (np.allclose(m, m[0], rtol=1e-9) and np.allclose(law.consensus, law.consensus.T)):
+        return None
+    n = law.n
+    E = incidence(n)
+    kappa = law.potential.curvature()
+    Ks = E @ np.diag(train.stiffness) @ E.T + np.diag(law.pinning) + m[0] * kappa * E @ E.T
+    T = np.hstack([-cumulative(n), np.ones((n, 1))])
+    P = scipy.linalg.block_diag(np.diag(m), T.T @ Ks @ T)
+    Q = design.A_cl.T @ P + P @ design.A_cl
+    scale = float(np.linalg.norm(P, 2) * np.linalg.norm(design.A_cl, 2))
+    if float(np.max(np.linalg.eigvalsh(0.5 * (Q + Q.T)))) > 1e-9 * scale:
+        return None
+    return P
+
+
+def lyapunov_lmi(A: Array, margin: float = LMI_MARGIN) -> Array | None:
+    """P ≻ 0 with AᵀP + PA ≺ 0 from an SDP (cvxpy), or None when not certifiable.
+
+    The matrix is balanced first (diagonal similarity D⁻¹AD, scipy), because
+    speeds [m/s] and coupler deflections [m] differ by orders of magnitude
+    (spec §5 item 7); the SDP asks P̃ ⪰ I and ÃᵀP̃ + P̃Ã ⪯ −εI, and the
+    result P = D⁻ᵀP̃D⁻¹ is verified numerically.
+
+    Parameters
+    ----------
+    A : ndarray
+        Continuous state matrix [1/s], (N, N).
+    margin : float
+        ε [-] of the strict inequality.
+
+    Returns
+    -------
+    ndarray or None
+        P on the original coordinates, or None (solver not optimal, or the
+        verification failed).
+
+    Examples
+    --------
+    >>> P = lyapunov_lmi(np.array([[0.0, 1.0], [-4.0, -0.5]]))
+    >>> bool(np.all(np.linalg.eigvalsh(P) > 0))
+    True
+    >>> lyapunov_lmi(np.array([[0.1, 0.0], [0.0, -1.0]])) is None
+    True
+    """
+    import cvxpy as cp
+
+    At, D = scipy.linalg.matrix_balance(A, permute=False, separate=True)
+    d = np.asarray(D[0], dtype=float)
+    At = A * (1.0 / d)[:, None] * d[None, :]
+    N = A.shape[0]
+    P = cp.Variable((N, N), symmetric=True)
+    lhs = At.T @ P + P @ At
+    problem = cp.Problem(cp.Minimize(0), [P >> np.eye(N), 0.5 * (lhs + lhs.T) << -margin * np.eye(N)])
+    try:
+        problem.solve(solver=cp.CLARABEL)
+    except cp.error.SolverError:
+        return None
+    if problem.status != cp.OPTIMAL or P.value is None:
+        return None
+    Pt = 0.5 * (P.value + P.value.T)
+    Pd = Pt * (1.0 / d)[:, None] * (1.0 / d)[None, :]
+    Q = A.T @ Pd + Pd @ A
+    if np.min(np.linalg.eigvalsh(Pd)) <= 0 or np.max(np.linalg.eigvalsh(0.5 * (Q + Q.T))) >= 0:
+        return None
+    return np.asarray(Pd, dtype=float)
+
+
+def lyapunov_check(design: PotentialDesign, certificate: tuple[str, Array] | None) -> Check:
+    """Pass when a closed-form or LMI certificate exists, warn when not."""
+    name = "potential_lyapunov"
+    if certificate is None:
+        return Check(name=name, status="warn", value=None, threshold=None, unit="",
+                     message="no quadratic Lyapunov certificate found (closed form does not "
+                     "apply, LMI infeasible)",
+                     hint="check potential_closed_loop; the simulation is the only evidence")
+    kind, P = certificate
+    where = ("on [v̂, z] (the rigid translation is the head-position integrator)"
+             if P.shape[0] < design.A_cl.shape[0] else "on [v̂, z, p]")
+    text = {"closed_form": "closed-form V of spec §2.3 (equal masses, symmetric graph), "
+                           "V̇ ≤ 0 with LaSalle",
+            "lmi": "LMI certificate AᵀP + PA ≺ 0 (cvxpy)"}[kind]
+    return Check(name=name, status="pass", value=None, threshold=None, unit="",
+                 message=f"{text} {where}",
+                 details={"kind": kind, "states": int(P.shape[0]),
+                          "condition_number": float(np.linalg.cond(P))})
+
+
+def spacing_bound(P: Array, xi0: Array, rows: Array) -> Array:
+    """max |c_kᵀξ| on {ξ : ξᵀPξ ≤ ξ₀ᵀPξ₀} for each row c_k: √(ξ₀ᵀPξ₀ · c_kᵀP⁺c_k).
+
+    Parameters
+    ----------
+    P : ndarray
+        Positive semidefinite, (N, N); P⁺ its pseudo-inverse (a singular P
+        gives inf for rows outside its range).
+    xi0 : ndarray
+        Initial state, (N,).
+    rows : ndarray
+        (K, N).
+
+    Returns
+    -------
+    ndarray
+        (K,) bounds in the unit of the outputs.
+
+    Examples
+    --------
+    >>> spacing_bound(np.diag([1.0, 4.0]), np.array([1.0, 0.0]), np.eye(2)).tolist()
+    [1.0, 0.5]
+    """
+    energy = float(xi0 @ P @ xi0)
+    Pinv = np.linalg.pinv(P)
+    reach = np.einsum("kn,nm,km->k", rows, Pinv, rows)
+    inside = np.linalg.norm(rows - rows @ Pinv @ P, axis=1) <= 1e-8 * np.linalg.norm(rows, axis=1)
+    return np.where(inside, np.sqrt(np.maximum(energy * reach, 0.0)), np.inf)
+
+
+def bound_lmi(A: Array, xi0: Array, rows: Array) -> Array | None:
+    """The invariant ellipsoid through ξ₀ that bounds ``rows @ ξ`` best (cvxpy SDP).
+
+    Minimises γ over P ⪰ 0 with AᵀP + PA ⪯ 0 (V = ξᵀPξ non-increasing),
+    ξ₀ᵀPξ₀ ≤ 1 and [[P, c_k], [c_kᵀ, γ]] ⪰ 0 for every row c_k, so that
+    |c_kᵀξ(t)| ≤ √γ along the linear loop; on the balanced matrix, as
+    :func:`lyapunov_lmi`.
+
+    Parameters
+    ----------
+    A : ndarray
+        Continuous state matrix [1/s], (N, N), with no eigenvalue in Re λ > 0.
+    xi0 : ndarray
+        Initial state, (N,).
+    rows : ndarray
+        The bounded outputs c_kᵀ, (K, N).
+
+    Returns
+    -------
+    ndarray or None
+        P on the original coordinates (verified: AᵀP + PA ⪯ 0 numerically),
+        or None when the solver does not reach optimality.
+
+    Examples
+    --------
+    >>> A = np.array([[0.0, 1.0], [-1.0, -0.1]])   # x'' + 0.1 x' + x = 0, energy ≤ E(0)
+    >>> P = bound_lmi(A, np.array([0.0, 1.0]), np.array([[1.0, 0.0]]))
+    >>> round(float(spacing_bound(P, np.array([0.0, 1.0]), np.array([[1.0, 0.0]]))[0]), 3)
+    1.0
+    """
+    import cvxpy as cp
+
+    _, (d, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
+    d = np.asarray(d, dtype=float)
+    At = A * (1.0 / d)[:, None] * d[None, :]
+    x0, C = xi0 / d, rows * d[None, :]
+    N = A.shape[0]
+    P, gamma = cp.Variable((N, N), symmetric=True), cp.Variable((1, 1))
+    lhs = At.T @ P + P @ At
+    cons = [P >> 0, 0.5 * (lhs + lhs.T) << 0, cp.quad_form(x0, P) <= 1.0]
+    cons += [cp.bmat([[P, c[:, None]], [c[None, :], gamma]]) >> 0
+             for c in C]
+    problem = cp.Problem(cp.Minimize(gamma[0, 0]), cons)
+    try:
+        problem.solve(solver=cp.CLARABEL)
+    except cp.error.SolverError:
+        return None
+    if problem.status != cp.OPTIMAL or P.value is None:
+        return None
+    Pd = 0.5 * (P.value + P.value.T) * (1.0 / d)[:, None] * (1.0 / d)[None, :]
+    Q = A.T @ Pd + Pd @ A
+    scale = float(np.linalg.norm(Pd, 2) * np.linalg.norm(A, 2))
+    if np.max(np.linalg.eigvalsh(0.5 * (Q + Q.T))) > 1e-7 * scale:
+        return None
+    return np.asarray(Pd, dtype=float)
+
+
+def spacing_check(design: PotentialDesign, certificate: tuple[str, Array] | None) -> Check:
+    """Spacing bound from V(0) against the spacing limit; the barrier band (spec §2.3 item 4)."""
+    name, law = "potential_spacing_bound", design.law
+    limit = float(design.settings.spacing_limit)
+    xi0, n = design.initial_errors, law.n
+    z0 = float(np.max(np.abs(xi0[n:2 * n - 1]), initial=0.0))
+    delta = design.settings.barrier
+    if delta is not None and z0 >= delta:
+        return Check(name=name, status="fail", value=z0, threshold=float(delta), unit="m",
+                     message=f"initial spacing deviation {z0:.4g} m outside the barrier's "
+                     f"band |z| < Δ = {delta:g} m", hint="widen barrier_m or start closer")
+    if certificate is None:
+        return Check(name=name, status="warn", value=None, threshold=limit, unit="m",
+                     message="no Lyapunov certificate, so no spacing bound",
+                     hint="see potential_lyapunov")
+    P = certificate[1]
+    N = P.shape[0]
+    rows = np.eye(n - 1, N, n)
+    best = bound_lmi(design.A_cl[:N, :N], xi0[:N], rows) if np.any(xi0) else None
+    P = P if best is None else best
+    bound = float(np.max(spacing_bound(P, xi0[:N], rows), initial=0.0))
+    details = {"linear_bound": bound, "initial_max": z0, "limit": limit}
+    equal = bool(np.allclose(law.mass, law.mass[0], rtol=1e-9))
+    if delta is not None and equal:
+        status = "pass" if delta <= limit else "fail"
+        return Check(name=name, status=status, value=float(delta), threshold=limit, unit="m",
+                     message=f"barrier keeps |z| < Δ = {delta:g} m for all t (linear bound "
+                     f"{bound:.4g} m)", hint="" if status == "pass" else "narrow barrier_m",
+                     details=details)
+    status = "pass" if bound <= limit else "fail"
+    note = (" (barrier invariance not proven: unequal masses)" if delta is not None else "")
+    if status == "pass" and delta is not None:
+        status = "warn"
+    return Check(name=name, status=status, value=bound, threshold=limit, unit="m",
+                 message=f"|z(t)| ≤ {bound:.4g} m from V(0) of the initial errors{note}",
+                 hint="" if bound <= limit else "lower the initial errors or stiffen the law",
+                 details=details)
+
+
+def sampling_check(design: PotentialDesign) -> Check:
+    """ω_max·T_c against the threshold; the sampled loop's spectral radius."""
+    name, T = "potential_sampling", design.control_interval
+    lam = np.linalg.eigvals(design.A_cl)
+    omega = float(np.max(np.abs(lam)))
+    alpha = float(np.max(lam.real))
+    rho = float(np.max(np.abs(np.linalg.eigvals(design.sampled_matrix()))))
+    expected = math.exp(alpha * T)
+    value = omega * T
+    details = {"omega_max": omega, "sampled_radius": rho, "continuous_radius": expected}
+    text = (f"ω_max·T_c = {omega:.4g} rad/s × {T:g} s = {value:.3g} rad; sampled loop "
+            f"ρ = {rho:.8g} (continuous e^(αT) = {expected:.8g})")
+    if rho > 1.0 + 1e-9:
+        return Check(name=name, status="fail", value=value, threshold=SAMPLING_THRESHOLD,
+                     unit="rad", message=f"sampled law unstable: {text}",
+                     hint="shorten control_interval", details=details)
+    status = "pass" if value <= SAMPLING_THRESHOLD else "warn"
+    return Check(name=name, status=status, value=value, threshold=SAMPLING_THRESHOLD, unit="rad",
+                 message=text, hint="" if status == "pass" else
+                 f"shorten control_interval below {SAMPLING_THRESHOLD / omega:.3g} s",
+                 details=details)
+
+
+def linearisation_check(design: PotentialDesign) -> Check:
+    """|v̂(0)| < 0.1 (a1/a2 + 2 v_r) for every car (spec §2.3 item 5)."""
+    name, n = "potential_linearisation", design.law.n
+    _, a1, a2 = np.asarray(design.scenario.train.davis, dtype=float)
+    v_r = float(design.model.settings.speed)
+    with np.errstate(divide="ignore"):
+        limits = np.where(a2 > 0, 0.1 * (a1 / np.where(a2 > 0, a2, 1.0) + 2 * v_r), np.inf)
+    errors = np.abs(design.initial_errors[:n])
+    worst = float(np.max(errors))
+    limit = float(np.min(limits))
+    ok = bool(np.all(errors < limits))
+    relation, share = ("<", "below") if ok else ("≥", "above")
+    return Check(name=name, status="pass" if ok else "fail", value=worst, threshold=limit,
+                 unit="m/s",
+                 message=f"initial |v̂| ≤ {worst:.3g} m/s {relation} 0.1(a1/a2 + 2v_r) = "
+                 f"{limit:.3g} m/s: the a2·v̂² term is {share} 10 % of the linear term "
+                 "(the simulated trajectory is not judged)",
+                 hint="" if ok else "start closer to the reference",
+                 details={"limits": [float(x) for x in limits]})

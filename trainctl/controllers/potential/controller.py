@@ -1,0 +1,141 @@
+# The potential-function consensus controller: Zhao & Wang's law sampled at its control interval.
+"""The potential controller: u = ū(v_r, a_r) + û(x̂, v̂, z), clipped to the envelope.
+
+The law (:mod:`trainctl.controllers.potential.law`) is continuous in time;
+the simulation calls :meth:`PotentialController.step` every ``dt`` (the
+family's ``control_interval``) and holds the force until the next call.
+
+The reference position x̄_0(t) = s(t_0) + ∫ v_r dt starts at the head's
+measured position at the first step after :meth:`~PotentialController.reset`
+(so the head starts with no position error) and is integrated by the
+trapezoid between consecutive steps from the reference speed at both ends.
+The reference is piecewise linear, so this is exact for every interval that
+does not straddle a breakpoint; an interval that does is off by at most
+|Δa|·dt²/8 [m] (Δa the jump of the reference acceleration), once per
+breakpoint.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...exceptions import ModelError
+from ...models.envelope import EnvelopeBounds
+from ...models.feedforward import ForceSplit
+from ...models.train import Train
+from ..base import Measurement, ReferencePreview, StepRecord
+from .law import PotentialLaw
+
+__all__ = ["PotentialController"]
+
+Array = NDArray[np.float64]
+
+
+class PotentialController:
+    """Zhao & Wang's four-term law about the cruise feedforward (module docstring).
+
+    Parameters
+    ----------
+    train : Train
+        The train (feedforward, envelopes).
+    law : PotentialLaw
+        Gains and pair potential.
+    dt : float
+        Control interval [s], > 0.
+    input_bounds : bool
+        Clip each force to the vehicle's envelope at its measured speed.
+    name : str
+        Label.
+
+    Examples
+    --------
+    >>> from trainctl.models import crh2_half, equilibrium
+    >>> from trainctl.controllers.potentials import QuadraticPotential
+    >>> train = crh2_half()
+    >>> law = PotentialLaw(mass=train.mass, pinning=np.zeros(4), speed_gain=0.5,
+    ...                    consensus=np.zeros((4, 4)), potential=QuadraticPotential(0.5))
+    >>> ctl = PotentialController(train, law, dt=0.01)
+    >>> eq = equilibrium(train, 80.0)
+    >>> ref = ReferencePreview(times=np.zeros(1), speed=np.full(1, 80.0),
+    ...                        acceleration=np.zeros(1))
+    >>> rec = ctl.step(0.0, Measurement(state=eq.state(position=0.0)), ref)
+    >>> bool(np.allclose(rec.inputs, eq.inputs)), rec.status
+    (True, 'optimal')
+    """
+
+    preview_steps = 1
+    needs_full_state = True
+
+    def __init__(self, train: Train, law: PotentialLaw, *, dt: float,
+                 input_bounds: bool = True, name: str = "consensus") -> None:
+        if not dt > 0:
+            raise ModelError(f"PotentialController: 'dt' must be > 0 s (got {dt!r}).")
+        if law.n != train.n_vehicles:
+            raise ModelError(f"PotentialController: the law is for {law.n} cars, the train has "
+                             f"{train.n_vehicles}.")
+        self.train, self.law, self.dt = train, law, float(dt)
+        self.input_bounds, self.name = bool(input_bounds), name
+        self._split = ForceSplit(train, where=name)
+        self._envelope = EnvelopeBounds(train, enabled=self.input_bounds)
+        self._last: tuple[float, float, float] | None = None  # (t, v_r(t), x̄_0(t))
+
+    def reset(self) -> None:
+        """Forget the integrated reference position (the next step restarts it)."""
+        self._last = None
+
+    def reference_position(self, t: float, speed: float, head: float) -> float:
+        """x̄_0(t) [m]: the head's position at the first step, then the trapezoid of v_r.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        speed : float
+            v_r(t) [m/s].
+        head : float
+            The head's measured position [m] (used at the first step only).
+
+        Returns
+        -------
+        float
+            The head's reference position [m].
+        """
+        if self._last is None:
+            x_ref = head
+        else:
+            t0, v0, x0 = self._last
+            x_ref = x0 + 0.5 * (v0 + speed) * (t - t0)
+        self._last = (t, speed, x_ref)
+        return x_ref
+
+    def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
+        """Feedforward plus the four terms, clipped to the envelope."""
+        start = time.perf_counter()
+        if measurement.state is None:
+            raise ModelError(f"{self.name}: needs full-state measurement (got state=None).")
+        n = self.train.n_vehicles
+        speed, accel = float(reference.speed[0]), float(reference.acceleration[0])
+        ff = self._split([max(speed, 0.1)], [accel])
+        x = np.asarray(measurement.state, dtype=float)
+        z = x[n:2 * n - 1] - ff.elongations[0]
+        head = x[2 * n - 1] - self.reference_position(t, speed, float(x[2 * n - 1]))
+        x_err = head - np.concatenate([[0.0], np.cumsum(z)])
+        inputs = ff.inputs[0] + self.law.force(x[:n] - speed, z, x_err)
+        if not np.all(np.isfinite(inputs)):
+            return StepRecord(inputs=np.asarray(ff.inputs[0], dtype=float), status="error",
+                              solve_time=time.perf_counter() - start,
+                              fallback="feedforward",
+                              info={"reason": "a spacing deviation left the potential's "
+                                    f"domain (max |z| = {float(np.max(np.abs(z))):.4g} m)"})
+        saturated = 0
+        if self.input_bounds:
+            low, high = self._envelope.at(x[:n])
+            clipped = np.clip(inputs, low, high)
+            saturated = int(np.count_nonzero(clipped != inputs))
+            inputs = clipped
+        return StepRecord(inputs=inputs, status="optimal", iterations=0,
+                          solve_time=time.perf_counter() - start,
+                          info={"saturated": saturated})

@@ -1,0 +1,274 @@
+# The potential family as a registry entry: Zhao & Wang's consensus law with a pair potential.
+"""The potential family object (:data:`FAMILY`), see :mod:`trainctl.controllers.registry`.
+
+One strategy, ``"consensus"``: Zhao & Wang's (CCDC 2017) four-term law
+(:mod:`trainctl.controllers.potential.law`) sampled at the family's
+``control_interval``, about the cruise feedforward, clipped to the envelope.
+Its linear closed loop is continuous (dt = 0): :meth:`PotentialFamily.closed_loop`
+returns it with the inputs ``w[i]`` (specific-force disturbances [m/s²])
+and the outputs ``v[i]`` [m/s], ``f[i]`` [kN] and ``d[i]`` [m] (spacing
+deviations); generic analyses that need a discrete loop sample it
+(:func:`trainctl.analysis.loops.as_discrete`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from functools import cached_property
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+from ...exceptions import ScenarioError
+
+if TYPE_CHECKING:
+    import control as ct
+
+    from ...analysis.review import Check
+    from ...design import DesignModel
+    from ...report.figures import ReportFigure
+    from ...scenario import Scenario
+    from .controller import PotentialController
+    from .law import PotentialLaw
+
+__all__ = ["CHECK_NAMES", "FAMILY", "STRATEGIES", "PotentialDesign", "PotentialFamily",
+           "design_potential"]
+
+STRATEGIES = ("consensus",)
+"""The potential family's one strategy."""
+
+CHECK_NAMES = ("potential_closed_loop", "potential_lyapunov", "potential_spacing_bound",
+               "potential_sampling", "potential_linearisation")
+"""The potential family's design checks (:mod:`trainctl.controllers.potential.checks`)."""
+
+Array = NDArray[np.float64]
+
+PARTIAL = """\
+<p>Zhao &amp; Wang's four-term law (position pinning, speed feedback, velocity consensus over
+the communication graph, gradient of the {{ data.potential }} pair potential between coupled
+cars) about the cruise feedforward, sampled every {{ data.control_interval }} s{% if not
+data.input_bounds %} (no saturation){% endif %}.</p>
+<table class="quantities">
+  <thead><tr><th scope="col">Quantity</th><th scope="col">Value</th></tr></thead>
+  <tbody>
+{% for row in data.rows %}
+    <tr><td>{{ row.name }}</td><td class="num">{{ row.value }}</td></tr>
+{% endfor %}
+  </tbody>
+</table>
+"""
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class PotentialDesign:
+    """The potential family's design of one scenario.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    model : DesignModel
+        The run's design model.
+    settings : PotentialSettings
+        The family's settings.
+    law : PotentialLaw
+        The law's SI gains and pair potential.
+    control_interval : float
+        T_c [s].
+    A_open, B_open : ndarray
+        Continuous open loop on ξ = [v̂ (n), z (n-1), p] [1/s], inputs û [N].
+    A_cl : ndarray
+        Continuous linear closed loop [1/s], (2n, 2n).
+    initial_errors : ndarray
+        ξ(0) of the scenario's ``[simulation]`` (zeros without one).
+    """
+
+    scenario: Scenario
+    model: DesignModel
+    settings: Any
+    law: PotentialLaw
+    control_interval: float
+    A_open: Array
+    B_open: Array
+    A_cl: Array
+    initial_errors: Array
+
+    @property
+    def pinned(self) -> bool:
+        """True when some car is pinned to its reference position (position_gain > 0)."""
+        return bool(np.any(self.law.pinning > 0))
+
+    def sampled_matrix(self, interval: float | None = None) -> Array:
+        """The closed loop with the law held over each interval (exact ZOH of the plant).
+
+        Parameters
+        ----------
+        interval : float or None
+            T [s]; None: :attr:`control_interval`.
+
+        Returns
+        -------
+        ndarray
+            Φ + Γ F, (2n, 2n) [-].
+        """
+        T = self.control_interval if interval is None else float(interval)
+        N, m = self.B_open.shape
+        block = np.zeros((N + m, N + m))
+        block[:N, :N], block[:N, N:] = self.A_open, self.B_open
+        E = scipy.linalg.expm(block * T)
+        return np.asarray(E[:N, :N] + E[:N, N:] @ self.law.feedback(), dtype=float)
+
+    @cached_property
+    def certificate(self) -> tuple[str, Array] | None:
+        """("closed_form" or "lmi", P) on [v̂, z, p], or on [v̂, z] when unpinned; None if none."""
+        from .checks import closed_form_certificate, lyapunov_lmi
+
+        keep = self.A_cl.shape[0] - (0 if self.pinned else 1)
+        P = closed_form_certificate(self)
+        if P is not None:
+            return "closed_form", P[:keep, :keep]
+        P = lyapunov_lmi(self.A_cl[:keep, :keep])
+        return None if P is None else ("lmi", P)
+
+
+def initial_errors(scenario: Scenario) -> Array:
+    """ξ(0) = [v̂(0), z(0), 0] from ``[simulation]`` (zeros without one)."""
+    n = scenario.train.n_vehicles
+    xi = np.zeros(2 * n)
+    sim = scenario.simulation
+    if sim is not None:
+        speeds = getattr(sim, "initial_speed_errors", None)
+        spacings = getattr(sim, "initial_spacing_errors", None)
+        xi[:n] = sim.initial_speed_error + (np.zeros(n) if speeds is None else np.asarray(speeds))
+        if spacings is not None:
+            xi[n:2 * n - 1] = spacings
+    return xi
+
+
+def design_potential(scenario: Scenario, model: DesignModel, settings: Any) -> PotentialDesign:
+    """The law's gains and its linear closed loop.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (train, ``[communication]`` graph, ``[simulation]``).
+    model : DesignModel
+        Its design model.
+    settings : PotentialSettings
+        The family's settings.
+
+    Returns
+    -------
+    PotentialDesign
+        The design.
+
+    Raises
+    ------
+    ScenarioError
+        If the simulation's duration is not a whole multiple of the control
+        interval, or the train cannot carry the law (:func:`~.law.law_of`).
+
+    Examples
+    --------
+    >>> from trainctl.controllers.potential.settings import PotentialSettings
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc-well-sampled")
+    >>> d = design_potential(scenario, build_model(scenario), PotentialSettings())
+    >>> d.A_cl.shape, d.control_interval
+    ((8, 8), 0.05)
+    """
+    from .law import closed_loop_matrices, law_of
+
+    T = float(settings.control_interval or model.settings.sample_time)
+    sim = scenario.simulation
+    if sim is not None:
+        steps = round(sim.duration / T)
+        if steps < 1 or abs(steps * T - sim.duration) > 1e-9 * sim.duration:
+            raise ScenarioError(
+                f"{scenario.source}: [simulation] duration = {sim.duration!r} s must be a whole "
+                f"multiple of the potential family's control_interval = {T!r} s (got "
+                f"{sim.duration / T:.6g} intervals).")
+    law = law_of(scenario, settings)
+    A, B, A_cl = closed_loop_matrices(model, law)
+    return PotentialDesign(scenario=scenario, model=model, settings=settings, law=law,
+                           control_interval=T, A_open=A, B_open=B, A_cl=A_cl,
+                           initial_errors=initial_errors(scenario))
+
+
+class PotentialFamily:
+    """Zhao & Wang's potential-function consensus law (seed 001)."""
+
+    name = "potential"
+    title = "Potential-function consensus"
+    strategies = STRATEGIES
+    check_names = CHECK_NAMES
+    strategy_cost: Mapping[str, float] = {"consensus": 0.2}
+    report_partial = PARTIAL
+
+    @property
+    def settings(self) -> type[Any]:
+        """The schema of the family's ``[controller]`` table."""
+        from .settings import PotentialSettings
+
+        return PotentialSettings
+
+    def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> PotentialDesign:
+        """See :func:`design_potential`."""
+        return design_potential(scenario, model, settings)
+
+    def make(self, design: PotentialDesign, strategy: str) -> PotentialController:
+        """The controller: the law sampled every ``control_interval``."""
+        from .controller import PotentialController
+
+        return PotentialController(design.scenario.train, design.law,
+                                   dt=design.control_interval,
+                                   input_bounds=design.settings.input_bounds, name=strategy)
+
+    def checks(self, design: PotentialDesign) -> list[Check]:
+        """The five checks of :mod:`trainctl.controllers.potential.checks`."""
+        from .checks import potential_checks
+
+        return potential_checks(design)
+
+    def closed_loop(self, design: PotentialDesign, strategy: str) -> ct.StateSpace:
+        """ξ̇ = A_cl ξ + B_w w (continuous); outputs v [m/s], f [kN], d [m]."""
+        import control as ct
+
+        model, n = design.model, design.law.n
+        N = design.A_cl.shape[0]
+        forces = np.hstack([model.force_rows(), np.zeros((n - 1, 1))]) / 1e3
+        C = np.vstack([np.eye(n, N), forces, np.eye(n - 1, N, n)])
+        outputs = ([f"v[{i}]" for i in range(n)] + [f"f[{i}]" for i in range(n - 1)]
+                   + [f"d[{i}]" for i in range(n - 1)])
+        return ct.ss(design.A_cl, design.B_open * design.law.mass[None, :], C, 0,
+                     states=design.scenario.train.state_labels() + ["p"],
+                     inputs=[f"w[{i}]" for i in range(n)], outputs=outputs,
+                     name=f"potential_{strategy}")
+
+    def report_data(self, design: PotentialDesign) -> dict[str, Any]:
+        """Gains and the closed-loop spectrum sampled at the model's sample time, JSON-safe."""
+        lam = np.linalg.eigvals(design.A_cl).astype(complex)
+        z = np.exp(lam * design.model.settings.sample_time)
+        s, law = design.settings, design.law
+        rows = [("Pair potential", s.potential), ("κ [1/s²]", f"{s.kappa:g}"),
+                ("Pinning stiffness, largest [kN/m]", f"{float(np.max(law.pinning)) / 1e3:.4g}"),
+                ("Speed gain [1/s]", f"{s.speed_gain:g}"),
+                ("Consensus gain [1/s]", f"{s.consensus_gain:g}"),
+                ("Slowest mode, max Re λ [1/s]", f"{float(np.max(lam.real)):.4g}"),
+                ("Fastest mode, max |λ| [rad/s]", f"{float(np.max(np.abs(lam))):.4g}")]
+        return {"spectra": {"potential consensus": [[float(x.real), float(x.imag)] for x in z]},
+                "rows": [{"name": a, "value": b} for a, b in rows],
+                "potential": s.potential, "control_interval": f"{design.control_interval:g}",
+                "input_bounds": bool(s.input_bounds)}
+
+    def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
+        """No figures of its own: its spectrum joins the eigenvalue map."""
+        return []
+
+
+FAMILY = PotentialFamily()
+"""The registry entry of the potential family."""

@@ -1,0 +1,238 @@
+# Zhao & Wang's four-term law: its gains, its pair potential and its linear closed loop.
+"""The law of seed 001 (spec §2.2) and its linearised closed loop.
+
+For car i (head i = 0 here, 0-based), with the error variables
+x̂_i = x_i − x̄_i (x̄_i(t) = x̄_0(t) − Σ_{k<i} l_k, l_k the equilibrium centre
+distance of coupler k), v̂_i = v_i − v_r and the spacing deviations
+z_k = δ_k − δ̄_k (δ̄ the quasi-static elongations of the feedforward), the
+force [N] is
+
+    u_i = ū_i − K_i x̂_i − m_i d_v v̂_i + m_i Σ_j c a_ij (v_j − v_i)
+          − m_i Σ_{k adjacent} ∂U(z_k)/∂x_i,
+
+ū the cruise feedforward (:class:`~trainctl.models.feedforward.ForceSplit`),
+K_i = k · d_d · p_i the pinning stiffness [N/m] (k the mean coupler
+stiffness, d_d ``position_gain``, p_i the ``[communication]`` pinning
+weight), d_v ``speed_gain`` [1/s], c ``consensus_gain`` [1/s] and a_ij the
+``[communication]`` adjacency. Since z_k = x̂_k − x̂_{k+1},
+∂U(z_k)/∂x_k = U'(z_k) and ∂U(z_k)/∂x_{k+1} = −U'(z_k): a stretched
+coupler pulls the front car back and the rear car forward.
+
+The linear closed loop acts on ξ = [v̂ (n) [m/s], z (n−1) [m], p [m]] with
+p = x̂_0 the head's position error (the plant's states are elongations, so
+the absolute position needs this one integrator): x̂ = 1·p − S z with
+S[i, k] = 1 for k < i. Linearising U' at 0 (U''(0) = κ, every potential's
+``curvature()``) gives û = F ξ with
+
+    F_v = −M (d_v I + c L_a),  F_z = −κ M E + K S,  F_p = −K 1,
+
+E the (n × n−1) incidence matrix (E[k, k] = 1, E[k+1, k] = −1), L_a the
+Laplacian of a, K = diag(K_i). The open loop is the design model's
+continuous SI model (couplers, damping, resistance and unequal masses as
+everywhere else) with ṗ = v̂_0.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...exceptions import ScenarioError
+
+if TYPE_CHECKING:
+    from ...design import DesignModel
+    from ...models.train import Train
+    from ...scenario import Scenario
+    from ..potentials import PairPotential
+
+__all__ = ["PotentialLaw", "closed_loop_matrices", "law_of", "make_potential"]
+
+Array = NDArray[np.float64]
+
+
+def make_potential(settings: Any, train: Train) -> PairPotential:
+    """The pair potential the settings name, with curvature κ at z = 0.
+
+    ``"quadratic"``: U = κz²/2. ``"barrier"``: U = (κΔ²/2) ln(Δ²/(Δ² − z²)).
+    ``"sigma"``: Olfati-Saber's ψ_α on the centre distance, desired distance
+    and length scale the mean nominal spacing l [m], its force scale chosen
+    so that the curvature at z = 0 is κ.
+
+    Parameters
+    ----------
+    settings : PotentialSettings
+        ``potential``, ``kappa`` [1/s²], ``barrier`` [m].
+    train : Train
+        The train (nominal spacings, for ``"sigma"``).
+
+    Returns
+    -------
+    PairPotential
+        Per unit mass, on the spacing deviation z [m].
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> from trainctl.models import crh2_half
+    >>> s = SimpleNamespace(potential="sigma", kappa=0.5, barrier=None)
+    >>> round(make_potential(s, crh2_half()).curvature(), 12)
+    0.5
+    """
+    from ..potentials import (
+        BarrierPotential,
+        FlockingPotential,
+        QuadraticPotential,
+        SigmaNormPotential,
+    )
+
+    kappa = float(settings.kappa)
+    if settings.potential == "barrier":
+        return BarrierPotential.with_stiffness(kappa, float(settings.barrier))
+    if settings.potential == "sigma":
+        spacing = float(np.mean(train.spacing))
+        unit = FlockingPotential(desired_gap=spacing, length_scale=spacing, force_scale=1.0)
+        return SigmaNormPotential(FlockingPotential(
+            desired_gap=spacing, length_scale=spacing, force_scale=kappa / unit.stiffness()))
+    return QuadraticPotential(kappa)
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class PotentialLaw:
+    """The gains of the law (module docstring), SI.
+
+    Parameters
+    ----------
+    mass : ndarray
+        m_i [kg], shape (n,).
+    pinning : ndarray
+        K_i [N/m], shape (n,).
+    speed_gain : float
+        d_v [1/s].
+    consensus : ndarray
+        c·a_ij [1/s], shape (n, n), zero diagonal.
+    potential : PairPotential
+        U on the spacing deviation [m²/s² per unit mass].
+    """
+
+    mass: Array
+    pinning: Array
+    speed_gain: float
+    consensus: Array
+    potential: PairPotential
+
+    @property
+    def n(self) -> int:
+        """Number of cars."""
+        return int(self.mass.size)
+
+    def consensus_laplacian(self) -> Array:
+        """c·L_a [1/s], (n, n): ``L @ v`` is Σ_j c a_ij (v_i − v_j)."""
+        return np.diag(self.consensus.sum(axis=1)) - self.consensus
+
+    def feedback(self) -> Array:
+        """F [N per unit of ξ], (n, 2n): û = F ξ for ξ = [v̂, z, p] (module docstring)."""
+        n, m = self.n, self.mass
+        E, S = incidence(n), cumulative(n)
+        Fv = -m[:, None] * (self.speed_gain * np.eye(n) + self.consensus_laplacian())
+        Fz = -self.potential.curvature() * m[:, None] * E + self.pinning[:, None] * S
+        return np.hstack([Fv, Fz, -self.pinning[:, None]])
+
+    def force(self, v_err: Array, z: Array, x_err: Array) -> Array:
+        """The feedback û [N] of the nonlinear law (no feedforward, no saturation).
+
+        Parameters
+        ----------
+        v_err : ndarray
+            v̂ [m/s], shape (n,).
+        z : ndarray
+            Spacing deviations [m], shape (n-1,).
+        x_err : ndarray
+            Position errors x̂ [m], shape (n,).
+
+        Returns
+        -------
+        ndarray
+            û [N], shape (n,); NaN where the potential is undefined (a barrier crossed).
+        """
+        grad = np.asarray(self.potential.gradient(np.asarray(z, dtype=float)), dtype=float)
+        damping = self.speed_gain * v_err + self.consensus_laplacian() @ v_err
+        return -self.pinning * x_err - self.mass * (damping + incidence(self.n) @ grad)
+
+
+def incidence(n: int) -> Array:
+    """E (n × n−1): E[k, k] = 1 (front car of coupler k), E[k+1, k] = −1 (rear car)."""
+    E = np.zeros((n, max(n - 1, 0)))
+    k = np.arange(n - 1)
+    E[k, k], E[k + 1, k] = 1.0, -1.0
+    return E
+
+
+def cumulative(n: int) -> Array:
+    """S (n × n−1): S[i, k] = 1 for k < i, so that x̂ = 1·p − S z."""
+    return np.tril(np.ones((n, max(n - 1, 0))), -1)
+
+
+def law_of(scenario: Scenario, settings: Any) -> PotentialLaw:
+    """The law's gains for a scenario (its train and ``[communication]`` graph).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    settings : PotentialSettings
+        The family's settings.
+
+    Returns
+    -------
+    PotentialLaw
+        SI gains.
+
+    Raises
+    ------
+    ScenarioError
+        If the train has fewer than 2 cars or no physical coupler (k is the
+        mean stiffness of the physical couplers).
+    """
+    train = scenario.train
+    physical = train.stiffness[~train.virtual] if train.n_couplers else np.zeros(0)
+    if physical.size == 0 or not np.all(physical > 0):
+        raise ScenarioError(
+            f"{scenario.source}: the potential family needs a train of at least 2 cars joined "
+            f"by physical couplers with stiffness > 0 (got {train.n_vehicles} car(s), "
+            f"stiffnesses {train.stiffness.tolist()} N/m): its pinning stiffness is "
+            "position_gain times the coupler stiffness.")
+    graph = scenario.graph()
+    return PotentialLaw(
+        mass=np.asarray(train.mass, dtype=float),
+        pinning=float(np.mean(physical)) * settings.position_gain * np.asarray(graph.pinning),
+        speed_gain=float(settings.speed_gain),
+        consensus=settings.consensus_gain * np.asarray(graph.adjacency, dtype=float),
+        potential=make_potential(settings, train))
+
+
+def closed_loop_matrices(model: DesignModel, law: PotentialLaw) -> tuple[Array, Array, Array]:
+    """Continuous open loop with the head-position integrator, and the closed loop.
+
+    Parameters
+    ----------
+    model : DesignModel
+        The run's design model (its continuous SI model, no dummy state).
+    law : PotentialLaw
+        The gains.
+
+    Returns
+    -------
+    (A_open, B_open, A_cl) : ndarray
+        ξ̇ = A_open ξ + B_open û (û [N]) on ξ = [v̂, z, p], shapes (2n, 2n) and
+        (2n, n); A_cl = A_open + B_open F [1/s].
+    """
+    sys = model.observer_model()
+    nx, n = int(sys.nstates), model.n_vehicles
+    A = np.zeros((nx + 1, nx + 1))
+    A[:nx, :nx] = np.asarray(sys.A, dtype=float)
+    A[nx, 0] = 1.0
+    B = np.vstack([np.asarray(sys.B, dtype=float), np.zeros((1, n))])
+    return A, B, A + B @ law.feedback()
