@@ -1,4 +1,4 @@
-# The flocking controller: Olfati-Saber's law sampled at its control interval, clipped to the envelope.
+# The flocking controller: Olfati-Saber's law sampled at its control interval, clipped.
 """The flocking controller: u = ū(v_r, a_r) + m·a(v̂, z, x̂), clipped to the envelope.
 
 The law (:mod:`trainctl.controllers.flocking.law`) is continuous in time; the

@@ -73,7 +73,7 @@ class FlockingSettings:
     >>> FlockingSettings(bump_h=1.0)
     Traceback (most recent call last):
     ...
-    trainctl.exceptions.ModelError: FlockingSettings: 'bump_h' must be < 1 (got 1.0). With h = 1 (the patent's value) the bump rho_h is the discontinuous indicator of [0, 1): the adjacency jumps from 1 to 0 at the interaction range, which makes the closed loop non-Lipschitz (spec §5 item 11). Use 0 < h < 1 (Olfati-Saber uses h = 0.2).
+    trainctl.exceptions.ModelError: FlockingSettings: 'bump_h' must be < 1 (got 1.0). With h = 1 ...
     """
 
     family: ClassVar[str] = "flocking"

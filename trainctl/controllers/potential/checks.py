@@ -177,7 +177,8 @@ def lyapunov_lmi(A: Array, margin: float = LMI_MARGIN) -> Array | None:
     N = A.shape[0]
     P = cp.Variable((N, N), symmetric=True)
     lhs = At.T @ P + P @ At
-    problem = cp.Problem(cp.Minimize(0), [P >> np.eye(N), 0.5 * (lhs + lhs.T) << -margin * np.eye(N)])
+    problem = cp.Problem(cp.Minimize(0),
+                         [P >> np.eye(N), 0.5 * (lhs + lhs.T) << -margin * np.eye(N)])
     try:
         problem.solve(solver=cp.CLARABEL)
     except cp.error.SolverError:
