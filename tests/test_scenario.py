@@ -178,14 +178,16 @@ class TestBuiltins:
         assert (ctl.iterations, ctl.input_weight) == (10, 10.0)
 
     def test_crh2_potential_formation(self) -> None:
-        """crh2-potential is the 8-car CRH2C-type T-M-M-M-M-M-M-T train at 0.01 s."""
+        """crh2-potential: the 8-car CRH2C-type T-M-M-M-M-M-M-T train, baselines at 0.05 s,
+        the potential law sampled at 0.002 s."""
         scenario = load_scenario("crh2-potential")
         assert [v.name for v in scenario.train.vehicles] == list("TMMMMMMT")
         assert scenario.train.mass.tolist() == [
             42800.0, 48000.0, 46500.0, 42000.0, 42000.0, 46500.0, 48000.0, 42800.0,
         ]  # fmt: skip
         assert scenario.train.davis[:, 0].tolist() == [0.01176, 0.00077616, 1.6e-5]
-        assert scenario.model.sample_time == 0.01
+        assert scenario.model.sample_time == 0.05
+        assert scenario.controllers["potential"].control_interval == 0.002
 
     def test_heavy_haul_flocking_virtual_links(self) -> None:
         """heavy-haul-flocking has 4 unit trains joined by virtual links 500 m apart."""

@@ -177,8 +177,8 @@ def lyapunov_lmi(A: Array, margin: float = LMI_MARGIN) -> Array | None:
     N = A.shape[0]
     P = cp.Variable((N, N), symmetric=True)
     lhs = At.T @ P + P @ At
-    problem = cp.Problem(cp.Minimize(0),
-                         [P >> np.eye(N), 0.5 * (lhs + lhs.T) << -margin * np.eye(N)])
+    cons = [P >> np.eye(N), 0.5 * (lhs + lhs.T) << -margin * np.eye(N)]
+    problem = cp.Problem(cp.Minimize(0), cons)
     try:
         problem.solve(solver=cp.CLARABEL)
     except cp.error.SolverError:
@@ -270,8 +270,9 @@ def bound_lmi(A: Array, xi0: Array, rows: Array) -> Array | None:
     --------
     >>> A = np.array([[0.0, 1.0], [-1.0, -0.1]])   # x'' + 0.1 x' + x = 0, energy ≤ E(0)
     >>> P = bound_lmi(A, np.array([0.0, 1.0]), np.array([[1.0, 0.0]]))
-    >>> round(float(spacing_bound(P, np.array([0.0, 1.0]), np.array([[1.0, 0.0]]))[0]), 3)
-    1.0
+    >>> b = float(spacing_bound(P, np.array([0.0, 1.0]), np.array([[1.0, 0.0]]))[0])
+    >>> 0.924 < b < 1.0  # true peak e^(-0.05·π/2) ≈ 0.924; the energy bound is 1
+    True
     """
     import cvxpy as cp
 

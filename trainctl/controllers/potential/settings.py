@@ -80,7 +80,7 @@ class PotentialSettings:
         "Curvature of the pair potential at zero deviation (virtual spring per unit mass)",
         file="kappa_per_s2", unit="1/s²")] = 0.5
     barrier: Annotated[Annotated[float, Number(gt=0)] | None, Key(
-        "Half-width of the barrier potential's admissible band; only with potential = "
+        "Half-width of the barrier potential's admissible band; only with pair_potential = "
         "'barrier'", file="barrier_m", unit="m", omitted="no barrier")] = None
     position_gain: Annotated[float, Number(ge=0), Key(
         "Position pinning d_d: virtual stiffness to the reference position in units of the "
