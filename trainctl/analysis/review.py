@@ -92,7 +92,9 @@ def review_design(scenario: Scenario, design: Design | None = None) -> DesignRev
 
     if design is None:
         design = build_design(scenario)
-    checks = model_checks(design.model) + scenario_checks(scenario)
+    primary = next(iter(design.families), None)
+    gaps = primary is not None and bool(getattr(get_family(primary), "measures_gaps", False))
+    checks = model_checks(design.model, measured_gaps=gaps) + scenario_checks(scenario)
     for name, family_design in design.families.items():
         checks += get_family(name).checks(family_design)
     string = string_stability_check(design)
@@ -101,13 +103,17 @@ def review_design(scenario: Scenario, design: Design | None = None) -> DesignRev
     return DesignReview(scenario_name=scenario.name, checks=tuple(checks))
 
 
-def model_checks(model: DesignModel) -> list[Check]:
+def model_checks(model: DesignModel, *, measured_gaps: bool = False) -> list[Check]:
     """The checks of the linear model: stability, rank tests, sampling.
 
     Parameters
     ----------
     model : DesignModel
         The run's design model.
+    measured_gaps : bool
+        The primary controller measures the gaps of the virtual links (a
+        family with ``measures_gaps = True``, e.g. flocking): observability
+        is judged with the virtual links' gap deviations added to the outputs.
 
     Returns
     -------
@@ -120,7 +126,7 @@ def model_checks(model: DesignModel) -> list[Check]:
     checks = [_stability_check(stab)]
     sys = model.select(model.design)
     ctrb = analyse_controllability(sys)
-    obsv = analyse_observability(sys)
+    obsv = analyse_observability(_with_gaps(sys, model) if measured_gaps else sys)
     checks.append(_rank_check("controllability", ctrb, extra=_local_controllability(model)))
     checks.append(_rank_check("observability", obsv, virtual=bool(np.any(train.virtual))))
     samp = analyse_sampling(sys, cfg.sample_time, n_vehicles=n, method=cfg.discretisation,
@@ -128,6 +134,16 @@ def model_checks(model: DesignModel) -> list[Check]:
     checks.append(_sampling_check(samp))
     checks.append(_collapse_check(samp))
     return checks
+
+
+def _with_gaps(sys: ct.StateSpace, model: DesignModel) -> ct.StateSpace:
+    """``sys`` with the virtual links' elongations (gap deviations [m]) as extra outputs."""
+    n, virtual = model.n_vehicles, np.flatnonzero(model.train.virtual)
+    rows = np.zeros((virtual.size, int(sys.nstates)))
+    rows[np.arange(virtual.size), n + virtual] = 1.0
+    return ct.ss(sys.A, sys.B, np.vstack([np.asarray(sys.C), rows]),
+                 np.vstack([np.asarray(sys.D), np.zeros((virtual.size, int(sys.ninputs)))]),
+                 sys.dt)
 
 
 def scenario_checks(scenario: Scenario) -> list[Check]:

@@ -68,6 +68,7 @@ FAMILY_MODULES: Mapping[str, str] = {
     "mpc": "trainctl.controllers.mpc",
     "lqr": "trainctl.controllers.lqr",
     "potential": "trainctl.controllers.potential",
+    "flocking": "trainctl.controllers.flocking",
 }
 """The built-in families: name -> module exposing ``FAMILY`` (imported on first use)."""
 

@@ -274,7 +274,7 @@ class Scenario:
             if self.controller is None:
                 _fail("'simulation' needs a controller (got none).")
             self.simulation.n_steps(self.model.sample_time)
-            self.simulation.check_vehicles(n)
+            self.simulation.check_vehicles(n, virtual=self.train.virtual.tolist())
             self.simulation.check_strategies(strategy_names(families))
 
     def graph(self) -> CommunicationGraph:

@@ -10,6 +10,7 @@ checked by the same declarations and validators.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Annotated, Any, ClassVar
 
 from pydantic import TypeAdapter, ValidationError, ValidationInfo, model_validator
@@ -103,8 +104,10 @@ _STRATEGY_LIST: TypeAdapter[tuple[str, ...]] = TypeAdapter(
 )
 _SAMPLE_TIME: TypeAdapter[float] = TypeAdapter(Annotated[float, SAMPLE_TIME])
 _TIMES = Array(Number(ge=0))
-_SPACING_ERROR = Number(ge=-10.0, le=10.0, why="a coupler is not stretched or compressed by "
-                        "more than 10 m")
+_SPACING_ERROR = Number(ge=-5000.0, le=5000.0, why="a virtual link's gap is not off by more "
+                        "than 5 km (a physical coupler's elongation by more than 10 m: "
+                        "check_vehicles)")
+_PHYSICAL_SPACING_ERROR = 10.0  # [m] largest |initial elongation offset| of a physical coupler
 _SPEEDS = Array(SPEED_POINTS)
 
 
@@ -349,19 +352,24 @@ class SimulationSettings:
                 raise python_error("SimulationSettings", exc) from None
         return steps
 
-    def check_vehicles(self, n: int) -> None:
+    def check_vehicles(self, n: int, virtual: Sequence[bool] | None = None) -> None:
         """Check the per-vehicle initial errors against a train of ``n`` vehicles.
 
         Parameters
         ----------
         n : int
             Vehicles [-], >= 1.
+        virtual : sequence of bool or None
+            Which links are virtual (n - 1 entries); a physical coupler's
+            ``initial_spacing_errors`` entry must be within ±10 m, a virtual
+            link's (a gap deviation) within ±5 km. None: every link physical.
 
         Raises
         ------
         ModelError
-            If ``initial_speed_errors`` does not have n entries or
-            ``initial_spacing_errors`` does not have n - 1.
+            If ``initial_speed_errors`` does not have n entries,
+            ``initial_spacing_errors`` does not have n - 1, or a physical
+            coupler's entry exceeds 10 m.
 
         Examples
         --------
@@ -377,6 +385,13 @@ class SimulationSettings:
                 raise ModelError(
                     f"SimulationSettings: {key!r} must have {want} entries, one per {what} of "
                     f"the {n}-vehicle train (got {len(given)}).")
+        links = [False] * (n - 1) if virtual is None else list(virtual)
+        for k, error in enumerate(self.initial_spacing_errors or ()):
+            if not links[k] and abs(error) > _PHYSICAL_SPACING_ERROR:
+                raise ModelError(
+                    f"SimulationSettings: 'initial_spacing_errors'[{k}] must be within "
+                    f"±{_PHYSICAL_SPACING_ERROR:g} m for a physical coupler, which is not "
+                    f"stretched or compressed by more than that (got {error!r} m).")
 
     def check_strategies(self, names: tuple[str, ...]) -> None:
         """Check :attr:`strategies` against the strategies a scenario offers.

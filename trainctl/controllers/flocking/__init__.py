@@ -1,0 +1,9 @@
+# The flocking family: Olfati-Saber's algorithm on virtually coupled heavy-haul trains (seed 002).
+"""The flocking controller family (see :mod:`trainctl.controllers.flocking.family`)."""
+
+from __future__ import annotations
+
+from .family import FAMILY as FAMILY
+from .family import STRATEGIES as STRATEGIES
+
+__all__ = ["FAMILY", "STRATEGIES"]

@@ -1,0 +1,265 @@
+# Design checks of the flocking family: parameters, closed loop, collision energy, range, actuators.
+"""The flocking family's design checks (spec §3.4, §5 items 9–11 and 14).
+
+``flocking_parameters``
+    d_α, r_α, ρ_h(d_α/r_α), φ'(0), k_eff and the 90 % saturation band in
+    the details; warn when ρ_h(d_α/r_α) < 0.5: the bump already attenuates
+    the action at the desired gap, so the lattice spring k_eff is softer
+    than φ'(0) suggests.
+``flocking_closed_loop``
+    Spectral abscissa of the continuous linear closed loop. Without the
+    position term (c₁ = 0) the head-position error p is a pure integrator
+    that nothing feeds back: a semisimple zero eigenvalue (rigid
+    translation), reported as warn; a zero eigenvalue in a Jordan block or
+    Re λ > 0 fails.
+``flocking_collision``
+    H(0) = ½ Σ v̂_i² + Σ_k E(s_k) + ½ c₁ Σ x̂_i² [m²/s²] from the scenario's
+    initial errors against the collision barrier E(0) = l·a_s·ψ_α(0)
+    (:meth:`~trainctl.controllers.potentials.FlockingPotential.collision_energy_bound`)
+    and its relative-speed equivalent √(2 E(0)). H does not increase along
+    the unsaturated continuous loop (:mod:`~trainctl.controllers.flocking.law`),
+    so H(0) < E(0) certifies that no gap reaches 0; fail ("uncertified")
+    when H(0) >= E(0).
+``flocking_connectivity``
+    Every gap at t = 0 within the interaction range r (fail otherwise: the
+    pair neither attracts nor exchanges speeds, the formation splits). Along
+    the trajectory: a design check does not see simulation results, so it
+    uses the same energy argument: E is constant (= E(r)) beyond r, so
+    H(0) < E(r) keeps every gap below r for all t; warn when t = 0 passes but
+    H(0) >= E(r). :func:`trajectory_gaps` checks a simulated result.
+``flocking_actuators``
+    Per train, the largest force the law can ask for about the feedforward:
+    m_i (Σ_links max_s |φ(s)| over 0 <= s <= r + consensus c Σ_j g_ij Δv̂(0)
+    + c₂ max|v̂(0)| + c₁ max|x̂(0)|), against its traction and braking limits
+    at the cruise speed minus the feedforward; warn when it exceeds them
+    (the law may saturate, and the collision certificate assumes it does not).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...analysis.check import Check
+from ..potential.law import cumulative
+
+if TYPE_CHECKING:
+    from ...sim import SimulationResult
+    from .family import FlockingDesign
+
+__all__ = ["SOFT_SPRING", "flocking_checks", "initial_energy", "trajectory_gaps"]
+
+Array = NDArray[np.float64]
+
+SOFT_SPRING = 0.5
+"""ρ_h(d_α/r_α) below which the lattice spring is reported as soft (warn)."""
+
+_ZERO = 1e-9  # |λ| below this times max(1, ||A||) is a zero eigenvalue
+
+
+def flocking_checks(design: FlockingDesign) -> list[Check]:
+    """The five checks (module docstring), in ``CHECK_NAMES`` order.
+
+    Parameters
+    ----------
+    design : FlockingDesign
+        The family's design.
+
+    Returns
+    -------
+    list of Check
+        parameters, closed loop, collision, connectivity, actuators.
+    """
+    energy = initial_energy(design)
+    return [parameters_check(design), closed_loop_check(design),
+            collision_check(design, energy), connectivity_check(design, energy),
+            actuators_check(design)]
+
+
+def initial_errors(design: FlockingDesign) -> tuple[Array, Array, Array]:
+    """(v̂(0) [m/s], z(0) [m], x̂(0) [m]) of the scenario; the leader starts at the head."""
+    n = design.law.n
+    xi = design.initial_errors
+    z = xi[n:2 * n - 1]
+    return xi[:n], z, xi[2 * n - 1] - cumulative(n) @ z
+
+
+def initial_energy(design: FlockingDesign) -> float | None:
+    """H(0) [m²/s²] of the scenario's initial errors; None when a gap starts negative."""
+    v, z, x = initial_errors(design)
+    if np.any(design.law.gaps(z) < 0.0):
+        return None
+    return design.law.energy(v, z, x)
+
+
+def parameters_check(design: FlockingDesign) -> Check:
+    """d_α, r_α, ρ_h(d_α/r_α), k_eff; warn when ρ_h(d_α/r_α) < :data:`SOFT_SPRING`."""
+    p = design.law.potential
+    rho = float(p.adjacency(p.desired_gap))
+    k_eff = p.stiffness()
+    phi_slope = k_eff / max(rho, 1e-300) / (p.force_scale / p.length_scale) / float(
+        (p.desired_gap / p.length_scale) / np.sqrt(1 + p.eps * (p.desired_gap / p.length_scale)
+                                                   ** 2)) ** 2
+    details: dict[str, object] = {
+        "d_alpha": p.d_alpha, "r_alpha": p.r_alpha, "rho_h": rho, "phi_slope": phi_slope,
+        "k_eff_per_s2": k_eff, "lattice_period_s": float(2 * np.pi / np.sqrt(k_eff)),
+        "saturation_gap_m": p.saturation_gap(0.9), "desired_gap_m": p.desired_gap,
+        "interaction_range_m": p.r}
+    text = (f"d_α = {p.d_alpha:.4g}, r_α = {p.r_alpha:.4g}, ρ_h(d_α/r_α) = {rho:.3g}, "
+            f"k_eff = {k_eff:.3g} 1/s²")
+    if rho < SOFT_SPRING:
+        return Check(name="flocking_parameters", status="warn", value=rho, threshold=SOFT_SPRING,
+                     unit="", message=f"{text}: the bump already attenuates the action at the "
+                     f"desired gap, so the lattice spring is {1 / rho:.2g}x softer than φ'(0) "
+                     "suggests",
+                     hint="raise bump_h or the interaction range so that d_α/r_α <= h",
+                     details=details)
+    return Check(name="flocking_parameters", status="pass", value=rho, threshold=SOFT_SPRING,
+                 unit="", message=text, details=details)
+
+
+def closed_loop_check(design: FlockingDesign) -> Check:
+    """Hurwitz test; a semisimple zero eigenvalue (c₁ = 0) warns."""
+    A = design.A_cl
+    lam = np.linalg.eigvals(A)
+    tol = _ZERO * max(1.0, float(np.linalg.norm(A, 2)))
+    zero = np.abs(lam) <= tol
+    alpha = float(np.max(lam[~zero].real)) if np.any(~zero) else 0.0
+    details: dict[str, object] = {"spectral_abscissa": alpha, "zero_eigenvalues": int(zero.sum()),
+                                  "eigenvalues": [[float(x.real), float(x.imag)] for x in lam]}
+    name = "flocking_closed_loop"
+    if alpha >= -tol:
+        return Check(name=name, status="fail", value=alpha, threshold=0.0, unit="1/s",
+                     message=f"linearised closed loop unstable: max Re λ = {alpha:.4g} 1/s",
+                     hint="raise speed_gain_per_s or consensus_gain_per_s", details=details)
+    if np.any(zero):
+        if A.shape[0] - np.linalg.matrix_rank(A, tol=tol) != int(zero.sum()):
+            return Check(name=name, status="fail", value=0.0, threshold=0.0, unit="1/s",
+                         message="zero eigenvalue in a Jordan block: the position error grows",
+                         hint="set position_gain_per_s2 > 0", details=details)
+        return Check(name=name, status="warn", value=0.0, threshold=0.0, unit="1/s",
+                     message="semisimple zero eigenvalue (translation of the whole formation, "
+                     "no position term): speeds and gaps converge, a position offset remains; "
+                     f"other modes max Re λ = {alpha:.4g} 1/s",
+                     hint="set position_gain_per_s2 > 0 to track the virtual leader's slots",
+                     details=details)
+    return Check(name=name, status="pass", value=alpha, threshold=0.0, unit="1/s",
+                 message=f"linearised closed loop Hurwitz: spectral abscissa {alpha:.4g} 1/s "
+                 f"(time constant {-1 / alpha:.4g} s)", details=details)
+
+
+def collision_check(design: FlockingDesign, energy: float | None) -> Check:
+    """H(0) against the collision barrier E(0); fail ("uncertified") when H(0) >= E(0)."""
+    bound = design.law.potential.collision_energy_bound()
+    details: dict[str, object] = {"initial_energy_m2_s2": energy, "bound_m2_s2": bound.energy,
+                                  "bound_relative_speed_m_s": bound.relative_speed}
+    name = "flocking_collision"
+    if energy is None:
+        return Check(name=name, status="fail", value=None, threshold=bound.energy,
+                     unit="m²/s²", message="uncertified: a gap is negative at t = 0 (the "
+                     "trains start overlapping)", hint="check initial_spacing_errors",
+                     details=details)
+    speed = float(np.sqrt(2.0 * energy))
+    details["initial_energy_speed_m_s"] = speed
+    text = (f"H(0) = {energy:.4g} m²/s² (≙ {speed:.3g} m/s) against the collision barrier "
+            f"E(0) = {bound.energy:.4g} m²/s² (≙ {bound.relative_speed:.3g} m/s)")
+    if energy >= bound.energy:
+        return Check(name=name, status="fail", value=energy, threshold=bound.energy,
+                     unit="m²/s²", message=f"uncertified: {text}; the energy test cannot "
+                     "exclude a collision", hint="start closer to the formation, or raise "
+                     "force_scale_m_s2 or b (a higher barrier)", details=details)
+    return Check(name=name, status="pass", value=energy, threshold=bound.energy, unit="m²/s²",
+                 message=f"collision-free (unsaturated law): {text}", details=details)
+
+
+def connectivity_check(design: FlockingDesign, energy: float | None) -> Check:
+    """Gaps within the range at t = 0, and along the trajectory by the energy argument."""
+    p = design.law.potential
+    _, z, _ = initial_errors(design)
+    gaps = design.law.gaps(z)
+    widest = float(np.max(gaps))
+    at_range = float(p.energy(p.r))
+    details: dict[str, object] = {"initial_gaps_m": gaps.tolist(), "range_m": p.r,
+                                  "range_energy_m2_s2": at_range, "initial_energy_m2_s2": energy,
+                                  "trajectory": "energy argument (simulations not seen)"}
+    name = "flocking_connectivity"
+    if widest >= p.r:
+        return Check(name=name, status="fail", value=widest, threshold=p.r, unit="m",
+                     message=f"a gap of {widest:.4g} m is at or beyond the interaction range "
+                     f"{p.r:.4g} m at t = 0: that pair does not interact, the formation splits",
+                     hint="raise interaction_range_m or start closer", details=details)
+    if energy is None or energy >= at_range:
+        return Check(name=name, status="warn", value=widest, threshold=p.r, unit="m",
+                     message=f"every gap within the range at t = 0 (widest {widest:.4g} m < "
+                     f"{p.r:.4g} m), but H(0) >= E(r) = {at_range:.4g} m²/s²: a gap may leave "
+                     "the range later (check the simulation)", hint="", details=details)
+    return Check(name=name, status="pass", value=widest, threshold=p.r, unit="m",
+                 message=f"every gap within the range at t = 0 (widest {widest:.4g} m < "
+                 f"{p.r:.4g} m) and for all t: H(0) = {energy:.4g} < E(r) = {at_range:.4g} m²/s²",
+                 details=details)
+
+
+def _pair_peak(design: FlockingDesign) -> float:
+    """max |φ(s)| [m/s²] over 0 <= s <= r (dense grid plus the extremes' neighbourhood)."""
+    p = design.law.potential
+    s = np.linspace(0.0, p.r, 6001)
+    return float(np.max(np.abs(np.asarray(p.acceleration(s)))))
+
+
+def actuators_check(design: FlockingDesign) -> Check:
+    """Largest law force per train against its envelope at the cruise speed."""
+    from ...models.envelope import EnvelopeBounds
+
+    law, model = design.law, design.model
+    n = law.n
+    v, _, x = initial_errors(design)
+    links = np.abs(np.diff(np.eye(n), axis=0)).sum(axis=0)   # 1 at the ends, 2 inside
+    spread = float(np.ptp(v)) if n > 1 else 0.0
+    consensus = law.consensus_gain * np.asarray(law.graph).sum(axis=1) * spread
+    accel = (links * _pair_peak(design) + consensus + law.speed_gain * float(np.max(np.abs(v)))
+             + law.position_gain * float(np.max(np.abs(x))))
+    demand = law.mass * accel
+    feed = np.asarray(model.equilibrium.inputs, dtype=float)
+    low, high = EnvelopeBounds(model.train, enabled=True).at(np.full(n, model.settings.speed))
+    room = np.minimum(high - feed, feed - low)
+    ratio = demand / np.maximum(room, 1e-9)
+    worst = int(np.argmax(ratio))
+    details: dict[str, object] = {"demand_kn": (demand / 1e3).tolist(),
+                                  "room_kn": (room / 1e3).tolist(),
+                                  "pair_peak_m_s2": _pair_peak(design),
+                                  "ratio": ratio.tolist()}
+    text = (f"train {worst}: up to {demand[worst] / 1e3:.4g} kN about the feedforward against "
+            f"{room[worst] / 1e3:.4g} kN of room in its envelope at the cruise speed")
+    if ratio[worst] > 1.0:
+        return Check(name="flocking_actuators", status="warn", value=float(ratio[worst]),
+                     threshold=1.0, unit="", message=f"{text}: the law may saturate (the "
+                     "collision certificate assumes it does not)",
+                     hint="lower force_scale_m_s2, a and b, or the gains", details=details)
+    return Check(name="flocking_actuators", status="pass", value=float(ratio[worst]),
+                 threshold=1.0, unit="", message=text, details=details)
+
+
+def trajectory_gaps(design: FlockingDesign, result: SimulationResult) -> tuple[float, float]:
+    """(smallest, largest) gap [m] along a simulated result of the formation.
+
+    Parameters
+    ----------
+    design : FlockingDesign
+        The family's design (desired gap).
+    result : SimulationResult
+        A simulation of the scenario (states ``[v, delta, s]`` over time; the
+        dense grid when recorded).
+
+    Returns
+    -------
+    (float, float)
+        The extremes of every gap over the recorded states [m]; the
+        formation stayed connected when the largest is below the range.
+    """
+    n = design.law.n
+    dense = result.dense_states
+    states = np.asarray(result.states if dense is None else dense, dtype=float)
+    gaps = design.law.gaps(states[n:2 * n - 1])
+    return float(np.min(gaps)), float(np.max(gaps))

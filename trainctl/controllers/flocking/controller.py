@@ -1,0 +1,137 @@
+# The flocking controller: Olfati-Saber's law sampled at its control interval, clipped.
+"""The flocking controller: u = ū(v_r, a_r) + m·a(v̂, z, x̂), clipped to the envelope.
+
+The law (:mod:`trainctl.controllers.flocking.law`) is continuous in time; the
+simulation calls :meth:`FlockingController.step` every ``dt`` (the family's
+``control_interval``) and holds the force until the next call. The virtual
+leader's position x̄_0(t) starts at the head's measured position at the
+first step after :meth:`~FlockingController.reset` and follows the
+reference speed (trapezoid between steps; exact on each linear piece of the
+reference). Train i's slot is x̄_0 minus the nominal centre distances
+ahead of it, so x̂_i = x̂_0 − Σ_{k<i} z_k.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...exceptions import ModelError
+from ...models.envelope import EnvelopeBounds
+from ...models.feedforward import ForceSplit
+from ...models.train import Train
+from ..base import Measurement, ReferencePreview, StepRecord
+from .law import FlockingLaw
+
+__all__ = ["FlockingController"]
+
+Array = NDArray[np.float64]
+
+
+class FlockingController:
+    """Olfati-Saber's flocking law about the cruise feedforward (module docstring).
+
+    Parameters
+    ----------
+    train : Train
+        The formation: one vehicle per train, virtual links.
+    law : FlockingLaw
+        Gains and pair potential.
+    dt : float
+        Control interval [s], > 0.
+    input_bounds : bool
+        Clip each force to the train's envelope at its measured speed.
+    name : str
+        Label.
+
+    Examples
+    --------
+    >>> from trainctl.scenario import load_scenario
+    >>> from trainctl.controllers.flocking.law import law_of
+    >>> from trainctl.models import equilibrium
+    >>> scenario = load_scenario("heavy-haul-flocking")
+    >>> law = law_of(scenario, scenario.controllers["flocking"])
+    >>> ctl = FlockingController(scenario.train, law, dt=1.0)
+    >>> eq = equilibrium(scenario.train, 22.0)
+    >>> ref = ReferencePreview(times=np.zeros(1), speed=np.full(1, 22.0),
+    ...                        acceleration=np.zeros(1))
+    >>> rec = ctl.step(0.0, Measurement(state=eq.state(position=0.0)), ref)
+    >>> bool(np.allclose(rec.inputs, eq.inputs)), rec.status
+    (True, 'optimal')
+    """
+
+    preview_steps = 1
+    needs_full_state = True
+
+    def __init__(self, train: Train, law: FlockingLaw, *, dt: float,
+                 input_bounds: bool = True, name: str = "flocking") -> None:
+        if not dt > 0:
+            raise ModelError(f"FlockingController: 'dt' must be > 0 s (got {dt!r}).")
+        if law.n != train.n_vehicles:
+            raise ModelError(f"FlockingController: the law is for {law.n} trains, the formation "
+                             f"has {train.n_vehicles}.")
+        self.train, self.law, self.dt = train, law, float(dt)
+        self.input_bounds, self.name = bool(input_bounds), name
+        self._split = ForceSplit(train, where=name)
+        self._envelope = EnvelopeBounds(train, enabled=self.input_bounds)
+        self._last: tuple[float, float, float] | None = None  # (t, v_r(t), x̄_0(t))
+
+    def reset(self) -> None:
+        """Forget the virtual leader's position (the next step restarts it)."""
+        self._last = None
+
+    def leader_position(self, t: float, speed: float, head: float) -> float:
+        """x̄_0(t) [m]: the head's position at the first step, then the trapezoid of v_r.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        speed : float
+            v_r(t) [m/s].
+        head : float
+            The head's measured position [m] (used at the first step only).
+
+        Returns
+        -------
+        float
+            The virtual leader's position [m].
+        """
+        if self._last is None:
+            x_ref = head
+        else:
+            t0, v0, x0 = self._last
+            x_ref = x0 + 0.5 * (v0 + speed) * (t - t0)
+        self._last = (t, speed, x_ref)
+        return x_ref
+
+    def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
+        """Feedforward plus the law, clipped to the envelope."""
+        start = time.perf_counter()
+        if measurement.state is None:
+            raise ModelError(f"{self.name}: needs full-state measurement (got state=None).")
+        n = self.train.n_vehicles
+        speed, accel = float(reference.speed[0]), float(reference.acceleration[0])
+        ff = self._split([max(speed, 0.1)], [accel])
+        x = np.asarray(measurement.state, dtype=float)
+        z = x[n:2 * n - 1]
+        head = x[2 * n - 1] - self.leader_position(t, speed, float(x[2 * n - 1]))
+        x_err = head - np.concatenate([[0.0], np.cumsum(z)])
+        gaps = self.law.gaps(z)
+        if not np.all(np.isfinite(x)) or np.any(gaps < 0.0):
+            return StepRecord(inputs=np.asarray(ff.inputs[0], dtype=float), status="error",
+                              solve_time=time.perf_counter() - start, fallback="feedforward",
+                              info={"reason": "two trains overlap or the state is not finite "
+                                    f"(smallest gap {float(np.min(gaps)):.4g} m)"})
+        inputs = ff.inputs[0] + self.law.force(x[:n] - speed, z, x_err)
+        saturated = 0
+        if self.input_bounds:
+            low, high = self._envelope.at(x[:n])
+            clipped = np.clip(inputs, low, high)
+            saturated = int(np.count_nonzero(clipped != inputs))
+            inputs = clipped
+        return StepRecord(inputs=inputs, status="optimal", iterations=0,
+                          solve_time=time.perf_counter() - start,
+                          info={"saturated": saturated, "min_gap": float(np.min(gaps))})

@@ -1,0 +1,229 @@
+# The flocking family as a registry entry: Olfati-Saber's algorithm for virtually coupled trains.
+"""The flocking family object (:data:`FAMILY`), see :mod:`trainctl.controllers.registry`.
+
+One strategy, ``"flocking"``: Olfati-Saber's (2006) Algorithm 2 on the gaps
+of a virtually coupled formation (:mod:`trainctl.controllers.flocking.law`),
+sampled at the family's ``control_interval``, about the cruise feedforward,
+clipped to the envelope. Its linear closed loop is continuous (dt = 0):
+:meth:`FlockingFamily.closed_loop` returns it with the inputs ``w[i]``
+(specific-force disturbances [m/s²]) and the outputs ``v[i]`` [m/s] and
+``d[i]`` [m] (gap deviations). Virtual links carry no force, so there are
+no ``f[i]`` outputs. Generic analyses sample it
+(:func:`trainctl.analysis.loops.as_discrete`).
+
+The desired gap is the ``[train.coupler] gap`` (the plant measures the gap
+deviation from it); ``desired_gap_m``, when given, must agree.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...exceptions import ScenarioError
+
+if TYPE_CHECKING:
+    import control as ct
+
+    from ...analysis.review import Check
+    from ...design import DesignModel
+    from ...report.figures import ReportFigure
+    from ...scenario import Scenario
+    from .controller import FlockingController
+    from .law import FlockingLaw
+
+__all__ = ["CHECK_NAMES", "FAMILY", "STRATEGIES", "FlockingDesign", "FlockingFamily",
+           "design_flocking"]
+
+STRATEGIES = ("flocking",)
+"""The flocking family's one strategy."""
+
+CHECK_NAMES = ("flocking_parameters", "flocking_closed_loop", "flocking_collision",
+               "flocking_connectivity", "flocking_actuators")
+"""The flocking family's design checks (:mod:`trainctl.controllers.flocking.checks`)."""
+
+Array = NDArray[np.float64]
+
+PARTIAL = """\
+<p>Olfati-Saber's flocking law on the gaps between the trains (pair potential, velocity
+consensus weighted by the communication graph and the bump of the gap, navigation feedback)
+about the cruise feedforward, sampled every {{ data.control_interval }} s{% if not
+data.input_bounds %} (no saturation){% endif %}.</p>
+<table class="quantities">
+  <thead><tr><th scope="col">Quantity</th><th scope="col">Value</th></tr></thead>
+  <tbody>
+{% for row in data.rows %}
+    <tr><td>{{ row.name }}</td><td class="num">{{ row.value }}</td></tr>
+{% endfor %}
+  </tbody>
+</table>
+"""
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class FlockingDesign:
+    """The flocking family's design of one scenario.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    model : DesignModel
+        The run's design model.
+    settings : FlockingSettings
+        The family's settings.
+    law : FlockingLaw
+        The law's SI gains and pair potential.
+    control_interval : float
+        T_c [s].
+    A_open, B_open : ndarray
+        Continuous open loop on ξ = [v̂ (n), z (n-1), p] [1/s], inputs û [N].
+    A_cl : ndarray
+        Continuous linear closed loop [1/s], (2n, 2n).
+    initial_errors : ndarray
+        ξ(0) of the scenario's ``[simulation]`` (zeros without one).
+    """
+
+    scenario: Scenario
+    model: DesignModel
+    settings: Any
+    law: FlockingLaw
+    control_interval: float
+    A_open: Array
+    B_open: Array
+    A_cl: Array
+    initial_errors: Array
+
+
+def design_flocking(scenario: Scenario, model: DesignModel, settings: Any) -> FlockingDesign:
+    """The law and its linear closed loop.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (formation, ``[communication]`` graph, ``[simulation]``).
+    model : DesignModel
+        Its design model.
+    settings : FlockingSettings
+        The family's settings.
+
+    Returns
+    -------
+    FlockingDesign
+        The design.
+
+    Raises
+    ------
+    ScenarioError
+        If the simulation's duration is not a whole multiple of the control
+        interval, or the formation cannot carry the law (:func:`~.law.law_of`).
+
+    Examples
+    --------
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("heavy-haul-flocking")
+    >>> d = design_flocking(scenario, build_model(scenario), scenario.controllers["flocking"])
+    >>> d.A_cl.shape, d.law.potential.desired_gap
+    ((8, 8), 500.0)
+    """
+    from ..potential.family import initial_errors
+    from .law import closed_loop_matrices, law_of
+
+    T = float(settings.control_interval or model.settings.sample_time)
+    sim = scenario.simulation
+    if sim is not None:
+        steps = round(sim.duration / T)
+        if steps < 1 or abs(steps * T - sim.duration) > 1e-9 * sim.duration:
+            raise ScenarioError(
+                f"{scenario.source}: [simulation] duration = {sim.duration!r} s must be a whole "
+                f"multiple of the flocking family's control_interval = {T!r} s (got "
+                f"{sim.duration / T:.6g} intervals).")
+    law = law_of(scenario, settings)
+    A, B, A_cl = closed_loop_matrices(model, law)
+    return FlockingDesign(scenario=scenario, model=model, settings=settings, law=law,
+                          control_interval=T, A_open=A, B_open=B, A_cl=A_cl,
+                          initial_errors=initial_errors(scenario))
+
+
+class FlockingFamily:
+    """Olfati-Saber's flocking law for virtually coupled trains (seed 002)."""
+
+    name = "flocking"
+    title = "Flocking (virtual coupling)"
+    strategies = STRATEGIES
+    check_names = CHECK_NAMES
+    strategy_cost: Mapping[str, float] = {"flocking": 0.2}
+    measures_gaps = True
+    """The law measures the gaps (the model's observability check adds them to the outputs)."""
+    report_partial = PARTIAL
+
+    @property
+    def settings(self) -> type[Any]:
+        """The schema of the family's ``[controller]`` table."""
+        from .settings import FlockingSettings
+
+        return FlockingSettings
+
+    def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> FlockingDesign:
+        """See :func:`design_flocking`."""
+        return design_flocking(scenario, model, settings)
+
+    def make(self, design: FlockingDesign, strategy: str) -> FlockingController:
+        """The controller: the law sampled every ``control_interval``."""
+        from .controller import FlockingController
+
+        return FlockingController(design.scenario.train, design.law, dt=design.control_interval,
+                                  input_bounds=design.settings.input_bounds, name=strategy)
+
+    def checks(self, design: FlockingDesign) -> list[Check]:
+        """The five checks of :mod:`trainctl.controllers.flocking.checks`."""
+        from .checks import flocking_checks
+
+        return flocking_checks(design)
+
+    def closed_loop(self, design: FlockingDesign, strategy: str) -> ct.StateSpace:
+        """ξ̇ = A_cl ξ + B_w w (continuous); outputs v [m/s] and d [m] (no f: virtual links)."""
+        import control as ct
+
+        n = design.law.n
+        N = design.A_cl.shape[0]
+        C = np.vstack([np.eye(n, N), np.eye(n - 1, N, n)])
+        outputs = [f"v[{i}]" for i in range(n)] + [f"d[{i}]" for i in range(n - 1)]
+        return ct.ss(design.A_cl, design.B_open * design.law.mass[None, :], C, 0,
+                     states=design.scenario.train.state_labels() + ["p"],
+                     inputs=[f"w[{i}]" for i in range(n)], outputs=outputs,
+                     name=f"flocking_{strategy}")
+
+    def report_data(self, design: FlockingDesign) -> dict[str, Any]:
+        """Potential parameters and the closed-loop spectrum (sampled), JSON-safe."""
+        lam = np.linalg.eigvals(design.A_cl).astype(complex)
+        z = np.exp(lam * design.model.settings.sample_time)
+        p, law = design.law.potential, design.law
+        bound = p.collision_energy_bound()
+        rows = [("Desired gap d [m]", f"{p.desired_gap:g}"),
+                ("Interaction range r [m]", f"{p.r:g}"),
+                ("d_α, r_α [-]", f"{p.d_alpha:.4g}, {p.r_alpha:.4g}"),
+                ("ρ_h(d_α/r_α) [-]", f"{float(p.adjacency(p.desired_gap)):.3g}"),
+                ("k_eff [1/s²]", f"{p.stiffness():.4g}"),
+                ("Collision barrier E(0) [m²/s²]", f"{bound.energy:.4g}"),
+                ("Barrier as relative speed [m/s]", f"{bound.relative_speed:.4g}"),
+                ("Consensus, position, speed gains", f"{law.consensus_gain:g} 1/s, "
+                 f"{law.position_gain:g} 1/s², {law.speed_gain:g} 1/s"),
+                ("Slowest mode, max Re λ [1/s]", f"{float(np.max(lam.real)):.4g}")]
+        return {"spectra": {"flocking": [[float(x.real), float(x.imag)] for x in z]},
+                "rows": [{"name": a, "value": b} for a, b in rows],
+                "control_interval": f"{design.control_interval:g}",
+                "input_bounds": bool(design.settings.input_bounds)}
+
+    def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
+        """No figures of its own: its spectrum joins the eigenvalue map."""
+        return []
+
+
+FAMILY = FlockingFamily()
+"""The registry entry of the flocking family."""
