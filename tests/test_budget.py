@@ -33,6 +33,8 @@ def edited(name: str, key: str, value: str) -> str:
     text, count = re.subn(rf"^({key}\s*=\s*)[^#\n]+", rf"\g<1>{value} ",
                           builtin_scenario_text(name), count=1, flags=re.M)
     assert count == 1
+    if key == "count":  # per-vehicle initial errors no longer fit the new train
+        text = re.sub(r"^initial_(speed|spacing)_errors\s*=.*$", "", text, flags=re.M)
     return text
 
 

@@ -131,7 +131,10 @@ class TestCommunicationSection:
     def text(section: str) -> str:
         from trainctl.scenario import builtin_scenario_text
 
-        return builtin_scenario_text("heavy-haul-flocking").split("[expected]")[0] + section
+        # four subsystems and no [communication] section of its own
+        text = builtin_scenario_text("heavy-haul-hinf").split("[expected]")[0]
+        assert "[communication]" not in text
+        return text.split("# What the")[0] + section
 
     def test_default_graph_without_the_section(self):
         from trainctl.scenario import parse_scenario

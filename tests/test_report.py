@@ -395,7 +395,7 @@ class TestFigures:
         keys = [f.key for f in context["figures"]]
         assert keys == ["speed", "coupler-force", "input", "iterations", "eigenvalues",
                         "sigma-speed", "sigma-force", "sensitivity", "complementary",
-                        "grade-step", "convergence"]
+                        "grade-step", "string-stability", "convergence"]
         for figure in context["figures"]:
             svg = str(figure.svg)
             width, height = map(float, re.search(
@@ -429,10 +429,10 @@ class TestPage:
         assert page.text_of("h2").count("Design checks") == 1
 
     def test_figures_are_inline_svg(self, html: str) -> None:
-        """Eleven figures, each an inline SVG inside a <figure> with a caption."""
+        """Twelve figures, each an inline SVG inside a <figure> with a caption."""
         svgs = _svgs(html)
-        assert len(svgs) == 11
-        assert html.count("<figcaption>") == 11
+        assert len(svgs) == 12
+        assert html.count("<figcaption>") == 12
         assert "<img" not in html
 
     def test_tables_carry_units(self, html: str) -> None:

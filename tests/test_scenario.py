@@ -40,6 +40,7 @@ BUILTIN_NAMES = [
     "crh2-dmpc-well-sampled",
     "crh2-potential",
     "heavy-haul-flocking",
+    "heavy-haul-flocking-collision",
     "heavy-haul-hinf",
 ]
 ANALYSES = Path(__file__).resolve().parent.parent / "analyses"

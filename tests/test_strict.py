@@ -65,12 +65,13 @@ def analyse_json(args: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[i
 
 class TestStrictExitStatus:
     def test_failed_check_exits_1(self, capsys):
-        """The book's T = 20 s fails sampling and input_collapse: two 'check' reasons."""
+        """The book's T = 20 s fails sampling, input_collapse and string_stability."""
         code, data, err = analyse_json(["crh2-dmpc", "--strict", "--no-simulate"], capsys)
         assert code == 1
         assert [(f["kind"], f["name"]) for f in data["strict_failures"]] == [
-            ("check", "sampling"), ("check", "input_collapse")]
-        assert "--strict: 2 reasons: check sampling; check input_collapse" in err
+            ("check", "sampling"), ("check", "input_collapse"), ("check", "string_stability")]
+        assert ("--strict: 3 reasons: check sampling; check input_collapse; "
+                "check string_stability") in err
 
     def test_missed_tracking_exits_1_with_every_check_passing(self, capsys, tmp_path):
         """A 1 m/s initial error against a 0.01 m/s tolerance: one 'tracking' reason."""
@@ -108,7 +109,7 @@ class TestStrictExitStatus:
         assert "expected sampling" in err
         assert main(["analyse", path, "--no-simulate"]) == 0
         out = capsys.readouterr().out
-        assert "1 of 20 declared statuses differ:\n  sampling: expected FAIL, found PASS" in out
+        assert "1 of 21 declared statuses differ:\n  sampling: expected FAIL, found PASS" in out
         assert "Strict: 1 reason --strict exits 1 for:" in out
 
     def test_well_sampled_is_strict_clean(self, capsys):
@@ -119,7 +120,7 @@ class TestStrictExitStatus:
         assert err == ""
         assert main(["analyse", "crh2-dmpc-well-sampled", "--no-simulate"]) == 0
         out = capsys.readouterr().out
-        assert "all 20 declared statuses match" in out and "(--strict exits 0)" in out
+        assert "all 21 declared statuses match" in out and "(--strict exits 0)" in out
 
 
 class TestSaturationPolicy:

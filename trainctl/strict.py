@@ -80,7 +80,7 @@ def strict_failures(run: AnalysisRun) -> tuple[StrictFailure, ...]:
     >>> from trainctl.scenario import load_scenario
     >>> run = run_scenario(load_scenario("crh2-dmpc"), simulate=False)
     >>> [(f.kind, f.name) for f in strict_failures(run)]
-    [('check', 'sampling'), ('check', 'input_collapse')]
+    [('check', 'sampling'), ('check', 'input_collapse'), ('check', 'string_stability')]
     """
     found = [StrictFailure(kind="check", name=c.name, detail=c.message)
              for c in run.review.checks if c.status == "fail"]

@@ -78,7 +78,7 @@ def frequency_figures(curves: Mapping[str, Mapping[str, Any]],
         return
     for quantity, key, title, ylabel, caption in _SIGMA:
         present = {k: c["frequency"] for k, c in curves.items()
-                   if c["frequency"].get(quantity) is not None}
+                   if _positive(c["frequency"].get(quantity))}
         if present:
             yield make(key, title, caption,
                        _sigma_figure(present, quantity, ylabel, order=list(curves)))
@@ -87,6 +87,11 @@ def frequency_figures(curves: Mapping[str, Mapping[str, Any]],
     if strings:
         yield make("string-stability", "String stability: head disturbance along the train",
                    _STRING_CAPTION, _string_figure(strings))
+
+
+def _positive(rows: Any) -> bool:
+    """True for gain curves with a positive value (a loop without coupler forces has none)."""
+    return rows is not None and any(max(row, default=0.0) > 0 for row in rows)
 
 
 def _sigma_figure(curves: Mapping[str, Mapping[str, Any]], quantity: str, ylabel: str, *,

@@ -234,7 +234,8 @@ class _Parser:
             raise
         except catch as exc:
             where = _Table(self.doc, loc, None, None).path(())
-            raise ScenarioError(f"{self.file}: {where}: {exc}") from exc
+            raise ScenarioError(f"{self.file}: {where}: {exc}" if where
+                                else f"{self.file}: {exc}") from exc
 
     def scenario(self) -> Scenario:
         """Validate every table in order and build the scenario."""

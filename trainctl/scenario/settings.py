@@ -233,10 +233,11 @@ class SimulationSettings:
         hint=" speeds_kmh is in km/h, speeds in m/s.")]
     initial_speed_error: Annotated[float, SPEED_ERROR, Key(
         "Common speed offset of every vehicle at t = 0", unit="m/s")] = 0.0
-    initial_speed_errors: Annotated[tuple[float, ...] | None, Array(SPEED_ERROR), Key(
+    initial_speed_errors: Annotated[Annotated[tuple[float, ...], Array(SPEED_ERROR)] | None, Key(
         "Per-vehicle speed offsets at t = 0, head first, added to initial_speed_error",
         unit="m/s", omitted="none")] = None
-    initial_spacing_errors: Annotated[tuple[float, ...] | None, Array(_SPACING_ERROR), Key(
+    initial_spacing_errors: Annotated[
+        Annotated[tuple[float, ...], Array(_SPACING_ERROR)] | None, Key(
         "Per-coupler elongation offsets at t = 0 from the start equilibrium, head first "
         "(positive: stretched)", unit="m", omitted="none")] = None
     measurement_noise: Annotated[float, SPEED_NOISE, Key(
