@@ -293,11 +293,9 @@ def simulate_strategy(
     start = equilibrium(scenario.train, max(v0, 0.1), acceleration=float(profile.acceleration(0.0)))
     state = start.state(position=0.0)
     n = scenario.train.n_vehicles
-    state[:n] = v0 + sim.initial_speed_error
-    if sim.initial_speed_errors is not None:
-        state[:n] += np.asarray(sim.initial_speed_errors, dtype=float)
-    if sim.initial_spacing_errors is not None:
-        state[n:2 * n - 1] += np.asarray(sim.initial_spacing_errors, dtype=float)
+    speed_offsets, spacing_offsets = sim.initial_offsets(n)
+    state[:n] = v0 + speed_offsets
+    state[n:2 * n - 1] += spacing_offsets
     with numerical_errors(f"{scenario.source}: simulating {strategy!r}"):
         controller = make_controller(scenario, strategy, design)
         return simulate(Plant(train=scenario.train, track=scenario.track), controller, profile,

@@ -77,6 +77,36 @@ class EnvelopeBounds:
         np.negative(limits[0], out=limits[0])
         return limits.reshape(2, -1)
 
+    def clip(self, inputs: Array, speeds: Array) -> tuple[Array, int]:
+        """Forces cut to each vehicle's envelope at its own speed (nothing when not ``enabled``).
+
+        Parameters
+        ----------
+        inputs : ndarray
+            Requested force per vehicle [N], shape (n,).
+        speeds : ndarray
+            One speed per vehicle [m/s], shape (n,).
+
+        Returns
+        -------
+        (ndarray, int)
+            The forces within :meth:`at`'s bounds [N], and how many were cut.
+
+        Examples
+        --------
+        >>> from trainctl.models import crh2_half
+        >>> u, cut = EnvelopeBounds(crh2_half(), enabled=True).clip(np.full(4, 1e5),
+        ...                                                          np.full(4, 80.0))
+        >>> (u / 1e3).round(1).tolist(), cut
+        ([0.0, 15.0, 15.0, 0.0], 4)
+        """
+        u = np.asarray(inputs, dtype=float)
+        if not self.enabled:
+            return u, 0
+        low, high = self.at(speeds)
+        clipped = np.clip(u, low, high)
+        return clipped, int(np.count_nonzero(clipped != u))
+
     def at(self, speeds: Array) -> tuple[Array, Array]:
         """Each vehicle's braking (negative) and traction limits [N] at its own speed.
 

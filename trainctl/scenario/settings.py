@@ -13,6 +13,8 @@ import math
 from collections.abc import Sequence
 from typing import Annotated, Any, ClassVar
 
+import numpy as np
+from numpy.typing import NDArray
 from pydantic import TypeAdapter, ValidationError, ValidationInfo, model_validator
 
 from ..constraints import Array, Choice, Flag, NameList, Number, Violation, raise_at
@@ -393,6 +395,37 @@ class SimulationSettings:
                     f"SimulationSettings: 'initial_spacing_errors'[{k}] must be within "
                     f"±{_PHYSICAL_SPACING_ERROR:g} m for a physical coupler, which is not "
                     f"stretched or compressed by more than that (got {error!r} m).")
+
+    def initial_offsets(self, n: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The start's offsets from the equilibrium of the reference at t = 0.
+
+        Parameters
+        ----------
+        n : int
+            Vehicles of the train [-] (the per-vehicle lists have n and n - 1 entries).
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            Speed offsets [m/s], shape (n,): ``initial_speed_error`` plus each
+            ``initial_speed_errors`` entry; elongation offsets [m], shape (n-1,):
+            ``initial_spacing_errors`` (zeros when omitted).
+
+        Examples
+        --------
+        >>> sim = SimulationSettings(duration=1.0, strategies=("centralised",),
+        ...                          reference_times=(0.0,), reference_speeds=(25.0,),
+        ...                          initial_speed_error=0.5, initial_spacing_errors=(0.01,))
+        >>> [a.tolist() for a in sim.initial_offsets(2)]
+        [[0.5, 0.5], [0.01]]
+        """
+        speeds = np.full(n, float(self.initial_speed_error))
+        if self.initial_speed_errors is not None:
+            speeds += np.asarray(self.initial_speed_errors, dtype=float)
+        spacings = np.zeros(max(n - 1, 0))
+        if self.initial_spacing_errors is not None:
+            spacings += np.asarray(self.initial_spacing_errors, dtype=float)
+        return speeds, spacings
 
     def check_strategies(self, names: tuple[str, ...]) -> None:
         """Check :attr:`strategies` against the strategies a scenario offers.

@@ -43,7 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...analysis.check import Check
-from ..potential.law import cumulative
+from ..sampled import closed_loop_spectrum, cumulative
 
 if TYPE_CHECKING:
     from ...sim import SimulationResult
@@ -56,7 +56,6 @@ Array = NDArray[np.float64]
 SOFT_SPRING = 0.5
 """ρ_h(d_α/r_α) below which the lattice spring is reported as soft (warn)."""
 
-_ZERO = 1e-9  # |λ| below this times max(1, ||A||) is a zero eigenvalue
 
 
 def flocking_checks(design: FlockingDesign) -> list[Check]:
@@ -122,11 +121,7 @@ def parameters_check(design: FlockingDesign) -> Check:
 
 def closed_loop_check(design: FlockingDesign) -> Check:
     """Hurwitz test; a semisimple zero eigenvalue (c₁ = 0) warns."""
-    A = design.A_cl
-    lam = np.linalg.eigvals(A)
-    tol = _ZERO * max(1.0, float(np.linalg.norm(A, 2)))
-    zero = np.abs(lam) <= tol
-    alpha = float(np.max(lam[~zero].real)) if np.any(~zero) else 0.0
+    lam, tol, zero, alpha, semisimple = closed_loop_spectrum(design.A_cl)
     details: dict[str, object] = {"spectral_abscissa": alpha, "zero_eigenvalues": int(zero.sum()),
                                   "eigenvalues": [[float(x.real), float(x.imag)] for x in lam]}
     name = "flocking_closed_loop"
@@ -135,7 +130,7 @@ def closed_loop_check(design: FlockingDesign) -> Check:
                      message=f"linearised closed loop unstable: max Re λ = {alpha:.4g} 1/s",
                      hint="raise speed_gain_per_s or consensus_gain_per_s", details=details)
     if np.any(zero):
-        if A.shape[0] - np.linalg.matrix_rank(A, tol=tol) != int(zero.sum()):
+        if not semisimple:
             return Check(name=name, status="fail", value=0.0, threshold=0.0, unit="1/s",
                          message="zero eigenvalue in a Jordan block: the position error grows",
                          hint="set position_gain_per_s2 > 0", details=details)

@@ -23,6 +23,7 @@ from ...models.envelope import EnvelopeBounds
 from ...models.feedforward import ForceSplit
 from ...models.train import Train
 from ..base import Measurement, ReferencePreview, StepRecord
+from ..reference import ReferencePosition, position_errors
 from .law import FlockingLaw
 
 __all__ = ["FlockingController"]
@@ -76,36 +77,11 @@ class FlockingController:
         self.input_bounds, self.name = bool(input_bounds), name
         self._split = ForceSplit(train, where=name)
         self._envelope = EnvelopeBounds(train, enabled=self.input_bounds)
-        self._last: tuple[float, float, float] | None = None  # (t, v_r(t), x̄_0(t))
+        self._reference = ReferencePosition()
 
     def reset(self) -> None:
         """Forget the virtual leader's position (the next step restarts it)."""
-        self._last = None
-
-    def leader_position(self, t: float, speed: float, head: float) -> float:
-        """x̄_0(t) [m]: the head's position at the first step, then the trapezoid of v_r.
-
-        Parameters
-        ----------
-        t : float
-            Time [s].
-        speed : float
-            v_r(t) [m/s].
-        head : float
-            The head's measured position [m] (used at the first step only).
-
-        Returns
-        -------
-        float
-            The virtual leader's position [m].
-        """
-        if self._last is None:
-            x_ref = head
-        else:
-            t0, v0, x0 = self._last
-            x_ref = x0 + 0.5 * (v0 + speed) * (t - t0)
-        self._last = (t, speed, x_ref)
-        return x_ref
+        self._reference.reset()
 
     def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
         """Feedforward plus the law, clipped to the envelope."""
@@ -117,8 +93,8 @@ class FlockingController:
         ff = self._split([max(speed, 0.1)], [accel])
         x = np.asarray(measurement.state, dtype=float)
         z = x[n:2 * n - 1]
-        head = x[2 * n - 1] - self.leader_position(t, speed, float(x[2 * n - 1]))
-        x_err = head - np.concatenate([[0.0], np.cumsum(z)])
+        head = x[2 * n - 1] - self._reference(t, speed, float(x[2 * n - 1]))
+        x_err = position_errors(head, z)
         gaps = self.law.gaps(z)
         if not np.all(np.isfinite(x)) or np.any(gaps < 0.0):
             return StepRecord(inputs=np.asarray(ff.inputs[0], dtype=float), status="error",
@@ -126,12 +102,7 @@ class FlockingController:
                               info={"reason": "two trains overlap or the state is not finite "
                                     f"(smallest gap {float(np.min(gaps)):.4g} m)"})
         inputs = ff.inputs[0] + self.law.force(x[:n] - speed, z, x_err)
-        saturated = 0
-        if self.input_bounds:
-            low, high = self._envelope.at(x[:n])
-            clipped = np.clip(inputs, low, high)
-            saturated = int(np.count_nonzero(clipped != inputs))
-            inputs = clipped
+        inputs, saturated = self._envelope.clip(inputs, x[:n])
         return StepRecord(inputs=inputs, status="optimal", iterations=0,
                           solve_time=time.perf_counter() - start,
                           info={"saturated": saturated, "min_gap": float(np.min(gaps))})

@@ -24,8 +24,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ...exceptions import ScenarioError
-
 if TYPE_CHECKING:
     import control as ct
 
@@ -131,18 +129,10 @@ def design_flocking(scenario: Scenario, model: DesignModel, settings: Any) -> Fl
     >>> d.A_cl.shape, d.law.potential.desired_gap
     ((8, 8), 500.0)
     """
-    from ..potential.family import initial_errors
+    from ..sampled import control_interval, initial_errors
     from .law import closed_loop_matrices, law_of
 
-    T = float(settings.control_interval or model.settings.sample_time)
-    sim = scenario.simulation
-    if sim is not None:
-        steps = round(sim.duration / T)
-        if steps < 1 or abs(steps * T - sim.duration) > 1e-9 * sim.duration:
-            raise ScenarioError(
-                f"{scenario.source}: [simulation] duration = {sim.duration!r} s must be a whole "
-                f"multiple of the flocking family's control_interval = {T!r} s (got "
-                f"{sim.duration / T:.6g} intervals).")
+    T = control_interval(scenario, model, settings, "flocking")
     law = law_of(scenario, settings)
     A, B, A_cl = closed_loop_matrices(model, law)
     return FlockingDesign(scenario=scenario, model=model, settings=settings, law=law,

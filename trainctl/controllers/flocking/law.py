@@ -58,8 +58,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...exceptions import ModelError, ScenarioError
-from ..potential.law import cumulative, incidence
 from ..potentials import FlockingPotential
+from ..sampled import cumulative, incidence
 
 if TYPE_CHECKING:
     from ...design import DesignModel

@@ -92,12 +92,7 @@ class LQRController:
         x = np.asarray(measurement.state, dtype=float)
         deviation = np.concatenate([x[:n] - speed, x[n:2 * n - 1] - ff.elongations[0]])
         inputs = ff.inputs[0] - KN * (self.gain @ deviation)
-        saturated = 0
-        if self.input_bounds:
-            low, high = self._envelope.at(x[:n])
-            clipped = np.clip(inputs, low, high)
-            saturated = int(np.count_nonzero(clipped != inputs))
-            inputs = clipped
+        inputs, saturated = self._envelope.clip(inputs, x[:n])
         return StepRecord(inputs=inputs, status="optimal", iterations=0,
                           solve_time=time.perf_counter() - start,
                           info={"saturated": saturated})

@@ -5,14 +5,10 @@ The law (:mod:`trainctl.controllers.potential.law`) is continuous in time;
 the simulation calls :meth:`PotentialController.step` every ``dt`` (the
 family's ``control_interval``) and holds the force until the next call.
 
-The reference position x̄_0(t) = s(t_0) + ∫ v_r dt starts at the head's
-measured position at the first step after :meth:`~PotentialController.reset`
-(so the head starts with no position error) and is integrated by the
-trapezoid between consecutive steps from the reference speed at both ends.
-The reference is piecewise linear, so this is exact for every interval that
-does not straddle a breakpoint; an interval that does is off by at most
-|Δa|·dt²/8 [m] (Δa the jump of the reference acceleration), once per
-breakpoint.
+The reference position x̄_0(t) starts at the head's measured position at the
+first step after :meth:`~PotentialController.reset` and follows the reference
+speed (:class:`~trainctl.controllers.reference.ReferencePosition`, with its
+accuracy at the reference's breakpoints).
 """
 
 from __future__ import annotations
@@ -27,6 +23,7 @@ from ...models.envelope import EnvelopeBounds
 from ...models.feedforward import ForceSplit
 from ...models.train import Train
 from ..base import Measurement, ReferencePreview, StepRecord
+from ..reference import ReferencePosition, position_errors
 from .law import PotentialLaw
 
 __all__ = ["PotentialController"]
@@ -80,36 +77,11 @@ class PotentialController:
         self.input_bounds, self.name = bool(input_bounds), name
         self._split = ForceSplit(train, where=name)
         self._envelope = EnvelopeBounds(train, enabled=self.input_bounds)
-        self._last: tuple[float, float, float] | None = None  # (t, v_r(t), x̄_0(t))
+        self._reference = ReferencePosition()
 
     def reset(self) -> None:
         """Forget the integrated reference position (the next step restarts it)."""
-        self._last = None
-
-    def reference_position(self, t: float, speed: float, head: float) -> float:
-        """x̄_0(t) [m]: the head's position at the first step, then the trapezoid of v_r.
-
-        Parameters
-        ----------
-        t : float
-            Time [s].
-        speed : float
-            v_r(t) [m/s].
-        head : float
-            The head's measured position [m] (used at the first step only).
-
-        Returns
-        -------
-        float
-            The head's reference position [m].
-        """
-        if self._last is None:
-            x_ref = head
-        else:
-            t0, v0, x0 = self._last
-            x_ref = x0 + 0.5 * (v0 + speed) * (t - t0)
-        self._last = (t, speed, x_ref)
-        return x_ref
+        self._reference.reset()
 
     def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
         """Feedforward plus the four terms, clipped to the envelope."""
@@ -121,8 +93,8 @@ class PotentialController:
         ff = self._split([max(speed, 0.1)], [accel])
         x = np.asarray(measurement.state, dtype=float)
         z = x[n:2 * n - 1] - ff.elongations[0]
-        head = x[2 * n - 1] - self.reference_position(t, speed, float(x[2 * n - 1]))
-        x_err = head - np.concatenate([[0.0], np.cumsum(z)])
+        head = x[2 * n - 1] - self._reference(t, speed, float(x[2 * n - 1]))
+        x_err = position_errors(head, z)
         inputs = ff.inputs[0] + self.law.force(x[:n] - speed, z, x_err)
         if not np.all(np.isfinite(inputs)):
             return StepRecord(inputs=np.asarray(ff.inputs[0], dtype=float), status="error",
@@ -130,12 +102,7 @@ class PotentialController:
                               fallback="feedforward",
                               info={"reason": "a spacing deviation left the potential's "
                                     f"domain (max |z| = {float(np.max(np.abs(z))):.4g} m)"})
-        saturated = 0
-        if self.input_bounds:
-            low, high = self._envelope.at(x[:n])
-            clipped = np.clip(inputs, low, high)
-            saturated = int(np.count_nonzero(clipped != inputs))
-            inputs = clipped
+        inputs, saturated = self._envelope.clip(inputs, x[:n])
         return StepRecord(inputs=inputs, status="optimal", iterations=0,
                           solve_time=time.perf_counter() - start,
                           info={"saturated": saturated})

@@ -22,8 +22,6 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from ...exceptions import ScenarioError
-
 if TYPE_CHECKING:
     import control as ct
 
@@ -134,20 +132,6 @@ class PotentialDesign:
         return None if P is None else ("lmi", P)
 
 
-def initial_errors(scenario: Scenario) -> Array:
-    """ξ(0) = [v̂(0), z(0), 0] from ``[simulation]`` (zeros without one)."""
-    n = scenario.train.n_vehicles
-    xi = np.zeros(2 * n)
-    sim = scenario.simulation
-    if sim is not None:
-        speeds = getattr(sim, "initial_speed_errors", None)
-        spacings = getattr(sim, "initial_spacing_errors", None)
-        xi[:n] = sim.initial_speed_error + (np.zeros(n) if speeds is None else np.asarray(speeds))
-        if spacings is not None:
-            xi[n:2 * n - 1] = spacings
-    return xi
-
-
 def design_potential(scenario: Scenario, model: DesignModel, settings: Any) -> PotentialDesign:
     """The law's gains and its linear closed loop.
 
@@ -181,17 +165,10 @@ def design_potential(scenario: Scenario, model: DesignModel, settings: Any) -> P
     >>> d.A_cl.shape, d.control_interval
     ((8, 8), 0.05)
     """
+    from ..sampled import control_interval, initial_errors
     from .law import closed_loop_matrices, law_of
 
-    T = float(settings.control_interval or model.settings.sample_time)
-    sim = scenario.simulation
-    if sim is not None:
-        steps = round(sim.duration / T)
-        if steps < 1 or abs(steps * T - sim.duration) > 1e-9 * sim.duration:
-            raise ScenarioError(
-                f"{scenario.source}: [simulation] duration = {sim.duration!r} s must be a whole "
-                f"multiple of the potential family's control_interval = {T!r} s (got "
-                f"{sim.duration / T:.6g} intervals).")
+    T = control_interval(scenario, model, settings, "potential")
     law = law_of(scenario, settings)
     A, B, A_cl = closed_loop_matrices(model, law)
     return PotentialDesign(scenario=scenario, model=model, settings=settings, law=law,

@@ -41,6 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...exceptions import ScenarioError
+from ..sampled import cumulative, incidence
 
 if TYPE_CHECKING:
     from ...design import DesignModel
@@ -160,19 +161,6 @@ class PotentialLaw:
         grad = np.asarray(self.potential.gradient(np.asarray(z, dtype=float)), dtype=float)
         damping = self.speed_gain * v_err + self.consensus_laplacian() @ v_err
         return -self.pinning * x_err - self.mass * (damping + incidence(self.n) @ grad)
-
-
-def incidence(n: int) -> Array:
-    """E (n × n−1): E[k, k] = 1 (front car of coupler k), E[k+1, k] = −1 (rear car)."""
-    E = np.zeros((n, max(n - 1, 0)))
-    k = np.arange(n - 1)
-    E[k, k], E[k + 1, k] = 1.0, -1.0
-    return E
-
-
-def cumulative(n: int) -> Array:
-    """S (n × n−1): S[i, k] = 1 for k < i, so that x̂ = 1·p − S z."""
-    return np.tril(np.ones((n, max(n - 1, 0))), -1)
 
 
 def law_of(scenario: Scenario, settings: Any) -> PotentialLaw:

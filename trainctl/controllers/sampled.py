@@ -1,0 +1,164 @@
+# What the continuous-time consensus families share: their control interval and start errors.
+"""Continuous-time laws sampled at a control interval (the potential and flocking families).
+
+Both families design a continuous-time law, simulate it sampled every
+``control_interval`` (the controller's ``dt``), judge it from the
+scenario's initial errors and test its closed loop for Hurwitz stability
+apart from a translation mode; this module holds those shared steps.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..exceptions import ScenarioError
+
+if TYPE_CHECKING:
+    from ..design import DesignModel
+    from ..scenario import Scenario
+
+__all__ = ["ZERO_TOL", "ClosedLoopSpectrum", "closed_loop_spectrum", "control_interval",
+           "cumulative", "incidence", "initial_errors"]
+
+_MULTIPLE_TOL = 1e-9  # relative tolerance of "duration is a whole multiple of the interval"
+
+ZERO_TOL = 1e-9
+"""|λ| below this times max(1, ‖A‖₂) is a zero eigenvalue (a translation mode)."""
+
+
+class ClosedLoopSpectrum(NamedTuple):
+    """A continuous closed loop's spectrum, split into zero and other modes.
+
+    Attributes
+    ----------
+    eigenvalues : ndarray
+        All eigenvalues [1/s].
+    tol : float
+        The zero tolerance used, :data:`ZERO_TOL` · max(1, ‖A‖₂) [1/s].
+    zero : ndarray of bool
+        Which eigenvalues are zero (|λ| <= tol).
+    abscissa : float
+        Largest real part of the other eigenvalues [1/s] (0.0 when all are zero).
+    semisimple : bool
+        The zero eigenvalues have as many eigenvectors as their multiplicity
+        (rank deficiency of A = their count): a translation that stays
+        constant, not one that grows.
+    """
+
+    eigenvalues: NDArray[np.complex128]
+    tol: float
+    zero: NDArray[np.bool_]
+    abscissa: float
+    semisimple: bool
+
+
+def closed_loop_spectrum(A: NDArray[np.float64]) -> ClosedLoopSpectrum:
+    """Spectral abscissa of a continuous closed loop apart from its zero (translation) modes.
+
+    Parameters
+    ----------
+    A : ndarray
+        The closed-loop state matrix, (m, m).
+
+    Returns
+    -------
+    ClosedLoopSpectrum
+        Eigenvalues, tolerance, zero modes, abscissa of the rest, semisimplicity.
+
+    Examples
+    --------
+    >>> s = closed_loop_spectrum(np.array([[0.0, 0.0], [0.0, -2.0]]))
+    >>> int(s.zero.sum()), s.abscissa, s.semisimple
+    (1, -2.0, True)
+    """
+    lam = np.linalg.eigvals(A).astype(complex)
+    tol = ZERO_TOL * max(1.0, float(np.linalg.norm(A, 2)))
+    zero = np.abs(lam) <= tol
+    abscissa = float(np.max(lam[~zero].real)) if np.any(~zero) else 0.0
+    semisimple = A.shape[0] - np.linalg.matrix_rank(A, tol=tol) == int(zero.sum())
+    return ClosedLoopSpectrum(lam, tol, zero, abscissa, bool(semisimple))
+
+
+def control_interval(scenario: Scenario, model: DesignModel, settings: Any,
+                     family: str) -> float:
+    """The interval [s] at which the family's law runs: its setting, else the sample time.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (its ``[simulation]`` duration).
+    model : DesignModel
+        Its design model (``[model] sample_time``).
+    settings : object
+        The family's settings, with ``control_interval`` [s] or None.
+    family : str
+        The family's name, for the message.
+
+    Returns
+    -------
+    float
+        The control interval [s], > 0.
+
+    Raises
+    ------
+    ScenarioError
+        If the simulated duration is not a whole multiple of it.
+    """
+    interval = float(settings.control_interval or model.settings.sample_time)
+    sim = scenario.simulation
+    if sim is not None:
+        steps = round(sim.duration / interval)
+        if steps < 1 or abs(steps * interval - sim.duration) > _MULTIPLE_TOL * sim.duration:
+            raise ScenarioError(
+                f"{scenario.source}: [simulation] duration = {sim.duration!r} s must be a whole "
+                f"multiple of the {family} family's control_interval = {interval!r} s (got "
+                f"{sim.duration / interval:.6g} intervals).")
+    return interval
+
+
+def initial_errors(scenario: Scenario) -> NDArray[np.float64]:
+    """ξ(0) = [v̂(0) (n) m/s, z(0) (n-1) m, 0 m] from ``[simulation]`` (zeros without one).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+
+    Returns
+    -------
+    ndarray
+        Speed errors, spacing deviations and the head's position error, shape (2n,).
+    """
+    n = scenario.train.n_vehicles
+    xi = np.zeros(2 * n)
+    if scenario.simulation is not None:
+        xi[:n], xi[n:2 * n - 1] = scenario.simulation.initial_offsets(n)
+    return xi
+
+
+def incidence(n: int) -> NDArray[np.float64]:
+    """E (n × n−1): E[k, k] = 1 (front vehicle of link k), E[k+1, k] = −1 (rear vehicle).
+
+    Examples
+    --------
+    >>> incidence(3).tolist()
+    [[1.0, 0.0], [-1.0, 1.0], [0.0, -1.0]]
+    """
+    E = np.zeros((n, max(n - 1, 0)))
+    k = np.arange(n - 1)
+    E[k, k], E[k + 1, k] = 1.0, -1.0
+    return E
+
+
+def cumulative(n: int) -> NDArray[np.float64]:
+    """S (n × n−1): S[i, k] = 1 for k < i, so that x̂ = 1·p − S z.
+
+    Examples
+    --------
+    >>> cumulative(3).tolist()
+    [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]
+    """
+    return np.tril(np.ones((n, max(n - 1, 0))), -1)
