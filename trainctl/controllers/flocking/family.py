@@ -181,9 +181,10 @@ class FlockingFamily:
         import control as ct
 
         n = design.law.n
-        N = design.A_cl.shape[0]
-        C = np.vstack([np.eye(n, N), np.eye(n - 1, N, n)])
-        outputs = [f"v[{i}]" for i in range(n)] + [f"d[{i}]" for i in range(n - 1)]
+        rows, labels = design.model.loop_outputs()
+        keep = [k for k, label in enumerate(labels) if not label.startswith("f[")]  # virtual
+        C = np.hstack([rows[keep], np.zeros((len(keep), 1))])  # p, the head's position error
+        outputs = [labels[k] for k in keep]
         return ct.ss(design.A_cl, design.B_open * design.law.mass[None, :], C, 0,
                      states=design.scenario.train.state_labels() + ["p"],
                      inputs=[f"w[{i}]" for i in range(n)], outputs=outputs,

@@ -215,12 +215,9 @@ class PotentialFamily:
         """ξ̇ = A_cl ξ + B_w w (continuous); outputs v [m/s], f [kN], d [m]."""
         import control as ct
 
-        model, n = design.model, design.law.n
-        N = design.A_cl.shape[0]
-        forces = np.hstack([model.force_rows(), np.zeros((n - 1, 1))]) / 1e3
-        C = np.vstack([np.eye(n, N), forces, np.eye(n - 1, N, n)])
-        outputs = ([f"v[{i}]" for i in range(n)] + [f"f[{i}]" for i in range(n - 1)]
-                   + [f"d[{i}]" for i in range(n - 1)])
+        n = design.law.n
+        rows, outputs = design.model.loop_outputs()
+        C = np.hstack([rows, np.zeros((rows.shape[0], 1))])  # p, the head's position error
         return ct.ss(design.A_cl, design.B_open * design.law.mass[None, :], C, 0,
                      states=design.scenario.train.state_labels() + ["p"],
                      inputs=[f"w[{i}]" for i in range(n)], outputs=outputs,
