@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ._validation import numerical_errors
-from .analysis.review import DesignReview, review_design
+from .analysis.review import DesignReview, review_design, with_simulations
 from .analysis.summary import ModelSummary, model_summary
 
 if TYPE_CHECKING:
@@ -42,7 +42,9 @@ class AnalysisRun:
     summary : ModelSummary
         Model summary (vehicles, equilibrium, modes, sampling).
     review : DesignReview
-        The named design checks.
+        The named design checks; those a family judges on its simulated
+        trajectory (:func:`~trainctl.analysis.review.with_simulations`)
+        after the simulations.
     simulations : mapping of str to SimulationResult
         Closed-loop runs by strategy (empty without ``[simulation]``).
     metrics : mapping of str to Metrics
@@ -68,8 +70,28 @@ class AnalysisRun:
         """Names of failed design checks (one reason for `--strict`; see strict_failures)."""
         return self.review.failed_checks
 
+    @property
+    def unsimulated_checks(self) -> tuple[str, ...]:
+        """Declared checks that a simulation decides, in a run that did not simulate.
+
+        ``[expected]`` declares the verdict after the ``[simulation]``
+        (:func:`~trainctl.analysis.review.with_simulations`); a run without
+        it (``--no-simulate``) has only the design-time verdict, which is
+        not compared.
+        """
+        from .controllers.registry import get_family
+
+        if self.simulations or self.scenario.simulation is None or not self.scenario.expected:
+            return ()
+        names = {name for family in self.scenario.controllers
+                 for name in getattr(get_family(family), "trajectory_check_names", ())}
+        return tuple(name for name in self.scenario.expected if name in names)
+
     def unexpected_checks(self) -> dict[str, tuple[str, str]]:
         """Checks whose status differs from the scenario's ``[expected]`` table.
+
+        Checks that only a simulation decides are not compared in a run
+        without one (:attr:`unsimulated_checks`).
 
         Returns
         -------
@@ -77,8 +99,10 @@ class AnalysisRun:
             Check name → (expected, found).
         """
         found = {c.name: c.status for c in self.review.checks}
+        skip = set(self.unsimulated_checks)
         return {name: (want, found.get(name, "missing"))
-                for name, want in self.scenario.expected.items() if found.get(name) != want}
+                for name, want in self.scenario.expected.items()
+                if name not in skip and found.get(name) != want}
 
     @cached_property
     def frequency(self) -> dict[str, ClosedLoopResponse]:
@@ -112,6 +136,7 @@ class AnalysisRun:
         out["expected"] = dict(self.scenario.expected)
         out["unexpected_checks"] = {name: {"expected": want, "found": got}
                                     for name, (want, got) in self.unexpected_checks().items()}
+        out["unsimulated_checks"] = list(self.unsimulated_checks)
         if self.metrics:
             sim = self.scenario.simulation
             saturation = True if sim is None else sim.plant_saturation
@@ -136,15 +161,18 @@ class AnalysisRun:
 
 
 def _expected_text(run: AnalysisRun) -> str:
-    declared = run.scenario.expected
+    skipped = run.unsimulated_checks
+    declared = len(run.scenario.expected) - len(skipped)
     wrong = run.unexpected_checks()
+    note = ("" if not skipped else f"\n  not compared without the simulation, which decides "
+            f"them: {', '.join(skipped)}")
     if not wrong:
-        return f"Expected outcomes ([expected]): all {len(declared)} declared statuses match."
-    lines = [f"Expected outcomes ([expected]): {len(wrong)} of {len(declared)} declared "
+        return f"Expected outcomes ([expected]): all {declared} declared statuses match." + note
+    lines = [f"Expected outcomes ([expected]): {len(wrong)} of {declared} declared "
              "statuses differ:"]
     lines += [f"  {name}: expected {want.upper()}, found {got.upper()}"
               for name, (want, got) in wrong.items()]
-    return "\n".join(lines)
+    return "\n".join(lines) + note
 
 
 def frequency_dict(run: AnalysisRun) -> dict[str, object]:
@@ -407,5 +435,7 @@ def run_scenario(
                                                 regen_efficiency=sim.regen_efficiency)
             if on_simulated is not None:
                 on_simulated(strategy)
+        with numerical_errors(scenario.source):
+            review = with_simulations(review, design, sims)
     return AnalysisRun(scenario=scenario, design=design, summary=summary, review=review,
                        simulations=sims, metrics=metrics)

@@ -28,12 +28,16 @@ from .stability import analyse_stability, mode_direction
 from .string_stability import string_stability_check
 
 if TYPE_CHECKING:
+    from collections.abc import Mapping
+
     from ..design import Design, DesignModel
     from ..scenario import Scenario
+    from ..sim.results import SimulationResult
 
 __all__ = [
     "LOOP_CHECK_NAMES", "MODEL_CHECK_NAMES", "SAMPLING_FAIL", "SAMPLING_PASS", "STATUSES",
     "Check", "DesignReview", "model_checks", "radius_check", "review_design", "scenario_checks",
+    "with_simulations",
 ]
 
 MODEL_CHECK_NAMES = (
@@ -101,6 +105,49 @@ def review_design(scenario: Scenario, design: Design | None = None) -> DesignRev
     if string is not None:
         checks.append(string)
     return DesignReview(scenario_name=scenario.name, checks=tuple(checks))
+
+
+def with_simulations(review: DesignReview, design: Design,
+                     simulations: Mapping[str, SimulationResult]) -> DesignReview:
+    """The review with the checks that the simulations decide judged on them.
+
+    A family whose checks say something about the trajectory (the
+    linearisation's validity range, the connectivity of a formation) has a
+    ``trajectory_checks(design, strategy, result)`` method; each check it
+    returns replaces the design-time check of the same name. When several
+    strategies of the family were simulated, the worst verdict stands.
+
+    Parameters
+    ----------
+    review : DesignReview
+        The design review (:func:`review_design`).
+    design : Design
+        The run's design.
+    simulations : mapping of str to SimulationResult
+        Results by ``[simulation]`` strategy name.
+
+    Returns
+    -------
+    DesignReview
+        The same checks, in the same order, some replaced; ``review`` itself
+        when nothing was simulated that a family judges.
+    """
+    from ..controllers.registry import get_family
+
+    found: dict[str, Check] = {}
+    for strategy, result in simulations.items():
+        family, name = design.resolve(strategy)
+        judge = getattr(get_family(family), "trajectory_checks", None)
+        if judge is None:
+            continue
+        for check in judge(design.family(family), strategy, result):
+            old = found.get(check.name)
+            if old is None or STATUSES.index(check.status) > STATUSES.index(old.status):
+                found[check.name] = check
+    if not found:
+        return review
+    checks = tuple(found.pop(c.name, c) for c in review.checks) + tuple(found.values())
+    return DesignReview(scenario_name=review.scenario_name, checks=checks)
 
 
 def model_checks(model: DesignModel, *, measured_gaps: bool = False) -> list[Check]:

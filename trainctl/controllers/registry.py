@@ -16,9 +16,20 @@ object that follows :class:`ControllerFamily`:
 - ``make(design, strategy)``: a controller following the
   :class:`~trainctl.controllers.base.Controller` protocol;
 - ``checks(design)``: its design checks (:class:`~trainctl.analysis.review.Check`);
-- ``closed_loop(design, strategy)``: the linear closed loop as a discrete
-  ``control.StateSpace`` (None where the loop is not linear), the input of
-  every generic analysis (poles, frequency responses, norms);
+- ``closed_loop(design, strategy)``: the linear closed loop as a
+  ``control.StateSpace``, discrete (a sampled controller such as MPC or
+  LQR) or continuous (a continuous-time law such as the potential and
+  flocking families; analyses that need a discrete loop sample it,
+  :func:`trainctl.analysis.loops.as_discrete`), or None where the loop is
+  not linear: the input of every generic analysis (poles, frequency
+  responses, norms, string stability);
+- optionally ``trajectory_checks(design, strategy, result)``: checks that a
+  simulation decides (the validity range of a linearisation along the
+  trajectory, the connectivity of a formation), each replacing the design
+  check of the same name after ``[simulation]`` has run
+  (:func:`trainctl.analysis.review.with_simulations`), with their names in
+  ``trajectory_check_names`` (``[expected]`` declares their verdict after
+  the simulation, so a run without one does not compare them);
 - ``report_data(design)``, ``report_figures(data)`` and ``report_partial``:
   what the HTML report shows for the family (JSON-safe data, figures drawn
   from that data, and the Jinja source of its report section).
@@ -119,7 +130,7 @@ class ControllerFamily(Protocol):
         ...
 
     def closed_loop(self, design: Any, strategy: str) -> ct.StateSpace | None:
-        """The linear closed loop of a strategy (discrete), or None."""
+        """The linear closed loop of a strategy (discrete or continuous), or None."""
         ...
 
     def report_data(self, design: Any) -> dict[str, Any]:

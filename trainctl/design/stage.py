@@ -64,7 +64,9 @@ class Design:
     def closed_loop(self, strategy: str) -> ct.StateSpace | None:
         """The linear closed loop of a simulation strategy (None where it is not linear).
 
-        The family's ``closed_loop()``: a discrete ``control.StateSpace`` from
+        The family's ``closed_loop()``: a ``control.StateSpace``, discrete for
+        sampled controllers (MPC, LQR) and continuous for continuous-time
+        laws (potential, flocking), from
         the specific-force disturbances ``w[i]`` [m/s²] to the speed
         deviations ``v[i]`` [m/s], the coupler forces ``f[i]`` [kN] and the
         spacing deviations ``d[i]`` [m] (the elongation deviation of coupler

@@ -19,14 +19,19 @@
     and its relative-speed equivalent √(2 E(0)). H does not increase along
     the unsaturated continuous loop (:mod:`~trainctl.controllers.flocking.law`),
     so H(0) < E(0) certifies that no gap reaches 0; fail ("uncertified")
-    when H(0) >= E(0).
+    when H(0) >= E(0). After a simulation (:func:`trajectory_checks`) the
+    smallest simulated gap joins the message, and a gap at or below 0 fails
+    whatever the certificate said (the law saturated, or the loop left the
+    certificate's assumptions).
 ``flocking_connectivity``
     Every gap at t = 0 within the interaction range r (fail otherwise: the
     pair neither attracts nor exchanges speeds, the formation splits). Along
     the trajectory: a design check does not see simulation results, so it
     uses the same energy argument: E is constant (= E(r)) beyond r, so
     H(0) < E(r) keeps every gap below r for all t; warn when t = 0 passes but
-    H(0) >= E(r). :func:`trajectory_gaps` checks a simulated result.
+    H(0) >= E(r). After a simulation (:func:`trajectory_checks`) the
+    simulated gaps decide: pass when the widest stays below r throughout,
+    fail when it reaches r.
 ``flocking_actuators``
     Per train, the largest force the law can ask for about the feedforward:
     m_i (Σ_links max_s |φ(s)| over 0 <= s <= r + consensus c Σ_j g_ij Δv̂(0)
@@ -49,7 +54,8 @@ if TYPE_CHECKING:
     from ...sim import SimulationResult
     from .family import FlockingDesign
 
-__all__ = ["SOFT_SPRING", "flocking_checks", "initial_energy", "trajectory_gaps"]
+__all__ = ["SOFT_SPRING", "flocking_checks", "initial_energy", "trajectory_checks",
+           "trajectory_gaps"]
 
 Array = NDArray[np.float64]
 
@@ -258,3 +264,55 @@ def trajectory_gaps(design: FlockingDesign, result: SimulationResult) -> tuple[f
     states = np.asarray(result.states if dense is None else dense, dtype=float)
     gaps = design.law.gaps(states[n:2 * n - 1])
     return float(np.min(gaps)), float(np.max(gaps))
+
+
+def trajectory_checks(design: FlockingDesign, strategy: str,
+                      result: SimulationResult) -> list[Check]:
+    """``flocking_collision`` and ``flocking_connectivity`` with a simulation's gaps.
+
+    Parameters
+    ----------
+    design : FlockingDesign
+        The family's design.
+    strategy : str
+        The simulated strategy's name.
+    result : SimulationResult
+        Its simulation on the nonlinear plant.
+
+    Returns
+    -------
+    list of Check
+        Replacing the design review's checks of the same names (module
+        docstring).
+    """
+    p = design.law.potential
+    smallest, widest = trajectory_gaps(design, result)
+    energy = initial_energy(design)
+    before = collision_check(design, energy)
+    seen = {"simulated_strategy": strategy, "simulated_min_gap_m": smallest,
+            "simulated_max_gap_m": widest}
+    sim_text = f"simulated {strategy}: smallest gap {smallest:.4g} m"
+    if smallest <= 0.0:
+        collision = Check(name=before.name, status="fail", value=smallest, threshold=0.0,
+                          unit="m", message=f"collision: {sim_text} ({before.message})",
+                          hint=before.hint or "lower the initial errors or the gains that "
+                          "saturate the law", details={**before.details, **seen})
+    else:
+        collision = Check(name=before.name, status=before.status, value=before.value,
+                          threshold=before.threshold, unit=before.unit,
+                          message=f"{before.message}; {sim_text}", hint=before.hint,
+                          details={**before.details, **seen})
+    details: dict[str, object] = {"range_m": p.r, "trajectory": "simulated", **seen}
+    name = "flocking_connectivity"
+    if widest >= p.r:
+        connectivity = Check(name=name, status="fail", value=widest, threshold=p.r, unit="m",
+                             message=f"{strategy}: a gap reaches {widest:.4g} m, at or beyond "
+                             f"the interaction range {p.r:.4g} m: the formation splits",
+                             hint="raise interaction_range_m, the gains or force_scale_m_s2",
+                             details=details)
+    else:
+        connectivity = Check(name=name, status="pass", value=widest, threshold=p.r, unit="m",
+                             message=f"every gap within the range along the simulated "
+                             f"{strategy} run (widest {widest:.4g} m < {p.r:.4g} m)",
+                             details=details)
+    return [collision, connectivity]

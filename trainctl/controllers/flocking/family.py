@@ -31,6 +31,7 @@ if TYPE_CHECKING:
     from ...design import DesignModel
     from ...report.figures import ReportFigure
     from ...scenario import Scenario
+    from ...sim import SimulationResult
     from .controller import FlockingController
     from .law import FlockingLaw
 
@@ -147,6 +148,8 @@ class FlockingFamily:
     title = "Flocking (virtual coupling)"
     strategies = STRATEGIES
     check_names = CHECK_NAMES
+    trajectory_check_names = ("flocking_collision", "flocking_connectivity")
+    """The checks :meth:`trajectory_checks` judges again on a simulation."""
     strategy_cost: Mapping[str, float] = {"flocking": 0.2}
     measures_gaps = True
     """The law measures the gaps (the model's observability check adds them to the outputs)."""
@@ -175,6 +178,13 @@ class FlockingFamily:
         from .checks import flocking_checks
 
         return flocking_checks(design)
+
+    def trajectory_checks(self, design: FlockingDesign, strategy: str,
+                          result: SimulationResult) -> list[Check]:
+        """``flocking_collision`` and ``flocking_connectivity`` on the simulated gaps."""
+        from .checks import trajectory_checks
+
+        return trajectory_checks(design, strategy, result)
 
     def closed_loop(self, design: FlockingDesign, strategy: str) -> ct.StateSpace:
         """ξ̇ = A_cl ξ + B_w w (continuous); outputs v [m/s] and d [m] (no f: virtual links)."""

@@ -30,10 +30,19 @@
     held) is compared: its spectral radius against exp(max Re λ · T_c).
     Warn above the threshold while the sampled loop is stable, fail when it
     is not.
+``potential_position``
+    The offset from the reference position the train keeps for ever. With
+    pinning every mode decays and the offset is 0 (pass). Without, the
+    head-position error p is the rigid-translation mode: p(∞) = lᵀξ(0) with l
+    the left null vector of A_cl scaled to l_p = 1 (the part of the initial
+    errors the closed loop never removes), against ``position_tolerance_m``;
+    fail above it.
 ``potential_linearisation``
     Spec §2.3 item 5: the neglected a2·v̂² term is below 10 % of the linear
-    term (a1 + 2 a2 v_r)·v̂ when |v̂| < 0.1 (a1/a2 + 2 v_r), on the scenario's
-    initial speed errors (the simulated trajectory is not judged here).
+    term (a1 + 2 a2 v_r)·v̂ when |v̂| < 0.1 (a1/a2 + 2 v_r). The design
+    review judges the scenario's initial speed errors; after a simulation
+    (:func:`trajectory_checks`) the largest |v̂| along the simulated
+    trajectory replaces them.
 """
 
 from __future__ import annotations
@@ -49,10 +58,11 @@ from ...analysis.check import Check
 from ..sampled import closed_loop_spectrum
 
 if TYPE_CHECKING:
+    from ...sim import SimulationResult
     from .family import PotentialDesign
 
-__all__ = ["LMI_MARGIN", "SAMPLING_THRESHOLD", "bound_lmi", "lyapunov_lmi", "potential_checks",
-           "spacing_bound"]
+__all__ = ["LMI_MARGIN", "SAMPLING_THRESHOLD", "bound_lmi", "final_offset", "lyapunov_lmi",
+           "potential_checks", "spacing_bound", "trajectory_checks"]
 
 Array = NDArray[np.float64]
 
@@ -65,7 +75,7 @@ LMI_MARGIN = 1e-6
 
 
 def potential_checks(design: PotentialDesign) -> list[Check]:
-    """The five checks (module docstring).
+    """The six checks (module docstring).
 
     Parameters
     ----------
@@ -80,7 +90,7 @@ def potential_checks(design: PotentialDesign) -> list[Check]:
     certificate = design.certificate
     return [closed_loop_check(design), lyapunov_check(design, certificate),
             spacing_check(design, certificate), sampling_check(design),
-            linearisation_check(design)]
+            position_check(design), linearisation_check(design)]
 
 
 def closed_loop_check(design: PotentialDesign) -> Check:
@@ -358,22 +368,144 @@ def sampling_check(design: PotentialDesign) -> Check:
                  details=details)
 
 
-def linearisation_check(design: PotentialDesign) -> Check:
-    """|v̂(0)| < 0.1 (a1/a2 + 2 v_r) for every car (spec §2.3 item 5)."""
-    name, n = "potential_linearisation", design.law.n
+def final_offset(A_cl: Array, xi0: Array) -> float:
+    """p(∞) [m] of the continuous loop ξ̇ = A_cl ξ from ξ(0) = ξ0, the last state being p.
+
+    Zero when every eigenvalue has Re λ < 0. Otherwise the zero eigenvalue
+    must be simple with right eigenvector e_p (nothing feeds p back); then
+    p(∞) = lᵀξ0 with l the left null vector of A_cl scaled to l_p = 1.
+
+    Parameters
+    ----------
+    A_cl : ndarray
+        Continuous closed loop [1/s], (N, N), the head-position error last.
+    xi0 : ndarray
+        Initial state, (N,).
+
+    Returns
+    -------
+    float
+        The final head-position error [m]; NaN when the zero eigenvalue is
+        not simple or p does not span it.
+
+    Examples
+    --------
+    >>> A = np.array([[-2.0, 0.0], [1.0, 0.0]])   # v̇ = -2v, ṗ = v: p(∞) = p0 + v0/2
+    >>> final_offset(A, np.array([1.0, 0.25]))
+    0.75
+    """
+    lam = np.linalg.eigvals(A_cl)
+    scale = max(1.0, float(np.max(np.abs(lam))))
+    if float(np.max(lam.real)) < -1e-9 * scale:
+        return 0.0
+    left = scipy.linalg.null_space(A_cl.T, rcond=1e-10)
+    if left.shape[1] != 1 or abs(left[-1, 0]) < 1e-9 * float(np.linalg.norm(left)):
+        return math.nan
+    l_vec = left[:, 0] / left[-1, 0]
+    return float(l_vec @ xi0)
+
+
+def position_check(design: PotentialDesign) -> Check:
+    """The final offset from the reference position against ``position_tolerance``."""
+    name, tol = "potential_position", float(design.settings.position_tolerance)
+    if design.pinned:
+        return Check(name=name, status="pass", value=0.0, threshold=tol, unit="m",
+                     message="pinned to the reference position: the position errors decay "
+                     "(no offset remains)")
+    offset = final_offset(design.A_cl, design.initial_errors)
+    if math.isnan(offset):
+        return Check(name=name, status="warn", value=None, threshold=tol, unit="m",
+                     message="the final position offset is undetermined (the zero eigenvalue "
+                     "is not the head-position integrator alone)",
+                     hint="set position_gain > 0")
+    text = (f"no position pinning: the train settles {abs(offset):.4g} m "
+            f"{'ahead of' if offset > 0 else 'behind'} its reference position and stays there "
+            "(the rigid-translation part of the initial errors)")
+    if abs(offset) > tol:
+        return Check(name=name, status="fail", value=abs(offset), threshold=tol, unit="m",
+                     message=f"{text}, more than position_tolerance_m = {tol:g} m",
+                     hint="set position_gain > 0 to pin the cars to their reference positions",
+                     details={"offset_m": offset})
+    return Check(name=name, status="pass", value=abs(offset), threshold=tol, unit="m",
+                 message=f"{text}, within position_tolerance_m = {tol:g} m",
+                 details={"offset_m": offset})
+
+
+def _linearisation_limits(design: PotentialDesign) -> Array:
+    """0.1 (a1/a2 + 2 v_r) per car [m/s] (inf where a2 = 0)."""
     _, a1, a2 = np.asarray(design.scenario.train.davis, dtype=float)
     v_r = float(design.model.settings.speed)
     with np.errstate(divide="ignore"):
-        limits = np.where(a2 > 0, 0.1 * (a1 / np.where(a2 > 0, a2, 1.0) + 2 * v_r), np.inf)
-    errors = np.abs(design.initial_errors[:n])
+        return np.asarray(np.where(a2 > 0, 0.1 * (a1 / np.where(a2 > 0, a2, 1.0) + 2 * v_r),
+                                   np.inf), dtype=float)
+
+
+def linearisation_check(design: PotentialDesign, result: SimulationResult | None = None,
+                        strategy: str = "") -> Check:
+    """|v̂| < 0.1 (a1/a2 + 2 v_r) for every car (spec §2.3 item 5).
+
+    Parameters
+    ----------
+    design : PotentialDesign
+        The family's design.
+    result : SimulationResult or None
+        A simulation of the law: judge the largest |v̂| along it (dense grid
+        when recorded); None: the scenario's initial speed errors.
+    strategy : str
+        The simulated strategy's name (for the message).
+
+    Returns
+    -------
+    Check
+        ``potential_linearisation``.
+    """
+    name, n = "potential_linearisation", design.law.n
+    limits = _linearisation_limits(design)
+    if result is None:
+        errors = np.abs(design.initial_errors[:n])
+        where, t_worst = "initial", None
+    else:
+        t = result.time if result.dense_time is None else result.dense_time
+        v = result.velocities if result.dense_time is None else result.dense_velocities
+        v_ref = result.reference_speed if result.dense_time is None else \
+            result.dense_reference_speed
+        dev = np.abs(np.asarray(v, dtype=float) - np.asarray(v_ref, dtype=float)[None, :])
+        errors = dev.max(axis=1)
+        t_worst = float(t[int(np.argmax(dev.max(axis=0)))])
+        where = f"along the simulated {strategy} run, largest"
     worst = float(np.max(errors))
     limit = float(np.min(limits))
     ok = bool(np.all(errors < limits))
     relation, share = ("<", "below") if ok else ("≥", "above")
+    tail = ("(the simulated trajectory is not judged)" if result is None
+            else f"(at t = {t_worst:.4g} s)")
+    details: dict[str, object] = {"limits": [float(x) for x in limits],
+                                  "largest_errors": [float(x) for x in errors],
+                                  "judged": "initial errors" if result is None else "trajectory"}
     return Check(name=name, status="pass" if ok else "fail", value=worst, threshold=limit,
                  unit="m/s",
-                 message=f"initial |v̂| ≤ {worst:.3g} m/s {relation} 0.1(a1/a2 + 2v_r) = "
-                 f"{limit:.3g} m/s: the a2·v̂² term is {share} 10 % of the linear term "
-                 "(the simulated trajectory is not judged)",
+                 message=f"{where} |v̂| = {worst:.3g} m/s {relation} 0.1(a1/a2 + 2v_r) = "
+                 f"{limit:.3g} m/s: the a2·v̂² term is {share} 10 % of the linear term {tail}",
                  hint="" if ok else "start closer to the reference",
-                 details={"limits": [float(x) for x in limits]})
+                 details=details)
+
+
+def trajectory_checks(design: PotentialDesign, strategy: str,
+                      result: SimulationResult) -> list[Check]:
+    """The checks a simulation of the law decides: ``potential_linearisation`` on its trajectory.
+
+    Parameters
+    ----------
+    design : PotentialDesign
+        The family's design.
+    strategy : str
+        The simulated strategy's name.
+    result : SimulationResult
+        Its simulation on the nonlinear plant.
+
+    Returns
+    -------
+    list of Check
+        Replacing the design review's checks of the same names.
+    """
+    return [linearisation_check(design, result, strategy)]

@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     from ...design import DesignModel
     from ...report.figures import ReportFigure
     from ...scenario import Scenario
+    from ...sim import SimulationResult
     from .controller import PotentialController
     from .law import PotentialLaw
 
@@ -39,7 +40,7 @@ STRATEGIES = ("consensus",)
 """The potential family's one strategy."""
 
 CHECK_NAMES = ("potential_closed_loop", "potential_lyapunov", "potential_spacing_bound",
-               "potential_sampling", "potential_linearisation")
+               "potential_sampling", "potential_position", "potential_linearisation")
 """The potential family's design checks (:mod:`trainctl.controllers.potential.checks`)."""
 
 Array = NDArray[np.float64]
@@ -183,6 +184,8 @@ class PotentialFamily:
     title = "Potential-function consensus"
     strategies = STRATEGIES
     check_names = CHECK_NAMES
+    trajectory_check_names = ("potential_linearisation",)
+    """The checks :meth:`trajectory_checks` judges again on a simulation."""
     strategy_cost: Mapping[str, float] = {"consensus": 0.2}
     report_partial = PARTIAL
 
@@ -206,10 +209,17 @@ class PotentialFamily:
                                    input_bounds=design.settings.input_bounds, name=strategy)
 
     def checks(self, design: PotentialDesign) -> list[Check]:
-        """The five checks of :mod:`trainctl.controllers.potential.checks`."""
+        """The six checks of :mod:`trainctl.controllers.potential.checks`."""
         from .checks import potential_checks
 
         return potential_checks(design)
+
+    def trajectory_checks(self, design: PotentialDesign, strategy: str,
+                          result: SimulationResult) -> list[Check]:
+        """``potential_linearisation`` judged on the simulated trajectory."""
+        from .checks import trajectory_checks
+
+        return trajectory_checks(design, strategy, result)
 
     def closed_loop(self, design: PotentialDesign, strategy: str) -> ct.StateSpace:
         """ξ̇ = A_cl ξ + B_w w (continuous); outputs v [m/s], f [kN], d [m]."""

@@ -59,6 +59,10 @@ class PotentialSettings:
     spacing_limit : float
         Admissible |spacing deviation| of a coupler [m], > 0 (file key
         ``spacing_limit_m``), judged by ``potential_spacing_bound``.
+    position_tolerance : float
+        Admissible final offset from the reference position [m], > 0 (file
+        key ``position_tolerance_m``), judged by ``potential_position``: the
+        offset a law without position pinning leaves for ever.
     input_bounds : bool
         Saturate the inputs to the traction/braking envelope.
 
@@ -96,6 +100,9 @@ class PotentialSettings:
     spacing_limit: Annotated[float, Number(gt=0), Key(
         "Admissible spacing deviation of a coupler (potential_spacing_bound)",
         file="spacing_limit_m", unit="m")] = 0.1
+    position_tolerance: Annotated[float, Number(gt=0), Key(
+        "Admissible final offset from the reference position (potential_position)",
+        file="position_tolerance_m", unit="m")] = 1.0
     input_bounds: Annotated[bool, Flag(), Key(
         "Saturate the plant input to the traction/braking envelope")] = True
 
