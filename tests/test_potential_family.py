@@ -130,6 +130,10 @@ def test_unpinned_offset_is_the_rigid_mode_projection() -> None:
     checks = {c.name: c for c in FAMILY.checks(design)}
     assert checks["potential_closed_loop"].status == "warn"
     assert "constant position offset" in checks["potential_closed_loop"].message
+    position = checks["potential_position"]
+    assert position.value == pytest.approx(predicted, rel=1e-9)
+    assert position.status == ("fail" if predicted > 1.0 else "pass")
+    assert f"{predicted:.4g} m ahead" in position.message
 
 
 def test_barrier_keeps_the_spacing_inside_its_band() -> None:
@@ -143,15 +147,39 @@ def test_barrier_keeps_the_spacing_inside_its_band() -> None:
     sim = {"duration": 2.0, "settle_time": 1.0, "initial_speed_errors": [0.05, -0.05, 0.05, -0.05],
            "initial_spacing_errors": [0.008, -0.008, 0.008]}
     common = {"input_bounds": False, "control_interval": 0.0005, "kappa_per_s2": 200.0}
-    peaks = {}
+    peaks, checks = {}, {}
     for name, extra in (("barrier", {"pair_potential": "barrier", "barrier_m": delta}),
                         ("quadratic", {})):
         sc = _scenario({**common, **extra}, sim, equal_mass=45.0)
         _, x = _run(sc)
         start = x[0, 4:7] - np.array(sim["initial_spacing_errors"])
         peaks[name] = float(np.abs(x[:, 4:7] - start).max())
+        checks[name] = {c.name: c for c in FAMILY.checks(build_design(sc).family("potential"))}
     assert peaks["quadratic"] > delta
     assert peaks["barrier"] < delta
+    # the energy bound of the check holds the simulated peak, inside the band
+    bound = checks["barrier"]["potential_spacing_bound"].value
+    assert peaks["barrier"] <= bound < delta
+    assert bound > 0.5 * delta  # and it is not vacuous: the start is well inside
+
+
+def test_barrier_bound_is_the_energy_level_set() -> None:
+    """Two equal cars, no pinning, p irrelevant: m U(z) = V(0) solved by hand at the bound."""
+    from trainctl.controllers.potential.checks import barrier_bound
+
+    delta, kappa, m = 0.02, 50.0, 45e3
+    sim = {"initial_speed_errors": [0.02, -0.02, 0.0, 0.0],
+           "initial_spacing_errors": [0.005, 0.0, 0.0]}
+    sc = _scenario({"pair_potential": "barrier", "barrier_m": delta, "kappa_per_s2": kappa,
+                    "position_gain": 0.0}, sim, equal_mass=m / 1e3)
+    design = build_design(sc).family("potential")
+    k = sc.train.stiffness
+    a = kappa * delta**2  # barrier strength [m²/s²]
+    # V(0) = ½ m Σv̂² + ½ Σ k z² + m U(z): cars 3, 4 at rest, links 2, 3 undeflected
+    V0 = 0.5 * m * 2 * 0.02**2 + 0.5 * k[0] * 0.005**2 - m * 0.5 * a * np.log(
+        1 - (0.005 / delta) ** 2)
+    z = barrier_bound(design)
+    assert m * (-0.5 * a * np.log(1 - (z / delta) ** 2)) == pytest.approx(V0, rel=1e-9)
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess[str]:

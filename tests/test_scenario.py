@@ -39,6 +39,7 @@ BUILTIN_NAMES = [
     "crh2-dmpc",
     "crh2-dmpc-well-sampled",
     "crh2-potential",
+    "crh2-potential-unpinned",
     "heavy-haul-flocking",
     "heavy-haul-flocking-collision",
     "heavy-haul-hinf",

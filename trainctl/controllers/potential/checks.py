@@ -18,10 +18,12 @@
     From V(t) ≤ V(0): |z_k(t)| ≤ √(V(0) · c_kᵀP⁻¹c_k) (the largest |z_k| on
     the level set of V through the scenario's initial errors), with the P
     that makes this smallest (:func:`bound_lmi`, an SDP), against the
-    family's ``spacing_limit`` [m]; the barrier's band |z| < Δ instead when
-    the masses are equal (the energy argument of (P2) needs the potential
-    to act equally on both cars; with unequal masses m_i U' is not a
-    gradient and only the linear bound is reported, as warn).
+    family's ``spacing_limit`` [m]. With the barrier and equal masses, the
+    nonlinear energy instead (:func:`barrier_bound`): m U(z_k) ≤ V(0) gives
+    |z_k| ≤ Δ √(1 − exp(−2V(0)/(mκ))) < Δ (the energy argument of (P2)
+    needs the potential to act equally on both cars; with unequal masses
+    m_i U' is not a gradient and only the linear bound is reported, as
+    warn).
 ``potential_sampling``
     ω_max·T_c of the closed loop against :data:`SAMPLING_THRESHOLD` = 0.1 rad:
     the zero-order hold delays the law by about T_c/2, a phase lag of
@@ -61,7 +63,7 @@ if TYPE_CHECKING:
     from ...sim import SimulationResult
     from .family import PotentialDesign
 
-__all__ = ["LMI_MARGIN", "SAMPLING_THRESHOLD", "bound_lmi", "final_offset", "lyapunov_lmi",
+__all__ = ["LMI_MARGIN", "SAMPLING_THRESHOLD", "barrier_bound", "bound_lmi", "final_offset", "lyapunov_lmi",
            "potential_checks", "spacing_bound", "trajectory_checks"]
 
 Array = NDArray[np.float64]
@@ -330,11 +332,14 @@ def spacing_check(design: PotentialDesign, certificate: tuple[str, Array] | None
     details = {"linear_bound": bound, "initial_max": z0, "limit": limit}
     equal = bool(np.allclose(law.mass, law.mass[0], rtol=1e-9))
     if delta is not None and equal:
-        status = "pass" if delta <= limit else "fail"
-        return Check(name=name, status=status, value=float(delta), threshold=limit, unit="m",
-                     message=f"barrier keeps |z| < Δ = {delta:g} m for all t (linear bound "
-                     f"{bound:.4g} m)", hint="" if status == "pass" else "narrow barrier_m",
-                     details=details)
+        band = barrier_bound(design)
+        details["barrier_bound"] = band
+        status = "pass" if band <= limit else "fail"
+        return Check(name=name, status=status, value=band, threshold=limit, unit="m",
+                     message=f"barrier: m·U(z) ≤ V(0) keeps |z(t)| ≤ {band:.4g} m < Δ = "
+                     f"{delta:g} m for all t (linear bound {bound:.4g} m)",
+                     hint="" if status == "pass" else "narrow barrier_m or lower the initial "
+                     "errors", details=details)
     status = "pass" if bound <= limit else "fail"
     note = (" (barrier invariance not proven: unequal masses)" if delta is not None else "")
     if status == "pass" and delta is not None:
@@ -343,6 +348,43 @@ def spacing_check(design: PotentialDesign, certificate: tuple[str, Array] | None
                  message=f"|z(t)| ≤ {bound:.4g} m from V(0) of the initial errors{note}",
                  hint="" if bound <= limit else "lower the initial errors or stiffen the law",
                  details=details)
+
+
+def barrier_bound(design: PotentialDesign) -> float:
+    """Largest |z_k(t)| [m] the barrier allows from the initial errors (equal masses).
+
+    V = ½ v̂ᵀMv̂ + ½ x̂ᵀ(E diag(k) Eᵀ + K) x̂ + m Σ_k U(z_k) (the closed form of
+    spec §2.3 item 3 with the barrier U in place of its quadratic part) does
+    not increase along the unsaturated continuous loop, and every term is
+    non-negative, so m U(z_k(t)) ≤ V(0): |z_k(t)| ≤ Δ √(1 − exp(−2V(0)/(mκ)))
+    (:meth:`~trainctl.controllers.potentials.BarrierPotential.bound`), always
+    below Δ, and the closer to it the larger V(0) is against m κ.
+
+    Parameters
+    ----------
+    design : PotentialDesign
+        A design with the barrier potential and equal masses.
+
+    Returns
+    -------
+    float
+        The bound [m]; Δ itself when an initial deviation is outside the band.
+    """
+    from ..sampled import cumulative, incidence
+
+    law, train = design.law, design.scenario.train
+    n, m = law.n, float(law.mass[0])
+    xi0 = design.initial_errors
+    v, z, p = xi0[:n], xi0[n:2 * n - 1], xi0[2 * n - 1]
+    x = p - cumulative(n) @ z
+    E = incidence(n)
+    K = E @ np.diag(train.stiffness) @ E.T + np.diag(law.pinning)
+    potential = law.potential
+    barrier = float(np.sum(np.asarray(potential.energy(z), dtype=float)))
+    if not math.isfinite(barrier):
+        return float(design.settings.barrier)
+    energy = 0.5 * m * float(v @ v) + 0.5 * float(x @ K @ x) + m * barrier
+    return float(potential.bound(energy / m))
 
 
 def sampling_check(design: PotentialDesign) -> Check:
