@@ -63,8 +63,8 @@ if TYPE_CHECKING:
     from ...sim import SimulationResult
     from .family import PotentialDesign
 
-__all__ = ["LMI_MARGIN", "SAMPLING_THRESHOLD", "barrier_bound", "bound_lmi", "final_offset", "lyapunov_lmi",
-           "potential_checks", "spacing_bound", "trajectory_checks"]
+__all__ = ["LMI_MARGIN", "SAMPLING_THRESHOLD", "barrier_bound", "bound_lmi", "final_offset",
+           "lyapunov_lmi", "potential_checks", "spacing_bound", "trajectory_checks"]
 
 Array = NDArray[np.float64]
 
