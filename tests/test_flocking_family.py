@@ -144,3 +144,29 @@ def test_analyse_json_has_the_checks_with_numbers():
         np.sqrt(2 * collision["threshold"]))
     assert checks["flocking_connectivity"]["value"] == pytest.approx(590.0)
     assert checks["flocking_actuators"]["value"] > 1.0
+
+
+def test_held_loop_is_python_control_zoh_with_the_law(design):
+    """Φ + Γ F of the sampling check equals c2d (zoh) of the open loop closed by F."""
+    import control as ct
+
+    T = design.control_interval
+    sys = ct.c2d(ct.ss(design.A_open, design.B_open, np.eye(design.A_open.shape[0]), 0), T,
+                 method="zoh")
+    expected = sys.A + sys.B @ design.law.feedback()
+    assert np.allclose(design.sampled_matrix(), expected, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize(("interval", "status"), [(1.0, "pass"), (2.0, "warn"), (100.0, "fail")])
+def test_sampling_check_verdicts(interval, status):
+    """ω_max ≈ 0.071 rad/s: 1 s passes, 2 s (0.14 rad) warns, 100 s makes the held loop unstable."""
+    from trainctl.controllers.flocking.family import FAMILY
+
+    sc = load_scenario("heavy-haul-flocking").replace("controller.control_interval", interval)
+    d = build_design(sc).family("flocking")
+    check = {c.name: c for c in FAMILY.checks(d)}["flocking_sampling"]
+    assert check.status == status
+    lam = np.linalg.eigvals(d.A_cl)
+    assert check.value == pytest.approx(np.abs(lam).max() * interval)
+    rho = np.abs(np.linalg.eigvals(d.sampled_matrix())).max()
+    assert (rho > 1.0) == (status == "fail")

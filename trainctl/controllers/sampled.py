@@ -9,19 +9,29 @@ apart from a translation mode; this module holds those shared steps.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
+import scipy.linalg
 from numpy.typing import NDArray
 
 from ..exceptions import ScenarioError
 
 if TYPE_CHECKING:
+    from ..analysis.check import Check
     from ..design import DesignModel
     from ..scenario import Scenario
 
-__all__ = ["ZERO_TOL", "ClosedLoopSpectrum", "closed_loop_spectrum", "control_interval",
-           "cumulative", "incidence", "initial_errors"]
+__all__ = ["SAMPLING_THRESHOLD", "ZERO_TOL", "ClosedLoopSpectrum", "closed_loop_spectrum",
+           "control_interval", "cumulative", "held_loop", "incidence", "initial_errors",
+           "sampling_check"]
+
+SAMPLING_THRESHOLD = 0.1
+"""Largest ω_max·T_c [rad] for which the continuous analysis stands for the sampled law.
+
+The zero-order hold delays the law by about T_c/2, a phase lag of
+ω_max·T_c/2 ≤ 0.05 rad (3°) at the closed loop's fastest mode."""
 
 _MULTIPLE_TOL = 1e-9  # relative tolerance of "duration is a whole multiple of the interval"
 
@@ -162,3 +172,84 @@ def cumulative(n: int) -> NDArray[np.float64]:
     [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]
     """
     return np.tril(np.ones((n, max(n - 1, 0))), -1)
+
+
+def held_loop(A_open: NDArray[np.float64], B_open: NDArray[np.float64],
+              feedback: NDArray[np.float64], interval: float) -> NDArray[np.float64]:
+    """The closed loop over one interval with the law held: Φ + Γ F (exact ZOH of the plant).
+
+    Parameters
+    ----------
+    A_open, B_open : ndarray
+        Continuous open loop [1/s] and input matrix, (N, N) and (N, m).
+    feedback : ndarray
+        The law's linear gain F, û = F ξ, (m, N).
+    interval : float
+        T [s], > 0.
+
+    Returns
+    -------
+    ndarray
+        (N, N) [-].
+
+    Examples
+    --------
+    >>> H = held_loop(np.zeros((1, 1)), np.ones((1, 1)), -np.ones((1, 1)), 0.5)
+    >>> float(H[0, 0])  # ẋ = u, u = -x held: x+ = x - T x
+    0.5
+    """
+    N, m = B_open.shape
+    block = np.zeros((N + m, N + m))
+    block[:N, :N], block[:N, N:] = A_open, B_open
+    E = scipy.linalg.expm(block * float(interval))
+    return np.asarray(E[:N, :N] + E[:N, N:] @ feedback, dtype=float)
+
+
+def sampling_check(name: str, A_cl: NDArray[np.float64], held: NDArray[np.float64],
+                   interval: float, threshold: float = SAMPLING_THRESHOLD) -> Check:
+    """ω_max·T_c of a continuous law against ``threshold``; the held loop's spectral radius.
+
+    Pass when ω_max·T_c ≤ ``threshold`` (the continuous analysis stands for
+    the sampled law, :data:`SAMPLING_THRESHOLD`), warn above it while the
+    held loop is stable, fail when its spectral radius exceeds 1. The
+    message compares that radius with e^(αT), α the continuous spectral
+    abscissa: equal to many digits when the sampling is fine.
+
+    Parameters
+    ----------
+    name : str
+        The check's name.
+    A_cl : ndarray
+        The continuous linear closed loop [1/s].
+    held : ndarray
+        The same loop with the law held over each interval (:func:`held_loop`).
+    interval : float
+        T_c [s].
+    threshold : float
+        Largest ω_max·T_c [rad] that passes.
+
+    Returns
+    -------
+    Check
+        Value ω_max·T_c [rad].
+    """
+    from ..analysis.check import Check
+
+    lam = np.linalg.eigvals(A_cl)
+    omega = float(np.max(np.abs(lam)))
+    alpha = float(np.max(lam.real))
+    rho = float(np.max(np.abs(np.linalg.eigvals(held))))
+    expected = math.exp(alpha * interval)
+    value = omega * interval
+    details = {"omega_max": omega, "sampled_radius": rho, "continuous_radius": expected}
+    text = (f"ω_max·T_c = {omega:.4g} rad/s × {interval:g} s = {value:.3g} rad; sampled loop "
+            f"ρ = {rho:.8g} (continuous e^(αT) = {expected:.8g})")
+    if rho > 1.0 + 1e-9:
+        return Check(name=name, status="fail", value=value, threshold=threshold,
+                     unit="rad", message=f"sampled law unstable: {text}",
+                     hint="shorten control_interval", details=details)
+    status = "pass" if value <= threshold else "warn"
+    return Check(name=name, status=status, value=value, threshold=threshold, unit="rad",
+                 message=text, hint="" if status == "pass" else
+                 f"shorten control_interval below {threshold / omega:.3g} s",
+                 details=details)

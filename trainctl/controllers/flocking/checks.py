@@ -12,6 +12,12 @@
     that nothing feeds back: a semisimple zero eigenvalue (rigid
     translation), reported as warn; a zero eigenvalue in a Jordan block or
     Re λ > 0 fails.
+``flocking_sampling``
+    ω_max·T_c of the linearised closed loop against 0.1 rad (the hold's
+    phase lag at the fastest mode ≤ 3°, :data:`~trainctl.controllers.sampled.SAMPLING_THRESHOLD`),
+    and the held loop's spectral radius (fail ≥ 1), as ``potential_sampling``.
+    The lattice spring is linearised at the desired gap: nearer the
+    collision barrier φ is steeper, so the margin matters.
 ``flocking_collision``
     H(0) = ½ Σ v̂_i² + Σ_k E(s_k) + ½ c₁ Σ x̂_i² [m²/s²] from the scenario's
     initial errors against the collision barrier E(0) = l·a_s·ψ_α(0)
@@ -48,7 +54,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...analysis.check import Check
-from ..sampled import closed_loop_spectrum, cumulative
+from ..sampled import closed_loop_spectrum, cumulative, sampling_check
 
 if TYPE_CHECKING:
     from ...sim import SimulationResult
@@ -65,7 +71,7 @@ SOFT_SPRING = 0.5
 
 
 def flocking_checks(design: FlockingDesign) -> list[Check]:
-    """The five checks (module docstring), in ``CHECK_NAMES`` order.
+    """The six checks (module docstring), in ``CHECK_NAMES`` order.
 
     Parameters
     ----------
@@ -75,10 +81,12 @@ def flocking_checks(design: FlockingDesign) -> list[Check]:
     Returns
     -------
     list of Check
-        parameters, closed loop, collision, connectivity, actuators.
+        parameters, closed loop, sampling, collision, connectivity, actuators.
     """
     energy = initial_energy(design)
     return [parameters_check(design), closed_loop_check(design),
+            sampling_check("flocking_sampling", design.A_cl, design.sampled_matrix(),
+                           design.control_interval),
             collision_check(design, energy), connectivity_check(design, energy),
             actuators_check(design)]
 

@@ -41,8 +41,8 @@ __all__ = ["CHECK_NAMES", "FAMILY", "STRATEGIES", "FlockingDesign", "FlockingFam
 STRATEGIES = ("flocking",)
 """The flocking family's one strategy."""
 
-CHECK_NAMES = ("flocking_parameters", "flocking_closed_loop", "flocking_collision",
-               "flocking_connectivity", "flocking_actuators")
+CHECK_NAMES = ("flocking_parameters", "flocking_closed_loop", "flocking_sampling",
+               "flocking_collision", "flocking_connectivity", "flocking_actuators")
 """The flocking family's design checks (:mod:`trainctl.controllers.flocking.checks`)."""
 
 Array = NDArray[np.float64]
@@ -96,6 +96,24 @@ class FlockingDesign:
     B_open: Array
     A_cl: Array
     initial_errors: Array
+
+    def sampled_matrix(self, interval: float | None = None) -> Array:
+        """The linear closed loop with the law held over each interval (exact ZOH of the plant).
+
+        Parameters
+        ----------
+        interval : float or None
+            T [s]; None: :attr:`control_interval`.
+
+        Returns
+        -------
+        ndarray
+            Φ + Γ F, (2n, 2n) [-].
+        """
+        from ..sampled import held_loop
+
+        T = self.control_interval if interval is None else float(interval)
+        return held_loop(self.A_open, self.B_open, self.law.feedback(), T)
 
 
 def design_flocking(scenario: Scenario, model: DesignModel, settings: Any) -> FlockingDesign:
@@ -174,7 +192,7 @@ class FlockingFamily:
                                   input_bounds=design.settings.input_bounds, name=strategy)
 
     def checks(self, design: FlockingDesign) -> list[Check]:
-        """The five checks of :mod:`trainctl.controllers.flocking.checks`."""
+        """The six checks of :mod:`trainctl.controllers.flocking.checks`."""
         from .checks import flocking_checks
 
         return flocking_checks(design)

@@ -57,7 +57,8 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from ...analysis.check import Check
-from ..sampled import closed_loop_spectrum
+from ..sampled import SAMPLING_THRESHOLD, closed_loop_spectrum
+from ..sampled import sampling_check as shared_sampling_check
 
 if TYPE_CHECKING:
     from ...sim import SimulationResult
@@ -67,9 +68,6 @@ __all__ = ["LMI_MARGIN", "SAMPLING_THRESHOLD", "barrier_bound", "bound_lmi", "fi
            "lyapunov_lmi", "potential_checks", "spacing_bound", "trajectory_checks"]
 
 Array = NDArray[np.float64]
-
-SAMPLING_THRESHOLD = 0.1
-"""Largest ω_max·T_c [rad] for which the continuous analysis stands for the sampled law."""
 
 LMI_MARGIN = 1e-6
 """ε of the strict LMI AᵀP + PA ⪯ −εI with P ⪰ I (on the balanced matrix)."""
@@ -389,25 +387,8 @@ def barrier_bound(design: PotentialDesign) -> float:
 
 def sampling_check(design: PotentialDesign) -> Check:
     """ω_max·T_c against the threshold; the sampled loop's spectral radius."""
-    name, T = "potential_sampling", design.control_interval
-    lam = np.linalg.eigvals(design.A_cl)
-    omega = float(np.max(np.abs(lam)))
-    alpha = float(np.max(lam.real))
-    rho = float(np.max(np.abs(np.linalg.eigvals(design.sampled_matrix()))))
-    expected = math.exp(alpha * T)
-    value = omega * T
-    details = {"omega_max": omega, "sampled_radius": rho, "continuous_radius": expected}
-    text = (f"ω_max·T_c = {omega:.4g} rad/s × {T:g} s = {value:.3g} rad; sampled loop "
-            f"ρ = {rho:.8g} (continuous e^(αT) = {expected:.8g})")
-    if rho > 1.0 + 1e-9:
-        return Check(name=name, status="fail", value=value, threshold=SAMPLING_THRESHOLD,
-                     unit="rad", message=f"sampled law unstable: {text}",
-                     hint="shorten control_interval", details=details)
-    status = "pass" if value <= SAMPLING_THRESHOLD else "warn"
-    return Check(name=name, status=status, value=value, threshold=SAMPLING_THRESHOLD, unit="rad",
-                 message=text, hint="" if status == "pass" else
-                 f"shorten control_interval below {SAMPLING_THRESHOLD / omega:.3g} s",
-                 details=details)
+    return shared_sampling_check("potential_sampling", design.A_cl, design.sampled_matrix(),
+                                 design.control_interval)
 
 
 def final_offset(A_cl: Array, xi0: Array) -> float:

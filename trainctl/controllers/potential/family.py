@@ -19,7 +19,6 @@ from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import NDArray
 
 if TYPE_CHECKING:
@@ -113,12 +112,10 @@ class PotentialDesign:
         ndarray
             Φ + Γ F, (2n, 2n) [-].
         """
+        from ..sampled import held_loop
+
         T = self.control_interval if interval is None else float(interval)
-        N, m = self.B_open.shape
-        block = np.zeros((N + m, N + m))
-        block[:N, :N], block[:N, N:] = self.A_open, self.B_open
-        E = scipy.linalg.expm(block * T)
-        return np.asarray(E[:N, :N] + E[:N, N:] @ self.law.feedback(), dtype=float)
+        return held_loop(self.A_open, self.B_open, self.law.feedback(), T)
 
     @cached_property
     def certificate(self) -> tuple[str, Array] | None:
