@@ -121,6 +121,21 @@ class TestContinuousChain:
         assert res.chains["d"].growth_rate == pytest.approx(h_infinity(0.0), rel=5e-3)
         assert res.chains["d"].growth_rate > 1
 
+    def test_long_train_message_shows_the_ends_and_the_growth(self) -> None:
+        """40 followers: the check names 40 channels, lists 5 peaks and the fitted growth."""
+        from trainctl.analysis.string_stability import _judge
+
+        res = string_stability(platoon(40, 0.0))
+        check = _judge(res, "toy")
+        d = res.chains["d"]
+        assert check.status == "fail"
+        assert "(40 channels; growth " in check.message
+        assert f"growth {d.growth_rate:.4g} per vehicle" in check.message
+        assert f"{d.gains[0]:.3g}, {d.gains[1]:.3g}, {d.gains[2]:.3g}, …, " in check.message
+        assert f"{d.gains[10]:.3g}," not in check.message
+        short = _judge(string_stability(platoon(6, 0.0)), "toy").message
+        assert "growth" not in short and "…" not in short
+
     def test_short_train_has_no_growth_rate(self) -> None:
         """Fewer than MIN_FIT channels: no fit (NaN, None in JSON)."""
         res = string_stability(platoon(MIN_FIT - 1, 0.0))

@@ -400,12 +400,30 @@ def string_stability_check(design: Design) -> Check | None:
     return _judge(res, f"{family} {strategy}")
 
 
+_LISTED_PEAKS = 8
+"""Peaks listed in full in a check message; longer trains show the ends and the growth."""
+
+
+def _peaks_text(chain: ChainPeaks) -> str:
+    """"spacing deviation peaks 1, 2, 3 m/(m/s²)" (ends only for long trains), with the growth."""
+    g = chain.gains
+    values = [f"{x:.3g}" for x in g]
+    if len(values) > _LISTED_PEAKS:
+        values = values[:3] + ["…"] + values[-2:]
+    what, unit = QUANTITIES[chain.quantity]
+    text = f"{what} peaks {', '.join(values)} {unit}"
+    growth = chain.growth_rate
+    if len(g) > _LISTED_PEAKS:
+        text += f" ({len(g)} channels"
+        text += (f"; growth {growth:.4g} per vehicle along the rear half)"
+                 if math.isfinite(growth) else ")")
+    return text
+
+
 def _judge(res: StringStabilityResult, what: str) -> Check:
     """Status, message and hint of :func:`string_stability_check`."""
     ratio = res.max_ratio
-    peaks = "; ".join(f"{QUANTITIES[c.quantity][0]} peaks "
-                      + ", ".join(f"{g:.3g}" for g in c.gains) + f" {QUANTITIES[c.quantity][1]}"
-                      for c in res.judged)
+    peaks = "; ".join(_peaks_text(c) for c in res.judged)
     if not res.judged or not res.finite:
         why = ("no spacing or coupler-force output" if not res.judged else
                "infinite peak gain: a closed-loop integrator (pole at z = 1 or s = 0) "
