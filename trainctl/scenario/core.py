@@ -225,6 +225,12 @@ class Scenario:
         The TOML document the scenario was parsed from, read-only (tables as
         mappings, arrays as tuples); None for a scenario built in Python.
         :meth:`replace` edits a copy of it.
+    tags : Mapping of str to str
+        Where the file's values come from: file key path (``"model.speed_kmh"``,
+        ``"train.vehicle[0].mass_t"``) or table path to the source tag of its
+        comment (``"reconstructed: CRH cruise speed"``), read-only
+        (:func:`~trainctl.scenario.tags.source_tags`); :meth:`replace` drops
+        the tag of the key it changes.
 
     Examples
     --------
@@ -251,6 +257,7 @@ class Scenario:
     expected: Mapping[str, str] = field(default_factory=FrozenMapping)
     source: str = "<string>"
     document: Mapping[str, Any] | None = field(default=None, compare=False, repr=False)
+    tags: Mapping[str, str] = field(default_factory=FrozenMapping, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.document is not None:
@@ -370,7 +377,10 @@ class Scenario:
                 f"Scenario.replace: {self.name!r} was built in Python, not read from a file, so "
                 "there is no file key to replace; use dataclasses.replace on its settings.")
         label = f"{self.source} ({key} = {value!r})"
-        return parse_document(replaced_document(self.document, key, value), source=label)
+        tags = {k: v for k, v in self.tags.items()
+                if k != key and not k.startswith((key + ".", key + "["))}
+        return parse_document(replaced_document(self.document, key, value), source=label,
+                              tags=tags)
 
     @property
     def slug(self) -> str:

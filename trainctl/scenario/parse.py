@@ -153,10 +153,13 @@ def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:
     """
     if not isinstance(text, str):
         raise TypeError(f"parse_scenario: 'text' must be a str (got {type(text).__name__}).")
-    return _Parser(source, load_toml(text, source)).scenario()
+    from .tags import source_tags
+
+    return _Parser(source, load_toml(text, source), source_tags(text)).scenario()
 
 
-def parse_document(document: dict[str, Any], *, source: str = "<string>") -> Scenario:
+def parse_document(document: dict[str, Any], *, source: str = "<string>",
+                   tags: Mapping[str, str] | None = None) -> Scenario:
     """Parse a scenario from its TOML document (the dict ``tomllib`` gives).
 
     Parameters
@@ -165,6 +168,9 @@ def parse_document(document: dict[str, Any], *, source: str = "<string>") -> Sce
         The document: tables as dicts, arrays as lists.
     source : str
         Label used in error messages and stored as ``Scenario.source``.
+    tags : mapping of str to str or None
+        Source tags of the values by file key path (``Scenario.tags``; a
+        document has no comments to read them from).
 
     Returns
     -------
@@ -187,14 +193,16 @@ def parse_document(document: dict[str, Any], *, source: str = "<string>") -> Sce
     if not isinstance(document, dict):
         raise TypeError(f"parse_document: 'document' must be a dict (got "
                         f"{type(document).__name__}).")
-    return _Parser(source, document).scenario()
+    return _Parser(source, document, tags).scenario()
 
 
 class _Parser:
     """One document being parsed: its label, its TOML data and the error context."""
 
-    def __init__(self, file: str, doc: dict[str, Any]) -> None:
+    def __init__(self, file: str, doc: dict[str, Any],
+                 tags: Mapping[str, str] | None = None) -> None:
         self.file, self.doc = file, doc
+        self.tags = FrozenMapping(tags or {})
 
     def validate(self, model: type[BaseModel], prefix: tuple[Any, ...], data: Any = None,
                  **extra: Any) -> Any:
@@ -252,7 +260,7 @@ class _Parser:
             name=top.name, description=top.description, seed=top.seed, train=train,
             track=track, model=model, controllers=FrozenMapping(controllers),
             communication=communication, simulation=simulation, expected=expected,
-            source=self.file, document=self.doc,
+            source=self.file, document=self.doc, tags=self.tags,
         ))
 
     def train(self) -> Train:
