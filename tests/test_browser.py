@@ -28,6 +28,7 @@ import re
 import shutil
 import subprocess
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -102,16 +103,21 @@ def _load(page: Path, shot: Path, profile: Path, *, height: int = 3000) -> str:
 
 def _measure(page: Path, tmp: Path) -> dict[str, object]:
     """Lay out a copy of ``page`` with :data:`MEASURE` appended in a 1280 px window."""
+    return _inspect(page, tmp, MEASURE, "trainctl-measure")
+
+
+def _inspect(page: Path, tmp: Path, script: str, output: str) -> dict[str, Any]:
+    """Lay out a copy of ``page`` with ``script`` appended; return the JSON it writes to a <pre>."""
     html = page.read_text(encoding="utf-8")
     assert "<script" not in html  # the report itself runs no JavaScript
-    copy = tmp / f"measured-{page.name}"
-    copy.write_text(html.replace("</body>", f"<script>{MEASURE}</script></body>"),
+    copy = tmp / f"{output}-{page.name}"
+    copy.write_text(html.replace("</body>", f"<script>{script}</script></body>"),
                     encoding="utf-8")
-    result = subprocess.run(_command(copy, tmp / "profile-measure", 900, "--dump-dom"),
+    result = subprocess.run(_command(copy, tmp / f"profile-{output}", 900, "--dump-dom"),
                             capture_output=True, text=True, timeout=180, check=False)
     assert result.returncode == 0, result.stderr[-2000:]
-    found = re.search(r'<pre id="trainctl-measure">(.*?)</pre>', result.stdout, re.DOTALL)
-    assert found, "the measuring script did not run"
+    found = re.search(rf'<pre id="{output}">(.*?)</pre>', result.stdout, re.DOTALL)
+    assert found, f"the script writing {output} did not run"
     text = found.group(1).replace("&gt;", ">").replace("&lt;", "<").replace("&amp;", "&")
     return json.loads(text)
 
@@ -153,6 +159,44 @@ def mixed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = root / "mixed.html"
     assert main(["report", str(root / "mixed.toml"), "-o", str(path)]) == 0
     return path
+
+
+FAMILY_SCENARIOS = {"potential": "crh2-potential", "flocking": "heavy-haul-flocking"}
+"""The scenarios whose primary family exchanges data over a communication graph."""
+
+GRAPH = """
+(function () {
+  var figures = document.querySelectorAll('figure[id^="figure-graph-"]');
+  var out = {count: figures.length};
+  if (figures.length) {
+    var fig = figures[0], svg = fig.querySelector('svg'), r = svg.getBoundingClientRect();
+    var section = fig.parentElement.closest('section');
+    out.id = fig.id;
+    out.section = section ? section.id : '';
+    out.box = [r.left, r.top, r.width, r.height];
+    out.viewport = document.documentElement.clientWidth;
+    out.texts = Array.prototype.map.call(svg.querySelectorAll('text'),
+                                         function (t) { return t.textContent.trim(); });
+    out.caption = fig.querySelector('figcaption').textContent;
+  }
+  var pre = document.createElement('pre');
+  pre.id = 'trainctl-graph';
+  pre.textContent = JSON.stringify(out);
+  document.body.appendChild(pre);
+})();
+"""
+"""Appended to a copy of a page: where the graph figure is laid out, and its labels."""
+
+
+@pytest.fixture(scope="module", params=sorted(FAMILY_SCENARIOS))
+def family_report(request: pytest.FixtureRequest,
+                  tmp_path_factory: pytest.TempPathFactory) -> tuple[str, Path]:
+    """crh2-potential and heavy-haul-flocking, each rendered once by the CLI (one process)."""
+    family = request.param
+    name = FAMILY_SCENARIOS[family]
+    path = tmp_path_factory.mktemp(f"browser-{family}") / f"{name}.html"
+    assert main(["report", name, "-o", str(path), "--jobs", "1"]) == 0
+    return family, path
 
 
 def test_harness_sees_console_errors(tmp_path: Path) -> None:
@@ -230,3 +274,32 @@ def test_mixed_families_report_fits_1280(mixed: Path, tmp_path: Path) -> None:
         for key in ("speed", "coupler-force", "input", "sigma-speed", "sensitivity",
                     "grade-step"):
             assert re.search(rf"(^|\s){re.escape(name)}(\s|$)", texts[key]), (key, name)
+
+
+def test_family_report_loads_cleanly(family_report: tuple[str, Path], tmp_path: Path) -> None:
+    """The potential and flocking reports log no console message and fit 1280 px."""
+    family, page = family_report
+    shot = tmp_path / f"{family}.png"
+    assert _console(_load(page, shot, tmp_path / "profile")) == []
+    with Image.open(shot) as image:
+        pixels = np.asarray(image.convert("RGB"))
+    assert len(np.unique(pixels.reshape(-1, 3), axis=0)) > 50  # not a blank page
+    record = _measure(page, tmp_path)
+    assert record["width"] <= WIDTH and record["problems"] == []
+
+
+def test_family_report_shows_the_graph(family_report: tuple[str, Path], tmp_path: Path) -> None:
+    """One graph figure, laid out in the family's section: every vehicle and the reference."""
+    from trainctl.scenario import load_scenario
+
+    family, page = family_report
+    n = load_scenario(FAMILY_SCENARIOS[family]).train.n_vehicles
+    found = _inspect(page, tmp_path, GRAPH, "trainctl-graph")
+    assert found["count"] == 1
+    assert found["id"] == f"figure-graph-{family}" and found["section"] == f"family-{family}"
+    left, top, width, height = found["box"]
+    assert 0 <= left and left + width <= found["viewport"]
+    assert 300 < width <= 38 * 16 + 1 and 80 < height < width  # small, wider than tall
+    numbers = sorted(int(t) for t in found["texts"] if t.isdigit())
+    assert numbers == list(range(1, n + 1)) and "reference" in found["texts"]
+    assert "reaches every vehicle" in found["caption"]

@@ -32,7 +32,11 @@ object that follows :class:`ControllerFamily`:
   the simulation, so a run without one does not compare them);
 - ``report_data(design)``, ``report_figures(data)`` and ``report_partial``:
   what the HTML report shows for the family (JSON-safe data, figures drawn
-  from that data, and the Jinja source of its report section).
+  from that data, and the Jinja source of its report section). A figure goes
+  to the page's Figures section, or, when its ``section`` is the family's
+  (:func:`trainctl.report.figures.family_section`), into the family's own
+  section after the partial (the potential and flocking families' graph,
+  :mod:`trainctl.report.figures_graph`).
 
 Importing this module, or a family module, imports no solver: families
 import cvxpy and python-control inside their methods.
@@ -138,7 +142,7 @@ class ControllerFamily(Protocol):
         ...
 
     def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
-        """Figures of the family's report section, drawn from ``data``."""
+        """The family's figures, drawn from ``data`` (placed by their ``section``)."""
         ...
 
 

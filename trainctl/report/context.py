@@ -29,7 +29,7 @@ from ._format import (
 from .checks import checks_context
 from .comparison import controllers_context
 from .data import ReportData
-from .figures import report_figures
+from .figures import FIGURES_SECTION, ReportFigure, family_section, report_figures
 
 __all__ = ["MATRIX_COACHES_SHOWN", "build_index_context", "build_report_context", "headline"]
 
@@ -82,22 +82,30 @@ def build_report_context(
         generated_at = utc_now()
     scenario = data.scenario
     checks = checks_context(data)
+    figures = report_figures(data)
+    sections = _sections(data, figures)
+    placed = {s["id"] for s in sections if s["family"]}
+    shown = [f for f in figures if f.section not in placed]
     return {
         "title": f"{scenario.name} — trainctl design report",
-        "sections": _sections(data),
+        "sections": sections,
         "scenario": _scenario(data),
         "headline": headline(data),
         "model": _model(data),
         "checks": checks,
         "controllers": controllers_context(data, deterministic=deterministic),
-        "figures": report_figures(data),
+        "figures": shown,
+        "figure_numbers": _figure_numbers(sections, shown),
         "footer": _footer(data, generated_at=generated_at, deterministic=deterministic),
         "generated_at": generated_at or "",
     }
 
 
-def _sections(data: ReportData) -> list[dict[str, Any]]:
-    """The page's sections: the fixed ones, with one per controller family after the checks."""
+def _sections(data: ReportData, figures: Sequence[ReportFigure]) -> list[dict[str, Any]]:
+    """The page's sections: the fixed ones, with one per controller family after the checks.
+
+    A family's section lists the figures placed in it (:attr:`ReportFigure.section`).
+    """
     from ..controllers.registry import get_family
 
     sections: list[dict[str, Any]] = []
@@ -108,9 +116,23 @@ def _sections(data: ReportData) -> list[dict[str, Any]]:
         for name, family_data in data.families.items():
             family = get_family(name)
             if family.report_partial:
-                sections.append({"id": f"family-{name}", "title": family.title, "family": name,
-                                 "template": f"families/{name}.html.j2", "data": family_data})
+                sid = family_section(name)
+                sections.append({"id": sid, "title": family.title, "family": name,
+                                 "template": f"families/{name}.html.j2", "data": family_data,
+                                 "figures": [f for f in figures if f.section == sid]})
     return sections
+
+
+def _figure_numbers(sections: Sequence[Mapping[str, Any]],
+                    shown: Sequence[ReportFigure]) -> dict[str, int]:
+    """Figure key → its number, counted from 1 in page order (family sections, then Figures)."""
+    order: list[ReportFigure] = []
+    for section in sections:
+        if section["family"]:
+            order.extend(section["figures"])
+        elif section["id"] == FIGURES_SECTION:
+            order.extend(shown)
+    return {f.key: k for k, f in enumerate(order, start=1)}
 
 
 # --------------------------------------------------------------------------- scenario

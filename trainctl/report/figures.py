@@ -32,8 +32,8 @@ if TYPE_CHECKING:
     from .data import ReportData
 
 __all__ = [
-    "OPEN_LOOP_LABEL", "ReportFigure", "eigenvalue_figure", "encode", "figure_svg",
-    "report_figures",
+    "FIGURES_SECTION", "OPEN_LOOP_LABEL", "ReportFigure", "eigenvalue_figure", "encode",
+    "family_section", "figure_svg", "report_figures",
 ]
 
 SVG_HASH_SALT = "trainctl"
@@ -68,6 +68,21 @@ def _coarser(match: re.Match[str]) -> str:
     return f"{match.group(1)}{d}{match.group(3)}"
 
 
+FIGURES_SECTION = "figures"
+"""Section id of the page's Figures section (the default :attr:`ReportFigure.section`)."""
+
+
+def family_section(name: str) -> str:
+    """Section id of a controller family's part of the page.
+
+    Examples
+    --------
+    >>> family_section("potential")
+    'family-potential'
+    """
+    return f"family-{name}"
+
+
 @dataclass(frozen=True)
 class ReportFigure:
     """One figure of the report.
@@ -82,12 +97,19 @@ class ReportFigure:
         What the figure shows, with units.
     svg : markupsafe.Markup
         The inline ``<svg>`` element.
+    section : str
+        Id of the page section that shows it: :data:`FIGURES_SECTION` (the
+        Figures section), or a controller family's section
+        (:func:`family_section`), where the figure follows the family's
+        partial; a family section that is not on the page (a family without
+        a partial) leaves the figure to the Figures section.
     """
 
     key: str
     title: str
     caption: str
     svg: Markup
+    section: str = FIGURES_SECTION
 
 
 def figure_svg(figure: Figure, *, prefix: str) -> Markup:
@@ -158,12 +180,15 @@ def report_figures(data: ReportData) -> list[ReportFigure]:
         (:func:`~trainctl.report.figures_time.time_figures`), the eigenvalue
         map, the frequency-domain figures of the linear closed loops
         (:func:`~trainctl.report.figures_frequency.frequency_figures`), then
-        each controller family's figures (MPC: the ρ(D0)-against-R curve).
+        each controller family's figures (MPC: the ρ(D0)-against-R curve, in
+        the Figures section; potential and flocking: the communication graph,
+        in their own sections, :mod:`trainctl.report.figures_graph`).
     """
     return list(_figures(data))
 
 
-def encode(key: str, title: str, caption: str, figure: Figure) -> ReportFigure:
+def encode(key: str, title: str, caption: str, figure: Figure, *,
+           section: str = FIGURES_SECTION) -> ReportFigure:
     """A :class:`ReportFigure` from a drawn figure (encoded as SVG, then released).
 
     Parameters
@@ -174,13 +199,16 @@ def encode(key: str, title: str, caption: str, figure: Figure) -> ReportFigure:
         Caption title and text.
     figure : matplotlib.figure.Figure
         The drawing.
+    section : str
+        The page section that shows it (:attr:`ReportFigure.section`).
 
     Returns
     -------
     ReportFigure
         The figure for the page.
     """
-    return ReportFigure(key, title, caption, figure_svg(figure, prefix=f"fig-{key}"))
+    return ReportFigure(key, title, caption, figure_svg(figure, prefix=f"fig-{key}"),
+                        section=section)
 
 
 def _figures(data: ReportData) -> Iterator[ReportFigure]:

@@ -35,8 +35,8 @@ if TYPE_CHECKING:
     from .controller import FlockingController
     from .law import FlockingLaw
 
-__all__ = ["CHECK_NAMES", "FAMILY", "STRATEGIES", "FlockingDesign", "FlockingFamily",
-           "design_flocking"]
+__all__ = ["CHECK_NAMES", "FAMILY", "GRAPH_USAGE", "STRATEGIES", "FlockingDesign",
+           "FlockingFamily", "design_flocking"]
 
 STRATEGIES = ("flocking",)
 """The flocking family's one strategy."""
@@ -61,6 +61,11 @@ data.input_bounds %} (no saturation){% endif %}.</p>
   </tbody>
 </table>
 """
+
+GRAPH_USAGE = ("The law's velocity consensus runs over these links (consensus gain × a_ij × the "
+               "bump of the gap); its pair potential acts on every consecutive pair and its "
+               "navigation feedback on every train, whatever the links and the pinning.")
+"""The closing sentence of the graph figure's caption: what the law does with the graph."""
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -219,7 +224,13 @@ class FlockingFamily:
                      name=f"flocking_{strategy}")
 
     def report_data(self, design: FlockingDesign) -> dict[str, Any]:
-        """Potential parameters and the closed-loop spectrum (sampled), JSON-safe."""
+        """Potential parameters, the closed-loop spectrum (sampled) and the graph, JSON-safe.
+
+        The ``[communication]`` graph is stored under ``graph``
+        (:func:`trainctl.report.figures_graph.graph_report_data`).
+        """
+        from ...report.figures_graph import graph_report_data
+
         lam = np.linalg.eigvals(design.A_cl).astype(complex)
         z = np.exp(lam * design.model.settings.sample_time)
         p, law = design.law.potential, design.law
@@ -237,11 +248,18 @@ class FlockingFamily:
         return {"spectra": {"flocking": [[float(x.real), float(x.imag)] for x in z]},
                 "rows": [{"name": a, "value": b} for a, b in rows],
                 "control_interval": f"{design.control_interval:g}",
-                "input_bounds": bool(design.settings.input_bounds)}
+                "input_bounds": bool(design.settings.input_bounds),
+                "graph": graph_report_data(design.scenario.graph())}
 
     def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
-        """No figures of its own: its spectrum joins the eigenvalue map."""
-        return []
+        """The communication graph, in the family's section (its spectrum joins the eigenvalue map).
+
+        Drawn from ``data["graph"]``
+        (:func:`trainctl.report.figures_graph.graph_figure`).
+        """
+        from ...report.figures_graph import graph_figure
+
+        return [graph_figure(data["graph"], family=self.name, usage=GRAPH_USAGE)]
 
 
 FAMILY = FlockingFamily()

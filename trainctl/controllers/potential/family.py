@@ -32,8 +32,8 @@ if TYPE_CHECKING:
     from .controller import PotentialController
     from .law import PotentialLaw
 
-__all__ = ["CHECK_NAMES", "FAMILY", "STRATEGIES", "PotentialDesign", "PotentialFamily",
-           "design_potential"]
+__all__ = ["CHECK_NAMES", "FAMILY", "GRAPH_USAGE", "STRATEGIES", "PotentialDesign",
+           "PotentialFamily", "design_potential"]
 
 STRATEGIES = ("consensus",)
 """The potential family's one strategy."""
@@ -58,6 +58,11 @@ data.input_bounds %} (no saturation){% endif %}.</p>
   </tbody>
 </table>
 """
+
+GRAPH_USAGE = ("The law's velocity consensus runs over these links (consensus gain × a_ij); "
+               "its position pinning acts on the cars the reference pins (stiffness "
+               "position_gain × p_i × the mean coupler stiffness).")
+"""The closing sentence of the graph figure's caption: what the law does with the graph."""
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -231,7 +236,13 @@ class PotentialFamily:
                      name=f"potential_{strategy}")
 
     def report_data(self, design: PotentialDesign) -> dict[str, Any]:
-        """Gains and the closed-loop spectrum sampled at the model's sample time, JSON-safe."""
+        """Gains, the closed-loop spectrum sampled at the model's sample time and the graph.
+
+        The ``[communication]`` graph is stored under ``graph``
+        (:func:`trainctl.report.figures_graph.graph_report_data`), JSON-safe.
+        """
+        from ...report.figures_graph import graph_report_data
+
         lam = np.linalg.eigvals(design.A_cl).astype(complex)
         z = np.exp(lam * design.model.settings.sample_time)
         s, law = design.settings, design.law
@@ -244,11 +255,18 @@ class PotentialFamily:
         return {"spectra": {"potential consensus": [[float(x.real), float(x.imag)] for x in z]},
                 "rows": [{"name": a, "value": b} for a, b in rows],
                 "potential": s.potential, "control_interval": f"{design.control_interval:g}",
-                "input_bounds": bool(s.input_bounds)}
+                "input_bounds": bool(s.input_bounds),
+                "graph": graph_report_data(design.scenario.graph())}
 
     def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
-        """No figures of its own: its spectrum joins the eigenvalue map."""
-        return []
+        """The communication graph, in the family's section (its spectrum joins the eigenvalue map).
+
+        Drawn from ``data["graph"]``
+        (:func:`trainctl.report.figures_graph.graph_figure`).
+        """
+        from ...report.figures_graph import graph_figure
+
+        return [graph_figure(data["graph"], family=self.name, usage=GRAPH_USAGE)]
 
 
 FAMILY = PotentialFamily()
