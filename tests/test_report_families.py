@@ -276,13 +276,7 @@ class TestFamilyReports:
 
 
 def test_saved_run_redraws_the_graph_from_its_data(tmp_path: Path) -> None:
-    """A saved run renders the same page; its graph data, edited, changes figure and caption.
-
-    Saved without simulations: a saved flocking simulation does not load back
-    (its result's dt is the law's control interval, not the model's sample
-    time that :mod:`trainctl.report.runfile` requires), which is not what
-    this test is about.
-    """
+    """A saved run renders the same page; its graph data, edited, changes figure and caption."""
     data = _data("heavy-haul-flocking", simulate=False)
     data.save(tmp_path / "run")
     html = _render(data)
@@ -349,3 +343,28 @@ def test_figure_of_an_absent_section_goes_to_figures(unsimulated: dict[str, Repo
     page = parse(render_report(ctx))
     where = {f["id"]: f["section"] for f in page.figures}
     assert where["figure-placed"] == "family-mpc" and where["figure-stray"] == "figures"
+
+
+@pytest.mark.parametrize(("name", "strategy", "dt"), [
+    ("heavy-haul-flocking-collision", "flocking", 1.0),
+    ("crh2-potential-unpinned", "consensus", 0.002),
+])
+def test_saved_runs_with_sampled_laws_render(tmp_path: Path, name: str, strategy: str,
+                                             dt: float) -> None:
+    """analyse --save, then report DIR: a law's results keep its control interval as dt."""
+    from trainctl.cli import main
+    from trainctl.sim.results import SimulationResult
+
+    run = tmp_path / "run"
+    assert main(["analyse", name, "--save", str(run), "--jobs", "1"]) in (0, 1)
+    saved = SimulationResult.load(run / "simulations" / strategy)
+    assert saved.dt == dt
+    out = tmp_path / "page.html"
+    assert main(["report", str(run), "-o", str(out), "--deterministic"]) == 0
+    html = out.read_text(encoding="utf-8")
+    family = "flocking" if strategy == "flocking" else "potential"
+    assert f'id="figure-graph-{family}"' in html
+    tables = [t for t in parse(html).tables if t["section"] == "controllers"]
+    assert tables
+    for table in tables:
+        assert [row[0] for row in table["rows"][1:]] == [strategy]

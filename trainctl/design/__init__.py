@@ -18,8 +18,10 @@ from .stage import Design as Design
 from .stage import build_design as build_design
 from .stage import scenario_controllers as scenario_controllers
 from .stage import split_strategy as split_strategy
+from .stage import strategy_interval as strategy_interval
 
 __all__ = [
     "KN", "Design", "DesignModel", "build_design", "build_model", "scenario_controllers",
     "split_strategy",
+    "strategy_interval",
 ]

@@ -15,7 +15,8 @@ if TYPE_CHECKING:
 
     from ..scenario import Scenario
 
-__all__ = ["Design", "build_design", "scenario_controllers", "split_strategy"]
+__all__ = ["Design", "build_design", "scenario_controllers", "split_strategy",
+           "strategy_interval"]
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -186,3 +187,35 @@ def build_design(scenario: Scenario, *, model: DesignModel | None = None) -> Des
     families = {name: get_family(name).design(scenario, model, settings)
                 for name, settings in scenario_controllers(scenario).items()}
     return Design(scenario=scenario, model=model, families=families)
+
+
+def strategy_interval(scenario: Scenario, strategy: str) -> float:
+    """The interval [s] at which a simulation strategy's controller runs (its results' ``dt``).
+
+    A family whose settings have a ``control_interval`` (a continuous-time
+    law sampled faster than the model, e.g. the potential and flocking
+    families) runs at it when given; every other controller at
+    ``[model] sample_time``.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    strategy : str
+        A name from ``[simulation] strategies``.
+
+    Returns
+    -------
+    float
+        The interval [s].
+
+    Examples
+    --------
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-potential")
+    >>> strategy_interval(scenario, "consensus"), strategy_interval(scenario, "mpc.ndmpc")
+    (0.002, 0.05)
+    """
+    family, _ = split_strategy(scenario, strategy)
+    settings = scenario.controllers[family]
+    return float(getattr(settings, "control_interval", None) or scenario.model.sample_time)

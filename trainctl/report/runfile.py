@@ -261,6 +261,7 @@ def _check_strategies(manifest: Path, doc: RunFile) -> None:
 
 
 def _simulation(path: Path, strategy: str, scenario: Any) -> Any:
+    from ..design import strategy_interval
     from ..sim.results import SimulationResult
 
     where = path / "simulations" / strategy
@@ -274,9 +275,10 @@ def _simulation(path: Path, strategy: str, scenario: Any) -> Any:
     problem = None
     if result.controller_name != strategy:
         problem = f"controller_name must be {strategy!r} (got {result.controller_name!r})"
-    elif not math.isclose(result.dt, scenario.model.sample_time, rel_tol=1e-12):
-        problem = (f"dt must be the scenario's sample time {scenario.model.sample_time!r} "
-                   f"(got {result.dt!r})")
+    elif not math.isclose(result.dt, interval := strategy_interval(scenario, strategy),
+                          rel_tol=1e-12):
+        problem = (f"dt must be the interval {interval!r} s at which the scenario runs "
+                   f"{strategy!r} (got {result.dt!r})")
     elif result.n_vehicles != scenario.train.n_vehicles:
         problem = (f"the arrays must be for the scenario's {scenario.train.n_vehicles} vehicles "
                    f"(got {result.n_vehicles})")
