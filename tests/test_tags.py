@@ -68,3 +68,32 @@ def test_tags_do_not_change_equality() -> None:
     tagged = text.replace("sample_time = 0.1", "sample_time = 0.1  # [paper]")
     assert parse_scenario(tagged).tags == {"model.sample_time": "paper"}
     assert parse_scenario(tagged) == parse_scenario(text)
+
+
+def test_report_settings_show_the_sources() -> None:
+    """The report's settings tables carry each value's tag; untagged scenarios get no column."""
+    from trainctl.report.build import collect_report_data
+    from trainctl.report.context import build_report_context
+    from trainctl.run import run_scenario
+    from trainctl.scenario import read_scenario_text
+
+    def settings(scenario, text):
+        data = collect_report_data(run_scenario(scenario, simulate=False), scenario_text=text,
+                                   command="test")
+        ctx = build_report_context(data, deterministic=True)
+        return {g["title"]: g for g in ctx["scenario"]["settings"]}
+
+    text, _ = read_scenario_text("crh2-potential")
+    scenario = load_scenario("crh2-potential")
+    groups = settings(scenario, text)
+    rows = {r["key"]: r for r in groups["Controller (potential)"]["rows"]}
+    assert rows["kappa"]["source"] == scenario.tags["controller.kappa_per_s2"]
+    assert rows["potential"]["source"] == scenario.tags["controller.pair_potential"]
+    assert groups["Controller (potential)"]["sources"]
+    mpc = groups["Controller (mpc)"]
+    assert mpc["tag"] == scenario.tags["controller.mpc"]
+    assert {r["key"]: r for r in mpc["rows"]}["input_weight"]["source"] == \
+        scenario.tags["controller.mpc.r_per_kn2"]
+    bare = "\n".join(line.split("#")[0] for line in text.splitlines())
+    plain = settings(parse_scenario(bare), bare)
+    assert not any(g["sources"] or g["tag"] for g in plain.values())

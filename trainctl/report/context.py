@@ -140,13 +140,20 @@ def _figure_numbers(sections: Sequence[Mapping[str, Any]],
 
 def _scenario(data: ReportData) -> dict[str, Any]:
     scenario = data.scenario
-    blocks: list[tuple[str, Any]] = [("Model", scenario.model)]
+    blocks: list[tuple[str, Any, str]] = [("Model", scenario.model, "model")]
     controllers = dict(scenario.controllers)
-    for name, obj in controllers.items():
-        blocks.append(("Controller" if len(controllers) == 1 else f"Controller ({name})", obj))
-    blocks.append(("Simulation", scenario.simulation))
-    settings = [{"title": title, "rows": _settings_rows(obj)}
-                for title, obj in blocks if obj is not None]
+    for i, (name, obj) in enumerate(controllers.items()):
+        blocks.append(("Controller" if len(controllers) == 1 else f"Controller ({name})", obj,
+                       "controller" if i == 0 else f"controller.{name}"))
+    blocks.append(("Simulation", scenario.simulation, "simulation"))
+    tags = dict(scenario.tags)
+    settings = []
+    for title, obj, table in blocks:
+        if obj is None:
+            continue
+        rows = _settings_rows(obj, tags, table)
+        settings.append({"title": title, "rows": rows, "tag": tags.get(table, ""),
+                         "sources": any(row.get("source") for row in rows)})
     return {
         "name": scenario.name,
         "description": scenario.description,
@@ -171,8 +178,32 @@ def _field_names(settings: Any) -> list[str]:
     return [k for k in vars(settings) if not k.startswith("_")]
 
 
-def _settings_rows(settings: Any) -> list[dict[str, str]]:
+def _file_keys(cls: type) -> dict[str, tuple[str, ...]]:
+    """Field name → the file keys that can set it (its key, or its alternatives)."""
+    from ..declare import declared_fields
+
+    keys: dict[str, tuple[str, ...]] = {}
+    for f in declared_fields(cls):
+        if f.key is None:
+            keys[f.name] = (f.name,)
+        elif f.key.one_of:
+            keys[f.name] = tuple(alt.key for alt in f.key.one_of)
+        elif f.key.file != "":
+            keys[f.name] = (f.key.file or f.name,)
+    return keys
+
+
+def _settings_rows(settings: Any, tags: Mapping[str, str] | None = None,
+                   table: str = "") -> list[dict[str, str]]:
+    """Name, value, unit and source tag of every field of a settings object.
+
+    ``tags`` are the scenario's source tags by file key path
+    (:attr:`~trainctl.scenario.Scenario.tags`) and ``table`` the file table
+    the settings come from ("model", "controller", "controller.lqr", ...).
+    """
     units = docstring_units(type(settings))
+    file_keys = _file_keys(type(settings))
+    tags = tags or {}
     rows = []
     for name in _field_names(settings):
         value = getattr(settings, name)
@@ -186,10 +217,14 @@ def _settings_rows(settings: Any) -> list[dict[str, str]]:
         if numeric and (unit == "N" or unit.startswith("N/")):  # forces in kN, as elsewhere
             scaled = tuple(v / 1e3 for v in value) if isinstance(value, tuple) else value / 1e3
             shown, unit = format_value(scaled), "k" + unit
-        rows.append({"name": humanise(name), "key": name, "value": shown, "unit": unit})
+        source = next((tags[f"{table}.{key}"] for key in file_keys.get(name, (name,))
+                       if f"{table}.{key}" in tags), "")
+        rows.append({"name": humanise(name), "key": name, "value": shown, "unit": unit,
+                     "source": source})
         if name == "speed" and is_real(value):
             rows.append({"name": "Speed", "key": "speed_kmh",
-                         "value": format_number(float(value) * 3.6), "unit": "km/h"})
+                         "value": format_number(float(value) * 3.6), "unit": "km/h",
+                         "source": source})
     return rows
 
 
