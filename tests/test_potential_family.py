@@ -231,3 +231,63 @@ def test_law_of_uses_the_graph() -> None:
     law = law_of(sc, sc.controllers["potential"])
     assert np.array_equal(law.consensus, 2.0 * sc.graph().adjacency)
     assert np.allclose(law.pinning, 0.1 * 10488e3 * sc.graph().pinning)
+
+
+def test_spacing_bound_holds_the_linear_trajectory_and_is_tight() -> None:
+    """crh2-potential: the SDP bound ≥ the true peak of |z(t)| (expm), and within 2x of it."""
+    import scipy.linalg
+
+    design = build_design(load_scenario("crh2-potential")).family("potential")
+    check = {c.name: c for c in FAMILY.checks(design)}["potential_spacing_bound"]
+    n, A, xi0 = design.law.n, design.A_cl, design.initial_errors
+    step = scipy.linalg.expm(A * 0.002)
+    x, peak = xi0.copy(), 0.0
+    for _ in range(15000):  # 30 s, past the coupler transients
+        peak = max(peak, float(np.abs(x[n:2 * n - 1]).max()))
+        x = step @ x
+    assert peak <= check.value
+    assert check.value < 2.0 * peak
+
+
+def test_bound_lmi_equals_the_per_row_lmi_form() -> None:
+    """The Q = P⁻¹ form gives the optimum of the per-row form [[P, c], [cᵀ, γ]] ⪰ 0 (cvxpy)."""
+    import cvxpy as cp
+
+    from trainctl.controllers.potential.checks import bound_lmi, spacing_bound
+
+    A = np.array([[0.0, 1.0, 0.0], [-2.0, -0.3, 1.0], [0.0, -1.0, -0.5]])
+    xi0 = np.array([0.3, -0.2, 0.5])
+    rows = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    P = bound_lmi(A, xi0, rows)
+    ours = float(np.max(spacing_bound(P, xi0, rows))) ** 2
+    Pv, g = cp.Variable((3, 3), symmetric=True), cp.Variable((1, 1))
+    lhs = A.T @ Pv + Pv @ A
+    cons = [Pv >> 0, 0.5 * (lhs + lhs.T) << 0, cp.quad_form(xi0, Pv) <= 1.0]
+    cons += [cp.bmat([[Pv, c[:, None]], [c[None, :], g]]) >> 0 for c in rows]
+    cp.Problem(cp.Minimize(g[0, 0]), cons).solve(solver=cp.SCS, eps=1e-9)
+    assert ours == pytest.approx(float(g.value[0, 0]), rel=1e-4)
+
+
+def test_long_trains_are_certified_by_the_lyapunov_equation() -> None:
+    """Above LMI_MAX_STATES states the certificate is the Lyapunov equation's P, verified."""
+    from trainctl.controllers.potential.checks import (LMI_MAX_STATES, lyapunov_equation,
+                                                       lyapunov_lmi)
+
+    sc = load_scenario("crh2-potential").replace("simulation", None)
+    for i in range(8):
+        sc = sc.replace(f"train.vehicle[{i}].count", 3)  # 24 cars, 48 states
+    design = build_design(sc).family("potential")
+    assert design.A_cl.shape[0] > LMI_MAX_STATES
+    kind, P = design.certificate
+    assert kind == "equation"
+    Q = design.A_cl.T @ P + P @ design.A_cl
+    assert np.linalg.eigvalsh(P).min() > 0 and np.linalg.eigvalsh(0.5 * (Q + Q.T)).max() < 0
+    checks = {c.name: c for c in FAMILY.checks(design)}
+    assert checks["potential_lyapunov"].status == "pass"
+    assert "Lyapunov-equation" in checks["potential_lyapunov"].message
+    assert checks["potential_spacing_bound"].value < np.inf
+    # on a small loop both routes certify the same matrix
+    small = build_design(load_scenario("crh2-potential")).family("potential").A_cl
+    assert lyapunov_equation(small) is not None and lyapunov_lmi(small) is not None
+    unstable = small + 2.0 * np.eye(small.shape[0])
+    assert lyapunov_equation(unstable) is None and lyapunov_lmi(unstable) is None

@@ -295,13 +295,22 @@ def _continuous_grid(poles: Array) -> Array:
 
 
 def _chain(sys: ct.StateSpace, q: str, rows: list[int], j: int, w: Array) -> ChainPeaks:
-    """Peaks of the channels ``rows`` from input ``j``."""
+    """Peaks of the channels ``rows`` from input ``j``.
+
+    The grid is evaluated once for all channels (one single-input system,
+    one resolvent solve per frequency; per channel it was 2(n−1) solves per
+    frequency, measured 77 s of the 86 s review of a 64-car train), and
+    the loop's poles once for every channel's DC test.
+    """
     C, D = np.asarray(sys.C, dtype=float), np.asarray(sys.D, dtype=float)
     B = np.asarray(sys.B, dtype=float)[:, [j]]
+    column = ct.ss(sys.A, B, C[rows], D[rows][:, [j]], sys.dt)
+    response = ct.frequency_response(column, w, squeeze=False)
+    curves = np.abs(np.asarray(response.magnitude, dtype=float))[:, 0, :]
+    poles = (np.linalg.eigvals(np.asarray(sys.A, dtype=float)) if sys.nstates
+             else np.zeros(0))
     channels = [ct.ss(sys.A, B, C[[k]], D[[k]][:, [j]], sys.dt) for k in rows]
-    curves = np.vstack([np.abs(np.asarray(ct.frequency_response(g, w).magnitude,
-                                          dtype=float)).reshape(1, -1) for g in channels])
-    peaks = [_peak(g, w, curve) for g, curve in zip(channels, curves, strict=True)]
+    peaks = [_peak(g, w, curve, poles) for g, curve in zip(channels, curves, strict=True)]
     return ChainPeaks(quantity=q, labels=tuple(sys.output_labels[k] for k in rows),
                       gains=np.array([p[0] for p in peaks]),
                       frequencies=np.array([p[1] for p in peaks]), curves=curves)
@@ -313,7 +322,7 @@ def _gain(g: ct.StateSpace, w: float) -> float:
     return float(np.abs(np.asarray(g(point, warn_infinite=False), dtype=complex)).max())
 
 
-def _dc_gain(g: ct.StateSpace) -> float:
+def _dc_gain(g: ct.StateSpace, poles: Array | None = None) -> float:
     """|G| at DC; ``inf`` when a closed-loop pole at DC (z = 1, s = 0) reaches the channel.
 
     The resolvent is singular at such a pole even when the channel cannot
@@ -321,7 +330,8 @@ def _dc_gain(g: ct.StateSpace) -> float:
     limit, the gain at a frequency 10⁻⁷ of the loop's scale; a channel that
     sees the pole rises like 1/ω towards DC (:data:`_INTEGRATOR_GROWTH`).
     """
-    poles = np.linalg.eigvals(np.asarray(g.A, dtype=float)) if g.nstates else np.zeros(0)
+    if poles is None:
+        poles = np.linalg.eigvals(np.asarray(g.A, dtype=float)) if g.nstates else np.zeros(0)
     discrete = g.isdtime(strict=True)
     at_dc = np.abs(poles - 1.0) if discrete else np.abs(poles)
     if not np.any(at_dc < UNIT_CIRCLE_TOL):
@@ -331,9 +341,10 @@ def _dc_gain(g: ct.StateSpace) -> float:
     return math.inf if lower > _INTEGRATOR_GROWTH * low else lower
 
 
-def _peak(g: ct.StateSpace, w: Array, curve: Array) -> tuple[float, float]:
+def _peak(g: ct.StateSpace, w: Array, curve: Array,
+          poles: Array | None = None) -> tuple[float, float]:
     """(sup gain, frequency [rad/s]): the DC gain, the grid's maximum refined, or inf."""
-    dc = _dc_gain(g)
+    dc = _dc_gain(g, poles)
     if math.isinf(dc):
         return math.inf, 0.0
     k = int(np.argmax(curve))

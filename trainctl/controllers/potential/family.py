@@ -124,13 +124,17 @@ class PotentialDesign:
 
     @cached_property
     def certificate(self) -> tuple[str, Array] | None:
-        """("closed_form" or "lmi", P) on [v̂, z, p], or on [v̂, z] when unpinned; None if none."""
-        from .checks import closed_form_certificate, lyapunov_lmi
+        """("closed_form", "lmi" or "equation", P) on [v̂, z, p] ([v̂, z] unpinned); None if none."""
+        from .checks import (LMI_MAX_STATES, closed_form_certificate, lyapunov_equation,
+                             lyapunov_lmi)
 
         keep = self.A_cl.shape[0] - (0 if self.pinned else 1)
         P = closed_form_certificate(self)
         if P is not None:
             return "closed_form", P[:keep, :keep]
+        if keep > LMI_MAX_STATES:
+            P = lyapunov_equation(self.A_cl[:keep, :keep])
+            return None if P is None else ("equation", P)
         P = lyapunov_lmi(self.A_cl[:keep, :keep])
         return None if P is None else ("lmi", P)
 
