@@ -270,8 +270,11 @@ def test_bound_lmi_equals_the_per_row_lmi_form() -> None:
 
 def test_long_trains_are_certified_by_the_lyapunov_equation() -> None:
     """Above LMI_MAX_STATES states the certificate is the Lyapunov equation's P, verified."""
-    from trainctl.controllers.potential.checks import (LMI_MAX_STATES, lyapunov_equation,
-                                                       lyapunov_lmi)
+    from trainctl.controllers.potential.checks import (
+        LMI_MAX_STATES,
+        lyapunov_equation,
+        lyapunov_lmi,
+    )
 
     sc = load_scenario("crh2-potential").replace("simulation", None)
     for i in range(8):

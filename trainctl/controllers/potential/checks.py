@@ -13,8 +13,9 @@
     numerically (AᵀP + PA ⪯ 0, LaSalle); otherwise (or when that check
     fails) an LMI solved with cvxpy: P ⪰ I, AᵀP + PA ⪯ −εI on the
     balanced matrix (:func:`lyapunov_lmi`); above :data:`LMI_MAX_STATES`
-    states the Lyapunov equation instead (:func:`lyapunov_equation`). Unpinned loops are certified on
-    [v̂, z] (the rigid mode removed). Pass when certified, warn when not.
+    states the Lyapunov equation instead (:func:`lyapunov_equation`).
+    Unpinned loops are certified on [v̂, z] (the rigid mode removed). Pass
+    when certified, warn when not.
 ``potential_spacing_bound``
     From V(t) ≤ V(0): |z_k(t)| ≤ √(V(0) · c_kᵀP⁻¹c_k) (the largest |z_k| on
     the level set of V through the scenario's initial errors), with the P

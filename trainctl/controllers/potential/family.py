@@ -125,8 +125,7 @@ class PotentialDesign:
     @cached_property
     def certificate(self) -> tuple[str, Array] | None:
         """("closed_form", "lmi" or "equation", P) on [v̂, z, p] ([v̂, z] unpinned); None if none."""
-        from .checks import (LMI_MAX_STATES, closed_form_certificate, lyapunov_equation,
-                             lyapunov_lmi)
+        from .checks import LMI_MAX_STATES, closed_form_certificate, lyapunov_equation, lyapunov_lmi
 
         keep = self.A_cl.shape[0] - (0 if self.pinned else 1)
         P = closed_form_certificate(self)
