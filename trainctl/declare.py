@@ -259,7 +259,8 @@ def python_path(loc: Sequence[str | int]) -> str:
     return (repr(loc[0]) if loc else "") + "".join(parts)
 
 
-def python_error(owner: str, exc: ValidationError, prefix: Sequence[str] = ()) -> Exception:
+def python_error(owner: str, exc: ValidationError,
+                 prefix: Sequence[str | int] = ()) -> Exception:
     """Word a validation error of a settings class built in Python.
 
     Parameters
@@ -268,8 +269,9 @@ def python_error(owner: str, exc: ValidationError, prefix: Sequence[str] = ()) -
         The class name, the message's first word.
     exc : pydantic.ValidationError
         The error.
-    prefix : sequence of str
-        Field the validated value belongs to, when it was checked alone.
+    prefix : sequence of str or int
+        Field (and item indices) the validated value belongs to, when it was
+        checked alone.
 
     Returns
     -------
