@@ -405,3 +405,162 @@ class TestErrors:
         net.reset()
         net.receive(0.0, 1)  # time starts again after reset
 
+
+
+class TestNetworkSection:
+    """[network] in a scenario file: parsed, validated against the train, in the schema."""
+
+    @staticmethod
+    def text(section: str) -> str:
+        from trainctl.scenario import builtin_scenario_text
+
+        # four subsystems, no [network] section of its own
+        text = builtin_scenario_text("heavy-haul-hinf").split("[expected]")[0]
+        assert "[network]" not in text
+        return text.split("# What the")[0] + section
+
+    def test_absent_section_is_none(self):
+        """Without [network] the scenario has no network settings."""
+        from trainctl.scenario import parse_scenario
+
+        assert parse_scenario(self.text("")).network is None
+
+    def test_full_section(self):
+        """Every key reaches NetworkSettings; windows become Interruption objects."""
+        from trainctl.scenario import parse_scenario
+
+        scenario = parse_scenario(self.text(
+            '\n[network]\ndelay_range_s = [0.0, 2.0]\nloss_probability = 0.05\n'
+            'communication_noise_std = 1.0\nreference_noise_std = 0.5\n'
+            '[[network.interruption]]\nstart = 100.0\nend = 130.0\n'
+            '[[network.interruption]]\nstart = 200.0\nend = 260.0\n'
+            'links = [[1, 0], [0, "reference"]]\n'))
+        net = scenario.network
+        assert net is not None
+        assert net.delay_bounds() == (0.0, 2.0) and net.loss_probability == 0.05
+        assert (net.noise_std(REFERENCE), net.noise_std(3)) == (0.5, 1.0)
+        assert net.interruptions == (
+            Interruption(start=100.0, end=130.0),
+            Interruption(start=200.0, end=260.0, links=((1, 0), (0, REFERENCE))))
+        network = Network(net, scenario.graph(), seed=scenario.seed)
+        assert network.links[0] == (0, REFERENCE) and network.n == 4
+
+    def test_defaults(self):
+        """An empty [network] is an ideal network: no delay, loss, noise or outage."""
+        from trainctl.scenario import parse_scenario
+
+        net = parse_scenario(self.text("\n[network]\n")).network
+        assert net == NetworkSettings()
+        assert net.delay_bounds() == (0.0, 0.0) and net.interruptions == ()
+        single = parse_scenario(self.text(
+            "\n[network]\ndelay_s = 0.5\n[network.interruption]\nstart = 1.0\nend = 2.0\n"))
+        assert single.network is not None
+        assert single.network.interruptions == (Interruption(start=1.0, end=2.0),)
+
+    @pytest.mark.parametrize(("section", "match"), [
+        ("delay_s = -1.0", r"\[network\].delay_s must be a number >= 0 \(got -1.0\)"),
+        ("delay_range_s = [2.0, 1.0]",
+         r"\[network\].delay_range_s must be \[lo, hi\] with lo <= hi \(got \[2.0, 1.0\]\)"),
+        ("delay_range_s = [0.0]",
+         r"\[network\].delay_range_s must be an array of 2 numbers >= 0"),
+        ("delay_s = 1.0\ndelay_range_s = [0.0, 2.0]",
+         r"\[network\].delay_range_s cannot be combined with \[network\].delay_s"),
+        ("loss_probability = 1.0",
+         r"\[network\].loss_probability must be a number in \[0, 1\) \(got 1.0\)"),
+        ('loss_probability = "0.1"', r"\[network\].loss_probability must be a number"),
+        ("communication_noise_std = -0.1",
+         r"\[network\].communication_noise_std must be a number >= 0"),
+        ("delay = 1.0", r"unknown key \[network\].delay. Did you mean 'delay_s'\?"),
+        ("[[network.interruption]]\nstart = 5.0\nend = 4.0",
+         r"\[network.interruption\]\[0\].end must be greater than "
+         r"\[network.interruption\]\[0\].start = 5.0 s \(got 4.0\)"),
+        ("[[network.interruption]]\nstart = 5.0",
+         r"missing required key \[network.interruption\]\[0\].end"),
+        ("[[network.interruption]]\nstart = 5.0\nend = 6.0\nlinks = [[4, 0]]",
+         r"\[network.interruption\]\[0\].links\[0\]\[0\] must be the receiver: a vehicle index "
+         r"from 0 to 3 \(got 4\). The train has 4 vehicles, numbered from 0."),
+        ("[[network.interruption]]\nstart = 5.0\nend = 6.0\nlinks = [[1, -1]]",
+         r"links\[0\]\[1\] must be the sender: a vehicle index from 0 to 3 or 'reference' "
+         r"\(got -1\)"),
+        ('[[network.interruption]]\nstart = 5.0\nend = 6.0\nlinks = [[1, "ref"]]',
+         r"links\[0\]\[1\] must be the sender"),
+        ("[[network.interruption]]\nstart = 5.0\nend = 6.0\nlinks = [[1, 0], [1, 0]]",
+         r"links\[1\] must not repeat an earlier pair \(got \[1, 0\] again\)"),
+        ("[[network.interruption]]\nstart = 5.0\nend = 6.0\ncolour = 1",
+         r"unknown key \[network.interruption\]\[0\].colour"),
+    ])
+    def test_bad_sections_are_scenario_errors(self, section, match):
+        """Each error names the key path, what must hold and what was given."""
+        from trainctl.exceptions import ScenarioError
+        from trainctl.scenario import parse_scenario
+
+        with pytest.raises(ScenarioError, match=match):
+            parse_scenario(self.text(f"\n[network]\n{section}\n"))
+
+    def test_scenario_built_in_python_checks_the_indices(self):
+        """A Scenario given NetworkSettings naming a missing vehicle is refused."""
+        import dataclasses
+
+        from trainctl.scenario import parse_scenario
+
+        scenario = parse_scenario(self.text(""))
+        bad = NetworkSettings(interruptions=[Interruption(start=0.0, end=1.0, links=[[0, 9]])])
+        with pytest.raises(ModelError, match=r"\[1\] must be the sender: a vehicle index from 0 "
+                                             r"to 3 or 'reference' \(got 9\)"):
+            dataclasses.replace(scenario, network=bad)
+
+    def test_replace_edits_a_network_key(self):
+        """Scenario.replace reaches the section like a file edit."""
+        from trainctl.scenario import parse_scenario
+
+        scenario = parse_scenario(self.text("\n[network]\ndelay_s = 0.5\n"))
+        changed = scenario.replace("network.delay_s", 1.5)
+        assert changed.network is not None and changed.network.delay_bounds() == (1.5, 1.5)
+
+    def test_cli_exit_2_without_traceback(self, tmp_path, capsys):
+        """trainctl analyse on a bad [network] prints one error line and exits 2."""
+        from trainctl.cli import main
+
+        path = tmp_path / "bad.toml"
+        path.write_text(self.text("\n[network]\ndelay_range_s = [2.0, 1.0]\n"),
+                        encoding="utf-8")
+        assert main(["analyse", str(path)]) == 2
+        err = capsys.readouterr().err
+        assert "[network].delay_range_s must be [lo, hi]" in err and "Traceback" not in err
+
+    def test_json_schema_knows_the_section(self):
+        """The JSON Schema accepts a good [network] and rejects bad ones."""
+        import tomllib
+
+        import jsonschema
+
+        from trainctl.scenario import json_schema
+
+        schema = json_schema()
+        document = tomllib.loads(self.text(""))
+        document["network"] = {"delay_range_s": [0.0, 2.0], "loss_probability": 0.1,
+                               "interruption": [{"start": 1.0, "end": 2.0},
+                                                {"start": 3.0, "end": 4.0,
+                                                 "links": [[1, 0], [0, "reference"]]}]}
+        jsonschema.validate(document, schema)
+        for bad in ({"loss_probability": 1.0}, {"delay_range_s": [1.0]}, {"delay": 1.0},
+                    {"interruption": [{"start": 1.0}]},
+                    {"interruption": [{"start": 1.0, "end": 2.0, "links": "some"}]},
+                    {"interruption": [{"start": 1.0, "end": 2.0, "links": [[1, "ref"]]}]}):
+            document["network"] = bad
+            with pytest.raises(jsonschema.ValidationError):
+                jsonschema.validate(document, schema)
+
+    def test_readme_example_parses(self):
+        """The [network] example of analyses/README.md fits its annotated example."""
+        from pathlib import Path
+
+        from trainctl.scenario import parse_scenario
+
+        readme = (Path(__file__).resolve().parents[1] / "analyses" / "README.md").read_text(
+            encoding="utf-8")
+        blocks = re.findall(r"```toml\n(.*?)```", readme, re.DOTALL)
+        (network,) = [block for block in blocks if block.startswith("[network]")]
+        net = parse_scenario(blocks[0] + network).network
+        assert net is not None and net.loss_probability == 0.01
+        assert net.interruptions[0].links == ((1, 0), (0, 1))

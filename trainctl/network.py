@@ -102,7 +102,7 @@ from typing import Annotated, Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from pydantic import TypeAdapter, ValidationError, ValidationInfo, model_validator
-from pydantic_core import CoreSchema, core_schema
+from pydantic_core import CoreSchema, InitErrorDetails, core_schema
 
 from .constraints import Array, Number, Rule, Violation, fail, raise_at
 from .declare import Key, python_error, settings
@@ -318,11 +318,19 @@ class WindowsRule(Rule):
     def check(self, value: Any, info: ValidationInfo | None) -> Any:
         """The windows as a tuple of :class:`Interruption`."""
         context = info.context if info is not None else None
-        if isinstance(value, dict | Interruption):
+        single = isinstance(value, dict | Interruption)
+        if not single and not isinstance(value, list | tuple):
+            raise fail(Violation(text=f"must be {self.want()}", got=value))
+        items = [value] if single else list(value)
+        for i, item in enumerate(items):
+            unknown = [k for k in item if k not in _WINDOW_KEYS] if isinstance(item, dict) else []
+            if unknown:  # worded as an unknown key of a table, with a suggestion
+                loc = (unknown[0],) if single else (i, unknown[0])
+                raise ValidationError.from_exception_data("Interruption", [InitErrorDetails(
+                    type="extra_forbidden", loc=loc, input=item[unknown[0]])])
+        if single:
             return (TypeAdapter(Interruption).validate_python(value, context=context),)
-        if isinstance(value, list | tuple):
-            return TypeAdapter(tuple[Interruption, ...]).validate_python(value, context=context)
-        raise fail(Violation(text=f"must be {self.want()}", got=value))
+        return TypeAdapter(tuple[Interruption, ...]).validate_python(items, context=context)
 
     def json_extra(self) -> dict[str, Any]:
         """One window, or an array of windows."""
@@ -330,6 +338,7 @@ class WindowsRule(Rule):
         return {"anyOf": [table, {"type": "array", "items": table}]}
 
 
+_WINDOW_KEYS = ("start", "end", "links")
 _WINDOWS = WindowsRule()
 
 
@@ -374,10 +383,10 @@ lo <= hi (got [2.0, 1.0]).
 
     delay_s: Annotated[Annotated[float, _DELAY] | None, Key(
         "Constant delay of every message (not with delay_range_s)", unit="s",
-        omitted="no delay unless delay_range_s")] = None
+        omitted="no delay, or delay_range_s")] = None
     delay_range_s: Annotated[Annotated[tuple[float, ...], Array(_DELAY, length=2)] | None, Key(
         "Delay drawn uniformly in [lo, hi] for each message (not with delay_s)", unit="s",
-        omitted="delay_s")] = None
+        omitted="the constant delay_s")] = None
     loss_probability: Annotated[float, ProbabilityRule(), Key(
         "Probability that a message is lost, independently per message")] = 0.0
     communication_noise_std: Annotated[float, _NOISE, Key(
@@ -403,7 +412,7 @@ lo <= hi (got [2.0, 1.0]).
             lo, hi = self.delay_range_s
             if lo > hi:
                 raise_at(("delay_range_s",), Violation(
-                    text="must be [lo, hi] with lo <= hi", got=list(self.delay_range_s)),
+                    text="must be [lo, hi] with lo <= hi", got_text=f"[{lo!r}, {hi!r}]"),
                     self.delay_range_s)
         return self
 

@@ -40,6 +40,7 @@ from ..controllers.tracking import CONTROLLER_OUTPUTS as CONTROLLER_OUTPUTS
 from ..models.discrete import DISCRETISATIONS as DISCRETISATIONS
 from ..models.dynamics import ALLOCATIONS as ALLOCATIONS
 from ..models.linear import LINEARISATIONS as LINEARISATIONS
+from ..network import NetworkSettings as NetworkSettings
 from .communication import CommunicationSettings as CommunicationSettings
 from .core import RESERVED_SECTIONS as RESERVED_SECTIONS
 from .core import SCHEMA_VERSION as SCHEMA_VERSION
@@ -75,6 +76,7 @@ __all__ = [
     "ControllerSettings",
     "CommunicationSettings",
     "ModelSettings",
+    "NetworkSettings",
     "Scenario",
     "SimulationSettings",
     "builtin_scenario_text",

@@ -20,6 +20,7 @@ from ..exceptions import ModelError
 from ..graphs import CommunicationGraph
 from ..models.track import Track
 from ..models.train import Train
+from ..network import NetworkSettings
 from .communication import CommunicationSettings
 from .frozen import FrozenMapping as FrozenMapping
 from .settings import ModelSettings, SimulationSettings
@@ -208,6 +209,11 @@ class Scenario:
         The communication graph of consensus controllers (``[communication]``);
         None: a bidirectional chain with every vehicle hearing the reference
         (:meth:`graph`).
+    network : NetworkSettings or None
+        The radio links over which networked controllers receive their
+        neighbours' data (``[network]``: delays, losses, noise, outage
+        windows; :class:`trainctl.network.Network`); None when the file has
+        no ``[network]``.
     simulation : SimulationSettings or None
         The closed-loop simulation run; ``None`` when the file has no
         ``[simulation]``. Needs a ``controller``, its duration must be a
@@ -253,6 +259,7 @@ class Scenario:
     controller: Any = None
     controllers: Mapping[str, Any] = field(default_factory=FrozenMapping)
     communication: CommunicationSettings | None = None
+    network: NetworkSettings | None = None
     simulation: SimulationSettings | None = None
     expected: Mapping[str, str] = field(default_factory=FrozenMapping)
     source: str = "<string>"
@@ -273,6 +280,8 @@ class Scenario:
         n = self.train.n_vehicles
         if self.communication is not None:
             self.communication.check_vehicles(n)
+        if self.network is not None:
+            self.network.check_vehicles(n)
         for settings in controllers.values():
             for method in ("neighbourhoods", "cooperative_weight_vector"):
                 if hasattr(settings, method):

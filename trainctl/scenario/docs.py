@@ -29,6 +29,7 @@ from pydantic import BaseModel
 
 from ..constraints import Choice
 from ..declare import DeclaredField, Key, declared_fields
+from ..network import Interruption, NetworkSettings
 from .communication import CommunicationSettings
 from .filemodel import file_model, rule_of, sub_model, table_kind
 from .settings import ModelSettings, SimulationSettings
@@ -145,7 +146,8 @@ def markdown_tables() -> dict[str, str]:
     dict of str to str
         ``"top"``, ``"train"``, ``"vehicle"``, ``"coupler"``, ``"track"``,
         ``"section"``, ``"model"``, ``"controller-<family>"`` for each
-        built-in family, ``"communication"``, ``"simulation"`` and
+        built-in family, ``"communication"``, ``"network"``, ``"interruption"``,
+        ``"simulation"`` and
         ``"reference"``.
     """
     from ..controllers.registry import DEFAULT_FAMILY, FAMILY_MODULES, get_family
@@ -161,6 +163,8 @@ def markdown_tables() -> dict[str, str]:
         "section": table(SectionTable),
         "model": table(file_model(ModelSettings)),
         "communication": table(file_model(CommunicationSettings)),
+        "network": table(file_model(NetworkSettings), "network"),
+        "interruption": table(file_model(Interruption)),
         "simulation": table(simulation, "simulation"),
         "reference": table(sub_model(reference) or simulation),
     }

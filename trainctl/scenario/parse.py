@@ -3,7 +3,8 @@
 
 The document is validated table by table, in file order: the top level,
 ``[train]``, ``[track]``, ``[model]``, ``[controller]`` (its family from the
-registry, at parse time), ``[simulation]`` and ``[expected]``. Tables that
+registry, at parse time), ``[communication]``, ``[network]`` (its vehicle
+indices checked against the train), ``[simulation]`` and ``[expected]``. Tables that
 depend on earlier ones get them through the validation context: the number
 of coaches, the sample time, the strategies and checks of the controller
 families present. The first error becomes a ScenarioError with its key path
@@ -26,6 +27,7 @@ from ..exceptions import ModelError, ScenarioError
 from ..models.track import Track, TrackSection
 from ..models.train import Train
 from ..models.vehicle import Coupler, TractionEnvelope, Vehicle
+from ..network import NetworkSettings
 from .communication import CommunicationSettings
 from .core import (
     FrozenMapping,
@@ -254,12 +256,15 @@ class _Parser:
         controllers = self.controllers(top.controller, train.n_vehicles)
         communication = None if top.communication is None else self.settings(
             CommunicationSettings, top.communication, ("communication",), {})
+        network = None if top.network is None else self.settings(
+            NetworkSettings, top.network, ("network",), {"n_vehicles": train.n_vehicles})
         simulation = self.simulation(top.simulation, model.sample_time, tuple(controllers))
         expected = self.expected(top.expected, tuple(controllers))
         return self.build((), lambda: Scenario(
             name=top.name, description=top.description, seed=top.seed, train=train,
             track=track, model=model, controllers=FrozenMapping(controllers),
-            communication=communication, simulation=simulation, expected=expected,
+            communication=communication, network=network, simulation=simulation,
+            expected=expected,
             source=self.file, document=self.doc, tags=self.tags,
         ))
 

@@ -213,6 +213,7 @@ def _one_of_groups() -> tuple[tuple[str, ...], ...]:
     """Every group of alternative keys declared in the file tables (leaf names)."""
     from ..controllers.registry import family_names, get_family
     from ..declare import declared_fields
+    from ..network import NetworkSettings
     from .communication import CommunicationSettings
     from .filemodel import file_model, sub_model
     from .settings import ModelSettings, SimulationSettings
@@ -220,7 +221,8 @@ def _one_of_groups() -> tuple[tuple[str, ...], ...]:
 
     roots: list[type | None] = [TrainTable, TrackTable, file_model(ModelSettings),
                                 file_model(SimulationSettings),
-                                file_model(CommunicationSettings)]
+                                file_model(CommunicationSettings),
+                                file_model(NetworkSettings)]
     roots += [file_model(get_family(name).settings) for name in family_names()]
     groups: list[tuple[str, ...]] = []
     seen: set[type] = set()

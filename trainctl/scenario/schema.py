@@ -27,6 +27,7 @@ from pydantic import BaseModel, ConfigDict, create_model
 from pydantic.json_schema import models_json_schema
 
 from ..declare import Key, declared_fields
+from ..network import NetworkSettings
 from .communication import CommunicationSettings
 from .core import SCHEMA_VERSION, check_names, check_statuses
 from .filemodel import FileTable, file_model
@@ -43,6 +44,7 @@ _SECTIONS: dict[str, Any] = {
     "track": TrackTable,
     "model": lambda: file_model(ModelSettings),
     "communication": lambda: file_model(CommunicationSettings),
+    "network": lambda: file_model(NetworkSettings),
     "simulation": lambda: file_model(SimulationSettings),
     "expected": lambda: expected_table(dict.fromkeys(check_names(), ""), check_statuses()),
 }

@@ -331,6 +331,9 @@ class TopLevel(FileTable):
     communication: Annotated[dict[str, Any] | None, _SECTION, Section(None), Key(
         "Communication graph of consensus controllers: who hears whom, who hears the "
         "reference", omitted="bidirectional chain, every vehicle hears the reference")] = None
+    network: Annotated[dict[str, Any] | None, _SECTION, Section(None), Key(
+        "Radio links of networked controllers: delays, losses, noise, outage windows",
+        omitted="no network model")] = None
     simulation: Annotated[dict[str, Any] | None, _SECTION, Section(None), Key(
         "Closed-loop simulation run; needs [controller]", omitted="no simulation")] = None
     expected: Annotated[dict[str, Any] | None, _SECTION, Section(None), Key(
