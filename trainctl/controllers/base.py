@@ -51,7 +51,9 @@ class Measurement:
         Measured outputs (e.g. noisy speeds [m/s]) for output-feedback controllers.
     messages : mapping or None
         Networked controllers: per-agent data received over the communication
-        network (with their own time stamps), e.g. ``{(i, j): (t_sent, value)}``.
+        network (with their own time stamps), e.g. ``{(i, j): (t_sent, value)}``
+        for receiver i and sender j (0-based, or ``"reference"``), as
+        :meth:`trainctl.network.Network.messages` gives them.
     """
 
     state: NDArray[np.float64] | None = None
