@@ -564,3 +564,68 @@ class TestNetworkSection:
         net = parse_scenario(blocks[0] + network).network
         assert net is not None and net.loss_probability == 0.01
         assert net.interruptions[0].links == ((1, 0), (0, 1))
+
+
+class TestInTheSimulation:
+    """simulate(..., network=...): Measurement.messages from the network, the rest unchanged."""
+
+    @staticmethod
+    def _run(network, noise=0.0):
+        from trainctl.controllers.base import StepRecord
+        from trainctl.models import crh2_half, equilibrium
+        from trainctl.sim import Plant, ramp_profile
+        from trainctl.sim.closed_loop import simulate
+
+        train = crh2_half()
+        seen = []
+
+        class Listener:
+            dt, name = 0.5, "listener"
+
+            def reset(self):
+                seen.clear()
+
+            def step(self, t, measurement, reference):
+                seen.append((t, measurement))
+                return StepRecord(inputs=equilibrium(train, 50.0).inputs)
+
+        x0 = equilibrium(train, 50.0).state(position=0.0)
+        x0[0] += 0.3  # the head runs 0.3 m/s fast: its messages differ from the others'
+        result = simulate(Plant(train=train), Listener(), ramp_profile(50.0, 60.0, 0.0, 10.0),
+                          duration=5.0, initial_state=x0, preview_steps=0,
+                          measurement_noise=noise, seed=3, network=network)
+        return result, seen
+
+    def test_constant_delay_shows_the_speed_sent_two_samples_earlier(self):
+        graph = make_graph("bidirectional", 4, pinned="head")
+        network = Network(NetworkSettings(delay_s=1.0), graph, seed=0)
+        result, seen = self._run(network)
+        for k, (t, m) in enumerate(seen):
+            if k < 2:  # nothing has arrived before t = 1 s
+                assert m.messages == {}
+                continue
+            for (rx, tx), msg in m.messages.items():
+                assert msg.t_sent == pytest.approx(t - 1.0)
+                if tx == REFERENCE:
+                    assert rx == 0 and msg.value == pytest.approx(50.0 + 1.0 * (t - 1.0))
+                else:
+                    assert msg.value == pytest.approx(result.velocities[tx, k - 2])
+            heard = {link for link in m.messages}
+            assert heard == set(network.links)
+        assert result.meta["network"] == {"delivered": len(network.links) * 10, "lost": 0,
+                                          "blocked": 0}
+
+    def test_no_network_and_the_noise_stream_unchanged(self):
+        """With a network the measurement noise and the plant are exactly as without one."""
+        base, seen = self._run(None, noise=0.05)
+        assert all(m.messages is None for _, m in seen)
+        graph = make_graph("bidirectional", 4, pinned="head")
+        net = Network(NetworkSettings(delay_range_s=[0.0, 2.0], loss_probability=0.2,
+                                      communication_noise_std=0.1), graph, seed=7)
+        other, seen2 = self._run(net, noise=0.05)
+        assert np.array_equal(base.states, other.states)
+        assert all(np.array_equal(a.outputs, b.outputs) for (_, a), (_, b) in
+                   zip(seen, seen2, strict=True))
+        counts = other.meta["network"]
+        assert sum(counts.values()) == len(net.links) * 10
+        assert counts["lost"] > 0

@@ -25,8 +25,13 @@ if TYPE_CHECKING:
     from .strict import StrictFailure
 
 __all__ = [
-    "AnalysisRun", "make_controller", "run_scenario", "simulate_strategy", "submit_simulations",
+    "NETWORK_STREAM", "AnalysisRun", "make_controller", "run_scenario", "simulate_strategy",
+    "submit_simulations",
 ]
+
+NETWORK_STREAM = 1
+"""Spawn key of the network's random stream: ``SeedSequence([seed, NETWORK_STREAM])``, apart
+from the measurement noise's ``default_rng(seed)``, so the two are not correlated."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -288,6 +293,10 @@ def simulate_strategy(
     (speed, acceleration) with every vehicle off by ``initial_speed_error``
     plus its ``initial_speed_errors`` entry, and every coupler's elongation
     off by its ``initial_spacing_errors`` entry.
+    A controller with ``uses_network = True`` in a scenario with a
+    ``[network]`` section receives its neighbours' and the reference's
+    speeds through :class:`trainctl.network.Network` (its generator seeded
+    with ``SeedSequence([seed, NETWORK_STREAM])``).
     The plant saturates the forces to the envelopes (``plant_saturation``),
     records the dense grid (``output_interval``) and stops a diverging run
     (``divergence_speed_error``), as the ``[simulation]`` table says.
@@ -326,13 +335,19 @@ def simulate_strategy(
     state[n:2 * n - 1] += spacing_offsets
     with numerical_errors(f"{scenario.source}: simulating {strategy!r}"):
         controller = make_controller(scenario, strategy, design)
+        network = None
+        if scenario.network is not None and getattr(controller, "uses_network", False):
+            from .network import Network
+
+            network = Network(scenario.network, scenario.graph(),
+                              seed=np.random.SeedSequence([scenario.seed, NETWORK_STREAM]))
         return simulate(Plant(train=scenario.train, track=scenario.track), controller, profile,
                         duration=sim.duration, initial_state=state,
                         preview_steps=_preview_steps(controller),
                         measurement_noise=sim.measurement_noise, seed=scenario.seed,
                         full_state=getattr(controller, "needs_full_state", True),
                         saturation=sim.plant_saturation, output_interval=sim.output_interval,
-                        divergence_speed_error=sim.divergence_speed_error)
+                        divergence_speed_error=sim.divergence_speed_error, network=network)
 
 
 def _preview_steps(controller: Controller) -> int:

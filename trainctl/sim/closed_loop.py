@@ -44,6 +44,7 @@ from ..controllers.base import Controller, Measurement
 from ..exceptions import DimensionError, ModelError
 from ..models.actuator import SATURATION_TOLERANCE, ActuatorLimits
 from ..models.plant import Plant
+from ..network import FATES, Network
 from ._log import HOLD_FALLBACK, Log, dense_grid
 from .reference import Reference
 from .results import SimulationResult, environment
@@ -68,6 +69,7 @@ def simulate(
     saturation: bool = True,
     output_interval: float | None = None,
     divergence_speed_error: float = DIVERGENCE_SPEED_ERROR,
+    network: Network | None = None,
 ) -> SimulationResult:
     """Run ``controller`` in closed loop with ``plant`` for ``duration`` seconds.
 
@@ -105,6 +107,15 @@ def simulate(
     divergence_speed_error : float
         Stop the run when a vehicle's speed error exceeds this [m/s], > 0
         (inf: only an overflow stops it).
+    network : Network or None
+        The communication network of networked controllers
+        (:class:`trainctl.network.Network`, reset here): at every sample
+        each vehicle sends its measured speed [m/s] and the reference sends
+        its speed, then ``Measurement.messages`` holds what every vehicle
+        has received by then (``{(receiver, sender): (t_sent, value)}``).
+        None: no network (``messages`` is None). The network draws from its
+        own generator, so adding one leaves the measurement noise unchanged;
+        ``meta["network"]`` counts the delivered, lost and blocked messages.
 
     Returns
     -------
@@ -152,8 +163,11 @@ def simulate(
     actuators = ActuatorLimits(plant.train, enabled=bool(saturation))
     wall = _time.perf_counter()
     controller.reset()
+    if network is not None:
+        network.reset()
     divergence = _run(plant, controller, reference, log, actuators, rng=np.random.default_rng(
-        int(seed)), noise=noise, horizon=int(preview_steps), full_state=full_state, bound=bound)
+        int(seed)), noise=noise, horizon=int(preview_steps), full_state=full_state, bound=bound,
+        network=network)
     wall = _time.perf_counter() - wall
     meta: dict[str, Any] = environment()
     meta.update({
@@ -175,6 +189,9 @@ def simulate(
         "divergence": divergence,
         "wall_time": wall,
     })
+    if network is not None:
+        fates = network.history().fate
+        meta["network"] = {fate: int(np.count_nonzero(fates == fate)) for fate in FATES}
     to_dict = getattr(reference, "to_dict", None)
     if callable(to_dict):
         meta["reference"] = to_dict()
@@ -185,7 +202,8 @@ def simulate(
 
 def _run(plant: Plant, controller: Controller, reference: Reference, log: Log,
          actuators: ActuatorLimits, *, rng: np.random.Generator, noise: float, horizon: int,
-         full_state: bool, bound: float) -> dict[str, Any] | None:
+         full_state: bool, bound: float,
+         network: Network | None = None) -> dict[str, Any] | None:
     """The loop over the samples; returns the divergence record (None: ran to the end)."""
     n, dt = log.n, log.dt
     divergence = _speed_divergence(log, bound, -1)
@@ -197,7 +215,12 @@ def _run(plant: Plant, controller: Controller, reference: Reference, log: Log,
         t = float(log.times[k])
         x = log.states[:, k]
         measured = x[:n] + noise * rng.standard_normal(n)
-        measurement = Measurement(state=x.copy() if full_state else None, outputs=measured)
+        messages = None
+        if network is not None:
+            network.send_all(t, measured, reference=float(reference.speed(t)))
+            messages = network.messages(t)
+        measurement = Measurement(state=x.copy() if full_state else None, outputs=measured,
+                                  messages=messages)
         record = controller.step(t, measurement, reference.preview(t, dt, horizon))
         requested = log.record(k, t, controller.name, record, previous)
         applied, side = actuators.apply(requested, x[:n])
