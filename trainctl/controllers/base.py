@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -58,7 +58,7 @@ class Measurement:
 
     state: NDArray[np.float64] | None = None
     outputs: NDArray[np.float64] | None = None
-    messages: Mapping[object, object] | None = None
+    messages: Mapping[Any, Any] | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
