@@ -125,8 +125,8 @@ def pade_loop(A0: ArrayLike, B: ArrayLike, K: ArrayLike, tau: float,
         raise ModelError(f"pade_loop: 'order' must be an integer >= 1 (got {order!r}).")
     Ap, Bp, Cp, Dp = _pade_ss(float(tau), int(order))
     m, N = Km.shape
-    I = np.eye(m)
-    Az, Bz, Cz, Dz = np.kron(I, Ap), np.kron(I, Bp), np.kron(I, Cp), np.kron(I, Dp)
+    eye = np.eye(m)
+    Az, Bz, Cz, Dz = np.kron(eye, Ap), np.kron(eye, Bp), np.kron(eye, Cp), np.kron(eye, Dp)
     top = np.hstack([A + Bm @ Dz @ Km, Bm @ Cz])
     bottom = np.hstack([Bz @ Km, Az])
     Acl = np.vstack([top, bottom])
