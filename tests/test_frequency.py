@@ -124,6 +124,19 @@ class TestSensitivity:
         assert res.to_dict()["sensitivity_peak"] is None
 
 
+@pytest.mark.parametrize("dt", [0.1, 0.3, 0.03, 0.05, 20.0])
+def test_grid_ends_at_nyquist_without_passing_it(dt: float) -> None:
+    """The last grid point times T is π up to rounding and never above it (python-control
+    warns above Nyquist; logspace alone lands one rounding above for T = 0.1 s)."""
+    from trainctl.analysis.sensitivity import frequency_grid
+
+    w = frequency_grid(dt)
+    assert w[-1] * dt <= math.pi
+    assert w[-1] == pytest.approx(math.pi / dt, rel=1e-15)
+    assert np.all(np.diff(w) > 0)
+    ct.ss([[0.5]], [[1.0]], [[1.0]], 0, dt).frequency_response(w)  # no warning (an error here)
+
+
 class TestBandwidth:
     """bandwidth(): python-control's definition, on the unit circle for discrete systems."""
 

@@ -82,7 +82,12 @@ def frequency_grid(dt: float, *, decades: int = DECADES,
     (251, True)
     """
     top = math.log10(math.pi / dt)
-    return np.logspace(top - decades, top, decades * points_per_decade + 1)
+    grid = np.logspace(top - decades, top, decades * points_per_decade + 1)
+    nyquist = math.pi / dt
+    while nyquist * dt > math.pi:  # python-control refuses ω·T > π, even by one rounding
+        nyquist = math.nextafter(nyquist, 0.0)
+    grid[-1] = nyquist  # logspace may land one rounding above (T = 0.1 s does)
+    return grid
 
 
 def loop_sensitivity(
