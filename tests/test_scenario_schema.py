@@ -245,8 +245,8 @@ class TestFamilies:
             (with_controller("[controller.lqq]", "r = 1"),
              "unknown section [controller.lqq]. Did you mean 'lqr'?"),
             (with_controller('family = "lqrr"'),
-             "[controller].family must be one of 'mpc', 'lqr', 'potential', 'flocking' "
-             "(got 'lqrr', a string). "
+             "[controller].family must be one of 'mpc', 'lqr', 'potential', 'flocking', "
+             "'synchronous' (got 'lqrr', a string). "
              "Did you "
              "mean 'lqr'?"),
             (with_controller("[controller.mpc]", 'form = "u"'),

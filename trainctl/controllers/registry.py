@@ -84,6 +84,7 @@ FAMILY_MODULES: Mapping[str, str] = {
     "lqr": "trainctl.controllers.lqr",
     "potential": "trainctl.controllers.potential",
     "flocking": "trainctl.controllers.flocking",
+    "synchronous": "trainctl.controllers.synchronous",
 }
 """The built-in families: name -> module exposing ``FAMILY`` (imported on first use)."""
 

@@ -1,0 +1,9 @@
+# The synchronous family: the lead locomotive's speed loop relayed to the remotes by radio.
+"""The synchronous controller family (see :mod:`trainctl.controllers.synchronous.family`)."""
+
+from __future__ import annotations
+
+from .family import FAMILY as FAMILY
+from .family import STRATEGIES as STRATEGIES
+
+__all__ = ["FAMILY", "STRATEGIES"]

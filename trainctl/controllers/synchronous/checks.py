@@ -1,0 +1,124 @@
+# Design checks of the synchronous family: delay-free stability, sampling, delay margin.
+"""The synchronous family's design checks (spec §4.3 items 1 and 3).
+
+``synchronous_closed_loop``
+    Hurwitz test of the delay-free continuous loop A_cl = A₀ + B_r K_r
+    (:mod:`trainctl.controllers.synchronous.law`): the whole train's speeds
+    and couplers with the lead's speed feedback and the remotes following
+    it with mass scaling, as with an instantaneous relay. Pass when every
+    eigenvalue has Re λ < 0, fail otherwise.
+``synchronous_sampling``
+    ω_max·T_c of that loop against 0.1 rad and the spectral radius of the
+    loop with the law held over each control interval
+    (:func:`trainctl.controllers.sampled.sampling_check`).
+``synchronous_delay_margin``
+    The smallest uniform delay τ of the relay at which
+    ẋ = A₀x + B_r K_r x(t − τ) loses stability
+    (:func:`trainctl.analysis.delay.delay_margin`, two Padé orders), against
+    the worst-case delay of the ``[network]`` section (the upper end of
+    ``delay_range_s``, or ``delay_s``). Pass when the worst case is below
+    the margin, fail when it reaches it (or when the loop is unstable
+    without delay, margin 0). Without ``[network]`` the relay is
+    instantaneous and there is nothing to compare: warn, with the margin.
+    When the two Padé orders disagree by more than 1 % a pass is downgraded
+    to warn. The margin is that of one constant delay on every remote link;
+    delays drawn per message are a time-varying delay, which a
+    constant-delay margin does not certify, and the relay is read at the
+    control samples, which rounds each delay up to a whole number of
+    intervals (the rounded worst case is in the details).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+from ...analysis.check import Check
+from ..sampled import closed_loop_spectrum
+from ..sampled import sampling_check as shared_sampling_check
+
+if TYPE_CHECKING:
+    from .family import SynchronousDesign
+
+__all__ = ["closed_loop_check", "delay_check", "sampling_check", "synchronous_checks"]
+
+
+def synchronous_checks(design: SynchronousDesign) -> list[Check]:
+    """The three checks (module docstring).
+
+    Parameters
+    ----------
+    design : SynchronousDesign
+        The family's design.
+
+    Returns
+    -------
+    list of Check
+        In :data:`~trainctl.controllers.synchronous.family.CHECK_NAMES` order.
+    """
+    return [closed_loop_check(design), sampling_check(design), delay_check(design)]
+
+
+def closed_loop_check(design: SynchronousDesign) -> Check:
+    """Hurwitz test of the delay-free continuous loop."""
+    spectrum = closed_loop_spectrum(design.loops.A_cl)
+    lam = spectrum.eigenvalues
+    alpha = float(max(lam.real))
+    details: dict[str, object] = {"max_real_part": alpha,
+                                  "eigenvalues": [[float(x.real), float(x.imag)] for x in lam]}
+    name = "synchronous_closed_loop"
+    if alpha >= -spectrum.tol:
+        return Check(name=name, status="fail", value=alpha, threshold=0.0, unit="1/s",
+                     message=f"delay-free closed loop not Hurwitz: max Re λ = {alpha:.4g} 1/s",
+                     hint="lower speed_gain_per_s (the lead's loop excites the couplers)",
+                     details=details)
+    return Check(name=name, status="pass", value=alpha, threshold=0.0, unit="1/s",
+                 message=f"delay-free continuous closed loop Hurwitz: max Re λ = {alpha:.4g} 1/s "
+                 f"(slowest mode, time constant {-1.0 / alpha:.4g} s)",
+                 details=details)
+
+
+def sampling_check(design: SynchronousDesign) -> Check:
+    """ω_max·T_c against 0.1 rad; the held loop's spectral radius."""
+    return shared_sampling_check("synchronous_sampling", design.loops.A_cl,
+                                 design.sampled_matrix(), design.control_interval)
+
+
+def delay_check(design: SynchronousDesign) -> Check:
+    """The relay's delay margin against the ``[network]`` worst-case delay."""
+    name = "synchronous_delay_margin"
+    res = design.delay
+    margin = res.margin
+    worst = design.worst_delay
+    details: dict[str, object] = {**res.to_dict(), "worst_delay": worst,
+                                  "worst_delay_sampled": design.worst_delay_sampled}
+    shown = (f"{margin:.4g} s" if math.isfinite(margin)
+             else f"above {res.tau_max:g} s (stable up to the end of the search)")
+    crossing = ("" if math.isnan(res.crossing_frequency)
+                else f", crossing at {res.crossing_frequency:.3g} rad/s")
+    orders = ("" if res.agree else
+              f"; the Padé orders {res.orders[0]} and {res.orders[1]} disagree "
+              f"({res.margins[0]:.4g} s against {res.margins[1]:.4g} s)")
+    if margin == 0.0:
+        return Check(name=name, status="fail", value=0.0, threshold=worst, unit="s",
+                     message="the loop is unstable without delay: no delay margin",
+                     hint="see synchronous_closed_loop", details=details)
+    if worst is None:
+        return Check(name=name, status="warn", value=margin, threshold=None, unit="s",
+                     message=f"delay margin of the relayed command {shown}{crossing}; no "
+                     "[network]: the relay is instantaneous, nothing to compare" + orders,
+                     hint="add a [network] section with the radio link's delays",
+                     details=details)
+    if worst >= margin:
+        return Check(name=name, status="fail", value=margin, threshold=worst, unit="s",
+                     message=f"delay margin {shown}{crossing} ≤ the [network] worst-case delay "
+                     f"{worst:g} s: the remotes' delayed copy of the lead's command can "
+                     "destabilise the train" + orders,
+                     hint="lower speed_gain_per_s, or shorten the link's delays",
+                     details=details)
+    status = "pass" if res.agree else "warn"
+    return Check(name=name, status=status, value=margin, threshold=worst, unit="s",
+                 message=f"delay margin {shown}{crossing} > the [network] worst-case delay "
+                 f"{worst:g} s" + orders,
+                 hint="" if res.agree else "raise the Padé orders to settle the margin",
+                 details=details)

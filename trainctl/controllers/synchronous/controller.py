@@ -1,0 +1,130 @@
+# The synchronous controller: the lead's speed loop, relayed to the remotes, sampled.
+"""The synchronous controller: u_i = m_i â_i + R_i(v_i), clipped to the envelope.
+
+At every sample (the family's ``control_interval``) the lead computes its
+command a_ℓ from its measured speed and the reference
+(:meth:`~trainctl.controllers.synchronous.law.SynchronousLaw.command`), sends
+it over the relay (:class:`~trainctl.controllers.synchronous.relay.CommandRelay`)
+and every vehicle applies its mass times the command it holds plus its own
+resistance at its measured speed; a remote that has received nothing yet
+applies its resistance only. The forces are held until the next sample.
+
+The law reads the measured speeds (``Measurement.outputs``, with the
+simulation's measurement noise; the true speeds when only the state is
+given), nothing else: no position, no coupler elongation.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...exceptions import ModelError
+from ...models.envelope import EnvelopeBounds
+from ...models.train import Train
+from ..base import Measurement, ReferencePreview, StepRecord
+from .law import SynchronousLaw
+from .relay import CommandRelay
+
+__all__ = ["SynchronousController"]
+
+Array = NDArray[np.float64]
+
+
+class SynchronousController:
+    """Synchronous operation of a distributed-power train (module docstring).
+
+    Parameters
+    ----------
+    train : Train
+        The train (envelopes).
+    law : SynchronousLaw
+        Gains, masses and resistance coefficients.
+    relay : CommandRelay
+        The radio link from the lead to the remotes (reset with the controller).
+    dt : float
+        Control interval [s], > 0.
+    input_bounds : bool
+        Clip each force to the vehicle's envelope at its measured speed.
+    name : str
+        Label.
+
+    Examples
+    --------
+    >>> from trainctl.models import equilibrium
+    >>> from trainctl.scenario import load_scenario
+    >>> from trainctl.controllers.synchronous.law import law_of
+    >>> from trainctl.controllers.synchronous.settings import SynchronousSettings
+    >>> scenario = load_scenario("heavy-haul-hinf")
+    >>> law = law_of(scenario, SynchronousSettings())
+    >>> ctl = SynchronousController(scenario.train, law, CommandRelay(None, 4, 0, seed=0),
+    ...                             dt=0.1)
+    >>> eq = equilibrium(scenario.train, 19.5)
+    >>> ref = ReferencePreview(times=np.zeros(1), speed=np.full(1, 19.5),
+    ...                        acceleration=np.zeros(1))
+    >>> rec = ctl.step(0.0, Measurement(outputs=np.full(4, 19.5)), ref)
+    >>> bool(np.allclose(rec.inputs, eq.inputs)), rec.status
+    (True, 'optimal')
+    """
+
+    preview_steps = 1
+    needs_full_state = False
+    uses_network = False
+    """The relay is the controller's own (:mod:`~trainctl.controllers.synchronous.relay`):
+    the simulation's speed messages are not used."""
+
+    def __init__(self, train: Train, law: SynchronousLaw, relay: CommandRelay, *, dt: float,
+                 input_bounds: bool = True, name: str = "synchronous") -> None:
+        if not dt > 0:
+            raise ModelError(f"SynchronousController: 'dt' must be > 0 s (got {dt!r}).")
+        if law.n != train.n_vehicles or relay.n != train.n_vehicles:
+            raise ModelError(f"SynchronousController: the law is for {law.n} vehicles and the "
+                             f"relay for {relay.n}; the train has {train.n_vehicles}.")
+        if relay.lead != law.lead:
+            raise ModelError(f"SynchronousController: the relay's lead ({relay.lead}) is not "
+                             f"the law's ({law.lead}).")
+        self.train, self.law, self.relay, self.dt = train, law, relay, float(dt)
+        self.input_bounds, self.name = bool(input_bounds), name
+        self._envelope = EnvelopeBounds(train, enabled=self.input_bounds)
+
+    def reset(self) -> None:
+        """Forget every relayed command and restart the relay's random stream."""
+        self.relay.reset()
+
+    def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
+        """The lead's command, relayed; each vehicle's force, clipped to its envelope."""
+        start = time.perf_counter()
+        speeds = self._speeds(measurement)
+        n = self.law.n
+        if not np.all(np.isfinite(speeds)):
+            return StepRecord(inputs=np.full(n, np.nan), status="error",
+                              solve_time=time.perf_counter() - start,
+                              info={"reason": "a measured speed is not finite"})
+        command = self.law.command(float(speeds[self.law.lead]), float(reference.speed[0]),
+                                   float(reference.acceleration[0]))
+        commands, ages = self.relay.relay(t, command)
+        waiting = np.isnan(commands)
+        inputs = self.law.forces(np.where(waiting, 0.0, commands), speeds)
+        inputs, saturated = self._envelope.clip(inputs, speeds)
+        return StepRecord(inputs=inputs, status="optimal", iterations=0,
+                          solve_time=time.perf_counter() - start,
+                          info={"saturated": saturated, "command": command,
+                                "waiting": int(np.count_nonzero(waiting)),
+                                "oldest_command_age": float(np.nanmax(ages))})
+
+    def _speeds(self, measurement: Measurement) -> Array:
+        """The measured speeds [m/s]: the outputs, else the state's speeds."""
+        n = self.law.n
+        if measurement.outputs is not None:
+            speeds = np.asarray(measurement.outputs, dtype=float)
+        elif measurement.state is not None:
+            speeds = np.asarray(measurement.state, dtype=float)[:n]
+        else:
+            raise ModelError(f"{self.name}: needs the measured speeds (Measurement.outputs) "
+                             "or the state (got neither).")
+        if speeds.shape != (n,):
+            raise ModelError(f"{self.name}: expected {n} measured speeds (got shape "
+                             f"{speeds.shape}).")
+        return speeds

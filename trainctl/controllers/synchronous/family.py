@@ -1,0 +1,280 @@
+# The synchronous family as a registry entry: the LOCOTROL-type centralised baseline.
+"""The synchronous family object (:data:`FAMILY`), see :mod:`trainctl.controllers.registry`.
+
+One strategy, ``"synchronous"``: centralised synchronous operation of a
+distributed-power train (spec §4.2, the baseline of seed 003). The lead
+locomotive closes a speed loop (:mod:`trainctl.controllers.synchronous.law`),
+its command goes over the radio relay
+(:mod:`trainctl.controllers.synchronous.relay`) and every remote applies it
+scaled by its mass, holding the last one during outages; every vehicle adds
+its own resistance feedforward. Its linear closed loop, with an
+instantaneous relay, is continuous (dt = 0): :meth:`SynchronousFamily.closed_loop`
+returns it with the inputs ``w[i]`` (specific-force disturbances [m/s²])
+and the outputs ``v[i]`` [m/s], ``f[i]`` [kN] and ``d[i]`` [m].
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from functools import cached_property
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    import control as ct
+
+    from ...analysis.delay import DelayMargin
+    from ...analysis.review import Check
+    from ...design import DesignModel
+    from ...network import NetworkSettings
+    from ...report.figures import ReportFigure
+    from ...scenario import Scenario
+    from .controller import SynchronousController
+    from .law import LoopMatrices, SynchronousLaw
+    from .relay import CommandRelay
+
+__all__ = ["CHECK_NAMES", "DELAY_SEARCH", "FAMILY", "STRATEGIES", "SynchronousDesign",
+           "SynchronousFamily", "design_synchronous"]
+
+STRATEGIES = ("synchronous",)
+"""The synchronous family's one strategy."""
+
+CHECK_NAMES = ("synchronous_closed_loop", "synchronous_sampling", "synchronous_delay_margin")
+"""The synchronous family's design checks (:mod:`trainctl.controllers.synchronous.checks`)."""
+
+DELAY_SEARCH = 60.0
+"""Shortest delay range [s] searched for the margin: (0, max(10 s, 2 × the worst case)].
+
+Five times GSM-R's 2 s worst case (spec §4.4), so that a margin above the
+worst case is located rather than only bounded."""
+
+Array = NDArray[np.float64]
+
+PARTIAL = """\
+<p>Centralised synchronous operation: the lead locomotive (vehicle {{ data.lead_number }})
+closes a speed loop and relays its specific-force command over the radio link; every remote
+applies it scaled by its mass, holding the last command while nothing arrives, and every
+vehicle adds its own resistance at its speed. Sampled every {{ data.control_interval }} s{%
+if not data.input_bounds %} (no saturation){% endif %}.</p>
+<table class="quantities">
+  <thead><tr><th scope="col">Quantity</th><th scope="col">Value</th></tr></thead>
+  <tbody>
+{% for row in data.rows %}
+    <tr><td>{{ row.name }}</td><td class="num">{{ row.value }}</td></tr>
+{% endfor %}
+  </tbody>
+</table>
+"""
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class SynchronousDesign:
+    """The synchronous family's design of one scenario.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    model : DesignModel
+        The run's design model.
+    settings : SynchronousSettings
+        The family's settings.
+    law : SynchronousLaw
+        The law's SI gains.
+    control_interval : float
+        T_c [s].
+    network : NetworkSettings or None
+        The scenario's ``[network]`` (None: an instantaneous relay).
+    loops : LoopMatrices
+        Open loop, undelayed and relayed parts, delay-free closed loop.
+    """
+
+    scenario: Scenario
+    model: DesignModel
+    settings: Any
+    law: SynchronousLaw
+    control_interval: float
+    network: NetworkSettings | None
+    loops: LoopMatrices
+
+    @property
+    def worst_delay(self) -> float | None:
+        """The ``[network]`` worst-case delay [s] (upper end of the range); None without one."""
+        return None if self.network is None else float(self.network.delay_bounds()[1])
+
+    @property
+    def worst_delay_sampled(self) -> float | None:
+        """:attr:`worst_delay` rounded up to whole control intervals [s] (when it is applied)."""
+        worst = self.worst_delay
+        if worst is None:
+            return None
+        T = self.control_interval
+        return math.ceil(worst / T - 1e-9) * T
+
+    @cached_property
+    def delay(self) -> DelayMargin:
+        """The relay's delay margin (:func:`trainctl.analysis.delay.delay_margin`)."""
+        from ...analysis.delay import delay_margin
+
+        worst = self.worst_delay or 0.0
+        loops = self.loops
+        return delay_margin(loops.A0, loops.B_relay, loops.K_relay,
+                            tau_max=max(DELAY_SEARCH, 2.0 * worst))
+
+    def sampled_matrix(self, interval: float | None = None) -> Array:
+        """The delay-free loop with the law held over each interval (exact ZOH of the plant).
+
+        Parameters
+        ----------
+        interval : float or None
+            T [s]; None: :attr:`control_interval`.
+
+        Returns
+        -------
+        ndarray
+            (2n−1, 2n−1) [-].
+        """
+        from ..sampled import held_loop
+
+        T = self.control_interval if interval is None else float(interval)
+        speed = float(self.model.settings.speed)
+        return held_loop(self.loops.A_open, self.loops.B_open, self.law.feedback(speed), T)
+
+    def make_relay(self) -> CommandRelay:
+        """A new relay on the scenario's ``[network]``, seeded ``[seed, RELAY_STREAM]``."""
+        from .relay import RELAY_STREAM, CommandRelay
+
+        return CommandRelay(self.network, self.law.n, self.law.lead,
+                            seed=np.random.SeedSequence([int(self.scenario.seed), RELAY_STREAM]))
+
+
+def design_synchronous(scenario: Scenario, model: DesignModel,
+                       settings: Any) -> SynchronousDesign:
+    """The law's gains and its linear loops.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (train, ``[network]``, ``[simulation]``).
+    model : DesignModel
+        Its design model.
+    settings : SynchronousSettings
+        The family's settings.
+
+    Returns
+    -------
+    SynchronousDesign
+        The design.
+
+    Raises
+    ------
+    ScenarioError
+        If the simulation's duration is not a whole multiple of the control
+        interval, or the train cannot carry the law (:func:`~.law.law_of`).
+
+    Examples
+    --------
+    >>> from trainctl.controllers.synchronous.settings import SynchronousSettings
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("heavy-haul-hinf")
+    >>> d = design_synchronous(scenario, build_model(scenario), SynchronousSettings())
+    >>> d.loops.A_cl.shape, d.control_interval, d.worst_delay
+    ((7, 7), 0.1, None)
+    """
+    from ..sampled import control_interval
+    from .law import closed_loop_matrices, law_of
+
+    T = control_interval(scenario, model, settings, "synchronous")
+    law = law_of(scenario, settings)
+    return SynchronousDesign(scenario=scenario, model=model, settings=settings, law=law,
+                             control_interval=T, network=scenario.network,
+                             loops=closed_loop_matrices(model, law))
+
+
+def _seconds(x: float | None) -> str:
+    if x is None:
+        return "no [network]"
+    return f"{x:.4g}" if math.isfinite(x) else "∞"
+
+
+class SynchronousFamily:
+    """Centralised synchronous operation (the LOCOTROL-type baseline of seed 003)."""
+
+    name = "synchronous"
+    title = "Synchronous operation (centralised)"
+    strategies = STRATEGIES
+    check_names = CHECK_NAMES
+    strategy_cost: Mapping[str, float] = {"synchronous": 0.1}
+    report_partial = PARTIAL
+
+    @property
+    def settings(self) -> type[Any]:
+        """The schema of the family's ``[controller]`` table."""
+        from .settings import SynchronousSettings
+
+        return SynchronousSettings
+
+    def design(self, scenario: Scenario, model: DesignModel,
+               settings: Any) -> SynchronousDesign:
+        """See :func:`design_synchronous`."""
+        return design_synchronous(scenario, model, settings)
+
+    def make(self, design: SynchronousDesign, strategy: str) -> SynchronousController:
+        """The controller: the law sampled every ``control_interval``, with its own relay."""
+        from .controller import SynchronousController
+
+        return SynchronousController(design.scenario.train, design.law, design.make_relay(),
+                                     dt=design.control_interval,
+                                     input_bounds=design.settings.input_bounds, name=strategy)
+
+    def checks(self, design: SynchronousDesign) -> list[Check]:
+        """The three checks of :mod:`trainctl.controllers.synchronous.checks`."""
+        from .checks import synchronous_checks
+
+        return synchronous_checks(design)
+
+    def closed_loop(self, design: SynchronousDesign, strategy: str) -> ct.StateSpace:
+        """x̂' = A_cl x̂ + B_w w (continuous, instantaneous relay); outputs v [m/s], f [kN], d [m]."""
+        import control as ct
+
+        n = design.law.n
+        rows, outputs = design.model.loop_outputs()
+        return ct.ss(design.loops.A_cl, design.loops.B_open * design.law.mass[None, :], rows, 0,
+                     states=design.scenario.train.state_labels(),
+                     inputs=[f"w[{i}]" for i in range(n)], outputs=outputs,
+                     name=f"synchronous_{strategy}")
+
+    def report_data(self, design: SynchronousDesign) -> dict[str, Any]:
+        """κ, the lead, the control interval, the delay margin against the network's worst case.
+
+        The delay-free loop's spectrum, sampled at the model's sample time,
+        joins the eigenvalue map (``spectra``).
+        """
+        lam = np.linalg.eigvals(design.loops.A_cl).astype(complex)
+        z = np.exp(lam * design.model.settings.sample_time)
+        s, res = design.settings, design.delay
+        rows = [("Speed gain κ [1/s]", f"{s.speed_gain:g}"),
+                ("Lead locomotive", f"vehicle {design.law.lead + 1}"),
+                ("Control interval [s]", f"{design.control_interval:g}"),
+                ("Delay margin [s]", _seconds(res.margin)),
+                ("Network worst-case delay [s]", _seconds(design.worst_delay)),
+                ("Slowest mode, max Re λ [1/s]", f"{float(np.max(lam.real)):.4g}"),
+                ("Fastest mode, max |λ| [rad/s]", f"{float(np.max(np.abs(lam))):.4g}")]
+        return {"spectra": {"synchronous": [[float(x.real), float(x.imag)] for x in z]},
+                "rows": [{"name": a, "value": b} for a, b in rows],
+                "lead_number": design.law.lead + 1,
+                "control_interval": f"{design.control_interval:g}",
+                "input_bounds": bool(s.input_bounds), "delay": res.to_dict()}
+
+    def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
+        """None: the family's numbers are in its table, its spectrum in the eigenvalue map."""
+        return []
+
+
+FAMILY = SynchronousFamily()
+"""The registry entry of the synchronous family."""

@@ -1,0 +1,288 @@
+# Synchronous operation: the lead's speed loop, the relayed command and the linear closed loop.
+"""The centralised synchronous law (spec §4.2, last paragraph) and its linear closed loop.
+
+The lead locomotive ℓ (``lead``, 0-based) computes the specific-force
+command [m/s²]
+
+    a_ℓ(t) = v̇_d(t) − κ (v_ℓ(t) − v_d(t)),
+
+v_d the reference speed, κ ``speed_gain`` [1/s], and sends it over the radio
+link to every remote locomotive. Vehicle i applies [N]
+
+    u_i(t) = m_i â_i(t) + R_i(v_i(t)),   R_i(v) = m_i (a0_i + a1_i v + a2_i v²),
+
+with â_ℓ = a_ℓ (the lead's own command, no link) and â_i, for a remote, the
+newest command it has received (held while nothing new arrives; 0 before
+the first one, so that a remote then applies its feedforward only). R_i is
+the vehicle's own Davis resistance at its own measured speed: the estimate
+F̂_ti of spec §4.2, which every vehicle computes locally. So a remote
+applies m_i/m_ℓ times the lead's *feedback* force m_ℓ a_ℓ, delayed by the
+link, plus its own resistance: the LOCOTROL-type rule
+u_i(t) = (m_i/m_ℓ) u_ℓ(t − τ_i) of spec §4.2 with each vehicle's resistance
+estimate taken at its own speed instead of the lead's (the same at
+equilibrium for identical vehicles). The grade is not fed forward: it is a
+disturbance the lead's loop rejects, a constant grade's specific force r
+leaving the steady speed error r/κ. At a constant reference speed the
+couplers are unloaded in equilibrium (every vehicle supplies its own
+resistance), whatever the masses.
+
+Linear closed loop
+------------------
+On the design state x̂ = [v̂ (n) [m/s], δ̂ (n−1) [m]] (deviations from the
+cruise at v_r, the design model's continuous SI model
+:meth:`~trainctl.design.DesignModel.observer_model`, ẋ = A x̂ + B û, û [N])
+the law linearises to û = F₀ x̂ + K x̂(t − τ) with
+
+- F₀ = diag(m_i c_i) on v̂ (c_i = a1_i + 2 a2_i v_r, the slope of the
+  feedforward, which cancels the resistance damping of a Jacobian design
+  model) plus −κ m_ℓ on row ℓ, column v̂_ℓ (the lead's own feedback);
+- K = −κ m_i on row i of every remote, column v̂_ℓ (the lead's feedback as
+  the remote receives it, τ late).
+
+A₀ = A + B F₀ is the undelayed part; the delay-free loop is
+A_cl = A₀ + B K (τ = 0, an instantaneous relay). The delay margin of
+ẋ = A₀x̂ + B_r K_r x̂(t − τ) (B_r, K_r the remotes' columns and rows) is the
+uniform link delay at which the loop loses stability
+(:func:`trainctl.analysis.delay.delay_margin`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ...exceptions import ScenarioError
+
+if TYPE_CHECKING:
+    from ...design import DesignModel
+    from ...scenario import Scenario
+
+__all__ = ["LoopMatrices", "SynchronousLaw", "closed_loop_matrices", "law_of"]
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class SynchronousLaw:
+    """The gains of the synchronous law (module docstring), SI.
+
+    Parameters
+    ----------
+    mass : ndarray
+        m_i [kg], shape (n,).
+    davis : ndarray
+        Davis coefficients per unit mass [m/s², 1/s, 1/m], shape (3, n)
+        (:attr:`trainctl.models.train.Train.davis`).
+    speed_gain : float
+        κ [1/s].
+    lead : int
+        Index ℓ of the lead locomotive (0-based).
+
+    Examples
+    --------
+    >>> law = SynchronousLaw(mass=np.array([2.0, 1.0]), davis=np.zeros((3, 2)),
+    ...                      speed_gain=0.5, lead=0)
+    >>> law.command(10.0, 12.0, 0.1)    # 0.1 − 0.5 (10 − 12)
+    1.1
+    >>> law.forces(np.array([1.1, 1.1]), np.array([10.0, 10.0])).tolist()
+    [2.2, 1.1]
+    """
+
+    mass: Array
+    davis: Array
+    speed_gain: float
+    lead: int
+
+    @property
+    def n(self) -> int:
+        """Number of vehicles."""
+        return int(self.mass.size)
+
+    @property
+    def remotes(self) -> tuple[int, ...]:
+        """The remote locomotives' indices, increasing."""
+        return tuple(i for i in range(self.n) if i != self.lead)
+
+    def command(self, lead_speed: float, reference_speed: float,
+                reference_acceleration: float) -> float:
+        """a_ℓ = v̇_d − κ(v_ℓ − v_d) [m/s²].
+
+        Parameters
+        ----------
+        lead_speed : float
+            The lead's measured speed v_ℓ [m/s].
+        reference_speed : float
+            v_d [m/s].
+        reference_acceleration : float
+            v̇_d [m/s²].
+
+        Returns
+        -------
+        float
+            The specific-force command [m/s²].
+        """
+        return float(reference_acceleration - self.speed_gain * (lead_speed - reference_speed))
+
+    def feedforward(self, speeds: ArrayLike) -> Array:
+        """R_i(v_i) = m_i (a0_i + a1_i v_i + a2_i v_i²) [N]: each vehicle's own resistance.
+
+        Parameters
+        ----------
+        speeds : array_like
+            Each vehicle's measured speed [m/s], shape (n,).
+
+        Returns
+        -------
+        ndarray
+            Shape (n,).
+        """
+        v = np.asarray(speeds, dtype=float)
+        a0, a1, a2 = self.davis
+        return np.asarray(self.mass * (a0 + a1 * v + a2 * v * v), dtype=float)
+
+    def forces(self, commands: ArrayLike, speeds: ArrayLike) -> Array:
+        """u_i = m_i â_i + R_i(v_i) [N] (no saturation).
+
+        Parameters
+        ----------
+        commands : array_like
+            The specific-force command each vehicle applies, â_i [m/s²], shape (n,).
+        speeds : array_like
+            Measured speeds [m/s], shape (n,).
+
+        Returns
+        -------
+        ndarray
+            Shape (n,).
+        """
+        return np.asarray(self.mass * np.asarray(commands, dtype=float)
+                          + self.feedforward(speeds), dtype=float)
+
+    def local_feedback(self, speed: float) -> Array:
+        """F₀ [N per unit of x̂], (n, 2n−1): the feedforward's slope and the lead's own loop.
+
+        Parameters
+        ----------
+        speed : float
+            The linearisation speed v_r [m/s].
+        """
+        n = self.n
+        F = np.zeros((n, 2 * n - 1))
+        F[np.arange(n), np.arange(n)] = self.mass * resistance_damping_per_vehicle(
+            self.davis, speed)
+        F[self.lead, self.lead] -= self.speed_gain * self.mass[self.lead]
+        return F
+
+    def relayed_feedback(self) -> Array:
+        """K_r [N per unit of x̂], (n−1, 2n−1): row r is remote ``remotes[r]``, −κ m_i on v̂_ℓ."""
+        K = np.zeros((self.n - 1, 2 * self.n - 1))
+        K[:, self.lead] = -self.speed_gain * self.mass[list(self.remotes)]
+        return K
+
+    def feedback(self, speed: float) -> Array:
+        """F = F₀ + the remotes' rows [N per unit of x̂], (n, 2n−1): the delay-free law."""
+        F = self.local_feedback(speed)
+        F[list(self.remotes)] += self.relayed_feedback()
+        return F
+
+
+def resistance_damping_per_vehicle(davis: Array, speed: float) -> Array:
+    """c_i = a1_i + 2 a2_i v [1/s]: the slope of the Davis resistance per unit mass.
+
+    Examples
+    --------
+    >>> resistance_damping_per_vehicle(np.array([[1.0], [0.01], [0.001]]), 10.0).tolist()
+    [0.03]
+    """
+    return np.asarray(davis[1] + 2.0 * davis[2] * float(speed), dtype=float)
+
+
+def law_of(scenario: Scenario, settings: Any) -> SynchronousLaw:
+    """The law's gains for a scenario's train.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    settings : SynchronousSettings
+        The family's settings.
+
+    Returns
+    -------
+    SynchronousLaw
+        SI gains.
+
+    Raises
+    ------
+    ScenarioError
+        If the train has a single vehicle (no remote to relay to) or
+        ``lead`` is not one of its vehicles.
+    """
+    train = scenario.train
+    n = train.n_vehicles
+    if n < 2:
+        raise ScenarioError(
+            f"{scenario.source}: the synchronous family needs a train of at least 2 vehicles, "
+            f"a lead locomotive and a remote (got {n}).")
+    if not 0 <= settings.lead < n:
+        raise ScenarioError(
+            f"{scenario.source}: [controller] lead must be a vehicle index from 0 to {n - 1} "
+            f"(got {settings.lead}). The train has {n} vehicles, numbered from 0, head first.")
+    return SynchronousLaw(mass=np.asarray(train.mass, dtype=float),
+                          davis=np.asarray(train.davis, dtype=float),
+                          speed_gain=float(settings.speed_gain), lead=int(settings.lead))
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class LoopMatrices:
+    """The continuous loops of the law on x̂ = [v̂, δ̂] (module docstring), SI.
+
+    Parameters
+    ----------
+    A_open, B_open : ndarray
+        The design model: (2n−1, 2n−1) [1/s] and (2n−1, n) [1/kg].
+    A0 : ndarray
+        A + B F₀: plant, feedforward slope and the lead's own feedback.
+    B_relay : ndarray
+        B's remote columns, (2n−1, n−1).
+    K_relay : ndarray
+        The remotes' feedback K_r, (n−1, 2n−1).
+    A_cl : ndarray
+        The delay-free loop A₀ + B_r K_r.
+    """
+
+    A_open: Array
+    B_open: Array
+    A0: Array
+    B_relay: Array
+    K_relay: Array
+    A_cl: Array
+
+
+def closed_loop_matrices(model: DesignModel, law: SynchronousLaw) -> LoopMatrices:
+    """The open loop, the undelayed part, the relayed part and the delay-free closed loop.
+
+    Parameters
+    ----------
+    model : DesignModel
+        The run's design model (its continuous SI model, no dummy state).
+    law : SynchronousLaw
+        The gains.
+
+    Returns
+    -------
+    LoopMatrices
+        The matrices.
+    """
+    sys = model.observer_model()
+    A = np.asarray(sys.A, dtype=float)
+    B = np.asarray(sys.B, dtype=float)
+    speed = float(model.settings.speed)
+    A0 = A + B @ law.local_feedback(speed)
+    B_relay = B[:, list(law.remotes)]
+    K_relay = law.relayed_feedback()
+    return LoopMatrices(A_open=A, B_open=B, A0=A0, B_relay=B_relay, K_relay=K_relay,
+                        A_cl=A0 + B_relay @ K_relay)
