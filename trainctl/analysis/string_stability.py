@@ -408,7 +408,7 @@ def string_stability_check(design: Design) -> Check | None:
     if loop is None or "w[0]" not in loop.input_labels:
         return None
     res = string_stability(loop)
-    return _judge(res, f"{family} {strategy}")
+    return _judge(res, family if family == strategy else f"{family} {strategy}")
 
 
 _LISTED_PEAKS = 8
