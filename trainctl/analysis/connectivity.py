@@ -1,0 +1,232 @@
+# Connectivity of a communication graph over time: interruption windows and joint connectivity.
+"""Which vehicles the reference reaches while links are interrupted, and whether it comes back.
+
+A ``[network]`` section cuts links over interruption windows
+(:class:`trainctl.network.Interruption`). Between the window edges the
+graph in force is constant: :func:`graph_segments` splits ``[0, duration)``
+there and gives each piece's graph (the scenario's graph without the links
+cut then; a cut ``("reference")`` link removes that vehicle's pinning).
+A consensus law keeps tracking over a piece whose graph has a directed
+spanning tree rooted at the reference; over an outage that breaks it the
+unreached vehicles drift, and tracking is restored only if the graph is
+*jointly connected* afterwards: the union of the graphs over a dwell window
+([0, T_dwell) after the outage, here the rest of the run) has such a tree
+(spec §4.3 item 4). :func:`joint_connectivity` reports, per window, the
+vehicles cut off during it and whether they are reached again before the
+run ends.
+
+Examples
+--------
+>>> from trainctl.graphs import make_graph
+>>> from trainctl.network import Interruption
+>>> g = make_graph("predecessor", 3, pinned="head")
+>>> cut = [Interruption(start=10.0, end=20.0, links=[[1, 0]])]
+>>> [(s.start, s.end, s.unreached) for s in graph_segments(g, cut, 60.0)]
+[(0.0, 10.0, ()), (10.0, 20.0, (1, 2)), (20.0, 60.0, ())]
+>>> joint_connectivity(g, cut, 60.0)[0].recovered
+True
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..exceptions import ModelError
+from ..graphs import REFERENCE, CommunicationGraph
+
+if TYPE_CHECKING:
+    from ..network import Interruption
+
+__all__ = ["GraphSegment", "WindowConnectivity", "cut_graph", "graph_segments",
+           "joint_connectivity", "union_graph"]
+
+
+def cut_graph(graph: CommunicationGraph, windows: Sequence[Interruption]) -> CommunicationGraph:
+    """The graph without every link that one of ``windows`` cuts.
+
+    Parameters
+    ----------
+    graph : CommunicationGraph
+        The full graph.
+    windows : sequence of Interruption
+        The windows in force.
+
+    Returns
+    -------
+    CommunicationGraph
+        Same vehicles; cut adjacency entries and pinnings set to 0.
+    """
+    a = np.array(graph.adjacency, dtype=float)
+    p = np.array(graph.pinning, dtype=float)
+    for w in windows:
+        if isinstance(w.links, str):  # "all"
+            a[:] = 0.0
+            p[:] = 0.0
+            continue
+        for receiver, sender in w.links:
+            if not 0 <= int(receiver) < graph.n:
+                continue
+            if sender == REFERENCE:
+                p[int(receiver)] = 0.0
+            elif isinstance(sender, int | np.integer) and 0 <= int(sender) < graph.n:
+                a[int(receiver), int(sender)] = 0.0
+    return CommunicationGraph(a, p, topology=f"{graph.topology} (cut)")
+
+
+def union_graph(graphs: Sequence[CommunicationGraph]) -> CommunicationGraph:
+    """The union of graphs on the same vehicles: the largest weight of each link and pinning.
+
+    Parameters
+    ----------
+    graphs : sequence of CommunicationGraph
+        At least one, all on n vehicles.
+
+    Returns
+    -------
+    CommunicationGraph
+        Links present in any of them.
+    """
+    if not graphs:
+        raise ModelError("union_graph: 'graphs' must hold at least one graph (got none).")
+    n = graphs[0].n
+    if any(g.n != n for g in graphs):
+        raise ModelError(f"union_graph: every graph must have {n} vehicles (got "
+                         f"{[g.n for g in graphs]}).")
+    a = np.max([np.asarray(g.adjacency, dtype=float) for g in graphs], axis=0)
+    p = np.max([np.asarray(g.pinning, dtype=float) for g in graphs], axis=0)
+    return CommunicationGraph(a, p, topology="union")
+
+
+@dataclass(frozen=True, kw_only=True)
+class GraphSegment:
+    """A time interval with a constant communication graph.
+
+    Parameters
+    ----------
+    start, end : float
+        The interval ``[start, end)`` [s].
+    graph : CommunicationGraph
+        The graph in force.
+    windows : tuple of int
+        Indices of the interruption windows open over it.
+    """
+
+    start: float
+    end: float
+    graph: CommunicationGraph
+    windows: tuple[int, ...]
+
+    @property
+    def unreached(self) -> tuple[int, ...]:
+        """Vehicles (0-based) the reference does not reach over the segment."""
+        return self.graph.unreached()
+
+
+def graph_segments(graph: CommunicationGraph, windows: Sequence[Interruption],
+                   duration: float) -> list[GraphSegment]:
+    """``[0, duration)`` split at every window edge, with the graph in force on each piece.
+
+    Parameters
+    ----------
+    graph : CommunicationGraph
+        The scenario's graph.
+    windows : sequence of Interruption
+        Interruption windows (``[network] interruption``).
+    duration : float
+        Run length [s], > 0.
+
+    Returns
+    -------
+    list of GraphSegment
+        In time order, covering [0, duration).
+    """
+    if not (isinstance(duration, int | float | np.floating) and math.isfinite(duration)
+            and duration > 0):
+        raise ModelError(f"graph_segments: 'duration' must be a finite number > 0 s (got "
+                         f"{duration!r}).")
+    edges = {0.0, float(duration)}
+    for w in windows:
+        edges.update(t for t in (float(w.start), float(w.end)) if 0.0 < t < duration)
+    times = sorted(edges)
+    out = []
+    for lo, hi in zip(times[:-1], times[1:], strict=True):
+        open_ = tuple(k for k, w in enumerate(windows) if w.start <= lo and hi <= w.end)
+        out.append(GraphSegment(start=lo, end=hi, windows=open_,
+                                graph=cut_graph(graph, [windows[k] for k in open_])))
+    return out
+
+
+@dataclass(frozen=True, kw_only=True)
+class WindowConnectivity:
+    """What one interruption window does to the reference's reach.
+
+    Parameters
+    ----------
+    window : int
+        Index of the window.
+    start, end : float
+        The window [s].
+    cut_off : tuple of int
+        Vehicles (0-based) unreached at some time in the window.
+    recovered : bool
+        The union of the graphs from the window's end to the end of the run
+        has a spanning tree rooted at the reference (jointly connected
+        afterwards); True when nobody was cut off.
+    recovery_time : float or None
+        The window's end when recovered [s], None when not (or when the
+        window lasts to the end of the run).
+    """
+
+    window: int
+    start: float
+    end: float
+    cut_off: tuple[int, ...]
+    recovered: bool
+    recovery_time: float | None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe, vehicles 1-based as in messages (``cut_off_vehicles``)."""
+        return {"window": self.window, "start": self.start, "end": self.end,
+                "cut_off_vehicles": [i + 1 for i in self.cut_off], "recovered": self.recovered,
+                "recovery_time": self.recovery_time}
+
+
+def joint_connectivity(graph: CommunicationGraph, windows: Sequence[Interruption],
+                       duration: float) -> list[WindowConnectivity]:
+    """Per window: who is cut off, and whether the graph is jointly connected after it.
+
+    Parameters
+    ----------
+    graph : CommunicationGraph
+        The scenario's graph.
+    windows : sequence of Interruption
+        Interruption windows.
+    duration : float
+        Run length [s].
+
+    Returns
+    -------
+    list of WindowConnectivity
+        One per window, in the given order.
+    """
+    segments = graph_segments(graph, windows, duration)
+    out = []
+    for k, w in enumerate(windows):
+        during = [s for s in segments if k in s.windows]
+        cut = tuple(sorted({i for s in during for i in s.unreached}))
+        after = [s for s in segments if s.start >= w.end]
+        if not cut:
+            recovered, when = True, float(min(w.end, duration))
+        elif not after:
+            recovered, when = False, None
+        else:
+            recovered = union_graph([s.graph for s in after]).reference_reaches_all()
+            when = float(w.end) if recovered else None
+        out.append(WindowConnectivity(window=k, start=float(w.start), end=float(w.end),
+                                      cut_off=cut, recovered=recovered, recovery_time=when))
+    return out
