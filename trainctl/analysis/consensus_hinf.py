@@ -52,6 +52,15 @@ Nelder–Mead from the best grid point (scipy, within the bounds), each
 point's γ certified by its own SDP solution and checked in floating point.
 The result is a certified γ for the gains returned — not a proof that no
 better gains exist in the bounds.
+
+Delays (``tau_max``). The same search on the delay-dependent LMI of
+:class:`~trainctl.analysis.delay_lmi.DelayHinfProblem` (the whole law
+delayed, ẋ = A₀x + (κ_pA_p + κ_cA_c)x(t − τ) + B_w w, h = τ_max fixed, the
+gains as parameters): γ is then certified for every delay in [0, τ_max]
+(constant, or any time-varying τ(t) with ``delay="varying"``). Each SDP is
+larger (3N + channels + outputs) and Jensen's inequality makes γ
+conservative; the Padé-loop norms at delays in (0, τ_max] are reported
+next to it as the independent check.
 """
 
 from __future__ import annotations
@@ -68,6 +77,7 @@ import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
 from ..exceptions import DimensionError, ModelError
+from .delay_lmi import DELAY_KINDS, DelayHinf, DelayHinfProblem
 from .hinf import (
     BoundedRealProblem,
     BoundedRealResult,
@@ -82,8 +92,8 @@ if TYPE_CHECKING:
     from ..graphs import CommunicationGraph
 
 __all__ = [
-    "CHANNEL_GROUPS", "DEFAULT_SCALING", "OUTPUTS", "ConsensusLoop", "GainSynthesis",
-    "consensus_loop", "synthesise_gains",
+    "CHANNEL_GROUPS", "DEFAULT_SCALING", "OUTPUTS", "PADE_POINTS", "Certificate", "ConsensusLoop",
+    "GainSynthesis", "consensus_loop", "synthesise_gains",
 ]
 
 Array = NDArray[np.float64]
@@ -101,6 +111,12 @@ OUTPUTS = ("tracking", "disagreement")
 """Performance outputs: the errors e, or (I − 11ᵀ/n) e."""
 
 _KN = 1e3
+
+PADE_POINTS = 4
+"""Delays in (0, tau_max] at which :func:`synthesise_gains` checks the Padé-loop norm."""
+
+Certificate = BoundedRealResult | DelayHinf
+"""A γ certificate: delay-free (bounded-real lemma) or delay-dependent (LK)."""
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -129,6 +145,10 @@ class ConsensusLoop:
         ``"tracking"`` or ``"disagreement"``.
     output_scale : float
         s_0 [m/s].
+    E : ndarray
+        (N, n): the acceleration input (per-unit-mass law → state derivative).
+    pinning, laplacian : ndarray
+        (n, n): B and L of the graph.
     """
 
     A0: Array
@@ -144,6 +164,9 @@ class ConsensusLoop:
     outputs: tuple[str, ...]
     output: str
     output_scale: float
+    E: Array
+    pinning: Array
+    laplacian: Array
 
     @property
     def n_states(self) -> int:
@@ -176,6 +199,30 @@ class ConsensusLoop:
     def delay_matrices(self, kp: float, kc: float) -> tuple[Array, Array]:
         """(A, A_d) of the loop with the whole law delayed: ẋ = A₀x + (κ_pA_p + κ_cA_c)x(t − τ)."""
         return self.A0.copy(), kp * self.Ap + kc * self.Ac
+
+    def delayed_system(self, kp: float, kc: float, tau: float, order: int = 8) -> ct.StateSpace:
+        """T_w̃s̃ with the law delayed by τ [s], the delay by an order-q Padé approximant.
+
+        The law's n acceleration signals −(κ_pB + κ_cL)v pass through
+        :func:`~trainctl.analysis.delay.pade_loop` (N + n·q states); the
+        disturbances enter the plant undelayed. A common delay on the noise
+        channels multiplies their columns by e^{−jωτ}, a unitary factor, so
+        it would not change any norm reported here.
+        """
+        from .delay import pade_loop
+
+        n = self.E.shape[1]
+        K = -(kp * self.pinning + kc * self.laplacian) @ np.eye(n, self.n_states)
+        loop = pade_loop(self.A0, self.E, K, tau, order)
+        total = int(loop.nstates)
+        _, Bw, C, _ = self.matrices(kp, kc)
+        Bx = np.zeros((total, Bw.shape[1]))
+        Bx[:self.n_states] = Bw
+        Cx = np.zeros((C.shape[0], total))
+        Cx[:, :self.n_states] = C
+        return ct.ss(np.asarray(loop.A), Bx, Cx, np.zeros((C.shape[0], Bw.shape[1])),
+                     inputs=list(self.channels), outputs=list(self.outputs),
+                     name="consensus_loop_delayed")
 
 
 def _scaling_vector(scaling: Mapping[str, float] | ArrayLike | None,
@@ -289,7 +336,8 @@ def consensus_loop(model: DesignModel, graph: CommunicationGraph, *, output: str
         outputs = tuple(f"d[{i}]" for i in range(n))
     return ConsensusLoop(A0=A0, Ap=Ap, Ac=Ac, Bf=Bf, Bp=Bp, Bc=Bc, C=C / float(output_scale),
                          channels=tuple(channels), groups=tuple(groups), scaling=scale,
-                         outputs=outputs, output=output, output_scale=float(output_scale))
+                         outputs=outputs, output=output, output_scale=float(output_scale),
+                         E=E, pinning=Pin, laplacian=Lap)
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -300,12 +348,13 @@ class GainSynthesis:
     ----------
     kp, kc : float
         κ_p, κ_c [1/s].
-    certificate : BoundedRealResult
-        The bounded-real certificate of T_w̃s̃ (all channels) at the gains:
+    certificate : BoundedRealResult or DelayHinf
+        The certificate of T_w̃s̃ (all channels) at the gains, bounded-real
+        (delay-free) or Lyapunov–Krasovskii (``tau_max``):
         ``certificate.gamma`` is the certified γ [-].
-    channel_certificates : dict of str to BoundedRealResult
+    channel_certificates : dict of str to BoundedRealResult or DelayHinf
         Per channel (input j → all outputs), its own SDP.
-    group_certificates : dict of str to BoundedRealResult
+    group_certificates : dict of str to BoundedRealResult or DelayHinf
         Per group of :data:`CHANNEL_GROUPS` present.
     norm : HinfNorm
         ‖T_w̃s̃‖∞ at the gains by python-control and the level set
@@ -330,13 +379,23 @@ class GainSynthesis:
         κ_p and κ_c bounds [1/s].
     search_time : float
         Wall time of grid and refinement [s].
+    tau_max : float or None
+        The delay range [0, tau_max] [s] the certificates cover (None:
+        delay-free, bounded-real lemma).
+    delay : str
+        ``"constant"`` or ``"varying"`` (with ``tau_max``).
+    pade_norms : tuple of (float, HinfNorm)
+        With ``tau_max``: the norm of the Padé loop (order 8) at delays in
+        (0, tau_max], independent of the LMI.
+    notes : tuple of str
+        Remarks (a gain on its bound, the refinement's stop).
     """
 
     kp: float
     kc: float
-    certificate: BoundedRealResult
-    channel_certificates: dict[str, BoundedRealResult]
-    group_certificates: dict[str, BoundedRealResult]
+    certificate: Certificate
+    channel_certificates: dict[str, Certificate]
+    group_certificates: dict[str, Certificate]
     norm: HinfNorm
     channels: ChannelNorms
     kp_grid: Array
@@ -350,6 +409,9 @@ class GainSynthesis:
     output_scale: float
     bounds: tuple[tuple[float, float], tuple[float, float]]
     search_time: float
+    tau_max: float | None = None
+    delay: str = "constant"
+    pade_norms: tuple[tuple[float, HinfNorm], ...] = field(default=())
     notes: tuple[str, ...] = field(default=())
 
     @property
@@ -359,9 +421,11 @@ class GainSynthesis:
 
     @property
     def consistent(self) -> bool:
-        """The independent norm does not exceed the certified γ (per channel too)."""
+        """The independent norms (delay-free, per channel, Padé) do not exceed the certified γ."""
         tol = 1e-9
         if not self.norm.norm <= self.gamma * (1 + tol):
+            return False
+        if any(not r.norm <= self.gamma * (1 + tol) for _, r in self.pade_norms):
             return False
         for j, name in enumerate(self.channels.inputs):
             cert = self.channel_certificates.get(name)
@@ -386,6 +450,8 @@ class GainSynthesis:
                 "evaluations": self.evaluations, "trouble": list(self.trouble),
                 "output": self.output, "output_scale": self.output_scale,
                 "bounds": [list(b) for b in self.bounds], "search_time": self.search_time,
+                "tau_max": self.tau_max, "delay": self.delay,
+                "pade_norms": [[tau, r.to_dict()] for tau, r in self.pade_norms],
                 "consistent": self.consistent, "notes": list(self.notes)}
 
 
@@ -408,18 +474,26 @@ def _check_bounds(b: Sequence[float], name: str) -> tuple[float, float]:
 
 
 def _problem(loop: ConsensusLoop, columns: Array | None, solver: str | None,
-             reference: tuple[float, float]) -> BoundedRealProblem:
+             reference: tuple[float, float], tau_max: float | None, delay: str
+             ) -> BoundedRealProblem | DelayHinfProblem:
     cols = slice(None) if columns is None else columns
-    return BoundedRealProblem(
-        loop.A0, loop.Bf[:, cols], loop.C, None,
-        A_terms={"kp": loop.Ap, "kc": loop.Ac},
-        B_terms={"kp": loop.Bp[:, cols], "kc": loop.Bc[:, cols]},
-        reference={"kp": reference[0], "kc": reference[1]}, solver=solver)
+    ref = {"kp": reference[0], "kc": reference[1]}
+    if tau_max is None:
+        return BoundedRealProblem(
+            loop.A0, loop.Bf[:, cols], loop.C, None, A_terms={"kp": loop.Ap, "kc": loop.Ac},
+            B_terms={"kp": loop.Bp[:, cols], "kc": loop.Bc[:, cols]}, reference=ref,
+            solver=solver)
+    return DelayHinfProblem(
+        loop.A0, np.zeros_like(loop.A0), loop.Bf[:, cols], loop.C, None, tau_max,
+        A_d_terms={"kp": loop.Ap, "kc": loop.Ac},
+        B_terms={"kp": loop.Bp[:, cols], "kc": loop.Bc[:, cols]}, reference=ref, delay=delay,
+        solver=solver)
 
 
 def synthesise_gains(loop: ConsensusLoop, *, kp_bounds: Sequence[float] = (0.01, 1.0),
                      kc_bounds: Sequence[float] = (0.0, 1.0), grid: tuple[int, int] = (7, 7),
                      refine: bool = True, max_evaluations: int = 60,
+                     tau_max: float | None = None, delay: str = "constant",
                      solver: str | None = None) -> GainSynthesis:
     """κ_p, κ_c within the bounds that minimise the certified γ of T_w̃s̃ (module docstring).
 
@@ -447,8 +521,17 @@ def synthesise_gains(loop: ConsensusLoop, *, kp_bounds: Sequence[float] = (0.01,
         Run the local refinement.
     max_evaluations : int
         Solves of the refinement.
+    tau_max : float or None
+        None: the delay-free loop (bounded-real lemma). A number h [s]: the
+        whole law delayed (ẋ = A₀x + (κ_pA_p + κ_cA_c)x(t − τ) + B_w w), and
+        γ certified for every delay in [0, h] by the Lyapunov–Krasovskii
+        LMI (:class:`~trainctl.analysis.delay_lmi.DelayHinfProblem`, h fixed,
+        κ_p and κ_c parameters); the independent checks then add the
+        Padé-loop norms (order 8) at delays in (0, h].
+    delay : {"constant", "varying"}
+        With ``tau_max``: constant delays or any time-varying τ(t) ∈ [0, h].
     solver : str or None
-        cvxpy solver (None: Clarabel, SCS as fallback).
+        cvxpy solver (None: Clarabel, SCS as fallback for the delay-free SDP).
 
     Returns
     -------
@@ -468,13 +551,21 @@ def synthesise_gains(loop: ConsensusLoop, *, kp_bounds: Sequence[float] = (0.01,
     if (len(grid) != 2 or any(isinstance(g, bool) or not isinstance(g, int | np.integer)
                               or g < 1 for g in grid)):
         raise ModelError(f"synthesise_gains: 'grid' must be two integers >= 1 (got {grid!r}).")
+    if tau_max is not None and not (isinstance(tau_max, int | float | np.floating)
+                                    and math.isfinite(tau_max) and tau_max >= 0):
+        raise ModelError(f"synthesise_gains: 'tau_max' must be None or a finite number >= 0 s "
+                         f"(got {tau_max!r}).")
+    if delay not in DELAY_KINDS:
+        raise ModelError(f"synthesise_gains: 'delay' must be one of {DELAY_KINDS} (got "
+                         f"{delay!r}).")
+    h = None if tau_max is None else float(tau_max)
     start = time.perf_counter()
     mid = (0.5 * (kp_lo + kp_hi), 0.5 * (kc_lo + kc_hi))
-    problem = _problem(loop, None, solver, mid)
-    cache: dict[tuple[float, float], BoundedRealResult] = {}
+    problem = _problem(loop, None, solver, mid, h, delay)
+    cache: dict[tuple[float, float], Certificate] = {}
     trouble: list[str] = []
 
-    def evaluate(kp: float, kc: float) -> BoundedRealResult:
+    def evaluate(kp: float, kc: float) -> Certificate:
         key = (round(kp, 12), round(kc, 12))
         if key not in cache:
             res = problem.solve(kp=kp, kc=kc)
@@ -528,17 +619,22 @@ def synthesise_gains(loop: ConsensusLoop, *, kp_bounds: Sequence[float] = (0.01,
     search_time = time.perf_counter() - start
     kp, kc = best
     certificate = evaluate(kp, kc)
-    channel_certs: dict[str, BoundedRealResult] = {}
+    channel_certs: dict[str, Certificate] = {}
     for jj, name in enumerate(loop.channels):
-        channel_certs[name] = _problem(loop, np.array([jj]), solver, best).solve(kp=kp, kc=kc)
-    group_certs: dict[str, BoundedRealResult] = {}
+        channel_certs[name] = _problem(loop, np.array([jj]), solver, best, h,
+                                       delay).solve(kp=kp, kc=kc)
+    group_certs: dict[str, Certificate] = {}
     for group in CHANNEL_GROUPS:
         cols = loop.columns(group)
         if cols.size:
-            group_certs[group] = _problem(loop, cols, solver, best).solve(kp=kp, kc=kc)
+            group_certs[group] = _problem(loop, cols, solver, best, h, delay).solve(kp=kp, kc=kc)
     sys = loop.system(kp, kc)
     norm = hinf_norm(sys)
     chans = channel_norms(sys)
+    pade: list[tuple[float, HinfNorm]] = []
+    if h is not None and h > 0:
+        for tau in np.linspace(0.0, h, PADE_POINTS + 1)[1:]:
+            pade.append((float(tau), hinf_norm(loop.delayed_system(kp, kc, float(tau)))))
     if kp in (kp_lo, kp_hi) or kc in (kc_lo, kc_hi):
         notes.append("a gain sits on its bound: wider bounds may lower γ")
     return GainSynthesis(kp=kp, kc=kc, certificate=certificate,
@@ -548,4 +644,4 @@ def synthesise_gains(loop: ConsensusLoop, *, kp_bounds: Sequence[float] = (0.01,
                          scaling=tuple(float(x) for x in loop.scaling), units=loop.units(),
                          output=loop.output, output_scale=loop.output_scale,
                          bounds=((kp_lo, kp_hi), (kc_lo, kc_hi)), search_time=search_time,
-                         notes=tuple(notes))
+                         tau_max=h, delay=delay, pade_norms=tuple(pade), notes=tuple(notes))

@@ -70,6 +70,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -84,7 +85,8 @@ if TYPE_CHECKING:
     import cvxpy as cp
 
 __all__ = [
-    "DELAY_KINDS", "LK_MARGIN", "DelayCertificate", "DelayHinf", "KrasovskiiProblem",
+    "DELAY_KINDS", "LK_MARGIN", "DelayCertificate", "DelayHinf", "DelayHinfProblem",
+    "KrasovskiiProblem",
     "MaxCertifiedDelay", "delay_hinf_gamma", "krasovskii_lmi", "max_certified_delay",
 ]
 
@@ -487,6 +489,8 @@ class DelayHinf:
         cvxpy's status and the solver.
     solve_time : float
         [s].
+    parameters : dict
+        The parameter values of this solve.
     message : str
         What happened.
     """
@@ -498,7 +502,223 @@ class DelayHinf:
     status: str
     solver: str
     solve_time: float
+    parameters: dict[str, float] = field(default_factory=dict)
     message: str = ""
+
+    @property
+    def certified(self) -> bool:
+        """A finite γ is certified."""
+        return math.isfinite(self.gamma)
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-safe."""
+        def f(x: float) -> float | None:
+            return float(x) if math.isfinite(x) else None
+        return {"gamma": f(self.gamma), "gamma_solver": f(self.gamma_solver),
+                "tau_max": self.tau_max, "delay": self.delay, "status": self.status,
+                "solver": self.solver, "solve_time": self.solve_time,
+                "parameters": dict(self.parameters), "certified": self.certified,
+                "message": self.message}
+
+
+class DelayHinfProblem:
+    """The delay-dependent H∞ SDP with affine parameters, built once, re-solved.
+
+    ẋ = A x + A_d(θ) x(t − τ) + B_w(θ) w, s = Cx + Dw with
+    A_d(θ) = A_d0 + Σ_k θ_k A_dk and B_w(θ) = B_w0 + Σ_k θ_k B_k, delays in
+    [0, h] (h fixed: it multiplies R and the θ_k would multiply it too,
+    which DPP forbids). The LMI of the module docstring in P, Q, R, t = γ²:
+    every θ_k multiplies a variable (P A_dk, h A_dkᵀR, P B_k, h B_kᵀR), which
+    is DPP. Strictness: P, R ⪰ εI, Q ⪰ εI (``"constant"``; Q = 0 for
+    ``"varying"``), block ⪯ −εI, ε = :data:`LK_MARGIN`, on data balanced with
+    one diagonal similarity (A + A_d(θ_ref)). γ is recomputed from the
+    solution in floating point.
+
+    Parameters
+    ----------
+    A, A_d : array_like
+        (n, n) [1/s]; A_d is A_d0.
+    B_w, C, D : array_like
+        (n, m), (p, n), (p, m) (D None: 0); B_w is B_w0.
+    tau_max : float
+        h [s], >= 0.
+    A_d_terms, B_terms : mapping of str to array_like
+        Per parameter name, A_dk (n, n) and B_k (n, m).
+    reference : mapping of str to float
+        Parameter values for the balancing (default 1 each).
+    delay : {"constant", "varying"}
+        What is certified.
+    solver : str or None
+        cvxpy solver (None: Clarabel).
+
+    Examples
+    --------
+    >>> prob = DelayHinfProblem([[-2.0]], [[0.0]], [[1.0]], [[1.0]], None, 0.1,
+    ...                         A_d_terms={"k": [[-1.0]]})
+    >>> g1, g3 = prob.solve(k=1.0).gamma, prob.solve(k=3.0).gamma
+    >>> 1 / 3 <= g1 < 0.4 and 1 / 5 <= g3 < g1
+    True
+    """
+
+    def __init__(self, A: ArrayLike, A_d: ArrayLike, B_w: ArrayLike, C: ArrayLike,
+                 D: ArrayLike | None, tau_max: float, *,
+                 A_d_terms: Mapping[str, ArrayLike] | None = None,
+                 B_terms: Mapping[str, ArrayLike] | None = None,
+                 reference: Mapping[str, float] | None = None, delay: str = "constant",
+                 solver: str | None = None) -> None:
+        import cvxpy as cp
+
+        who = "DelayHinfProblem"
+        Am, Adm = _pair(A, A_d, who)
+        self.delay = _kind(delay, who)
+        h = _tau(tau_max, "tau_max", who, positive=False)
+        self.tau_max = h
+        n = Am.shape[0]
+        Bm = np.atleast_2d(np.asarray(B_w, dtype=float))
+        Cm = np.atleast_2d(np.asarray(C, dtype=float))
+        if Bm.ndim != 2 or Bm.shape[0] != n or Cm.ndim != 2 or Cm.shape[1] != n:
+            raise DimensionError(f"{who}: 'B_w' must be ({n}, m) and 'C' (p, {n}) (got "
+                                 f"{Bm.shape} and {Cm.shape}).")
+        m, p = Bm.shape[1], Cm.shape[0]
+        Dm = np.zeros((p, m)) if D is None else np.atleast_2d(np.asarray(D, dtype=float))
+        if Dm.shape != (p, m):
+            raise DimensionError(f"{who}: 'D' must be ({p}, {m}) (got {Dm.shape}).")
+        if not (np.all(np.isfinite(Bm)) and np.all(np.isfinite(Cm))
+                and np.all(np.isfinite(Dm))):
+            raise ModelError(f"{who}: 'B_w', 'C' and 'D' must be finite (got NaN or inf).")
+        Adt: dict[str, Array] = {}
+        Bt: dict[str, Array] = {}
+        for name, M in (A_d_terms or {}).items():
+            Mk = np.atleast_2d(np.asarray(M, dtype=float))
+            if Mk.shape != (n, n) or not np.all(np.isfinite(Mk)):
+                raise DimensionError(f"{who}: A_d_terms[{name!r}] must be a finite ({n}, {n}) "
+                                     f"matrix (got shape {Mk.shape}).")
+            Adt[name] = Mk
+        for name, M in (B_terms or {}).items():
+            Mk = np.atleast_2d(np.asarray(M, dtype=float))
+            if Mk.shape != (n, m) or not np.all(np.isfinite(Mk)):
+                raise DimensionError(f"{who}: B_terms[{name!r}] must be a finite ({n}, {m}) "
+                                     f"matrix (got shape {Mk.shape}).")
+            Bt[name] = Mk
+        self.names: tuple[str, ...] = tuple(dict.fromkeys([*Adt, *Bt]))
+        ref = {k: 1.0 for k in self.names}
+        ref.update(reference or {})
+        Ad_ref = Adm + sum((ref[k] * M for k, M in Adt.items()), np.zeros((n, n)))
+        d = _balance(Am, Ad_ref)
+
+        def sim(M: Array) -> Array:
+            return M / d[:, None] * d[None, :]
+
+        self.solver = _solver_name(solver)
+        self.shape = (n, m, p)
+        self._A, self._Ad0, self._B0 = sim(Am), sim(Adm), Bm / d[:, None]
+        self._Adt = {k: sim(M) for k, M in Adt.items()}
+        self._Bt = {k: M / d[:, None] for k, M in Bt.items()}
+        self._C, self._D = Cm * d[None, :], Dm
+        self.parameters = {k: cp.Parameter(name=k) for k in self.names}
+        P = cp.Variable((n, n), symmetric=True, name="P")
+        R = cp.Variable((n, n), symmetric=True, name="R")
+        Q = cp.Variable((n, n), symmetric=True, name="Q") if self.delay == "constant" else None
+        t = cp.Variable(name="t")
+        self._P, self._Q, self._R, self._t = P, Q, R, t
+        A_ = self._A
+        PAd = P @ self._Ad0
+        hAdR = h * (self._Ad0.T @ R)
+        for k, M in self._Adt.items():
+            PAd = PAd + self.parameters[k] * (P @ M)
+            hAdR = hAdR + self.parameters[k] * (h * (M.T @ R))
+        PB = P @ self._B0
+        hBR = h * (self._B0.T @ R)
+        for k, M in self._Bt.items():
+            PB = PB + self.parameters[k] * (P @ M)
+            hBR = hBR + self.parameters[k] * (h * (M.T @ R))
+        Qe = Q if Q is not None else np.zeros((n, n))
+        Z = np.zeros
+        PA = P @ A_
+        Cw, Dw = self._C, self._D
+        blocks = cp.bmat([
+            [PA + PA.T + Qe - R, PAd + R, PB, h * (A_.T @ R), Cw.T],
+            [PAd.T + R, -Qe - R, Z((n, m)), hAdR, Z((n, p))],
+            [PB.T, Z((m, n)), -t * np.eye(m), hBR, Dw.T],
+            [h * (R @ A_), hAdR.T, hBR.T, -R, Z((n, p))],
+            [Cw, Z((p, n)), Dw, Z((p, n)), -np.eye(p)]])
+        size = 3 * n + m + p
+        eps = LK_MARGIN * np.eye(n)
+        cons = [P >> eps, R >> eps, 0.5 * (blocks + blocks.T) << -LK_MARGIN * np.eye(size)]
+        if Q is not None:
+            cons.append(Q >> eps)
+        self._problem = cp.Problem(cp.Minimize(t), cons)
+        if not self._problem.is_dpp():  # pragma: no cover - guards the construction
+            raise ModelError(f"{who}: the SDP is not DPP.")
+
+    @property
+    def problem(self) -> cp.Problem:
+        """The cvxpy problem."""
+        return self._problem
+
+    def _values(self, values: Mapping[str, float]) -> dict[str, float]:
+        unknown = set(values) - set(self.names)
+        missing = set(self.names) - set(values)
+        if unknown or missing:
+            raise ModelError(f"DelayHinfProblem.solve: give exactly the parameters "
+                             f"{list(self.names)} (unknown {sorted(unknown)}, missing "
+                             f"{sorted(missing)}).")
+        out: dict[str, float] = {}
+        for k, v in values.items():
+            if not (isinstance(v, int | float | np.floating) and math.isfinite(v)):
+                raise ModelError(f"DelayHinfProblem.solve: parameter {k!r} must be a finite "
+                                 f"number (got {v!r}).")
+            out[k] = float(v)
+        return out
+
+    def solve(self, **values: float) -> DelayHinf:
+        """Solve at the given parameter values; γ certified in floating point."""
+        theta = self._values(values)
+        for k, v in theta.items():
+            self.parameters[k].value = v
+        n, m, p = self.shape
+        h = self.tau_max
+        start = time.perf_counter()
+        status = solve_quietly(self._problem, self.solver)
+        elapsed = time.perf_counter() - start
+        Ps, Rs, ts = self._P.value, self._R.value, self._t.value
+        Qs = None if self._Q is None else self._Q.value
+        if Ps is None or Rs is None or ts is None or (self._Q is not None and Qs is None) \
+                or status not in ("optimal", "optimal_inaccurate"):
+            return DelayHinf(gamma=math.inf, gamma_solver=math.nan, tau_max=h, delay=self.delay,
+                             status=status, solver=self.solver, solve_time=elapsed,
+                             parameters=theta, message=f"no certificate: solver status {status}")
+        Pv = 0.5 * (Ps + Ps.T)
+        Rv = 0.5 * (Rs + Rs.T)
+        Qv = np.zeros((n, n)) if Qs is None else 0.5 * (Qs + Qs.T)
+        A_ = self._A
+        Ad = self._Ad0 + sum((theta[k] * M for k, M in self._Adt.items()), np.zeros((n, n)))
+        Bw = self._B0 + sum((theta[k] * M for k, M in self._Bt.items()), np.zeros((n, m)))
+        Cw, Dw = self._C, self._D
+        Z = np.zeros
+        M0 = np.block([
+            [Pv @ A_ + A_.T @ Pv + Qv - Rv, Pv @ Ad + Rv, Pv @ Bw, h * A_.T @ Rv, Cw.T],
+            [Ad.T @ Pv + Rv, -Qv - Rv, Z((n, m)), h * Ad.T @ Rv, Z((n, p))],
+            [Bw.T @ Pv, Z((m, n)), Z((m, m)), h * Bw.T @ Rv, Dw.T],
+            [h * Rv @ A_, h * Rv @ Ad, h * Rv @ Bw, -Rv, Z((n, p))],
+            [Cw, Z((p, n)), Dw, Z((p, n)), -np.eye(p)]])
+        tc = certified_level(M0, range(2 * n, 2 * n + m))
+        ok = (math.isfinite(tc) and float(np.min(np.linalg.eigvalsh(Pv))) > 0.0
+              and float(np.min(np.linalg.eigvalsh(Rv))) > 0.0
+              and float(np.min(np.linalg.eigvalsh(Qv))) >= 0.0)
+        gamma_solver = math.sqrt(max(float(ts), 0.0))
+        if not ok:
+            return DelayHinf(gamma=math.inf, gamma_solver=gamma_solver, tau_max=h,
+                             delay=self.delay, status=status, solver=self.solver,
+                             solve_time=elapsed, parameters=theta,
+                             message="the solver's (P, Q, R) does not verify in floating point")
+        gamma = math.sqrt(tc) * (1.0 + 1e-12)
+        note = "" if status == "optimal" else f" (solver status {status}; verified anyway)"
+        return DelayHinf(gamma=gamma, gamma_solver=gamma_solver, tau_max=h, delay=self.delay,
+                         status=status, solver=self.solver, solve_time=elapsed,
+                         parameters=theta,
+                         message=f"certified L2 gain < {gamma:.6g} for {self.delay} delays in "
+                         f"[0, {h:.6g}] s{note}")
 
 
 def delay_hinf_gamma(A: ArrayLike, A_d: ArrayLike, B_w: ArrayLike, C: ArrayLike,
@@ -506,14 +726,13 @@ def delay_hinf_gamma(A: ArrayLike, A_d: ArrayLike, B_w: ArrayLike, C: ArrayLike,
                      solver: str | None = None) -> DelayHinf:
     """The smallest γ the delay-dependent LK LMI certifies for delays in [0, tau_max].
 
-    ẋ = Ax + A_dx(t − τ) + B_w w, s = Cx + Dw; the LMI of the module
-    docstring, minimising t = γ² with P, R ⪰ εI, Q ⪰ εI (``"constant"``;
-    Q = 0 for ``"varying"``) and the block matrix ⪯ −εI on balanced data.
-    The γ returned is recomputed from the solution (the −γ²I block by a
-    Schur complement, :func:`~trainctl.analysis.hinf.certified_level`); it
-    bounds the L2 gain for every delay in the range, so it is at least the
-    delay-free norm ‖C(sI − A − A_d)⁻¹B_w + D‖∞ and at least the norm at any
-    fixed delay in the range.
+    ẋ = Ax + A_dx(t − τ) + B_w w, s = Cx + Dw; one solve of
+    :class:`DelayHinfProblem` without parameters. The γ returned is
+    recomputed from the solution (the −γ²I block by a Schur complement,
+    :func:`~trainctl.analysis.hinf.certified_level`); it bounds the L2 gain
+    for every delay in the range, so it is at least the delay-free norm
+    ‖C(sI − A − A_d)⁻¹B_w + D‖∞ and at least the norm at any fixed delay in
+    the range.
 
     Parameters
     ----------
@@ -540,79 +759,4 @@ def delay_hinf_gamma(A: ArrayLike, A_d: ArrayLike, B_w: ArrayLike, C: ArrayLike,
     >>> 1 / 3 <= res.gamma < 0.4
     True
     """
-    import cvxpy as cp
-
-    Am, Adm = _pair(A, A_d, "delay_hinf_gamma")
-    _kind(delay, "delay_hinf_gamma")
-    h = _tau(tau_max, "tau_max", "delay_hinf_gamma", positive=False)
-    n = Am.shape[0]
-    Bm = np.atleast_2d(np.asarray(B_w, dtype=float))
-    Cm = np.atleast_2d(np.asarray(C, dtype=float))
-    if Bm.shape[0] != n or Cm.ndim != 2 or Cm.shape[1] != n:
-        raise DimensionError(f"delay_hinf_gamma: 'B_w' must be ({n}, m) and 'C' (p, {n}) (got "
-                             f"{Bm.shape} and {Cm.shape}).")
-    m, p = Bm.shape[1], Cm.shape[0]
-    Dm = np.zeros((p, m)) if D is None else np.atleast_2d(np.asarray(D, dtype=float))
-    if Dm.shape != (p, m):
-        raise DimensionError(f"delay_hinf_gamma: 'D' must be ({p}, {m}) (got {Dm.shape}).")
-    if not (np.all(np.isfinite(Bm)) and np.all(np.isfinite(Cm)) and np.all(np.isfinite(Dm))):
-        raise ModelError("delay_hinf_gamma: 'B_w', 'C' and 'D' must be finite.")
-    name = _solver_name(solver)
-    d = _balance(Am, Adm)
-    A_ = Am / d[:, None] * d[None, :]
-    Ad = Adm / d[:, None] * d[None, :]
-    Bw = Bm / d[:, None]
-    Cw = Cm * d[None, :]
-    P = cp.Variable((n, n), symmetric=True)
-    R = cp.Variable((n, n), symmetric=True)
-    Q = cp.Variable((n, n), symmetric=True) if delay == "constant" else None
-    t = cp.Variable()
-    Qe = Q if Q is not None else np.zeros((n, n))
-    Z = np.zeros
-    PA, PAd, PB = P @ A_, P @ Ad, P @ Bw
-    blocks = cp.bmat([
-        [PA + PA.T + Qe - R, PAd + R, PB, h * (A_.T @ R), Cw.T],
-        [PAd.T + R, -Qe - R, Z((n, m)), h * (Ad.T @ R), Z((n, p))],
-        [PB.T, Z((m, n)), -t * np.eye(m), h * (Bw.T @ R), Dm.T],
-        [h * (R @ A_), h * (R @ Ad), h * (R @ Bw), -R, Z((n, p))],
-        [Cw, Z((p, n)), Dm, Z((p, n)), -np.eye(p)]])
-    size = 3 * n + m + p
-    eps = LK_MARGIN * np.eye(n)
-    cons = [P >> eps, R >> eps, 0.5 * (blocks + blocks.T) << -LK_MARGIN * np.eye(size)]
-    if Q is not None:
-        cons.append(Q >> eps)
-    prob = cp.Problem(cp.Minimize(t), cons)
-    start = time.perf_counter()
-    status = solve_quietly(prob, name)
-    elapsed = time.perf_counter() - start
-    Ps, Rs, ts = P.value, R.value, t.value
-    Qs = None if Q is None else Q.value
-    if Ps is None or Rs is None or ts is None or (Q is not None and Qs is None) \
-            or status not in ("optimal", "optimal_inaccurate"):
-        return DelayHinf(gamma=math.inf, gamma_solver=math.nan, tau_max=h, delay=delay,
-                         status=status, solver=name, solve_time=elapsed,
-                         message=f"no certificate: solver status {status}")
-    Pv = 0.5 * (Ps + Ps.T)
-    Rv = 0.5 * (Rs + Rs.T)
-    Qv = np.zeros((n, n)) if Qs is None else 0.5 * (Qs + Qs.T)
-    M0 = np.block([
-        [Pv @ A_ + A_.T @ Pv + Qv - Rv, Pv @ Ad + Rv, Pv @ Bw, h * A_.T @ Rv, Cw.T],
-        [Ad.T @ Pv + Rv, -Qv - Rv, Z((n, m)), h * Ad.T @ Rv, Z((n, p))],
-        [Bw.T @ Pv, Z((m, n)), Z((m, m)), h * Bw.T @ Rv, Dm.T],
-        [h * Rv @ A_, h * Rv @ Ad, h * Rv @ Bw, -Rv, Z((n, p))],
-        [Cw, Z((p, n)), Dm, Z((p, n)), -np.eye(p)]])
-    tc = certified_level(M0, range(2 * n, 2 * n + m))
-    ok = (math.isfinite(tc) and float(np.min(np.linalg.eigvalsh(Pv))) > 0.0
-          and float(np.min(np.linalg.eigvalsh(Rv))) > 0.0
-          and float(np.min(np.linalg.eigvalsh(Qv))) >= 0.0)
-    gamma_solver = math.sqrt(max(float(ts), 0.0))
-    if not ok:
-        return DelayHinf(gamma=math.inf, gamma_solver=gamma_solver, tau_max=h, delay=delay,
-                         status=status, solver=name, solve_time=elapsed,
-                         message="the solver's (P, Q, R) does not verify in floating point")
-    gamma = math.sqrt(tc) * (1.0 + 1e-12)
-    note = "" if status == "optimal" else f" (solver status {status}; verified anyway)"
-    return DelayHinf(gamma=gamma, gamma_solver=gamma_solver, tau_max=h, delay=delay,
-                     status=status, solver=name, solve_time=elapsed,
-                     message=f"certified L2 gain < {gamma:.6g} for {delay} delays in "
-                     f"[0, {h:.6g}] s{note}")
+    return DelayHinfProblem(A, A_d, B_w, C, D, tau_max, delay=delay, solver=solver).solve()
