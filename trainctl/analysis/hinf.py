@@ -46,7 +46,12 @@ Scaling. Train models mix speeds [m/s], coupler elongations [m] and forces
 (a diagonal similarity from ``scipy.linalg.matrix_balance`` of the system
 matrix [[A, B],[C, 0]] with the input and output blocks collapsed, which
 leaves G unchanged), and the level set and the SDP on G divided by a crude
-lower bound of its norm (so that γ ≈ 1).
+lower bound of its norm (so that γ ≈ 1). The SDP then goes on to the
+square-root balanced realisation (equal, diagonal Gramians) where it
+exists: a diagonal scaling alone leaves the SDP badly conditioned for a
+non-normal A, and the solver fails or stops inaccurate. Outputs in
+different units are never rescaled one against the other (that would
+change the norm): :func:`channel_norms` reports each channel on its own.
 
 Examples
 --------
@@ -533,8 +538,8 @@ class HinfNorm:
     Parameters
     ----------
     norm : float
-        ‖G‖∞ [output unit per input unit], python-control's value (inf:
-        not stable).
+        ‖G‖∞ [output unit per input unit], python-control's value (the
+        level set's when python-control raised; inf: not stable).
     frequency : float
         Its peak frequency [rad/s].
     control : float
