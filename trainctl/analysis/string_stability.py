@@ -27,8 +27,9 @@ magnitudes for a continuous one), enriched with the loop's pole frequencies, ref
 each channel's grid maximum (bounded scalar search) and compared with the
 DC gain. A channel that a closed-loop integrator (pole at z = 1 or s = 0)
 reaches has an infinite peak (``inf``, frequency 0): the check then cannot
-judge the string and says so. (python-control's ``linfnorm`` needs slycot,
-which trainctl does not require.)
+judge the string and says so. Each channel's
+peak is a SISO H∞ norm; :func:`trainctl.analysis.hinf.hinf_norm` computes it
+by two routes where a certified value is needed.
 """
 
 from __future__ import annotations

@@ -1,0 +1,647 @@
+# Robust H∞ leader-following speed consensus (seed 003): the loop, its gains, per-channel γ.
+"""The structured H∞ consensus law of seed 003 (spec §4.2) and the synthesis of its two gains.
+
+The law (linear β) adds, per unit mass, to vehicle i's acceleration
+
+    a_i = −κ_p b_i (v_i − v_d − n_0i) − κ_c Σ_j a_ij (v_i − v_j − n_ij)   [m/s²],
+
+i.e. the force M_i a_i, with B = diag(b_i) the pinning matrix and
+L = D − A the Laplacian of the communication graph
+(:meth:`~trainctl.graphs.CommunicationGraph.pinning_matrix`,
+:meth:`~trainctl.graphs.CommunicationGraph.laplacian`); n_0i is the noise on
+the reference speed vehicle i receives, n_ij the noise on vehicle j's speed
+as vehicle i receives it. On the design model (speed deviations v and
+coupler elongations δ from the cruise at v_d, no dummy state) the closed
+loop is affine in the gains:
+
+    ẋ = (A₀ + κ_p A_p + κ_c A_c) x + (B_f + κ_p B_0 + κ_c B_L) w,
+    A_p = −E B S_v,  A_c = −E L S_v,
+
+with E the acceleration input (the design B times diag(M_i) / 1000, the
+speed rows), S_v the speed rows of the state, and the disturbances
+
+- ``f[i]``: a force disturbance on vehicle i as specific force [m/s²] (a
+  grade, a resistance error), column E e_i;
+- ``n0[i]``: noise on the reference speed vehicle i receives [m/s]
+  (b_i > 0 only), column κ_p b_i E e_i;
+- ``n[i,j]``: noise on vehicle j's speed as vehicle i receives it [m/s]
+  (a_ij > 0 only), column κ_c a_ij E e_i.
+
+Performance output s: the tracking errors e_i = v_i − v_d [m/s]
+(``output="tracking"``), or the disagreement (I − 11ᵀ/n) e
+(``output="disagreement"``), which ignores a common speed error.
+
+Scaling. ‖T_ws‖∞ < γ = 1 (the paper's requirement) means nothing until w
+and s are scaled: each channel j enters as w_j = c_j w̃_j with c_j its
+``scaling`` (the disturbance size taken as one unit: default 1 m/s² per
+force channel and 1 m/s per noise channel) and s = s_0 s̃ with s_0
+``output_scale`` (default 1 m/s), and γ is the gain w̃ → s̃ [-]. Whatever the
+gains, the tracking error follows the reference noise at DC: a noise common
+to every received reference (the broadcast command itself is wrong)
+reaches every e_i with gain κ_p b̄/(κ_p b̄ + c) → 1 (c ≈ 8e-4 1/s, the
+resistance's damping, b̄ the mass-weighted mean pinning weight), so the
+reference-noise channels together have γ ≳ 1 for any κ_p (with the
+default scaling), and only the disagreement output escapes that floor.
+
+Synthesis (:func:`synthesise_gains`). For fixed gains the bounded-real
+lemma is an SDP in P (:class:`~trainctl.analysis.hinf.BoundedRealProblem`,
+built once with κ_p and κ_c as ``cp.Parameter``; the products κ·P are DPP).
+Jointly in (P, κ_p, κ_c) the condition is bilinear (non-convex), so the
+gains are searched outside the SDP: a coarse grid over the bounds, then
+Nelder–Mead from the best grid point (scipy, within the bounds), each
+point's γ certified by its own SDP solution and checked in floating point.
+The result is a certified γ for the gains returned — not a proof that no
+better gains exist in the bounds.
+
+Delays (``tau_max``). The same search on the delay-dependent LMI of
+:class:`~trainctl.analysis.delay_lmi.DelayHinfProblem` (the whole law
+delayed, ẋ = A₀x + (κ_pA_p + κ_cA_c)x(t − τ) + B_w w, h = τ_max fixed, the
+gains as parameters): γ is then certified for every delay in [0, τ_max]
+(constant, or any time-varying τ(t) with ``delay="varying"``). Each SDP is
+larger (3N + channels + outputs) and Jensen's inequality makes γ
+conservative; the Padé-loop norms at delays in (0, τ_max] are reported
+next to it as the independent check.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import control as ct
+import numpy as np
+import scipy.optimize
+from numpy.typing import ArrayLike, NDArray
+
+from ..exceptions import DimensionError, ModelError
+from .delay_lmi import DELAY_KINDS, DelayHinf, DelayHinfProblem
+from .hinf import (
+    BoundedRealProblem,
+    BoundedRealResult,
+    ChannelNorms,
+    HinfNorm,
+    channel_norms,
+    hinf_norm,
+)
+
+if TYPE_CHECKING:
+    from ..design.model import DesignModel
+    from ..graphs import CommunicationGraph
+
+__all__ = [
+    "CHANNEL_GROUPS", "DEFAULT_SCALING", "OUTPUTS", "PADE_POINTS", "Certificate", "ConsensusLoop",
+    "GainSynthesis", "consensus_loop", "synthesise_gains",
+]
+
+Array = NDArray[np.float64]
+
+CHANNEL_GROUPS = ("force", "reference", "link")
+"""Disturbance groups: force per vehicle, reference-speed noise, neighbour-speed noise."""
+
+UNITS = {"force": "m/s²", "reference": "m/s", "link": "m/s"}
+"""The unit of each group's disturbance."""
+
+DEFAULT_SCALING = {"force": 1.0, "reference": 1.0, "link": 1.0}
+"""Disturbance taken as one unit, per group: 1 m/s² per force channel, 1 m/s per noise."""
+
+OUTPUTS = ("tracking", "disagreement")
+"""Performance outputs: the errors e, or (I − 11ᵀ/n) e."""
+
+_KN = 1e3
+
+PADE_POINTS = 4
+"""Delays in (0, tau_max] at which :func:`synthesise_gains` checks the Padé-loop norm."""
+
+Certificate = BoundedRealResult | DelayHinf
+"""A γ certificate: delay-free (bounded-real lemma) or delay-dependent (LK)."""
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class ConsensusLoop:
+    """The closed loop of the consensus law, affine in (κ_p, κ_c) (module docstring).
+
+    Parameters
+    ----------
+    A0, Ap, Ac : ndarray
+        (N, N) [1/s]: plant, and the parts multiplied by κ_p and κ_c [s]
+        (A_p, A_c per unit gain).
+    Bf, Bp, Bc : ndarray
+        (N, nw): the disturbance input at zero gains and its parts
+        multiplied by κ_p and κ_c, on the scaled channels w̃.
+    C : ndarray
+        (ns, N): the scaled performance output s̃ = s / output_scale.
+    channels : tuple of str
+        Channel names (``f[i]``, ``n0[i]``, ``n[i,j]``, vehicles from 0).
+    groups : tuple of str
+        Each channel's group (:data:`CHANNEL_GROUPS`).
+    scaling : ndarray
+        (nw,) each channel's unit c_j [m/s² or m/s].
+    outputs : tuple of str
+        Output names.
+    output : str
+        ``"tracking"`` or ``"disagreement"``.
+    output_scale : float
+        s_0 [m/s].
+    E : ndarray
+        (N, n): the acceleration input (per-unit-mass law → state derivative).
+    pinning, laplacian : ndarray
+        (n, n): B and L of the graph.
+    """
+
+    A0: Array
+    Ap: Array
+    Ac: Array
+    Bf: Array
+    Bp: Array
+    Bc: Array
+    C: Array
+    channels: tuple[str, ...]
+    groups: tuple[str, ...]
+    scaling: Array
+    outputs: tuple[str, ...]
+    output: str
+    output_scale: float
+    E: Array
+    pinning: Array
+    laplacian: Array
+
+    @property
+    def n_states(self) -> int:
+        """N."""
+        return int(self.A0.shape[0])
+
+    def units(self) -> tuple[str, ...]:
+        """Each channel's unit, e.g. ``"1 m/s²"`` (its scaling and group unit)."""
+        return tuple(f"{c:g} {UNITS[g]}" for c, g in zip(self.scaling, self.groups, strict=True))
+
+    def columns(self, group: str) -> Array:
+        """Indices of the channels of one group (:data:`CHANNEL_GROUPS`)."""
+        if group not in CHANNEL_GROUPS:
+            raise ModelError(f"ConsensusLoop.columns: 'group' must be one of {CHANNEL_GROUPS} "
+                             f"(got {group!r}).")
+        return np.array([j for j, g in enumerate(self.groups) if g == group], dtype=int)
+
+    def matrices(self, kp: float, kc: float) -> tuple[Array, Array, Array, Array]:
+        """(A, B_w, C, D) at the gains κ_p, κ_c [1/s], scaled channels."""
+        A = self.A0 + kp * self.Ap + kc * self.Ac
+        Bw = self.Bf + kp * self.Bp + kc * self.Bc
+        return A, Bw, self.C, np.zeros((self.C.shape[0], Bw.shape[1]))
+
+    def system(self, kp: float, kc: float) -> ct.StateSpace:
+        """T_w̃s̃ at κ_p, κ_c as a continuous ``control.StateSpace`` with named signals."""
+        A, Bw, C, D = self.matrices(kp, kc)
+        return ct.ss(A, Bw, C, D, inputs=list(self.channels), outputs=list(self.outputs),
+                     name="consensus_loop")
+
+    def delay_matrices(self, kp: float, kc: float) -> tuple[Array, Array]:
+        """(A, A_d) of the loop with the whole law delayed: ẋ = A₀x + (κ_pA_p + κ_cA_c)x(t − τ)."""
+        return self.A0.copy(), kp * self.Ap + kc * self.Ac
+
+    def delayed_system(self, kp: float, kc: float, tau: float, order: int = 8) -> ct.StateSpace:
+        """T_w̃s̃ with the law delayed by τ [s], the delay by an order-q Padé approximant.
+
+        The law's n acceleration signals −(κ_pB + κ_cL)v pass through
+        :func:`~trainctl.analysis.delay.pade_loop` (N + n·q states); the
+        disturbances enter the plant undelayed. A common delay on the noise
+        channels multiplies their columns by e^{−jωτ}, a unitary factor, so
+        it would not change any norm reported here.
+        """
+        from .delay import pade_loop
+
+        n = self.E.shape[1]
+        K = -(kp * self.pinning + kc * self.laplacian) @ np.eye(n, self.n_states)
+        loop = pade_loop(self.A0, self.E, K, tau, order)
+        total = int(loop.nstates)
+        _, Bw, C, _ = self.matrices(kp, kc)
+        Bx = np.zeros((total, Bw.shape[1]))
+        Bx[:self.n_states] = Bw
+        Cx = np.zeros((C.shape[0], total))
+        Cx[:, :self.n_states] = C
+        return ct.ss(np.asarray(loop.A), Bx, Cx, np.zeros((C.shape[0], Bw.shape[1])),
+                     inputs=list(self.channels), outputs=list(self.outputs),
+                     name="consensus_loop_delayed")
+
+
+def _scaling_vector(scaling: Mapping[str, float] | ArrayLike | None,
+                    groups: Sequence[str]) -> Array:
+    nw = len(groups)
+    if scaling is None:
+        scaling = DEFAULT_SCALING
+    if isinstance(scaling, Mapping):
+        unknown = set(scaling) - set(CHANNEL_GROUPS)
+        if unknown:
+            raise ModelError(f"consensus_loop: 'scaling' keys must be among {CHANNEL_GROUPS} "
+                             f"(got {sorted(unknown)}).")
+        merged = {**DEFAULT_SCALING, **{k: float(v) for k, v in scaling.items()}}
+        vec = np.array([merged[g] for g in groups], dtype=float)
+    else:
+        vec = np.asarray(scaling, dtype=float).reshape(-1)
+        if vec.shape != (nw,):
+            raise DimensionError(f"consensus_loop: 'scaling' must be a mapping by group or one "
+                                 f"number per channel ({nw} channels; got shape {vec.shape}).")
+    if not (np.all(np.isfinite(vec)) and np.all(vec > 0)):
+        raise ModelError(f"consensus_loop: every 'scaling' entry must be a finite number > 0 "
+                         f"[m/s² or m/s] (got {vec.tolist()}).")
+    return vec
+
+
+def consensus_loop(model: DesignModel, graph: CommunicationGraph, *, output: str = "tracking",
+                   scaling: Mapping[str, float] | ArrayLike | None = None,
+                   output_scale: float = 1.0) -> ConsensusLoop:
+    """The affine closed loop of the consensus law on a scenario's design model.
+
+    Parameters
+    ----------
+    model : DesignModel
+        The scenario's linear models (``model.design``: no dummy state,
+        inputs [kN], speeds first).
+    graph : CommunicationGraph
+        Who hears whom (A, L) and the reference (B); its n must be the
+        train's.
+    output : {"tracking", "disagreement"}
+        Performance output.
+    scaling : mapping or array_like or None
+        Units of the disturbance channels: by group (``{"force": m/s²,
+        "reference": m/s, "link": m/s}``, missing groups default to 1) or
+        one value per channel; None: :data:`DEFAULT_SCALING`.
+    output_scale : float
+        s_0 [m/s], > 0.
+
+    Returns
+    -------
+    ConsensusLoop
+        The loop, channels ``f[i]`` then ``n0[i]`` then ``n[i,j]``.
+
+    Examples
+    --------
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> sc = load_scenario("heavy-haul-hinf")
+    >>> loop = consensus_loop(build_model(sc), sc.graph())
+    >>> loop.n_states, len(loop.channels), loop.channels[4], loop.channels[8]
+    (7, 14, 'n0[0]', 'n[0,1]')
+    """
+    if output not in OUTPUTS:
+        raise ModelError(f"consensus_loop: 'output' must be one of {OUTPUTS} (got {output!r}).")
+    if not (isinstance(output_scale, int | float | np.floating) and math.isfinite(output_scale)
+            and output_scale > 0):
+        raise ModelError(f"consensus_loop: 'output_scale' must be a finite number > 0 m/s (got "
+                         f"{output_scale!r}).")
+    sys = model.design
+    A0 = np.asarray(sys.A, dtype=float)
+    B = np.asarray(sys.B, dtype=float)
+    n = model.n_vehicles
+    N = A0.shape[0]
+    if graph.n != n:
+        raise DimensionError(f"consensus_loop: the graph must have one node per vehicle "
+                             f"(n = {n}; got a graph on {graph.n}).")
+    mass = np.asarray(model.train.mass, dtype=float)
+    E = B @ np.diag(mass) / _KN                     # acceleration [m/s²] → state derivative
+    Sv = np.eye(n, N)                               # speeds are the first n states
+    Pin = np.asarray(graph.pinning_matrix(), dtype=float)
+    Lap = np.asarray(graph.laplacian(), dtype=float)
+    adj = np.asarray(graph.adjacency, dtype=float)
+    Ap = -E @ Pin @ Sv
+    Ac = -E @ Lap @ Sv
+
+    channels: list[str] = []
+    groups: list[str] = []
+    cols: list[tuple[Array, Array, Array]] = []   # (at zero gains, per κ_p, per κ_c)
+    zero = np.zeros(N)
+    for i in range(n):
+        channels.append(f"f[{i}]")
+        groups.append("force")
+        cols.append((E[:, i], zero, zero))
+    for i in range(n):
+        if Pin[i, i] > 0:
+            channels.append(f"n0[{i}]")
+            groups.append("reference")
+            cols.append((zero, Pin[i, i] * E[:, i], zero))
+    for i in range(n):
+        for j in range(n):
+            if adj[i, j] > 0:
+                channels.append(f"n[{i},{j}]")
+                groups.append("link")
+                cols.append((zero, zero, adj[i, j] * E[:, i]))
+    scale = _scaling_vector(scaling, groups)
+    Bf, Bp, Bc = (np.column_stack([c[k] for c in cols]) * scale[None, :] for k in range(3))
+    if output == "tracking":
+        C = Sv.copy()
+        outputs = tuple(f"e[{i}]" for i in range(n))
+    else:
+        C = (np.eye(n) - np.ones((n, n)) / n) @ Sv
+        outputs = tuple(f"d[{i}]" for i in range(n))
+    return ConsensusLoop(A0=A0, Ap=Ap, Ac=Ac, Bf=Bf, Bp=Bp, Bc=Bc, C=C / float(output_scale),
+                         channels=tuple(channels), groups=tuple(groups), scaling=scale,
+                         outputs=outputs, output=output, output_scale=float(output_scale),
+                         E=E, pinning=Pin, laplacian=Lap)
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class GainSynthesis:
+    """The gains of the consensus law found by the certified search, and their γ.
+
+    Parameters
+    ----------
+    kp, kc : float
+        κ_p, κ_c [1/s].
+    certificate : BoundedRealResult or DelayHinf
+        The certificate of T_w̃s̃ (all channels) at the gains, bounded-real
+        (delay-free) or Lyapunov–Krasovskii (``tau_max``):
+        ``certificate.gamma`` is the certified γ [-].
+    channel_certificates : dict of str to BoundedRealResult or DelayHinf
+        Per channel (input j → all outputs), its own SDP.
+    group_certificates : dict of str to BoundedRealResult or DelayHinf
+        Per group of :data:`CHANNEL_GROUPS` present.
+    norm : HinfNorm
+        ‖T_w̃s̃‖∞ at the gains by python-control and the level set
+        (independent of the LMI).
+    channels : ChannelNorms
+        SISO norms channel × output at the gains (independent of the LMI).
+    kp_grid, kc_grid : ndarray
+        The coarse grid [1/s].
+    gamma_grid : ndarray
+        Certified γ on the grid, (len(kp_grid), len(kc_grid)) (inf where no
+        certificate: an unstable loop or solver trouble).
+    evaluations : int
+        SDP solves of the search.
+    trouble : tuple of str
+        Every search point whose solve was not ``optimal`` (status and
+        gains).
+    scaling, units : tuple
+        Each channel's unit c_j and its text (e.g. ``"1 m/s²"``).
+    output, output_scale : str, float
+        Performance output and s_0 [m/s].
+    bounds : ((float, float), (float, float))
+        κ_p and κ_c bounds [1/s].
+    search_time : float
+        Wall time of grid and refinement [s].
+    tau_max : float or None
+        The delay range [0, tau_max] [s] the certificates cover (None:
+        delay-free, bounded-real lemma).
+    delay : str
+        ``"constant"`` or ``"varying"`` (with ``tau_max``).
+    pade_norms : tuple of (float, HinfNorm)
+        With ``tau_max``: the norm of the Padé loop (order 8) at delays in
+        (0, tau_max], independent of the LMI.
+    notes : tuple of str
+        Remarks (a gain on its bound, the refinement's stop).
+    """
+
+    kp: float
+    kc: float
+    certificate: Certificate
+    channel_certificates: dict[str, Certificate]
+    group_certificates: dict[str, Certificate]
+    norm: HinfNorm
+    channels: ChannelNorms
+    kp_grid: Array
+    kc_grid: Array
+    gamma_grid: Array
+    evaluations: int
+    trouble: tuple[str, ...]
+    scaling: tuple[float, ...]
+    units: tuple[str, ...]
+    output: str
+    output_scale: float
+    bounds: tuple[tuple[float, float], tuple[float, float]]
+    search_time: float
+    tau_max: float | None = None
+    delay: str = "constant"
+    pade_norms: tuple[tuple[float, HinfNorm], ...] = field(default=())
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def gamma(self) -> float:
+        """The certified γ of all channels together [-]."""
+        return self.certificate.gamma
+
+    @property
+    def consistent(self) -> bool:
+        """The independent norms (delay-free, per channel, Padé) do not exceed the certified γ."""
+        tol = 1e-9
+        if not self.norm.norm <= self.gamma * (1 + tol):
+            return False
+        if any(not r.norm <= self.gamma * (1 + tol) for _, r in self.pade_norms):
+            return False
+        for j, name in enumerate(self.channels.inputs):
+            cert = self.channel_certificates.get(name)
+            if cert is not None and not self.channels.per_input[j] <= cert.gamma * (1 + tol):
+                return False
+        return True
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-safe summary (per channel: certified γ, independent norm, unit)."""
+        def f(x: float) -> float | None:
+            return float(x) if math.isfinite(x) else None
+        per = []
+        for j, name in enumerate(self.channels.inputs):
+            cert = self.channel_certificates.get(name)
+            per.append({"channel": name, "unit": self.units[j],
+                        "gamma_certified": f(cert.gamma) if cert else None,
+                        "norm": f(float(self.channels.per_input[j]))})
+        return {"kp": self.kp, "kc": self.kc, "gamma": f(self.gamma),
+                "certificate": self.certificate.to_dict(), "norm": self.norm.to_dict(),
+                "channels": per,
+                "groups": {g: c.to_dict() for g, c in self.group_certificates.items()},
+                "evaluations": self.evaluations, "trouble": list(self.trouble),
+                "output": self.output, "output_scale": self.output_scale,
+                "bounds": [list(b) for b in self.bounds], "search_time": self.search_time,
+                "tau_max": self.tau_max, "delay": self.delay,
+                "pade_norms": [[tau, r.to_dict()] for tau, r in self.pade_norms],
+                "consistent": self.consistent, "notes": list(self.notes)}
+
+
+def _axis(lo: float, hi: float, k: int) -> Array:
+    if lo > 0 and hi / lo > 10:
+        return np.geomspace(lo, hi, k)
+    return np.linspace(lo, hi, k)
+
+
+def _check_bounds(b: Sequence[float], name: str) -> tuple[float, float]:
+    try:
+        lo, hi = (float(x) for x in b)
+    except (TypeError, ValueError):
+        raise ModelError(f"synthesise_gains: '{name}' must be two numbers (lo, hi) in 1/s "
+                         f"(got {b!r}).") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo <= hi):
+        raise ModelError(f"synthesise_gains: '{name}' must satisfy 0 <= lo <= hi, finite, in "
+                         f"1/s (got {b!r}).")
+    return lo, hi
+
+
+def _problem(loop: ConsensusLoop, columns: Array | None, solver: str | None,
+             reference: tuple[float, float], tau_max: float | None, delay: str
+             ) -> BoundedRealProblem | DelayHinfProblem:
+    cols = slice(None) if columns is None else columns
+    ref = {"kp": reference[0], "kc": reference[1]}
+    if tau_max is None:
+        return BoundedRealProblem(
+            loop.A0, loop.Bf[:, cols], loop.C, None, A_terms={"kp": loop.Ap, "kc": loop.Ac},
+            B_terms={"kp": loop.Bp[:, cols], "kc": loop.Bc[:, cols]}, reference=ref,
+            solver=solver)
+    return DelayHinfProblem(
+        loop.A0, np.zeros_like(loop.A0), loop.Bf[:, cols], loop.C, None, tau_max,
+        A_d_terms={"kp": loop.Ap, "kc": loop.Ac},
+        B_terms={"kp": loop.Bp[:, cols], "kc": loop.Bc[:, cols]}, reference=ref, delay=delay,
+        solver=solver)
+
+
+def synthesise_gains(loop: ConsensusLoop, *, kp_bounds: Sequence[float] = (0.01, 1.0),
+                     kc_bounds: Sequence[float] = (0.0, 1.0), grid: tuple[int, int] = (7, 7),
+                     refine: bool = True, max_evaluations: int = 60,
+                     tau_max: float | None = None, delay: str = "constant",
+                     solver: str | None = None) -> GainSynthesis:
+    """κ_p, κ_c within the bounds that minimise the certified γ of T_w̃s̃ (module docstring).
+
+    One :class:`~trainctl.analysis.hinf.BoundedRealProblem` (κ_p, κ_c as
+    ``cp.Parameter``) is compiled once and re-solved at every point of a
+    ``grid`` over the bounds (geometric spacing when lo > 0 and hi/lo > 10),
+    then, with ``refine``, by Nelder–Mead (scipy, bounded, on coordinates
+    normalised to the bounds) from the best grid point, at most
+    ``max_evaluations`` solves. The problem is bilinear in (P, κ): the
+    result is the best *certified* point found, not a global optimum. At
+    the gains found, every channel and every group gets its own
+    certificate, and the norm is recomputed independently of the LMI
+    (:func:`~trainctl.analysis.hinf.hinf_norm`,
+    :func:`~trainctl.analysis.hinf.channel_norms`).
+
+    Parameters
+    ----------
+    loop : ConsensusLoop
+        From :func:`consensus_loop`.
+    kp_bounds, kc_bounds : (float, float)
+        [1/s], 0 <= lo <= hi.
+    grid : (int, int)
+        Grid points per gain, >= 1 each.
+    refine : bool
+        Run the local refinement.
+    max_evaluations : int
+        Solves of the refinement.
+    tau_max : float or None
+        None: the delay-free loop (bounded-real lemma). A number h [s]: the
+        whole law delayed (ẋ = A₀x + (κ_pA_p + κ_cA_c)x(t − τ) + B_w w), and
+        γ certified for every delay in [0, h] by the Lyapunov–Krasovskii
+        LMI (:class:`~trainctl.analysis.delay_lmi.DelayHinfProblem`, h fixed,
+        κ_p and κ_c parameters); the independent checks then add the
+        Padé-loop norms (order 8) at delays in (0, h].
+    delay : {"constant", "varying"}
+        With ``tau_max``: constant delays or any time-varying τ(t) ∈ [0, h].
+    solver : str or None
+        cvxpy solver (None: Clarabel, SCS as fallback for the delay-free SDP).
+
+    Returns
+    -------
+    GainSynthesis
+        The gains, the certified γ and the independent checks.
+
+    Raises
+    ------
+    SolverError
+        No point of the search has a certificate (every loop unstable, or
+        the solver failed everywhere; the grid statuses are in the message).
+    """
+    from ..exceptions import SolverError
+
+    kp_lo, kp_hi = _check_bounds(kp_bounds, "kp_bounds")
+    kc_lo, kc_hi = _check_bounds(kc_bounds, "kc_bounds")
+    if (len(grid) != 2 or any(isinstance(g, bool) or not isinstance(g, int | np.integer)
+                              or g < 1 for g in grid)):
+        raise ModelError(f"synthesise_gains: 'grid' must be two integers >= 1 (got {grid!r}).")
+    if tau_max is not None and not (isinstance(tau_max, int | float | np.floating)
+                                    and math.isfinite(tau_max) and tau_max >= 0):
+        raise ModelError(f"synthesise_gains: 'tau_max' must be None or a finite number >= 0 s "
+                         f"(got {tau_max!r}).")
+    if delay not in DELAY_KINDS:
+        raise ModelError(f"synthesise_gains: 'delay' must be one of {DELAY_KINDS} (got "
+                         f"{delay!r}).")
+    h = None if tau_max is None else float(tau_max)
+    start = time.perf_counter()
+    mid = (0.5 * (kp_lo + kp_hi), 0.5 * (kc_lo + kc_hi))
+    problem = _problem(loop, None, solver, mid, h, delay)
+    cache: dict[tuple[float, float], Certificate] = {}
+    trouble: list[str] = []
+
+    def evaluate(kp: float, kc: float) -> Certificate:
+        key = (round(kp, 12), round(kc, 12))
+        if key not in cache:
+            res = problem.solve(kp=kp, kc=kc)
+            cache[key] = res
+            if res.status != "optimal" or "after" in res.message:
+                trouble.append(f"kp={kp:.6g} kc={kc:.6g}: {res.status}: {res.message}")
+        return cache[key]
+
+    kp_grid = _axis(kp_lo, kp_hi, int(grid[0]))
+    kc_grid = _axis(kc_lo, kc_hi, int(grid[1]))
+    gamma_grid = np.array([[evaluate(float(a), float(b)).gamma for b in kc_grid]
+                           for a in kp_grid])
+    if not np.any(np.isfinite(gamma_grid)):
+        raise SolverError(f"synthesise_gains: no gains on the grid are certified (every loop "
+                          f"unstable or the solver failed); statuses: "
+                          f"{sorted({r.status for r in cache.values()})}.")
+    i, j = np.unravel_index(int(np.argmin(gamma_grid)), gamma_grid.shape)
+    best = (float(kp_grid[i]), float(kc_grid[j]))
+    notes: list[str] = []
+    if refine and (kp_hi > kp_lo or kc_hi > kc_lo):
+        span = np.array([kp_hi - kp_lo, kc_hi - kc_lo])
+        low = np.array([kp_lo, kc_lo])
+        active = span > 0
+        finite = gamma_grid[np.isfinite(gamma_grid)]
+        penalty = 1e6 * float(finite.max())
+
+        def to_gains(u: Array) -> tuple[float, float]:
+            full = low.copy()
+            full[active] = low[active] + np.clip(u, 0.0, 1.0) * span[active]
+            return float(full[0]), float(full[1])
+
+        def objective(u: Array) -> float:
+            g = evaluate(*to_gains(u)).gamma
+            return g if math.isfinite(g) else penalty
+
+        u0 = (np.array(best) - low)[active] / span[active]
+        steps = np.array([1.0 / max(int(grid[0]) - 1, 1), 1.0 / max(int(grid[1]) - 1, 1)])
+        steps = steps[active]
+        simplex = [u0] + [u0 + np.where(np.arange(u0.size) == k,
+                                        steps[k] * (1 if u0[k] + steps[k] <= 1 else -1), 0.0)
+                          for k in range(u0.size)]
+        res = scipy.optimize.minimize(
+            objective, u0, method="Nelder-Mead", bounds=[(0.0, 1.0)] * int(active.sum()),
+            options={"initial_simplex": np.array(simplex), "maxfev": int(max_evaluations),
+                     "xatol": 1e-4, "fatol": 1e-7 * float(gamma_grid[i, j])})
+        cand = to_gains(np.asarray(res.x))
+        if evaluate(*cand).gamma < evaluate(*best).gamma:
+            best = cand
+        if not res.success:
+            notes.append(f"Nelder–Mead stopped: {res.message}")
+    search_time = time.perf_counter() - start
+    kp, kc = best
+    certificate = evaluate(kp, kc)
+    channel_certs: dict[str, Certificate] = {}
+    for jj, name in enumerate(loop.channels):
+        channel_certs[name] = _problem(loop, np.array([jj]), solver, best, h,
+                                       delay).solve(kp=kp, kc=kc)
+    group_certs: dict[str, Certificate] = {}
+    for group in CHANNEL_GROUPS:
+        cols = loop.columns(group)
+        if cols.size:
+            group_certs[group] = _problem(loop, cols, solver, best, h, delay).solve(kp=kp, kc=kc)
+    sys = loop.system(kp, kc)
+    norm = hinf_norm(sys)
+    chans = channel_norms(sys)
+    pade: list[tuple[float, HinfNorm]] = []
+    if h is not None and h > 0:
+        for tau in np.linspace(0.0, h, PADE_POINTS + 1)[1:]:
+            pade.append((float(tau), hinf_norm(loop.delayed_system(kp, kc, float(tau)))))
+    if kp in (kp_lo, kp_hi) or kc in (kc_lo, kc_hi):
+        notes.append("a gain sits on its bound: wider bounds may lower γ")
+    return GainSynthesis(kp=kp, kc=kc, certificate=certificate,
+                         channel_certificates=channel_certs, group_certificates=group_certs,
+                         norm=norm, channels=chans, kp_grid=kp_grid, kc_grid=kc_grid,
+                         gamma_grid=gamma_grid, evaluations=len(cache), trouble=tuple(trouble),
+                         scaling=tuple(float(x) for x in loop.scaling), units=loop.units(),
+                         output=loop.output, output_scale=loop.output_scale,
+                         bounds=((kp_lo, kp_hi), (kc_lo, kc_hi)), search_time=search_time,
+                         tau_max=h, delay=delay, pade_norms=tuple(pade), notes=tuple(notes))
