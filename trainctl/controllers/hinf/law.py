@@ -37,6 +37,14 @@ no ``[network]`` section) the law reads the true measured speeds and the
 reference now: an ideal network, where both ``own_speed`` settings
 coincide.
 
+While a link is interrupted the receiver holds its last message, send time
+included. With ``own_speed = "delayed"`` both sides of that difference
+are then frozen: the vehicle applies a constant correction until new data
+arrive, its speed following the timetable's v̇_d open loop. With
+``"current"`` it keeps regulating its speed now towards the held value (an
+old reference speed, if the reference changed meanwhile). Either way
+tracking is restored only once data flow again (spec §4.3 item 4).
+
 Linear closed loop
 ------------------
 On the design state x̂ = [v̂ (n) [m/s], δ̂ (n−1) [m]] (deviations from the
