@@ -246,7 +246,7 @@ class TestFamilies:
              "unknown section [controller.lqq]. Did you mean 'lqr'?"),
             (with_controller('family = "lqrr"'),
              "[controller].family must be one of 'mpc', 'lqr', 'potential', 'flocking', "
-             "'synchronous' (got 'lqrr', a string). "
+             "'synchronous', 'hinf' (got 'lqrr', a string). "
              "Did you "
              "mean 'lqr'?"),
             (with_controller("[controller.mpc]", 'form = "u"'),

@@ -85,6 +85,7 @@ FAMILY_MODULES: Mapping[str, str] = {
     "potential": "trainctl.controllers.potential",
     "flocking": "trainctl.controllers.flocking",
     "synchronous": "trainctl.controllers.synchronous",
+    "hinf": "trainctl.controllers.hinf",
 }
 """The built-in families: name -> module exposing ``FAMILY`` (imported on first use)."""
 

@@ -1,0 +1,9 @@
+# The hinf family: seed 003's distributed robust H∞ cooperative law over the radio network.
+"""The hinf controller family (see :mod:`trainctl.controllers.hinf.family`)."""
+
+from __future__ import annotations
+
+from .family import FAMILY as FAMILY
+from .family import STRATEGIES as STRATEGIES
+
+__all__ = ["FAMILY", "STRATEGIES"]

@@ -1,0 +1,193 @@
+# The distributed H∞ cooperative controller: the law on the speeds received over the network.
+"""The hinf controller: u_i = m_i a_i + R_i(v_i), clipped to the envelope.
+
+At every sample (the family's ``control_interval``) each vehicle records
+its own measured speed, reads what it holds from the network
+(``Measurement.messages``: ``{(receiver, sender): Received(t_sent,
+value)}``, :meth:`trainctl.network.Network.messages`), forms the pinning
+and consensus differences of :mod:`trainctl.controllers.hinf.law` and
+applies its mass times the command plus its own resistance at its measured
+speed. The forces are held until the next sample.
+
+Own speeds at a send time
+-------------------------
+With ``own_speed = "delayed"`` vehicle i compares a value sent at t_s with
+its own measured speed at t_s: the newest of its recorded samples at or
+before t_s (within :data:`trainctl.network.ARRIVAL_TOLERANCE`). The
+simulation sends every speed at a control sample, so that is exactly its
+measurement at t_s; a message stamped before the first recorded sample
+(a hand-built one) is compared with the oldest record. The record starts
+empty at :meth:`HinfController.reset` and keeps every sample of the run.
+
+The law reads the measured speeds (``Measurement.outputs``, with the
+simulation's measurement noise; the true speeds when only the state is
+given) and the messages, nothing else: no position, no coupler elongation.
+Without messages (None: no ``[network]``) it uses the measured speeds and
+the reference now, an ideal network.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+import time
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...exceptions import ModelError
+from ...models.envelope import EnvelopeBounds
+from ...models.train import Train
+from ...network import ARRIVAL_TOLERANCE, REFERENCE
+from ..base import Measurement, ReferencePreview, StepRecord
+from .law import HinfLaw
+
+__all__ = ["HinfController"]
+
+Array = NDArray[np.float64]
+
+
+class HinfController:
+    """The distributed robust H∞ cooperative law over the network (module docstring).
+
+    Parameters
+    ----------
+    train : Train
+        The train (envelopes).
+    law : HinfLaw
+        Gains, graph, masses and resistance coefficients.
+    dt : float
+        Control interval [s], > 0.
+    input_bounds : bool
+        Clip each force to the vehicle's envelope at its measured speed.
+    name : str
+        Label.
+
+    Examples
+    --------
+    >>> from trainctl.models import equilibrium
+    >>> from trainctl.scenario import load_scenario
+    >>> from trainctl.controllers.hinf.law import law_of
+    >>> from trainctl.controllers.hinf.settings import HinfSettings
+    >>> scenario = load_scenario("heavy-haul-hinf")
+    >>> ctl = HinfController(scenario.train, law_of(scenario, HinfSettings()), dt=0.1)
+    >>> ctl.reset()
+    >>> eq = equilibrium(scenario.train, 19.5)
+    >>> ref = ReferencePreview(times=np.zeros(1), speed=np.full(1, 19.5),
+    ...                        acceleration=np.zeros(1))
+    >>> rec = ctl.step(0.0, Measurement(outputs=np.full(4, 19.5)), ref)
+    >>> bool(np.allclose(rec.inputs, eq.inputs)), rec.status
+    (True, 'optimal')
+    """
+
+    preview_steps = 1
+    needs_full_state = False
+    uses_network = True
+    """The simulation's network carries every measured speed and the reference's speed."""
+
+    def __init__(self, train: Train, law: HinfLaw, *, dt: float, input_bounds: bool = True,
+                 name: str = "distributed") -> None:
+        if not dt > 0:
+            raise ModelError(f"HinfController: 'dt' must be > 0 s (got {dt!r}).")
+        if law.n != train.n_vehicles:
+            raise ModelError(f"HinfController: the law is for {law.n} vehicles; the train has "
+                             f"{train.n_vehicles}.")
+        self.train, self.law, self.dt = train, law, float(dt)
+        self.input_bounds, self.name = bool(input_bounds), name
+        self._envelope = EnvelopeBounds(train, enabled=self.input_bounds)
+        self._links = [(i, j) for i in range(law.n) for j in range(law.n)
+                       if law.adjacency[i, j] > 0]
+        self._times: list[float] = []
+        self._speeds: list[Array] = []
+
+    def reset(self) -> None:
+        """Forget the record of the vehicles' own measured speeds."""
+        self._times, self._speeds = [], []
+
+    def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
+        """Each vehicle's command from what it holds; its force, clipped to its envelope."""
+        start = time.perf_counter()
+        speeds = self._speeds_of(measurement)
+        n = self.law.n
+        if not np.all(np.isfinite(speeds)):
+            return StepRecord(inputs=np.full(n, np.nan), status="error",
+                              solve_time=time.perf_counter() - start,
+                              info={"reason": "a measured speed is not finite"})
+        self._record(float(t), speeds)
+        messages = measurement.messages
+        if messages is None:
+            e0 = speeds - float(reference.speed[0])
+            e = speeds[:, None] - speeds[None, :]
+            oldest = 0.0
+        else:
+            e0, e, oldest = self._errors(float(t), speeds, messages)
+        commands = self.law.commands(float(reference.acceleration[0]), e0, e)
+        inputs = self.law.forces(commands, speeds)
+        inputs, saturated = self._envelope.clip(inputs, speeds)
+        missing = (int(np.count_nonzero((self.law.pinning > 0) & np.isnan(e0)))
+                   + sum(1 for i, j in self._links if math.isnan(e[i, j])))
+        return StepRecord(inputs=inputs, status="optimal", iterations=0,
+                          solve_time=time.perf_counter() - start,
+                          info={"saturated": saturated, "missing_terms": missing,
+                                "oldest_data_age": oldest})
+
+    def _errors(self, t: float, speeds: Array,
+                messages: Mapping[Any, Any]) -> tuple[Array, Array, float]:
+        """e_i0, e_ij (NaN where absent) and the oldest used datum's age [s]."""
+        n = self.law.n
+        e0 = np.full(n, math.nan)
+        e = np.full((n, n), math.nan)
+        oldest = 0.0
+        delayed = self.law.own_speed == "delayed"
+        for key, message in messages.items():
+            receiver, sender = key
+            t_sent, value = message
+            i = int(receiver)
+            if not 0 <= i < n:
+                continue
+            own = self._own_speed(i, float(t_sent)) if delayed else float(speeds[i])
+            if sender == REFERENCE:
+                if self.law.pinning[i] <= 0:
+                    continue
+                e0[i] = own - float(value)
+            else:
+                j = int(sender)
+                if not 0 <= j < n or self.law.adjacency[i, j] <= 0:
+                    continue
+                e[i, j] = own - float(value)
+            oldest = max(oldest, t - float(t_sent))
+        return e0, e, oldest
+
+    def _record(self, t: float, speeds: Array) -> None:
+        """Append this sample's measured speeds to the record (a repeated time replaces it)."""
+        if self._times and t <= self._times[-1]:
+            if t < self._times[-1]:
+                raise ModelError(f"{self.name}: time must not go back (got {t!r} s after "
+                                 f"{self._times[-1]!r} s); call reset() to start again.")
+            self._speeds[-1] = speeds.copy()
+            return
+        self._times.append(t)
+        self._speeds.append(speeds.copy())
+
+    def _own_speed(self, i: int, t_sent: float) -> float:
+        """Vehicle i's recorded measured speed at ``t_sent`` (the newest sample at or before)."""
+        due = t_sent + ARRIVAL_TOLERANCE * max(1.0, abs(t_sent))
+        k = max(bisect.bisect_right(self._times, due) - 1, 0)
+        return float(self._speeds[k][i])
+
+    def _speeds_of(self, measurement: Measurement) -> Array:
+        """The measured speeds [m/s]: the outputs, else the state's speeds."""
+        n = self.law.n
+        if measurement.outputs is not None:
+            speeds = np.asarray(measurement.outputs, dtype=float)
+        elif measurement.state is not None:
+            speeds = np.asarray(measurement.state, dtype=float)[:n]
+        else:
+            raise ModelError(f"{self.name}: needs the measured speeds (Measurement.outputs) "
+                             "or the state (got neither).")
+        if speeds.shape != (n,):
+            raise ModelError(f"{self.name}: expected {n} measured speeds (got shape "
+                             f"{speeds.shape}).")
+        return speeds

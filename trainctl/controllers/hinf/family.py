@@ -1,0 +1,325 @@
+# The hinf family as a registry entry: seed 003's distributed robust H∞ cooperative law.
+"""The hinf family object (:data:`FAMILY`), see :mod:`trainctl.controllers.registry`.
+
+One strategy, ``"distributed"``: the reconstructed distributed robust H∞
+cooperative law of seed 003 (spec §4.2, :mod:`trainctl.controllers.hinf.law`),
+leader-following velocity consensus of the locomotive subsystems over the
+``[communication]`` graph, each vehicle acting on the reference's and its
+neighbours' speeds as they arrive over the ``[network]`` radio links
+(delayed, lost, interrupted, noisy; :mod:`trainctl.network`), sampled at the
+family's ``control_interval``, about each vehicle's own resistance
+feedforward, clipped to the envelope. The gains κ_p and κ_c are the
+scenario's. Its linear closed loop on the design model (no delay, ideal
+network) is continuous (dt = 0): :meth:`HinfFamily.closed_loop` returns it
+with the inputs ``w[i]`` (specific-force disturbances [m/s²]) and the
+outputs ``v[i]`` [m/s], ``f[i]`` [kN] and ``d[i]`` [m].
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from functools import cached_property
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    import control as ct
+
+    from ...analysis.connectivity import WindowConnectivity
+    from ...analysis.delay import DelayMargin
+    from ...analysis.review import Check
+    from ...design import DesignModel
+    from ...graphs import CommunicationGraph
+    from ...network import NetworkSettings
+    from ...report.figures import ReportFigure
+    from ...scenario import Scenario
+    from .controller import HinfController
+    from .law import HinfLaw, LoopMatrices
+
+__all__ = ["CHECK_NAMES", "DELAY_POINTS", "DELAY_SEARCH", "FAMILY", "GRAPH_USAGE", "STRATEGIES",
+           "HinfDesign", "HinfFamily", "design_hinf"]
+
+STRATEGIES = ("distributed",)
+"""The hinf family's one strategy."""
+
+CHECK_NAMES = ("hinf_closed_loop", "hinf_sampling", "hinf_delay_margin", "hinf_connectivity")
+"""The hinf family's design checks (:mod:`trainctl.controllers.hinf.checks`)."""
+
+DELAY_SEARCH = 10.0
+"""Shortest delay range [s] searched for the margin: (0, max(10 s, 4 × the worst case)].
+
+Five times GSM-R's 2 s worst case (spec §4.4), so that a margin above the
+worst case is located rather than only bounded."""
+
+DELAY_POINTS = 400
+"""Scan points of the delay margin: a 25 ms grid on 10 s, fine against the
+coupler-mode margins of a fraction of a second (spec §4.3)."""
+
+GRAPH_USAGE = ("Each vehicle compares its speed with the speeds it receives over these links "
+               "(consensus gain κ_c × a_ij) and with the reference, where pinned "
+               "(pinning gain κ_p × b_i), as they arrive over the [network] links.")
+"""What the law does with the graph, for the caption of its figure."""
+
+Array = NDArray[np.float64]
+
+PARTIAL = """\
+<p>Distributed robust H∞ cooperative control: every locomotive subsystem applies
+v̇_d − κ_p b_i (v_i − v̂_d) − κ_c Σ_j a_ij (v_i − v̂_j) per unit mass, on the reference's and
+its neighbours' speeds as received over the radio network (held during outages), about its
+own resistance at its speed; its own speed is taken {% if data.own_speed == "delayed" %}at the
+received data's send time{% else %}now{% endif %}. Sampled every {{ data.control_interval }}
+s{% if not data.input_bounds %} (no saturation){% endif %}.</p>
+<table class="quantities">
+  <thead><tr><th scope="col">Quantity</th><th scope="col">Value</th></tr></thead>
+  <tbody>
+{% for row in data.rows %}
+    <tr><td>{{ row.name }}</td><td class="num">{{ row.value }}</td></tr>
+{% endfor %}
+  </tbody>
+</table>
+"""
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class HinfDesign:
+    """The hinf family's design of one scenario.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    model : DesignModel
+        The run's design model.
+    settings : HinfSettings
+        The family's settings.
+    law : HinfLaw
+        The law's SI gains and graph.
+    control_interval : float
+        T_c [s].
+    network : NetworkSettings or None
+        The scenario's ``[network]`` (None: data arrive when sent).
+    graph : CommunicationGraph
+        The ``[communication]`` graph.
+    loops : LoopMatrices
+        Open loop, undelayed and delayed parts, delay-free closed loop.
+    """
+
+    scenario: Scenario
+    model: DesignModel
+    settings: Any
+    law: HinfLaw
+    control_interval: float
+    network: NetworkSettings | None
+    graph: CommunicationGraph
+    loops: LoopMatrices
+
+    @property
+    def worst_delay(self) -> float | None:
+        """The ``[network]`` worst-case delay [s] (upper end of the range); None without one."""
+        return None if self.network is None else float(self.network.delay_bounds()[1])
+
+    @property
+    def run_length(self) -> float:
+        """The run judged by ``hinf_connectivity`` [s]: the ``[simulation]`` duration.
+
+        Without ``[simulation]``: twice the last interruption window's end
+        (1 s without a window), a run that outlasts every window.
+        """
+        if self.scenario.simulation is not None:
+            return float(self.scenario.simulation.duration)
+        ends = [float(w.end) for w in (self.network.interruptions if self.network else ())]
+        return 2.0 * max(ends) if ends else 1.0
+
+    @cached_property
+    def delay(self) -> DelayMargin:
+        """The full loop's delay margin (:func:`trainctl.analysis.delay.delay_margin`)."""
+        from ...analysis.delay import delay_margin
+
+        worst = self.worst_delay or 0.0
+        loops = self.loops
+        return delay_margin(loops.A0, loops.B_open, loops.K_delay,
+                            tau_max=max(DELAY_SEARCH, 4.0 * worst), points=DELAY_POINTS)
+
+    @cached_property
+    def consensus_bound(self) -> float | None:
+        """π/(2 λ_max(κ_p P + κ_c L)) [s]; None for a directed graph (the bound needs symmetry)."""
+        from ...analysis.delay import consensus_delay_bound
+
+        Lp = self.law.pinned_laplacian()
+        if not np.allclose(Lp, Lp.T, rtol=1e-10, atol=1e-12):
+            return None
+        return float(consensus_delay_bound(Lp))
+
+    @cached_property
+    def connectivity(self) -> list[WindowConnectivity]:
+        """Per ``[network]`` interruption window: who is cut off, whether reached again."""
+        from ...analysis.connectivity import joint_connectivity
+
+        windows = self.network.interruptions if self.network is not None else ()
+        if not windows:
+            return []
+        return joint_connectivity(self.graph, windows, self.run_length)
+
+    def sampled_matrix(self, interval: float | None = None) -> Array:
+        """The delay-free loop with the law held over each interval (exact ZOH of the plant).
+
+        Parameters
+        ----------
+        interval : float or None
+            T [s]; None: :attr:`control_interval`.
+
+        Returns
+        -------
+        ndarray
+            (2n−1, 2n−1) [-].
+        """
+        from ..sampled import held_loop
+
+        T = self.control_interval if interval is None else float(interval)
+        speed = float(self.model.settings.speed)
+        return held_loop(self.loops.A_open, self.loops.B_open, self.law.feedback(speed), T)
+
+
+def design_hinf(scenario: Scenario, model: DesignModel, settings: Any) -> HinfDesign:
+    """The law's gains, its graph and its linear loops.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (train, ``[communication]``, ``[network]``, ``[simulation]``).
+    model : DesignModel
+        Its design model.
+    settings : HinfSettings
+        The family's settings.
+
+    Returns
+    -------
+    HinfDesign
+        The design.
+
+    Raises
+    ------
+    ScenarioError
+        If the simulation's duration is not a whole multiple of the control
+        interval.
+
+    Examples
+    --------
+    >>> from trainctl.controllers.hinf.settings import HinfSettings
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("heavy-haul-hinf")
+    >>> d = design_hinf(scenario, build_model(scenario), HinfSettings())
+    >>> d.loops.A_cl.shape, d.control_interval, d.worst_delay, d.graph.topology
+    ((7, 7), 0.1, None, 'bidirectional')
+    """
+    from ..sampled import control_interval
+    from .law import closed_loop_matrices, law_of
+
+    T = control_interval(scenario, model, settings, "hinf")
+    law = law_of(scenario, settings)
+    return HinfDesign(scenario=scenario, model=model, settings=settings, law=law,
+                      control_interval=T, network=scenario.network, graph=scenario.graph(),
+                      loops=closed_loop_matrices(model, law))
+
+
+def _seconds(x: float | None, missing: str = "no [network]") -> str:
+    if x is None:
+        return missing
+    return f"{x:.4g}" if math.isfinite(x) else "∞"
+
+
+class HinfFamily:
+    """Seed 003's distributed robust H∞ cooperative law (leader-following speed consensus)."""
+
+    name = "hinf"
+    title = "Distributed robust H∞ cooperative control"
+    strategies = STRATEGIES
+    check_names = CHECK_NAMES
+    strategy_cost: Mapping[str, float] = {"distributed": 0.1}
+    report_partial = PARTIAL
+
+    @property
+    def settings(self) -> type[Any]:
+        """The schema of the family's ``[controller]`` table."""
+        from .settings import HinfSettings
+
+        return HinfSettings
+
+    def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> HinfDesign:
+        """See :func:`design_hinf`."""
+        return design_hinf(scenario, model, settings)
+
+    def make(self, design: HinfDesign, strategy: str) -> HinfController:
+        """The controller: the law sampled every ``control_interval``, on the network's data."""
+        from .controller import HinfController
+
+        return HinfController(design.scenario.train, design.law, dt=design.control_interval,
+                              input_bounds=design.settings.input_bounds, name=strategy)
+
+    def checks(self, design: HinfDesign) -> list[Check]:
+        """The four checks of :mod:`trainctl.controllers.hinf.checks`."""
+        from .checks import hinf_checks
+
+        return hinf_checks(design)
+
+    def closed_loop(self, design: HinfDesign, strategy: str) -> ct.StateSpace:
+        """x̂' = A_cl x̂ + B_w w (continuous, no delay); outputs v [m/s], f [kN], d [m]."""
+        import control as ct
+
+        n = design.law.n
+        rows, outputs = design.model.loop_outputs()
+        return ct.ss(design.loops.A_cl, design.loops.B_open * design.law.mass[None, :], rows, 0,
+                     states=design.scenario.train.state_labels(),
+                     inputs=[f"w[{i}]" for i in range(n)], outputs=outputs,
+                     name=f"hinf_{strategy}")
+
+    def report_data(self, design: HinfDesign) -> dict[str, Any]:
+        """Gains, delay margin against the consensus bound and the network, the graph.
+
+        The delay-free loop's spectrum, sampled at the model's sample time,
+        joins the eigenvalue map (``spectra``); the ``[communication]`` graph
+        is stored under ``graph``
+        (:func:`trainctl.report.figures_graph.graph_report_data`), JSON-safe.
+        """
+        from ...report.figures_graph import graph_report_data
+
+        lam = np.linalg.eigvals(design.loops.A_cl).astype(complex)
+        z = np.exp(lam * design.model.settings.sample_time)
+        s, res = design.settings, design.delay
+        rows = [("Pinning gain κ_p [1/s]", f"{s.kappa_p:g}"),
+                ("Consensus gain κ_c [1/s]", f"{s.kappa_c:g}"),
+                ("Own speed in the differences", s.own_speed),
+                ("Control interval [s]", f"{design.control_interval:g}"),
+                ("Delay margin, full loop [s]", _seconds(res.margin)),
+                ("First-order consensus bound [s]",
+                 _seconds(design.consensus_bound, "directed graph")),
+                ("Network worst-case delay [s]", _seconds(design.worst_delay)),
+                ("Slowest mode, max Re λ [1/s]", f"{float(np.max(lam.real)):.4g}"),
+                ("Fastest mode, max |λ| [rad/s]", f"{float(np.max(np.abs(lam))):.4g}")]
+        return {"spectra": {"hinf distributed": [[float(x.real), float(x.imag)] for x in z]},
+                "rows": [{"name": a, "value": b} for a, b in rows],
+                "own_speed": s.own_speed,
+                "control_interval": f"{design.control_interval:g}",
+                "input_bounds": bool(s.input_bounds), "delay": res.to_dict(),
+                "consensus_bound": design.consensus_bound,
+                "connectivity": [w.to_dict() for w in design.connectivity],
+                "graph": graph_report_data(design.graph)}
+
+    def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
+        """The communication graph, in the family's section (its spectrum joins the eigenvalue map).
+
+        Drawn from ``data["graph"]``
+        (:func:`trainctl.report.figures_graph.graph_figure`).
+        """
+        from ...report.figures_graph import graph_figure
+
+        return [graph_figure(data["graph"], family=self.name, usage=GRAPH_USAGE)]
+
+
+FAMILY = HinfFamily()
+"""The registry entry of the hinf family."""
