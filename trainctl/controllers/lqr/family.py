@@ -37,6 +37,12 @@ if TYPE_CHECKING:
 
 __all__ = ["CHECK_NAMES", "FAMILY", "STRATEGIES", "LQRDesign", "LQRFamily", "design_lqr"]
 
+DARE_METHOD = "scipy"
+"""The Riccati solver python-control's ``dlqr`` uses. With slycot installed it would take
+SLICOT's sg02ad, which refuses (info 4, "poor scaling") the discrete Riccati equation of a
+24-car crh2-potential train that scipy's solver solves (measured); the gain is checked by
+the closed-loop checks either way."""
+
 STRATEGIES = ("centralised", "decentralised")
 """The LQR strategies: one gain on the whole train, or one per coach."""
 
@@ -134,7 +140,7 @@ def design_lqr(scenario: Scenario, model: DesignModel, settings: Any) -> LQRDesi
     q = _output_weights(model, settings)
     Q = C.T @ (q[:, None] * C)
     R = np.eye(B.shape[1]) * settings.input_weight_per_kn2()
-    K, _, _ = ct.dlqr(A, B, Q, R)
+    K, _, _ = ct.dlqr(A, B, Q, R, method=DARE_METHOD)
     gains = {"centralised": np.asarray(K, dtype=float),
              "decentralised": _decentralised_gain(model, settings, C, q)}
     return LQRDesign(scenario=scenario, model=model, settings=settings, A=A, B=B, Q=Q, R=R,
@@ -167,7 +173,7 @@ def _decentralised_gain(model: DesignModel, settings: Any, C: Array, q: Array) -
         Ci = C[np.ix_(rows, states)]
         Qi = Ci.T @ (q[rows, None] * Ci)
         Ri = np.eye(1) * settings.input_weight_per_kn2()
-        Ki, _, _ = ct.dlqr(np.asarray(sysd.A), np.asarray(sysd.B), Qi, Ri)
+        Ki, _, _ = ct.dlqr(np.asarray(sysd.A), np.asarray(sysd.B), Qi, Ri, method=DARE_METHOD)
         K[i, states] = np.asarray(Ki, dtype=float)[0]
     return K
 
