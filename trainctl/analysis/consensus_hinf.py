@@ -83,6 +83,7 @@ next to it as the independent check.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -420,9 +421,13 @@ class GainSynthesis:
         (delay-free) or Lyapunov–Krasovskii (``tau_max``):
         ``certificate.gamma`` is the certified γ [-].
     channel_certificates : dict of str to BoundedRealResult or DelayHinf
-        Per channel (input j → all outputs), its own SDP.
+        Per channel (input j → all outputs), its own SDP; where that SDP
+        certifies nothing or more than the all-channel certificate, the
+        latter (valid for every subset of the channels: its LMI restricted
+        to them is a principal submatrix), said in its message and in
+        ``notes``.
     group_certificates : dict of str to BoundedRealResult or DelayHinf
-        Per group of :data:`CHANNEL_GROUPS` present.
+        Per group of :data:`CHANNEL_GROUPS` present, the same way.
     norm : HinfNorm
         ‖T_w̃s̃‖∞ at the gains by python-control and the level set
         (independent of the LMI).
@@ -759,6 +764,20 @@ def _at_gains(loop: ConsensusLoop, gains: tuple[float, float], certificate: Cert
         if cert.status != "optimal" or "after" in cert.message:
             trouble.append(f"{label} at kp={kp:.6g} kc={kc:.6g}: {cert.status}: "
                            f"{cert.message}")
+
+    def bounded(label: str, cert: Certificate) -> Certificate:
+        # the all-channel LMI restricted to some channels is a principal submatrix of it,
+        # so its solution certifies every subset with the same γ
+        if not certificate.certified or cert.gamma <= certificate.gamma:
+            return cert
+        notes.append(f"{label}: its own SDP gave {cert.gamma:.6g} ({cert.status}); bounded by "
+                     f"the all-channel certificate {certificate.gamma:.6g}")
+        return dataclasses.replace(
+            certificate, message=f"bounded by the all-channel certificate (γ "
+            f"{certificate.gamma:.6g}); its own SDP: {cert.status}: {cert.message}")
+
+    channel_certs = {k: bounded(f"channel {k}", c) for k, c in channel_certs.items()}
+    group_certs = {k: bounded(f"group {k}", c) for k, c in group_certs.items()}
     sys = loop.system(kp, kc)
     norm = hinf_norm(sys)
     chans = channel_norms(sys)
