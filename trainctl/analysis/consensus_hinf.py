@@ -27,6 +27,22 @@ speed rows), S_v the speed rows of the state, and the disturbances
 - ``n[i,j]``: noise on vehicle j's speed as vehicle i receives it [m/s]
   (a_ij > 0 only), column κ_c a_ij E e_i.
 
+The plant part A₀ is the design model's, with an optional gain-free
+``local_feedback`` F_loc [N per unit of the state] closed around it on
+current data: A₀ = A + B F_loc. The hinf family passes its resistance
+feedforward's slope [diag(m_i c_i), 0] (c_i = a1_i + 2 a2_i v_d; each
+vehicle's own Davis resistance at its measured speed), which cancels the
+resistance damping of the design model, so that the loop synthesised here is
+the one the family closes (:meth:`~trainctl.controllers.hinf.law.HinfLaw.resistance_feedback`);
+without it A₀ keeps that damping (≈ 8.4e-4 1/s on heavy-haul-hinf).
+
+Which part of the law acts on delayed data (``own_speed``, as the family's
+setting): ``"delayed"``, the whole law (both sides of every difference
+taken at the send time); ``"current"``, only the neighbours' speeds
+κ_c Σ_j a_ij v_j (the own-speed parts −κ_p b_i v_i − κ_c d_i v_i act now,
+and the reference's delay does not enter the deviation loop). The delay-free
+loop is the same either way.
+
 Performance output s: the tracking errors e_i = v_i − v_d [m/s]
 (``output="tracking"``), or the disagreement (I − 11ᵀ/n) e
 (``output="disagreement"``), which ignores a common speed error.
@@ -39,9 +55,10 @@ force channel and 1 m/s per noise channel) and s = s_0 s̃ with s_0
 gains, the tracking error follows the reference noise at DC: a noise common
 to every received reference (the broadcast command itself is wrong)
 reaches every e_i with gain κ_p b̄/(κ_p b̄ + c) → 1 (c ≈ 8e-4 1/s, the
-resistance's damping, b̄ the mass-weighted mean pinning weight), so the
-reference-noise channels together have γ ≳ 1 for any κ_p (with the
-default scaling), and only the disagreement output escapes that floor.
+resistance's damping, b̄ the mass-weighted mean pinning weight; exactly 1
+when the resistance feedforward cancels c), so the reference-noise channels
+together have γ ≳ 1 for any κ_p (with the default scaling), and only the
+disagreement output escapes that floor.
 
 Synthesis (:func:`synthesise_gains`). For fixed gains the bounded-real
 lemma is an SDP in P (:class:`~trainctl.analysis.hinf.BoundedRealProblem`,
@@ -54,9 +71,10 @@ The result is a certified γ for the gains returned — not a proof that no
 better gains exist in the bounds.
 
 Delays (``tau_max``). The same search on the delay-dependent LMI of
-:class:`~trainctl.analysis.delay_lmi.DelayHinfProblem` (the whole law
-delayed, ẋ = A₀x + (κ_pA_p + κ_cA_c)x(t − τ) + B_w w, h = τ_max fixed, the
-gains as parameters): γ is then certified for every delay in [0, τ_max]
+:class:`~trainctl.analysis.delay_lmi.DelayHinfProblem` (with ``own_speed =
+"delayed"`` the whole law delayed, ẋ = A₀x + (κ_pA_p + κ_cA_c)x(t − τ) +
+B_w w; with ``"current"`` the own-speed parts undelayed, h = τ_max fixed,
+the gains as parameters): γ is then certified for every delay in [0, τ_max]
 (constant, or any time-varying τ(t) with ``delay="varying"``). Each SDP is
 larger (3N + channels + outputs) and Jensen's inequality makes γ
 conservative; the Padé-loop norms at delays in (0, τ_max] are reported
@@ -65,6 +83,7 @@ next to it as the independent check.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -92,8 +111,8 @@ if TYPE_CHECKING:
     from ..graphs import CommunicationGraph
 
 __all__ = [
-    "CHANNEL_GROUPS", "DEFAULT_SCALING", "OUTPUTS", "PADE_POINTS", "Certificate", "ConsensusLoop",
-    "GainSynthesis", "consensus_loop", "synthesise_gains",
+    "CHANNEL_GROUPS", "DEFAULT_SCALING", "OUTPUTS", "OWN_SPEEDS", "PADE_POINTS", "Certificate",
+    "ConsensusLoop", "GainSynthesis", "certify_gains", "consensus_loop", "synthesise_gains",
 ]
 
 Array = NDArray[np.float64]
@@ -109,6 +128,9 @@ DEFAULT_SCALING = {"force": 1.0, "reference": 1.0, "link": 1.0}
 
 OUTPUTS = ("tracking", "disagreement")
 """Performance outputs: the errors e, or (I − 11ᵀ/n) e."""
+
+OWN_SPEEDS = ("delayed", "current")
+"""What the delay acts on: the whole law, or the neighbours' speeds only (module docstring)."""
 
 _KN = 1e3
 
@@ -149,6 +171,15 @@ class ConsensusLoop:
         (N, n): the acceleration input (per-unit-mass law → state derivative).
     pinning, laplacian : ndarray
         (n, n): B and L of the graph.
+    Kp_delayed, Kc_delayed : ndarray
+        (n, N) [1/s per unit gain]: the specific-force law, per unit κ_p
+        and κ_c, that acts on delayed data (``own_speed``); E K is the part
+        of A_p, A_c that the delay moves.
+    own_speed : str
+        ``"delayed"`` or ``"current"`` (:data:`OWN_SPEEDS`).
+    local_feedback : ndarray or None
+        F_loc [N per unit of the state], (n, N), closed into A₀ (None:
+        none).
     """
 
     A0: Array
@@ -167,6 +198,10 @@ class ConsensusLoop:
     E: Array
     pinning: Array
     laplacian: Array
+    Kp_delayed: Array
+    Kc_delayed: Array
+    own_speed: str = "delayed"
+    local_feedback: Array | None = None
 
     @property
     def n_states(self) -> int:
@@ -196,24 +231,34 @@ class ConsensusLoop:
         return ct.ss(A, Bw, C, D, inputs=list(self.channels), outputs=list(self.outputs),
                      name="consensus_loop")
 
+    def delayed_terms(self) -> tuple[Array, Array]:
+        """(A_p, A_c) parts on delayed data, E K_p and E K_c, per unit gain [1/s per 1/s]."""
+        return self.E @ self.Kp_delayed, self.E @ self.Kc_delayed
+
     def delay_matrices(self, kp: float, kc: float) -> tuple[Array, Array]:
-        """(A, A_d) of the loop with the whole law delayed: ẋ = A₀x + (κ_pA_p + κ_cA_c)x(t − τ)."""
-        return self.A0.copy(), kp * self.Ap + kc * self.Ac
+        """(A, A_d) of the loop with the delay: ẋ = A x + A_d x(t − τ), A + A_d the delay-free loop.
+
+        ``own_speed = "delayed"``: A = A₀, A_d = κ_pA_p + κ_cA_c (the whole
+        law delayed); ``"current"``: only the neighbours' speeds delayed.
+        """
+        Apd, Acd = self.delayed_terms()
+        Ad = kp * Apd + kc * Acd
+        return self.A0 + kp * self.Ap + kc * self.Ac - Ad, Ad
 
     def delayed_system(self, kp: float, kc: float, tau: float, order: int = 8) -> ct.StateSpace:
-        """T_w̃s̃ with the law delayed by τ [s], the delay by an order-q Padé approximant.
+        """T_w̃s̃ with the delayed part of the law delayed by τ [s] (order-q Padé approximants).
 
-        The law's n acceleration signals −(κ_pB + κ_cL)v pass through
-        :func:`~trainctl.analysis.delay.pade_loop` (N + n·q states); the
-        disturbances enter the plant undelayed. A common delay on the noise
-        channels multiplies their columns by e^{−jωτ}, a unitary factor, so
-        it would not change any norm reported here.
+        The law's n delayed acceleration signals (K_p κ_p + K_c κ_c) x pass
+        through :func:`~trainctl.analysis.delay.pade_loop` (N + n·q states);
+        the disturbances enter the plant undelayed. A common delay on the
+        noise channels multiplies their columns by e^{−jωτ}, a unitary
+        factor, so it would not change any norm reported here.
         """
         from .delay import pade_loop
 
-        n = self.E.shape[1]
-        K = -(kp * self.pinning + kc * self.laplacian) @ np.eye(n, self.n_states)
-        loop = pade_loop(self.A0, self.E, K, tau, order)
+        A, _ = self.delay_matrices(kp, kc)
+        K = kp * self.Kp_delayed + kc * self.Kc_delayed
+        loop = pade_loop(A, self.E, K, tau, order)
         total = int(loop.nstates)
         _, Bw, C, _ = self.matrices(kp, kc)
         Bx = np.zeros((total, Bw.shape[1]))
@@ -250,7 +295,8 @@ def _scaling_vector(scaling: Mapping[str, float] | ArrayLike | None,
 
 def consensus_loop(model: DesignModel, graph: CommunicationGraph, *, output: str = "tracking",
                    scaling: Mapping[str, float] | ArrayLike | None = None,
-                   output_scale: float = 1.0) -> ConsensusLoop:
+                   output_scale: float = 1.0, local_feedback: ArrayLike | None = None,
+                   own_speed: str = "delayed") -> ConsensusLoop:
     """The affine closed loop of the consensus law on a scenario's design model.
 
     Parameters
@@ -269,6 +315,12 @@ def consensus_loop(model: DesignModel, graph: CommunicationGraph, *, output: str
         one value per channel; None: :data:`DEFAULT_SCALING`.
     output_scale : float
         s_0 [m/s], > 0.
+    local_feedback : array_like or None
+        F_loc [N per unit of the state], (n, N): a gain-free feedback on
+        current data closed into A₀ = A + B F_loc (the hinf family's
+        resistance feedforward slope); None: A₀ = A.
+    own_speed : {"delayed", "current"}
+        Which part of the law a delay acts on (module docstring).
 
     Returns
     -------
@@ -290,6 +342,9 @@ def consensus_loop(model: DesignModel, graph: CommunicationGraph, *, output: str
             and output_scale > 0):
         raise ModelError(f"consensus_loop: 'output_scale' must be a finite number > 0 m/s (got "
                          f"{output_scale!r}).")
+    if own_speed not in OWN_SPEEDS:
+        raise ModelError(f"consensus_loop: 'own_speed' must be one of {OWN_SPEEDS} (got "
+                         f"{own_speed!r}).")
     sys = model.design
     A0 = np.asarray(sys.A, dtype=float)
     B = np.asarray(sys.B, dtype=float)
@@ -298,6 +353,14 @@ def consensus_loop(model: DesignModel, graph: CommunicationGraph, *, output: str
     if graph.n != n:
         raise DimensionError(f"consensus_loop: the graph must have one node per vehicle "
                              f"(n = {n}; got a graph on {graph.n}).")
+    F_loc: Array | None = None
+    if local_feedback is not None:
+        F_loc = np.asarray(local_feedback, dtype=float)
+        if F_loc.shape != (n, N) or not np.all(np.isfinite(F_loc)):
+            raise DimensionError(f"consensus_loop: 'local_feedback' must be a finite ({n}, {N}) "
+                                 f"matrix in N per unit of the state (got shape "
+                                 f"{F_loc.shape}).")
+        A0 = A0 + B @ F_loc / _KN                   # the design B takes kN
     mass = np.asarray(model.train.mass, dtype=float)
     E = B @ np.diag(mass) / _KN                     # acceleration [m/s²] → state derivative
     Sv = np.eye(n, N)                               # speeds are the first n states
@@ -306,6 +369,10 @@ def consensus_loop(model: DesignModel, graph: CommunicationGraph, *, output: str
     adj = np.asarray(graph.adjacency, dtype=float)
     Ap = -E @ Pin @ Sv
     Ac = -E @ Lap @ Sv
+    if own_speed == "delayed":
+        Kp_d, Kc_d = -Pin @ Sv, -Lap @ Sv
+    else:
+        Kp_d, Kc_d = np.zeros((n, N)), adj @ Sv
 
     channels: list[str] = []
     groups: list[str] = []
@@ -337,7 +404,8 @@ def consensus_loop(model: DesignModel, graph: CommunicationGraph, *, output: str
     return ConsensusLoop(A0=A0, Ap=Ap, Ac=Ac, Bf=Bf, Bp=Bp, Bc=Bc, C=C / float(output_scale),
                          channels=tuple(channels), groups=tuple(groups), scaling=scale,
                          outputs=outputs, output=output, output_scale=float(output_scale),
-                         E=E, pinning=Pin, laplacian=Lap)
+                         E=E, pinning=Pin, laplacian=Lap, Kp_delayed=Kp_d, Kc_delayed=Kc_d,
+                         own_speed=own_speed, local_feedback=F_loc)
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -353,9 +421,13 @@ class GainSynthesis:
         (delay-free) or Lyapunov–Krasovskii (``tau_max``):
         ``certificate.gamma`` is the certified γ [-].
     channel_certificates : dict of str to BoundedRealResult or DelayHinf
-        Per channel (input j → all outputs), its own SDP.
+        Per channel (input j → all outputs), its own SDP; where that SDP
+        certifies nothing or more than the all-channel certificate, the
+        latter (valid for every subset of the channels: its LMI restricted
+        to them is a principal submatrix), said in its message and in
+        ``notes``.
     group_certificates : dict of str to BoundedRealResult or DelayHinf
-        Per group of :data:`CHANNEL_GROUPS` present.
+        Per group of :data:`CHANNEL_GROUPS` present, the same way.
     norm : HinfNorm
         ‖T_w̃s̃‖∞ at the gains by python-control and the level set
         (independent of the LMI).
@@ -369,8 +441,10 @@ class GainSynthesis:
     evaluations : int
         SDP solves of the search.
     trouble : tuple of str
-        Every search point whose solve was not ``optimal`` (status and
-        gains).
+        Every search point whose solve was not ``optimal``, and every
+        certificate at the gains found (all channels, per channel, per
+        group) that was not ``optimal`` or needed the fallback solver
+        (status, gains and the solver's message).
     scaling, units : tuple
         Each channel's unit c_j and its text (e.g. ``"1 m/s²"``).
     output, output_scale : str, float
@@ -483,11 +557,36 @@ def _problem(loop: ConsensusLoop, columns: Array | None, solver: str | None,
             loop.A0, loop.Bf[:, cols], loop.C, None, A_terms={"kp": loop.Ap, "kc": loop.Ac},
             B_terms={"kp": loop.Bp[:, cols], "kc": loop.Bc[:, cols]}, reference=ref,
             solver=solver)
+    Apd, Acd = loop.delayed_terms()
     return DelayHinfProblem(
         loop.A0, np.zeros_like(loop.A0), loop.Bf[:, cols], loop.C, None, tau_max,
-        A_d_terms={"kp": loop.Ap, "kc": loop.Ac},
+        A_terms={"kp": loop.Ap - Apd, "kc": loop.Ac - Acd}, A_d_terms={"kp": Apd, "kc": Acd},
         B_terms={"kp": loop.Bp[:, cols], "kc": loop.Bc[:, cols]}, reference=ref, delay=delay,
         solver=solver)
+
+
+def _not_hurwitz(loop: ConsensusLoop, kp: float, kc: float, tau_max: float | None,
+                 delay: str) -> Certificate | None:
+    """A γ = inf answer without a solve when the delay-free loop is not Hurwitz (else None).
+
+    No SDP can certify such a loop (delay-free, or with delays from 0 up),
+    and the solvers take long to say so (the bounded-real problem then also
+    tries its SCS fallback).
+    """
+    A = loop.matrices(kp, kc)[0]
+    alpha = float(np.max(np.linalg.eigvals(A).real))
+    if alpha < -1e-9 * max(1.0, float(np.abs(A).max())):
+        return None
+    text = (f"not solved: the delay-free loop is not Hurwitz at kp={kp:.6g} kc={kc:.6g} "
+            f"(max Re λ = {alpha:.3g} 1/s)")
+    theta = {"kp": float(kp), "kc": float(kc)}
+    if tau_max is None:
+        return BoundedRealResult(gamma=math.inf, gamma_solver=math.nan, P=None,
+                                 status="not_hurwitz", solver="none", solve_time=0.0,
+                                 parameters=theta, message=text)
+    return DelayHinf(gamma=math.inf, gamma_solver=math.nan, tau_max=float(tau_max), delay=delay,
+                     status="not_hurwitz", solver="none", solve_time=0.0, parameters=theta,
+                     message=text)
 
 
 def synthesise_gains(loop: ConsensusLoop, *, kp_bounds: Sequence[float] = (0.01, 1.0),
@@ -523,9 +622,10 @@ def synthesise_gains(loop: ConsensusLoop, *, kp_bounds: Sequence[float] = (0.01,
         Solves of the refinement.
     tau_max : float or None
         None: the delay-free loop (bounded-real lemma). A number h [s]: the
-        whole law delayed (ẋ = A₀x + (κ_pA_p + κ_cA_c)x(t − τ) + B_w w), and
-        γ certified for every delay in [0, h] by the Lyapunov–Krasovskii
-        LMI (:class:`~trainctl.analysis.delay_lmi.DelayHinfProblem`, h fixed,
+        law delayed as the loop's ``own_speed`` says (the whole law:
+        ẋ = A₀x + (κ_pA_p + κ_cA_c)x(t − τ) + B_w w), and γ certified for
+        every delay in [0, h] by the Lyapunov–Krasovskii LMI
+        (:class:`~trainctl.analysis.delay_lmi.DelayHinfProblem`, h fixed,
         κ_p and κ_c parameters); the independent checks then add the
         Padé-loop norms (order 8) at delays in (0, h].
     delay : {"constant", "varying"}
@@ -568,9 +668,10 @@ def synthesise_gains(loop: ConsensusLoop, *, kp_bounds: Sequence[float] = (0.01,
     def evaluate(kp: float, kc: float) -> Certificate:
         key = (round(kp, 12), round(kc, 12))
         if key not in cache:
-            res = problem.solve(kp=kp, kc=kc)
+            skipped = _not_hurwitz(loop, kp, kc, h, delay)
+            res = skipped if skipped is not None else problem.solve(kp=kp, kc=kc)
             cache[key] = res
-            if res.status != "optimal" or "after" in res.message:
+            if skipped is None and (res.status != "optimal" or "after" in res.message):
                 trouble.append(f"kp={kp:.6g} kc={kc:.6g}: {res.status}: {res.message}")
         return cache[key]
 
@@ -617,17 +718,66 @@ def synthesise_gains(loop: ConsensusLoop, *, kp_bounds: Sequence[float] = (0.01,
         if not res.success:
             notes.append(f"Nelder–Mead stopped: {res.message}")
     search_time = time.perf_counter() - start
+    skipped = sum(r.status == "not_hurwitz" for r in cache.values())
+    if skipped:
+        notes.append(f"{skipped} search point(s) not solved: the delay-free loop is not Hurwitz "
+                     "there")
     kp, kc = best
-    certificate = evaluate(kp, kc)
+    if (kp_lo < kp_hi and kp in (kp_lo, kp_hi)) or (kc_lo < kc_hi and kc in (kc_lo, kc_hi)):
+        notes.append("a gain sits on its bound: wider bounds may lower γ")
+    return _at_gains(loop, best, evaluate(kp, kc), solver=solver, tau_max=h, delay=delay,
+                     kp_grid=kp_grid, kc_grid=kc_grid, gamma_grid=gamma_grid,
+                     evaluations=len(cache), trouble=trouble,
+                     bounds=((kp_lo, kp_hi), (kc_lo, kc_hi)), search_time=search_time,
+                     notes=notes)
+
+
+def _at_gains(loop: ConsensusLoop, gains: tuple[float, float], certificate: Certificate, *,
+              solver: str | None, tau_max: float | None, delay: str, kp_grid: Array,
+              kc_grid: Array, gamma_grid: Array, evaluations: int, trouble: list[str],
+              bounds: tuple[tuple[float, float], tuple[float, float]], search_time: float,
+              notes: list[str]) -> GainSynthesis:
+    """Per-channel and per-group certificates and the independent norms at the gains found."""
+    kp, kc = gains
+    h = tau_max
+    skipped = _not_hurwitz(loop, kp, kc, h, delay)
+
+    def solve(columns: Array) -> Certificate:
+        if skipped is not None:
+            return skipped
+        return _problem(loop, columns, solver, gains, h, delay).solve(kp=kp, kc=kc)
+
     channel_certs: dict[str, Certificate] = {}
     for jj, name in enumerate(loop.channels):
-        channel_certs[name] = _problem(loop, np.array([jj]), solver, best, h,
-                                       delay).solve(kp=kp, kc=kc)
+        channel_certs[name] = solve(np.array([jj]))
     group_certs: dict[str, Certificate] = {}
     for group in CHANNEL_GROUPS:
         cols = loop.columns(group)
         if cols.size:
-            group_certs[group] = _problem(loop, cols, solver, best, h, delay).solve(kp=kp, kc=kc)
+            group_certs[group] = solve(cols)
+    if skipped is not None:
+        notes.append(skipped.message)
+    for label, cert in [("all channels", certificate), *channel_certs.items(),
+                        *((f"group {g}", c) for g, c in group_certs.items())]:
+        if cert.status == "not_hurwitz":
+            continue
+        if cert.status != "optimal" or "after" in cert.message:
+            trouble.append(f"{label} at kp={kp:.6g} kc={kc:.6g}: {cert.status}: "
+                           f"{cert.message}")
+
+    def bounded(label: str, cert: Certificate) -> Certificate:
+        # the all-channel LMI restricted to some channels is a principal submatrix of it,
+        # so its solution certifies every subset with the same γ
+        if not certificate.certified or cert.gamma <= certificate.gamma:
+            return cert
+        notes.append(f"{label}: its own SDP gave {cert.gamma:.6g} ({cert.status}); bounded by "
+                     f"the all-channel certificate {certificate.gamma:.6g}")
+        return dataclasses.replace(
+            certificate, message=f"bounded by the all-channel certificate (γ "
+            f"{certificate.gamma:.6g}); its own SDP: {cert.status}: {cert.message}")
+
+    channel_certs = {k: bounded(f"channel {k}", c) for k, c in channel_certs.items()}
+    group_certs = {k: bounded(f"group {k}", c) for k, c in group_certs.items()}
     sys = loop.system(kp, kc)
     norm = hinf_norm(sys)
     chans = channel_norms(sys)
@@ -635,13 +785,73 @@ def synthesise_gains(loop: ConsensusLoop, *, kp_bounds: Sequence[float] = (0.01,
     if h is not None and h > 0:
         for tau in np.linspace(0.0, h, PADE_POINTS + 1)[1:]:
             pade.append((float(tau), hinf_norm(loop.delayed_system(kp, kc, float(tau)))))
-    if kp in (kp_lo, kp_hi) or kc in (kc_lo, kc_hi):
-        notes.append("a gain sits on its bound: wider bounds may lower γ")
     return GainSynthesis(kp=kp, kc=kc, certificate=certificate,
                          channel_certificates=channel_certs, group_certificates=group_certs,
                          norm=norm, channels=chans, kp_grid=kp_grid, kc_grid=kc_grid,
-                         gamma_grid=gamma_grid, evaluations=len(cache), trouble=tuple(trouble),
+                         gamma_grid=gamma_grid, evaluations=evaluations,
+                         trouble=tuple(dict.fromkeys(trouble)),
                          scaling=tuple(float(x) for x in loop.scaling), units=loop.units(),
                          output=loop.output, output_scale=loop.output_scale,
-                         bounds=((kp_lo, kp_hi), (kc_lo, kc_hi)), search_time=search_time,
-                         tau_max=h, delay=delay, pade_norms=tuple(pade), notes=tuple(notes))
+                         bounds=bounds, search_time=search_time, tau_max=h, delay=delay,
+                         pade_norms=tuple(pade), notes=tuple(notes))
+
+
+def certify_gains(loop: ConsensusLoop, kp: float, kc: float, *, tau_max: float | None = None,
+                  delay: str = "constant", solver: str | None = None) -> GainSynthesis:
+    """The certified γ of given gains, with the same checks as :func:`synthesise_gains`.
+
+    No search: one SDP for all channels, one per channel and one per group
+    at (κ_p, κ_c), and the independent norms (delay-free, and the Padé
+    loops with ``tau_max``). A loop that no SDP certifies (unstable, or the
+    solver failed) has γ = inf, its status in ``trouble``; nothing raises.
+
+    Parameters
+    ----------
+    loop : ConsensusLoop
+        From :func:`consensus_loop`.
+    kp, kc : float
+        κ_p, κ_c [1/s], finite, >= 0.
+    tau_max : float or None
+        As in :func:`synthesise_gains`.
+    delay : {"constant", "varying"}
+        As in :func:`synthesise_gains`.
+    solver : str or None
+        cvxpy solver.
+
+    Returns
+    -------
+    GainSynthesis
+        With a one-point grid (``bounds`` the gains themselves, ``evaluations`` 1).
+
+    Examples
+    --------
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> sc = load_scenario("heavy-haul-hinf")
+    >>> res = certify_gains(consensus_loop(build_model(sc), sc.graph()), 0.1, 0.0)
+    >>> res.norm.norm <= res.gamma <= res.norm.norm * (1 + 1e-4), res.consistent
+    (True, True)
+    """
+    for name, value in (("kp", kp), ("kc", kc)):
+        if not (isinstance(value, int | float | np.floating) and not isinstance(value, bool)
+                and math.isfinite(value) and value >= 0):
+            raise ModelError(f"certify_gains: '{name}' must be a finite number >= 0 1/s (got "
+                             f"{value!r}).")
+    if tau_max is not None and not (isinstance(tau_max, int | float | np.floating)
+                                    and math.isfinite(tau_max) and tau_max >= 0):
+        raise ModelError(f"certify_gains: 'tau_max' must be None or a finite number >= 0 s "
+                         f"(got {tau_max!r}).")
+    if delay not in DELAY_KINDS:
+        raise ModelError(f"certify_gains: 'delay' must be one of {DELAY_KINDS} (got {delay!r}).")
+    h = None if tau_max is None else float(tau_max)
+    gains = (float(kp), float(kc))
+    start = time.perf_counter()
+    certificate = (_not_hurwitz(loop, gains[0], gains[1], h, delay)
+                   or _problem(loop, None, solver, gains, h, delay).solve(kp=gains[0],
+                                                                          kc=gains[1]))
+    elapsed = time.perf_counter() - start
+    return _at_gains(loop, gains, certificate, solver=solver, tau_max=h, delay=delay,
+                     kp_grid=np.array([gains[0]]), kc_grid=np.array([gains[1]]),
+                     gamma_grid=np.array([[certificate.gamma]]), evaluations=1, trouble=[],
+                     bounds=((gains[0], gains[0]), (gains[1], gains[1])), search_time=elapsed,
+                     notes=[])

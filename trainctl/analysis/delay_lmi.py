@@ -526,12 +526,13 @@ class DelayHinf:
 class DelayHinfProblem:
     """The delay-dependent H∞ SDP with affine parameters, built once, re-solved.
 
-    ẋ = A x + A_d(θ) x(t − τ) + B_w(θ) w, s = Cx + Dw with
-    A_d(θ) = A_d0 + Σ_k θ_k A_dk and B_w(θ) = B_w0 + Σ_k θ_k B_k, delays in
-    [0, h] (h fixed: it multiplies R and the θ_k would multiply it too,
-    which DPP forbids). The LMI of the module docstring in P, Q, R, t = γ²:
-    every θ_k multiplies a variable (P A_dk, h A_dkᵀR, P B_k, h B_kᵀR), which
-    is DPP. Strictness: P, R ⪰ εI, Q ⪰ εI (``"constant"``; Q = 0 for
+    ẋ = A(θ) x + A_d(θ) x(t − τ) + B_w(θ) w, s = Cx + Dw with
+    A(θ) = A_0 + Σ_k θ_k A_k, A_d(θ) = A_d0 + Σ_k θ_k A_dk and
+    B_w(θ) = B_w0 + Σ_k θ_k B_k, delays in [0, h] (h fixed: it multiplies R
+    and the θ_k would multiply it too, which DPP forbids). The LMI of the
+    module docstring in P, Q, R, t = γ²: every θ_k multiplies a variable
+    (P A_k, h A_kᵀR, P A_dk, h A_dkᵀR, P B_k, h B_kᵀR), which is DPP.
+    Strictness: P, R ⪰ εI, Q ⪰ εI (``"constant"``; Q = 0 for
     ``"varying"``), block ⪯ −εI, ε = :data:`LK_MARGIN`, on data balanced with
     one diagonal similarity (A + A_d(θ_ref)). γ is recomputed from the
     solution in floating point.
@@ -539,13 +540,16 @@ class DelayHinfProblem:
     Parameters
     ----------
     A, A_d : array_like
-        (n, n) [1/s]; A_d is A_d0.
+        (n, n) [1/s]; A is A_0, A_d is A_d0.
     B_w, C, D : array_like
         (n, m), (p, n), (p, m) (D None: 0); B_w is B_w0.
     tau_max : float
         h [s], >= 0.
     A_d_terms, B_terms : mapping of str to array_like
         Per parameter name, A_dk (n, n) and B_k (n, m).
+    A_terms : mapping of str to array_like
+        Per parameter name, A_k (n, n): the parameter's undelayed part
+        (a feedback on current data beside the delayed one).
     reference : mapping of str to float
         Parameter values for the balancing (default 1 each).
     delay : {"constant", "varying"}
@@ -566,6 +570,7 @@ class DelayHinfProblem:
                  D: ArrayLike | None, tau_max: float, *,
                  A_d_terms: Mapping[str, ArrayLike] | None = None,
                  B_terms: Mapping[str, ArrayLike] | None = None,
+                 A_terms: Mapping[str, ArrayLike] | None = None,
                  reference: Mapping[str, float] | None = None, delay: str = "constant",
                  solver: str | None = None) -> None:
         import cvxpy as cp
@@ -588,8 +593,15 @@ class DelayHinfProblem:
         if not (np.all(np.isfinite(Bm)) and np.all(np.isfinite(Cm))
                 and np.all(np.isfinite(Dm))):
             raise ModelError(f"{who}: 'B_w', 'C' and 'D' must be finite (got NaN or inf).")
+        At: dict[str, Array] = {}
         Adt: dict[str, Array] = {}
         Bt: dict[str, Array] = {}
+        for name, M in (A_terms or {}).items():
+            Mk = np.atleast_2d(np.asarray(M, dtype=float))
+            if Mk.shape != (n, n) or not np.all(np.isfinite(Mk)):
+                raise DimensionError(f"{who}: A_terms[{name!r}] must be a finite ({n}, {n}) "
+                                     f"matrix (got shape {Mk.shape}).")
+            At[name] = Mk
         for name, M in (A_d_terms or {}).items():
             Mk = np.atleast_2d(np.asarray(M, dtype=float))
             if Mk.shape != (n, n) or not np.all(np.isfinite(Mk)):
@@ -602,11 +614,12 @@ class DelayHinfProblem:
                 raise DimensionError(f"{who}: B_terms[{name!r}] must be a finite ({n}, {m}) "
                                      f"matrix (got shape {Mk.shape}).")
             Bt[name] = Mk
-        self.names: tuple[str, ...] = tuple(dict.fromkeys([*Adt, *Bt]))
+        self.names: tuple[str, ...] = tuple(dict.fromkeys([*At, *Adt, *Bt]))
         ref = {k: 1.0 for k in self.names}
         ref.update(reference or {})
+        A_ref = Am + sum((ref[k] * M for k, M in At.items()), np.zeros((n, n)))
         Ad_ref = Adm + sum((ref[k] * M for k, M in Adt.items()), np.zeros((n, n)))
-        d = _balance(Am, Ad_ref)
+        d = _balance(A_ref, Ad_ref)
 
         def sim(M: Array) -> Array:
             return M / d[:, None] * d[None, :]
@@ -614,6 +627,7 @@ class DelayHinfProblem:
         self.solver = _solver_name(solver)
         self.shape = (n, m, p)
         self._A, self._Ad0, self._B0 = sim(Am), sim(Adm), Bm / d[:, None]
+        self._At = {k: sim(M) for k, M in At.items()}
         self._Adt = {k: sim(M) for k, M in Adt.items()}
         self._Bt = {k: M / d[:, None] for k, M in Bt.items()}
         self._C, self._D = Cm * d[None, :], Dm
@@ -624,6 +638,11 @@ class DelayHinfProblem:
         t = cp.Variable(name="t")
         self._P, self._Q, self._R, self._t = P, Q, R, t
         A_ = self._A
+        PA = P @ A_
+        hAR = h * (A_.T @ R)
+        for k, M in self._At.items():
+            PA = PA + self.parameters[k] * (P @ M)
+            hAR = hAR + self.parameters[k] * (h * (M.T @ R))
         PAd = P @ self._Ad0
         hAdR = h * (self._Ad0.T @ R)
         for k, M in self._Adt.items():
@@ -636,13 +655,12 @@ class DelayHinfProblem:
             hBR = hBR + self.parameters[k] * (h * (M.T @ R))
         Qe = Q if Q is not None else np.zeros((n, n))
         Z = np.zeros
-        PA = P @ A_
         Cw, Dw = self._C, self._D
         blocks = cp.bmat([
-            [PA + PA.T + Qe - R, PAd + R, PB, h * (A_.T @ R), Cw.T],
+            [PA + PA.T + Qe - R, PAd + R, PB, hAR, Cw.T],
             [PAd.T + R, -Qe - R, Z((n, m)), hAdR, Z((n, p))],
             [PB.T, Z((m, n)), -t * np.eye(m), hBR, Dw.T],
-            [h * (R @ A_), hAdR.T, hBR.T, -R, Z((n, p))],
+            [hAR.T, hAdR.T, hBR.T, -R, Z((n, p))],
             [Cw, Z((p, n)), Dw, Z((p, n)), -np.eye(p)]])
         size = 3 * n + m + p
         eps = LK_MARGIN * np.eye(n)
@@ -693,7 +711,7 @@ class DelayHinfProblem:
         Pv = 0.5 * (Ps + Ps.T)
         Rv = 0.5 * (Rs + Rs.T)
         Qv = np.zeros((n, n)) if Qs is None else 0.5 * (Qs + Qs.T)
-        A_ = self._A
+        A_ = self._A + sum((theta[k] * M for k, M in self._At.items()), np.zeros((n, n)))
         Ad = self._Ad0 + sum((theta[k] * M for k, M in self._Adt.items()), np.zeros((n, n)))
         Bw = self._B0 + sum((theta[k] * M for k, M in self._Bt.items()), np.zeros((n, m)))
         Cw, Dw = self._C, self._D

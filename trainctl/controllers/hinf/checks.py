@@ -43,6 +43,26 @@
     or when the graph itself leaves a vehicle unreached. Vehicles are
     numbered from 1 in the message. Without ``[simulation]`` the run is
     taken to last beyond the last window.
+``hinf_gamma``
+    The certified H∞ gain γ of the gains in use (synthesised or given) from
+    the scaled disturbances (force per unit mass, reference and link noise;
+    ``force_scale_m_s2``, ``noise_scale_m_s``) to the scaled performance
+    output (``output_scale_m_s``), against 1, the paper's requirement
+    (spec §4.2): the bounded-real lemma delay-free, or the
+    Lyapunov–Krasovskii LMI for every constant delay in [0, τ_max] with
+    ``delay_certificate_s`` (:mod:`trainctl.analysis.consensus_hinf`). Pass
+    when γ <= 1, fail when γ > 1, naming the channel groups whose own γ
+    exceeds 1 and saying that the verdict depends on the scaling (with the
+    tracking output a common reference noise reaches the speed errors with
+    gain 1 at DC whatever the gains, so equal noise and output scales leave
+    γ >= 1); fail also when nothing is certified because the loop is
+    unstable (the independent norm is infinite, delay-free or at a Padé
+    delay in the range); warn when the SDP certified nothing although the
+    independent norms are finite (solver trouble or the LMI's conservatism,
+    recorded), when a requested synthesis certified nothing, or when an
+    independent norm exceeds the certified γ. The independent closed-loop
+    norm (:func:`~trainctl.analysis.hinf.hinf_norm`, and the Padé loops
+    with a delay range) stands beside γ in the message and the details.
 """
 
 from __future__ import annotations
@@ -57,8 +77,11 @@ from ..sampled import sampling_check as shared_sampling_check
 if TYPE_CHECKING:
     from .family import HinfDesign
 
-__all__ = ["closed_loop_check", "connectivity_check", "delay_check", "hinf_checks",
-           "sampling_check"]
+__all__ = ["closed_loop_check", "connectivity_check", "delay_check", "gamma_check",
+           "hinf_checks", "sampling_check"]
+
+GROUP_NAMES = {"force": "force", "reference": "reference-noise", "link": "link-noise"}
+"""Channel groups in words."""
 
 
 def _vehicles(indices: tuple[int, ...] | list[int]) -> str:
@@ -76,7 +99,7 @@ def _vehicles(indices: tuple[int, ...] | list[int]) -> str:
 
 
 def hinf_checks(design: HinfDesign) -> list[Check]:
-    """The four checks (module docstring).
+    """The five checks (module docstring).
 
     Parameters
     ----------
@@ -89,7 +112,7 @@ def hinf_checks(design: HinfDesign) -> list[Check]:
         In :data:`~trainctl.controllers.hinf.family.CHECK_NAMES` order.
     """
     return [closed_loop_check(design), sampling_check(design), delay_check(design),
-            connectivity_check(design)]
+            connectivity_check(design), gamma_check(design)]
 
 
 def closed_loop_check(design: HinfDesign) -> Check:
@@ -228,3 +251,97 @@ def connectivity_check(design: HinfDesign) -> Check:
     return Check(name=name, status="pass", value=0.0, threshold=0.0, unit="vehicles",
                  message=f"jointly connected after every outage: {text}; tracking is restored "
                  "after each window" + length, details=details)
+
+
+def _g(x: float) -> str:
+    return f"{x:.4g}" if math.isfinite(x) else "∞"
+
+
+def _near(x: float) -> str:
+    """γ of a group, ``"≈ 1, on the DC floor"`` just above 1."""
+    return "≈ 1, on the DC floor" if 1.0 < x < 1.001 else _g(x)
+
+
+def gamma_check(design: HinfDesign) -> Check:
+    """The certified γ of the gains in use against 1, per group, with the independent norms."""
+    name = "hinf_gamma"
+    res = design.gamma
+    s = design.settings
+    gamma = res.gamma
+    groups = {g: c.gamma for g, c in res.group_certificates.items()}
+    scaling = {"force_m_s2": float(s.force_scale), "noise_m_s": float(s.noise_scale),
+               "output_m_s": float(s.output_scale)}
+    pade = [(tau, r.norm) for tau, r in res.pade_norms]
+    details: dict[str, object] = {
+        "gamma": gamma if math.isfinite(gamma) else None,
+        "groups": {g: (v if math.isfinite(v) else None) for g, v in groups.items()},
+        "norm": res.norm.norm if math.isfinite(res.norm.norm) else None,
+        "pade_norms": [[tau, v if math.isfinite(v) else None] for tau, v in pade],
+        "scaling": scaling, "performance": s.performance, "kappa_p": design.law.kappa_p,
+        "kappa_c": design.law.kappa_c, "gains": design.gains_source,
+        "delay_certificate": res.tau_max, "own_speed": design.law.own_speed,
+        "trouble": list(res.trouble), "synthesis_error": design.synthesis_error,
+        "synthesis": res.to_dict(), "consistent": res.consistent}
+    where = ("delay-free" if res.tau_max is None
+             else f"for every constant delay in [0, {res.tau_max:g}] s")
+    scale_text = (f"scaling: force {s.force_scale:g} m/s², noise {s.noise_scale:g} m/s, output "
+                  f"{s.output_scale:g} m/s ({s.performance})")
+    gains = (f"κ_p = {design.law.kappa_p:.4g}, κ_c = {design.law.kappa_c:.4g} 1/s "
+             f"({design.gains_source})")
+    per_group = ", ".join(f"{GROUP_NAMES[g]} {_g(v)}" for g, v in groups.items())
+    independent = f"independent closed-loop ‖T‖∞ {_g(res.norm.norm)} without delay"
+    if pade:
+        independent += (", Padé loops " + ", ".join(f"{_g(v)} at {tau:.3g} s"
+                                                    for tau, v in pade))
+    trouble = ("" if not res.trouble else
+               f"; a solver status other than optimal at {len(res.trouble)} solve(s) (unstable "
+               "or uncertifiable points of a search, inaccurate solves), each recorded in the "
+               "details' trouble")
+    failed = ("" if not design.synthesis_error else
+              f"; the requested synthesis certified nothing ({design.synthesis_error}), so the "
+              "given gains are used")
+    hint_scale = ("set force_scale_m_s2, noise_scale_m_s and output_scale_m_s to the "
+                  "disturbance and error sizes that matter")
+    if not math.isfinite(gamma):
+        unstable = not math.isfinite(res.norm.norm) or any(not math.isfinite(v)
+                                                           for _, v in pade)
+        statuses = sorted({res.certificate.status})
+        if unstable:
+            at = ("without delay" if not math.isfinite(res.norm.norm) else
+                  "at " + ", ".join(f"{tau:.3g} s" for tau, v in pade if not math.isfinite(v)))
+            return Check(name=name, status="fail", value=math.inf, threshold=1.0, unit="-",
+                         message=f"no γ certified {where} at {gains}: the loop is unstable "
+                         f"{at} (‖T‖∞ = ∞); {scale_text}{failed}{trouble}",
+                         hint="lower kappa_p_per_s and kappa_c_per_s (or their bounds), or "
+                         "shorten delay_certificate_s", details=details)
+        return Check(name=name, status="warn", value=math.inf, threshold=1.0, unit="-",
+                     message=f"the SDP certified no γ {where} at {gains} (solver status "
+                     f"{', '.join(statuses)}: solver trouble or the LMI's conservatism) although "
+                     f"the {independent} are finite; {scale_text}{failed}{trouble}",
+                     hint="see the details' trouble; a shorter delay_certificate_s may be "
+                     "certified", details=details)
+    consistent = "" if res.consistent else (
+        "; an independent norm EXCEEDS the certified γ (a certificate that does not hold)")
+    status_extra = "warn" if (design.synthesis_error or not res.consistent) else None
+    text = (f"certified γ = {gamma:.4g} {where} at {gains} (per group: {per_group}); "
+            f"{independent}; {scale_text}")
+    if gamma <= 1.0:
+        return Check(name=name, status=status_extra or "pass", value=gamma, threshold=1.0,
+                     unit="-", message=f"{text} ≤ 1{failed}{consistent}{trouble}",
+                     hint="" if status_extra is None else "see the message", details=details)
+    over = [g for g, v in groups.items() if v > 1.0]
+    over_text = (" and ".join(f"the {GROUP_NAMES[g]} channels (γ {_near(groups[g])})"
+                              for g in over) if over else
+                 "no group alone, only the channels together")
+    floor = ""
+    if (s.performance == "tracking"
+            and groups.get("reference", 0.0) >= 0.99 * s.noise_scale / s.output_scale):
+        floor = (f"; at DC the tracking error follows a noise common to every received "
+                 f"reference with gain 1 whatever the gains, so the reference-noise channels "
+                 f"cannot get below ≈ {s.noise_scale / s.output_scale:.3g} (noise scale / "
+                 "output scale)")
+    return Check(name=name, status="fail", value=gamma, threshold=1.0, unit="-",
+                 message=f"{text} > 1: exceeded by {over_text}; the verdict depends on the "
+                 f"scaling, which the paper does not give{floor}{failed}{consistent}{trouble}",
+                 hint=hint_scale if not s.synthesise else
+                 f"{hint_scale}, or widen kappa_p_bounds_per_s", details=details)

@@ -9,10 +9,15 @@ neighbours' speeds as they arrive over the ``[network]`` radio links
 (delayed, lost, interrupted, noisy; :mod:`trainctl.network`), sampled at the
 family's ``control_interval``, about each vehicle's own resistance
 feedforward, clipped to the envelope. The gains κ_p and κ_c are the
-scenario's. Its linear closed loop on the design model (no delay, ideal
-network) is continuous (dt = 0): :meth:`HinfFamily.closed_loop` returns it
-with the inputs ``w[i]`` (specific-force disturbances [m/s²]) and the
-outputs ``v[i]`` [m/s], ``f[i]`` [kN] and ``d[i]`` [m].
+scenario's, or (``synthesise = true``) synthesised once at the design stage
+for the smallest certified H∞ gain γ on the family's own loop
+(:func:`trainctl.analysis.consensus_hinf.consensus_loop` with the
+feedforward's slope as its local feedback, the family's ``own_speed``,
+channel scaling and performance output). Its linear closed loop on the
+design model (no delay, ideal network) is continuous (dt = 0):
+:meth:`HinfFamily.closed_loop` returns it with the inputs ``w[i]``
+(specific-force disturbances [m/s²]) and the outputs ``v[i]`` [m/s],
+``f[i]`` [kN] and ``d[i]`` [m].
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ if TYPE_CHECKING:
     import control as ct
 
     from ...analysis.connectivity import WindowConnectivity
+    from ...analysis.consensus_hinf import ConsensusLoop, GainSynthesis
     from ...analysis.delay import DelayMargin
     from ...analysis.review import Check
     from ...design import DesignModel
@@ -46,7 +52,8 @@ __all__ = ["CHECK_NAMES", "DELAY_POINTS", "DELAY_SEARCH", "FAMILY", "GRAPH_USAGE
 STRATEGIES = ("distributed",)
 """The hinf family's one strategy."""
 
-CHECK_NAMES = ("hinf_closed_loop", "hinf_sampling", "hinf_delay_margin", "hinf_connectivity")
+CHECK_NAMES = ("hinf_closed_loop", "hinf_sampling", "hinf_delay_margin", "hinf_connectivity",
+               "hinf_gamma")
 """The hinf family's design checks (:mod:`trainctl.controllers.hinf.checks`)."""
 
 DELAY_SEARCH = 10.0
@@ -72,7 +79,9 @@ v̇_d − κ_p b_i (v_i − v̂_d) − κ_c Σ_j a_ij (v_i − v̂_j) per unit m
 its neighbours' speeds as received over the radio network (held during outages), about its
 own resistance at its speed; its own speed is taken {% if data.own_speed == "delayed" %}at the
 received data's send time{% else %}now{% endif %}. Sampled every {{ data.control_interval }}
-s{% if not data.input_bounds %} (no saturation){% endif %}.</p>
+s{% if not data.input_bounds %} (no saturation){% endif %}. The gains are
+{{ data.gains_source }}.</p>
+<p>{{ data.gamma_sentence }}</p>
 <table class="quantities">
   <thead><tr><th scope="col">Quantity</th><th scope="col">Value</th></tr></thead>
   <tbody>
@@ -106,6 +115,18 @@ class HinfDesign:
         The ``[communication]`` graph.
     loops : LoopMatrices
         Open loop, undelayed and delayed parts, delay-free closed loop.
+    consensus : ConsensusLoop
+        The same loop affine in (κ_p, κ_c) with the scaled disturbance
+        channels and performance output of the settings
+        (:func:`~trainctl.analysis.consensus_hinf.consensus_loop`, the
+        feedforward's slope as its local feedback).
+    synthesis : GainSynthesis or None
+        With ``synthesise = true``: the search's result, whose gains the law
+        uses; None otherwise, or when the search certified nothing
+        (``synthesis_error``).
+    synthesis_error : str
+        Why a requested synthesis gave no gains ("" otherwise); the law then
+        keeps ``kappa_p_per_s`` and ``kappa_c_per_s``.
     """
 
     scenario: Scenario
@@ -116,6 +137,32 @@ class HinfDesign:
     network: NetworkSettings | None
     graph: CommunicationGraph
     loops: LoopMatrices
+    consensus: ConsensusLoop
+    synthesis: GainSynthesis | None = None
+    synthesis_error: str = ""
+
+    @property
+    def gains_source(self) -> str:
+        """``"synthesised"``, ``"given"``, or ``"given (synthesis failed)"``."""
+        if self.synthesis is not None:
+            return "synthesised"
+        return "given (synthesis failed)" if self.synthesis_error else "given"
+
+    @cached_property
+    def gamma(self) -> GainSynthesis:
+        """The certified γ of the gains in use and the independent norms beside it.
+
+        The synthesis's result when the gains were synthesised; otherwise
+        :func:`~trainctl.analysis.consensus_hinf.certify_gains` at the law's
+        gains (delay-free, or for constant delays in [0, τ_max] with
+        ``delay_certificate_s``).
+        """
+        from ...analysis.consensus_hinf import certify_gains
+
+        if self.synthesis is not None:
+            return self.synthesis
+        return certify_gains(self.consensus, self.law.kappa_p, self.law.kappa_c,
+                             tau_max=self.settings.delay_certificate)
 
     @property
     def worst_delay(self) -> float | None:
@@ -201,6 +248,13 @@ def design_hinf(scenario: Scenario, model: DesignModel, settings: Any) -> HinfDe
     HinfDesign
         The design.
 
+    With ``synthesise = true`` the gains come from one run of
+    :func:`~trainctl.analysis.consensus_hinf.synthesise_gains` on the
+    family's consensus loop (the settings' bounds, grid, refinement,
+    scaling, performance output and ``delay_certificate_s``); when it
+    certifies nothing the law keeps the given gains and the reason is
+    recorded (``synthesis_error``, reported by ``hinf_gamma``).
+
     Raises
     ------
     ScenarioError
@@ -216,15 +270,85 @@ def design_hinf(scenario: Scenario, model: DesignModel, settings: Any) -> HinfDe
     >>> d = design_hinf(scenario, build_model(scenario), HinfSettings())
     >>> d.loops.A_cl.shape, d.control_interval, d.worst_delay, d.graph.topology
     ((7, 7), 0.1, None, 'bidirectional')
+    >>> d.gains_source, d.consensus.channels[:2]
+    ('given', ('f[0]', 'f[1]'))
     """
+    from ...analysis.consensus_hinf import consensus_loop, synthesise_gains
+    from ...exceptions import SolverError
     from ..sampled import control_interval
     from .law import closed_loop_matrices, law_of
 
     T = control_interval(scenario, model, settings, "hinf")
     law = law_of(scenario, settings)
+    graph = scenario.graph()
+    loop = consensus_loop(model, graph, output=settings.performance,
+                          scaling=settings.scaling(), output_scale=settings.output_scale,
+                          local_feedback=law.resistance_feedback(float(model.settings.speed)),
+                          own_speed=settings.own_speed)
+    synthesis: GainSynthesis | None = None
+    error = ""
+    if settings.synthesise:
+        grid = int(settings.synthesis_grid)
+        try:
+            synthesis = synthesise_gains(
+                loop, kp_bounds=settings.kappa_p_bounds, kc_bounds=settings.kappa_c_bounds,
+                grid=(grid, grid), refine=settings.synthesis_evaluations > 0,
+                max_evaluations=int(settings.synthesis_evaluations),
+                tau_max=settings.delay_certificate)
+        except SolverError as exc:
+            error = str(exc)
+        else:
+            law = law_of(scenario, settings, (synthesis.kp, synthesis.kc))
     return HinfDesign(scenario=scenario, model=model, settings=settings, law=law,
-                      control_interval=T, network=scenario.network, graph=scenario.graph(),
-                      loops=closed_loop_matrices(model, law))
+                      control_interval=T, network=scenario.network, graph=graph,
+                      loops=closed_loop_matrices(model, law), consensus=loop,
+                      synthesis=synthesis, synthesis_error=error)
+
+
+GAMMA_SENTENCE = (
+    "γ is the H∞ gain from the disturbances, each in units of its scale (force per unit mass "
+    "force_scale_m_s2, reference and link noise noise_scale_m_s), to the speed errors in units "
+    "of output_scale_m_s: whether γ = 1 (the paper's requirement) is met depends entirely on "
+    "that scaling, which the paper does not give. With the tracking output a noise common to "
+    "every received reference passes to the speed errors with gain 1 at DC whatever the gains, "
+    "so with equal noise and output scales γ cannot get below 1.")
+"""The report's sentence on what γ = 1 means."""
+
+
+def _gains_text(design: HinfDesign) -> str:
+    """Where the gains come from, for the report."""
+    if design.synthesis is not None:
+        (a, b), (c, d) = design.synthesis.bounds
+        return (f"synthesised for the smallest certified γ, κ_p in [{a:g}, {b:g}], κ_c in "
+                f"[{c:g}, {d:g}] 1/s ({design.synthesis.evaluations} SDPs)")
+    if design.synthesis_error:
+        return "kappa_p_per_s, kappa_c_per_s (the synthesis certified nothing)"
+    return "kappa_p_per_s, kappa_c_per_s"
+
+
+def _gamma_value(x: float) -> str:
+    return f"{x:.4g}" if math.isfinite(x) else "none certified"
+
+
+def _gamma_rows(design: HinfDesign, gamma: GainSynthesis) -> list[tuple[str, str]]:
+    """Certified γ (all, per group), the independent norm, the scaling and the delay range."""
+    from ...analysis.consensus_hinf import CHANNEL_GROUPS
+
+    names = {"force": "force", "reference": "reference noise", "link": "link noise"}
+    s = design.settings
+    delay = ("delay-free (bounded-real lemma)" if gamma.tau_max is None else
+             f"constant delays in [0, {gamma.tau_max:g}] s (Lyapunov–Krasovskii)")
+    rows = [("Certified γ, all channels [-]", _gamma_value(gamma.gamma)),
+            *((f"Certified γ, {names[g]} channels [-]",
+               _gamma_value(gamma.group_certificates[g].gamma))
+              for g in CHANNEL_GROUPS if g in gamma.group_certificates),
+            ("Closed-loop ‖T‖∞ without delay, independent of the LMI [-]",
+             _gamma_value(gamma.norm.norm)),
+            ("γ certified for", delay),
+            ("Performance output", f"{s.performance}, scale {s.output_scale:g} m/s"),
+            ("Scaling of the force channels [m/s²]", f"{s.force_scale:g}"),
+            ("Scaling of the reference and link noise channels [m/s]", f"{s.noise_scale:g}")]
+    return rows
 
 
 def _seconds(x: float | None, missing: str = "no [network]") -> str:
@@ -262,7 +386,7 @@ class HinfFamily:
                               input_bounds=design.settings.input_bounds, name=strategy)
 
     def checks(self, design: HinfDesign) -> list[Check]:
-        """The four checks of :mod:`trainctl.controllers.hinf.checks`."""
+        """The five checks of :mod:`trainctl.controllers.hinf.checks`."""
         from .checks import hinf_checks
 
         return hinf_checks(design)
@@ -291,8 +415,11 @@ class HinfFamily:
         lam = np.linalg.eigvals(design.loops.A_cl).astype(complex)
         z = np.exp(lam * design.model.settings.sample_time)
         s, res = design.settings, design.delay
-        rows = [("Pinning gain κ_p [1/s]", f"{s.kappa_p:g}"),
-                ("Consensus gain κ_c [1/s]", f"{s.kappa_c:g}"),
+        gamma = design.gamma
+        rows = [("Pinning gain κ_p [1/s]", f"{design.law.kappa_p:.4g}"),
+                ("Consensus gain κ_c [1/s]", f"{design.law.kappa_c:.4g}"),
+                ("Gains", _gains_text(design)),
+                *_gamma_rows(design, gamma),
                 ("Own speed in the differences", s.own_speed),
                 ("Control interval [s]", f"{design.control_interval:g}"),
                 ("Delay margin, full loop [s]", _seconds(res.margin)),
@@ -303,6 +430,9 @@ class HinfFamily:
                 ("Fastest mode, max |λ| [rad/s]", f"{float(np.max(np.abs(lam))):.4g}")]
         return {"spectra": {"hinf distributed": [[float(x.real), float(x.imag)] for x in z]},
                 "rows": [{"name": a, "value": b} for a, b in rows],
+                "gains_source": design.gains_source,
+                "gamma_sentence": GAMMA_SENTENCE,
+                "gamma": gamma.to_dict(), "synthesis_error": design.synthesis_error,
                 "own_speed": s.own_speed,
                 "control_interval": f"{design.control_interval:g}",
                 "input_bounds": bool(s.input_bounds), "delay": res.to_dict(),

@@ -54,8 +54,12 @@ cruise at v_r; :meth:`~trainctl.design.DesignModel.observer_model`,
     F = [diag(m_i c_i) − diag(m_i) (κ_p P + κ_c L),  0],
 
 c_i = a1_i + 2 a2_i v_r the slope of the feedforward (cancelling the
-resistance damping of a Jacobian design model), P = diag(b_i), L the
-graph Laplacian. With a uniform delay τ on every message the loop is
+resistance damping of a Jacobian design model; :meth:`HinfLaw.resistance_feedback`),
+P = diag(b_i), L the graph Laplacian. The same loop, affine in (κ_p, κ_c)
+with the disturbance channels, is
+:func:`~trainctl.analysis.consensus_hinf.consensus_loop` with
+``local_feedback = resistance_feedback(v_r)``: the H∞ synthesis and the
+certificates of the family run on it. With a uniform delay τ on every message the loop is
 ẋ = A₀x̂ + B K x̂(t − τ):
 
 - ``own_speed = "delayed"``: A₀ = A + B [diag(m c), 0] and
@@ -211,6 +215,24 @@ class HinfLaw:
         out[:, :self.n] = block
         return out
 
+    def resistance_feedback(self, speed: float) -> Array:
+        """[diag(m_i c_i), 0] [N per unit of x̂], (n, 2n−1): the feedforward's slope at ``speed``.
+
+        c_i = a1_i + 2 a2_i v_r: the resistance feedforward R_i(v_i) about
+        the cruise, a gain-free feedback on each vehicle's current speed that
+        cancels the resistance damping of a Jacobian design model. It is the
+        ``local_feedback`` of
+        :func:`~trainctl.analysis.consensus_hinf.consensus_loop`, so that the
+        gains are synthesised on the loop the family closes.
+
+        Parameters
+        ----------
+        speed : float
+            The linearisation speed v_r [m/s].
+        """
+        return self._speed_columns(
+            np.diag(self.mass * resistance_damping_per_vehicle(self.davis, speed)))
+
     def feedback(self, speed: float) -> Array:
         """F [N per unit of x̂], (n, 2n−1): the delay-free law about the cruise at ``speed``.
 
@@ -219,8 +241,8 @@ class HinfLaw:
         speed : float
             The linearisation speed v_r [m/s].
         """
-        slope = np.diag(self.mass * resistance_damping_per_vehicle(self.davis, speed))
-        return self._speed_columns(slope - np.diag(self.mass) @ self.pinned_laplacian())
+        return self.resistance_feedback(speed) - self._speed_columns(
+            np.diag(self.mass) @ self.pinned_laplacian())
 
     def undelayed_feedback(self, speed: float) -> Array:
         """F₀ [N per unit of x̂], (n, 2n−1): the part of F that acts on current speeds.
@@ -242,7 +264,8 @@ class HinfLaw:
         return self._speed_columns(self.kappa_c * np.diag(self.mass) @ self.adjacency)
 
 
-def law_of(scenario: Scenario, settings: Any) -> HinfLaw:
+def law_of(scenario: Scenario, settings: Any, gains: tuple[float, float] | None = None
+           ) -> HinfLaw:
     """The law's gains on a scenario's train and ``[communication]`` graph.
 
     Parameters
@@ -251,6 +274,9 @@ def law_of(scenario: Scenario, settings: Any) -> HinfLaw:
         The scenario.
     settings : HinfSettings
         The family's settings.
+    gains : (float, float) or None
+        (κ_p, κ_c) [1/s] in place of the settings' (synthesised gains);
+        None: ``kappa_p_per_s`` and ``kappa_c_per_s``.
 
     Returns
     -------
@@ -259,9 +285,10 @@ def law_of(scenario: Scenario, settings: Any) -> HinfLaw:
     """
     train = scenario.train
     graph = scenario.graph()
+    kp, kc = (settings.kappa_p, settings.kappa_c) if gains is None else gains
     return HinfLaw(mass=np.asarray(train.mass, dtype=float),
                    davis=np.asarray(train.davis, dtype=float),
-                   kappa_p=float(settings.kappa_p), kappa_c=float(settings.kappa_c),
+                   kappa_p=float(kp), kappa_c=float(kc),
                    adjacency=np.array(graph.adjacency, dtype=float),
                    pinning=np.array(graph.pinning, dtype=float),
                    own_speed=str(settings.own_speed))

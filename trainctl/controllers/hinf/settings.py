@@ -5,21 +5,55 @@ The distributed robust H∞ cooperative law of seed 003 as reconstructed in
 spec §4.2: leader-following velocity consensus over the ``[communication]``
 graph, each locomotive subsystem comparing its own speed with the
 reference's and its neighbours' speeds as they arrive, delayed and noisy,
-over the ``[network]`` radio links. For now the gains κ_p and κ_c are the
-scenario's; a synthesis of them is left to a later step.
+over the ``[network]`` radio links. The gains κ_p and κ_c are the
+scenario's, or, with ``synthesise = true``, the ones within the bounds that
+minimise the certified H∞ gain γ from the scaled disturbances (force per
+unit mass, reference and link noise) to the scaled performance output
+(:func:`trainctl.analysis.consensus_hinf.synthesise_gains`).
 """
 
 from __future__ import annotations
 
 from typing import Annotated, ClassVar
 
-from ...constraints import Choice, Flag, Number
+from pydantic import model_validator
+
+from ...constraints import Array, Choice, Flag, Integer, Number, Violation, raise_at
 from ...declare import Key, settings
 
-__all__ = ["DEFAULT_CONSENSUS_GAIN", "DEFAULT_PINNING_GAIN", "OWN_SPEEDS", "HinfSettings"]
+__all__ = ["DEFAULT_CONSENSUS_BOUNDS", "DEFAULT_CONSENSUS_GAIN", "DEFAULT_PINNING_BOUNDS",
+           "DEFAULT_PINNING_GAIN", "OWN_SPEEDS", "PERFORMANCES", "HinfSettings"]
 
 OWN_SPEEDS = ("delayed", "current")
 """Which own speed a vehicle compares with a received one (:class:`HinfSettings`)."""
+
+PERFORMANCES = ("tracking", "disagreement")
+"""Performance outputs of the H∞ gain: the speed errors e, or (I − 11ᵀ/n) e."""
+
+DEFAULT_PINNING_BOUNDS = (0.01, 0.2)
+"""[lo, hi] of κ_p [1/s] searched by the synthesis when the scenario gives none [reconstructed].
+
+0.01 1/s is a 100 s time constant of the rigid speed mode (every vehicle
+pinned), the slowest that still follows a timetable's speed changes;
+0.2 1/s, twice :data:`DEFAULT_PINNING_GAIN`, a 5 s time constant, still an
+order of magnitude below the coupler modes (about 1.7–4 rad/s), and a
+0.3 m/s speed error then asks 0.06 m/s² (311 kN for a 5184 t subsystem),
+within an SS4B's 329 kN at 70 km/h. Without a delay certificate the force
+channels' γ falls like 1/κ_p, so the search ends at the upper bound: it is
+the real design choice."""
+
+DEFAULT_CONSENSUS_BOUNDS = (0.0, 0.2)
+"""[lo, hi] of κ_c [1/s] searched by the synthesis when the scenario gives none [reconstructed].
+
+From 0 (every pinned vehicle tracks the reference alone) to the same 0.2 1/s
+as κ_p's upper bound, where the disagreement modes on the default chain
+decay at up to κ_p + 3.41 κ_c ≈ 0.9 1/s, still below the coupler modes."""
+
+DEFAULT_SYNTHESIS_GRID = 7
+"""Grid points per gain of the synthesis (a 7 × 7 grid, 49 SDPs)."""
+
+DEFAULT_SYNTHESIS_EVALUATIONS = 40
+"""SDP solves of the local refinement (Nelder–Mead) after the grid."""
 
 DEFAULT_PINNING_GAIN = 0.1
 """κ_p [1/s] of the reference (pinning) term when the scenario gives none [reconstructed].
@@ -44,7 +78,7 @@ order of magnitude below the coupler modes."""
 
 @settings
 class HinfSettings:
-    """The distributed robust H∞ cooperative law (spec §4.2) with the scenario's gains.
+    """The distributed robust H∞ cooperative law (spec §4.2): given or synthesised gains.
 
     Each field is declared once, with its ``[controller]`` key (``family =
     "hinf"``, or a ``[controller.hinf]`` sub-table); invalid values raise
@@ -75,12 +109,51 @@ class HinfSettings:
     input_bounds : bool
         Clip each vehicle's force to its traction/braking envelope at its
         measured speed.
+    synthesise : bool
+        False: the law uses ``kappa_p`` and ``kappa_c``; True: the gains
+        within the bounds that minimise the certified γ (found once, at the
+        design stage, and used by the law, the loops, the checks and the
+        simulation).
+    kappa_p_bounds, kappa_c_bounds : (float, float)
+        [lo, hi] [1/s] searched for κ_p (lo > 0) and κ_c (lo >= 0), lo <= hi
+        (file keys ``kappa_p_bounds_per_s``, ``kappa_c_bounds_per_s``;
+        :data:`DEFAULT_PINNING_BOUNDS`, :data:`DEFAULT_CONSENSUS_BOUNDS`).
+    performance : {"tracking", "disagreement"}
+        The performance output s: the speed errors v_i − v_d, or their
+        deviations from the train's mean error.
+    delay_certificate : float or None
+        τ_max [s], > 0 (file key ``delay_certificate_s``): γ certified (and
+        synthesised) for every constant delay in [0, τ_max] of the data the
+        law acts on, by the Lyapunov–Krasovskii H∞ LMI; None: delay-free
+        (the bounded-real lemma).
+    force_scale : float
+        [m/s²], > 0 (file key ``force_scale_m_s2``): the force disturbance per
+        unit mass taken as one unit of each force channel.
+    noise_scale : float
+        [m/s], > 0 (file key ``noise_scale_m_s``): the speed noise taken as
+        one unit of each reference and link channel.
+    output_scale : float
+        [m/s], > 0 (file key ``output_scale_m_s``): the speed error taken as
+        one unit of the performance output. γ = ‖T_w̃s̃‖∞ on the scaled
+        channels; whether γ <= 1 depends entirely on these three.
+    synthesis_grid : int
+        Grid points per gain of the search, >= 1.
+    synthesis_evaluations : int
+        SDP solves of the local refinement after the grid, >= 0 (0: the grid
+        alone).
 
     Examples
     --------
     >>> s = HinfSettings()
     >>> s.kappa_p, s.kappa_c, s.control_interval, s.own_speed, s.input_bounds
     (0.1, 0.1, None, 'delayed', True)
+    >>> s.synthesise, s.kappa_p_bounds, s.performance, s.delay_certificate, s.output_scale
+    (False, (0.01, 0.2), 'tracking', None, 1.0)
+    >>> HinfSettings(kappa_c_bounds=(0.3, 0.1))
+    Traceback (most recent call last):
+    ...
+    trainctl.exceptions.ModelError: HinfSettings: 'kappa_c_bounds' must be [lo, hi] with lo \
+<= hi (got [0.3, 0.1]).
     >>> HinfSettings(own_speed="now")
     Traceback (most recent call last):
     ...
@@ -104,3 +177,53 @@ class HinfSettings:
         "sent) or 'current' (measured now)")] = "delayed"
     input_bounds: Annotated[bool, Flag(), Key(
         "Saturate the plant input to the traction/braking envelope")] = True
+    synthesise: Annotated[bool, Flag(), Key(
+        "Synthesise κ_p and κ_c within the bounds for the smallest certified H∞ gain γ "
+        "(false: kappa_p_per_s and kappa_c_per_s)")] = False
+    kappa_p_bounds: Annotated[tuple[float, ...], Array(Number(gt=0), length=2), Key(
+        "[lo, hi] searched for κ_p when synthesise = true, lo <= hi",
+        file="kappa_p_bounds_per_s", unit="1/s")] = DEFAULT_PINNING_BOUNDS
+    kappa_c_bounds: Annotated[tuple[float, ...], Array(Number(ge=0), length=2), Key(
+        "[lo, hi] searched for κ_c when synthesise = true, lo <= hi",
+        file="kappa_c_bounds_per_s", unit="1/s")] = DEFAULT_CONSENSUS_BOUNDS
+    performance: Annotated[str, Choice(PERFORMANCES), Key(
+        "Performance output of γ: 'tracking' (the speed errors v_i − v_d) or 'disagreement' "
+        "(their deviations from the mean error)")] = "tracking"
+    delay_certificate: Annotated[Annotated[float, Number(gt=0)] | None, Key(
+        "γ certified (and synthesised) for every constant delay in [0, τ_max] of the law's "
+        "data (Lyapunov–Krasovskii LMI)", file="delay_certificate_s", unit="s",
+        omitted="the delay-free γ (bounded-real lemma)")] = None
+    force_scale: Annotated[float, Number(gt=0), Key(
+        "Force disturbance per unit mass taken as one unit of each force channel of γ",
+        file="force_scale_m_s2", unit="m/s²")] = 1.0
+    noise_scale: Annotated[float, Number(gt=0), Key(
+        "Speed noise taken as one unit of each reference and link noise channel of γ",
+        file="noise_scale_m_s", unit="m/s")] = 1.0
+    output_scale: Annotated[float, Number(gt=0), Key(
+        "Speed error taken as one unit of the performance output of γ",
+        file="output_scale_m_s", unit="m/s")] = 1.0
+    synthesis_grid: Annotated[int, Integer(ge=1), Key(
+        "Grid points per gain of the synthesis")] = DEFAULT_SYNTHESIS_GRID
+    synthesis_evaluations: Annotated[int, Integer(ge=0), Key(
+        "SDP solves of the local refinement after the grid (0: the grid alone)")
+    ] = DEFAULT_SYNTHESIS_EVALUATIONS
+
+    @model_validator(mode="after")
+    def _cross_field_rules(self) -> HinfSettings:
+        for name in ("kappa_p_bounds", "kappa_c_bounds"):
+            lo, hi = getattr(self, name)
+            if lo > hi:
+                raise_at((name,), Violation(text="must be [lo, hi] with lo <= hi",
+                                            got_text=f"[{lo!r}, {hi!r}]"), (lo, hi))
+        return self
+
+    def scaling(self) -> dict[str, float]:
+        """The unit of each disturbance group: force [m/s²], reference and link noise [m/s].
+
+        Examples
+        --------
+        >>> HinfSettings(noise_scale=0.5).scaling()
+        {'force': 1.0, 'reference': 0.5, 'link': 0.5}
+        """
+        return {"force": float(self.force_scale), "reference": float(self.noise_scale),
+                "link": float(self.noise_scale)}
