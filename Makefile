@@ -41,7 +41,7 @@ report: $(STAMP_RUN)
 	$(BIN)/trainctl report
 
 test: $(STAMP_TEST)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto --dist loadfile
 
 lint: $(STAMP_TEST)
 	$(BIN)/ruff check .
