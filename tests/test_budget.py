@@ -108,6 +108,31 @@ class TestIssueCases:
         assert "estimated at about" in err and "500 vehicles" in err
         assert "--max-time" in err and "Traceback" not in err
 
+    def test_hinf_certificates_of_a_long_train_refused(
+            self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        """60 subsystems under the hinf family with synthesis: the SDPs alone are refused.
+
+        The same train without the family is estimated at well under the budget, so the
+        refusal is the SDPs' (their cost grows like states⁴ per solve).
+        """
+        text = edited("heavy-haul-hinf", "count", "60")
+        plain = tmp_path / "plain.toml"
+        plain.write_text(text, encoding="utf-8")
+        assert estimate_run(load_scenario(str(plain)), simulate=False).seconds < 600
+        hinf = tmp_path / "hinf.toml"
+        hinf.write_text(text + '\n[controller]\nfamily = "hinf"\nsynthesise = true\n',
+                        encoding="utf-8")
+        est = estimate_run(load_scenario(str(hinf)), simulate=False)
+        assert est.seconds > DEFAULT_MAX_TIME
+        assert main(["analyse", str(hinf), "--no-simulate"]) == 2
+        err = capsys.readouterr().err
+        assert "H∞ certificates" in err and "--max-time" in err and "Traceback" not in err
+        small = tmp_path / "small.toml"
+        small.write_text(edited("heavy-haul-hinf", "count", "4")
+                         + '\n[controller]\nfamily = "hinf"\nsynthesise = true\n',
+                         encoding="utf-8")
+        assert estimate_run(load_scenario(str(small)), simulate=False).seconds < 30
+
     def test_500_vehicle_report_refused(self, tmp_path: Path,
                                         capsys: pytest.CaptureFixture[str]) -> None:
         """The same for report, which writes nothing."""

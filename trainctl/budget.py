@@ -14,7 +14,8 @@ budget (``trainctl analyse/report --max-time``, default
 The time model is an order-of-magnitude one, calibrated on a 2-core machine
 (trainctl 0.x, OSQP 1.1): the design review grows like (vehicles + 2) ×
 states⁴ for the modal and controllability checks and like vehicles^2.5 ×
-horizon^1.2 (plus a horizon³ term) for the MPC iteration analysis; each
+horizon^1.2 (plus a horizon³ term) for the MPC iteration analysis, and like
+(solves) × states⁴ for the H∞ family's semidefinite programs; each
 controller step costs the plant's substeps plus the strategy's QPs
 (centralised: one QP of vehicles × control-horizon moves, cubic in it;
 decentralised: one small QP per vehicle; N-DMPC and cooperative: that per
@@ -71,6 +72,11 @@ _BUILD_SIZE = 1e-5
 _ITERATIONS = 5             # typical distributed iterations per sample (of max_iterations)
 _BYTES_PER_ROW = 8 * 6      # result arrays: bytes per sample and vehicle (plus dense grids)
 _DENSE_MATRICES = 5 * 8     # MPC analysis: about five dense (n·P)² float matrices alive
+_SDP = 0.02                 # one small SDP (cvxpy + Clarabel overhead)
+_SDP_SIZE = 0.2             # × (states / 15)^4: one of the H∞ family's SDPs (measured on
+                            # heavy-haul-hinf with synthesis: 7 states 2.4 s, 15 states 24 s
+                            # for about 100 solves)
+_SDP_DELAY = 3.0            # a Lyapunov–Krasovskii SDP against a delay-free one (3 blocks of P)
 
 
 class BudgetError(TrainctlError, ValueError):
@@ -352,12 +358,38 @@ def _design_cost(n: int, horizon: int, scenario: Scenario) -> tuple[float, float
     if any(hasattr(s, "prediction_horizon") for s in scenario.controllers.values()):
         mpc = _MPC * n**2.5 * horizon**1.2 + _MPC_LONG * n**2.5 * horizon**3
     memory = max(_DENSE_MATRICES * float(n * horizon) ** 2, 10 * 8 * float(states) ** 2)
+    sdp = _sdp_seconds(n, scenario)
+    if sdp > max(mpc, modal):
+        return _BASE + modal + mpc + sdp, memory, (
+            f"the H∞ certificates (SDPs) of {n} vehicles ({2 * n - 1} states; [train] "
+            "vehicles, [controller] synthesise)")
     if mpc > modal:
         dominant = (f"the MPC analysis of {n} vehicles with [controller].prediction_horizon = "
                     f"{horizon}")
     else:
         dominant = f"the design review of {n} vehicles ({states} states; [train] vehicles)"
     return _BASE + modal + mpc, memory, dominant
+
+
+def _sdp_seconds(n: int, scenario: Scenario) -> float:
+    """Seconds of the semidefinite programs of an ``hinf`` family's design and review.
+
+    Its certificates and synthesis solve SDPs in a dense P on the 2n − 1 loop states:
+    the certified γ and its per-group and per-channel parts (about n + 6 solves), plus
+    grid² + evaluations solves when ``synthesise = true``; each delay-dependent one
+    (``delay_certificate_s``) costs about :data:`_SDP_DELAY` delay-free ones.
+    """
+    settings = scenario.controllers.get("hinf")
+    if settings is None:
+        return 0.0
+    solves = n + 6.0
+    if getattr(settings, "synthesise", False):
+        grid = int(getattr(settings, "synthesis_grid", 7) or 7)
+        solves += grid * grid + int(getattr(settings, "synthesis_evaluations", 40) or 40)
+    if getattr(settings, "delay_certificate", None):
+        solves *= _SDP_DELAY
+    states = 2.0 * n - 1.0
+    return solves * (_SDP + _SDP_SIZE * (states / 15.0) ** 4)
 
 
 def _strategy_seconds(scenario: Scenario, strategy: str, samples: int, horizon: int,
