@@ -133,8 +133,9 @@ _STUCK = """
 import sys, numpy as np
 import trainctl.run as run
 def stuck(*args, **kwargs):
-    sys.stderr.write("STUCK\\n"); sys.stderr.flush()
-    np.linalg.svd(np.random.default_rng(0).random((4000, 4000)))
+    a = np.random.default_rng(0).random((4000, 4000))  # drawn before STUCK: under load the
+    sys.stderr.write("STUCK\\n"); sys.stderr.flush()   # draw outlasted the 0.5 s delay
+    np.linalg.svd(a)
     sys.stderr.write("SVD RETURNED\\n")
 run.run_scenario = stuck
 from trainctl.cli import main
