@@ -21,12 +21,15 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
+from ..exceptions import ModelError
+
 __all__ = [
     "STATUSES",
     "Controller",
     "Measurement",
     "ReferencePreview",
     "StepRecord",
+    "measured_speeds",
 ]
 
 STATUSES = ("optimal", "optimal_inaccurate", "max_iterations", "infeasible", "error")
@@ -135,3 +138,37 @@ class Controller(Protocol):
     def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
         """Compute the inputs to hold over [t, t + dt)."""
         ...
+
+
+def measured_speeds(measurement: Measurement, n: int, name: str) -> NDArray[np.float64]:
+    """The measured speeds [m/s] of a measurement: its outputs, else its state's speeds.
+
+    Parameters
+    ----------
+    measurement : Measurement
+        What the controller received.
+    n : int
+        Number of vehicles.
+    name : str
+        The controller's name, for the message.
+
+    Returns
+    -------
+    ndarray
+        Shape (n,).
+
+    Raises
+    ------
+    ModelError
+        When the measurement holds neither, or not n speeds.
+    """
+    if measurement.outputs is not None:
+        speeds = np.asarray(measurement.outputs, dtype=float)
+    elif measurement.state is not None:
+        speeds = np.asarray(measurement.state, dtype=float)[:n]
+    else:
+        raise ModelError(f"{name}: needs the measured speeds (Measurement.outputs) "
+                         "or the state (got neither).")
+    if speeds.shape != (n,):
+        raise ModelError(f"{name}: expected {n} measured speeds (got shape {speeds.shape}).")
+    return speeds

@@ -41,7 +41,7 @@ from ...exceptions import ModelError
 from ...models.envelope import EnvelopeBounds
 from ...models.train import Train
 from ...network import ARRIVAL_TOLERANCE, REFERENCE
-from ..base import Measurement, ReferencePreview, StepRecord
+from ..base import Measurement, ReferencePreview, StepRecord, measured_speeds
 from .law import HinfLaw
 
 __all__ = ["HinfController"]
@@ -179,15 +179,4 @@ class HinfController:
 
     def _speeds_of(self, measurement: Measurement) -> Array:
         """The measured speeds [m/s]: the outputs, else the state's speeds."""
-        n = self.law.n
-        if measurement.outputs is not None:
-            speeds = np.asarray(measurement.outputs, dtype=float)
-        elif measurement.state is not None:
-            speeds = np.asarray(measurement.state, dtype=float)[:n]
-        else:
-            raise ModelError(f"{self.name}: needs the measured speeds (Measurement.outputs) "
-                             "or the state (got neither).")
-        if speeds.shape != (n,):
-            raise ModelError(f"{self.name}: expected {n} measured speeds (got shape "
-                             f"{speeds.shape}).")
-        return speeds
+        return measured_speeds(measurement, self.law.n, self.name)

@@ -82,7 +82,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..synchronous.law import resistance_damping_per_vehicle
+from ..synchronous.law import own_resistance, resistance_damping_per_vehicle
 
 if TYPE_CHECKING:
     from ...design import DesignModel
@@ -187,9 +187,7 @@ class HinfLaw:
         ndarray
             Shape (n,).
         """
-        v = np.asarray(speeds, dtype=float)
-        a0, a1, a2 = self.davis
-        return np.asarray(self.mass * (a0 + a1 * v + a2 * v * v), dtype=float)
+        return own_resistance(self.mass, self.davis, speeds)
 
     def forces(self, commands: ArrayLike, speeds: ArrayLike) -> Array:
         """u_i = m_i a_i + R_i(v_i) [N] (no saturation).

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from ...exceptions import ModelError
 from ...models.envelope import EnvelopeBounds
 from ...models.train import Train
-from ..base import Measurement, ReferencePreview, StepRecord
+from ..base import Measurement, ReferencePreview, StepRecord, measured_speeds
 from .law import SynchronousLaw
 from .relay import CommandRelay
 
@@ -116,15 +116,4 @@ class SynchronousController:
 
     def _speeds(self, measurement: Measurement) -> Array:
         """The measured speeds [m/s]: the outputs, else the state's speeds."""
-        n = self.law.n
-        if measurement.outputs is not None:
-            speeds = np.asarray(measurement.outputs, dtype=float)
-        elif measurement.state is not None:
-            speeds = np.asarray(measurement.state, dtype=float)[:n]
-        else:
-            raise ModelError(f"{self.name}: needs the measured speeds (Measurement.outputs) "
-                             "or the state (got neither).")
-        if speeds.shape != (n,):
-            raise ModelError(f"{self.name}: expected {n} measured speeds (got shape "
-                             f"{speeds.shape}).")
-        return speeds
+        return measured_speeds(measurement, self.law.n, self.name)

@@ -60,7 +60,7 @@ if TYPE_CHECKING:
     from ...design import DesignModel
     from ...scenario import Scenario
 
-__all__ = ["LoopMatrices", "SynchronousLaw", "closed_loop_matrices", "law_of"]
+__all__ = ["LoopMatrices", "SynchronousLaw", "closed_loop_matrices", "law_of", "own_resistance"]
 
 Array = NDArray[np.float64]
 
@@ -139,9 +139,7 @@ class SynchronousLaw:
         ndarray
             Shape (n,).
         """
-        v = np.asarray(speeds, dtype=float)
-        a0, a1, a2 = self.davis
-        return np.asarray(self.mass * (a0 + a1 * v + a2 * v * v), dtype=float)
+        return own_resistance(self.mass, self.davis, speeds)
 
     def forces(self, commands: ArrayLike, speeds: ArrayLike) -> Array:
         """u_i = m_i â_i + R_i(v_i) [N] (no saturation).
@@ -187,6 +185,19 @@ class SynchronousLaw:
         F = self.local_feedback(speed)
         F[list(self.remotes)] += self.relayed_feedback()
         return F
+
+
+def own_resistance(mass: Array, davis: Array, speeds: ArrayLike) -> Array:
+    """R_i(v_i) = m_i (a0_i + a1_i v_i + a2_i v_i²) [N]: each vehicle's Davis resistance.
+
+    Examples
+    --------
+    >>> own_resistance(np.array([2.0]), np.array([[1.0], [0.1], [0.01]]), [10.0]).tolist()
+    [6.0]
+    """
+    v = np.asarray(speeds, dtype=float)
+    a0, a1, a2 = davis
+    return np.asarray(mass * (a0 + a1 * v + a2 * v * v), dtype=float)
 
 
 def resistance_damping_per_vehicle(davis: Array, speed: float) -> Array:
