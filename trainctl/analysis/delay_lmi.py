@@ -81,7 +81,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from ..exceptions import DimensionError, ModelError
-from .hinf import _solver_name, certified_level, solve_quietly
+from .hinf import _solver_name, certified_level, parameter_terms, solve_quietly
 
 if TYPE_CHECKING:
     import cvxpy as cp
@@ -593,27 +593,9 @@ class DelayHinfProblem:
         if not (np.all(np.isfinite(Bm)) and np.all(np.isfinite(Cm))
                 and np.all(np.isfinite(Dm))):
             raise ModelError(f"{who}: 'B_w', 'C' and 'D' must be finite (got NaN or inf).")
-        At: dict[str, Array] = {}
-        Adt: dict[str, Array] = {}
-        Bt: dict[str, Array] = {}
-        for name, M in (A_terms or {}).items():
-            Mk = np.atleast_2d(np.asarray(M, dtype=float))
-            if Mk.shape != (n, n) or not np.all(np.isfinite(Mk)):
-                raise DimensionError(f"{who}: A_terms[{name!r}] must be a finite ({n}, {n}) "
-                                     f"matrix (got shape {Mk.shape}).")
-            At[name] = Mk
-        for name, M in (A_d_terms or {}).items():
-            Mk = np.atleast_2d(np.asarray(M, dtype=float))
-            if Mk.shape != (n, n) or not np.all(np.isfinite(Mk)):
-                raise DimensionError(f"{who}: A_d_terms[{name!r}] must be a finite ({n}, {n}) "
-                                     f"matrix (got shape {Mk.shape}).")
-            Adt[name] = Mk
-        for name, M in (B_terms or {}).items():
-            Mk = np.atleast_2d(np.asarray(M, dtype=float))
-            if Mk.shape != (n, m) or not np.all(np.isfinite(Mk)):
-                raise DimensionError(f"{who}: B_terms[{name!r}] must be a finite ({n}, {m}) "
-                                     f"matrix (got shape {Mk.shape}).")
-            Bt[name] = Mk
+        At = parameter_terms(who, "A_terms", A_terms, (n, n))
+        Adt = parameter_terms(who, "A_d_terms", A_d_terms, (n, n))
+        Bt = parameter_terms(who, "B_terms", B_terms, (n, m))
         self.names: tuple[str, ...] = tuple(dict.fromkeys([*At, *Adt, *Bt]))
         ref = {k: 1.0 for k in self.names}
         ref.update(reference or {})

@@ -86,7 +86,7 @@ __all__ = [
     "AGREEMENT", "BRL_MARGIN", "LEVEL_TOL", "BoundedRealProblem", "BoundedRealResult",
     "ChannelNorms", "HinfNorm", "bounded_real_gamma", "certified_level", "channel_norms",
     "control_hinf_norm", "gramian_transform", "hamiltonian_hinf_norm", "hamiltonian_matrix",
-    "hinf_norm", "solve_quietly", "state_balance",
+    "hinf_norm", "parameter_terms", "solve_quietly", "state_balance",
 ]
 
 Array = NDArray[np.float64]
@@ -899,6 +899,41 @@ def _solver_name(solver: str | None) -> str:
     return solver
 
 
+def parameter_terms(who: str, label: str, terms: Mapping[str, ArrayLike] | None,
+                    shape: tuple[int, int]) -> dict[str, Array]:
+    """The matrices multiplying each named parameter, checked: finite and of ``shape``.
+
+    Parameters
+    ----------
+    who : str
+        The caller, for the message.
+    label : str
+        The argument's name (``"A_terms"``, ...).
+    terms : mapping of str to array_like or None
+        Parameter name → matrix; None: none.
+    shape : (int, int)
+        The shape every matrix must have.
+
+    Returns
+    -------
+    dict of str to ndarray
+        The matrices as float arrays, in the given order.
+
+    Raises
+    ------
+    DimensionError
+        When a matrix has another shape or a non-finite entry.
+    """
+    out: dict[str, Array] = {}
+    for name, M in (terms or {}).items():
+        Mk = np.atleast_2d(np.asarray(M, dtype=float))
+        if Mk.shape != shape or not np.all(np.isfinite(Mk)):
+            raise DimensionError(f"{who}: {label}[{name!r}] must be a finite "
+                                 f"({shape[0]}, {shape[1]}) matrix (got shape {Mk.shape}).")
+        out[name] = Mk
+    return out
+
+
 class BoundedRealProblem:
     """The bounded-real SDP of an affinely parametrised system, built once, re-solved.
 
@@ -971,20 +1006,8 @@ class BoundedRealProblem:
         A, B, Cm, Dm = _as_matrices(A0, B0, C, D, "BoundedRealProblem")
         n, m = B.shape
         p = Cm.shape[0]
-        At: dict[str, Array] = {}
-        Bt: dict[str, Array] = {}
-        for name, M in (A_terms or {}).items():
-            Mk = np.atleast_2d(np.asarray(M, dtype=float))
-            if Mk.shape != (n, n) or not np.all(np.isfinite(Mk)):
-                raise DimensionError(f"BoundedRealProblem: A_terms[{name!r}] must be a finite "
-                                     f"({n}, {n}) matrix (got shape {Mk.shape}).")
-            At[name] = Mk
-        for name, M in (B_terms or {}).items():
-            Mk = np.atleast_2d(np.asarray(M, dtype=float))
-            if Mk.shape != (n, m) or not np.all(np.isfinite(Mk)):
-                raise DimensionError(f"BoundedRealProblem: B_terms[{name!r}] must be a finite "
-                                     f"({n}, {m}) matrix (got shape {Mk.shape}).")
-            Bt[name] = Mk
+        At = parameter_terms("BoundedRealProblem", "A_terms", A_terms, (n, n))
+        Bt = parameter_terms("BoundedRealProblem", "B_terms", B_terms, (n, m))
         self.names: tuple[str, ...] = tuple(dict.fromkeys([*At, *Bt]))
         ref = {k: 1.0 for k in self.names}
         ref.update(reference or {})
