@@ -57,11 +57,18 @@ class Measurement:
         network (with their own time stamps), e.g. ``{(i, j): (t_sent, value)}``
         for receiver i and sender j (0-based, or ``"reference"``), as
         :meth:`trainctl.network.Network.messages` gives them.
+    positions : ndarray or None
+        Each vehicle's position along the track [m], head first, as the
+        plant evaluates the line resistance at it
+        (:func:`trainctl.models.dynamics.vehicle_positions`): what a
+        locomotive's odometry and line data give it, for laws that feed the
+        grade forward; None when not given.
     """
 
     state: NDArray[np.float64] | None = None
     outputs: NDArray[np.float64] | None = None
     messages: Mapping[Any, Any] | None = None
+    positions: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True, kw_only=True)

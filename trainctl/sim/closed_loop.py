@@ -43,6 +43,7 @@ from .._validation import check_nonnegative, check_positive
 from ..controllers.base import Controller, Measurement
 from ..exceptions import DimensionError, ModelError
 from ..models.actuator import SATURATION_TOLERANCE, ActuatorLimits
+from ..models.dynamics import vehicle_positions
 from ..models.plant import Plant
 from ..network import FATES, Network
 from ._log import HOLD_FALLBACK, Log, dense_grid
@@ -220,7 +221,8 @@ def _run(plant: Plant, controller: Controller, reference: Reference, log: Log,
             network.send_all(t, measured, reference=float(reference.speed(t)))
             messages = network.messages(t)
         measurement = Measurement(state=x.copy() if full_state else None, outputs=measured,
-                                  messages=messages)
+                                  messages=messages,
+                                  positions=vehicle_positions(plant.train, x))
         record = controller.step(t, measurement, reference.preview(t, dt, horizon))
         requested = log.record(k, t, controller.name, record, previous)
         applied, side = actuators.apply(requested, x[:n])

@@ -21,7 +21,8 @@ empty at :meth:`HinfController.reset` and keeps every sample of the run.
 
 The law reads the measured speeds (``Measurement.outputs``, with the
 simulation's measurement noise; the true speeds when only the state is
-given) and the messages, nothing else: no position, no coupler elongation.
+given), the messages and, for the line feedforward, each vehicle's
+position (``Measurement.positions``); no coupler elongation.
 Without messages (None: no ``[network]``) it uses the measured speeds and
 the reference now, an ideal network.
 """
@@ -124,7 +125,7 @@ class HinfController:
         else:
             e0, e, oldest = self._errors(float(t), speeds, messages)
         commands = self.law.commands(float(reference.acceleration[0]), e0, e)
-        inputs = self.law.forces(commands, speeds)
+        inputs = self.law.forces(commands, speeds, measurement.positions)
         inputs, saturated = self._envelope.clip(inputs, speeds)
         missing = (int(np.count_nonzero((self.law.pinning > 0) & np.isnan(e0)))
                    + sum(1 for i, j in self._links if math.isnan(e[i, j])))

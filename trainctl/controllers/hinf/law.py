@@ -25,9 +25,16 @@ where
 - v̇_d(t) is the reference acceleration now (the timetable each
   locomotive carries) and R_i the vehicle's own Davis resistance at its
   own measured speed, the estimate F̂_ti of spec §4.2, as in the
-  synchronous family; the grade is not fed forward: it is a disturbance
-  the law rejects (a constant grade's specific force r leaves the steady
-  speed error r/κ_p when every vehicle is pinned with b_i = 1).
+  synchronous family.
+
+With ``line_feedforward = true`` (the default) each vehicle also adds
+m_i r(p_i), the grade and curve resistance under itself (the track's line
+model at its measured position, :func:`~trainctl.controllers.synchronous.law.line_resistance`:
+the rest of spec §4.1's F_wi, which the estimate F̂_ti stands for), so a
+constant grade leaves no steady speed error and a grade change is answered
+by each vehicle where it happens. Without it the grade is a disturbance the
+law rejects (a constant grade's specific force r leaves the steady speed
+error r/κ_p when every vehicle is pinned with b_i = 1).
 
 A term whose data vehicle i has never received (before the first message
 arrives, or when every message so far was lost or blocked) is left out of
@@ -82,7 +89,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..synchronous.law import own_resistance, resistance_damping_per_vehicle
+from ...models.track import Track
+from ..synchronous.law import line_resistance, own_resistance, resistance_damping_per_vehicle
 
 if TYPE_CHECKING:
     from ...design import DesignModel
@@ -114,6 +122,9 @@ class HinfLaw:
         b_i [-], shape (n,): i hears the reference when > 0.
     own_speed : {"delayed", "current"}
         The own speed in each difference (module docstring).
+    line : Track or None
+        The line whose resistance each vehicle feeds forward at its own
+        position (None: not fed forward).
 
     Examples
     --------
@@ -133,6 +144,7 @@ class HinfLaw:
     adjacency: Array
     pinning: Array
     own_speed: str
+    line: Track | None = None
 
     @property
     def n(self) -> int:
@@ -189,8 +201,9 @@ class HinfLaw:
         """
         return own_resistance(self.mass, self.davis, speeds)
 
-    def forces(self, commands: ArrayLike, speeds: ArrayLike) -> Array:
-        """u_i = m_i a_i + R_i(v_i) [N] (no saturation).
+    def forces(self, commands: ArrayLike, speeds: ArrayLike,
+               positions: ArrayLike | None = None) -> Array:
+        """u_i = m_i (a_i + r(p_i)) + R_i(v_i) [N] (no saturation).
 
         Parameters
         ----------
@@ -198,13 +211,18 @@ class HinfLaw:
             a_i [m/s²], shape (n,).
         speeds : array_like
             Measured speeds [m/s], shape (n,).
+        positions : array_like or None
+            Each vehicle's position [m], shape (n,), for the line
+            feedforward r(p_i) (:func:`~trainctl.controllers.synchronous.law.line_resistance`);
+            None, or a law without a line: r = 0.
 
         Returns
         -------
         ndarray
             Shape (n,).
         """
-        return np.asarray(self.mass * np.asarray(commands, dtype=float)
+        line = line_resistance(self.line, positions, self.n)
+        return np.asarray(self.mass * (np.asarray(commands, dtype=float) + line)
                           + self.feedforward(speeds), dtype=float)
 
     def _speed_columns(self, block: Array) -> Array:
@@ -289,7 +307,8 @@ def law_of(scenario: Scenario, settings: Any, gains: tuple[float, float] | None 
                    kappa_p=float(kp), kappa_c=float(kc),
                    adjacency=np.array(graph.adjacency, dtype=float),
                    pinning=np.array(graph.pinning, dtype=float),
-                   own_speed=str(settings.own_speed))
+                   own_speed=str(settings.own_speed),
+                   line=scenario.track if settings.line_feedforward else None)
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)

@@ -109,6 +109,11 @@ class HinfSettings:
     input_bounds : bool
         Clip each vehicle's force to its traction/braking envelope at its
         measured speed.
+    line_feedforward : bool
+        Each vehicle adds the grade and curve resistance under itself (the
+        track's line model at its measured position) to its feedforward
+        (:mod:`trainctl.controllers.hinf.law`); False: the grade is a
+        disturbance the law rejects (steady error r/κ_p on a constant grade).
     synthesise : bool
         False: the law uses ``kappa_p`` and ``kappa_c``; True: the gains
         within the bounds that minimise the certified γ (found once, at the
@@ -177,6 +182,9 @@ class HinfSettings:
         "sent) or 'current' (measured now)")] = "delayed"
     input_bounds: Annotated[bool, Flag(), Key(
         "Saturate the plant input to the traction/braking envelope")] = True
+    line_feedforward: Annotated[bool, Flag(), Key(
+        "Each vehicle feeds the grade and curve resistance under itself forward (false: the "
+        "law rejects the grade as a disturbance)")] = True
     synthesise: Annotated[bool, Flag(), Key(
         "Synthesise κ_p and κ_c within the bounds for the smallest certified H∞ gain γ "
         "(false: kappa_p_per_s and kappa_c_per_s)")] = False

@@ -102,8 +102,9 @@ class SynchronousController:
             return StepRecord(inputs=np.full(n, np.nan), status="error",
                               solve_time=time.perf_counter() - start,
                               info={"reason": "a measured speed is not finite"})
+        line = self.law.line_resistance(measurement.positions)
         command = self.law.command(float(speeds[self.law.lead]), float(reference.speed[0]),
-                                   float(reference.acceleration[0]))
+                                   float(reference.acceleration[0]), float(line[self.law.lead]))
         commands, ages = self.relay.relay(t, command)
         waiting = np.isnan(commands)
         inputs = self.law.forces(np.where(waiting, 0.0, commands), speeds)

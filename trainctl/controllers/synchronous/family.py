@@ -145,10 +145,23 @@ class SynchronousDesign:
         return held_loop(self.loops.A_open, self.loops.B_open, self.law.feedback(speed), T)
 
     def make_relay(self) -> CommandRelay:
-        """A new relay on the scenario's ``[network]``, seeded ``[seed, RELAY_STREAM]``."""
+        """A new relay on the scenario's ``[network]``, seeded ``[seed, RELAY_STREAM]``.
+
+        The ``[network]``'s delays, losses and outages apply; its noise keys
+        are for the speeds the networked families send, so the command
+        carries ``command_noise_std_m_s2`` instead (0 by default: a digital
+        command).
+        """
+        import dataclasses
+
         from .relay import RELAY_STREAM, CommandRelay
 
-        return CommandRelay(self.network, self.law.n, self.law.lead,
+        network = self.network
+        if network is not None:
+            noise = float(self.settings.command_noise)
+            network = dataclasses.replace(network, communication_noise_std=noise,
+                                          reference_noise_std=None)
+        return CommandRelay(network, self.law.n, self.law.lead,
                             seed=np.random.SeedSequence([int(self.scenario.seed), RELAY_STREAM]))
 
 

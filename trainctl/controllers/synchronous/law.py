@@ -20,11 +20,24 @@ applies m_i/m_ℓ times the lead's *feedback* force m_ℓ a_ℓ, delayed by the
 link, plus its own resistance: the LOCOTROL-type rule
 u_i(t) = (m_i/m_ℓ) u_ℓ(t − τ_i) of spec §4.2 with each vehicle's resistance
 estimate taken at its own speed instead of the lead's (the same at
-equilibrium for identical vehicles). The grade is not fed forward: it is a
-disturbance the lead's loop rejects, a constant grade's specific force r
-leaving the steady speed error r/κ. At a constant reference speed the
-couplers are unloaded in equilibrium (every vehicle supplies its own
-resistance), whatever the masses.
+equilibrium for identical vehicles).
+
+The line (grade and curve) resistance: with ``line_feedforward = true``
+(the default) the lead adds the line resistance per unit mass under itself,
+r(p_ℓ) [m/s²] (:meth:`trainctl.models.track.Track.resistance_per_mass` at
+its position, from the line data and odometry a heavy-haul locomotive
+carries: the rest of spec §4.1's F_wi), to the command it relays,
+
+    a_ℓ(t) = v̇_d(t) − κ (v_ℓ(t) − v_d(t)) + r(p_ℓ(t)),
+
+so the remotes brake or pull for the grade *under the lead*, late by their
+link delay, as a driver's notch on a synchronous train does: on a grade
+change the couplers take the difference until the whole train is on the
+new grade. Without it (``false``) the grade is a disturbance the lead's
+loop rejects, a constant grade's specific force r leaving the steady speed
+error r/κ. At a constant reference speed on a constant grade the couplers
+are unloaded in equilibrium (every vehicle supplies its own resistance),
+whatever the masses.
 
 Linear closed loop
 ------------------
@@ -54,13 +67,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ...exceptions import ScenarioError
+from ...exceptions import ModelError, ScenarioError
+from ...models.track import Track
 
 if TYPE_CHECKING:
     from ...design import DesignModel
     from ...scenario import Scenario
 
-__all__ = ["LoopMatrices", "SynchronousLaw", "closed_loop_matrices", "law_of", "own_resistance"]
+__all__ = ["LoopMatrices", "SynchronousLaw", "closed_loop_matrices", "law_of", "line_resistance",
+           "own_resistance"]
 
 Array = NDArray[np.float64]
 
@@ -95,6 +110,8 @@ class SynchronousLaw:
     davis: Array
     speed_gain: float
     lead: int
+    line: Track | None = None
+    """The line whose resistance the lead feeds forward (None: not fed forward)."""
 
     @property
     def n(self) -> int:
@@ -107,8 +124,8 @@ class SynchronousLaw:
         return tuple(i for i in range(self.n) if i != self.lead)
 
     def command(self, lead_speed: float, reference_speed: float,
-                reference_acceleration: float) -> float:
-        """a_ℓ = v̇_d − κ(v_ℓ − v_d) [m/s²].
+                reference_acceleration: float, lead_line: float = 0.0) -> float:
+        """a_ℓ = v̇_d − κ(v_ℓ − v_d) + r(p_ℓ) [m/s²].
 
         Parameters
         ----------
@@ -118,13 +135,24 @@ class SynchronousLaw:
             v_d [m/s].
         reference_acceleration : float
             v̇_d [m/s²].
+        lead_line : float
+            r(p_ℓ), the line resistance per unit mass under the lead [m/s²]
+            (:meth:`line_resistance`; 0 when the line is not fed forward).
 
         Returns
         -------
         float
             The specific-force command [m/s²].
         """
-        return float(reference_acceleration - self.speed_gain * (lead_speed - reference_speed))
+        return float(reference_acceleration - self.speed_gain * (lead_speed - reference_speed)
+                     + lead_line)
+
+    def line_resistance(self, positions: ArrayLike | None) -> Array:
+        """r(p_i) [m/s²], shape (n,): the line resistance per unit mass at each position.
+
+        See :func:`line_resistance`.
+        """
+        return line_resistance(self.line, positions, self.n)
 
     def feedforward(self, speeds: ArrayLike) -> Array:
         """R_i(v_i) = m_i (a0_i + a1_i v_i + a2_i v_i²) [N]: each vehicle's own resistance.
@@ -200,6 +228,48 @@ def own_resistance(mass: Array, davis: Array, speeds: ArrayLike) -> Array:
     return np.asarray(mass * (a0 + a1 * v + a2 * v * v), dtype=float)
 
 
+def line_resistance(line: Track | None, positions: ArrayLike | None, n: int) -> Array:
+    """r(p_i) [m/s²], shape (n,): the grade and curve resistance per unit mass at each position.
+
+    The plant's own line model
+    (:meth:`trainctl.models.track.Track.resistance_per_mass`), evaluated at
+    the measured vehicle positions: the line feedforward of the synchronous
+    and hinf laws. Zeros when there is no line to feed forward (``line``
+    None: flat track, or ``line_feedforward = false``) or no positions
+    (a measurement without them).
+
+    Parameters
+    ----------
+    line : Track or None
+        The line.
+    positions : array_like or None
+        Each vehicle's position along the line [m], shape (n,).
+    n : int
+        Number of vehicles.
+
+    Returns
+    -------
+    ndarray
+        Negative on down-grades.
+
+    Examples
+    --------
+    >>> from trainctl.models.track import Track, TrackSection
+    >>> line = Track(sections=(TrackSection(start=0.0),
+    ...                        TrackSection(start=100.0, grade_permille=-12.0)))
+    >>> line_resistance(line, [150.0, 50.0], 2).round(4).tolist()
+    [-0.1177, 0.0]
+    >>> line_resistance(None, [150.0, 50.0], 2).tolist()
+    [0.0, 0.0]
+    """
+    if line is None or positions is None:
+        return np.zeros(n)
+    p = np.asarray(positions, dtype=float)
+    if p.shape != (n,):
+        raise ModelError(f"line_resistance: expected {n} positions (got shape {p.shape}).")
+    return np.asarray(line.resistance_per_mass(p), dtype=float)
+
+
 def resistance_damping_per_vehicle(davis: Array, speed: float) -> Array:
     """c_i = a1_i + 2 a2_i v [1/s]: the slope of the Davis resistance per unit mass.
 
@@ -244,7 +314,8 @@ def law_of(scenario: Scenario, settings: Any) -> SynchronousLaw:
             f"(got {settings.lead}). The train has {n} vehicles, numbered from 0, head first.")
     return SynchronousLaw(mass=np.asarray(train.mass, dtype=float),
                           davis=np.asarray(train.davis, dtype=float),
-                          speed_gain=float(settings.speed_gain), lead=int(settings.lead))
+                          speed_gain=float(settings.speed_gain), lead=int(settings.lead),
+                          line=scenario.track if settings.line_feedforward else None)
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)

@@ -11,9 +11,10 @@ reference, which the lead reads locally) with the scenario's
 link's delay, is lost with the link's loss probability, is blocked by the
 outage windows that cut the link (an interruption's ``[receiver, sender]``
 pairs name the relay's links ``[i, lead]``; pairs with another sender, the
-reference's included, cut nothing here) and carries the link's noise,
-``communication_noise_std`` read in the command's unit, m/s² (a digital
-command link is normally noise-free: 0). Between arrivals, during outages
+reference's included, cut nothing here) and carries the settings' noise,
+``communication_noise_std`` read in the command's unit, m/s² (the family
+gives it its ``command_noise_std_m_s2``, 0 by default: a digital command
+link is noise-free; the scenario's speed-noise keys do not apply). Between arrivals, during outages
 and after losses, a remote holds the newest command it has (the network's
 hold-last-value), and before its first arrival it has none.
 

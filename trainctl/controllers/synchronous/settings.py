@@ -63,6 +63,17 @@ class SynchronousSettings:
     input_bounds : bool
         Clip each vehicle's force to its traction/braking envelope at its
         measured speed.
+    command_noise : float
+        [m/s²], >= 0 (file key ``command_noise_std_m_s2``): standard
+        deviation of the noise on the relayed command, drawn per message on
+        the relay's stream; 0 (default): a digital command arrives as sent.
+        The ``[network]`` noise keys are speeds' and do not apply to it.
+    line_feedforward : bool
+        The lead adds the grade and curve resistance per unit mass under
+        itself (the track's line model at its measured position) to the
+        command it relays, so the remotes answer the grade under the lead
+        (:mod:`trainctl.controllers.synchronous.law`); False: the grade is a
+        disturbance the loop rejects (steady error r/κ on a constant grade).
 
     Examples
     --------
@@ -89,6 +100,12 @@ class SynchronousSettings:
         )] = 0
     input_bounds: Annotated[bool, Flag(), Key(
         "Saturate the plant input to the traction/braking envelope")] = True
+    command_noise: Annotated[float, Number(ge=0), Key(
+        "Standard deviation of the noise on the relayed command (the [network] noise keys are "
+        "for speeds)", file="command_noise_std_m_s2", unit="m/s²")] = 0.0
+    line_feedforward: Annotated[bool, Flag(), Key(
+        "The lead feeds the grade and curve resistance under itself forward into the command "
+        "it relays (false: the loop rejects the grade as a disturbance)")] = True
 
     @model_validator(mode="after")
     def _lead_in_train(self, info: ValidationInfo) -> SynchronousSettings:
