@@ -68,12 +68,23 @@ def estimated_steps(scenario: Scenario) -> int:
     Returns
     -------
     int
-        ``n_steps × number of strategies``.
+        ``n_steps × number of runs`` (:func:`simulation_runs`).
     """
     sim = scenario.simulation
     if sim is None:
         return 0
-    return sim.n_steps(scenario.model.sample_time) * len(sim.strategies)
+    return sim.n_steps(scenario.model.sample_time) * simulation_runs(scenario)
+
+
+def simulation_runs(scenario: Scenario) -> int:
+    """Closed-loop runs of a scenario: its strategies, each ``repetitions`` times, plus
+    the ideal-network runs (:mod:`trainctl.repetitions`); 0 without ``[simulation]``."""
+    from .repetitions import planned_runs
+
+    sim = scenario.simulation
+    if sim is None:
+        return 0
+    return len(sim.strategies) + len(planned_runs(scenario))
 
 
 def want_pool(scenarios: Iterable[Scenario], jobs: int | None) -> int:
@@ -94,7 +105,7 @@ def want_pool(scenarios: Iterable[Scenario], jobs: int | None) -> int:
         than the number of simulations).
     """
     scenarios = list(scenarios)
-    tasks = sum(len(s.simulation.strategies) for s in scenarios if s.simulation is not None)
+    tasks = sum(simulation_runs(s) for s in scenarios)
     if tasks <= 1 or jobs == 1 or jobs == 0:
         return 0
     if jobs is None:

@@ -17,8 +17,10 @@ from .analysis.summary import ModelSummary, model_summary
 
 if TYPE_CHECKING:
     from .analysis.loops import ClosedLoopResponse
+    from .claims import Claim
     from .controllers.base import Controller
     from .design import Design
+    from .repetitions import Repetition
     from .scenario import Scenario
     from .sim.metrics import Metrics
     from .sim.results import SimulationResult
@@ -54,6 +56,13 @@ class AnalysisRun:
         Closed-loop runs by strategy (empty without ``[simulation]``).
     metrics : mapping of str to Metrics
         Their metrics, by strategy.
+    repetitions : mapping of str to tuple of Repetition
+        ``[simulation] repetitions > 1``: every run of each strategy,
+        summarised, run 0 (the one in ``simulations``) first
+        (:mod:`trainctl.repetitions`); empty otherwise.
+    ideal : mapping of str to Repetition
+        ``[simulation] ideal_network``: each strategy's run over an ideal
+        network, summarised; empty otherwise.
     """
 
     scenario: Scenario
@@ -62,6 +71,8 @@ class AnalysisRun:
     review: DesignReview
     simulations: Mapping[str, SimulationResult] = field(default_factory=dict)
     metrics: Mapping[str, Metrics] = field(default_factory=dict)
+    repetitions: Mapping[str, tuple[Repetition, ...]] = field(default_factory=dict)
+    ideal: Mapping[str, Repetition] = field(default_factory=dict)
 
     def tracking_ok(self, strategy: str) -> bool:
         """True when the strategy's max speed error after settling is within tolerance."""
@@ -119,6 +130,17 @@ class AnalysisRun:
 
         return analyse_closed_loops(self.design)
 
+    @cached_property
+    def claims(self) -> tuple[Claim, ...]:
+        """Seed 003's published claims against this run's numbers (:mod:`trainctl.claims`).
+
+        Empty unless the scenario has the ``hinf`` family; computed once.
+        """
+        from .claims import paper_claims
+
+        with numerical_errors(self.scenario.source):
+            return tuple(paper_claims(self))
+
     def strict_failures(self) -> tuple[StrictFailure, ...]:
         """Every reason ``trainctl analyse --strict`` exits 1 (see :mod:`trainctl.strict`).
 
@@ -149,6 +171,13 @@ class AnalysisRun:
                 name: {**m.to_dict(), "tracking_ok": self.tracking_ok(name),
                        "plant_saturation": saturation}
                 for name, m in self.metrics.items()}
+        if self.repetitions:
+            out["repetitions"] = {name: [r.to_dict() for r in reps]
+                                  for name, reps in self.repetitions.items()}
+        if self.ideal:
+            out["ideal_network"] = {name: r.to_dict() for name, r in self.ideal.items()}
+        if self.claims:
+            out["claims"] = [c.to_dict() for c in self.claims]
         out["strict_failures"] = [f.to_dict() for f in self.strict_failures()]
         out["frequency"] = frequency_dict(self)
         return out
@@ -162,6 +191,10 @@ class AnalysisRun:
             text += "\n\n" + _expected_text(self)
         if self.metrics:
             text += "\n\n" + _metrics_table(self)
+        if self.repetitions or self.ideal:
+            text += "\n\n" + _repetitions_table(self)
+        if self.claims:
+            text += "\n\n" + _claims_text(self)
         return text + "\n\n" + format_strict(self.strict_failures())
 
 
@@ -227,6 +260,50 @@ def _metrics_table(run: AnalysisRun) -> str:
                      f"{statuses}{ok}")
         notes += _run_notes(name, m)
     return "\n".join(lines + notes)
+
+
+def _repetitions_table(run: AnalysisRun) -> str:
+    """Each strategy's whole-run measures over its repetitions (median [min, max]) and ideal run."""
+    from .repetitions import SETTLING_BAND, spread
+
+    sim = run.scenario.simulation
+    assert sim is not None
+    w = max([15] + [len(name) + 2 for name in run.metrics])
+    lines = [f"Repetitions ({sim.repetitions} runs per strategy, seeds {run.scenario.seed} to "
+             f"{run.scenario.seed + sim.repetitions - 1}; whole run, vehicle 1; median "
+             f"[min, max]; settling: within {SETTLING_BAND:g} m/s after t = "
+             f"{sim.reference_times[-1]:g} s):",
+             f"  {'strategy':<{w}}{'RMS err [m/s]':>26}{'max err [m/s]':>26}"
+             f"{'settling [s]':>26}{'max |f| [kN]':>26}"]
+
+    def cell(values: list[float], scale: float = 1.0) -> str:
+        if not values:
+            return f"{'-':>26}"
+        x = spread(np.asarray(values) * scale)
+        return f"{x['median']:>10.4g} [{x['min']:.3g}, {x['max']:.3g}]".rjust(26)
+
+    for name in run.metrics:
+        reps = list(run.repetitions.get(name, ()))
+        lines.append(f"  {name:<{w}}"
+                     + cell([float(r.deviation.rms_error[0]) for r in reps])
+                     + cell([float(r.deviation.max_error[0]) for r in reps])
+                     + cell([float(r.deviation.settling_time[0]) for r in reps])
+                     + cell([r.deviation.max_coupler_force for r in reps], 1e-3))
+        if name in run.ideal:
+            d = run.ideal[name].deviation
+            lines.append(f"  {'  ideal network':<{w}}" + cell([float(d.rms_error[0])])
+                         + cell([float(d.max_error[0])]) + cell([float(d.settling_time[0])])
+                         + cell([d.max_coupler_force], 1e-3))
+    return "\n".join(lines)
+
+
+def _claims_text(run: AnalysisRun) -> str:
+    """The paper's claims, trainctl's numbers and the verdicts."""
+    lines = ["Paper claims (Ning et al. 2016) against this run:"]
+    for c in run.claims:
+        lines.append(f"  {c.case} {c.claim}: paper {c.paper}; trainctl {c.trainctl} — "
+                     f"{c.verdict.upper()}")
+    return "\n".join(lines)
 
 
 def _cell(x: float, width: int, decimals: int) -> str:
@@ -296,7 +373,9 @@ def simulate_strategy(
     A controller with ``uses_network = True`` in a scenario with a
     ``[network]`` section receives its neighbours' and the reference's
     speeds through :class:`trainctl.network.Network` (its generator seeded
-    with ``SeedSequence([seed, NETWORK_STREAM])``).
+    with ``SeedSequence([seed, NETWORK_STREAM])``); a controller with random
+    streams of its own (a ``seed_streams(seed)`` method, e.g. the
+    synchronous family's relay) is seeded from the scenario's seed.
     The plant saturates the forces to the envelopes (``plant_saturation``),
     records the dense grid (``output_interval``) and stops a diverging run
     (``divergence_speed_error``), as the ``[simulation]`` table says.
@@ -335,6 +414,9 @@ def simulate_strategy(
     state[n:2 * n - 1] += spacing_offsets
     with numerical_errors(f"{scenario.source}: simulating {strategy!r}"):
         controller = make_controller(scenario, strategy, design)
+        seed_streams = getattr(controller, "seed_streams", None)
+        if callable(seed_streams):
+            seed_streams(int(scenario.seed))
         network = None
         if scenario.network is not None and getattr(controller, "uses_network", False):
             from .network import Network
@@ -392,6 +474,7 @@ def run_scenario(
     pending: Mapping[str, Future[SimulationResult]] | None = None,
     on_simulated: Callable[[str], None] | None = None,
     design: Design | None = None,
+    pending_repetitions: Mapping[tuple[str, int], Future[Repetition]] | None = None,
 ) -> AnalysisRun:
     """Run the model summary, the design review and the scenario's simulations.
 
@@ -413,6 +496,10 @@ def run_scenario(
     design : Design or None
         The design when already built (:func:`trainctl.design.build_design`);
         built here, once, when None.
+    pending_repetitions : mapping or None
+        The ``[simulation]``'s extra runs (repetitions, ideal network)
+        already submitted with :func:`trainctl.repetitions.submit_repetitions`;
+        None: submitted to ``executor`` when given, else run here.
 
     Returns
     -------
@@ -436,6 +523,10 @@ def run_scenario(
             design = build_design(scenario)
         if sim is not None and pending is None and executor is not None:
             pending = submit_simulations(scenario, executor, design)
+        if sim is not None and pending_repetitions is None and executor is not None:
+            from .repetitions import submit_repetitions
+
+            pending_repetitions = submit_repetitions(scenario, executor, design)
         summary = model_summary(scenario, design.model)
         review = review_design(scenario, design)
     if sim is not None:
@@ -452,5 +543,12 @@ def run_scenario(
                 on_simulated(strategy)
         with numerical_errors(scenario.source):
             review = with_simulations(review, design, sims)
+            from .repetitions import collect_repetitions
+
+            repetitions, ideal = collect_repetitions(scenario, design, sims,
+                                                     pending=pending_repetitions)
+        return AnalysisRun(scenario=scenario, design=design, summary=summary, review=review,
+                           simulations=sims, metrics=metrics, repetitions=repetitions,
+                           ideal=ideal)
     return AnalysisRun(scenario=scenario, design=design, summary=summary, review=review,
                        simulations=sims, metrics=metrics)

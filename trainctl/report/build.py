@@ -187,6 +187,7 @@ def run_report_data(
     designs = [build_design(job.scenario) for job in jobs]
     with worker_pool(workers) as pool:
         pending: dict[int, dict[str, Future[SimulationResult]]] = {}
+        extra: dict[int, dict[tuple[str, int], Future[Any]]] = {}
         if pool is not None:
             tasks = [(k, strategy) for k, job in enumerate(jobs) if job.scenario.simulation
                      for strategy in job.scenario.simulation.strategies]
@@ -198,8 +199,12 @@ def run_report_data(
                 if progress is not None:
                     future.add_done_callback(_advance(progress, f"simulated {strategy}"))
                 pending.setdefault(k, {})[strategy] = future
+            from ..repetitions import submit_repetitions
+
+            for k, job in enumerate(jobs):
+                extra[k] = submit_repetitions(job.scenario, pool, designs[k])
         for k, job in enumerate(jobs):
-            yield _run_one(job, designs[k], pending.get(k), progress)
+            yield _run_one(job, designs[k], pending.get(k), progress, extra.get(k))
 
 
 def _advance(progress: Progress, label: str) -> Callable[[Future[Any]], None]:
@@ -210,7 +215,8 @@ def _advance(progress: Progress, label: str) -> Callable[[Future[Any]], None]:
 
 def _run_one(job: ReportJob, design: Design,
              pending: dict[str, Future[SimulationResult]] | None,
-             progress: Progress | None) -> ReportData:
+             progress: Progress | None,
+             repetitions: dict[tuple[str, int], Future[Any]] | None = None) -> ReportData:
     from ..run import run_scenario
 
     name = job.scenario.name
@@ -223,7 +229,8 @@ def _run_one(job: ReportJob, design: Design,
             progress.advance(f"simulated {strategy} ({name})")
 
     run = run_scenario(job.scenario, pending=pending, design=design,
-                       on_simulated=simulated if pending is None else None)
+                       on_simulated=simulated if pending is None else None,
+                       pending_repetitions=repetitions)
     middle = time.perf_counter()
     if progress is not None:
         progress.set_label(f"collecting {name}")

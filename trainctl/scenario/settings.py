@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import TypeAdapter, ValidationError, ValidationInfo, model_validator
 
-from ..constraints import Array, Choice, Flag, NameList, Number, Violation, raise_at
+from ..constraints import Array, Choice, Flag, Integer, NameList, Number, Violation, raise_at
 from ..declare import Alt, Key, python_error, settings
 from ..exceptions import ModelError
 from ..limits import (
@@ -106,6 +106,8 @@ _STRATEGY_LIST: TypeAdapter[tuple[str, ...]] = TypeAdapter(
 )
 _SAMPLE_TIME: TypeAdapter[float] = TypeAdapter(Annotated[float, SAMPLE_TIME])
 _TIMES = Array(Number(ge=0))
+MAX_REPETITIONS = 1000
+"""Most runs per strategy of one scenario (``[simulation] repetitions``); more is a sweep."""
 _SPACING_ERROR = Number(ge=-5000.0, le=5000.0, why="a virtual link's gap is not off by more "
                         "than 5 km (a physical coupler's elongation by more than 10 m: "
                         "check_vehicles)")
@@ -206,6 +208,17 @@ class SimulationSettings:
     divergence_speed_error : float
         Speed error at which a diverging run is stopped [m/s], > 0; inf: only
         an overflow stops it.
+    repetitions : int
+        Runs of every strategy, >= 1: run r (from 0) uses the seed
+        ``seed + r`` for every random stream (network delays, losses and
+        noise, the relay's, the measurement noise); run 0 is the one shown,
+        and the report gives the spread (median and range) of each
+        strategy's measures over all of them
+        (:mod:`trainctl.repetitions`).
+    ideal_network : bool
+        Also run every strategy once over an ideal network (the scenario
+        without its ``[network]``: no delay, loss, noise or outage), the
+        baseline of the report's deviation ratios.
 
     Examples
     --------
@@ -264,6 +277,12 @@ class SimulationSettings:
         omitted="fine enough for the fastest coupler mode, at most 200 000 points")] = None
     divergence_speed_error: Annotated[float, Number(gt=0, allow_inf=True), Key(
         "Stop a run whose speed error exceeds this (diverged)", unit="m/s")] = 50.0
+    repetitions: Annotated[int, Integer(ge=1, le=MAX_REPETITIONS), Key(
+        "Runs of every strategy with seeds seed, seed + 1, ...: the first is the one shown, "
+        "the report gives the spread over all")] = 1
+    ideal_network: Annotated[bool, Flag(), Key(
+        "Also run every strategy over an ideal network (no [network]): the baseline of the "
+        "deviation ratios")] = False
 
     @model_validator(mode="after")
     def _cross_field_rules(self, info: ValidationInfo) -> SimulationSettings:

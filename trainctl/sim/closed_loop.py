@@ -116,7 +116,8 @@ def simulate(
         has received by then (``{(receiver, sender): (t_sent, value)}``).
         None: no network (``messages`` is None). The network draws from its
         own generator, so adding one leaves the measurement noise unchanged;
-        ``meta["network"]`` counts the delivered, lost and blocked messages.
+        ``meta["network"]`` counts the delivered, lost and blocked messages and
+        holds ``noise_square_sum``, Σ n² over the delivered messages' noise.
 
     Returns
     -------
@@ -191,8 +192,13 @@ def simulate(
         "wall_time": wall,
     })
     if network is not None:
-        fates = network.history().fate
+        history = network.history()
+        fates = history.fate
         meta["network"] = {fate: int(np.count_nonzero(fates == fate)) for fate in FATES}
+        # Σ n² over the delivered messages: with one message per link and sample, each held
+        # for one interval, dt·Σ n² is the energy ∫‖w(t)‖² dt of the noise the controller read.
+        delivered = fates == "delivered"
+        meta["network"]["noise_square_sum"] = float(np.sum(history.noise[delivered] ** 2))
     to_dict = getattr(reference, "to_dict", None)
     if callable(to_dict):
         meta["reference"] = to_dict()

@@ -93,6 +93,22 @@ class SynchronousController:
         """Forget every relayed command and restart the relay's random stream."""
         self.relay.reset()
 
+    def seed_streams(self, seed: int) -> None:
+        """Seed the relay from a run's seed: ``SeedSequence([seed, RELAY_STREAM])``.
+
+        :func:`trainctl.run.simulate_strategy` calls it with the scenario's
+        seed, so that a repetition of the run with another seed
+        (``[simulation] repetitions``) draws other delays, losses and noise.
+
+        Parameters
+        ----------
+        seed : int
+            The run's seed, >= 0.
+        """
+        from .relay import RELAY_STREAM
+
+        self.relay.reseed(np.random.SeedSequence([int(seed), RELAY_STREAM]))
+
     def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
         """The lead's command, relayed; each vehicle's force, clipped to its envelope."""
         start = time.perf_counter()

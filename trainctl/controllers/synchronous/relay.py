@@ -123,6 +123,16 @@ class CommandRelay:
         """Forget every message and restart the random stream."""
         self.network.reset()
 
+    def reseed(self, seed: int | np.random.SeedSequence) -> None:
+        """Use another seed from now on (and restart: :meth:`reset`).
+
+        Parameters
+        ----------
+        seed : int or numpy.random.SeedSequence
+            The network's new seed.
+        """
+        self.network = Network(self.settings, self.network.graph, seed=seed)
+
     def relay(self, t: float, command: float) -> tuple[Array, Array]:
         """Send the lead's command at ``t`` and read what every vehicle holds then.
 

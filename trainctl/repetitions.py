@@ -1,0 +1,340 @@
+# Repeated runs of a scenario's strategies over other seeds, and over an ideal network.
+"""Repetitions: one scenario's strategies run again with other seeds, summarised.
+
+A run over a random network (delays drawn per message, losses, noise) is
+one draw: a claim such as "under delay the speed deviation is 7.5 times the
+ideal case's" needs the spread over many draws, not one lucky run.
+``[simulation] repetitions = R`` runs every strategy R times, run r with
+the seed ``seed + r`` for all its random streams (the network's, the
+synchronous relay's, the measurement noise's); run 0 is the run the report
+shows. ``[simulation] ideal_network = true`` adds one run per strategy over
+an ideal network: the scenario without its ``[network]`` (no delay, loss,
+noise or outage), the baseline of the deviation ratios.
+
+Each run is reduced, where it ran, to a :class:`Repetition`: the
+scenario's :class:`~trainctl.sim.metrics.Metrics` (judged after
+``settle_time``, as in the main table) and the whole-run measures of
+:class:`Deviation`. The time series are not kept: twenty runs of a long
+scenario would hold gigabytes. Runs go to a process pool when one is given
+(:func:`submit_repetitions`), else run here; each run depends only on its
+scenario, strategy and seed, so the results are the same either way, bit
+for bit.
+
+Measures of a run (:func:`deviation`)
+-------------------------------------
+Per vehicle i, e_i = v_i − v_ref:
+
+- ``rms_error``: the RMS of e_i over the samples of the whole run [m/s];
+- ``max_error``: max |e_i| over the dense grid of the whole run [m/s];
+- ``settling_time``: after the reference's last breakpoint t_last, the
+  time until |e_i| stays within :data:`SETTLING_BAND` for the rest of the
+  run [s] (0 if it never leaves the band after t_last, inf if it is outside
+  at the end);
+- ``max_coupler_force``: max |f| over the dense grid of the whole run [N].
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from concurrent.futures import Executor, Future
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from .design import Design
+    from .scenario import Scenario
+    from .sim.metrics import Metrics
+    from .sim.results import SimulationResult
+
+__all__ = ["IDEAL", "SETTLING_BAND", "Deviation", "Repetition", "collect_repetitions",
+           "deviation", "run_repetition", "spread", "submit_repetitions"]
+
+Array = NDArray[np.float64]
+
+SETTLING_BAND = 0.1
+"""Band of the settling time [m/s]: 0.36 km/h, the resolution of a locomotive's speedometer
+display, and a fifth of a typical tracking tolerance (0.5 m/s)."""
+
+IDEAL = -1
+"""The ``index`` of the ideal-network run (:func:`run_repetition`)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class Deviation:
+    """Whole-run measures of one run (module docstring), SI.
+
+    Parameters
+    ----------
+    rms_error : ndarray
+        RMS speed error per vehicle over the samples [m/s], shape (n,).
+    max_error : ndarray
+        Largest |speed error| per vehicle over the dense grid [m/s], shape (n,).
+    settling_time : ndarray
+        Per vehicle, time after the reference's last breakpoint until the
+        error stays within :data:`SETTLING_BAND` [s] (inf: outside at the
+        end), shape (n,).
+    max_coupler_force : float
+        Largest |coupler force| over the dense grid [N] (0 for one vehicle).
+    since : float
+        The reference's last breakpoint t_last [s].
+    diverged : bool
+        The run stopped early (diverged).
+    """
+
+    rms_error: Array
+    max_error: Array
+    settling_time: Array
+    max_coupler_force: float
+    since: float
+    diverged: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe (inf as None)."""
+        return {"rms_error": self.rms_error.tolist(), "max_error": self.max_error.tolist(),
+                "settling_time": [x if math.isfinite(x) else None
+                                  for x in self.settling_time.tolist()],
+                "max_coupler_force": self.max_coupler_force, "since": self.since,
+                "diverged": self.diverged}
+
+
+def deviation(result: SimulationResult, since: float, band: float = SETTLING_BAND) -> Deviation:
+    """The whole-run measures of a run (module docstring).
+
+    Parameters
+    ----------
+    result : SimulationResult
+        The run.
+    since : float
+        The reference's last breakpoint t_last [s]: settling is counted from it.
+    band : float
+        The settling band [m/s], > 0.
+
+    Returns
+    -------
+    Deviation
+
+    Examples
+    --------
+    A vehicle whose error decays as e^(−t/10) from 1 m/s leaves a 0.1 m/s
+    band at t = 10 ln 10 ≈ 23.03 s:
+
+    >>> from trainctl.sim.results import SimulationResult
+    >>> t = np.linspace(0.0, 60.0, 601)
+    >>> e = np.exp(-t / 10.0)
+    >>> r = SimulationResult(time=t, states=np.vstack([20.0 + e, t]),
+    ...     velocities=(20.0 + e)[None, :], coupler_forces=np.zeros((0, 601)),
+    ...     inputs=np.zeros((1, 600)), reference_speed=np.full(601, 20.0),
+    ...     reference_acceleration=np.zeros(601), statuses=("optimal",) * 600,
+    ...     iterations=np.zeros(600, dtype=int), residuals=((),) * 600,
+    ...     solve_times=np.zeros(600), fallbacks=("",) * 600, controller_name="c", seed=0,
+    ...     dt=0.1)
+    >>> d = deviation(r, since=0.0)
+    >>> round(float(d.settling_time[0]), 1), round(float(d.max_error[0]), 3)
+    (23.0, 1.0)
+    """
+    n = result.velocities.shape[0]
+    e = result.velocities - result.reference_speed[None, :]
+    rms = np.sqrt(np.mean(e * e, axis=1))
+    t = np.asarray(result.dense_time, dtype=float)
+    dense = result.dense_states[:n] - result.dense_reference_speed[None, :]
+    peak = np.max(np.abs(dense), axis=1)
+    settling = np.zeros(n)
+    after = t >= since
+    for i in range(n):
+        outside = np.flatnonzero(after & (np.abs(dense[i]) > band))
+        if outside.size == 0:
+            settling[i] = 0.0
+        elif outside[-1] == t.size - 1:
+            settling[i] = math.inf
+        else:
+            settling[i] = float(t[outside[-1] + 1] - since)
+    forces = result.dense_coupler_forces
+    force = float(np.max(np.abs(forces))) if forces.size else 0.0
+    return Deviation(rms_error=rms, max_error=peak, settling_time=settling,
+                     max_coupler_force=force, since=float(since),
+                     diverged=result.meta.get("divergence") is not None)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Repetition:
+    """One run of a strategy, summarised (module docstring).
+
+    Parameters
+    ----------
+    strategy : str
+        The strategy.
+    index : int
+        The repetition r (seed ``seed + r``), or :data:`IDEAL` for the
+        ideal-network run (the scenario's own seed).
+    seed : int
+        The seed the run used.
+    metrics : Metrics
+        As in the main table (after ``settle_time``).
+    deviation : Deviation
+        The whole-run measures.
+    """
+
+    strategy: str
+    index: int
+    seed: int
+    metrics: Metrics
+    deviation: Deviation
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe: strategy, index, seed, the deviation measures and the tracking metrics."""
+        m = self.metrics
+        return {"strategy": self.strategy, "index": self.index, "seed": self.seed,
+                "deviation": self.deviation.to_dict(),
+                "rms_error_settled": m.rms_error.tolist(),
+                "max_error_settled": m.max_error.tolist()}
+
+
+def last_breakpoint(scenario: Scenario) -> float:
+    """The reference's last breakpoint time [s] (0 without ``[simulation]``)."""
+    sim = scenario.simulation
+    return 0.0 if sim is None else float(sim.reference_times[-1])
+
+
+def run_repetition(scenario: Scenario, strategy: str, design: Design | None,
+                   index: int) -> Repetition:
+    """Run one strategy once more and summarise it (module docstring).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (with ``[simulation]``).
+    strategy : str
+        One of its strategies.
+    design : Design or None
+        The run's design (built here when None).
+    index : int
+        r >= 0: the seed ``scenario.seed + r``; :data:`IDEAL`: the scenario
+        without its ``[network]``, its own seed.
+
+    Returns
+    -------
+    Repetition
+    """
+    from .run import simulate_strategy
+
+    sim = scenario.simulation
+    assert sim is not None
+    if index == IDEAL:
+        run_scenario, seed = replace(scenario, network=None), int(scenario.seed)
+    else:
+        seed = int(scenario.seed) + int(index)
+        run_scenario = replace(scenario, seed=seed)
+    result = simulate_strategy(run_scenario, strategy, design)
+    return summarise(result, scenario, strategy, index, seed)
+
+
+def summarise(result: SimulationResult, scenario: Scenario, strategy: str, index: int,
+              seed: int) -> Repetition:
+    """A run's :class:`Repetition` (its metrics and whole-run measures)."""
+    from .sim.metrics import compute_metrics
+
+    sim = scenario.simulation
+    assert sim is not None
+    metrics = compute_metrics(result, settle_time=sim.settle_time,
+                              regen_efficiency=sim.regen_efficiency)
+    return Repetition(strategy=strategy, index=int(index), seed=int(seed), metrics=metrics,
+                      deviation=deviation(result, last_breakpoint(scenario)))
+
+
+def planned_runs(scenario: Scenario) -> list[tuple[str, int]]:
+    """(strategy, index) of every extra run the ``[simulation]`` asks for, in order.
+
+    Repetitions 1 .. R−1 of each strategy, then the ideal-network runs
+    (only when the scenario has a ``[network]``; without one run 0 is
+    already ideal).
+    """
+    sim = scenario.simulation
+    if sim is None:
+        return []
+    runs = [(s, r) for s in sim.strategies for r in range(1, sim.repetitions)]
+    if sim.ideal_network and scenario.network is not None:
+        runs += [(s, IDEAL) for s in sim.strategies]
+    return runs
+
+
+def submit_repetitions(scenario: Scenario, executor: Executor, design: Design | None = None
+                       ) -> dict[tuple[str, int], Future[Repetition]]:
+    """Start every extra run (:func:`planned_runs`) on an executor.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    executor : concurrent.futures.Executor
+        A process pool (:func:`trainctl.parallel.process_pool`) or another executor.
+    design : Design or None
+        The run's design, sent along.
+
+    Returns
+    -------
+    dict
+        (strategy, index) → future of its :class:`Repetition`.
+    """
+    return {(s, r): executor.submit(run_repetition, scenario, s, design, r)
+            for s, r in planned_runs(scenario)}
+
+
+def collect_repetitions(
+    scenario: Scenario, design: Design | None, main: Mapping[str, SimulationResult], *,
+    pending: Mapping[tuple[str, int], Future[Repetition]] | None = None,
+) -> tuple[dict[str, tuple[Repetition, ...]], dict[str, Repetition]]:
+    """Every strategy's repetitions (run 0 from ``main``) and its ideal-network run.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    design : Design or None
+        The run's design.
+    main : mapping of str to SimulationResult
+        Run 0 of every strategy (the runs shown).
+    pending : mapping or None
+        Futures from :func:`submit_repetitions`; None: the extra runs run here.
+
+    Returns
+    -------
+    (repetitions, ideal)
+        Strategy → its runs in index order (empty when ``repetitions`` is
+        1 and there is no ideal run), strategy → its ideal-network run.
+    """
+    runs = planned_runs(scenario)
+    if not runs:
+        return {}, {}
+    done: dict[tuple[str, int], Repetition] = {}
+    for key in runs:
+        if pending is not None:
+            done[key] = pending[key].result()
+        else:
+            done[key] = run_repetition(scenario, key[0], design, key[1])
+    sim = scenario.simulation
+    assert sim is not None
+    reps: dict[str, tuple[Repetition, ...]] = {}
+    ideal: dict[str, Repetition] = {}
+    for strategy, result in main.items():
+        first = summarise(result, scenario, strategy, 0, int(scenario.seed))
+        reps[strategy] = (first, *(done[(strategy, r)] for r in range(1, sim.repetitions)))
+        if (strategy, IDEAL) in done:
+            ideal[strategy] = done[(strategy, IDEAL)]
+    return reps, ideal
+
+
+def spread(values: Any) -> dict[str, float]:
+    """Median, min and max of some numbers (inf kept), JSON-safe as floats.
+
+    Examples
+    --------
+    >>> spread([3.0, 1.0, 2.0])
+    {'median': 2.0, 'min': 1.0, 'max': 3.0, 'count': 3}
+    """
+    x = np.asarray(values, dtype=float)
+    return {"median": float(np.median(x)), "min": float(np.min(x)), "max": float(np.max(x)),
+            "count": int(x.size)}
