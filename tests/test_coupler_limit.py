@@ -343,5 +343,7 @@ class TestSimulatedRun:
         html = render_report(build_report_context(data, generated_at="2025-01-01T00:00:00Z",
                                                   deterministic=True))
         assert "Coupler admissible force (max_force_kn)" in html
+        assert re.search(r"Admissible force <span|Admissible force \[kN\]", html)
+        assert re.search(r'<td class="num">200</td>', html)   # the scenario's coupler table
         assert re.search(r"exceeded: coupler 1 by [\d.]+ % of 200 kN at t = [\d.]+ s, for "
                          r"[\d.]+ s", html)
