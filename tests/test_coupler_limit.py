@@ -6,9 +6,11 @@ from __future__ import annotations
 import json
 import math
 import re
+import tomllib
 from pathlib import Path
 from types import SimpleNamespace
 
+import jsonschema
 import numpy as np
 import pytest
 
@@ -16,7 +18,7 @@ from trainctl.cli import main
 from trainctl.exceptions import ModelError, ScenarioError
 from trainctl.models.vehicle import Coupler
 from trainctl.run import AnalysisRun, run_scenario
-from trainctl.scenario import parse_scenario
+from trainctl.scenario import json_schema, parse_scenario
 from trainctl.sim import SimulationResult, compute_metrics
 from trainctl.strict import STRICT_KINDS, strict_failures
 
@@ -148,6 +150,26 @@ class TestScenarioKey:
         err = capsys.readouterr().err
         assert err.startswith("trainctl: error: ") and "max_force_kn" in err
         assert "Traceback" not in err
+
+    @pytest.mark.parametrize(("limit", "virtual", "valid"), [
+        ("max_force_kn = 2250.0", False, True), ("", False, True), ("", True, True),
+        ("max_force_kn = 0.0", False, False), ("max_force_kn = -1.0", False, False),
+        ("max_force_kn = 100.0", True, False),
+    ])
+    def test_json_schema_agrees(self, limit: str, virtual: bool, valid: bool) -> None:
+        """`trainctl schema` accepts and refuses what the parser does."""
+        text = jolt_train(limit)
+        if virtual:
+            text = text.replace("stiffness_kn_per_m = 10000.0\ndamping_kn_s_per_m = 50.0",
+                                "virtual = true")
+        validator = jsonschema.Draft202012Validator(json_schema())
+        errors = list(validator.iter_errors(tomllib.loads(text)))
+        assert (errors == []) is valid, errors
+        if valid:
+            parse_scenario(text)
+        else:
+            with pytest.raises(ScenarioError, match="max_force_kn"):
+                parse_scenario(text)
 
     def test_python_coupler_rules(self) -> None:
         assert Coupler(stiffness=STIFFNESS).max_force == math.inf
