@@ -30,7 +30,8 @@ over ``--max-time`` (default one hour) is refused, and a run that outlives
 it is stopped. Solver chatter never reaches stdout (:mod:`trainctl._runtime`).
 
 Exit status: 0 the command ran; 1 ``--strict`` found a failure (a failing check, a
-missed tracking tolerance, too long a saturation, or an ``[expected]`` mismatch); 2 a
+missed tracking tolerance, too long a saturation, a coupler above its admissible force,
+or an ``[expected]`` mismatch); 2 a
 usage, scenario or file error (``trainctl: error: <message>`` on stderr, no
 traceback, no file written). Any other exception is a bug and propagates.
 
@@ -169,8 +170,8 @@ def _add_analyse(sub: Any) -> None:
     p_analyse.add_argument(
         "--strict", action="store_true",
         help="exit with status 1 if a check fails, a simulated strategy misses its tracking "
-        "tolerance, a vehicle saturates longer than [simulation] allows, or a check's status "
-        "differs from [expected]"
+        "tolerance, a vehicle saturates longer than [simulation] allows, a coupler's force "
+        "exceeds its max_force_kn, or a check's status differs from [expected]"
     )
     p_analyse.add_argument(
         "--no-simulate", action="store_true",

@@ -148,7 +148,8 @@ class AnalysisRun:
         -------
         tuple of StrictFailure
             Failed checks, strategies outside their tracking tolerance,
-            vehicles saturated too long, ``[expected]`` mismatches; empty
+            vehicles saturated too long, couplers above their admissible
+            force, ``[expected]`` mismatches; empty
             when the run is strict-clean.
         """
         from .strict import strict_failures
@@ -232,7 +233,8 @@ def frequency_dict(run: AnalysisRun) -> dict[str, object]:
 
 
 _NOTED = 8
-"""Saturated vehicles listed one by one under the metrics table, per strategy."""
+"""Saturated vehicles (and overloaded couplers) listed one by one under the metrics table,
+per strategy."""
 
 
 def _metrics_table(run: AnalysisRun) -> str:
@@ -314,7 +316,8 @@ def _cell(x: float, width: int, decimals: int) -> str:
 
 
 def _run_notes(name: str, m: Metrics) -> list[str]:
-    """Lines under the table for a strategy whose run diverged or saturated."""
+    """Lines under the table for a strategy whose run diverged or saturated, and the
+    verdict of the couplers' admissible forces when the train has some."""
     notes = []
     if m.divergence is not None:
         notes.append(f"  {name}: DIVERGED: {m.divergence.get('message', '')}")
@@ -328,6 +331,26 @@ def _run_notes(name: str, m: Metrics) -> list[str]:
                      f"head at {m.first_saturation_position[i]:.0f} m")
     if saturated.size > _NOTED:
         notes.append(f"  {name}: ... and {saturated.size - _NOTED} more vehicles saturated")
+    return notes + _coupler_notes(name, m)
+
+
+def _coupler_notes(name: str, m: Metrics) -> list[str]:
+    """Couplers above their admissible force, or the closest one's margin when none is."""
+    worst = m.worst_coupler
+    if worst is None:
+        return []
+    over = m.couplers_over_limit
+    if not over.size:
+        return [f"  {name}: coupler forces within their limits, the closest coupler {worst + 1} "
+                f"at {100 * m.coupler_ratio[worst]:.0f} % of {m.coupler_limit[worst] / 1e3:g} kN "
+                f"(t = {m.coupler_peak_time[worst]:.4g} s)"]
+    order = over[np.argsort(-m.coupler_ratio[over], kind="stable")]
+    notes = [f"  {name}: coupler {i + 1} exceeded {m.coupler_limit[i] / 1e3:g} kN by "
+             f"{100 * (m.coupler_ratio[i] - 1):.0f} % at t = {m.coupler_peak_time[i]:.4g} s "
+             f"(peak {m.coupler_peak_force[i] / 1e3:.4g} kN), above it for "
+             f"{m.coupler_over_time[i]:.4g} s" for i in order[:_NOTED]]
+    if over.size > _NOTED:
+        notes.append(f"  {name}: ... and {over.size - _NOTED} more couplers above their limits")
     return notes
 
 
@@ -537,8 +560,10 @@ def run_scenario(
                 sims[strategy] = pending[strategy].result()
             else:
                 sims[strategy] = simulate_strategy(scenario, strategy, design)
-            metrics[strategy] = compute_metrics(sims[strategy], settle_time=sim.settle_time,
-                                                regen_efficiency=sim.regen_efficiency)
+            metrics[strategy] = compute_metrics(
+                sims[strategy], settle_time=sim.settle_time,
+                regen_efficiency=sim.regen_efficiency,
+                coupler_limits=scenario.train.max_coupler_force)
             if on_simulated is not None:
                 on_simulated(strategy)
         with numerical_errors(scenario.source):

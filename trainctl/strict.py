@@ -9,6 +9,10 @@ A run is strict-clean when none of these holds:
 - ``saturation``: a vehicle's force was saturated by its envelope for longer
   than ``[simulation] max_saturation_time`` allows (read from the metrics'
   per-vehicle saturation time and the simulation settings when both exist);
+- ``coupler``: a coupler's force exceeded its admissible force
+  (``[train.coupler] max_force_kn``, :attr:`trainctl.models.vehicle.Coupler.max_force`)
+  somewhere on a simulated strategy's dense output (read from the metrics'
+  per-coupler peaks and limits when they exist);
 - ``expected``: a check's status differs from the scenario's ``[expected]``.
 
 :func:`strict_failures` lists them; :meth:`trainctl.run.AnalysisRun.strict_failures`
@@ -29,7 +33,7 @@ if TYPE_CHECKING:
 
 __all__ = ["STRICT_KINDS", "StrictFailure", "format_strict", "strict_failures"]
 
-STRICT_KINDS = ("check", "tracking", "saturation", "expected")
+STRICT_KINDS = ("check", "tracking", "saturation", "coupler", "expected")
 """The kinds of reason ``--strict`` fails on, in the order they are listed."""
 
 
@@ -39,7 +43,7 @@ class StrictFailure:
 
     Parameters
     ----------
-    kind : {"check", "tracking", "saturation", "expected"}
+    kind : {"check", "tracking", "saturation", "coupler", "expected"}
         What failed (module docstring).
     name : str
         The check or strategy concerned.
@@ -62,7 +66,8 @@ class StrictFailure:
 
 
 def strict_failures(run: AnalysisRun) -> tuple[StrictFailure, ...]:
-    """Every reason a run fails ``--strict``, by kind (check, tracking, saturation, expected).
+    """Every reason a run fails ``--strict``, by kind (check, tracking, saturation, coupler,
+    expected).
 
     Parameters
     ----------
@@ -94,6 +99,7 @@ def strict_failures(run: AnalysisRun) -> tuple[StrictFailure, ...]:
                     detail=f"max speed error {error:.4g} m/s after {sim.settle_time:g} s exceeds "
                     f"the tracking_tolerance {sim.tracking_tolerance:g} m/s"))
         found += _saturation(run.metrics, getattr(sim, "max_saturation_time", None))
+        found += _couplers(run.metrics)
     for name, (want, got) in run.unexpected_checks().items():
         found.append(StrictFailure(
             kind="expected", name=name,
@@ -121,8 +127,8 @@ def format_strict(failures: tuple[StrictFailure, ...]) -> str:
       check     sampling: aliased
     """
     if not failures:
-        return "Strict: no failed check, missed tracking, over-long saturation or [expected] " \
-               "mismatch (--strict exits 0)"
+        return "Strict: no failed check, missed tracking, over-long saturation, coupler over " \
+               "its limit or [expected] mismatch (--strict exits 0)"
     noun = "reason" if len(failures) == 1 else "reasons"
     lines = [f"Strict: {len(failures)} {noun} --strict exits 1 for:"]
     lines += [f"  {f.kind:<10}{f.name}: {f.detail}" for f in failures]
@@ -150,8 +156,37 @@ def _saturation(metrics: Mapping[str, Any], limit: Any) -> list[StrictFailure]:
     return found
 
 
+def _couplers(metrics: Mapping[str, Any]) -> list[StrictFailure]:
+    """Strategies whose coupler forces exceeded an admissible force, when the metrics record
+    the per-coupler peaks and limits."""
+    found = []
+    for strategy, m in metrics.items():
+        peak = _per_vehicle(getattr(m, "coupler_peak_force", None))
+        limit = _per_vehicle(getattr(m, "coupler_limit", None))
+        if peak is None or limit is None or peak.shape != limit.shape:
+            continue
+        over = np.flatnonzero(peak > limit)
+        if not over.size:
+            continue
+        ratio = peak[over] / limit[over]
+        worst = int(over[np.argmax(ratio)])
+        excess = 100 * (float(np.max(ratio)) - 1)
+        when = _per_vehicle(getattr(m, "coupler_peak_time", None))
+        seconds = _per_vehicle(getattr(m, "coupler_over_time", None))
+        at = f" at t = {when[worst]:.4g} s" if when is not None and when.shape == peak.shape else ""
+        for_ = (f", above it for {seconds[worst]:.4g} s"
+                if seconds is not None and seconds.shape == peak.shape else "")
+        found.append(StrictFailure(
+            kind="coupler", name=strategy,
+            detail=f"{over.size} coupler(s) above their admissible force (max_force_kn), the "
+            f"worst coupler {worst + 1} at {peak[worst] / 1e3:.4g} kN, {excess:.0f} % "
+            f"over its {limit[worst] / 1e3:g} kN{at}{for_}"))
+    return found
+
+
 def _per_vehicle(value: Any) -> np.ndarray | None:
-    """Seconds per vehicle as a float array, or None when ``value`` is not such a record."""
+    """Numbers per vehicle (or coupler) as a float array, or None when ``value`` is not such a
+    record."""
     if value is None:
         return None
     try:

@@ -107,6 +107,11 @@ class Train:
         return np.array([c.spacing for c in self.couplers], dtype=float)
 
     @cached_property
+    def max_coupler_force(self) -> NDArray[np.float64]:
+        """Admissible coupler forces |f| [N], shape (n-1,); inf where there is no limit."""
+        return np.array([c.max_force for c in self.couplers], dtype=float)
+
+    @cached_property
     def virtual(self) -> NDArray[np.bool_]:
         """True where link i is virtual (no force), shape (n-1,)."""
         return np.array([c.virtual for c in self.couplers], dtype=bool)

@@ -47,7 +47,7 @@ VEHICLE_RULES: dict[str, Rule] = {
 """The rule of each numeric :class:`Vehicle` field (also used by scenario files)."""
 
 COUPLER_RULES: dict[str, Rule] = {"stiffness": COUPLER_STIFFNESS, "damping": COUPLER_DAMPING,
-                                  "spacing": POSITIVE}
+                                  "spacing": POSITIVE, "max_force": Number(gt=0, allow_inf=True)}
 """The rule of each :class:`Coupler` field; a physical coupler's stiffness is also > 0."""
 
 _MIN_SPEED = 0.1
@@ -247,17 +247,25 @@ class Coupler:
         Nominal (force-free, or desired) centre-to-centre distance [m], > 0.
     virtual : bool
         True for a virtual (communication-only) link.
+    max_force : float
+        Admissible coupler force |f| [N], > 0 (``inf`` = no limit, the only
+        value a virtual link takes). Simulations compare the coupler's force
+        with it (:func:`trainctl.sim.compute_metrics`, ``--strict``); the
+        controllers do not see it.
 
     Examples
     --------
     >>> Coupler(stiffness=10488e3, spacing=25.0).stiffness
     10488000.0
+    >>> Coupler(stiffness=80e6, max_force=2250e3).max_force
+    2250000.0
     """
 
     stiffness: float
     damping: float = 0.0
     spacing: float = 25.0
     virtual: bool = False
+    max_force: float = math.inf
 
     def __post_init__(self) -> None:
         where = "Coupler"
@@ -265,11 +273,18 @@ class Coupler:
         stiffness, damping = float(self.stiffness), float(self.damping)
         object.__setattr__(self, "stiffness", stiffness)
         object.__setattr__(self, "damping", damping)
+        object.__setattr__(self, "max_force", float(self.max_force))
         if self.virtual:
             if stiffness != 0.0 or damping != 0.0:
                 raise ModelError(
                     f"{where}: a virtual link transmits no force, so 'stiffness' and "
                     f"'damping' must be 0 (got {stiffness!r}, {damping!r})."
+                )
+            if self.max_force != math.inf:
+                raise ModelError(
+                    f"{where}: a virtual link transmits no force, so 'max_force' must be "
+                    f"inf (no limit) (got {self.max_force!r}). Leave it out, or make the "
+                    "link physical (virtual=False) with a stiffness."
                 )
         elif stiffness <= 0.0:
             raise ModelError(

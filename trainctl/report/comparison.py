@@ -25,6 +25,8 @@ _METRICS = (
     ("energy", "Net traction energy", "kWh"), ("max_jerk", "Max jerk (head)", "m/s³"),
     ("tracking", "Tracking", ""),
 )
+_COUPLER_LIMIT = ("coupler_limit", "Coupler admissible force (max_force_kn)", "")
+"""Column of the metrics table when some coupler has an admissible force."""
 _SOLVER = (
     ("strategy", "Strategy", ""), ("iterations", "Iterations mean / max", "-"),
     ("solve_time", "Step time median / p95", "ms"), ("statuses", "Step statuses", ""),
@@ -59,7 +61,9 @@ def controllers_context(data: ReportData, *, deterministic: bool) -> dict[str, A
     sims = data.results.get("simulations", {})
     tables = []
     if sims:
-        tables.append(_table("metrics", "Tracking, forces and energy", _METRICS,
+        limited = any(m.get("coupler_verdict") for m in sims.values())
+        metrics = _METRICS[:-1] + (_COUPLER_LIMIT,) + _METRICS[-1:] if limited else _METRICS
+        tables.append(_table("metrics", "Tracking, forces and energy", metrics,
                              {name: _metric_cells(m) for name, m in sims.items()}, sims))
         solver = [c for c in _SOLVER if not (deterministic and c[0] == "solve_time")]
         tables.append(_table("solver", "Solver effort and step outcomes", tuple(solver),
@@ -94,7 +98,31 @@ def _metric_cells(m: Mapping[str, Any]) -> dict[str, str]:
         "energy": format_value(_round(m["energy_kwh"])),
         "max_jerk": format_value(_round(m["max_jerk"])),
         "tracking": "within tolerance" if m.get("tracking_ok") else "outside tolerance",
+        "coupler_limit": _coupler_cell(m.get("coupler_verdict")),
     }
+
+
+def _coupler_cell(verdict: Mapping[str, Any] | None) -> str:
+    """The coupler-limit verdict of one strategy (:meth:`Metrics.coupler_verdict`).
+
+    Examples
+    --------
+    >>> _coupler_cell({"exceeded": True, "couplers_over": [2], "coupler": 2, "ratio": 1.12,
+    ...                "limit": 2.25e6, "time": 31.5, "over_time": 2.0, "peak_force": 2.52e6})
+    'exceeded: coupler 2 by 12 % of 2250 kN at t = 31.5 s, for 2 s'
+    """
+    if not verdict:
+        return "no limit"
+    limit = format_number(verdict["limit"] / 1e3, 4)
+    if not verdict.get("exceeded"):
+        return (f"held: closest coupler {verdict['coupler']} at "
+                f"{format_number(100 * verdict['ratio'], 3)} % of {limit} kN")
+    more = len(verdict.get("couplers_over", ())) - 1
+    others = f" (and {more} more)" if more > 0 else ""
+    return (f"exceeded: coupler {verdict['coupler']}{others} by "
+            f"{format_number(100 * (verdict['ratio'] - 1), 3)} % of {limit} kN at t = "
+            f"{format_number(verdict['time'], 4)} s, for "
+            f"{format_number(verdict['over_time'], 4)} s")
 
 
 def _solver_cells(m: Mapping[str, Any]) -> dict[str, str]:

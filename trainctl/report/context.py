@@ -247,10 +247,13 @@ def _train(train: Any) -> dict[str, Any]:
         "stiffness_kn_per_m": format_number(c.stiffness / 1e3),
         "damping_kn_s_per_m": format_number(c.damping / 1e3),
         "spacing": format_number(c.spacing),
+        "max_force_kn": format_number(c.max_force / 1e3) if np.isfinite(c.max_force)
+        else "no limit",
     } for i, c in enumerate(train.couplers)]
     return {"name": train.name, "n_vehicles": str(train.n_vehicles),
             "total_mass_t": format_number(float(np.sum(train.mass)) / 1e3),
-            "vehicles": vehicles, "couplers": couplers}
+            "vehicles": vehicles, "couplers": couplers,
+            "coupler_limited": bool(np.any(np.isfinite(train.max_coupler_force)))}
 
 
 def _track(track: Any) -> list[dict[str, str]]:

@@ -400,6 +400,7 @@ def _coupler(link: CouplerTable, front: float, rear: float) -> Coupler:
         damping=_si(link, "damping_kn_s_per_m"),
         spacing=(front + rear) / 2.0 + link.gap,
         virtual=link.virtual,
+        max_force=_si(link, "max_force_kn"),
     )
 
 

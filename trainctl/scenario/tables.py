@@ -183,7 +183,8 @@ class CouplerTable(FileTable):
 
     model_config = ConfigDict(**FileTable.model_config, json_schema_extra={
         "if": {"properties": {"virtual": {"const": True}}, "required": ["virtual"]},
-        "then": {"properties": {"stiffness_kn_per_m": {"const": 0}}},
+        "then": {"properties": {"stiffness_kn_per_m": {"const": 0}},
+                 "not": {"required": ["max_force_kn"]}},
         "else": {"required": ["stiffness_kn_per_m"],
                  "properties": {"stiffness_kn_per_m": {"exclusiveMinimum": 0}}},
     })
@@ -200,6 +201,10 @@ class CouplerTable(FileTable):
         "A virtual (communication-only) link: no force, the gap is kept by control")] = False
     gap: Annotated[float, Number(ge=0), Key(
         "Extra centre spacing beyond the two half-lengths", unit="m")] = 0.0
+    max_force_kn: Annotated[float | None, in_unit(COUPLER_RULES["max_force"].for_file(), kn_to_n),
+                            Key("Admissible coupler force |f|, judged on the simulated runs "
+                                "(--strict); not allowed when virtual", unit="kN", to_si=kn_to_n,
+                                si_unit="N", omitted="no limit")] = None
 
     @model_validator(mode="after")
     def _stiffness(self) -> CouplerTable:
@@ -213,6 +218,12 @@ class CouplerTable(FileTable):
             raise_at(("stiffness_kn_per_m",), Violation(
                 text=f"must be {bound.want()}", got=stiffness,
                 hint="" if self.virtual else " Set virtual = true for a link without coupling."))
+        if self.virtual and self.max_force_kn is not None:
+            raise_at(("max_force_kn",), Violation(
+                text="must be omitted on a virtual link: it transmits no force",
+                got=self.max_force_kn,
+                hint=" Remove max_force_kn, or set virtual = false and give the coupler's "
+                "stiffness_kn_per_m."))
         return self
 
 

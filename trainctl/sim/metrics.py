@@ -11,6 +11,14 @@ accelerations between grid points, a_j = Δv / Δt and j = Δa over the
 spacing of the midpoints; a held input that steps changes the acceleration
 at once, which on a grid of spacing h reads as Δa / h.
 
+Coupler limits: each coupler's largest |f| over the dense grid, when it
+happened, and, against the coupler's admissible force ``max_force``
+(:class:`~trainctl.models.vehicle.Coupler`; ``coupler_limits``), the ratio
+peak / limit and the time spent above the limit. That time is measured on
+the piecewise-linear interpolant of the dense force: over a grid interval
+of length h where f goes from a to b, f > L for h when both ends are above
+L, for h · (max(a, b) - L) / |b - a| when one end is, and likewise f < -L.
+
 Saturation: the time each vehicle's force was held at its traction or
 braking limit (the samples flagged in ``result.saturation`` times their
 intervals: requests cut to the envelope, or asking for its limit), and when
@@ -31,10 +39,10 @@ from __future__ import annotations
 import math
 from collections import Counter
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_finite
 from ..exceptions import ModelError
@@ -102,6 +110,14 @@ class Metrics:
     divergence : mapping or None
         Where the run stopped because the plant diverged
         (:attr:`SimulationResult.divergence`), None when it ran to the end.
+    coupler_peak_force : ndarray
+        Max |f| of each coupler over the dense grid [N], shape (n-1,).
+    coupler_peak_time : ndarray
+        When that peak happened (its first dense point) [s], shape (n-1,).
+    coupler_limit : ndarray
+        Each coupler's admissible force [N], inf where there is none, shape (n-1,).
+    coupler_over_time : ndarray
+        Time each coupler's |f| was above its limit [s] (module docstring), shape (n-1,).
     """
 
     settle_time: float
@@ -126,11 +142,63 @@ class Metrics:
     first_saturation_position: NDArray[np.float64]
     fallback_counts: Mapping[str, int]
     divergence: Mapping[str, object] | None = None
+    coupler_peak_force: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    coupler_peak_time: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    coupler_limit: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    coupler_over_time: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
 
     @property
     def saturated(self) -> bool:
         """True when some vehicle's force was cut to its envelope."""
         return bool(np.any(self.saturation_time > 0))
+
+    @property
+    def coupler_ratio(self) -> NDArray[np.float64]:
+        """Peak |f| / admissible force of each coupler [-], 0 where there is no limit."""
+        return self.coupler_peak_force / self.coupler_limit
+
+    @property
+    def coupler_limited(self) -> bool:
+        """True when some coupler has an admissible force."""
+        return bool(np.any(np.isfinite(self.coupler_limit)))
+
+    @property
+    def couplers_over_limit(self) -> NDArray[np.intp]:
+        """Indices of the couplers whose peak |f| exceeded their admissible force."""
+        return np.flatnonzero(self.coupler_peak_force > self.coupler_limit)
+
+    @property
+    def worst_coupler(self) -> int | None:
+        """Index of the coupler with the largest peak / limit, None when no coupler has one."""
+        if not self.coupler_limited:
+            return None
+        return int(np.argmax(self.coupler_ratio))
+
+    def coupler_verdict(self) -> dict[str, object] | None:
+        """The coupler with the largest peak / limit, as a JSON-safe dict.
+
+        Returns
+        -------
+        dict or None
+            ``exceeded`` (bool: some coupler went above its limit),
+            ``couplers_over`` (1-based numbers of those couplers), and of the
+            worst coupler its 1-based number ``coupler``, ``ratio`` [-],
+            ``peak_force`` and ``limit`` [N], ``time`` of the peak and
+            ``over_time`` [s]; None when no coupler has a limit.
+        """
+        i = self.worst_coupler
+        if i is None:
+            return None
+        return {
+            "exceeded": bool(self.couplers_over_limit.size),
+            "couplers_over": [int(c) + 1 for c in self.couplers_over_limit],
+            "coupler": i + 1,
+            "ratio": float(self.coupler_ratio[i]),
+            "peak_force": float(self.coupler_peak_force[i]),
+            "limit": float(self.coupler_limit[i]),
+            "time": float(self.coupler_peak_time[i]),
+            "over_time": float(self.coupler_over_time[i]),
+        }
 
     def to_dict(self) -> dict[str, object]:
         """JSON-safe dict (arrays as lists, non-finite numbers as None)."""
@@ -162,11 +230,17 @@ class Metrics:
             "fallback_counts": dict(self.fallback_counts),
             "diverged": self.divergence is not None,
             "divergence": None if self.divergence is None else dict(self.divergence),
+            "coupler_peak_force": [float(x) for x in self.coupler_peak_force],
+            "coupler_peak_time": [num(x) for x in self.coupler_peak_time],
+            "coupler_limit": [num(x) for x in self.coupler_limit],
+            "coupler_over_time": [float(x) for x in self.coupler_over_time],
+            "coupler_verdict": self.coupler_verdict(),
         }
 
 
 def compute_metrics(
-    result: SimulationResult, *, settle_time: float = 0.0, regen_efficiency: float = 1.0
+    result: SimulationResult, *, settle_time: float = 0.0, regen_efficiency: float = 1.0,
+    coupler_limits: ArrayLike | None = None,
 ) -> Metrics:
     """Metrics of a run.
 
@@ -179,6 +253,10 @@ def compute_metrics(
         one sample at or after it.
     regen_efficiency : float
         Fraction of braking energy recovered, in [0, 1].
+    coupler_limits : array_like or None
+        Admissible force of each coupler [N], shape (n-1,), > 0, inf for no
+        limit (:attr:`trainctl.models.train.Train.max_coupler_force`); None:
+        no limits.
 
     Returns
     -------
@@ -200,6 +278,21 @@ def compute_metrics(
     >>> m = compute_metrics(result)
     >>> round(m.energy * 3.6e6)  # 1000 N over 150 m
     150000
+
+    A coupler whose force rises linearly from 0 to 3 kN over 10 s, against
+    a 2 kN limit: the peak is 1.5 times the limit, above it for the last third.
+
+    >>> forces = SimulationResult(
+    ...     time=np.array([0.0, 10.0]), states=np.array([[10.0, 10.0], [10.0, 10.0],
+    ...     [0.0, 0.0], [0.0, 100.0]]), velocities=np.full((2, 2), 10.0),
+    ...     coupler_forces=np.array([[0.0, 3000.0]]), inputs=np.zeros((2, 1)),
+    ...     reference_speed=np.full(2, 10.0), reference_acceleration=np.zeros(2),
+    ...     statuses=("optimal",), iterations=np.array([1]), residuals=((),),
+    ...     solve_times=np.array([0.01]), fallbacks=("",), controller_name="demo", seed=0,
+    ...     dt=10.0)
+    >>> m = compute_metrics(forces, coupler_limits=[2000.0])
+    >>> m.coupler_ratio.tolist(), round(float(m.coupler_over_time[0]), 6)
+    ([1.5], 3.333333)
     """
     settle = check_finite("compute_metrics", "settle_time", settle_time)
     eta = check_finite("compute_metrics", "regen_efficiency", regen_efficiency)
@@ -215,6 +308,7 @@ def compute_metrics(
     max_error = np.abs(dense_error).max(axis=1)
     forces = result.dense_coupler_forces
     max_force = float(np.abs(forces).max()) if forces.size else 0.0
+    limits = _coupler_limits(coupler_limits, forces.shape[0])
 
     v = result.velocities
     dt_k = np.diff(result.time)
@@ -248,6 +342,7 @@ def compute_metrics(
         **_saturation(result),
         fallback_counts=dict(Counter(f for f in result.fallbacks if f)),
         divergence=result.divergence,
+        **_couplers(result.dense_time, forces, limits),
     )
 
 
@@ -289,3 +384,45 @@ def _saturation(result: SimulationResult) -> dict[str, NDArray[np.float64]]:
         first_time[i], first_position[i] = result.time[k], result.positions[k]
     return {"saturation_time": hit @ step, "braking_saturation_time": (flags < 0) @ step,
             "first_saturation_time": first_time, "first_saturation_position": first_position}
+
+
+def _coupler_limits(limits: ArrayLike | None, count: int) -> NDArray[np.float64]:
+    """The admissible force of each of ``count`` couplers [N] (inf when ``limits`` is None)."""
+    if limits is None:
+        return np.full(count, math.inf)
+    try:
+        values = np.asarray(limits, dtype=float)
+    except (TypeError, ValueError):
+        values = np.full(0, math.nan)
+    if values.shape != (count,) or not np.all(values > 0) or np.any(np.isnan(values)):
+        raise ModelError(
+            f"compute_metrics: 'coupler_limits' must hold one number > 0 (inf for no limit) "
+            f"per coupler, {count} in all (got {limits!r}). Pass the train's "
+            "max_coupler_force, or None for no limits."
+        )
+    return values
+
+
+def _couplers(time: NDArray[np.float64], forces: NDArray[np.float64],
+              limits: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]:
+    """Each coupler's peak |f| [N] and its time [s], its limit [N] and the time above it [s]."""
+    count = forces.shape[0]
+    magnitude = np.abs(forces)
+    peak = magnitude.max(axis=1) if forces.size else np.zeros(count)
+    when = time[np.argmax(magnitude, axis=1)] if forces.size else np.full(count, math.nan)
+    over = np.zeros(count)
+    for i in np.flatnonzero(np.isfinite(limits)):
+        over[i] = _time_above(time, forces[i], limits[i]) + _time_above(time, -forces[i],
+                                                                         limits[i])
+    return {"coupler_peak_force": peak, "coupler_peak_time": when, "coupler_limit": limits,
+            "coupler_over_time": over}
+
+
+def _time_above(t: NDArray[np.float64], f: NDArray[np.float64], level: float) -> float:
+    """Time [s] the piecewise-linear interpolant of ``f`` on ``t`` spends above ``level``."""
+    a, b, h = f[:-1] - level, f[1:] - level, np.diff(t)
+    high, low = np.maximum(a, b), np.minimum(a, b)
+    crossing = (high > 0) & (low <= 0)
+    fraction = np.where(low > 0, 1.0, 0.0)
+    fraction[crossing] = high[crossing] / (high[crossing] - low[crossing])
+    return float(np.sum(h * fraction))
