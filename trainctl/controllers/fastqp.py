@@ -17,6 +17,8 @@ result record :class:`QPSolution`.
 
 from __future__ import annotations
 
+import ctypes
+import functools
 import signal
 import sys
 import time
@@ -33,7 +35,7 @@ from ..exceptions import SolverError
 from .status import from_osqp
 
 __all__ = ["OSQP_SETTINGS", "SOLVER_OUTPUT", "FastOSQP", "QPSolution", "SolverOutput",
-           "osqp_runner", "pass_on_interrupt"]
+           "interrupt_record", "osqp_runner", "pass_on_interrupt"]
 
 OSQP_SETTINGS = {"eps_abs": 1e-6, "eps_rel": 1e-6, "max_iter": 20000, "polishing": True}
 """OSQP settings used by both solve paths."""
@@ -105,25 +107,82 @@ SOLVER_OUTPUT = SolverOutput()
 """The sink of both solve paths."""
 
 
-def pass_on_interrupt(status_val: int) -> None:
+def pass_on_interrupt(status_val: int, caught: int = 0) -> None:
     """Deliver a Ctrl-C that OSQP caught during a solve to Python.
 
-    OSQP installs its own SIGINT handler while it solves and answers Ctrl-C
-    with the status "interrupted" instead of letting the signal through; a
-    closed loop would record a failed step and go on. This re-raises the
-    signal, so Python's handler (``KeyboardInterrupt``) stops the run.
+    OSQP installs its own SIGINT handler for the whole of a solve (from
+    before the first ADMM iteration until the solution is stored) and
+    restores the previous one on return; a SIGINT in between reaches only
+    OSQP's handler, which sets a flag, never Python's. OSQP looks at that
+    flag once per ADMM iteration: a signal seen there ends the solve with
+    the status "interrupted", and a closed loop would record a failed step
+    and go on. A signal that arrives after the last look (during the final
+    termination check, polishing, storing the solution) is not reported
+    at all: the status says solved and the signal is gone — the run went on
+    and exited 0. Called right after a solve with the status and OSQP's
+    flag (:func:`interrupt_record`), this re-raises the signal in either
+    case, so Python's handler (``KeyboardInterrupt``) stops the run.
 
     Parameters
     ----------
     status_val : int
         OSQP's ``info.status_val`` after a solve.
+    caught : int
+        OSQP's own record of a SIGINT during that solve (nonzero: caught),
+        read by :func:`interrupt_record` right after the solve.
 
     Examples
     --------
-    >>> pass_on_interrupt(1)  # solved: nothing happens
+    >>> pass_on_interrupt(1)  # solved, no signal: nothing happens
     """
-    if int(status_val) in _OSQP_SIGINT:
+    if caught or int(status_val) in _OSQP_SIGINT:
         signal.raise_signal(signal.SIGINT)
+
+
+def _never() -> int:
+    return 0
+
+
+@functools.cache
+def _flag_reader(library: str) -> Callable[[], int]:
+    try:
+        read = ctypes.CDLL(library).osqp_is_interrupted
+    except (OSError, AttributeError):  # not a shared object, or built without Ctrl-C support
+        return _never
+    read.argtypes, read.restype = [], ctypes.c_int
+    return read
+
+
+def interrupt_record(solver: Any) -> Callable[[], int]:
+    """Reader of OSQP's record of a SIGINT caught during the latest solve (0: none).
+
+    OSQP's compiled library exports ``osqp_is_interrupted``: the flag its
+    SIGINT handler sets, cleared when the next solve starts (it is shared
+    by every solver of the library). Reading it costs a foreign call, no
+    system call. Where the library or the symbol cannot be found, the
+    reader always answers 0 (the status "interrupted" is then the only
+    evidence, as before).
+
+    Parameters
+    ----------
+    solver : osqp.OSQP or None
+        A solver; its compiled module (``solver.ext``) is the library read.
+
+    Returns
+    -------
+    callable
+        ``read() -> int``, nonzero when the latest solve caught a SIGINT.
+
+    Examples
+    --------
+    >>> import osqp
+    >>> interrupt_record(osqp.OSQP())()  # no solve has caught a signal
+    0
+    >>> interrupt_record(None)()
+    0
+    """
+    library = getattr(getattr(solver, "ext", None), "__file__", None)
+    return _flag_reader(library) if isinstance(library, str) else _never
 
 
 def osqp_runner(solver: Any, *, internal: bool = True) -> tuple[OSQPRunner, str]:
@@ -270,6 +329,7 @@ class FastOSQP:
         self.solver.setup(P_triu, q, sp.csc_matrix(self.Amat), lower, upper, verbose=False,
                           warm_starting=True, **OSQP_SETTINGS)
         self._run, self.route = osqp_runner(self.solver, internal=internal)
+        self._caught = interrupt_record(self.solver)
         self._used = False
 
     def reset(self) -> None:
@@ -382,7 +442,7 @@ class FastOSQP:
         finally:
             sys.stdout = stdout
         elapsed = time.perf_counter() - start
-        pass_on_interrupt(status_val)
+        pass_on_interrupt(status_val, self._caught())
         status = from_osqp(status_val)
         x = np.full(self._n, np.nan) if x is None else np.asarray(x, dtype=float)
         if status == "error" and not np.isfinite(x).all():

@@ -33,7 +33,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..exceptions import ModelError, SolverError
-from .fastqp import OSQP_SETTINGS, SOLVER_OUTPUT, FastOSQP, QPSolution, pass_on_interrupt
+from .fastqp import (
+    OSQP_SETTINGS,
+    SOLVER_OUTPUT,
+    FastOSQP,
+    QPSolution,
+    interrupt_record,
+    pass_on_interrupt,
+)
 from .status import from_cvxpy
 
 __all__ = ["OSQP_SETTINGS", "ParametricQP", "QPSolution"]
@@ -191,10 +198,11 @@ class ParametricQP:
             self.problem.solve(solver=cp.OSQP, warm_start=warm, verbose=False, **OSQP_SETTINGS)
         except cp.SolverError as err:
             sys.stdout = stdout
-            pass_on_interrupt(_last_osqp_status(self.problem))
+            pass_on_interrupt(*_last_osqp_interrupt(self.problem))
             raise SolverError(f"{self.name}: OSQP failed: {err}") from err
         finally:
             sys.stdout = stdout
+        pass_on_interrupt(*_last_osqp_interrupt(self.problem))
         elapsed = time.perf_counter() - start
         status = from_cvxpy(self.problem.status)
         z = self._z.value if self._z.value is not None else np.full(self.nz, np.nan)
@@ -205,12 +213,17 @@ class ParametricQP:
                           elapsed)
 
 
-def _last_osqp_status(problem: cp.Problem) -> int:
-    """OSQP's status code of the problem's last solve (cvxpy keeps it in its solver cache)."""
+def _last_osqp_interrupt(problem: cp.Problem) -> tuple[int, int]:
+    """OSQP's status code of the problem's last solve and its record of a caught SIGINT.
+
+    cvxpy keeps the solver and its last result in the problem's solver cache;
+    (0, 0) when there is none.
+    """
     cached = (getattr(problem, "_solver_cache", None) or {}).get(cp.OSQP)
-    result = cached[2] if isinstance(cached, tuple) and len(cached) > 2 else None
-    info = getattr(result, "info", None)
-    return int(getattr(info, "status_val", 0) or 0)
+    if not (isinstance(cached, tuple) and len(cached) > 2):
+        return 0, 0
+    info = getattr(cached[2], "info", None)
+    return int(getattr(info, "status_val", 0) or 0), interrupt_record(cached[0])()
 
 
 def _or(x: Array | None, n: int, fill: float) -> Array:
