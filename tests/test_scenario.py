@@ -43,6 +43,11 @@ BUILTIN_NAMES = [
     "heavy-haul-flocking",
     "heavy-haul-flocking-collision",
     "heavy-haul-hinf",
+    "heavy-haul-hinf-delay",
+    "heavy-haul-hinf-delayed-own-speed",
+    "heavy-haul-hinf-ideal",
+    "heavy-haul-hinf-interruption",
+    "heavy-haul-hinf-noise",
 ]
 ANALYSES = Path(__file__).resolve().parent.parent / "analyses"
 

@@ -180,10 +180,10 @@ def estimate_run(scenario: Scenario, *, simulate: bool = True) -> RunEstimate:
     samples = sim.n_steps(scenario.model.sample_time) if sim is not None else 0
     strategies = tuple(sim.strategies) if sim is not None else ()
     seconds = 0.0
-    # Each strategy runs once per repetition, plus once over an ideal network when asked
+    # Each strategy runs once per repetition, plus once over a baseline network when asked
     # (trainctl.repetitions); only the runs shown keep their time series in memory.
     runs = 1 if sim is None else sim.repetitions + int(
-        sim.ideal_network and scenario.network is not None)
+        sim.baseline_network is not None and scenario.network is not None)
     for strategy in strategies:
         seconds += runs * _strategy_seconds(scenario, strategy, samples, horizon, moves)
     memory = max(memory, float(samples) * n * _BYTES_PER_ROW * max(1, len(strategies)))

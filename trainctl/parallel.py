@@ -78,7 +78,7 @@ def estimated_steps(scenario: Scenario) -> int:
 
 def simulation_runs(scenario: Scenario) -> int:
     """Closed-loop runs of a scenario: its strategies, each ``repetitions`` times, plus
-    the ideal-network runs (:mod:`trainctl.repetitions`); 0 without ``[simulation]``."""
+    the baseline-network runs (:mod:`trainctl.repetitions`); 0 without ``[simulation]``."""
     from .repetitions import planned_runs
 
     sim = scenario.simulation

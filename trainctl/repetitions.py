@@ -7,9 +7,13 @@ ideal case's" needs the spread over many draws, not one lucky run.
 ``[simulation] repetitions = R`` runs every strategy R times, run r with
 the seed ``seed + r`` for all its random streams (the network's, the
 synchronous relay's, the measurement noise's); run 0 is the run the report
-shows. ``[simulation] ideal_network = true`` adds one run per strategy over
-an ideal network: the scenario without its ``[network]`` (no delay, loss,
-noise or outage), the baseline of the deviation ratios.
+shows. ``[simulation] baseline_network`` adds one run per strategy over a
+baseline network, the denominator of the deviation ratios: ``"ideal"``,
+the scenario without its ``[network]`` (no delay, loss, noise or outage),
+or ``"delay-free"``, its ``[network]`` with every delay 0 — the network's
+draws do not depend on the delays (:mod:`trainctl.network`), so that run
+has the same noise, losses and outages, message for message, and the
+ratio isolates what the delays do.
 
 Each run is reduced, where it ran, to a :class:`Repetition`: the
 scenario's :class:`~trainctl.sim.metrics.Metrics` (judged after
@@ -50,7 +54,7 @@ if TYPE_CHECKING:
     from .sim.metrics import Metrics
     from .sim.results import SimulationResult
 
-__all__ = ["IDEAL", "SETTLING_BAND", "Deviation", "Repetition", "collect_repetitions",
+__all__ = ["BASELINE", "SETTLING_BAND", "Deviation", "Repetition", "collect_repetitions",
            "deviation", "run_repetition", "spread", "submit_repetitions"]
 
 Array = NDArray[np.float64]
@@ -59,8 +63,8 @@ SETTLING_BAND = 0.1
 """Band of the settling time [m/s]: 0.36 km/h, the resolution of a locomotive's speedometer
 display, and a fifth of a typical tracking tolerance (0.5 m/s)."""
 
-IDEAL = -1
-"""The ``index`` of the ideal-network run (:func:`run_repetition`)."""
+BASELINE = -1
+"""The ``index`` of the baseline-network run (:func:`run_repetition`)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -168,8 +172,8 @@ class Repetition:
     strategy : str
         The strategy.
     index : int
-        The repetition r (seed ``seed + r``), or :data:`IDEAL` for the
-        ideal-network run (the scenario's own seed).
+        The repetition r (seed ``seed + r``), or :data:`BASELINE` for the
+        baseline-network run (the scenario's own seed).
     seed : int
         The seed the run used.
     metrics : Metrics
@@ -212,8 +216,9 @@ def run_repetition(scenario: Scenario, strategy: str, design: Design | None,
     design : Design or None
         The run's design (built here when None).
     index : int
-        r >= 0: the seed ``scenario.seed + r``; :data:`IDEAL`: the scenario
-        without its ``[network]``, its own seed.
+        r >= 0: the seed ``scenario.seed + r``; :data:`BASELINE`: the
+        scenario over its baseline network (``[simulation]
+        baseline_network``), its own seed.
 
     Returns
     -------
@@ -223,13 +228,29 @@ def run_repetition(scenario: Scenario, strategy: str, design: Design | None,
 
     sim = scenario.simulation
     assert sim is not None
-    if index == IDEAL:
-        run_scenario, seed = replace(scenario, network=None), int(scenario.seed)
+    if index == BASELINE:
+        run_scenario, seed = baseline_scenario(scenario), int(scenario.seed)
     else:
         seed = int(scenario.seed) + int(index)
         run_scenario = replace(scenario, seed=seed)
     result = simulate_strategy(run_scenario, strategy, design)
     return summarise(result, scenario, strategy, index, seed)
+
+
+def baseline_scenario(scenario: Scenario) -> Scenario:
+    """The scenario over its baseline network (``[simulation] baseline_network``).
+
+    ``"ideal"``: without ``[network]``; ``"delay-free"``: its ``[network]``
+    with no delay (``delay_s`` and ``delay_range_s`` unset).
+    """
+    sim = scenario.simulation
+    kind = None if sim is None else sim.baseline_network
+    if kind is None or scenario.network is None:
+        return scenario
+    if kind == "ideal":
+        return replace(scenario, network=None)
+    return replace(scenario, network=replace(scenario.network, delay_s=None,
+                                             delay_range_s=None))
 
 
 def summarise(result: SimulationResult, scenario: Scenario, strategy: str, index: int,
@@ -248,7 +269,7 @@ def summarise(result: SimulationResult, scenario: Scenario, strategy: str, index
 def planned_runs(scenario: Scenario) -> list[tuple[str, int]]:
     """(strategy, index) of every extra run the ``[simulation]`` asks for, in order.
 
-    Repetitions 1 .. R−1 of each strategy, then the ideal-network runs
+    Repetitions 1 .. R−1 of each strategy, then the baseline-network runs
     (only when the scenario has a ``[network]``; without one run 0 is
     already ideal).
     """
@@ -256,8 +277,8 @@ def planned_runs(scenario: Scenario) -> list[tuple[str, int]]:
     if sim is None:
         return []
     runs = [(s, r) for s in sim.strategies for r in range(1, sim.repetitions)]
-    if sim.ideal_network and scenario.network is not None:
-        runs += [(s, IDEAL) for s in sim.strategies]
+    if sim.baseline_network is not None and scenario.network is not None:
+        runs += [(s, BASELINE) for s in sim.strategies]
     return runs
 
 
@@ -287,7 +308,7 @@ def collect_repetitions(
     scenario: Scenario, design: Design | None, main: Mapping[str, SimulationResult], *,
     pending: Mapping[tuple[str, int], Future[Repetition]] | None = None,
 ) -> tuple[dict[str, tuple[Repetition, ...]], dict[str, Repetition]]:
-    """Every strategy's repetitions (run 0 from ``main``) and its ideal-network run.
+    """Every strategy's repetitions (run 0 from ``main``) and its baseline-network run.
 
     Parameters
     ----------
@@ -302,9 +323,9 @@ def collect_repetitions(
 
     Returns
     -------
-    (repetitions, ideal)
+    (repetitions, baseline)
         Strategy → its runs in index order (empty when ``repetitions`` is
-        1 and there is no ideal run), strategy → its ideal-network run.
+        1 and there is no baseline run), strategy → its baseline-network run.
     """
     runs = planned_runs(scenario)
     if not runs:
@@ -318,13 +339,13 @@ def collect_repetitions(
     sim = scenario.simulation
     assert sim is not None
     reps: dict[str, tuple[Repetition, ...]] = {}
-    ideal: dict[str, Repetition] = {}
+    baseline: dict[str, Repetition] = {}
     for strategy, result in main.items():
         first = summarise(result, scenario, strategy, 0, int(scenario.seed))
         reps[strategy] = (first, *(done[(strategy, r)] for r in range(1, sim.repetitions)))
-        if (strategy, IDEAL) in done:
-            ideal[strategy] = done[(strategy, IDEAL)]
-    return reps, ideal
+        if (strategy, BASELINE) in done:
+            baseline[strategy] = done[(strategy, BASELINE)]
+    return reps, baseline
 
 
 def spread(values: Any) -> dict[str, float]:

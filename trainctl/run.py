@@ -60,9 +60,9 @@ class AnalysisRun:
         ``[simulation] repetitions > 1``: every run of each strategy,
         summarised, run 0 (the one in ``simulations``) first
         (:mod:`trainctl.repetitions`); empty otherwise.
-    ideal : mapping of str to Repetition
-        ``[simulation] ideal_network``: each strategy's run over an ideal
-        network, summarised; empty otherwise.
+    baseline : mapping of str to Repetition
+        ``[simulation] baseline_network``: each strategy's run over the
+        baseline network, summarised; empty otherwise.
     """
 
     scenario: Scenario
@@ -72,7 +72,7 @@ class AnalysisRun:
     simulations: Mapping[str, SimulationResult] = field(default_factory=dict)
     metrics: Mapping[str, Metrics] = field(default_factory=dict)
     repetitions: Mapping[str, tuple[Repetition, ...]] = field(default_factory=dict)
-    ideal: Mapping[str, Repetition] = field(default_factory=dict)
+    baseline: Mapping[str, Repetition] = field(default_factory=dict)
 
     def tracking_ok(self, strategy: str) -> bool:
         """True when the strategy's max speed error after settling is within tolerance."""
@@ -175,8 +175,8 @@ class AnalysisRun:
         if self.repetitions:
             out["repetitions"] = {name: [r.to_dict() for r in reps]
                                   for name, reps in self.repetitions.items()}
-        if self.ideal:
-            out["ideal_network"] = {name: r.to_dict() for name, r in self.ideal.items()}
+        if self.baseline:
+            out["baseline_network"] = {name: r.to_dict() for name, r in self.baseline.items()}
         if self.claims:
             out["claims"] = [c.to_dict() for c in self.claims]
         out["strict_failures"] = [f.to_dict() for f in self.strict_failures()]
@@ -192,7 +192,7 @@ class AnalysisRun:
             text += "\n\n" + _expected_text(self)
         if self.metrics:
             text += "\n\n" + _metrics_table(self)
-        if self.repetitions or self.ideal:
+        if self.repetitions or self.baseline:
             text += "\n\n" + _repetitions_table(self)
         if self.claims:
             text += "\n\n" + _claims_text(self)
@@ -265,7 +265,8 @@ def _metrics_table(run: AnalysisRun) -> str:
 
 
 def _repetitions_table(run: AnalysisRun) -> str:
-    """Each strategy's whole-run measures over its repetitions (median [min, max]) and ideal run."""
+    """Each strategy's whole-run measures over its repetitions (median [min, max]) and its
+    baseline-network run."""
     from .repetitions import SETTLING_BAND, spread
 
     sim = run.scenario.simulation
@@ -291,9 +292,10 @@ def _repetitions_table(run: AnalysisRun) -> str:
                      + cell([float(r.deviation.max_error[0]) for r in reps])
                      + cell([float(r.deviation.settling_time[0]) for r in reps])
                      + cell([r.deviation.max_coupler_force for r in reps], 1e-3))
-        if name in run.ideal:
-            d = run.ideal[name].deviation
-            lines.append(f"  {'  ideal network':<{w}}" + cell([float(d.rms_error[0])])
+        if name in run.baseline:
+            d = run.baseline[name].deviation
+            label = f"  {sim.baseline_network} network"
+            lines.append(f"  {label:<{w}}" + cell([float(d.rms_error[0])])
                          + cell([float(d.max_error[0])]) + cell([float(d.settling_time[0])])
                          + cell([d.max_coupler_force], 1e-3))
     return "\n".join(lines)
@@ -520,7 +522,7 @@ def run_scenario(
         The design when already built (:func:`trainctl.design.build_design`);
         built here, once, when None.
     pending_repetitions : mapping or None
-        The ``[simulation]``'s extra runs (repetitions, ideal network)
+        The ``[simulation]``'s extra runs (repetitions, baseline network)
         already submitted with :func:`trainctl.repetitions.submit_repetitions`;
         None: submitted to ``executor`` when given, else run here.
 
@@ -570,10 +572,10 @@ def run_scenario(
             review = with_simulations(review, design, sims)
             from .repetitions import collect_repetitions
 
-            repetitions, ideal = collect_repetitions(scenario, design, sims,
-                                                     pending=pending_repetitions)
+            repetitions, baseline = collect_repetitions(scenario, design, sims,
+                                                        pending=pending_repetitions)
         return AnalysisRun(scenario=scenario, design=design, summary=summary, review=review,
                            simulations=sims, metrics=metrics, repetitions=repetitions,
-                           ideal=ideal)
+                           baseline=baseline)
     return AnalysisRun(scenario=scenario, design=design, summary=summary, review=review,
                        simulations=sims, metrics=metrics)

@@ -68,6 +68,9 @@ def controllers_context(data: ReportData, *, deterministic: bool) -> dict[str, A
         solver = [c for c in _SOLVER if not (deterministic and c[0] == "solve_time")]
         tables.append(_table("solver", "Solver effort and step outcomes", tuple(solver),
                              {name: _solver_cells(m) for name, m in sims.items()}, sims))
+    repetitions = data.results.get("repetitions", {})
+    if repetitions:
+        tables.append(_repetition_table(data, repetitions))
     loops = data.results.get("frequency", {})
     if loops:
         tables.append(_table(
@@ -85,6 +88,61 @@ def _table(key: str, caption: str, columns: tuple[tuple[str, str, str], ...],
             for name, row in cells.items()]
     return {"key": key, "caption": caption,
             "columns": [{"key": k, "title": t, "unit": u} for k, t, u in columns], "rows": rows}
+
+
+_SPREAD = (
+    ("strategy", "Strategy (runs)", ""), ("rms", "RMS speed error, vehicle 1", "m/s"),
+    ("max", "Max speed error, vehicle 1", "m/s"),
+    ("settling", "Settling, vehicle 1", "s"), ("force", "Max |coupler force|", "kN"),
+)
+
+
+def _spread_cell(values: list[float | None], scale: float = 1.0) -> str:
+    """``median [min – max]`` of some numbers (None: never settled, ∞)."""
+    x = [math.inf if v is None else float(v) * scale for v in values]
+    if not x:
+        return "—"
+    x.sort()
+    k = len(x)
+    median = x[k // 2] if k % 2 else 0.5 * (x[k // 2 - 1] + x[k // 2])
+    if k == 1:
+        return format_number(median, 4)
+    return (f"{format_number(median, 4)} [{format_number(x[0], 3)} – "
+            f"{format_number(x[-1], 3)}]")
+
+
+def _repetition_table(data: ReportData, repetitions: Mapping[str, Any]) -> dict[str, Any]:
+    """The spread of every strategy's whole-run measures over its repetitions and its
+    baseline-network run (:mod:`trainctl.repetitions`)."""
+    from ..repetitions import SETTLING_BAND
+
+    sim = data.scenario.simulation
+    baseline = data.results.get("baseline_network", {})
+    cells: dict[str, dict[str, str]] = {}
+
+    def row(reps: list[Mapping[str, Any]]) -> dict[str, str]:
+        d = [r["deviation"] for r in reps]
+        return {"rms": _spread_cell([x["rms_error"][0] for x in d]),
+                "max": _spread_cell([x["max_error"][0] for x in d]),
+                "settling": _spread_cell([x["settling_time"][0] for x in d]),
+                "force": _spread_cell([x["max_coupler_force"] for x in d], 1e-3)}
+
+    for name, reps in repetitions.items():
+        cells[f"{name} ({len(reps)})"] = row(reps)
+        if name in baseline:
+            kind = sim.baseline_network if sim is not None else "baseline"
+            cells[f"{name}, {kind} network"] = row([baseline[name]])
+    since = sim.reference_times[-1] if sim is not None else 0.0
+    seeds = ""
+    if sim is not None:
+        seeds = f"seeds {data.scenario.seed} to {data.scenario.seed + sim.repetitions - 1}; "
+    caption = (f"Spread over the repetitions ({seeds}median [min – max]), over the whole run: "
+               f"settling is the time after t = {since:g} s until the speed error stays within "
+               f"{SETTLING_BAND:g} m/s (∞: not by the end)")
+    rows = [{"ok": True, "cells": [name] + [c[k] for k, _, _ in _SPREAD[1:]]}
+            for name, c in cells.items()]
+    return {"key": "repetitions", "caption": caption,
+            "columns": [{"key": k, "title": t, "unit": u} for k, t, u in _SPREAD], "rows": rows}
 
 
 def _metric_cells(m: Mapping[str, Any]) -> dict[str, str]:

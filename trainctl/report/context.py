@@ -41,6 +41,7 @@ SECTIONS = (
     ("model", "Model"),
     ("checks", "Design checks"),
     ("controllers", "Controllers compared"),
+    ("claims", "Paper claims"),
     ("figures", "Figures"),
     ("reproducibility", "Reproducibility"),
 )
@@ -94,6 +95,7 @@ def build_report_context(
         "model": _model(data),
         "checks": checks,
         "controllers": controllers_context(data, deterministic=deterministic),
+        "claims": _claims(data),
         "figures": shown,
         "figure_numbers": _figure_numbers(sections, shown),
         "footer": _footer(data, generated_at=generated_at, deterministic=deterministic),
@@ -110,6 +112,8 @@ def _sections(data: ReportData, figures: Sequence[ReportFigure]) -> list[dict[st
 
     sections: list[dict[str, Any]] = []
     for key, title in SECTIONS:
+        if key == "claims" and not data.results.get("claims"):
+            continue
         sections.append({"id": key, "title": title, "family": ""})
         if key != "checks":
             continue
@@ -121,6 +125,17 @@ def _sections(data: ReportData, figures: Sequence[ReportFigure]) -> list[dict[st
                                  "template": f"families/{name}.html.j2", "data": family_data,
                                  "figures": [f for f in figures if f.section == sid]})
     return sections
+
+
+def _claims(data: ReportData) -> list[dict[str, str]]:
+    """The run's paper claims (:mod:`trainctl.claims`), each with its badge status.
+
+    ``status`` maps the verdict onto the page's badges: reproduced → pass,
+    not reproduced → fail, depends → warn.
+    """
+    badge = {"reproduced": "pass", "not reproduced": "fail", "depends": "warn"}
+    return [{**c, "status": badge.get(c.get("kind", ""), "other")}
+            for c in data.results.get("claims", [])]
 
 
 def _figure_numbers(sections: Sequence[Mapping[str, Any]],

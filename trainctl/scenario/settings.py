@@ -106,6 +106,8 @@ _STRATEGY_LIST: TypeAdapter[tuple[str, ...]] = TypeAdapter(
 )
 _SAMPLE_TIME: TypeAdapter[float] = TypeAdapter(Annotated[float, SAMPLE_TIME])
 _TIMES = Array(Number(ge=0))
+BASELINES = ("ideal", "delay-free")
+"""Baseline networks of ``[simulation] baseline_network`` (:mod:`trainctl.repetitions`)."""
 MAX_REPETITIONS = 1000
 """Most runs per strategy of one scenario (``[simulation] repetitions``); more is a sweep."""
 _SPACING_ERROR = Number(ge=-5000.0, le=5000.0, why="a virtual link's gap is not off by more "
@@ -215,10 +217,13 @@ class SimulationSettings:
         and the report gives the spread (median and range) of each
         strategy's measures over all of them
         (:mod:`trainctl.repetitions`).
-    ideal_network : bool
-        Also run every strategy once over an ideal network (the scenario
-        without its ``[network]``: no delay, loss, noise or outage), the
-        baseline of the report's deviation ratios.
+    baseline_network : {"ideal", "delay-free"} or None
+        Also run every strategy once over a baseline network, the
+        denominator of the report's deviation ratios
+        (:mod:`trainctl.repetitions`): ``"ideal"``, the scenario without its
+        ``[network]`` (no delay, loss, noise or outage); ``"delay-free"``,
+        its ``[network]`` with every delay 0 (the same noise, losses and
+        outages, drawn the same); None: no baseline run.
 
     Examples
     --------
@@ -280,9 +285,10 @@ class SimulationSettings:
     repetitions: Annotated[int, Integer(ge=1, le=MAX_REPETITIONS), Key(
         "Runs of every strategy with seeds seed, seed + 1, ...: the first is the one shown, "
         "the report gives the spread over all")] = 1
-    ideal_network: Annotated[bool, Flag(), Key(
-        "Also run every strategy over an ideal network (no [network]): the baseline of the "
-        "deviation ratios")] = False
+    baseline_network: Annotated[Annotated[str, Choice(BASELINES)] | None, Key(
+        "Also run every strategy over a baseline network, the denominator of the deviation "
+        "ratios: 'ideal' (no [network]) or 'delay-free' (the [network] with every delay 0)",
+        omitted="no baseline run")] = None
 
     @model_validator(mode="after")
     def _cross_field_rules(self, info: ValidationInfo) -> SimulationSettings:
