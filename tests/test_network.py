@@ -613,7 +613,7 @@ class TestInTheSimulation:
             heard = {link for link in m.messages}
             assert heard == set(network.links)
         assert result.meta["network"] == {"delivered": len(network.links) * 10, "lost": 0,
-                                          "blocked": 0}
+                                          "blocked": 0, "noise_square_sum": 0.0}
 
     def test_no_network_and_the_noise_stream_unchanged(self):
         """With a network the measurement noise and the plant are exactly as without one."""
@@ -627,5 +627,5 @@ class TestInTheSimulation:
         assert all(np.array_equal(a.outputs, b.outputs) for (_, a), (_, b) in
                    zip(seen, seen2, strict=True))
         counts = other.meta["network"]
-        assert sum(counts.values()) == len(net.links) * 10
+        assert sum(counts[fate] for fate in FATES) == len(net.links) * 10
         assert counts["lost"] > 0

@@ -37,7 +37,7 @@ from trainctl.run import run_scenario
 from trainctl.scenario import read_scenario_text
 
 FIXED_TIME = "2025-01-01T00:00:00Z"
-SECTION_IDS = ("scenario", "model", "checks", "controllers", "figures", "reproducibility")
+SECTION_IDS = ("scenario", "model", "checks", "controllers", "claims", "figures", "reproducibility")
 
 
 def _data(name: str) -> ReportData:

@@ -65,6 +65,9 @@ _MPC = 5e-4                 # × n^2.5 · P^1.2: N-DMPC iteration analysis
 _MPC_LONG = 3e-9            # × n^2.5 · P^3: the same at long horizons
 _SUBSTEP = 1e-4             # × (1 + n / 32) per plant substep
 _STEP = 5e-4                # controller overhead per step
+_LAW = 2e-4                 # an explicit law's step with its network messages (measured on
+                            # heavy-haul-hinf-delay: 0.43 ms per hinf step and 0.27 ms per
+                            # synchronous step in all, plant included)
 _QP = 2e-4                  # one small QP (a vehicle's)
 _CENTRAL = 3e-7             # × (n · M)³: the centralised QP
 _BUILD = 0.5                # building a strategy's controller (cvxpy), + _BUILD_SIZE·(n·P)^1.5
@@ -409,6 +412,13 @@ def _strategy_seconds(scenario: Scenario, strategy: str, samples: int, horizon: 
     if family == "lqr":
         return samples * (plant + _STEP)
     settings = scenario.controllers.get(family) if family else scenario.controller
+    if (family or getattr(settings, "family", "mpc")) not in ("mpc", "lqr"):
+        # An explicit law (potential, flocking, synchronous, hinf): no QP, stepped at its own
+        # control interval, the plant's substeps per step scaled to it.
+        interval = getattr(settings, "control_interval", None) or scenario.model.sample_time
+        steps = samples * scenario.model.sample_time / interval
+        per_step = plant * interval / scenario.model.sample_time
+        return _BUILD + steps * (per_step + _LAW)
     if name in ("ndmpc", "cooperative"):
         limit = int(getattr(settings, "max_iterations", _ITERATIONS) or _ITERATIONS)
         step = _QP * n * min(limit, _ITERATIONS)

@@ -74,7 +74,8 @@ class Claim:
     ----------
     key : str
         ``"delay_deviation"``, ``"settling"``, ``"interruption_deviation"``,
-        ``"interruption_force"``, ``"interruption_recovery"``, ``"performance_index"`` or ``"gamma"``.
+        ``"interruption_force"``, ``"interruption_recovery"``,
+        ``"performance_index"`` or ``"gamma"``.
     case : str
         The paper's case: ``"(a)"`` … ``"(d)"``, or ``"design"``.
     claim : str

@@ -123,8 +123,9 @@ def deviation(result: SimulationResult, since: float, band: float = SETTLING_BAN
 
     Examples
     --------
-    A vehicle whose error decays as e^(−t/10) from 1 m/s leaves a 0.1 m/s
-    band at t = 10 ln 10 ≈ 23.03 s:
+    A vehicle whose error decays as e^(−t/10) from 1 m/s enters a 0.1 m/s
+    band at t = 10 ln 10 ≈ 23.03 s, the first point of a 0.1 s grid after it
+    23.1 s:
 
     >>> from trainctl.sim.results import SimulationResult
     >>> t = np.linspace(0.0, 60.0, 601)
@@ -138,7 +139,7 @@ def deviation(result: SimulationResult, since: float, band: float = SETTLING_BAN
     ...     dt=0.1)
     >>> d = deviation(r, since=0.0)
     >>> round(float(d.settling_time[0]), 1), round(float(d.max_error[0]), 3)
-    (23.0, 1.0)
+    (23.1, 1.0)
     """
     n = result.velocities.shape[0]
     e = result.velocities - result.reference_speed[None, :]

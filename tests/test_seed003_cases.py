@@ -1,0 +1,426 @@
+"""Seed 003's cases: line feedforward, repetitions and baselines, the paper claims, the reports.
+
+Each number is checked against a second route: the steady speed error of a
+proportional law on a grade by hand (r/κ), a repetition against a run of the
+scenario with its seed changed, a baseline against the scenario file with its
+delay keys removed, the claims' ratios and window maxima against the saved
+arrays, the noise energy against a second network replaying the same draws.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from trainctl.cli import main
+from trainctl.controllers.base import Measurement, ReferencePreview
+from trainctl.models.track import Track, TrackSection
+from trainctl.network import Network
+from trainctl.repetitions import SETTLING_BAND, deviation, planned_runs, run_repetition
+from trainctl.run import run_scenario, simulate_strategy
+from trainctl.scenario import builtin_scenario_text, load_scenario, parse_scenario
+from trainctl.sim.results import SimulationResult
+
+CASES = ("heavy-haul-hinf-ideal", "heavy-haul-hinf-interruption", "heavy-haul-hinf-delay",
+         "heavy-haul-hinf-noise", "heavy-haul-hinf-delayed-own-speed")
+
+GRADE = 9.98 * math.sin(math.atan(-12.0 / 1000.0))
+"""The −12 ‰ section's line resistance per unit mass [m/s²] (the "ning2016" formula, by hand)."""
+
+
+def _simulation_block(text: str, block: str) -> str:
+    """``text`` with its [simulation] … (up to [expected]) replaced by ``block``."""
+    head, rest = text.split("\n[simulation]\n", 1)
+    tail = rest[rest.index("# What the design review finds"):]
+    return head + "\n" + block.strip("\n") + "\n\n" + tail
+
+
+SHORT_DELAY = """
+[simulation]
+duration = 200.0
+strategies = ["distributed", "synchronous.synchronous"]
+settle_time = 150.0
+tracking_tolerance = 0.5
+repetitions = 3
+baseline_network = "delay-free"
+
+[simulation.reference]
+times = [0.0, 60.0]
+speeds_kmh = [60.0, 70.0]
+"""
+
+
+def _short_delay(**replace: str) -> str:
+    text = _simulation_block(builtin_scenario_text("heavy-haul-hinf-delay"), SHORT_DELAY)
+    for old, new in replace.items():
+        text = text.replace(old, new)
+    return text
+
+
+# -- line feedforward ---------------------------------------------------------------------------
+ON_GRADE = """
+[simulation]
+duration = 400.0
+strategies = ["distributed", "synchronous.synchronous"]
+settle_time = 300.0
+tracking_tolerance = 0.5
+
+[simulation.reference]
+times = [0.0]
+speeds_kmh = [70.0]
+"""
+
+
+@pytest.mark.parametrize("feedforward", [True, False])
+def test_line_feedforward_and_the_steady_grade_error(feedforward: bool) -> None:
+    """On a constant −12 ‰ grade a proportional speed law settles r/κ too fast; fed forward, 0.
+
+    Both laws pin every subsystem to the reference with κ = 0.1 1/s, so the
+    rigid speed mode obeys ė = −κ e − r: e(∞) = −r/κ = 1.198 m/s (hand value).
+    """
+    text = _simulation_block(builtin_scenario_text("heavy-haul-hinf-ideal"), ON_GRADE)
+    text = text.replace("start = 20000.0", "start = 1.0")
+    if not feedforward:
+        text = text.replace("line_feedforward = true ", "line_feedforward = false")
+    sc = parse_scenario(text)
+    want = 0.0 if feedforward else -GRADE / 0.1
+    assert not feedforward or abs(-GRADE / 0.1 - 1.198) < 1e-3
+    for strategy in ("distributed", "synchronous.synchronous"):
+        result = simulate_strategy(sc, strategy)
+        late = result.time[:-1] >= 300.0
+        error = result.velocities[:, :-1][:, late] - result.reference_speed[:-1][late]
+        np.testing.assert_allclose(error, want, atol=2e-3, err_msg=strategy)
+
+
+def test_the_lead_relays_the_grade_under_itself() -> None:
+    """The relayed command is v̇_d − κ(v_ℓ − v_d) + r(p_ℓ); a remote applies m_i × it + R_i(v_i)."""
+    # the law alone, unclipped
+    sc = load_scenario("heavy-haul-hinf-ideal").replace("controller.synchronous.input_bounds",
+                                                        False)
+    from trainctl.run import make_controller
+
+    ctl = make_controller(sc, "synchronous.synchronous")
+    ctl.reset()
+    law = ctl.law
+    line = Track(sections=(TrackSection(start=0.0), TrackSection(start=20000.0,
+                                                                 grade_permille=-12.0)),
+                 formula="ning2016")   # the scenario's track, written out
+    assert law.line is not None and law.line.formula == "ning2016"
+    v = np.full(4, 19.0)
+    positions = np.array([20300.0, 19667.2, 19034.4, 18401.6])   # the lead alone on the grade
+    ref = ReferencePreview(times=np.zeros(1), speed=np.full(1, 19.5),
+                           acceleration=np.full(1, 0.01))
+    rec = ctl.step(0.0, Measurement(outputs=v, positions=positions), ref)
+    r = line.resistance_per_mass(positions)
+    assert r[0] == pytest.approx(GRADE) and np.all(r[1:] == 0.0)
+    command = 0.01 - 0.1 * (19.0 - 19.5) + GRADE
+    a0, a1, a2 = law.davis
+    resistance = law.mass * (a0 + a1 * v + a2 * v * v)
+    np.testing.assert_allclose(rec.inputs, law.mass * command + resistance, rtol=1e-12)
+    assert rec.info["command"] == pytest.approx(command)
+
+
+def test_the_relay_carries_its_own_command_noise_not_the_speed_noise() -> None:
+    """[network] speed noise does not reach the command; command_noise_std_m_s2 does, at its std."""
+    sc = load_scenario("heavy-haul-hinf-interruption")
+    assert sc.network is not None and sc.network.communication_noise_std == 0.05
+    from trainctl.run import make_controller
+
+    quiet = make_controller(sc, "synchronous.synchronous")
+    quiet.reset()
+    noisy_sc = parse_scenario(builtin_scenario_text("heavy-haul-hinf-interruption").replace(
+        "[controller.synchronous]", "[controller.synchronous]\ncommand_noise_std_m_s2 = 0.01"))
+    noisy = make_controller(noisy_sc, "synchronous.synchronous")
+    noisy.reset()
+    deltas = []
+    for k in range(400):
+        t = 0.2 * k
+        a = 0.02 * math.sin(0.01 * k)
+        c0, _ = quiet.relay.relay(t, a)
+        c1, _ = noisy.relay.relay(t, a)
+        np.testing.assert_array_equal(c0, np.full(4, a))
+        deltas.append(c1[1:] - a)
+    d = np.concatenate(deltas)
+    # 1200 draws of N(0, 0.01²): the sample std is within 10 % of 0.01 with probability > 0.999.
+    assert abs(np.std(d) / 0.01 - 1.0) < 0.1
+    assert abs(np.mean(d)) < 4 * 0.01 / math.sqrt(d.size)
+
+
+# -- repetitions and baselines ---------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def short_run():
+    """The short delay case, run serially: 3 repetitions and the delay-free baseline."""
+    return run_scenario(parse_scenario(_short_delay()))
+
+
+def test_planned_runs() -> None:
+    sc = parse_scenario(_short_delay())
+    assert planned_runs(sc) == [("distributed", 1), ("distributed", 2),
+                                ("synchronous.synchronous", 1), ("synchronous.synchronous", 2),
+                                ("distributed", -1), ("synchronous.synchronous", -1)]
+    alone = parse_scenario(_short_delay(**{"repetitions = 3": "repetitions = 1",
+                                           'baseline_network = "delay-free"': ""}))
+    assert planned_runs(alone) == []
+
+
+def test_repetition_r_is_the_run_with_seed_plus_r(short_run) -> None:
+    """Run r equals a run of the scenario whose seed is seed + r; the draws differ between runs."""
+    sc = short_run.scenario
+    reps = short_run.repetitions["distributed"]
+    assert [r.seed for r in reps] == [sc.seed, sc.seed + 1, sc.seed + 2]
+    again = simulate_strategy(sc.replace("seed", sc.seed + 2), "distributed")
+    np.testing.assert_array_equal(deviation(again, 60.0).rms_error,
+                                  reps[2].deviation.rms_error)
+    assert reps[1].deviation.rms_error[0] != reps[2].deviation.rms_error[0]
+    sync = short_run.repetitions["synchronous.synchronous"]
+    other = simulate_strategy(sc.replace("seed", sc.seed + 1), "synchronous.synchronous")
+    np.testing.assert_array_equal(deviation(other, 60.0).max_error, sync[1].deviation.max_error)
+    # run 0 is the run shown
+    np.testing.assert_array_equal(
+        reps[0].deviation.rms_error, deviation(short_run.simulations["distributed"],
+                                               60.0).rms_error)
+
+
+def test_delay_free_baseline_is_the_file_without_its_delay(short_run) -> None:
+    """The baseline equals the scenario with delay_range_s deleted: the same noise, no delay."""
+    text = _short_delay().replace("delay_range_s = [0.0, 2.0]", "")
+    plain = simulate_strategy(parse_scenario(text), "distributed")
+    base = short_run.baseline["distributed"]
+    np.testing.assert_array_equal(deviation(plain, 60.0).rms_error, base.deviation.rms_error)
+    assert base.seed == short_run.scenario.seed
+
+
+def test_ideal_baseline_is_the_scenario_without_network() -> None:
+    text = _short_delay(**{'baseline_network = "delay-free"': 'baseline_network = "ideal"',
+                           "repetitions = 3": "repetitions = 1"})
+    sc = parse_scenario(text)
+    base = run_repetition(sc, "distributed", None, -1)
+    head, rest = text.split("\n[network]\n", 1)
+    bare = head + "\n" + rest[rest.index("\n[simulation]"):]
+    plain = simulate_strategy(parse_scenario(bare), "distributed")
+    np.testing.assert_array_equal(deviation(plain, 60.0).max_error, base.deviation.max_error)
+
+
+@pytest.mark.slow
+def test_repetitions_on_the_pool_equal_the_serial_ones(short_run) -> None:
+    """The same seeds give the same repetitions serially and on the local process pool."""
+    from trainctl.parallel import worker_pool
+
+    with worker_pool(2) as pool:
+        pooled = run_scenario(short_run.scenario, executor=pool)
+    serial = short_run.to_dict()
+    both = pooled.to_dict()
+    assert both["repetitions"] == serial["repetitions"]
+    assert both["baseline_network"] == serial["baseline_network"]
+    assert both["claims"] == serial["claims"]
+
+
+def test_deviation_by_hand() -> None:
+    """RMS over the samples, peak over the dense grid, settling inf when outside at the end."""
+    t = np.linspace(0.0, 10.0, 11)
+    v = np.vstack([np.full(11, 20.0), 20.0 + np.linspace(0.0, 0.5, 11)])
+    r = SimulationResult(time=t, states=np.vstack([v, np.zeros(11), t]), velocities=v,
+                         coupler_forces=np.zeros((1, 11)), inputs=np.zeros((2, 10)),
+                         reference_speed=np.full(11, 20.0), reference_acceleration=np.zeros(11),
+                         statuses=("optimal",) * 10, iterations=np.zeros(10, dtype=int),
+                         residuals=((),) * 10, solve_times=np.zeros(10), fallbacks=("",) * 10,
+                         controller_name="c", seed=0, dt=1.0)
+    d = deviation(r, since=2.0)
+    assert d.rms_error[0] == 0.0
+    assert d.rms_error[1] == pytest.approx(math.sqrt(np.mean(np.linspace(0, 0.5, 11) ** 2)))
+    assert d.max_error[1] == pytest.approx(0.5)
+    assert d.settling_time[0] == 0.0 and math.isinf(d.settling_time[1])
+    assert SETTLING_BAND == 0.1
+
+
+@pytest.mark.parametrize(("line", "match"), [
+    ("repetitions = 0", "repetitions"),
+    ('baseline_network = "perfect"', "baseline_network"),
+])
+def test_bad_repetition_keys_exit_2(tmp_path: Path, capsys, line: str, match: str) -> None:
+    text = _short_delay(**{"repetitions = 3": line}) if "repetitions" in line else \
+        _short_delay(**{'baseline_network = "delay-free"': line})
+    path = tmp_path / "bad.toml"
+    path.write_text(text, encoding="utf-8")
+    assert main(["analyse", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert match in err and "Traceback" not in err
+
+
+def test_the_budget_counts_every_run() -> None:
+    """Repetitions and the baseline multiply the estimated simulation time."""
+    from trainctl.budget import estimate_run
+
+    sc = parse_scenario(_short_delay())
+    one = parse_scenario(_short_delay(**{"repetitions = 3": "repetitions = 1",
+                                         'baseline_network = "delay-free"': ""}))
+    assert estimate_run(sc).simulation_seconds == pytest.approx(
+        4 * estimate_run(one).simulation_seconds)
+
+
+# -- the paper's claims ----------------------------------------------------------------------------
+def _claims(run) -> dict[str, dict[str, str]]:
+    return {c["key"]: c for c in run.to_dict().get("claims", [])}
+
+
+def test_delay_claims_from_the_runs(short_run) -> None:
+    """The deviation ratio and the settling comparison follow from the repetitions' arrays."""
+    claims = _claims(short_run)
+    ratios = []
+    base_run = short_run.baseline["distributed"]
+    for rep in short_run.repetitions["distributed"]:
+        ratios.append(rep.deviation.rms_error[0] / base_run.deviation.rms_error[0])
+    # Run 0's ratio recomputed from the arrays: vehicle 1's RMS error over the samples.
+    res = short_run.simulations["distributed"]
+    rms0 = math.sqrt(np.mean((res.velocities[0] - res.reference_speed) ** 2))
+    assert ratios[0] == pytest.approx(rms0 / base_run.deviation.rms_error[0], rel=1e-12)
+    median = float(np.median(ratios))
+    claim = claims["delay_deviation"]
+    assert f"median {median:.3g}×" in claim["trainctl"]
+    assert claim["kind"] == ("reproduced" if 5.0 <= median <= 11.25 else "not reproduced")
+    settle = claims["settling"]
+    a = np.median([r.deviation.settling_time[0] for r in short_run.repetitions["distributed"]])
+    b = np.median([r.deviation.settling_time[0]
+                   for r in short_run.repetitions["synchronous.synchronous"]])
+    assert settle["kind"] == ("reproduced" if a < b else "not reproduced")
+    assert claims["gamma"]["kind"] == "depends"
+    assert list(claims) == ["delay_deviation", "settling", "performance_index", "gamma"]
+
+
+def test_gamma_claim_and_its_floors() -> None:
+    """The SI-unit norm is at least 1/κ_p (force channel at DC) and 1 (reference noise at DC)."""
+    run = run_scenario(load_scenario("heavy-haul-hinf-delay"), simulate=False)
+    claim = _claims(run)["gamma"]
+    certified = float(run.design.family("hinf").gamma.gamma)
+    assert f"certified γ = {certified:.4g}" in claim["trainctl"]
+    si = float(re.search(r"‖T‖∞ = ([0-9.e+-]+) with every channel in SI", claim["trainctl"])[1])
+    assert si >= 1.0 / 0.1 * (1 - 1e-6) and si >= 1.0
+    assert certified < 1.0 < si
+    assert claim["verdict"] == "depends on the scaling"
+
+
+@pytest.fixture(scope="module")
+def interruption(tmp_path_factory):
+    """Case (b) analysed with --save (the report renders from it) and its JSON."""
+    out = tmp_path_factory.mktemp("b") / "run"
+    code = main(["analyse", "heavy-haul-hinf-interruption", "--save", str(out), "--json",
+                 "--strict", "--jobs", "1"])
+    return code, out
+
+
+def test_interruption_claims_from_the_arrays(interruption) -> None:
+    """The window maxima are those of the saved arrays inside [700, 850) s and in [550, 700) s."""
+    from trainctl.report import ReportData
+
+    code, out = interruption
+    data = ReportData.load(out)
+    res = data.simulations["distributed"]
+    claims = {c["key"]: c for c in data.results["claims"]}
+    t = res.dense_time
+    n = res.velocities.shape[0]
+    e = np.abs(res.dense_states[:n] - res.dense_reference_speed)
+    inside, before = (t >= 700.0) & (t < 850.0), (t >= 550.0) & (t < 700.0)
+    e_in, e_out = e[:, inside].max(), e[:, before].max()
+    f_in = np.abs(res.dense_coupler_forces[:, inside]).max() / 1e3
+    f_out = np.abs(res.dense_coupler_forces[:, before]).max() / 1e3
+    dev, force = claims["interruption_deviation"], claims["interruption_force"]
+    assert f"max {e_in:.3g} m/s inside against {e_out:.3g} m/s before" in dev["trainctl"]
+    assert f"max {f_in:.3g} kN inside against {f_out:.3g} kN before" in force["trainctl"]
+    assert dev["kind"] == ("reproduced" if e_in > e_out else "not reproduced")
+    assert force["kind"] == ("reproduced" if f_in > f_out else "not reproduced")
+    recovery = claims["interruption_recovery"]
+    assert "hinf_connectivity pass" in recovery["trainctl"]
+    assert recovery["kind"] == "reproduced"
+
+
+def test_noise_energy_by_a_second_network() -> None:
+    """Σ n² of the delivered messages, replayed by a second network on the same seed."""
+    sc = parse_scenario(builtin_scenario_text("heavy-haul-hinf-noise").replace(
+        "duration = 600.0 ", "duration = 100.0 ").replace("settle_time = 60.0 ",
+                                                           "settle_time = 50.0 "))
+    result = simulate_strategy(sc, "distributed")
+    from trainctl.run import NETWORK_STREAM
+
+    net = Network(sc.network, sc.graph(), seed=np.random.SeedSequence([sc.seed, NETWORK_STREAM]))
+    steps = result.velocities.shape[1] - 1
+    for k in range(steps):
+        net.send_all(0.2 * k, np.zeros(4), reference=0.0)
+    log = net.history()
+    want = float(np.sum(log.noise[log.fate == "delivered"] ** 2))
+    assert result.meta["network"]["noise_square_sum"] == pytest.approx(want, rel=1e-12)
+    # the claim's ratio from those energies
+    run = run_scenario(sc)
+    claim = _claims(run)["performance_index"]
+    s = run.design.family("hinf").settings
+    e = result.velocities - result.reference_speed
+    ratio = math.sqrt((0.2 * np.sum(e[:, 1:] ** 2) / s.output_scale ** 2)
+                      / (0.2 * want / s.noise_scale ** 2))
+    assert f"= {ratio:.3g} against" in claim["trainctl"]
+    assert claim["kind"] == ("reproduced" if ratio <= min(run.design.family("hinf").gamma.gamma,
+                                                           1.0) else "not reproduced")
+
+
+# -- the built-in cases: --strict and the reports ----------------------------------------------
+def _strict_code(name: str) -> int:
+    """1 when [expected] declares a failing check (every case declares string_stability)."""
+    sc = load_scenario(name)
+    return 1 if "fail" in sc.expected.values() else 0
+
+
+def test_interruption_strict_and_report(interruption, tmp_path: Path, capsys) -> None:
+    """--strict follows [expected]; the saved run renders the claims table with a verdict each."""
+    code, out = interruption
+    assert code == _strict_code("heavy-haul-hinf-interruption") == 1
+    page = tmp_path / "b.html"
+    assert main(["report", str(out), "-o", str(page)]) == 0
+    html = page.read_text(encoding="utf-8")
+    assert '<section id="claims">' in html
+    rows = re.findall(r'<tr class="claim claim-([a-z_]+)">', html)
+    assert rows == ["interruption_deviation", "interruption_force", "interruption_recovery",
+                    "performance_index", "gamma"]
+    assert html.count('class="badge badge-') >= len(rows)
+    assert "depends on the scaling" in html
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["heavy-haul-hinf-ideal", "heavy-haul-hinf-noise",
+                                  "heavy-haul-hinf-delayed-own-speed"])
+def test_case_reports_and_strict(name: str, tmp_path: Path, capsys) -> None:
+    """Each case: --strict exits as [expected] says, the report has the claims table."""
+    out = tmp_path / "run"
+    assert main(["analyse", name, "--strict", "--save", str(out), "--jobs", "1"]) == \
+        _strict_code(name)
+    capsys.readouterr()
+    page = tmp_path / "page.html"
+    assert main(["report", str(out), "-o", str(page)]) == 0
+    html = page.read_text(encoding="utf-8")
+    assert '<section id="claims">' in html and "claim-gamma" in html
+
+
+@pytest.mark.slow
+def test_delay_case_report_with_fewer_seeds(tmp_path: Path, capsys) -> None:
+    """Case (c) with 2 seeds: the report shows the spread table and the 7.5× row."""
+    text = builtin_scenario_text("heavy-haul-hinf-delay").replace(
+        "repetitions = 20 ", "repetitions = 2  ")
+    path = tmp_path / "c.toml"
+    path.write_text(text, encoding="utf-8")
+    page = tmp_path / "c.html"
+    assert main(["report", str(path), "-o", str(page)]) == 0
+    html = page.read_text(encoding="utf-8")
+    assert "metrics-repetitions" in html and "claim-delay_deviation" in html
+    assert "claim-settling" in html
+    assert main(["analyse", str(path), "--strict", "--no-simulate"]) == 1
+
+
+def test_every_case_declares_every_check() -> None:
+    """Each case's [expected] states an outcome for every check the review makes."""
+    from trainctl.analysis.review import review_design
+
+    for name in CASES:
+        sc = load_scenario(name)
+        checks = {c.name for c in review_design(sc).checks}
+        assert checks == set(sc.expected), name
