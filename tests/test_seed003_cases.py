@@ -424,3 +424,17 @@ def test_every_case_declares_every_check() -> None:
         sc = load_scenario(name)
         checks = {c.name for c in review_design(sc).checks}
         assert checks == set(sc.expected), name
+
+
+def test_both_families_track_the_profile_over_an_ideal_network() -> None:
+    """Case (a): no delay, no noise: both laws end within the tolerance, couplers under 2250 kN."""
+    run = run_scenario(load_scenario("heavy-haul-hinf-ideal"))
+    sim = run.scenario.simulation
+    assert sim is not None and run.scenario.network is None
+    for strategy in ("distributed", "synchronous.synchronous"):
+        m = run.metrics[strategy]
+        assert run.tracking_ok(strategy), strategy
+        assert float(np.max(m.max_error)) <= sim.tracking_tolerance
+        res = run.simulations[strategy]
+        assert np.max(np.abs(res.dense_coupler_forces)) < 2250e3
+        assert res.meta.get("divergence") is None
