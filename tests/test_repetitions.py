@@ -1,0 +1,158 @@
+"""Repetitions of a scenario's runs and their baselines (trainctl.repetitions), seed 003 (c).
+
+Each repetition is checked against a run of the scenario with its seed
+changed, each baseline against the scenario file with its delay keys (or its
+[network]) removed, the pool against the serial runs, and the delay claims
+against the repetitions' arrays.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.test_seed003_cases import _claims, _short_delay
+from trainctl.cli import main
+from trainctl.repetitions import SETTLING_BAND, deviation, planned_runs, run_repetition
+from trainctl.run import run_scenario, simulate_strategy
+from trainctl.scenario import parse_scenario
+from trainctl.sim.results import SimulationResult
+
+
+# -- repetitions and baselines ---------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def short_run():
+    """The short delay case, run serially: 3 repetitions and the delay-free baseline."""
+    return run_scenario(parse_scenario(_short_delay()))
+
+
+def test_planned_runs() -> None:
+    sc = parse_scenario(_short_delay())
+    assert planned_runs(sc) == [("distributed", 1), ("distributed", 2),
+                                ("synchronous.synchronous", 1), ("synchronous.synchronous", 2),
+                                ("distributed", -1), ("synchronous.synchronous", -1)]
+    alone = parse_scenario(_short_delay(**{"repetitions = 3": "repetitions = 1",
+                                           'baseline_network = "delay-free"': ""}))
+    assert planned_runs(alone) == []
+
+
+def test_repetition_r_is_the_run_with_seed_plus_r(short_run) -> None:
+    """Run r equals a run of the scenario whose seed is seed + r; the draws differ between runs."""
+    sc = short_run.scenario
+    reps = short_run.repetitions["distributed"]
+    assert [r.seed for r in reps] == [sc.seed, sc.seed + 1, sc.seed + 2]
+    again = simulate_strategy(sc.replace("seed", sc.seed + 2), "distributed")
+    np.testing.assert_array_equal(deviation(again, 60.0).rms_error,
+                                  reps[2].deviation.rms_error)
+    assert reps[1].deviation.rms_error[0] != reps[2].deviation.rms_error[0]
+    sync = short_run.repetitions["synchronous.synchronous"]
+    other = simulate_strategy(sc.replace("seed", sc.seed + 1), "synchronous.synchronous")
+    np.testing.assert_array_equal(deviation(other, 60.0).max_error, sync[1].deviation.max_error)
+    # run 0 is the run shown
+    np.testing.assert_array_equal(
+        reps[0].deviation.rms_error, deviation(short_run.simulations["distributed"],
+                                               60.0).rms_error)
+
+
+def test_delay_free_baseline_is_the_file_without_its_delay(short_run) -> None:
+    """The baseline equals the scenario with delay_range_s deleted: the same noise, no delay."""
+    text = _short_delay().replace("delay_range_s = [0.0, 2.0]", "")
+    plain = simulate_strategy(parse_scenario(text), "distributed")
+    base = short_run.baseline["distributed"]
+    np.testing.assert_array_equal(deviation(plain, 60.0).rms_error, base.deviation.rms_error)
+    assert base.seed == short_run.scenario.seed
+
+
+def test_ideal_baseline_is_the_scenario_without_network() -> None:
+    text = _short_delay(**{'baseline_network = "delay-free"': 'baseline_network = "ideal"',
+                           "repetitions = 3": "repetitions = 1"})
+    sc = parse_scenario(text)
+    base = run_repetition(sc, "distributed", None, -1)
+    head, rest = text.split("\n[network]\n", 1)
+    bare = head + "\n" + rest[rest.index("\n[simulation]"):]
+    plain = simulate_strategy(parse_scenario(bare), "distributed")
+    np.testing.assert_array_equal(deviation(plain, 60.0).max_error, base.deviation.max_error)
+
+
+@pytest.mark.slow
+def test_repetitions_on_the_pool_equal_the_serial_ones(short_run) -> None:
+    """The same seeds give the same repetitions serially and on the local process pool."""
+    from trainctl.parallel import worker_pool
+
+    with worker_pool(2) as pool:
+        pooled = run_scenario(short_run.scenario, executor=pool)
+    serial = short_run.to_dict()
+    both = pooled.to_dict()
+    assert both["repetitions"] == serial["repetitions"]
+    assert both["baseline_network"] == serial["baseline_network"]
+    assert both["claims"] == serial["claims"]
+
+
+def test_deviation_by_hand() -> None:
+    """RMS over the samples, peak over the dense grid, settling inf when outside at the end."""
+    t = np.linspace(0.0, 10.0, 11)
+    v = np.vstack([np.full(11, 20.0), 20.0 + np.linspace(0.0, 0.5, 11)])
+    r = SimulationResult(time=t, states=np.vstack([v, np.zeros(11), t]), velocities=v,
+                         coupler_forces=np.zeros((1, 11)), inputs=np.zeros((2, 10)),
+                         reference_speed=np.full(11, 20.0), reference_acceleration=np.zeros(11),
+                         statuses=("optimal",) * 10, iterations=np.zeros(10, dtype=int),
+                         residuals=((),) * 10, solve_times=np.zeros(10), fallbacks=("",) * 10,
+                         controller_name="c", seed=0, dt=1.0)
+    d = deviation(r, since=2.0)
+    assert d.rms_error[0] == 0.0
+    assert d.rms_error[1] == pytest.approx(math.sqrt(np.mean(np.linspace(0, 0.5, 11) ** 2)))
+    assert d.max_error[1] == pytest.approx(0.5)
+    assert d.settling_time[0] == 0.0 and math.isinf(d.settling_time[1])
+    assert SETTLING_BAND == 0.1
+
+
+@pytest.mark.parametrize(("line", "match"), [
+    ("repetitions = 0", "repetitions"),
+    ('baseline_network = "perfect"', "baseline_network"),
+])
+def test_bad_repetition_keys_exit_2(tmp_path: Path, capsys, line: str, match: str) -> None:
+    text = _short_delay(**{"repetitions = 3": line}) if "repetitions" in line else \
+        _short_delay(**{'baseline_network = "delay-free"': line})
+    path = tmp_path / "bad.toml"
+    path.write_text(text, encoding="utf-8")
+    assert main(["analyse", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert match in err and "Traceback" not in err
+
+
+def test_the_budget_counts_every_run() -> None:
+    """Repetitions and the baseline multiply the estimated simulation time."""
+    from trainctl.budget import estimate_run
+
+    sc = parse_scenario(_short_delay())
+    one = parse_scenario(_short_delay(**{"repetitions = 3": "repetitions = 1",
+                                         'baseline_network = "delay-free"': ""}))
+    assert estimate_run(sc).simulation_seconds == pytest.approx(
+        4 * estimate_run(one).simulation_seconds)
+
+
+def test_delay_claims_from_the_runs(short_run) -> None:
+    """The deviation ratio and the settling comparison follow from the repetitions' arrays."""
+    claims = _claims(short_run)
+    ratios = []
+    base_run = short_run.baseline["distributed"]
+    for rep in short_run.repetitions["distributed"]:
+        ratios.append(rep.deviation.rms_error[0] / base_run.deviation.rms_error[0])
+    # Run 0's ratio recomputed from the arrays: vehicle 1's RMS error over the samples.
+    res = short_run.simulations["distributed"]
+    rms0 = math.sqrt(np.mean((res.velocities[0] - res.reference_speed) ** 2))
+    assert ratios[0] == pytest.approx(rms0 / base_run.deviation.rms_error[0], rel=1e-12)
+    median = float(np.median(ratios))
+    claim = claims["delay_deviation"]
+    assert f"median {median:.3g}×" in claim["trainctl"]
+    assert claim["kind"] == ("reproduced" if 5.0 <= median <= 11.25 else "not reproduced")
+    settle = claims["settling"]
+    a = np.median([r.deviation.settling_time[0] for r in short_run.repetitions["distributed"]])
+    b = np.median([r.deviation.settling_time[0]
+                   for r in short_run.repetitions["synchronous.synchronous"]])
+    assert settle["kind"] == ("reproduced" if a < b else "not reproduced")
+    assert claims["gamma"]["kind"] == "depends"
+    assert list(claims) == ["delay_deviation", "settling", "performance_index", "gamma"]
