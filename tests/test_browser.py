@@ -161,8 +161,10 @@ def mixed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
-FAMILY_SCENARIOS = {"potential": "crh2-potential", "flocking": "heavy-haul-flocking"}
-"""The scenarios whose primary family exchanges data over a communication graph."""
+FAMILY_SCENARIOS = {"potential": "crh2-potential", "flocking": "heavy-haul-flocking",
+                    "hinf": "heavy-haul-hinf-noise"}
+"""The scenarios whose primary family exchanges data over a communication graph (the hinf
+one with its paper-claims section)."""
 
 GRAPH = """
 (function () {
@@ -191,7 +193,8 @@ GRAPH = """
 @pytest.fixture(scope="module", params=sorted(FAMILY_SCENARIOS))
 def family_report(request: pytest.FixtureRequest,
                   tmp_path_factory: pytest.TempPathFactory) -> tuple[str, Path]:
-    """crh2-potential and heavy-haul-flocking, each rendered once by the CLI (one process)."""
+    """crh2-potential, heavy-haul-flocking and heavy-haul-hinf-noise, each rendered once by
+    the CLI (one process)."""
     family = request.param
     name = FAMILY_SCENARIOS[family]
     path = tmp_path_factory.mktemp(f"browser-{family}") / f"{name}.html"
@@ -277,7 +280,7 @@ def test_mixed_families_report_fits_1280(mixed: Path, tmp_path: Path) -> None:
 
 
 def test_family_report_loads_cleanly(family_report: tuple[str, Path], tmp_path: Path) -> None:
-    """The potential and flocking reports log no console message and fit 1280 px."""
+    """The potential, flocking and hinf reports log no console message and fit 1280 px."""
     family, page = family_report
     shot = tmp_path / f"{family}.png"
     assert _console(_load(page, shot, tmp_path / "profile")) == []
@@ -303,3 +306,18 @@ def test_family_report_shows_the_graph(family_report: tuple[str, Path], tmp_path
     numbers = sorted(int(t) for t in found["texts"] if t.isdigit())
     assert numbers == list(range(1, n + 1)) and "reference" in found["texts"]
     assert "reaches every vehicle" in found["caption"]
+
+
+def test_seed003_repetitions_and_claims_fit_1280(tmp_path: Path) -> None:
+    """Case (c) shortened: the spread table, the coupler column and the claims fit, cleanly."""
+    from tests.test_seed003_cases import _short_delay
+
+    source = tmp_path / "c.toml"
+    source.write_text(_short_delay(), encoding="utf-8")
+    page = tmp_path / "c.html"
+    assert main(["report", str(source), "-o", str(page), "--jobs", "1"]) == 0
+    html = page.read_text(encoding="utf-8")
+    assert "metrics-repetitions" in html and '<section id="claims">' in html
+    assert _console(_load(page, tmp_path / "c.png", tmp_path / "profile")) == []
+    record = _measure(page, tmp_path)
+    assert record["width"] <= WIDTH and record["problems"] == []
