@@ -84,11 +84,15 @@ def test_repetitions_on_the_pool_equal_the_serial_ones(short_run) -> None:
 
     with worker_pool(2) as pool:
         pooled = run_scenario(short_run.scenario, executor=pool)
+    from trainctl._cli_support import without_wall_clock
+
     serial = short_run.to_dict()
     both = pooled.to_dict()
     assert both["repetitions"] == serial["repetitions"]
     assert both["baseline_network"] == serial["baseline_network"]
     assert both["claims"] == serial["claims"]
+    # everything but the wall-clock values (what --deterministic prints)
+    assert without_wall_clock(both) == without_wall_clock(serial)
 
 
 def test_deviation_by_hand() -> None:

@@ -28,7 +28,7 @@ __all__ = ["WALL_CLOCK_KEYS", "add_budget_option", "check_cost", "describe_error
 
 WALL_CLOCK_KEYS = frozenset({
     "solve_time_median", "solve_time_p95", "solve_time_max", "solve_time_total", "wall_time",
-    "timings",
+    "timings", "solve_time", "search_time",
 })
 """Keys of ``analyse --json`` whose values are wall-clock times (left out by --deterministic)."""
 
