@@ -214,6 +214,8 @@ def test_noise_energy_by_a_second_network() -> None:
     log = net.history()
     want = float(np.sum(log.noise[log.fate == "delivered"] ** 2))
     assert result.meta["network"]["noise_square_sum"] == pytest.approx(want, rel=1e-12)
+    # no delay: each sample holds the messages sent then, so the held energy is the same sum
+    assert float(np.sum(result.held_noise_square)) == pytest.approx(want, rel=1e-12)
     # the claim's ratio from those energies
     run = run_scenario(sc)
     claim = _claims(run)["performance_index"]
@@ -224,6 +226,30 @@ def test_noise_energy_by_a_second_network() -> None:
     assert f"= {ratio:.3g} against" in claim["trainctl"]
     assert claim["kind"] == ("reproduced" if ratio <= min(run.design.family("hinf").gamma.gamma,
                                                            1.0) else "not reproduced")
+
+
+def test_held_noise_by_receiving() -> None:
+    """With random delays and losses, the held noise equals what receive() holds, link by link."""
+    from trainctl.graphs import make_graph
+    from trainctl.network import NetworkSettings
+
+    net = Network(NetworkSettings(delay_range_s=[0.0, 2.0], loss_probability=0.2,
+                                  communication_noise_std=0.3, reference_noise_std=0.1),
+                  make_graph("bidirectional", 4, pinned="all"), seed=11)
+    times = 0.2 * np.arange(200)
+    held = []
+    rng = np.random.default_rng(0)
+    for t in times:
+        net.send_all(float(t), rng.normal(20.0, 1.0, 4), reference=20.0)
+        messages = net.messages(float(t))
+        held.append(messages)
+    log = net.history()
+    noise = {(int(r), s, float(ts)): float(n) ** 2 for r, s, ts, n in
+             zip(log.receiver, log.sender, log.t_sent, log.noise, strict=True)}
+    want = np.array([sum(noise[(int(rx), tx, float(m.t_sent))] for (rx, tx), m in h.items())
+                     for h in held])
+    np.testing.assert_allclose(log.held_noise_square(times), want, rtol=1e-12, atol=0)
+    assert np.count_nonzero(want) > 150   # the check sees real data, not empty links
 
 
 # -- the built-in cases: --strict and the reports ----------------------------------------------
@@ -246,6 +272,7 @@ def test_interruption_strict_and_report(interruption, tmp_path: Path, capsys) ->
                     "performance_index", "gamma"]
     assert html.count('class="badge badge-') >= len(rows)
     assert "depends on the scaling" in html
+    assert 'id="figure-performance-index"' in html   # case (d)'s ‖s̃‖₂ against ‖w̃‖₂
 
 
 @pytest.mark.slow
@@ -261,6 +288,9 @@ def test_case_reports_and_strict(name: str, tmp_path: Path, capsys) -> None:
     assert main(["report", str(out), "-o", str(page)]) == 0
     html = page.read_text(encoding="utf-8")
     assert '<section id="claims">' in html and "claim-gamma" in html
+    noisy = load_scenario(name).network is not None and \
+        load_scenario(name).network.communication_noise_std > 0
+    assert ('id="figure-performance-index"' in html) == noisy
 
 
 @pytest.mark.slow

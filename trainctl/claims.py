@@ -34,8 +34,8 @@ How each claim is measured
   ``settle_time`` (reproduced when a jointly connected graph tracks again).
 - **H∞ index** (case d, needs link noise): the simulated ratio
   ‖s̃‖₂ / ‖w̃‖₂ on the scaled channels, s̃ the speed errors over
-  ``output_scale_m_s``, w̃ the noise the law read over ``noise_scale_m_s``
-  (energy dt·Σ n² over the delivered messages). Reproduced when it is at
+  ``output_scale_m_s``, w̃ the noise of the values the law held over
+  ``noise_scale_m_s`` (:func:`performance_energies`). Reproduced when it is at
   most the certified γ and at most 1.
 - **γ = 1** (every scenario with the family): the certified γ with the
   scenario's scaling and the independent norm with every channel in SI
@@ -54,7 +54,8 @@ import numpy as np
 if TYPE_CHECKING:
     from .run import AnalysisRun
 
-__all__ = ["PAPER_DEVIATION_RATIO", "RATIO_FACTOR", "Claim", "paper_claims"]
+__all__ = ["PAPER_DEVIATION_RATIO", "RATIO_FACTOR", "Claim", "paper_claims",
+           "performance_energies"]
 
 PAPER_DEVIATION_RATIO = 7.5
 """Speed deviation under random delay over the ideal case's, as the paper reports it (spec §4.4)."""
@@ -299,19 +300,12 @@ def _window_claim(key: str, what: str, inside: float, before: float, unit: str,
 
 def _performance_index(run: AnalysisRun, hinf: str) -> Claim | None:
     result = run.simulations[hinf]
-    info = result.meta.get("network") or {}
-    square = info.get("noise_square_sum")
-    if not square:
-        return None
     design = run.design.family("hinf")
     s = design.settings
-    dt = float(result.dt)
-    w2 = dt * float(square) / s.noise_scale ** 2
-    e = result.velocities - result.reference_speed[None, :]
-    if s.performance == "disagreement":
-        e = e - e.mean(axis=0, keepdims=True)
-    s2 = dt * float(np.sum(e[:, 1:] ** 2)) / s.output_scale ** 2
-    ratio = math.sqrt(s2 / w2)
+    energies = performance_energies(result, s)
+    if energies is None:
+        return None
+    ratio = float(math.sqrt(energies[0][-1] / energies[1][-1]))
     gamma = float(design.gamma.gamma)
     ok = ratio <= min(gamma, 1.0)
     return Claim(
@@ -325,6 +319,39 @@ def _performance_index(run: AnalysisRun, hinf: str) -> Claim | None:
         "the speed errors' energy over the energy of the noise the law read. White noise "
         "spreads its energy over all frequencies, so the ratio is far below ‖T‖∞; the "
         "certificate bounds it for every w.")
+
+
+def performance_energies(result: Any, settings: Any) -> tuple[Any, Any] | None:
+    """∫₀ᵗ‖s̃‖² and ∫₀ᵗ‖w̃‖² at the samples t_1 … t_N [-·s], or None without link noise.
+
+    s̃ is the performance output over ``output_scale`` (the speed errors, or
+    their deviations from the mean, at the end of each sample interval), w̃
+    the noise the law held during each interval over ``noise_scale``
+    (:attr:`~trainctl.sim.results.SimulationResult.held_noise_square`);
+    each is held over the interval Δt.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A run of the hinf family over a noisy network.
+    settings : HinfSettings
+        The family's settings (scales, performance output).
+
+    Returns
+    -------
+    (ndarray, ndarray) or None
+        The two cumulative energies, shape (N,) each.
+    """
+    held = np.asarray(result.held_noise_square, dtype=float)
+    if held.size == 0 or not np.any(held > 0):
+        return None
+    dt = float(result.dt)
+    e = result.velocities - result.reference_speed[None, :]
+    if settings.performance == "disagreement":
+        e = e - e.mean(axis=0, keepdims=True)
+    s2 = dt * np.cumsum(np.sum(e[:, 1:] ** 2, axis=0)) / settings.output_scale ** 2
+    w2 = dt * np.cumsum(held) / settings.noise_scale ** 2
+    return s2, w2
 
 
 def _gamma(run: AnalysisRun) -> Claim:

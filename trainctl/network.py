@@ -519,6 +519,60 @@ class MessageLog:
     def __len__(self) -> int:
         return int(self.t_sent.size)
 
+    def held_noise_square(self, times: ArrayLike) -> NDArray[np.float64]:
+        """Σ over the links of the squared noise of the message each receiver holds at ``times``.
+
+        At time t a link's receiver holds the newest delivered message (by
+        send time) that has arrived by t (within :data:`ARRIVAL_TOLERANCE`),
+        as :meth:`Network.receive` gives it; a link with nothing yet adds 0.
+        With a controller reading the network at samples t_k and holding
+        what it read until t_{k+1}, Δt·Σ_k of this is the energy ∫‖w(t)‖² dt
+        of the noise it acted on (components summed for vector values).
+
+        Parameters
+        ----------
+        times : array_like
+            Times [s], shape (K,).
+
+        Returns
+        -------
+        ndarray
+            Shape (K,), in the values' unit squared.
+
+        Examples
+        --------
+        >>> from trainctl.graphs import make_graph
+        >>> net = Network(NetworkSettings(delay_s=1.0, communication_noise_std=0.1),
+        ...               make_graph("predecessor", 2, pinned="none"), seed=0)
+        >>> for k in range(3):
+        ...     net.send_all(float(k), [0.0, 0.0])
+        >>> log = net.history()
+        >>> n = log.noise[log.fate == "delivered"].ravel()
+        >>> bool(np.allclose(log.held_noise_square([0.5, 1.0, 2.5]), [0.0, n[0]**2, n[1]**2]))
+        True
+        """
+        t = np.atleast_1d(np.asarray(times, dtype=float))
+        out = np.zeros(t.size)
+        delivered = np.flatnonzero(self.fate == "delivered")
+        if delivered.size == 0:
+            return out
+        square = np.sum(self.noise.reshape(len(self), -1) ** 2, axis=1)
+        due = t + ARRIVAL_TOLERANCE * np.maximum(1.0, np.abs(t))
+        links: dict[tuple[int, Sender], list[int]] = {}
+        for m in delivered.tolist():
+            links.setdefault((int(self.receiver[m]), self.sender[m]), []).append(m)
+        for members in links.values():
+            idx = np.asarray(members)
+            idx = idx[np.argsort(self.t_arrival[idx], kind="stable")]
+            sent = self.t_sent[idx]
+            # the newest send time among the messages arrived so far, and which one it is
+            newest = np.maximum.accumulate(np.where(sent >= np.maximum.accumulate(sent),
+                                                    np.arange(idx.size), 0))
+            k = np.searchsorted(self.t_arrival[idx], due, side="right") - 1
+            has = k >= 0
+            out[has] += square[idx[newest[k[has]]]]
+        return out
+
     def rows(self) -> list[dict[str, Any]]:
         """The messages as JSON-safe dicts; ``t_arrival`` and ``delivered`` None when dropped.
 

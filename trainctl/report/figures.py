@@ -217,6 +217,11 @@ def _figures(data: ReportData) -> Iterator[ReportFigure]:
 
     if data.simulations:
         yield from time_figures(data.scenario, data.simulations, encode)
+        from .figures_claims import performance_figure
+
+        performance = performance_figure(data, encode)
+        if performance is not None:
+            yield performance
     if data.spectra:
         yield eigenvalue_figure(data.spectra)
     yield from frequency_figures(data.frequency, encode)

@@ -117,7 +117,9 @@ def simulate(
         None: no network (``messages`` is None). The network draws from its
         own generator, so adding one leaves the measurement noise unchanged;
         ``meta["network"]`` counts the delivered, lost and blocked messages and
-        holds ``noise_square_sum``, Σ n² over the delivered messages' noise.
+        holds ``noise_square_sum``, Σ n² over the delivered messages' noise;
+        the result's ``held_noise_square`` is, per sample, Σ n² of the values
+        the controller held.
 
     Returns
     -------
@@ -202,9 +204,12 @@ def simulate(
     to_dict = getattr(reference, "to_dict", None)
     if callable(to_dict):
         meta["reference"] = to_dict()
-    return SimulationResult(**log.result_arrays(plant, reference),
-                            controller_name=str(controller.name), seed=int(seed), dt=dt,
-                            meta=meta)
+    arrays = log.result_arrays(plant, reference)
+    if network is not None:
+        arrays["held_noise_square"] = network.history().held_noise_square(
+            np.asarray(arrays["time"])[:-1])
+    return SimulationResult(**arrays, controller_name=str(controller.name), seed=int(seed),
+                            dt=dt, meta=meta)
 
 
 def _run(plant: Plant, controller: Controller, reference: Reference, log: Log,

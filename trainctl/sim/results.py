@@ -52,7 +52,7 @@ _ARRAYS = (
 )
 _EXTRA_ARRAYS = (
     "requested_inputs", "saturation", "dense_time", "dense_states", "dense_coupler_forces",
-    "dense_reference_speed",
+    "dense_reference_speed", "held_noise_square",
 )
 """Arrays added later: a saved run without them loads with their defaults."""
 _DENSE_DEFAULTS = {"requested_inputs": "inputs", "dense_time": "time", "dense_states": "states",
@@ -141,6 +141,11 @@ class SimulationResult(ResultViews):
         limit (the request cut to it, or asking for it), -1 at the braking
         limit, 0 elsewhere (:class:`~trainctl.models.ActuatorLimits`), shape
         (n, N); None: zeros. ``requested_inputs != inputs`` shows the cuts.
+    held_noise_square : ndarray or None
+        Per sample: Σ over the network's links of the squared noise of the
+        value the controller held during it (its unit squared, (m/s)² for
+        speeds; :meth:`trainctl.network.MessageLog.held_noise_square`),
+        shape (N,); None: zeros (no network).
     dense_time : ndarray or None
         The dense grid [s], strictly increasing, shape (D,), holding every
         sample instant; None: the samples (``time``).
@@ -189,6 +194,7 @@ class SimulationResult(ResultViews):
     dense_states: NDArray[np.float64] = None  # type: ignore[assignment]
     dense_coupler_forces: NDArray[np.float64] = None  # type: ignore[assignment]
     dense_reference_speed: NDArray[np.float64] = None  # type: ignore[assignment]
+    held_noise_square: NDArray[np.float64] = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         self._coerce()
@@ -211,6 +217,9 @@ class SimulationResult(ResultViews):
                 "SimulationResult: 'saturation' must hold -1, 0 or +1 per vehicle and sample "
                 f"(got values {np.unique(flags)[:5].tolist()}).")
         object.__setattr__(self, "saturation", flags.astype(np.int8))
+        held = (np.zeros(self.inputs.shape[-1]) if self.held_noise_square is None
+                else self.held_noise_square)
+        object.__setattr__(self, "held_noise_square", np.asarray(held, dtype=np.float64))
         object.__setattr__(self, "statuses", tuple(str(s) for s in self.statuses))
         object.__setattr__(self, "fallbacks", tuple(str(s) for s in self.fallbacks))
         object.__setattr__(
@@ -258,6 +267,7 @@ class SimulationResult(ResultViews):
         expected = {
             "requested_inputs": (n, steps),
             "saturation": (n, steps),
+            "held_noise_square": (steps,),
             "dense_time": (n_d,),
             "dense_states": (2 * n, n_d),
             "dense_coupler_forces": (max(n - 1, 0), n_d),
