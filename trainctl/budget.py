@@ -65,9 +65,11 @@ _MPC = 5e-4                 # × n^2.5 · P^1.2: N-DMPC iteration analysis
 _MPC_LONG = 3e-9            # × n^2.5 · P^3: the same at long horizons
 _SUBSTEP = 1e-4             # × (1 + n / 32) per plant substep
 _STEP = 5e-4                # controller overhead per step
-_LAW = 2e-4                 # an explicit law's step with its network messages (measured on
-                            # heavy-haul-hinf-delay: 0.43 ms per hinf step and 0.27 ms per
-                            # synchronous step in all, plant included)
+_LAW = 2e-4                 # × (1 + n / 32): an explicit law's step with its network
+                            # messages, and per plant substep under it:
+_LAW_SUBSTEP = 4e-5         # × (1 + n / 32); measured on heavy-haul-hinf-delay (n = 4, 4
+                            # substeps per 0.2 s step): 0.43 ms per hinf step and 0.27 ms per
+                            # synchronous step in all, 35 µs per plant substep
 _QP = 2e-4                  # one small QP (a vehicle's)
 _CENTRAL = 3e-7             # × (n · M)³: the centralised QP
 _BUILD = 0.5                # building a strategy's controller (cvxpy), + _BUILD_SIZE·(n·P)^1.5
@@ -183,10 +185,10 @@ def estimate_run(scenario: Scenario, *, simulate: bool = True) -> RunEstimate:
     samples = sim.n_steps(scenario.model.sample_time) if sim is not None else 0
     strategies = tuple(sim.strategies) if sim is not None else ()
     seconds = 0.0
-    # Each strategy runs once per repetition, plus once over a baseline network when asked
+    # Each strategy runs once per repetition, and as often over a baseline network when asked
     # (trainctl.repetitions); only the runs shown keep their time series in memory.
-    runs = 1 if sim is None else sim.repetitions + int(
-        sim.baseline_network is not None and scenario.network is not None)
+    runs = 1 if sim is None else sim.repetitions * (1 + int(
+        sim.baseline_network is not None and scenario.network is not None))
     for strategy in strategies:
         seconds += runs * _strategy_seconds(scenario, strategy, samples, horizon, moves)
     memory = max(memory, float(samples) * n * _BYTES_PER_ROW * max(1, len(strategies)))
@@ -417,8 +419,8 @@ def _strategy_seconds(scenario: Scenario, strategy: str, samples: int, horizon: 
         # control interval, the plant's substeps per step scaled to it.
         interval = getattr(settings, "control_interval", None) or scenario.model.sample_time
         steps = samples * scenario.model.sample_time / interval
-        per_step = plant * interval / scenario.model.sample_time
-        return _BUILD + steps * (per_step + _LAW)
+        under = substeps * interval / scenario.model.sample_time
+        return _BUILD + steps * (1 + n / 32) * (_LAW + _LAW_SUBSTEP * under)
     if name in ("ndmpc", "cooperative"):
         limit = int(getattr(settings, "max_iterations", _ITERATIONS) or _ITERATIONS)
         step = _QP * n * min(limit, _ITERATIONS)

@@ -7,8 +7,9 @@ ideal case's" needs the spread over many draws, not one lucky run.
 ``[simulation] repetitions = R`` runs every strategy R times, run r with
 the seed ``seed + r`` for all its random streams (the network's, the
 synchronous relay's, the measurement noise's); run 0 is the run the report
-shows. ``[simulation] baseline_network`` adds one run per strategy over a
-baseline network, the denominator of the deviation ratios: ``"ideal"``,
+shows. ``[simulation] baseline_network`` adds, for every one of those runs,
+one over a baseline network with the same seed, the denominator of its
+deviation ratio: ``"ideal"``,
 the scenario without its ``[network]`` (no delay, loss, noise or outage),
 or ``"delay-free"``, its ``[network]`` with every delay 0 — the network's
 draws do not depend on the delays (:mod:`trainctl.network`), so that run
@@ -32,8 +33,8 @@ Per vehicle i, e_i = v_i − v_ref:
 - ``max_error``: max |e_i| over the dense grid of the whole run [m/s];
 - ``settling_time``: after the reference's last breakpoint t_last, the
   time until |e_i| stays within :data:`SETTLING_BAND` for the rest of the
-  run [s] (0 if it never leaves the band after t_last, inf if it is outside
-  at the end);
+  run [s] (0 if it never leaves the band after t_last; inf if it is outside
+  at the end, or the run stopped early — diverged — or before t_last);
 - ``max_coupler_force``: max |f| over the dense grid of the whole run [N].
 """
 
@@ -54,17 +55,29 @@ if TYPE_CHECKING:
     from .sim.metrics import Metrics
     from .sim.results import SimulationResult
 
-__all__ = ["BASELINE", "SETTLING_BAND", "Deviation", "Repetition", "collect_repetitions",
-           "deviation", "run_repetition", "spread", "submit_repetitions"]
+__all__ = ["BASELINE", "SETTLING_BAND", "Deviation", "Repetition", "baseline_index",
+           "collect_repetitions", "deviation", "run_repetition", "spread", "submit_repetitions"]
 
 Array = NDArray[np.float64]
 
 SETTLING_BAND = 0.1
-"""Band of the settling time [m/s]: 0.36 km/h, the resolution of a locomotive's speedometer
-display, and a fifth of a typical tracking tolerance (0.5 m/s)."""
+"""Band of the settling time [m/s] (0.36 km/h): a fifth of the 0.5 m/s tracking tolerance of
+the seed-003 cases, five times their noise-driven speed error (about 0.02 m/s)."""
 
 BASELINE = -1
-"""The ``index`` of the baseline-network run (:func:`run_repetition`)."""
+"""The ``index`` of repetition 0's baseline-network run; repetition r's is ``BASELINE - r``
+(:func:`run_repetition`, :func:`baseline_index`)."""
+
+
+def baseline_index(index: int) -> int:
+    """The ``index`` of the baseline run paired with repetition ``index`` (and back).
+
+    Examples
+    --------
+    >>> baseline_index(0), baseline_index(3), baseline_index(-4)
+    (-1, -4, 3)
+    """
+    return BASELINE - int(index)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -149,7 +162,10 @@ def deviation(result: SimulationResult, since: float, band: float = SETTLING_BAN
     peak = np.max(np.abs(dense), axis=1)
     settling = np.zeros(n)
     after = t >= since
-    for i in range(n):
+    diverged = result.meta.get("divergence") is not None
+    if diverged or t[-1] < since:
+        settling[:] = math.inf   # stopped early: it never settled
+    for i in range(n if not (diverged or t[-1] < since) else 0):
         outside = np.flatnonzero(after & (np.abs(dense[i]) > band))
         if outside.size == 0:
             settling[i] = 0.0
@@ -160,8 +176,7 @@ def deviation(result: SimulationResult, since: float, band: float = SETTLING_BAN
     forces = result.dense_coupler_forces
     force = float(np.max(np.abs(forces))) if forces.size else 0.0
     return Deviation(rms_error=rms, max_error=peak, settling_time=settling,
-                     max_coupler_force=force, since=float(since),
-                     diverged=result.meta.get("divergence") is not None)
+                     max_coupler_force=force, since=float(since), diverged=diverged)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -173,8 +188,8 @@ class Repetition:
     strategy : str
         The strategy.
     index : int
-        The repetition r (seed ``seed + r``), or :data:`BASELINE` for the
-        baseline-network run (the scenario's own seed).
+        The repetition r (seed ``seed + r``), or ``BASELINE - r`` for the
+        baseline-network run paired with it (the same seed).
     seed : int
         The seed the run used.
     metrics : Metrics
@@ -217,9 +232,10 @@ def run_repetition(scenario: Scenario, strategy: str, design: Design | None,
     design : Design or None
         The run's design (built here when None).
     index : int
-        r >= 0: the seed ``scenario.seed + r``; :data:`BASELINE`: the
-        scenario over its baseline network (``[simulation]
-        baseline_network``), its own seed.
+        r >= 0: the seed ``scenario.seed + r``; ``BASELINE - r``
+        (:func:`baseline_index`): the scenario over its baseline network
+        (``[simulation] baseline_network``) with the seed of repetition r,
+        so that a delay-free baseline has that repetition's noise draws.
 
     Returns
     -------
@@ -229,8 +245,9 @@ def run_repetition(scenario: Scenario, strategy: str, design: Design | None,
 
     sim = scenario.simulation
     assert sim is not None
-    if index == BASELINE:
-        run_scenario, seed = baseline_scenario(scenario), int(scenario.seed)
+    if index <= BASELINE:
+        seed = int(scenario.seed) + baseline_index(index)
+        run_scenario = replace(baseline_scenario(scenario), seed=seed)
     else:
         seed = int(scenario.seed) + int(index)
         run_scenario = replace(scenario, seed=seed)
@@ -270,16 +287,17 @@ def summarise(result: SimulationResult, scenario: Scenario, strategy: str, index
 def planned_runs(scenario: Scenario) -> list[tuple[str, int]]:
     """(strategy, index) of every extra run the ``[simulation]`` asks for, in order.
 
-    Repetitions 1 .. R−1 of each strategy, then the baseline-network runs
-    (only when the scenario has a ``[network]``; without one run 0 is
-    already ideal).
+    Repetitions 1 .. R−1 of each strategy, then the baseline-network run of
+    every repetition 0 .. R−1 (only when the scenario has a ``[network]``;
+    without one run 0 is already ideal).
     """
     sim = scenario.simulation
     if sim is None:
         return []
-    runs = [(s, r) for s in sim.strategies for r in range(1, sim.repetitions)]
+    runs: list[tuple[str, int]] = [(s, r) for s in sim.strategies
+                                   for r in range(1, sim.repetitions)]
     if sim.baseline_network is not None and scenario.network is not None:
-        runs += [(s, BASELINE) for s in sim.strategies]
+        runs += [(s, BASELINE - r) for s in sim.strategies for r in range(sim.repetitions)]
     return runs
 
 
@@ -308,7 +326,7 @@ def submit_repetitions(scenario: Scenario, executor: Executor, design: Design | 
 def collect_repetitions(
     scenario: Scenario, design: Design | None, main: Mapping[str, SimulationResult], *,
     pending: Mapping[tuple[str, int], Future[Repetition]] | None = None,
-) -> tuple[dict[str, tuple[Repetition, ...]], dict[str, Repetition]]:
+) -> tuple[dict[str, tuple[Repetition, ...]], dict[str, tuple[Repetition, ...]]]:
     """Every strategy's repetitions (run 0 from ``main``) and its baseline-network run.
 
     Parameters
@@ -326,7 +344,8 @@ def collect_repetitions(
     -------
     (repetitions, baseline)
         Strategy → its runs in index order (empty when ``repetitions`` is
-        1 and there is no baseline run), strategy → its baseline-network run.
+        1 and there is no baseline run), strategy → the baseline-network run
+        of each of them, in the same order.
     """
     runs = planned_runs(scenario)
     if not runs:
@@ -340,12 +359,13 @@ def collect_repetitions(
     sim = scenario.simulation
     assert sim is not None
     reps: dict[str, tuple[Repetition, ...]] = {}
-    baseline: dict[str, Repetition] = {}
+    baseline: dict[str, tuple[Repetition, ...]] = {}
     for strategy, result in main.items():
         first = summarise(result, scenario, strategy, 0, int(scenario.seed))
         reps[strategy] = (first, *(done[(strategy, r)] for r in range(1, sim.repetitions)))
         if (strategy, BASELINE) in done:
-            baseline[strategy] = done[(strategy, BASELINE)]
+            baseline[strategy] = tuple(done[(strategy, baseline_index(r))]
+                                       for r in range(sim.repetitions))
     return reps, baseline
 
 

@@ -60,9 +60,10 @@ class AnalysisRun:
         ``[simulation] repetitions > 1``: every run of each strategy,
         summarised, run 0 (the one in ``simulations``) first
         (:mod:`trainctl.repetitions`); empty otherwise.
-    baseline : mapping of str to Repetition
-        ``[simulation] baseline_network``: each strategy's run over the
-        baseline network, summarised; empty otherwise.
+    baseline : mapping of str to tuple of Repetition
+        ``[simulation] baseline_network``: each strategy's runs over the
+        baseline network, one per repetition with its seed, summarised;
+        empty otherwise.
     """
 
     scenario: Scenario
@@ -72,7 +73,7 @@ class AnalysisRun:
     simulations: Mapping[str, SimulationResult] = field(default_factory=dict)
     metrics: Mapping[str, Metrics] = field(default_factory=dict)
     repetitions: Mapping[str, tuple[Repetition, ...]] = field(default_factory=dict)
-    baseline: Mapping[str, Repetition] = field(default_factory=dict)
+    baseline: Mapping[str, tuple[Repetition, ...]] = field(default_factory=dict)
 
     def tracking_ok(self, strategy: str) -> bool:
         """True when the strategy's max speed error after settling is within tolerance."""
@@ -176,7 +177,8 @@ class AnalysisRun:
             out["repetitions"] = {name: [r.to_dict() for r in reps]
                                   for name, reps in self.repetitions.items()}
         if self.baseline:
-            out["baseline_network"] = {name: r.to_dict() for name, r in self.baseline.items()}
+            out["baseline_network"] = {name: [r.to_dict() for r in runs]
+                                       for name, runs in self.baseline.items()}
         if self.claims:
             out["claims"] = [c.to_dict() for c in self.claims]
         out["strict_failures"] = [f.to_dict() for f in self.strict_failures()]
@@ -293,11 +295,12 @@ def _repetitions_table(run: AnalysisRun) -> str:
                      + cell([float(r.deviation.settling_time[0]) for r in reps])
                      + cell([r.deviation.max_coupler_force for r in reps], 1e-3))
         if name in run.baseline:
-            d = run.baseline[name].deviation
+            base = [r.deviation for r in run.baseline[name]]
             label = f"  {sim.baseline_network} network"
-            lines.append(f"  {label:<{w}}" + cell([float(d.rms_error[0])])
-                         + cell([float(d.max_error[0])]) + cell([float(d.settling_time[0])])
-                         + cell([d.max_coupler_force], 1e-3))
+            lines.append(f"  {label:<{w}}" + cell([float(d.rms_error[0]) for d in base])
+                         + cell([float(d.max_error[0]) for d in base])
+                         + cell([float(d.settling_time[0]) for d in base])
+                         + cell([d.max_coupler_force for d in base], 1e-3))
     return "\n".join(lines)
 
 

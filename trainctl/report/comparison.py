@@ -99,16 +99,16 @@ _SPREAD = (
 
 def _spread_cell(values: list[float | None], scale: float = 1.0) -> str:
     """``median [min – max]`` of some numbers (None: never settled, ∞)."""
+    from ..repetitions import spread
+
     x = [math.inf if v is None else float(v) * scale for v in values]
     if not x:
         return "—"
-    x.sort()
-    k = len(x)
-    median = x[k // 2] if k % 2 else 0.5 * (x[k // 2 - 1] + x[k // 2])
-    if k == 1:
-        return format_number(median, 4)
-    return (f"{format_number(median, 4)} [{format_number(x[0], 3)} – "
-            f"{format_number(x[-1], 3)}]")
+    m = spread(x)
+    if m["count"] == 1:
+        return format_number(m["median"], 4)
+    return (f"{format_number(m['median'], 4)} [{format_number(m['min'], 3)} – "
+            f"{format_number(m['max'], 3)}]")
 
 
 def _repetition_table(data: ReportData, repetitions: Mapping[str, Any]) -> dict[str, Any]:
@@ -131,14 +131,16 @@ def _repetition_table(data: ReportData, repetitions: Mapping[str, Any]) -> dict[
         cells[f"{name} ({len(reps)})"] = row(reps)
         if name in baseline:
             kind = sim.baseline_network if sim is not None else "baseline"
-            cells[f"{name}, {kind} network"] = row([baseline[name]])
+            cells[f"{name}, {kind} network"] = row(list(baseline[name]))
     since = sim.reference_times[-1] if sim is not None else 0.0
     seeds = ""
     if sim is not None:
         seeds = f"seeds {data.scenario.seed} to {data.scenario.seed + sim.repetitions - 1}; "
-    caption = (f"Spread over the repetitions ({seeds}median [min – max]), over the whole run: "
-               f"settling is the time after t = {since:g} s until the speed error stays within "
-               f"{SETTLING_BAND:g} m/s (∞: not by the end)")
+    caption = (f"Spread over the repetitions ({seeds}median [min – max]), over the whole run, "
+               "each against its baseline run with the same seed: speed errors and settling "
+               f"of vehicle 1 (the head), settling the time after t = {since:g} s until its "
+               f"speed error stays within {SETTLING_BAND:g} m/s (∞: not by the end, or the "
+               "run diverged); coupler forces of the whole train")
     rows = [{"ok": True, "cells": [name] + [c[k] for k, _, _ in _SPREAD[1:]]}
             for name, c in cells.items()]
     return {"key": "repetitions", "caption": caption,
