@@ -69,6 +69,13 @@ def test_delay_free_baseline_is_the_file_without_its_delay(short_run) -> None:
         again = simulate_strategy(plain.replace("seed", plain.seed + r), "distributed")
         np.testing.assert_array_equal(deviation(again, 60.0).rms_error,
                                       bases[r].deviation.rms_error)
+    # the synchronous relay, too, runs over the baseline network (not the design's delays)
+    sync = simulate_strategy(plain.replace("seed", plain.seed + 1), "synchronous.synchronous")
+    np.testing.assert_array_equal(deviation(sync, 60.0).max_error,
+                                  short_run.baseline["synchronous.synchronous"][1]
+                                  .deviation.max_error)
+    delayed = short_run.repetitions["synchronous.synchronous"][1].deviation.max_error
+    assert not np.array_equal(deviation(sync, 60.0).max_error, delayed)
 
 
 def test_ideal_baseline_is_the_scenario_without_network() -> None:

@@ -401,9 +401,9 @@ def simulate_strategy(
     A controller with ``uses_network = True`` in a scenario with a
     ``[network]`` section receives its neighbours' and the reference's
     speeds through :class:`trainctl.network.Network` (its generator seeded
-    with ``SeedSequence([seed, NETWORK_STREAM])``); a controller with random
-    streams of its own (a ``seed_streams(seed)`` method, e.g. the
-    synchronous family's relay) is seeded from the scenario's seed.
+    with ``SeedSequence([seed, NETWORK_STREAM])``); a controller with a
+    network of its own (a ``prepare(network, seed)`` method, e.g. the
+    synchronous family's relay) gets the scenario's ``[network]`` and seed.
     The plant saturates the forces to the envelopes (``plant_saturation``),
     records the dense grid (``output_interval``) and stops a diverging run
     (``divergence_speed_error``), as the ``[simulation]`` table says.
@@ -442,9 +442,9 @@ def simulate_strategy(
     state[n:2 * n - 1] += spacing_offsets
     with numerical_errors(f"{scenario.source}: simulating {strategy!r}"):
         controller = make_controller(scenario, strategy, design)
-        seed_streams = getattr(controller, "seed_streams", None)
-        if callable(seed_streams):
-            seed_streams(int(scenario.seed))
+        prepare = getattr(controller, "prepare", None)
+        if callable(prepare):
+            prepare(scenario.network, int(scenario.seed))
         network = None
         if scenario.network is not None and getattr(controller, "uses_network", False):
             from .network import Network

@@ -17,6 +17,7 @@ given), nothing else: no position, no coupler elongation.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,6 +25,7 @@ from numpy.typing import NDArray
 from ...exceptions import ModelError
 from ...models.envelope import EnvelopeBounds
 from ...models.train import Train
+from ...network import NetworkSettings
 from ..base import Measurement, ReferencePreview, StepRecord, measured_speeds
 from .law import SynchronousLaw
 from .relay import CommandRelay
@@ -76,7 +78,9 @@ class SynchronousController:
     the simulation's speed messages are not used."""
 
     def __init__(self, train: Train, law: SynchronousLaw, relay: CommandRelay, *, dt: float,
-                 input_bounds: bool = True, name: str = "synchronous") -> None:
+                 input_bounds: bool = True, name: str = "synchronous",
+                 relay_factory: Callable[[NetworkSettings | None, int], CommandRelay] | None
+                 = None) -> None:
         if not dt > 0:
             raise ModelError(f"SynchronousController: 'dt' must be > 0 s (got {dt!r}).")
         if law.n != train.n_vehicles or relay.n != train.n_vehicles:
@@ -86,6 +90,7 @@ class SynchronousController:
             raise ModelError(f"SynchronousController: the relay's lead ({relay.lead}) is not "
                              f"the law's ({law.lead}).")
         self.train, self.law, self.relay, self.dt = train, law, relay, float(dt)
+        self._relay_factory = relay_factory
         self.input_bounds, self.name = bool(input_bounds), name
         self._envelope = EnvelopeBounds(train, enabled=self.input_bounds)
 
@@ -93,21 +98,29 @@ class SynchronousController:
         """Forget every relayed command and restart the relay's random stream."""
         self.relay.reset()
 
-    def seed_streams(self, seed: int) -> None:
-        """Seed the relay from a run's seed: ``SeedSequence([seed, RELAY_STREAM])``.
+    def prepare(self, network: NetworkSettings | None, seed: int) -> None:
+        """A new relay for the run about to start: its ``[network]`` and its seed.
 
-        :func:`trainctl.run.simulate_strategy` calls it with the scenario's
-        seed, so that a repetition of the run with another seed
-        (``[simulation] repetitions``) draws other delays, losses and noise.
+        :func:`trainctl.run.simulate_strategy` calls it with the simulated
+        scenario's ``[network]`` and seed, so that a repetition with another
+        seed (``[simulation] repetitions``) draws other delays, losses and
+        noise, and a baseline run over another network
+        (``baseline_network``) relays over that one. Without a relay factory
+        (a controller built by hand) only the seed changes.
 
         Parameters
         ----------
+        network : NetworkSettings or None
+            The run's network settings (None: an instantaneous relay).
         seed : int
             The run's seed, >= 0.
         """
         from .relay import RELAY_STREAM
 
-        self.relay.reseed(np.random.SeedSequence([int(seed), RELAY_STREAM]))
+        if self._relay_factory is not None:
+            self.relay = self._relay_factory(network, int(seed))
+        else:
+            self.relay.reseed(np.random.SeedSequence([int(seed), RELAY_STREAM]))
 
     def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
         """The lead's command, relayed; each vehicle's force, clipped to its envelope."""

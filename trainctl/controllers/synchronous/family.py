@@ -19,7 +19,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -144,25 +144,30 @@ class SynchronousDesign:
         speed = float(self.model.settings.speed)
         return held_loop(self.loops.A_open, self.loops.B_open, self.law.feedback(speed), T)
 
-    def make_relay(self) -> CommandRelay:
-        """A new relay on the scenario's ``[network]``, seeded ``[seed, RELAY_STREAM]``.
+    def make_relay(self, network: NetworkSettings | None | Literal["design"] = "design",
+                   seed: int | None = None) -> CommandRelay:
+        """A new relay, seeded ``[seed, RELAY_STREAM]``.
 
         The ``[network]``'s delays, losses and outages apply; its noise keys
         are for the speeds the networked families send, so the command
         carries ``command_noise_std_m_s2`` instead (0 by default: a digital
         command).
+
+        Parameters
+        ----------
+        network : NetworkSettings or None or "design"
+            The network settings; ``"design"`` (default): the design
+            scenario's ``[network]``; None: an instantaneous relay.
+        seed : int or None
+            The run's seed; None: the design scenario's.
         """
-        import dataclasses
+        from .relay import RELAY_STREAM, CommandRelay, relay_settings
 
-        from .relay import RELAY_STREAM, CommandRelay
-
-        network = self.network
-        if network is not None:
-            noise = float(self.settings.command_noise)
-            network = dataclasses.replace(network, communication_noise_std=noise,
-                                          reference_noise_std=None)
-        return CommandRelay(network, self.law.n, self.law.lead,
-                            seed=np.random.SeedSequence([int(self.scenario.seed), RELAY_STREAM]))
+        settings = self.network if network == "design" else network
+        run_seed = int(self.scenario.seed) if seed is None else int(seed)
+        return CommandRelay(relay_settings(settings, float(self.settings.command_noise)),
+                            self.law.n, self.law.lead,
+                            seed=np.random.SeedSequence([run_seed, RELAY_STREAM]))
 
 
 def design_synchronous(scenario: Scenario, model: DesignModel,
@@ -243,7 +248,8 @@ class SynchronousFamily:
 
         return SynchronousController(design.scenario.train, design.law, design.make_relay(),
                                      dt=design.control_interval,
-                                     input_bounds=design.settings.input_bounds, name=strategy)
+                                     input_bounds=design.settings.input_bounds, name=strategy,
+                                     relay_factory=design.make_relay)
 
     def checks(self, design: SynchronousDesign) -> list[Check]:
         """The three checks of :mod:`trainctl.controllers.synchronous.checks`."""

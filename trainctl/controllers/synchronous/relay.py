@@ -49,7 +49,7 @@ from numpy.typing import NDArray
 from ...graphs import CommunicationGraph, make_graph
 from ...network import Network, NetworkSettings
 
-__all__ = ["RELAY_STREAM", "CommandRelay", "relay_graph"]
+__all__ = ["RELAY_STREAM", "CommandRelay", "relay_graph", "relay_settings"]
 
 Array = NDArray[np.float64]
 
@@ -59,6 +59,34 @@ RELAY_STREAM = 2
 Different from :data:`trainctl.run.NETWORK_STREAM` (1), so that the relay's
 draws are not those of the simulation's speed network (a scenario may run a
 networked family beside this one) nor of the measurement noise."""
+
+
+def relay_settings(network: NetworkSettings | None, command_noise: float) -> NetworkSettings | None:
+    """The relay's link settings: the network's delays, losses and outages, its own noise.
+
+    Parameters
+    ----------
+    network : NetworkSettings or None
+        A scenario's ``[network]`` (None: an instantaneous relay).
+    command_noise : float
+        Standard deviation of the noise on the command [m/s²], >= 0.
+
+    Returns
+    -------
+    NetworkSettings or None
+
+    Examples
+    --------
+    >>> relay_settings(NetworkSettings(delay_s=0.5, communication_noise_std=0.05), 0.0)
+    NetworkSettings(delay_s=0.5, delay_range_s=None, loss_probability=0.0, \
+communication_noise_std=0.0, reference_noise_std=None, interruptions=())
+    """
+    import dataclasses
+
+    if network is None:
+        return None
+    return dataclasses.replace(network, communication_noise_std=float(command_noise),
+                               reference_noise_std=None)
 
 
 def relay_graph(n: int, lead: int) -> CommunicationGraph:
