@@ -283,6 +283,8 @@ class TestPlausibility:
                                               "(42800 kg = 42.8 t)"]),
         ("train.coupler.stiffness_kn_per_m", 10488000.0,
          ["stiffness_kn_per_m = 1.0488e+07", "did you mean N/m?", "= 10488 kN/m"]),
+        ("train.coupler.max_force_kn", 2250000.0,
+         ["max_force_kn = 2.25e+06", "did you mean N?", "= 2250 kN"]),
         ("train.vehicle[1].davis_si", [0.8806, 0.007444, 0.0001143],
          ["Give them as davis_n_per_kn_kmh"]),
         ("train.vehicle[1].max_power_kw", 1.2e6, ["did you mean W?"]),

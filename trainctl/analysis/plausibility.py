@@ -17,6 +17,9 @@ coupler stiffness      100 - 1e6 kN/m         draft gears 1e4 - 1e5 kN/m; CRH2 1
                                               kN/m [seed 000] [reconstructed]
 coupler damping        0 - 1e4 kN·s/m         0 is the book's assumption [seed 000]
                                               [reconstructed]
+coupler admissible     50 - 2e4 kN            light-rail couplers a few hundred kN,
+force                                         heavy haul 2250 kN [seed 003]
+                                              [reconstructed]
 Davis resistance       0.001 - 0.5 m/s²       at the model speed; 300 km/h EMUs
                                               0.1 - 0.2 m/s² [seed 000, 001]
 speeds                 <= 600 km/h            wheel-rail record 574.8 km/h (2007)
@@ -75,6 +78,7 @@ RANGES: dict[str, Range] = {
     "mass_per_length": Range(0.3, 15.0, "t/m"),
     "stiffness": Range(100.0, 1e6, "kN/m"),
     "damping": Range(0.0, 1e4, "kN·s/m"),
+    "max_force": Range(50.0, 2e4, "kN"),
     "resistance": Range(1e-3, 0.5, "m/s²"),
     "speed": Range(0.0, 600.0, "km/h"),
     "force_per_mass": Range(0.0, GRAVITY, "m/s²"),
@@ -189,10 +193,13 @@ def _coupler_findings(scenario: Scenario) -> list[tuple[str, int]]:
     for i, coupler in enumerate(scenario.train.couplers, start=1):
         if coupler.virtual:
             continue
-        for key, value, usual, si in (
+        values = [
             ("stiffness_kn_per_m", coupler.stiffness / 1e3, RANGES["stiffness"], "N/m"),
             ("damping_kn_s_per_m", coupler.damping / 1e3, RANGES["damping"], "N·s/m"),
-        ):
+        ]
+        if math.isfinite(coupler.max_force):
+            values.append(("max_force_kn", coupler.max_force / 1e3, RANGES["max_force"], "N"))
+        for key, value, usual, si in values:
             if usual.holds(value):
                 continue
             slip = f" — did you mean {si}?" if usual.holds(value / 1e3) else ""
