@@ -310,6 +310,8 @@ def test_interruption_strict_and_report(interruption, tmp_path: Path, capsys) ->
     assert html.count('class="badge badge-') >= len(rows)
     assert "depends on the scaling" in html
     assert 'id="figure-performance-index"' not in html   # case (d)'s figure, not (b)'s
+    # the couplers' 2250 kN admissible force, far above (b)'s forces, is named at the panels' edge
+    assert "admissible 2.25e+03 kN (off scale)" in html and "max_force_kn" in html
 
 
 @pytest.mark.slow

@@ -173,6 +173,8 @@ def limit_lines(
     labels: tuple[str, str] = ("lower limit", "upper limit"),
     scale: float = 1e-3,
     unit: str = "kN",
+    color: str = "0.3",
+    linestyle: str = "--",
 ) -> list[Artist]:
     """Draw limits near the data, name those far from it; scale the axes to the data.
 
@@ -197,6 +199,9 @@ def limit_lines(
         Factor to the plotted unit (N → kN).
     unit : str
         Plotted unit, for the written values.
+    color, linestyle : str
+        Style of a drawn limit (default: the dashed grey of actuator and
+        controller limits).
 
     Returns
     -------
@@ -221,7 +226,7 @@ def limit_lines(
         if near.size:
             t = np.asarray(time, dtype=float)
             drawn += ax.step(t, np.where(np.isfinite(value), value, np.nan), where="post",
-                             color="0.3", linestyle="--", linewidth=1.0, label=label)
+                             color=color, linestyle=linestyle, linewidth=1.0, label=label)
             shown_lo, shown_hi = min(shown_lo, float(near.min())), max(shown_hi, float(near.max()))
         else:
             top = bool(np.nanmin(value) > hi)

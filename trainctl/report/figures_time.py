@@ -36,6 +36,9 @@ MAX_PANELS = 8
 PANEL_HEIGHT = 1.45
 """Height of one small-multiple panel [in]."""
 
+ADMISSIBLE_COLOUR = "#b2182b"
+"""Colour of a coupler's admissible force in the coupler-force figure."""
+
 
 def shown_indices(count: int, limit: int = MAX_PANELS) -> list[int]:
     """Indices of the panels shown: all, or ``limit`` spread from the first to the last.
@@ -182,20 +185,31 @@ def _couplers(scenario: Scenario, sims: Mapping[str, SimulationResult],
         for ax, c in zip(axes, couplers, strict=True):
             plot.coupler_force_plot(result, coupler=c, color=style["color"], label=name,
                                     linestyle=style["linestyle"], ax=ax)
-    drawn = False
+    admissible = np.asarray(scenario.train.max_coupler_force, dtype=float)
+    drawn = strength = False
     for ax, c in zip(axes, couplers, strict=True):
         if np.isfinite(limit):
             drawn = bool(limit_lines(ax, first.time, -limit, limit,
                                      labels=("limit", "limit"))) or drawn
+        if c < admissible.size and np.isfinite(admissible[c]):
+            strength = bool(limit_lines(ax, first.time, -admissible[c], admissible[c],
+                                        labels=("admissible", "admissible"),
+                                        color=ADMISSIBLE_COLOUR, linestyle="-.")) or strength
         ax.set_ylabel(f"{c + 1}–{c + 2}\nforce [kN]", fontsize="small")
     _tidy(axes)
     handles = _strategy_handles(sims)
     if drawn:
         handles.append(Line2D([], [], color="0.3", linestyle="--", label="coupler-force limit"))
+    if strength:
+        handles.append(Line2D([], [], color=ADMISSIBLE_COLOUR, linestyle="-.",
+                              label="coupler admissible force"))
     legend_outside(figure, handles)
     bound = (f"the controller's coupler-force limit ±{limit / 1e3:.4g} kN (a soft constraint) "
              "is dashed when near the forces and named at the panel's edge when far outside "
              "them" if np.isfinite(limit) else "the controller sets no coupler-force limit")
+    if np.any(np.isfinite(admissible)):
+        bound += ("; the couplers' admissible force ([train.coupler] max_force_kn) is "
+                  "dash-dotted when near and named at the edge when far")
     caption = (f"One panel per coupler (1–2 joins vehicles 1 and 2): force [kN], tension "
                f"positive, every strategy overlaid, axes scaled to the forces; {bound}. Dots "
                "mark the sample instants." + _which(count, "coupler"))
