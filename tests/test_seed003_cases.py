@@ -367,3 +367,31 @@ def test_both_families_track_the_profile_over_an_ideal_network() -> None:
         res = run.simulations[strategy]
         assert np.max(np.abs(res.dense_coupler_forces)) < 2250e3
         assert res.meta.get("divergence") is None
+
+
+def test_held_data_age_against_a_network() -> None:
+    """The age distribution of the newest datum held matches a long run of the network."""
+    from trainctl.analysis.delay import held_data_age
+    from trainctl.graphs import make_graph
+    from trainctl.network import NetworkSettings
+
+    T = 0.2
+    settings = NetworkSettings(delay_range_s=[0.0, 2.0], loss_probability=0.1)
+    net = Network(settings, make_graph("bidirectional", 3, pinned="none"), seed=5)
+    ages = []
+    for k in range(3000):
+        t = T * k
+        net.send_all(t, np.zeros(3))
+        if k >= 50:   # steady state: older messages than 10 s have long arrived or been lost
+            ages += [round((t - m.t_sent) / T) for m in net.messages(t).values()]
+    counts = np.bincount(ages)
+    model = held_data_age(T, (0.0, 2.0), loss_probability=0.1)
+    n = len(ages)
+    for j in range(12):
+        p = model.pmf[j] if j < model.pmf.size else 0.0
+        seen = counts[j] / n if j < counts.size else 0.0
+        # per-age frequency within 5 binomial standard deviations (samples are correlated
+        # over a few instants, so the bound is generous but still fails a wrong model)
+        assert abs(seen - p) <= 5 * math.sqrt(p * (1 - p) / (n / 10)) + 1e-9, (j, seen, p)
+    assert model.quantile(0.99) < 2.0 and model.mean == pytest.approx(
+        float(np.mean(ages)) * T, rel=0.05)

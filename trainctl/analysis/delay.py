@@ -47,8 +47,9 @@ from ..exceptions import DimensionError, ModelError
 if TYPE_CHECKING:
     import control as ct
 
-__all__ = ["DEFAULT_ORDERS", "DelayMargin", "consensus_delay_bound", "delay_abscissa",
-           "delay_margin", "discrete_delay_loop", "pade_loop"]
+__all__ = ["DEFAULT_ORDERS", "DataAge", "DelayMargin", "consensus_delay_bound",
+           "delay_abscissa", "delay_margin", "discrete_delay_loop", "held_data_age",
+           "pade_loop"]
 
 Array = NDArray[np.float64]
 
@@ -358,3 +359,97 @@ def discrete_delay_loop(Ad: ArrayLike, Bd: ArrayLike, K0: ArrayLike, K1: ArrayLi
     for j in range(1, d):
         Acl[N + m * j:N + m * (j + 1), N + m * (j - 1):N + m * j] = np.eye(m)
     return ct.ss(Acl, np.zeros((total, 1)), np.eye(N, total), np.zeros((N, 1)), float(dt))
+
+
+@dataclass(frozen=True, kw_only=True)
+class DataAge:
+    """The age of the newest message a receiver holds, sampled at its control instants.
+
+    Parameters
+    ----------
+    interval : float
+        T [s]: one message per link at every control instant, read at them.
+    ages : ndarray
+        The possible ages j·T [s], j = 0, 1, ..., shape (J,).
+    pmf : ndarray
+        P(age = j·T) [-], shape (J,); the tail beyond the last age is below
+        1e-12 (or the link never delivers: all zero).
+    """
+
+    interval: float
+    ages: Array
+    pmf: Array
+
+    @property
+    def mean(self) -> float:
+        """Expected age [s] (inf when nothing is ever delivered)."""
+        total = float(np.sum(self.pmf))
+        return float(np.sum(self.ages * self.pmf) / total) if total > 0.5 else math.inf
+
+    def quantile(self, q: float) -> float:
+        """The smallest age a with P(age <= a) >= q [s] (inf when never reached).
+
+        Parameters
+        ----------
+        q : float
+            Probability, in (0, 1].
+        """
+        cdf = np.cumsum(self.pmf)
+        reached = np.flatnonzero(cdf >= q - 1e-12)
+        return float(self.ages[reached[0]]) if reached.size else math.inf
+
+
+def held_data_age(interval: float, delay_range: tuple[float, float], *,
+                  loss_probability: float = 0.0) -> DataAge:
+    """How old the newest datum held is, at steady state, for random per-message delays.
+
+    A message sent at each control instant t − iT (i = 0, 1, ...) arrives
+    with probability 1 − p after a delay uniform in [lo, hi] (constant when
+    lo = hi), independently; the receiver holds the newest one arrived by t
+    (:class:`trainctl.network.Network`). The held datum is older than jT
+    only if none of the messages i = 0 … j has arrived:
+    P(age > jT) = Π_{i≤j} (1 − (1 − p) F(iT)), F the delay's distribution
+    function. With a message every 0.2 s and delays in 0–2 s the newest datum
+    is far younger than the worst delay: why a law whose constant-delay margin
+    is below 2 s can survive such a network.
+
+    Parameters
+    ----------
+    interval : float
+        T [s], > 0.
+    delay_range : (float, float)
+        [lo, hi] [s], 0 <= lo <= hi.
+    loss_probability : float
+        p [-], in [0, 1).
+
+    Returns
+    -------
+    DataAge
+
+    Examples
+    --------
+    Delays uniform in [0, 2] s, a message every 0.5 s: P(age = 0) = 0 (a
+    message sent now has not arrived), P(age = 0.5 s) = 1/4, ...
+
+    >>> a = held_data_age(0.5, (0.0, 2.0))
+    >>> np.round(a.pmf[:5], 3).tolist()   # 0, 1/4, 3/4·1/2, 3/8·3/4, 3/32·1
+    [0.0, 0.25, 0.375, 0.281, 0.094]
+    >>> a.quantile(0.99)
+    2.0
+    """
+    T = float(interval)
+    lo, hi = (float(x) for x in delay_range)
+    if not T > 0 or not 0 <= lo <= hi or not 0 <= loss_probability < 1:
+        raise ModelError(f"held_data_age: need interval > 0, 0 <= lo <= hi and loss in [0, 1) "
+                         f"(got {interval!r}, {delay_range!r}, {loss_probability!r}).")
+    deliver = 1.0 - float(loss_probability)
+    survive, pmf = 1.0, []
+    j = 0
+    while survive > 1e-12 and j < 1_000_000:
+        x = j * T + 1e-9 * max(1.0, j * T)
+        F = (1.0 if x >= lo else 0.0) if hi == lo else min(max((x - lo) / (hi - lo), 0.0), 1.0)
+        arrived = deliver * F
+        pmf.append(survive * arrived)
+        survive *= 1.0 - arrived
+        j += 1
+    return DataAge(interval=T, ages=T * np.arange(len(pmf), dtype=float), pmf=np.asarray(pmf))

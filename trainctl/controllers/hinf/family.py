@@ -357,6 +357,23 @@ def _seconds(x: float | None, missing: str = "no [network]") -> str:
     return f"{x:.4g}" if math.isfinite(x) else "∞"
 
 
+def _age_rows(design: HinfDesign) -> list[tuple[str, str]]:
+    """The age of the newest datum held over a random-delay network (median, 99 %)."""
+    from ...analysis.delay import held_data_age
+
+    network = design.network
+    if network is None:
+        return []
+    lo, hi = network.delay_bounds()
+    if hi <= lo:
+        return []
+    age = held_data_age(design.control_interval, (lo, hi),
+                        loss_probability=float(network.loss_probability))
+    return [("Age of the newest datum held, median / 99 % [s]",
+             f"{age.quantile(0.5):.4g} / {age.quantile(0.99):.4g} (a message every "
+             f"{design.control_interval:g} s, delays in [{lo:g}, {hi:g}] s)")]
+
+
 class HinfFamily:
     """Seed 003's distributed robust H∞ cooperative law (leader-following speed consensus)."""
 
@@ -426,6 +443,7 @@ class HinfFamily:
                 ("First-order consensus bound [s]",
                  _seconds(design.consensus_bound, "directed graph")),
                 ("Network worst-case delay [s]", _seconds(design.worst_delay)),
+                *_age_rows(design),
                 ("Slowest mode, max Re λ [1/s]", f"{float(np.max(lam.real)):.4g}"),
                 ("Fastest mode, max |λ| [rad/s]", f"{float(np.max(np.abs(lam))):.4g}")]
         return {"spectra": {"hinf distributed": [[float(x.real), float(x.imag)] for x in z]},
