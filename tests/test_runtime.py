@@ -275,9 +275,18 @@ def _signal_and_time(argv: list[str], signum: int, *, wait_for: str | None = Non
     return process.returncode, time.monotonic() - start, err
 
 
+PROMPT = 5.0
+"""Seconds within which an interrupted run must have exited (:class:`TestSignals`)."""
+
+
 @pytest.mark.slow
 class TestSignals:
-    """Long runs answer SIGTERM and SIGINT within a second."""
+    """Long runs answer SIGTERM and SIGINT promptly.
+
+    A second when the machine is quiet; :data:`PROMPT` allows for a loaded 2-core
+    machine (2.1 s seen while the rest of the suite ran beside it), far below the
+    ~50 s a run that ignored the signal would take.
+    """
 
     @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["INT", "TERM"])
     @pytest.mark.parametrize("jobs", ["1", "2"])
@@ -287,7 +296,7 @@ class TestSignals:
                 "--jobs", jobs]
         code, seconds, err = _signal_and_time(argv, signum, delay=8.0)
         assert code == 130, err
-        assert seconds < 1.5, seconds
+        assert seconds < PROMPT, seconds
         assert "interrupted" in err and "Traceback" not in err
 
     def test_sigint_swallowed_by_osqp_stops_the_run(self, tmp_path: Path) -> None:
@@ -308,5 +317,5 @@ class TestSignals:
         argv = [sys.executable, "-c", _STUCK, "analyse", "heavy-haul-hinf"]
         code, seconds, err = _signal_and_time(argv, signal.SIGTERM, wait_for="STUCK", delay=0.5)
         assert code == 130, err
-        assert seconds < 1.5, seconds
+        assert seconds < PROMPT, seconds
         assert "did not stop in time; ended it" in err and "SVD RETURNED" not in err
