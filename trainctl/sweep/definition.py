@@ -152,7 +152,8 @@ non-empty array (got []). Give at least one value.
     def __post_init__(self) -> None:
         _check_key(self.key)
         values = self.values
-        if isinstance(values, str | bytes | Mapping) or not isinstance(values, Sequence | np.ndarray):
+        if isinstance(values, str | bytes | Mapping) or not isinstance(
+                values, Sequence | np.ndarray):
             raise _fail(repr(self.key), f"values must be an array of values (got {values!r}).")
         if len(values) == 0:
             raise _fail(repr(self.key), f"values must be a non-empty array (got {list(values)!r})."
@@ -333,8 +334,9 @@ class SweepPoint(Mapping[str, Any]):
     ----------
     index : int
         Position in :meth:`SweepDefinition.points` (from 0).
-    values : mapping of str to object
-        File key path to value (file unit), axis order, then ``"seed"``.
+    changes : mapping of str to object
+        File key path to value (file unit), axis order, then ``"seed"``
+        (the point is also this mapping: ``point["seed"]``, ``dict(point)``).
 
     Examples
     --------
@@ -344,25 +346,25 @@ class SweepPoint(Mapping[str, Any]):
     """
 
     index: int
-    values: Mapping[str, Any] = field(default_factory=dict)
+    changes: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         from ..scenario.frozen import FrozenMapping
 
-        object.__setattr__(self, "values", FrozenMapping(self.values))
+        object.__setattr__(self, "changes", FrozenMapping(self.changes))
 
     def __getitem__(self, key: str) -> Any:
-        return self.values[key]
+        return self.changes[key]
 
     def __iter__(self) -> Iterator[str]:
-        return iter(self.values)
+        return iter(self.changes)
 
     def __len__(self) -> int:
-        return len(self.values)
+        return len(self.changes)
 
     def label(self) -> str:
         """``"key = value, ..."`` (TOML spelling of the values)."""
-        return ", ".join(f"{k} = {toml_text(v)}" for k, v in self.values.items())
+        return ", ".join(f"{k} = {toml_text(v)}" for k, v in self.changes.items())
 
 
 def toml_text(value: Any) -> str:
@@ -407,7 +409,7 @@ class SweepDefinition:
 
     >>> sweep = SweepDefinition([ListAxis("controller.r_per_kn2", [0.1, 1.0, 10.0]),
     ...                          ListAxis("model.sample_time", [10.0, 20.0])])
-    >>> [tuple(p.values.values()) for p in sweep.points()]  # doctest: +NORMALIZE_WHITESPACE
+    >>> [tuple(p.values()) for p in sweep.points()]  # doctest: +NORMALIZE_WHITESPACE
     [(0.1, 10.0), (0.1, 20.0), (1.0, 10.0), (1.0, 20.0), (10.0, 10.0), (10.0, 20.0)]
     >>> from trainctl.scenario import load_scenario
     >>> scenarios = sweep.validate(load_scenario("crh2-dmpc"))
@@ -537,8 +539,7 @@ def _point_error(point: SweepPoint, key: str, value: Any, exc: ScenarioError) ->
     message = str(exc)
     marker = f"({key} = {value!r}): "
     detail = message.split(marker, 1)[1] if marker in message else message
-    return ScenarioError(f"sweep point {point.index} ({point.label()}): {key} = "
-                         f"{toml_text(value)} is not valid: {detail}")
+    return ScenarioError(f"sweep point {point.index} ({point.label()}): {detail}")
 
 
 def _without_sweep(scenario: Scenario) -> Scenario:
