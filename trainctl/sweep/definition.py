@@ -147,7 +147,7 @@ non-empty array (got []). Give at least one value.
     """
 
     key: str
-    values: tuple[Any, ...]
+    values: Sequence[Any]
 
     def __post_init__(self) -> None:
         _check_key(self.key)
@@ -167,7 +167,7 @@ non-empty array (got []). Give at least one value.
 
     def grid_values(self) -> tuple[Any, ...]:
         """The values, in order."""
-        return self.values
+        return tuple(self.values)
 
 
 @dataclass(frozen=True)
@@ -312,13 +312,13 @@ class RandomAxis:
     def draw(self, seed: int, samples: int) -> tuple[float, ...]:
         """The ``samples`` values of this axis for the sweep seed ``seed`` (Python floats)."""
         rng = self.rng(seed)
+        low, high = float(self.low or 0.0), float(self.high or 0.0)
         if self.distribution == "uniform":
-            values = rng.uniform(self.low, self.high, samples)
+            values = rng.uniform(low, high, samples)
         elif self.distribution == "normal":
-            values = rng.normal(self.mean, self.std, samples)
+            values = rng.normal(float(self.mean or 0.0), float(self.std or 0.0), samples)
         else:
-            assert self.low is not None and self.high is not None
-            values = np.exp(rng.uniform(math.log(self.low), math.log(self.high), samples))
+            values = np.exp(rng.uniform(math.log(low), math.log(high), samples))
         return tuple(float(v) for v in values)
 
 
@@ -455,7 +455,7 @@ class SweepDefinition:
     @property
     def n_points(self) -> int:
         """Number of points: product of the grid sizes × samples (if random) × seeds."""
-        n = math.prod(len(a.grid_values()) for a in self.axes if not a.random)
+        n = math.prod([len(a.grid_values()) for a in self.axes if not isinstance(a, RandomAxis)])
         return n * (self.samples if any(a.random for a in self.axes) else 1) * self.seeds
 
     @property
@@ -476,8 +476,8 @@ class SweepDefinition:
         list of SweepPoint
             Numbered from 0.
         """
-        grids = [a.grid_values() for a in self.axes if not a.random]
-        randoms = [a for a in self.axes if a.random]
+        grids = [a.grid_values() for a in self.axes if not isinstance(a, RandomAxis)]
+        randoms = [a for a in self.axes if isinstance(a, RandomAxis)]
         draws = [a.draw(self.seed, self.samples) for a in randoms]
         samples = list(zip(*draws, strict=True)) if randoms else [()]
         seeds = [base_seed + k for k in range(self.seeds)] if self.seeds > 1 else [None]
@@ -521,7 +521,8 @@ class SweepDefinition:
         cache: dict[tuple[tuple[str, str], ...], Scenario] = {}
         found = []
         for point in self.points(base_seed=scenario.seed):
-            current, prefix = base, ()
+            current: Scenario = base
+            prefix: tuple[tuple[str, str], ...] = ()
             for key, value in point.items():
                 prefix = (*prefix, (key, toml_text(value)))
                 if prefix not in cache:
