@@ -1856,7 +1856,7 @@ class TestSimulationValid:
     def test_not_reserved_any_more(self) -> None:
         """[simulation] is a real section, not a reserved one."""
         assert "simulation" not in RESERVED_SECTIONS
-        assert RESERVED_SECTIONS == ("report", "sweep")
+        assert RESERVED_SECTIONS == ("report",)
         error = check_fails(
             with_controller("[simulation]"), "missing required key [simulation].duration"
         )

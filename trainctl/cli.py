@@ -14,6 +14,12 @@ Subcommands
     ``[simulation]`` section — the closed-loop metrics of a scenario (a
     built-in name or a file path); ``--save`` also writes everything a report
     shows to ``DIR``.
+``sweep SCENARIO [--set KEY=V1,V2,...]... [--seeds N] --dry-run``
+    Validate every point of a parameter sweep (the scenario's ``[sweep]``,
+    or the ``--set`` axes and ``--seeds``; :mod:`trainctl.sweep`) and list
+    the points: index, the swept values and the start of each point's key.
+    Running the points comes in a later release (without ``--dry-run``:
+    exit 2).
 ``report [SCENARIO | DIR] [-o PATH] [--all] [--deterministic] [--timestamp T] [--jobs N]``
     Run a scenario (or read a directory saved by ``analyse --save``) and
     write its self-contained HTML design report (default
@@ -102,7 +108,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for add in (_add_list, _add_schema, _add_export, _add_analyse, _add_report):
+    for add in (_add_list, _add_schema, _add_export, _add_analyse, _add_sweep, _add_report):
         add(sub)
     return parser
 
@@ -189,6 +195,36 @@ def _add_analyse(sub: Any) -> None:
     )
     add_budget_option(p_analyse)
     p_analyse.set_defaults(func=_cmd_analyse)
+
+
+def _add_sweep(sub: Any) -> None:
+    """The ``sweep`` subcommand."""
+    p_sweep = sub.add_parser(
+        "sweep",
+        help="validate and list the points of a parameter sweep over scenario keys",
+        description="Define a parameter sweep over file keys of a scenario (its [sweep] "
+        "section, or --set and --seeds), validate every point by the scenario schema and list "
+        "the points. Running them comes in a later release: use --dry-run.",
+    )
+    p_sweep.add_argument(
+        "scenario", metavar="SCENARIO", help="built-in scenario name or path to a TOML file"
+    )
+    p_sweep.add_argument(
+        "--set", metavar="KEY=V1,V2,...", action="append", default=[], dest="sets",
+        help="a list axis: a file key path and its values (TOML values split on commas "
+        "outside brackets, e.g. controller.r_per_kn2=0.1,1,10); repeat for a product, the "
+        "first varying slowest; replaces the axes of the scenario's [sweep]",
+    )
+    p_sweep.add_argument(
+        "--seeds", metavar="N", type=positive_int,
+        help="repeat every point with the scenario seeds seed, ..., seed + N - 1 (overrides "
+        "[sweep] seeds)",
+    )
+    p_sweep.add_argument(
+        "--dry-run", action="store_true",
+        help="validate every point and list them; run nothing, write nothing",
+    )
+    p_sweep.set_defaults(func=_cmd_sweep)
 
 
 def _add_report(sub: Any) -> None:
@@ -300,6 +336,41 @@ def _cmd_schema(args: argparse.Namespace) -> int:
         from .scenario import json_schema
 
         print(json.dumps(json_schema(), indent=2, ensure_ascii=False))
+    return EXIT_OK
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from .scenario import parse_scenario, read_scenario_text
+    from .sweep import SweepDefinition, parse_set, point_key
+    from .sweep.definition import toml_text
+
+    axes = [parse_set(text) for text in args.sets]
+    text, label = read_scenario_text(args.scenario)
+    scenario = parse_scenario(text, source=label)
+    given = scenario.sweep
+    if not axes and given is None and args.seeds is None:
+        raise _UserError(f"{label}: no sweep to run: the scenario has no [sweep] section. Give "
+                         "--set KEY=V1,V2,... (e.g. --set controller.r_per_kn2=0.1,1,10) or "
+                         "--seeds N, or add a [sweep] section.")
+    if axes or given is None:
+        sweep = SweepDefinition(tuple(axes), seed=given.seed if given else 0,
+                                seeds=args.seeds or (given.seeds if given else 1))
+    else:
+        sweep = SweepDefinition(given.axes, seed=given.seed, samples=given.samples,
+                                seeds=args.seeds or given.seeds)
+    points = sweep.points(base_seed=scenario.seed)
+    scenarios = sweep.validate(scenario)
+    if not args.dry_run:
+        raise _UserError(f"all {len(points)} points of the sweep are valid, but running sweeps "
+                         "comes in a later trainctl release; use --dry-run to list the points.")
+    header = ["point", *sweep.keys, "key"]
+    rows = [[str(p.index), *(toml_text(v) for v in p.values()), point_key(s)[:12]]
+            for p, s in zip(points, scenarios, strict=True)]
+    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
+    print(f"{label}: {len(points)} valid sweep points")
+    for row in [header, *rows]:
+        print("  ".join(c.rjust(w) if i == 0 else c.ljust(w)
+                        for i, (c, w) in enumerate(zip(row, widths, strict=True))).rstrip())
     return EXIT_OK
 
 

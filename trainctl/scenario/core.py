@@ -42,7 +42,7 @@ __all__ = [
 SCHEMA_VERSION = 1
 """The only ``schema_version`` this release reads."""
 
-RESERVED_SECTIONS = ("report", "sweep")
+RESERVED_SECTIONS = ("report",)
 """Top-level sections reserved for later releases (rejected today)."""
 
 def model_check_names() -> tuple[str, ...]:
@@ -231,6 +231,11 @@ class Scenario:
         The TOML document the scenario was parsed from, read-only (tables as
         mappings, arrays as tuples); None for a scenario built in Python.
         :meth:`replace` edits a copy of it.
+    sweep : SweepDefinition or None
+        The parameter sweep of the ``[sweep]`` section
+        (:class:`trainctl.sweep.SweepDefinition`); None without one. It
+        does not change the scenario itself: its points are validated and
+        run by ``trainctl sweep``.
     tags : Mapping of str to str
         Where the file's values come from: file key path (``"model.speed_kmh"``,
         ``"train.vehicle[0].mass_t"``) or table path to the source tag of its
@@ -262,6 +267,7 @@ class Scenario:
     network: NetworkSettings | None = None
     simulation: SimulationSettings | None = None
     expected: Mapping[str, str] = field(default_factory=FrozenMapping)
+    sweep: Any = None
     source: str = "<string>"
     document: Mapping[str, Any] | None = field(default=None, compare=False, repr=False)
     tags: Mapping[str, str] = field(default_factory=FrozenMapping, compare=False, repr=False)

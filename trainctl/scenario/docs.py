@@ -33,7 +33,16 @@ from ..network import Interruption, NetworkSettings
 from .communication import CommunicationSettings
 from .filemodel import file_model, rule_of, sub_model, table_kind
 from .settings import ModelSettings, SimulationSettings
-from .tables import CouplerTable, SectionTable, TopLevel, TrackTable, TrainTable, VehicleTable
+from .tables import (
+    CouplerTable,
+    SectionTable,
+    SweepAxisTable,
+    SweepTable,
+    TopLevel,
+    TrackTable,
+    TrainTable,
+    VehicleTable,
+)
 
 __all__ = ["README", "main", "markdown_tables", "markdown_text", "table", "update_readme"]
 
@@ -147,8 +156,7 @@ def markdown_tables() -> dict[str, str]:
         ``"top"``, ``"train"``, ``"vehicle"``, ``"coupler"``, ``"track"``,
         ``"section"``, ``"model"``, ``"controller-<family>"`` for each
         built-in family, ``"communication"``, ``"network"``, ``"interruption"``,
-        ``"simulation"`` and
-        ``"reference"``.
+        ``"simulation"``, ``"reference"``, ``"sweep"`` and ``"sweep-axis"``.
     """
     from ..controllers.registry import DEFAULT_FAMILY, FAMILY_MODULES, get_family
 
@@ -167,6 +175,8 @@ def markdown_tables() -> dict[str, str]:
         "interruption": table(file_model(Interruption)),
         "simulation": table(simulation, "simulation"),
         "reference": table(sub_model(reference) or simulation),
+        "sweep": table(SweepTable, "sweep"),
+        "sweep-axis": table(SweepAxisTable),
     }
     names = tuple(FAMILY_MODULES)
     for name in names:

@@ -4,7 +4,9 @@
 The document is validated table by table, in file order: the top level,
 ``[train]``, ``[track]``, ``[model]``, ``[controller]`` (its family from the
 registry, at parse time), ``[communication]``, ``[network]`` (its vehicle
-indices checked against the train), ``[simulation]`` and ``[expected]``. Tables that
+indices checked against the train), ``[simulation]``, ``[expected]`` and
+``[sweep]`` (:mod:`trainctl.sweep`; its points are validated when the sweep
+runs, not here). Tables that
 depend on earlier ones get them through the validation context: the number
 of coaches, the sample time, the strategies and checks of the controller
 families present. The first error becomes a ScenarioError with its key path
@@ -44,6 +46,8 @@ from .tables import (
     DAVIS_KEYS,
     CouplerTable,
     SectionTable,
+    SweepAxisTable,
+    SweepTable,
     TopLevel,
     TrackTable,
     TrainTable,
@@ -260,11 +264,12 @@ class _Parser:
             NetworkSettings, top.network, ("network",), {"n_vehicles": train.n_vehicles})
         simulation = self.simulation(top.simulation, model.sample_time, tuple(controllers))
         expected = self.expected(top.expected, tuple(controllers))
+        sweep = None if top.sweep is None else self.sweep()
         return self.build((), lambda: Scenario(
             name=top.name, description=top.description, seed=top.seed, train=train,
             track=track, model=model, controllers=FrozenMapping(controllers),
             communication=communication, network=network, simulation=simulation,
-            expected=expected,
+            expected=expected, sweep=sweep,
             source=self.file, document=self.doc, tags=self.tags,
         ))
 
@@ -369,6 +374,38 @@ class _Parser:
             if problem is not None:
                 raise self.fail(problem, ("expected",), (check,), model)
         return FrozenMapping(raw)
+
+    def sweep(self) -> Any:
+        """``[sweep]``: its keys checked, the axes built (points are validated when run)."""
+        from ..sweep.definition import GridAxis, ListAxis, RandomAxis, SweepDefinition
+
+        table: SweepTable = self.validate(SweepTable, ("sweep",))
+        raw = self.doc["sweep"]
+        axes: list[Any] = []
+        for i, axis in enumerate(table.axis or ()):
+            given: dict[str, Any] = raw["axis"][i]  # the file's numbers: ints stay ints
+            where = f"{self.file}: [sweep.axis][{i}]"
+            try:
+                axes.append(_sweep_axis(axis, given, ListAxis, GridAxis, RandomAxis))
+            except ScenarioError as exc:
+                raise ScenarioError(f"{where}: {str(exc).split(': ', 1)[1]}") from None
+        try:
+            return SweepDefinition(tuple(axes), seed=table.seed, samples=table.samples,
+                                   seeds=table.seeds)
+        except ScenarioError as exc:
+            raise ScenarioError(f"{self.file}: [sweep]: {str(exc).split(': ', 1)[1]}") from None
+
+
+def _sweep_axis(axis: SweepAxisTable, given: dict[str, Any], *kinds: Any) -> Any:
+    """The axis object of a validated ``[[sweep.axis]]`` table."""
+    list_axis, grid_axis, random_axis = kinds
+    if axis.values is not None:
+        return list_axis(axis.key, given["values"])
+    if axis.distribution is None:
+        return grid_axis(axis.key, given["start"], given["stop"], axis.num,
+                         scale=axis.scale or "linear")
+    return random_axis(axis.key, axis.distribution, low=axis.low, high=axis.high,
+                       mean=axis.mean, std=axis.std)
 
 
 def _si(table: FileTable, name: str, absent: float = math.inf) -> Any:

@@ -32,7 +32,7 @@ from .communication import CommunicationSettings
 from .core import SCHEMA_VERSION, check_names, check_statuses
 from .filemodel import FileTable, file_model
 from .settings import ModelSettings, SimulationSettings
-from .tables import TopLevel, TrackTable, TrainTable, expected_table
+from .tables import SweepTable, TopLevel, TrackTable, TrainTable, expected_table
 
 __all__ = ["DRAFT", "json_schema"]
 
@@ -47,6 +47,7 @@ _SECTIONS: dict[str, Any] = {
     "network": lambda: file_model(NetworkSettings),
     "simulation": lambda: file_model(SimulationSettings),
     "expected": lambda: expected_table(dict.fromkeys(check_names(), ""), check_statuses()),
+    "sweep": SweepTable,
 }
 
 

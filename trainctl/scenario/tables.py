@@ -58,6 +58,8 @@ __all__ = [
     "MAX_VEHICLES",
     "CouplerTable",
     "SectionTable",
+    "SweepAxisTable",
+    "SweepTable",
     "TableRule",
     "TopLevel",
     "TrackTable",
@@ -318,6 +320,89 @@ class TrainTable(FileTable):
                 hint=" Use a single [train.coupler] table to apply one coupler to every link."))
 
 
+class ValueList(Rule):
+    """A non-empty array of TOML values of any type (a sweep's list axis)."""
+
+    def want(self, *, python: bool = False) -> str:
+        """``"a non-empty array of values"``."""
+        return "a non-empty array of values"
+
+    def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
+        """A list of anything, at least one item."""
+        return core_schema.list_schema(core_schema.any_schema(), min_length=1, strict=True)
+
+
+_SWEEP_SCALES = ("linear", "log")
+_SWEEP_DISTRIBUTIONS = ("uniform", "normal", "log-uniform")
+_SWEEP_KINDS = {"values": ("values",), "grid": ("start", "stop", "num", "scale"),
+                "random": ("distribution", "low", "high", "mean", "std")}
+
+
+class SweepAxisTable(FileTable):
+    """One axis of a sweep (``[[sweep.axis]]``): a list, a grid or random samples."""
+
+    key: Annotated[str, Text(nonblank=True), Key(
+        "File key path to vary, e.g. 'controller.r_per_kn2' or 'train.vehicle[1].mass_t'")]
+    values: Annotated[list[Any] | None, ValueList(), Key(
+        "List axis: the values in order, in the key's file unit")] = None
+    start: Annotated[float | None, Number(), Key(
+        "Grid axis: first value (file unit; > 0 for a log grid)")] = None
+    stop: Annotated[float | None, Number(), Key(
+        "Grid axis: last value, included (file unit; > 0 for a log grid)")] = None
+    num: Annotated[int | None, Integer(ge=1), Key("Grid axis: number of values")] = None
+    scale: Annotated[str | None, Choice(_SWEEP_SCALES), Key(
+        "Grid axis: even spacing of the values or of their logarithms",
+        omitted='"linear"')] = None
+    distribution: Annotated[str | None, Choice(_SWEEP_DISTRIBUTIONS), Key(
+        "Random axis: the distribution, drawn [sweep].samples times")] = None
+    low: Annotated[float | None, Number(), Key(
+        "Random axis, uniform and log-uniform: lower bound (log-uniform: > 0)")] = None
+    high: Annotated[float | None, Number(), Key(
+        "Random axis, uniform and log-uniform: upper bound, > low")] = None
+    mean: Annotated[float | None, Number(), Key("Random axis, normal: mean")] = None
+    std: Annotated[float | None, Number(gt=0), Key(
+        "Random axis, normal: standard deviation")] = None
+
+    @model_validator(mode="after")
+    def _one_kind(self) -> SweepAxisTable:
+        given = self.model_fields_set
+        kinds = [kind for kind, keys in _SWEEP_KINDS.items() if given.intersection(keys)]
+        if len(kinds) != 1:
+            raise_at((), Violation(
+                text="must be exactly one kind of axis: values (a list), start/stop/num (a "
+                "grid) or distribution (random samples)",
+                got_text=" and ".join(kinds) if kinds else "none of them", where=True,
+                hint=" Give values = [...], or start/stop/num, or distribution = \"uniform\" "
+                "with low/high."))
+        kind = kinds[0]
+        if kind == "grid":
+            for name in ("start", "stop", "num"):
+                if name not in given:
+                    raise_at((), Violation(
+                        text=f"missing required key {{{name}}}: a grid axis needs start, stop "
+                        "and num", where=False))
+        if kind == "random" and "distribution" not in given:
+            raise_at((), Violation(
+                text="missing required key {distribution}: low, high, mean and std belong "
+                "to a random axis", where=False))
+        return self
+
+
+class SweepTable(FileTable):
+    """A parameter sweep over the scenario (``[sweep]``)."""
+
+    seed: Annotated[int, Integer(ge=0), Key(
+        "Seed of the random axes' draws (one stream per axis key)")] = 0
+    samples: Annotated[int, Integer(ge=1), Key(
+        "Joint draws of the random axes, each combined with every grid point")] = 1
+    seeds: Annotated[int, Integer(ge=1), Key(
+        "Repeat every point with the scenario seeds seed, seed + 1, ..., seed + seeds - 1 "
+        "(the top-level seed)")] = 1
+    axis: Annotated[list[SweepAxisTable] | None, Field(min_length=1), Key(
+        "The axes: the grids and lists form a product, the first varying slowest",
+        omitted="none (seeds > 1 only)")] = None
+
+
 _SECTION = TableRule()
 
 
@@ -349,6 +434,9 @@ class TopLevel(FileTable):
         "Closed-loop simulation run; needs [controller]", omitted="no simulation")] = None
     expected: Annotated[dict[str, Any] | None, _SECTION, Section(None), Key(
         "Declared status of the design checks", omitted="none declared")] = None
+    sweep: Annotated[dict[str, Any] | None, _SECTION, Section(SweepTable), Key(
+        "Parameter sweep: lists, grids and random samples over file keys, and seeds",
+        omitted="no sweep")] = None
 
     @model_validator(mode="after")
     def _version(self) -> TopLevel:

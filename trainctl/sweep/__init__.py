@@ -1,0 +1,45 @@
+# Parameter sweeps: the definition (axes, points, validation); the runner comes later.
+"""Parameter studies and Monte-Carlo over any scenario key.
+
+A sweep varies file keys of a scenario along axes — lists, grids, random
+samples — and optionally the scenario seed; every point is validated by
+the scenario schema before anything runs (:mod:`trainctl.sweep.definition`).
+A scenario file declares one in its ``[sweep]`` section
+(:attr:`trainctl.scenario.Scenario.sweep`); the command line with
+``trainctl sweep SCENARIO --set KEY=V1,V2,... [--seeds N]``.
+
+Examples
+--------
+>>> from trainctl.scenario import load_scenario
+>>> sweep = SweepDefinition([parse_set("controller.r_per_kn2=0.1,1,10")])
+>>> [dict(p) for p in sweep.points()]
+[{'controller.r_per_kn2': 0.1}, {'controller.r_per_kn2': 1}, {'controller.r_per_kn2': 10}]
+"""
+
+from .definition import (
+    DISTRIBUTIONS,
+    MAX_POINTS,
+    SCALES,
+    Axis,
+    GridAxis,
+    ListAxis,
+    RandomAxis,
+    SweepDefinition,
+    SweepPoint,
+    parse_set,
+    point_key,
+)
+
+__all__ = [
+    "DISTRIBUTIONS",
+    "MAX_POINTS",
+    "SCALES",
+    "Axis",
+    "GridAxis",
+    "ListAxis",
+    "RandomAxis",
+    "SweepDefinition",
+    "SweepPoint",
+    "parse_set",
+    "point_key",
+]
