@@ -347,7 +347,41 @@ class TestCli:
         assert "Traceback" not in captured.err and captured.out == ""
         assert list(tmp_path.iterdir()) == []
 
-    def test_without_dry_run_exits_2(self, capsys: pytest.CaptureFixture[str]) -> None:
-        code = main(["sweep", "crh2-dmpc", "--set", "controller.r_per_kn2=1,10"])
-        err = capsys.readouterr().err
-        assert code == 2 and "later trainctl release" in err and "--dry-run" in err
+    def test_runs_the_points_like_analyse(self, capsys: pytest.CaptureFixture[str]) -> None:
+        """Each point's rows hold the checks a direct run of the edited scenario finds."""
+        import json
+
+        from trainctl.run import run_scenario
+        from trainctl.scenario import load_scenario
+
+        code = main(["sweep", "crh2-dmpc", "--set", "controller.r_per_kn2=1,10",
+                     "--no-simulate", "--json"])
+        rows = json.loads(capsys.readouterr().out)
+        assert code == 0 and [r["point"] for r in rows] == [0, 1]
+        assert [r["controller.r_per_kn2"] for r in rows] == [1, 10]
+        for row, weight in zip(rows, (1.0, 10.0), strict=True):
+            direct = run_scenario(load_scenario("crh2-dmpc").replace(
+                "controller.r_per_kn2", weight), simulate=False)
+            for check in direct.review.checks:
+                assert row[f"check.{check.name}.status"] == check.status, check.name
+        # R = 1 is below the threshold weight of the book's N-DMPC iteration, R = 10 above
+        assert rows[0]["check.ndmpc_convergence.status"] == "fail"
+        assert rows[1]["check.ndmpc_convergence.status"] != "fail"
+
+    @pytest.mark.slow
+    def test_pool_and_serial_rows_identical(self) -> None:
+        """Two worker processes give exactly the rows of a serial run (simulations included)."""
+        from trainctl.parallel import worker_pool
+        from trainctl.scenario import load_scenario
+        from trainctl.sweep import sweep_rows
+
+        scenario = load_scenario("heavy-haul-hinf-noise").replace(
+            "simulation.settle_time", 30.0).replace("simulation.duration", 60.0)
+        sweep = SweepDefinition([parse_set("controller.kappa_p_per_s=0.05,0.1")])
+        points, scenarios = sweep.points(), sweep.validate(scenario)
+        serial = sweep_rows(points, scenarios)
+        with worker_pool(2) as pool:
+            pooled = sweep_rows(points, scenarios, executor=pool)
+        assert pooled == serial and len(serial) == 2
+        assert serial[0]["strategy"] == "distributed"
+        assert serial[0]["metric.rms_error"] != serial[1]["metric.rms_error"]

@@ -18,8 +18,9 @@ Subcommands
     Validate every point of a parameter sweep (the scenario's ``[sweep]``,
     or the ``--set`` axes and ``--seeds``; :mod:`trainctl.sweep`) and list
     the points: index, the swept values and the start of each point's key.
-    Running the points comes in a later release (without ``--dry-run``:
-    exit 2).
+    Without ``--dry-run`` every point runs (``--no-simulate``, ``--jobs N``)
+    and one row per point and strategy is printed (``--json``:
+    :func:`trainctl.sweep.sweep_rows`).
 ``report [SCENARIO | DIR] [-o PATH] [--all] [--deterministic] [--timestamp T] [--jobs N]``
     Run a scenario (or read a directory saved by ``analyse --save``) and
     write its self-contained HTML design report (default
@@ -203,8 +204,11 @@ def _add_sweep(sub: Any) -> None:
         "sweep",
         help="validate and list the points of a parameter sweep over scenario keys",
         description="Define a parameter sweep over file keys of a scenario (its [sweep] "
-        "section, or --set and --seeds), validate every point by the scenario schema and list "
-        "the points. Running them comes in a later release: use --dry-run.",
+        "section, or --set and --seeds), validate every point by the scenario schema before "
+        "anything runs, then run every point's analysis and simulations (serially, or on "
+        "--jobs worker processes) and print one row per point and strategy: the swept "
+        "values, the failed checks and the tracking metrics. --dry-run only lists the "
+        "points.",
     )
     p_sweep.add_argument(
         "scenario", metavar="SCENARIO", help="built-in scenario name or path to a TOML file"
@@ -223,6 +227,18 @@ def _add_sweep(sub: Any) -> None:
     p_sweep.add_argument(
         "--dry-run", action="store_true",
         help="validate every point and list them; run nothing, write nothing",
+    )
+    p_sweep.add_argument(
+        "--no-simulate", action="store_true",
+        help="run each point's analysis only, not its [simulation] strategies",
+    )
+    p_sweep.add_argument(
+        "--json", action="store_true",
+        help="print the rows (one per point and strategy) as JSON on standard output",
+    )
+    p_sweep.add_argument(
+        "-j", "--jobs", metavar="N", type=positive_int, default=1,
+        help="worker processes for the points (default 1: one after the other)",
     )
     p_sweep.set_defaults(func=_cmd_sweep)
 
@@ -361,8 +377,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     points = sweep.points(base_seed=scenario.seed)
     scenarios = sweep.validate(scenario)
     if not args.dry_run:
-        raise _UserError(f"all {len(points)} points of the sweep are valid, but running sweeps "
-                         "comes in a later trainctl release; use --dry-run to list the points.")
+        return _run_sweep(args, label, sweep, points, scenarios)
     header = ["point", *sweep.keys, "key"]
     rows = [[str(p.index), *(toml_text(v) for v in p.values()), point_key(s)[:12]]
             for p, s in zip(points, scenarios, strict=True)]
@@ -371,6 +386,38 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     for row in [header, *rows]:
         print("  ".join(c.rjust(w) if i == 0 else c.ljust(w)
                         for i, (c, w) in enumerate(zip(row, widths, strict=True))).rstrip())
+    return EXIT_OK
+
+
+def _run_sweep(args: argparse.Namespace, label: str, sweep: Any, points: Any,
+               scenarios: Any) -> int:
+    """Run the points of ``trainctl sweep`` and print their rows (table or JSON)."""
+    from .parallel import worker_pool
+    from .sweep import sweep_rows
+    from .sweep.definition import toml_text
+
+    workers = min(int(args.jobs), len(points)) if args.jobs > 1 else 0
+    with worker_pool(workers) as pool:
+        rows = sweep_rows(points, scenarios, simulate=not args.no_simulate, executor=pool)
+    if args.json:
+        print(json.dumps(rows, indent=2))
+        return EXIT_OK
+    header = ["point", *sweep.keys, "strategy", "failed checks", "max err [m/s]", "tracking"]
+    table = []
+    for row in rows:
+        failed = [k.split(".")[1] for k, v in row.items()
+                  if k.startswith("check.") and k.endswith(".status") and v == "fail"]
+        err = row.get("metric.max_error")
+        table.append([str(row["point"]), *(toml_text(row[k]) for k in sweep.keys),
+                      row["strategy"] or "-", ", ".join(failed) or "-",
+                      "-" if err is None else f"{err:.4g}",
+                      "-" if "metric.tracking_ok" not in row else
+                      ("ok" if row["metric.tracking_ok"] else "outside")])
+    widths = [max(len(r[i]) for r in [header, *table]) for i in range(len(header))]
+    print(f"{label}: {len(points)} sweep points, {len(rows)} rows")
+    for line in [header, *table]:
+        print("  ".join(c.rjust(w) if i == 0 else c.ljust(w)
+                        for i, (c, w) in enumerate(zip(line, widths, strict=True))).rstrip())
     return EXIT_OK
 
 

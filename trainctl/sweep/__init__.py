@@ -1,9 +1,11 @@
-# Parameter sweeps: the definition (axes, points, validation); the runner comes later.
+# Parameter sweeps: the definition (axes, points, validation) and running the points.
 """Parameter studies and Monte-Carlo over any scenario key.
 
 A sweep varies file keys of a scenario along axes — lists, grids, random
 samples — and optionally the scenario seed; every point is validated by
-the scenario schema before anything runs (:mod:`trainctl.sweep.definition`).
+the scenario schema before anything runs (:mod:`trainctl.sweep.definition`);
+the points run serially or on a process pool into tidy rows, one per point
+and strategy (:mod:`trainctl.sweep.rows`).
 A scenario file declares one in its ``[sweep]`` section
 (:attr:`trainctl.scenario.Scenario.sweep`); the command line with
 ``trainctl sweep SCENARIO --set KEY=V1,V2,... [--seeds N]``.
@@ -29,6 +31,7 @@ from .definition import (
     parse_set,
     point_key,
 )
+from .rows import METRICS, point_rows, run_point, sweep_rows
 
 __all__ = [
     "DISTRIBUTIONS",
@@ -41,5 +44,9 @@ __all__ = [
     "SweepDefinition",
     "SweepPoint",
     "parse_set",
+    "METRICS",
     "point_key",
+    "point_rows",
+    "run_point",
+    "sweep_rows",
 ]

@@ -1,0 +1,158 @@
+# Running a sweep's points and turning each run into tidy rows: one per point and strategy.
+"""Run the validated points of a sweep and tabulate them, one row per point and strategy.
+
+Each point is the scenario of :meth:`~trainctl.sweep.SweepDefinition.validate`,
+run by :func:`trainctl.run.run_scenario` like ``trainctl analyse`` runs a
+file (its analysis and, unless ``simulate=False``, its simulations); a run
+is reduced where it ran to its JSON summary without wall-clock values
+(:meth:`~trainctl.run.AnalysisRun.to_dict`), so that the rows do not depend
+on where or when a point ran. :func:`point_rows` turns a summary into tidy
+rows:
+
+- ``point``, ``point_key`` (:func:`~trainctl.sweep.point_key`) and the
+  swept values, one column per key (file units, as written in the sweep);
+- ``check.<name>.status`` and ``check.<name>.value`` for every design check;
+- ``strategy`` and ``metric.<name>`` per simulated strategy
+  (:data:`METRICS`); a point without simulations has one row with an empty
+  strategy.
+
+The points run in order, on an executor when one is given (a process pool,
+:func:`trainctl.parallel.worker_pool`), each independent of the others, so
+the rows are the same either way.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from concurrent.futures import Executor
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from ..scenario import Scenario
+    from .definition import SweepPoint
+
+__all__ = ["METRICS", "point_rows", "run_point", "sweep_rows"]
+
+METRICS = ("rms_error", "max_error", "max_coupler_force", "energy_kwh", "tracking_ok",
+           "iterations_mean", "diverged")
+"""Per-strategy metric columns: the RMS speed error over every vehicle and sample after
+``settle_time`` [m/s], the largest speed error [m/s], the largest |coupler force| [N], the
+net traction energy [kWh], whether tracking held, the mean solver iterations per sample, and
+whether the run diverged."""
+
+
+def run_point(scenario: Scenario, simulate: bool = True) -> dict[str, Any]:
+    """One point's run, summarised: ``AnalysisRun.to_dict()`` without wall-clock values.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The point's validated scenario.
+    simulate : bool
+        Run its ``[simulation]`` strategies.
+
+    Returns
+    -------
+    dict
+        JSON-safe.
+    """
+    from .._cli_support import without_wall_clock
+    from ..run import run_scenario
+
+    result: dict[str, Any] = without_wall_clock(run_scenario(scenario, simulate=simulate)
+                                                .to_dict())
+    return result
+
+
+def _metric(name: str, m: Mapping[str, Any]) -> Any:
+    value = m.get(name)
+    if name == "diverged":
+        return m.get("divergence") is not None
+    if name == "rms_error":
+        values = [float(x) for x in (value or []) if x is not None]
+        return math.sqrt(sum(x * x for x in values) / len(values)) if values else None
+    if name == "max_error":
+        values = [float(x) for x in (value or []) if x is not None]
+        return max(values) if values else None
+    return value
+
+
+def point_rows(point: SweepPoint, key: str, summary: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The tidy rows of one point (module docstring).
+
+    Parameters
+    ----------
+    point : SweepPoint
+        The point (index and swept values).
+    key : str
+        Its :func:`~trainctl.sweep.point_key`.
+    summary : mapping
+        Its run's summary (:func:`run_point`).
+
+    Returns
+    -------
+    list of dict
+        One row per simulated strategy (one row with ``strategy = ""``
+        without simulations).
+
+    Examples
+    --------
+    >>> from trainctl.sweep import SweepPoint
+    >>> p = SweepPoint(3, {"controller.r_per_kn2": 10})
+    >>> rows = point_rows(p, "ab12", {"checks": [{"name": "sampling", "status": "fail",
+    ...                                          "value": 555.4}]})
+    >>> rows == [{"point": 3, "point_key": "ab12", "controller.r_per_kn2": 10,
+    ...           "check.sampling.status": "fail", "check.sampling.value": 555.4,
+    ...           "strategy": ""}]
+    True
+    """
+    base: dict[str, Any] = {"point": int(point.index), "point_key": key, **dict(point)}
+    for check in summary.get("checks", []):
+        base[f"check.{check['name']}.status"] = check.get("status")
+        base[f"check.{check['name']}.value"] = check.get("value")
+    sims = summary.get("simulations") or {}
+    if not sims:
+        return [{**base, "strategy": ""}]
+    return [{**base, "strategy": strategy,
+             **{f"metric.{name}": _metric(name, m) for name in METRICS}}
+            for strategy, m in sims.items()]
+
+
+def sweep_rows(points: Sequence[SweepPoint], scenarios: Sequence[Scenario], *,
+               simulate: bool = True, executor: Executor | None = None) -> list[dict[str, Any]]:
+    """Run every point and return all their rows, in point order.
+
+    Parameters
+    ----------
+    points : sequence of SweepPoint
+        :meth:`~trainctl.sweep.SweepDefinition.points`.
+    scenarios : sequence of Scenario
+        The validated scenarios of those points
+        (:meth:`~trainctl.sweep.SweepDefinition.validate`), in the same order.
+    simulate : bool
+        Run the ``[simulation]`` strategies of each point.
+    executor : concurrent.futures.Executor or None
+        Where to run the points side by side; None: here, one after the
+        other. The rows are the same either way.
+
+    Returns
+    -------
+    list of dict
+        :func:`point_rows` of every point.
+    """
+    from .definition import point_key
+
+    if len(points) != len(scenarios):
+        from ..exceptions import ModelError
+
+        raise ModelError(f"sweep_rows: {len(points)} points but {len(scenarios)} scenarios.")
+    if executor is None:
+        summaries = [run_point(s, simulate) for s in scenarios]
+    else:
+        futures = [executor.submit(run_point, s, simulate) for s in scenarios]
+        summaries = [f.result() for f in futures]
+    rows: list[dict[str, Any]] = []
+    for point, scenario, summary in zip(points, scenarios, summaries, strict=True):
+        rows += point_rows(point, point_key(scenario), summary)
+    return rows
