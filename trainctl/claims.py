@@ -63,8 +63,8 @@ import numpy as np
 if TYPE_CHECKING:
     from .run import AnalysisRun
 
-__all__ = ["PAPER_DEVIATION_RATIO", "RATIO_FACTOR", "Claim", "paper_claims",
-           "performance_energies"]
+__all__ = ["PAPER_DEVIATION_RATIO", "RATIO_FACTOR", "Claim", "family_strategy",
+           "paper_claims", "performance_energies"]
 
 PAPER_DEVIATION_RATIO = 7.5
 """Speed deviation under random delay over the ideal case's, as the paper reports it (spec §4.4)."""
@@ -130,15 +130,37 @@ def _spread_text(values: Sequence[float], unit: str = "") -> str:
             f"{_fmt(float(np.max(x)))}{unit} over {x.size} runs")
 
 
-def _hinf_strategy(run: AnalysisRun, family: str) -> str | None:
-    """The simulated strategy name of a family's (only) strategy, or None."""
-    sim = run.scenario.simulation
+def family_strategy(scenario: Any, simulated: Any, family: str) -> str | None:
+    """The first simulated strategy of ``family`` (its name as ``[simulation]`` writes it).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (its ``[simulation] strategies``).
+    simulated : container of str
+        The strategies that ran (a run's or a report's simulations).
+    family : str
+        The controller family.
+
+    Returns
+    -------
+    str or None
+        None when no strategy of the family ran.
+    """
+    from .design.stage import split_strategy
+
+    sim = scenario.simulation
     if sim is None:
         return None
     for name in sim.strategies:
-        if run.design.resolve(name)[0] == family and name in run.simulations:
-            return name
+        if name in simulated and split_strategy(scenario, name)[0] == family:
+            return str(name)
     return None
+
+
+def _hinf_strategy(run: AnalysisRun, family: str) -> str | None:
+    """The simulated strategy of a family in a run (:func:`family_strategy`)."""
+    return family_strategy(run.scenario, run.simulations, family)
 
 
 def paper_claims(run: AnalysisRun) -> list[Claim]:

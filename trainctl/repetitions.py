@@ -160,19 +160,15 @@ def deviation(result: SimulationResult, since: float, band: float = SETTLING_BAN
     t = np.asarray(result.dense_time, dtype=float)
     dense = result.dense_states[:n] - result.dense_reference_speed[None, :]
     peak = np.max(np.abs(dense), axis=1)
-    settling = np.zeros(n)
-    after = t >= since
     diverged = result.meta.get("divergence") is not None
     if diverged or t[-1] < since:
-        settling[:] = math.inf   # stopped early: it never settled
-    for i in range(n if not (diverged or t[-1] < since) else 0):
-        outside = np.flatnonzero(after & (np.abs(dense[i]) > band))
-        if outside.size == 0:
-            settling[i] = 0.0
-        elif outside[-1] == t.size - 1:
-            settling[i] = math.inf
-        else:
-            settling[i] = float(t[outside[-1] + 1] - since)
+        settling = np.full(n, math.inf)   # stopped early: it never settled
+    else:
+        outside = (t >= since)[None, :] & (np.abs(dense) > band)
+        last = t.size - 1 - np.argmax(outside[:, ::-1], axis=1)   # last column outside
+        after_last = t[np.minimum(last + 1, t.size - 1)] - since
+        settling = np.where(~outside.any(axis=1), 0.0,
+                            np.where(last == t.size - 1, math.inf, after_last))
     forces = result.dense_coupler_forces
     force = float(np.max(np.abs(forces))) if forces.size else 0.0
     return Deviation(rms_error=rms, max_error=peak, settling_time=settling,

@@ -28,14 +28,6 @@ if TYPE_CHECKING:
 __all__ = ["performance_figure"]
 
 
-def _hinf_strategy(data: ReportData) -> str | None:
-    """The simulated strategy of the hinf family ("distributed" or "hinf.distributed")."""
-    for name in ("distributed", "hinf.distributed"):
-        if name in data.simulations:
-            return name
-    return None
-
-
 def performance_figure(data: ReportData,
                        make: Callable[..., ReportFigure]) -> ReportFigure | None:
     """The case-(d) figure, or None (no hinf run over a noisy network, no claim).
@@ -52,10 +44,10 @@ def performance_figure(data: ReportData,
     -------
     ReportFigure or None
     """
-    from ..claims import performance_energies
+    from ..claims import family_strategy, performance_energies
 
     claims = {c.get("key"): c for c in data.results.get("claims", [])}
-    strategy = _hinf_strategy(data)
+    strategy = family_strategy(data.scenario, data.simulations, "hinf")
     settings = data.scenario.controllers.get("hinf")
     if "performance_index" not in claims or strategy is None or settings is None:
         return None

@@ -193,8 +193,8 @@ def simulate(
         "divergence": divergence,
         "wall_time": wall,
     })
-    if network is not None:
-        history = network.history()
+    history = network.history() if network is not None else None
+    if history is not None:
         fates = history.fate
         meta["network"] = {fate: int(np.count_nonzero(fates == fate)) for fate in FATES}
         # Σ n² over the delivered messages: with one message per link and sample, each held
@@ -205,9 +205,8 @@ def simulate(
     if callable(to_dict):
         meta["reference"] = to_dict()
     arrays = log.result_arrays(plant, reference)
-    if network is not None:
-        arrays["held_noise_square"] = network.history().held_noise_square(
-            np.asarray(arrays["time"])[:-1])
+    if history is not None:
+        arrays["held_noise_square"] = history.held_noise_square(np.asarray(arrays["time"])[:-1])
     return SimulationResult(**arrays, controller_name=str(controller.name), seed=int(seed),
                             dt=dt, meta=meta)
 
