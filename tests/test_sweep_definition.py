@@ -336,20 +336,26 @@ class TestCli:
         (["--set", "controller.r_per_kn2="], "no values after '='"),
         ([], "no sweep to run"),
     ])
-    def test_malformed_exits_2(self, argv: list[str], message: str, tmp_path: Path,
+    @pytest.mark.parametrize("dry", [["--dry-run"], []], ids=["dry-run", "run"])
+    def test_malformed_exits_2(self, argv: list[str], message: str, dry: list[str],
+                               tmp_path: Path,
                                monkeypatch: pytest.MonkeyPatch,
                                capsys: pytest.CaptureFixture[str]) -> None:
         monkeypatch.chdir(tmp_path)
-        code = main(["sweep", "crh2-dmpc", *argv, "--dry-run"])
+        code = main(["sweep", "crh2-dmpc", *argv, *dry])
         captured = capsys.readouterr()
         assert code == 2
         assert captured.err.startswith("trainctl: error: ") and message in captured.err
         assert "Traceback" not in captured.err and captured.out == ""
         assert list(tmp_path.iterdir()) == []
 
-    def test_runs_the_points_like_analyse(self, capsys: pytest.CaptureFixture[str]) -> None:
+    def test_runs_the_points_like_analyse(self, capsys: pytest.CaptureFixture[str],
+                                          tmp_path: Path,
+                                          monkeypatch: pytest.MonkeyPatch) -> None:
         """Each point's rows hold the checks a direct run of the edited scenario finds."""
         import json
+
+        monkeypatch.chdir(tmp_path)
 
         from trainctl.run import run_scenario
         from trainctl.scenario import load_scenario

@@ -52,12 +52,14 @@ Examples
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
 import sys
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import Executor
 from pathlib import Path
 from typing import Any
 
@@ -202,13 +204,15 @@ def _add_sweep(sub: Any) -> None:
     """The ``sweep`` subcommand."""
     p_sweep = sub.add_parser(
         "sweep",
-        help="validate and list the points of a parameter sweep over scenario keys",
+        help="run a parameter sweep over scenario keys into a resumable store",
         description="Define a parameter sweep over file keys of a scenario (its [sweep] "
         "section, or --set and --seeds), validate every point by the scenario schema before "
-        "anything runs, then run every point's analysis and simulations (serially, or on "
-        "--jobs worker processes) and print one row per point and strategy: the swept "
-        "values, the failed checks and the tracking metrics. --dry-run only lists the "
-        "points.",
+        "anything runs, then run every point's analysis and simulations (serially, on --jobs "
+        "worker processes, or on a Dask cluster with --scheduler) into a store in --output: "
+        "one tidy table (rows.parquet, one row per point and strategy: the swept values, "
+        "every check's status and value, every metric) and each run's time series. An "
+        "interrupted sweep run again with the same command finishes the missing points. "
+        "'trainctl report DIR' renders the store. --dry-run only lists the points.",
     )
     p_sweep.add_argument(
         "scenario", metavar="SCENARIO", help="built-in scenario name or path to a TOML file"
@@ -239,6 +243,27 @@ def _add_sweep(sub: Any) -> None:
     p_sweep.add_argument(
         "-j", "--jobs", metavar="N", type=positive_int, default=1,
         help="worker processes for the points (default 1: one after the other)",
+    )
+    p_sweep.add_argument(
+        "--scheduler", metavar="ADDRESS",
+        help="run the points on a Dask cluster, e.g. tcp://HOST:8786 (default: the "
+        "TRAINCTL_DASK_SCHEDULER environment variable; without either, locally); needs "
+        "trainctl[dask]",
+    )
+    p_sweep.add_argument(
+        "-o", "--output", metavar="DIR",
+        help="the store's directory (default reports/sweeps/NAME for a built-in, "
+        "reports/sweeps/<slug of the scenario name> otherwise); a store of the same sweep is "
+        "resumed, one of another sweep refused",
+    )
+    p_sweep.add_argument(
+        "--csv", action="store_true", help="also write the table as rows.csv",
+    )
+    p_sweep.add_argument(
+        "--arrays", choices=("sampled", "dense", "none"), default="sampled",
+        help="what to keep of each run's time series beside the table: the arrays at the "
+        "controller's samples (default), those and the between-sample ones (about 100 times "
+        "larger), or nothing",
     )
     p_sweep.set_defaults(func=_cmd_sweep)
 
@@ -377,7 +402,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     points = sweep.points(base_seed=scenario.seed)
     scenarios = sweep.validate(scenario)
     if not args.dry_run:
-        return _run_sweep(args, label, sweep, points, scenarios)
+        return _run_sweep(args, label, text, scenario, sweep, points, scenarios)
     header = ["point", *sweep.keys, "key"]
     rows = [[str(p.index), *(toml_text(v) for v in p.values()), point_key(s)[:12]]
             for p, s in zip(points, scenarios, strict=True)]
@@ -389,16 +414,66 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _run_sweep(args: argparse.Namespace, label: str, sweep: Any, points: Any,
-               scenarios: Any) -> int:
-    """Run the points of ``trainctl sweep`` and print their rows (table or JSON)."""
+def default_sweep_dir(scenario: Any) -> Path:
+    """``reports/sweeps/<stem>``, the stem of :func:`~trainctl.report.batch.default_report_path`."""
+    from .report.batch import default_report_path
+
+    return Path("reports") / "sweeps" / default_report_path(scenario).stem
+
+
+def _run_sweep(args: argparse.Namespace, label: str, text: str, scenario: Any, sweep: Any,
+               points: Any, scenarios: Any) -> int:
+    """Run the points of ``trainctl sweep`` into its store and print the rows."""
+    from .sweep import point_key
+    from .sweep.runner import scheduler_address
+    from .sweep.store import SweepStore
+
+    keys = [point_key(s) for s in scenarios]
+    simulate = not args.no_simulate
+    output = Path(args.output) if args.output else default_sweep_dir(scenario)
+    store = SweepStore.open(output, label=label, scenario_text=text, points=points, keys=keys,
+                            swept=sweep.keys, simulate=simulate, arrays=args.arrays)
+    todo = store.missing()
+    by_key = dict(zip(keys, scenarios, strict=True))
+    address = scheduler_address(args.scheduler)
+    if todo and len(todo) < len(set(keys)):
+        print(f"{label}: resuming {output}: {len(set(keys)) - len(todo)} points stored, "
+              f"{len(todo)} to run", file=sys.stderr)
+    try:
+        frame = _sweep_points(args, store, todo, by_key, address, simulate)
+    except KeyboardInterrupt:
+        done = len(set(keys)) - len(store.missing())
+        print(f"\n{PROG}: interrupted: {done} of {len(set(keys))} points are stored in "
+              f"{output}; run the same command again to finish the others", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    return _print_sweep(args, label, output, sweep, points, frame)
+
+
+def _sweep_points(args: argparse.Namespace, store: Any, todo: list[str], by_key: Any,
+                  address: str | None, simulate: bool) -> Any:
+    """Run the missing points on the chosen executor with a progress bar; the table."""
+    from ._progress import Progress
     from .parallel import worker_pool
-    from .sweep import sweep_rows
+    from .sweep.runner import dask_executor, run_sweep
+
+    with contextlib.ExitStack() as stack:
+        executor: Executor | None
+        if address and todo:
+            executor = stack.enter_context(dask_executor(address))
+        else:
+            workers = min(int(args.jobs), len(todo)) if args.jobs > 1 else 0
+            executor = stack.enter_context(worker_pool(workers))
+        bar = stack.enter_context(Progress(len(todo)))
+        return run_sweep(store, by_key, simulate=simulate, executor=executor,
+                         on_point=lambda key: bar.advance(f"point {key[:8]}"), csv=args.csv)
+
+
+def _print_sweep(args: argparse.Namespace, label: str, output: Path, sweep: Any, points: Any,
+                 frame: Any) -> int:
+    """Print a finished sweep's rows: a table, or JSON with ``--json``."""
     from .sweep.definition import toml_text
 
-    workers = min(int(args.jobs), len(points)) if args.jobs > 1 else 0
-    with worker_pool(workers) as pool:
-        rows = sweep_rows(points, scenarios, simulate=not args.no_simulate, executor=pool)
+    rows = json.loads(frame.to_json(orient="records"))
     if args.json:
         print(json.dumps(rows, indent=2))
         return EXIT_OK
@@ -408,13 +483,13 @@ def _run_sweep(args: argparse.Namespace, label: str, sweep: Any, points: Any,
         failed = [k.split(".")[1] for k, v in row.items()
                   if k.startswith("check.") and k.endswith(".status") and v == "fail"]
         err = row.get("metric.max_error")
+        tracking = row.get("metric.tracking_ok")
         table.append([str(row["point"]), *(toml_text(row[k]) for k in sweep.keys),
                       row["strategy"] or "-", ", ".join(failed) or "-",
                       "-" if err is None else f"{err:.4g}",
-                      "-" if "metric.tracking_ok" not in row else
-                      ("ok" if row["metric.tracking_ok"] else "outside")])
+                      "-" if tracking is None else ("ok" if tracking else "outside")])
     widths = [max(len(r[i]) for r in [header, *table]) for i in range(len(header))]
-    print(f"{label}: {len(points)} sweep points, {len(rows)} rows")
+    print(f"{label}: {len(points)} sweep points, {len(rows)} rows in {output}/rows.parquet")
     for line in [header, *table]:
         print("  ".join(c.rjust(w) if i == 0 else c.ljust(w)
                         for i, (c, w) in enumerate(zip(line, widths, strict=True))).rstrip())

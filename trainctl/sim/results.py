@@ -333,7 +333,8 @@ class SimulationResult(ResultViews):
         return out
 
     # ----------------------------------------------------------------- files
-    def save(self, directory: str | Path) -> Path:
+    def save(self, directory: str | Path, *, dense: bool = True,
+             compressed: bool = False) -> Path:
         """Write ``arrays.npz`` and ``result.json`` into ``directory``.
 
         Parameters
@@ -341,6 +342,12 @@ class SimulationResult(ResultViews):
         directory : str or Path
             Directory to write (created with its parents when missing;
             existing files of these names are replaced).
+        dense : bool
+            Keep the between-sample arrays (``dense_*``); without them the
+            loaded result has the sampled ones in their place (about 1 %
+            of the size for a 1 s sample time).
+        compressed : bool
+            Write ``arrays.npz`` zip-compressed (``numpy.savez_compressed``).
 
         Returns
         -------
@@ -349,8 +356,9 @@ class SimulationResult(ResultViews):
         """
         path = Path(directory)
         path.mkdir(parents=True, exist_ok=True)
-        np.savez(path / "arrays.npz",
-                 **{name: getattr(self, name) for name in (*_ARRAYS, *_EXTRA_ARRAYS)})
+        names = [n for n in (*_ARRAYS, *_EXTRA_ARRAYS) if dense or not n.startswith("dense_")]
+        writer = np.savez_compressed if compressed else np.savez
+        writer(path / "arrays.npz", **{name: getattr(self, name) for name in names})
         document = {
             "format": FORMAT,
             "controller_name": self.controller_name,

@@ -1,0 +1,189 @@
+# Running a sweep into its store: the points still missing, on any executor, with progress.
+"""Run a sweep's missing points into its store and write its table.
+
+:func:`run_sweep` asks the store which points are missing
+(:meth:`~trainctl.sweep.store.SweepStore.missing`), runs each of them once
+(:func:`run_point_results`: the analysis and, unless ``simulate=False``, the
+simulations, summarised like ``trainctl analyse --json`` without wall-clock
+values), stores each point as soon as it finishes, and when all are done
+writes the table from the store. Where the points run is an
+:class:`concurrent.futures.Executor`:
+
+- None: here, one after the other;
+- a local process pool (:func:`trainctl.parallel.worker_pool`);
+- a Dask cluster: :func:`dask_executor` (``distributed.Client.get_executor``).
+
+Every point is independent and stored under its own key, and the table is
+read back from the store in point order, so the table is the same whichever
+executor ran the points. Ctrl-C (or any error) cancels what is queued; the
+points already stored stay, and the same call again runs only the rest.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from collections.abc import Callable, Iterator, Mapping
+from concurrent.futures import Executor, Future, as_completed
+from typing import TYPE_CHECKING, Any
+
+from ..exceptions import ScenarioError
+
+if TYPE_CHECKING:
+    from ..scenario import Scenario
+    from ..sim.results import SimulationResult
+    from .store import SweepStore
+
+__all__ = ["SCHEDULER_ENV", "dask_executor", "run_point_results", "run_sweep",
+           "scheduler_address"]
+
+SCHEDULER_ENV = "TRAINCTL_DASK_SCHEDULER"
+"""Environment variable naming the Dask scheduler when ``--scheduler`` is not given."""
+
+
+def run_point_results(scenario: Scenario, simulate: bool = True, arrays: bool = True,
+                      ) -> tuple[dict[str, Any], dict[str, SimulationResult]]:
+    """One point's run: its summary and (when ``arrays``) its simulation results.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The point's validated scenario.
+    simulate : bool
+        Run its ``[simulation]`` strategies.
+    arrays : bool
+        Return the simulation results too (their time series), else an
+        empty mapping.
+
+    Returns
+    -------
+    summary : dict
+        ``AnalysisRun.to_dict()`` without wall-clock values, JSON-safe.
+    simulations : dict of str to SimulationResult
+        Strategy → result (run 0 of each strategy).
+    """
+    from .._cli_support import without_wall_clock
+    from ..run import run_scenario
+
+    run = run_scenario(scenario, simulate=simulate)
+    summary: dict[str, Any] = without_wall_clock(run.to_dict())
+    return summary, (dict(run.simulations) if arrays else {})
+
+
+def run_sweep(store: SweepStore, scenarios: Mapping[str, Scenario], *, simulate: bool = True,
+              executor: Executor | None = None,
+              on_point: Callable[[str], None] | None = None,
+              csv: bool = False) -> Any:
+    """Run the store's missing points, store each, then write and return the table.
+
+    Parameters
+    ----------
+    store : SweepStore
+        The sweep's store (:meth:`~trainctl.sweep.store.SweepStore.open`).
+    scenarios : mapping of str to Scenario
+        Point key → its validated scenario (every key of the store).
+    simulate : bool
+        Run each point's simulations.
+    executor : concurrent.futures.Executor or None
+        Where the points run; None here, one after the other.
+    on_point : callable or None
+        Called with the key of every point stored (progress).
+    csv : bool
+        Also write the table as CSV.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The table of every point, as written (:meth:`SweepStore.table`).
+
+    Raises
+    ------
+    ScenarioError
+        A key of the store has no scenario.
+    """
+    todo = store.missing()
+    lost = [k for k in todo if k not in scenarios]
+    if lost:
+        raise ScenarioError(f"{store.path}: {len(lost)} points of the store have no scenario "
+                            f"(first {lost[0][:12]}).")
+    arrays = store.manifest.get("arrays", "sampled") != "none"
+    if executor is None:
+        for key in todo:
+            summary, sims = run_point_results(scenarios[key], simulate, arrays)
+            store.write_point(key, summary, sims)
+            if on_point is not None:
+                on_point(key)
+    else:
+        futures: dict[Future[Any], str] = {}
+        try:
+            for key in todo:
+                futures[executor.submit(run_point_results, scenarios[key], simulate,
+                                        arrays)] = key
+            for future in as_completed(futures):
+                summary, sims = future.result()
+                store.write_point(futures[future], summary, sims)
+                if on_point is not None:
+                    on_point(futures[future])
+        except BaseException:
+            for future in futures:
+                future.cancel()
+            raise
+    store.write_table(csv=csv)
+    return store.read_table()
+
+
+def scheduler_address(given: str | None) -> str | None:
+    """The Dask scheduler to use: ``given``, else :data:`SCHEDULER_ENV`, else None (local).
+
+    Parameters
+    ----------
+    given : str or None
+        ``--scheduler``.
+
+    Returns
+    -------
+    str or None
+    """
+    if given:
+        return given
+    return os.environ.get(SCHEDULER_ENV) or None
+
+
+@contextlib.contextmanager
+def dask_executor(address: str, timeout: float = 10.0) -> Iterator[Executor]:
+    """An executor on a running Dask cluster (``distributed.Client(address).get_executor``).
+
+    Parameters
+    ----------
+    address : str
+        The scheduler's address, e.g. ``"tcp://10.0.0.5:8786"``.
+    timeout : float
+        Seconds to wait for the connection [s].
+
+    Yields
+    ------
+    concurrent.futures.Executor
+        Tasks are submitted as impure (each runs, none is deduplicated).
+
+    Raises
+    ------
+    ScenarioError
+        ``distributed`` is not installed, or the scheduler does not answer.
+    """
+    try:
+        from distributed import Client
+    except ImportError:
+        raise ScenarioError("--scheduler needs Dask's distributed package, which is not "
+                            "installed: pip install 'trainctl[dask]' (the workers need it "
+                            "and trainctl too).") from None
+    try:
+        client = Client(address, timeout=timeout, set_as_default=False)
+    except (OSError, TimeoutError) as exc:
+        raise ScenarioError(f"--scheduler {address}: no Dask scheduler answered ({exc}). "
+                            "Start one (dask scheduler; dask worker ADDRESS on each machine) "
+                            f"or check the address (or {SCHEDULER_ENV}).") from None
+    try:
+        yield client.get_executor(pure=False)
+    finally:
+        client.close()
+

@@ -1,0 +1,491 @@
+# A sweep's results on disk: a manifest, one directory per finished point, the tidy table.
+"""The store of a sweep: what it is, which points are done, and the table of all of them.
+
+A store is a directory::
+
+    sweep.json                  manifest (format, trainctl version, the points and their keys)
+    scenario.toml               the base scenario as read (its [sweep] included)
+    points/<key>/summary.json   a finished point's run, summarised (run_point)
+    points/<key>/runs/<strategy>/result.json, arrays.npz
+                                its simulations' time series (SimulationResult.save)
+    rows.parquet                one row per point and strategy (point_rows), all points
+    rows.csv                    the same table, on request
+
+Points are keyed by :func:`~trainctl.sweep.point_key` (the SHA-256 of the
+validated scenario), so the points of a store are exactly the scenarios it
+ran. A point directory is written under a temporary name and renamed when
+complete, so a point is either done or absent, even after Ctrl-C or a
+killed process; an interrupted sweep run again with the same command finds
+its finished points and runs only the rest (:meth:`SweepStore.done`).
+
+A store belongs to one sweep: :meth:`SweepStore.open` refuses a directory
+whose manifest lists other points (a changed scenario or sweep), another
+``simulate`` choice or another trainctl version, so results of different
+scenarios are never mixed in one table.
+
+The table is built from the stored summaries in point order
+(:meth:`SweepStore.table`), never from results in memory, so it is the same
+byte for byte whichever executor ran the points and in whatever order they
+finished.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import math
+import os
+import shutil
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from ..exceptions import ScenarioError
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from ..sim.results import SimulationResult
+    from .definition import SweepPoint
+
+__all__ = ["ARRAYS", "FORMAT", "MANIFEST", "SweepStore", "is_sweep_store", "sweep_fingerprint"]
+
+FORMAT = "trainctl-sweep/1"
+"""Format of ``sweep.json``."""
+
+MANIFEST = "sweep.json"
+"""The manifest's file name; a directory holding it is a sweep store."""
+
+TABLE = "rows.parquet"
+"""The table's file name (Parquet)."""
+
+CSV_TABLE = "rows.csv"
+"""The table as CSV (written on request)."""
+
+ARRAYS = ("none", "sampled", "dense")
+"""What a store keeps of each run's time series: nothing, the arrays at the controller's
+samples, or those and the between-sample (dense) ones."""
+
+_PARTIAL = ".partial-"
+"""Infix of a point directory being written (``points/.<key>.partial-<pid>``)."""
+
+
+def is_sweep_store(path: str | os.PathLike[str]) -> bool:
+    """True when ``path`` is a directory holding a sweep manifest."""
+    return (Path(path) / MANIFEST).is_file()
+
+
+def _json_value(value: Any) -> Any:
+    """A swept value as JSON (TOML values: numbers, strings, booleans, arrays, tables)."""
+    return json.loads(json.dumps(value))
+
+
+def sweep_fingerprint(points: Sequence[SweepPoint], keys: Sequence[str], simulate: bool,
+                      version: str) -> str:
+    """SHA-256 of what makes a sweep's results: its points' keys, ``simulate``, the version.
+
+    Parameters
+    ----------
+    points : sequence of SweepPoint
+        The points in order.
+    keys : sequence of str
+        Their :func:`~trainctl.sweep.point_key` s, in the same order.
+    simulate : bool
+        Whether the points' simulations run.
+    version : str
+        trainctl's version.
+
+    Returns
+    -------
+    str
+        64 hexadecimal digits.
+    """
+    document = {"points": [[dict(p), k] for p, k in zip(points, keys, strict=True)],
+                "simulate": bool(simulate), "trainctl": version}
+    text = json.dumps(_json_value(document), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+@dataclass(frozen=True)
+class SweepStore:
+    """An open sweep store (module docstring); make one with :meth:`open` or :meth:`load`.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The store's directory.
+    manifest : dict
+        The content of ``sweep.json``.
+    """
+
+    path: Path
+    manifest: Mapping[str, Any]
+
+    # ------------------------------------------------------------------ opening
+    @classmethod
+    def open(cls, path: str | os.PathLike[str], *, label: str, scenario_text: str,
+             points: Sequence[SweepPoint], keys: Sequence[str], swept: Sequence[str],
+             simulate: bool, arrays: str = "sampled") -> SweepStore:
+        """Create a store, or reopen the one this same sweep left (to resume it).
+
+        Parameters
+        ----------
+        path : str or path-like
+            The directory: missing or empty (a new store), or a store of
+            this same sweep.
+        label : str
+            The scenario's name or path, for the manifest and messages.
+        scenario_text : str
+            The base scenario's TOML text (kept as ``scenario.toml``).
+        points : sequence of SweepPoint
+            The sweep's points, in order.
+        keys : sequence of str
+            Their point keys.
+        swept : sequence of str
+            The swept file keys (the table's value columns), in order.
+        simulate : bool
+            Whether the points' simulations run.
+        arrays : {"sampled", "dense", "none"}
+            What to keep of each simulation's time series (:data:`ARRAYS`).
+
+        Returns
+        -------
+        SweepStore
+
+        Raises
+        ------
+        ScenarioError
+            The directory is a file, holds something that is not a sweep
+            store, or a store of another sweep (other points, ``simulate``
+            or trainctl version): nothing is written.
+        """
+        from .. import __version__
+
+        if arrays not in ARRAYS:
+            raise ScenarioError(f"sweep arrays: must be one of {', '.join(ARRAYS)}; "
+                                f"got {arrays!r}.")
+        root = Path(path)
+        fingerprint = sweep_fingerprint(points, keys, simulate, __version__)
+        if root.exists() and not root.is_dir():
+            raise ScenarioError(f"{root}: the sweep's output must be a directory; a file of "
+                                "that name exists. Give another --output.")
+        if is_sweep_store(root):
+            store = cls.load(root)
+            if store.manifest.get("fingerprint") != fingerprint:
+                raise ScenarioError(
+                    f"{root}: holds the results of another sweep "
+                    f"({store.describe_difference(points, keys, simulate, __version__)}); "
+                    "refusing to mix them. Give another --output directory, or delete "
+                    f"{root} to start this sweep afresh.")
+            store._clean_partials()
+            return store
+        if root.is_dir() and any(root.iterdir()):
+            raise ScenarioError(f"{root}: not empty and not a sweep store ({MANIFEST} is "
+                                "missing); refusing to write into it. Give an empty or new "
+                                "--output directory.")
+        manifest = {
+            "format": FORMAT,
+            "trainctl": __version__,
+            "scenario": label,
+            "simulate": bool(simulate),
+            "arrays": str(arrays),
+            "swept": list(swept),
+            "fingerprint": fingerprint,
+            "points": [{"index": int(p.index), "values": _json_value(dict(p)), "key": k}
+                       for p, k in zip(points, keys, strict=True)],
+        }
+        (root / "points").mkdir(parents=True, exist_ok=True)
+        _write_text(root / "scenario.toml", scenario_text)
+        _write_text(root / MANIFEST, json.dumps(manifest, indent=1) + "\n")
+        return cls(root, manifest)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> SweepStore:
+        """Open an existing store to read it.
+
+        Parameters
+        ----------
+        path : str or path-like
+            The store's directory.
+
+        Returns
+        -------
+        SweepStore
+
+        Raises
+        ------
+        ScenarioError
+            Not a sweep store, or its manifest is damaged.
+        """
+        root = Path(path)
+        if not is_sweep_store(root):
+            raise ScenarioError(f"{root}: not a sweep store ({MANIFEST} is missing). Run "
+                                "'trainctl sweep SCENARIO --output DIR' to make one.")
+        try:
+            manifest = json.loads((root / MANIFEST).read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise ScenarioError(f"{root / MANIFEST}: not readable as JSON ({exc}). The store "
+                                "was edited or damaged; run the sweep again into a new "
+                                "directory.") from None
+        points = manifest.get("points") if isinstance(manifest, dict) else None
+        if (not isinstance(manifest, dict) or manifest.get("format") != FORMAT
+                or not isinstance(points, list)
+                or not all(isinstance(p, dict) and isinstance(p.get("key"), str)
+                           and isinstance(p.get("index"), int)
+                           and isinstance(p.get("values"), dict) for p in points)
+                or not isinstance(manifest.get("swept"), list)):
+            raise ScenarioError(f"{root / MANIFEST}: not a {FORMAT!r} manifest with its "
+                                "points (index, values, key) and swept keys. The store was "
+                                "edited or damaged; run the sweep again into a new directory.")
+        return cls(root, manifest)
+
+    def describe_difference(self, points: Sequence[SweepPoint], keys: Sequence[str],
+                            simulate: bool, version: str) -> str:
+        """What differs between this store and a sweep (for the refusal message)."""
+        old = self.manifest
+        if old.get("trainctl") != version:
+            return f"made by trainctl {old.get('trainctl')}, this is {version}"
+        if bool(old.get("simulate")) != bool(simulate):
+            return ("made with --no-simulate" if not old.get("simulate")
+                    else "made with the simulations; this run has --no-simulate")
+        stored = [p["key"] for p in old["points"]]
+        if len(stored) != len(keys):
+            return f"{len(stored)} points, this sweep has {len(keys)}"
+        changed = sum(a != b for a, b in zip(stored, keys, strict=True))
+        if changed:
+            return (f"{changed} of its {len(stored)} points are other scenarios: the scenario "
+                    "or the sweep changed")
+        return "other swept values"
+
+    # ------------------------------------------------------------------ points
+    @property
+    def points_dir(self) -> Path:
+        """``points/``."""
+        return self.path / "points"
+
+    @property
+    def keys(self) -> list[str]:
+        """The point keys in point order (a key repeats when two points are one scenario)."""
+        return [p["key"] for p in self.manifest["points"]]
+
+    def done(self) -> set[str]:
+        """Keys of the points whose results are stored."""
+        if not self.points_dir.is_dir():
+            return set()
+        wanted = set(self.keys)
+        return {p.name for p in self.points_dir.iterdir()
+                if p.name in wanted and (p / "summary.json").is_file()}
+
+    def missing(self) -> list[str]:
+        """Keys still to run, each once, in point order."""
+        done = self.done()
+        out: list[str] = []
+        for key in self.keys:
+            if key not in done and key not in out:
+                out.append(key)
+        return out
+
+    def write_point(self, key: str, summary: Mapping[str, Any],
+                    simulations: Mapping[str, SimulationResult] | None = None) -> Path:
+        """Store one finished point, whole or not at all.
+
+        Parameters
+        ----------
+        key : str
+            Its point key.
+        summary : mapping
+            Its run's summary (:func:`~trainctl.sweep.run_point`), JSON-safe.
+        simulations : mapping of str to SimulationResult or None
+            Its simulations, kept as ``runs/<strategy>/`` when the store
+            keeps arrays.
+
+        Returns
+        -------
+        pathlib.Path
+            The point's directory.
+        """
+        final = self.points_dir / key
+        if (final / "summary.json").is_file():
+            return final
+        partial = self.points_dir / f".{key}{_PARTIAL}{os.getpid()}"
+        shutil.rmtree(partial, ignore_errors=True)
+        partial.mkdir(parents=True)
+        try:
+            arrays = self.manifest.get("arrays", "sampled")
+            if arrays in ARRAYS[1:]:
+                for strategy, result in (simulations or {}).items():
+                    result.save(partial / "runs" / strategy, dense=arrays == "dense",
+                                compressed=True)
+            text = json.dumps(summary, indent=1, sort_keys=True, allow_nan=False)
+            (partial / "summary.json").write_text(text + "\n", encoding="utf-8")
+            os.replace(partial, final)
+        except BaseException:
+            shutil.rmtree(partial, ignore_errors=True)
+            raise
+        return final
+
+    def summary(self, key: str) -> dict[str, Any]:
+        """A stored point's summary.
+
+        Raises
+        ------
+        ScenarioError
+            The point is not stored, or its file is damaged.
+        """
+        path = self.points_dir / key / "summary.json"
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise ScenarioError(f"{self.path}: point {key[:12]} has not run yet; run the "
+                                "sweep's command again to finish it.") from None
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise ScenarioError(f"{path}: not readable as JSON ({exc}); delete the point's "
+                                "directory and run the sweep again to redo it.") from None
+        if not isinstance(data, dict):
+            raise ScenarioError(f"{path}: not a point summary (a JSON object); delete the "
+                                "point's directory and run the sweep again to redo it.")
+        return data
+
+    def _clean_partials(self) -> None:
+        """Remove the half-written point directories of an interrupted run."""
+        if self.points_dir.is_dir():
+            for p in self.points_dir.iterdir():
+                if _PARTIAL in p.name:
+                    shutil.rmtree(p, ignore_errors=True)
+
+    # ------------------------------------------------------------------ table
+    def rows(self) -> list[dict[str, Any]]:
+        """Every point's rows (:func:`~trainctl.sweep.point_rows`), in point order.
+
+        Raises
+        ------
+        ScenarioError
+            A point has not run yet.
+        """
+        from .definition import SweepPoint
+        from .rows import point_rows
+
+        rows: list[dict[str, Any]] = []
+        for entry in self.manifest["points"]:
+            point = SweepPoint(entry["index"], entry["values"])
+            rows += point_rows(point, entry["key"], self.summary(entry["key"]))
+        return rows
+
+    def table(self) -> pd.DataFrame:
+        """The tidy table of every point (:func:`rows_frame` of :meth:`rows`)."""
+        return rows_frame(self.rows(), self.manifest["swept"])
+
+    def write_table(self, csv: bool = False) -> Path:
+        """Write ``rows.parquet`` (and ``rows.csv``) from the stored points.
+
+        Parameters
+        ----------
+        csv : bool
+            Also write the table as CSV.
+
+        Returns
+        -------
+        pathlib.Path
+            The Parquet file.
+        """
+        frame = self.table()
+        target = self.path / TABLE
+        _atomic(target, lambda tmp: frame.to_parquet(tmp, index=False, engine="pyarrow"))
+        if csv:
+            _atomic(self.path / CSV_TABLE,
+                    lambda tmp: frame.to_csv(tmp, index=False, lineterminator="\n"))
+        return target
+
+    def read_table(self) -> pd.DataFrame:
+        """``rows.parquet`` as written by :meth:`write_table`.
+
+        Raises
+        ------
+        ScenarioError
+            The table is missing (the sweep has not finished) or unreadable.
+        """
+        import pandas as pd
+
+        target = self.path / TABLE
+        if not target.is_file():
+            raise ScenarioError(f"{self.path}: the sweep has not finished ({TABLE} is missing; "
+                                f"{len(self.done())} of {len(set(self.keys))} points done). "
+                                "Run the sweep's command again to finish it.")
+        try:
+            return pd.read_parquet(target, engine="pyarrow")
+        except Exception as exc:  # pyarrow raises several types for a damaged file
+            raise ScenarioError(f"{target}: not a readable Parquet table ({exc}); run the "
+                                "sweep's command again to rewrite it.") from None
+
+
+def _column(values: list[Any]) -> tuple[list[Any], str | None]:
+    """A column's values and pandas dtype: numbers, booleans, text, else JSON text."""
+    present = [v for v in values if v is not None]
+    if all(isinstance(v, bool) for v in present) and present:
+        return values, "boolean"
+    if all(isinstance(v, int) and not isinstance(v, bool) for v in present) and present:
+        return values, "Int64"
+    if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in present):
+        return [math.nan if v is None else float(v) for v in values], "float64"
+    if all(isinstance(v, str) for v in present):
+        return values, "string"
+    return [None if v is None else json.dumps(v, sort_keys=True) for v in values], "string"
+
+
+def rows_frame(rows: Sequence[Mapping[str, Any]], swept: Sequence[str] = ()) -> pd.DataFrame:
+    """Tidy rows as a DataFrame with one dtype per column, the same for the same rows.
+
+    Columns: ``point``, ``point_key``, the swept keys, ``strategy``, then the
+    check and metric columns in the order they first appear. Each column's
+    type follows its values: nullable integers (``Int64``), floats (missing
+    values NaN), nullable booleans, text; anything else (arrays, tables,
+    mixed types) is JSON text.
+
+    Parameters
+    ----------
+    rows : sequence of mapping
+        :func:`~trainctl.sweep.point_rows` of the points.
+    swept : sequence of str
+        The swept keys (put after ``point_key``).
+
+    Returns
+    -------
+    pandas.DataFrame
+
+    Examples
+    --------
+    >>> frame = rows_frame([{"point": 0, "point_key": "a", "x": 1.5, "strategy": "",
+    ...                      "check.c.status": "pass", "check.c.value": None}], ["x"])
+    >>> list(frame.columns), [str(t) for t in frame.dtypes]
+    (['point', 'point_key', 'x', 'strategy', 'check.c.status', 'check.c.value'], ['Int64', \
+'string', 'float64', 'string', 'string', 'float64'])
+    """
+    import pandas as pd
+
+    columns = ["point", "point_key", *swept, "strategy"]
+    for row in rows:
+        for name in row:
+            if name not in columns:
+                columns.append(name)
+    data: dict[str, Any] = {}
+    for name in columns:
+        values, dtype = _column([row.get(name) for row in rows])
+        data[name] = pd.array(values, dtype=dtype) if dtype else values
+    return pd.DataFrame(data, columns=columns)
+
+
+def _write_text(path: Path, text: str) -> None:
+    _atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+
+
+def _atomic(target: Path, write: Any) -> None:
+    """Write ``target`` through a temporary file renamed into place (nothing half-written)."""
+    tmp = target.with_name(f".{target.name}{_PARTIAL}{os.getpid()}")
+    try:
+        write(tmp)
+        os.replace(tmp, target)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
