@@ -173,7 +173,10 @@ class SweepStore:
                                 "that name exists. Give another --output.")
         if is_sweep_store(root):
             store = cls.load(root)
-            if store.manifest.get("fingerprint") != fingerprint:
+            old = store.manifest
+            if (old.get("fingerprint") != fingerprint or old.get("trainctl") != __version__
+                    or old.get("simulate") is not bool(simulate)
+                    or [p.get("key") for p in old["points"]] != list(keys)):
                 raise ScenarioError(
                     f"{root}: holds the results of another sweep "
                     f"({store.describe_difference(points, keys, simulate, __version__)}); "
