@@ -229,6 +229,24 @@ class TestRunner:
         pd.testing.assert_frame_equal(first, second)
 
 
+    @pytest.mark.parametrize("in_flight", [1, 2, 64])
+    def test_bounded_submission_gives_the_serial_table(self, tmp_path: Path,
+                                                       in_flight: int) -> None:
+        from concurrent.futures import ThreadPoolExecutor
+
+        points, scenarios, keys = _sweep("controller.r_per_kn2=1,3,10")
+        by_key = dict(zip(keys, scenarios, strict=True))
+        serial = run_sweep(_open(tmp_path / "a", points, keys), by_key, simulate=False)
+        seen: list[str] = []
+        with ThreadPoolExecutor(2) as pool:
+            threaded = run_sweep(_open(tmp_path / "b", points, keys), by_key, simulate=False,
+                                 executor=pool, in_flight=in_flight, on_point=seen.append)
+        assert sorted(seen) == sorted(keys)
+        pd.testing.assert_frame_equal(serial, threaded)
+        assert (tmp_path / "a" / "rows.parquet").read_bytes() == \
+            (tmp_path / "b" / "rows.parquet").read_bytes()
+
+
 _HOOK = """
 import sys, time
 from trainctl.sweep import store as _store
