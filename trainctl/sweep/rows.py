@@ -35,11 +35,14 @@ if TYPE_CHECKING:
 __all__ = ["METRICS", "point_rows", "run_point", "sweep_rows"]
 
 METRICS = ("rms_error", "max_error", "max_coupler_force", "energy_kwh", "tracking_ok",
-           "iterations_mean", "diverged")
+           "iterations_mean", "diverged", "converged", "iteration_limit_steps")
 """Per-strategy metric columns: the RMS speed error over every vehicle and sample after
 ``settle_time`` [m/s], the largest speed error [m/s], the largest |coupler force| [N], the
-net traction energy [kWh], whether tracking held, the mean solver iterations per sample, and
-whether the run diverged."""
+net traction energy [kWh], whether tracking held, the mean solver iterations per sample,
+whether the run diverged, whether an iterating strategy's iteration (N-DMPC, cooperative
+DMPC) converged within its ``max_iterations`` at every step (bool), and the number of steps
+that stopped at that limit unconverged [-]; the last two are None for a strategy that does
+not iterate (:class:`trainctl.sim.Metrics`)."""
 
 
 def run_point(scenario: Scenario, simulate: bool = True) -> dict[str, Any]:
@@ -69,6 +72,8 @@ def _metric(name: str, m: Mapping[str, Any]) -> Any:
     value = m.get(name)
     if name == "diverged":
         return m.get("divergence") is not None
+    if name == "converged":
+        return m.get("iterations_converged")
     if name == "rms_error":
         values = [float(x) for x in (value or []) if x is not None]
         return math.sqrt(sum(x * x for x in values) / len(values)) if values else None
