@@ -350,6 +350,7 @@ def compute_metrics(
                 else math.nan)
     iters = result.iterations
     times = result.solve_times
+    limit, stopped = _iteration_limit(result)
     has = iters.size > 0
     return Metrics(
         settle_time=settle,
@@ -372,7 +373,8 @@ def compute_metrics(
         fallback_counts=dict(Counter(f for f in result.fallbacks if f)),
         divergence=result.divergence,
         **_couplers(result.dense_time, forces, limits),
-        **_iteration_limit(result),
+        iteration_limit=limit,
+        iteration_limit_steps=stopped,
     )
 
 
@@ -392,15 +394,15 @@ def _after(result: SimulationResult, settle: float,
     return after, result.dense_time >= settle - tol
 
 
-def _iteration_limit(result: SimulationResult) -> dict[str, int | None]:
+def _iteration_limit(result: SimulationResult) -> tuple[int | None, int | None]:
     """The iteration limit of the run's controller and the steps that stopped at it
     unconverged (:class:`Metrics`), from ``meta`` (None, None when it does not iterate)."""
     limit = result.meta.get("iteration_limit")
     tolerance = result.meta.get("iteration_tolerance")
     if limit is None or tolerance is None:
-        return {"iteration_limit": None, "iteration_limit_steps": None}
+        return None, None
     stopped = sum(1 for r in result.residuals if len(r) >= limit and r[-1] > tolerance)
-    return {"iteration_limit": int(limit), "iteration_limit_steps": stopped}
+    return int(limit), stopped
 
 
 def _max_jerk(t: NDArray[np.float64], v: NDArray[np.float64]) -> float:
