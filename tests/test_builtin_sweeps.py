@@ -113,6 +113,21 @@ def test_zero_delay_point_has_ratio_one() -> None:
         assert row["metric.converged"] is None and row["metric.iteration_limit_steps"] is None
 
 
+@pytest.mark.parametrize(("base_seed", "base_rms", "ratio"), [
+    (5, 0.004, 5.0), (6, 0.004, None), (5, 0.0, None)])
+def test_deviation_ratio_pairs_run_0_with_its_seed(base_seed: int, base_rms: float,
+                                                   ratio: float | None) -> None:
+    """Vehicle 1's whole-run RMS error of run 0 over the baseline run with its seed."""
+    def run(index: int, seed: int, rms: float) -> dict[str, Any]:
+        return {"index": index, "seed": seed, "deviation": {"rms_error": [rms, 1.0]}}
+
+    summary = {"simulations": {"distributed": {}},
+               "repetitions": {"distributed": [run(0, 5, 0.02), run(1, 6, 0.5)]},
+               "baseline_network": {"distributed": [run(-1, base_seed, base_rms)]}}
+    (row,) = point_rows(SweepPoint(0, {}), "k", summary)
+    assert row["metric.deviation_ratio"] == (None if ratio is None else pytest.approx(ratio))
+
+
 def check(row: dict[str, Any], name: str) -> tuple[str, float]:
     return row[f"check.{name}.status"], row[f"check.{name}.value"]
 

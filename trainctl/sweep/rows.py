@@ -46,7 +46,7 @@ that stopped at that limit unconverged [-] (both None for a strategy that does n
 :class:`trainctl.sim.Metrics`), and the deviation ratio [-]: vehicle 1's RMS speed error over
 the whole run divided by the same in the run on the ``[simulation] baseline_network`` with
 the same seed (seed 003's case-(c) measure, :mod:`trainctl.claims`; None without a
-baseline network)."""
+baseline network, or when the baseline run does not deviate)."""
 
 
 def run_point(scenario: Scenario, simulate: bool = True) -> dict[str, Any]:
@@ -81,9 +81,9 @@ def _deviation_ratio(summary: Mapping[str, Any], strategy: str) -> float | None:
     if first is None or not base:
         return None
     num, den = first["deviation"]["rms_error"][0], base[0]["deviation"]["rms_error"][0]
-    if num is None or den is None:
+    if num is None or den is None or not den > 0:
         return None
-    return float(num) / float(den) if den > 0 else math.inf
+    return float(num) / float(den)
 
 
 def _metric(name: str, m: Mapping[str, Any], summary: Mapping[str, Any],
