@@ -96,7 +96,7 @@ class TestPoints:
 
 
 def test_zero_delay_point_has_ratio_one() -> None:
-    """A point without delay, shortened to 60 s, is its own delay-free baseline: ratio 1.
+    """A point without delay, shortened to 30 s, is its own delay-free baseline: ratio 1.
 
     The sweep's ``metric.deviation_ratio`` pairs run 0 with the baseline run of the same
     seed; with delays drawn in [0, 0] s the two runs are the same run.
@@ -105,7 +105,7 @@ def test_zero_delay_point_has_ratio_one() -> None:
     point = sweep_of(scenario).points(scenario.seed)[7]
     assert point[DELAY] == [0.0, 0.0] and point["seed"] == 10
     short = sweep_of(scenario).validate(scenario)[7]
-    short = short.replace("simulation.settle_time", 30.0).replace("simulation.duration", 60.0)
+    short = short.replace("simulation.settle_time", 15.0).replace("simulation.duration", 30.0)
     rows = point_rows(point, "k", run_point(short))
     assert [r["strategy"] for r in rows] == ["distributed", "synchronous.synchronous"]
     for row in rows:
