@@ -247,6 +247,8 @@ def numeric_map_figure(grid: Grid, panels: Sequence[Panel], *, label: str) -> Fi
     figure = _positions(grid, panels, draw)
     if mappable:
         bar = figure.colorbar(mappable[0], ax=figure.axes, shrink=0.9)
+        if bar.solids is not None:
+            bar.solids.set_rasterized(False)  # vector, not an embedded PNG
         bar.set_label(label)
         if log:
             plain_log_labels(bar.ax.yaxis)

@@ -203,9 +203,14 @@ class SweepReportData:
 
     @property
     def parameters(self) -> list[str]:
-        """The swept keys drawn against: all but ``seed``; only ``seed`` for a seeds-only sweep."""
-        keys = [k for k in self.swept if k != "seed"]
-        return keys or [k for k in self.swept if k == "seed"]
+        """The swept keys drawn against: those taking several values, ``seed`` aside.
+
+        ``seed`` is drawn against only when nothing else varies (a sweep of
+        seeds alone); a key with one value is listed in the header, not drawn.
+        """
+        varying = [k for k in self.swept if self.table[k].nunique(dropna=False) > 1]
+        keys = [k for k in varying if k != "seed"]
+        return keys or [k for k in varying if k == "seed"] or self.swept[:1]
 
     @property
     def seeded(self) -> bool:
