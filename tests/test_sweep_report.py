@@ -52,7 +52,8 @@ def seeded(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def three(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Analysis only, three parameters (faceted heat maps)."""
     root = tmp_path_factory.mktemp("sweep") / "three"
-    return _sweep(root, "--set", "controller.r_per_kn2=1,10", "--set", "model.sample_time=10.0,20.0",
+    return _sweep(root, "--set", "controller.r_per_kn2=1,10",
+                  "--set", "model.sample_time=10.0,20.0",
                   "--set", "controller.prediction_horizon=8,12", "--no-simulate")
 
 
