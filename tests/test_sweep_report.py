@@ -65,6 +65,43 @@ def simulated(tmp_path_factory: pytest.TempPathFactory) -> Path:
                   "model.sample_time=10.0,20.0", "-j", "2")
 
 
+RANDOM = """
+
+[sweep]
+seed = 0
+samples = 22
+[[sweep.axis]]
+key = "controller.r_per_kn2"
+distribution = "log-uniform"
+low = 0.5
+high = 50.0
+[[sweep.axis]]
+key = "train.vehicle[0].mass_t"
+distribution = "normal"
+mean = 48.0
+std = 2.0
+"""
+
+
+@pytest.fixture(scope="module")
+def sampled(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Analysis only, two random axes drawn 22 times (no grid: scatter plots)."""
+    from trainctl.scenario import read_scenario_text
+
+    root = tmp_path_factory.mktemp("sweep")
+    source = root / "random.toml"
+    source.write_text(read_scenario_text("crh2-dmpc")[0] + RANDOM, encoding="utf-8")
+    assert main(["sweep", str(source), "-o", str(root / "sampled"), "--no-simulate",
+                 "-j", "2"]) == 0
+    return root / "sampled"
+
+
+@pytest.fixture(scope="module")
+def seeds_only(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Analysis only, the seed alone swept."""
+    return _sweep(tmp_path_factory.mktemp("sweep") / "seeds", "--seeds", "3", "--no-simulate")
+
+
 def _render(store: Path, out: Path, *extra: str) -> str:
     assert main(["report", str(store), "-o", str(out), "--deterministic", *extra]) == 0
     return out.read_text(encoding="utf-8")
@@ -278,6 +315,7 @@ def test_units_and_scales() -> None:
     assert key_label("model.sample_time") == "model.sample_time [s]"
     assert key_label("controller.r_per_kn2") == "controller.r_per_kn2 [per kN²]"
     assert key_label("no.such_key_s") == "no.such_key_s [s]"
+    assert key_label("train.vehicle[1].mass_t") == "train.vehicle[1].mass_t [t]"
     assert is_log([1, 100]) and not is_log([1, 10]) and not is_log([-1, 100])
     assert not is_log([math.nan])
 
@@ -350,3 +388,22 @@ def test_bad_store_exits_2(case: str, grid2: Path, tmp_path: Path,
     assert "Traceback" not in err and len(err.strip().splitlines()) == 1
     assert not out.exists() and not (store / REPORT_NAME).exists()
     assert not list(tmp_path.glob(".r.html*"))
+
+
+def test_random_samples_scatter_and_fold(sampled: Path, tmp_path: Path) -> None:
+    """Random axes fill no grid: dots at the drawn values; 22 points fold the points table."""
+    html = _render(sampled, tmp_path / "r.html")
+    assert "<details open>" not in html and "22 points: swept values" in html
+    figure = re.search(r'<figure id="figure-check-ndmpc-convergence-value">(.*?)</figure>',
+                       html, re.DOTALL).group(1)
+    assert "train.vehicle[0].mass_t [t]" in figure
+    assert "10⁰" in figure and "10¹" in figure  # log x: 0.5 … 50
+    assert "<image" not in html  # colour bars and maps are vectors
+    assert len(re.findall(r"<tr><th scope=\"row\">\d+</th>", html)) == 22
+
+
+def test_seeds_only_drawn_against_the_seed(seeds_only: Path, tmp_path: Path) -> None:
+    html = _render(seeds_only, tmp_path / "s.html")
+    text = parse(html).text_of("section")
+    assert "3 seeds (0, 1, 2)" in text and "drawn against seed" in text
+    assert "No check changes over the sweep." in text or _figure_ids(html)

@@ -249,6 +249,7 @@ def numeric_map_figure(grid: Grid, panels: Sequence[Panel], *, label: str) -> Fi
         bar = figure.colorbar(mappable[0], ax=figure.axes, shrink=0.9)
         if bar.solids is not None:
             bar.solids.set_rasterized(False)  # vector, not an embedded PNG
+            bar.solids.set_edgecolor("face")  # no seams between the colour steps
         bar.set_label(label)
         if log:
             plain_log_labels(bar.ax.yaxis)

@@ -336,6 +336,8 @@ def key_label(key: str) -> str:
     --------
     >>> key_label("model.sample_time")
     'model.sample_time [s]'
+    >>> key_label("train.vehicle[0].mass_t")
+    'train.vehicle[0].mass_t [t]'
     >>> key_label("seed")
     'seed'
     """
@@ -362,11 +364,16 @@ def _schema_entry(key: str) -> tuple[str, str]:
     defs = schema.get("$defs", {})
     node: Any = schema
     for part in key.split("."):
+        name, indexed = re.subn(r"\[\d+\]$", "", part)
         node = _resolve(node, defs)
         props = node.get("properties", {}) if isinstance(node, dict) else {}
-        if part not in props:
+        if name not in props:
             return "", _unit_from_name(key)
-        node = props[part]
+        node = props[name]
+        if indexed:  # train.vehicle[1]: an item of the array (or the one table)
+            node = _resolve(node, defs)
+            if isinstance(node, dict) and "items" in node:
+                node = node["items"]
     node = _resolve(node, defs)
     if not isinstance(node, dict) or "properties" in node:
         return "", ""
@@ -623,7 +630,7 @@ def _figure_for(q: Quantity, data: SweepReportData, params: list[Parameter],
             finite = [float(v) for v in values if v is not None and math.isfinite(float(v))]
             panels[pf].cells[cell] = float(np.median(finite)) if finite else math.nan
         figure = numeric_map_figure(layout.grid, list(panels.values()), label=q.label)
-        how = f"median{seeds} per cell" if data.seeded else "one cell per point"
+        how = f"median{seeds} per cell" if data.seeded else "one value per point"
     else:
         categories: list[str] = []
         for (pf, cell), values in buckets.items():
@@ -644,7 +651,7 @@ def _figure_for(q: Quantity, data: SweepReportData, params: list[Parameter],
                                  categories=[colour_of[c] for c in order], names=order,
                                  legend_title=q.label)
         how = (f"the worst{seeds} per cell, with the count of good seeds" if data.seeded
-               else "one cell per point")
+               else "one value per point")
     caption = (f"{q.label} over {' and '.join(p.key for p in params[:2])}"
                + (", one panel per strategy" if q.per_strategy and len(strategies) > 1 else "")
                + (f", one panel per value of {', '.join(p.key for p in params[2:])}"
