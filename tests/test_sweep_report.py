@@ -18,9 +18,11 @@ from trainctl.report.figures_sweep import is_log
 from trainctl.report.sweep import (
     CERTIFICATES,
     REPORT_NAME,
+    SweepReportData,
     agreement_counts,
     key_label,
     load_sweep_report_data,
+    render_sweep_report,
 )
 from trainctl.sweep.store import SweepStore
 
@@ -407,3 +409,79 @@ def test_seeds_only_drawn_against_the_seed(seeds_only: Path, tmp_path: Path) -> 
     text = parse(html).text_of("section")
     assert "3 seeds (0, 1, 2)" in text and "drawn against seed" in text
     assert "No check changes over the sweep." in text or _figure_ids(html)
+
+
+def _synthetic(rows: list[dict], swept: list[str]) -> SweepReportData:
+    from trainctl.sweep.store import rows_frame
+
+    points = sorted({r["point"] for r in rows})
+    manifest = {"format": "trainctl-sweep/1", "trainctl": "0", "scenario": "x", "simulate": True,
+                "swept": swept, "points": [{"index": p, "key": f"k{p}", "values": {}}
+                                           for p in points]}
+    return SweepReportData(name="x", manifest=manifest, table=rows_frame(rows, swept),
+                           scenario_name="x", check_units={}, check_thresholds={})
+
+
+def test_delay_margin_certificates_use_the_matching_strategy() -> None:
+    """hinf_delay_margin against metric.diverged of the H∞ strategy, not of the others."""
+    from trainctl.report.sweep import build_sweep_context
+
+    rows = []
+    for point, (delay, status, diverged) in enumerate([(0.5, "pass", False), (1.0, "pass", True),
+                                                      (2.0, "fail", True)]):
+        for strategy, div in (("distributed", diverged), ("synchronous.synchronous", False)):
+            rows.append({"point": point, "point_key": f"k{point}", "network.delay_max_s": delay,
+                         "strategy": strategy, "check.hinf_delay_margin.status": status,
+                         "check.hinf_delay_margin.value": 1.5,
+                         "check.synchronous_delay_margin.status": "fail",
+                         "check.synchronous_delay_margin.value": 0.1,
+                         "metric.diverged": div, "metric.tracking_ok": not div})
+    data = _synthetic(rows, ["network.delay_max_s"])
+    context = build_sweep_context(data, deterministic=True)
+    found = {c["check"]: c for c in context["certificates"]}
+    hinf = found["hinf_delay_margin"]
+    assert hinf["strategy"] == "distributed" and hinf["outcome"] == "metric.diverged"
+    counts = {r["status"]: (r["ok"], r["not_ok"]) for r in hinf["counts"]}
+    assert counts["pass"] == (1, 1) and counts["fail"] == (0, 1)
+    assert (hinf["agree"], hinf["decided"]) == (2, 3)
+    sync = found["synchronous_delay_margin"]
+    assert sync["strategy"] == "synchronous.synchronous"
+    assert {r["status"]: (r["ok"], r["not_ok"]) for r in sync["counts"]}["fail"] == (3, 0)
+    assert "ndmpc_convergence" not in found  # no such check or strategy here
+    assert hinf["figure"] is not None  # one parameter: a row of cells
+    html = render_sweep_report(context)
+    assert 'data-check="hinf_delay_margin"' in html
+
+
+def test_sweep_figures_keep_their_labels_inside() -> None:
+    """Heat maps, status maps, certificates and lines: nothing drawn outside the canvas."""
+    from tests.test_report_figures import _inside
+    from trainctl.report.figures_sweep import (
+        Grid,
+        Line,
+        Panel,
+        category_figure,
+        certificate_figure,
+        line_figure,
+        numeric_map_figure,
+    )
+
+    grid = Grid("controller.r_per_kn2 [per kN²]", "model.sample_time [s]",
+                ("0.1", "1", "10", "100"), ("10", "20", "40"))
+    cells = {(i, j): 10.0 ** (i - 1) * (j + 1) for i in range(4) for j in range(3)}
+    panels = [Panel(name, dict(cells)) for name in ("centralised", "lqr.decentralised",
+                                                    "ndmpc", "decentralised")]
+    status = [Panel("", {c: ("pass" if v < 5 else "fail") for c, v in cells.items()},
+                    marks={c: v < 20 for c, v in cells.items()})]
+    figures = [
+        numeric_map_figure(grid, panels, label="max_coupler_force [N]"),
+        category_figure(grid, status, categories=["pass", "fail"],
+                        legend_title="ndmpc_convergence status"),
+        certificate_figure(grid, status, categories=["pass", "fail"], outcome="converged",
+                           outcome_not="did not converge"),
+        line_figure([Line("ndmpc", (0.1, 1.0, 10.0), (1.0, 2.0, 30.0), (0.5, 1.0, 20.0),
+                          (2.0, 3.0, 40.0))], x_label="controller.r_per_kn2 [per kN²]",
+                    y_label="rms_error [m/s]", band=True),
+    ]
+    for figure in figures:
+        assert _inside(figure)

@@ -27,10 +27,10 @@ Sections:
 4. *Certificates against simulation* — each pair of :data:`CERTIFICATES`
    (a design check and the simulation outcome that tests its promise) whose
    columns the table has: the count table (predicted pass / warn / fail
-   against simulated ok / not ok) and, for a sweep of two parameters or
-   more, the certificate's verdict per cell with the simulated outcome
-   marked; then every other check against ``metric.tracking_ok`` (tracking
-   held in every simulated strategy).
+   against simulated ok / not ok) and the certificate's verdict per cell
+   (laid out as the heat maps above) with the simulated outcome
+   marked (a row of cells for one parameter); then every check against
+   ``metric.tracking_ok`` (tracking held in every simulated strategy).
 5. *Reproducibility* — the store, the command, versions.
 """
 
@@ -42,6 +42,7 @@ import os
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -356,6 +357,7 @@ def key_title(key: str) -> str:
     return _schema_entry(key)[0]
 
 
+@lru_cache(maxsize=64)
 def _schema_entry(key: str) -> tuple[str, str]:
     """(title, unit) of a dotted file key in the scenario's JSON Schema ("" when unknown)."""
     from ..scenario import json_schema
@@ -773,7 +775,7 @@ def _certificates(data: SweepReportData, params: list[Parameter]) -> list[dict[s
             "rows": len(records), "figure": None,
             "value_unit": data.check_units.get(cert.check, ""),
         }
-        if len(params) >= 2 and records:
+        if records:
             entry["figure"] = _certificate_figure(data, cert, strategy, outcome, records,
                                                   params, status, value)
         out.append(entry)
