@@ -485,3 +485,23 @@ def test_sweep_figures_keep_their_labels_inside() -> None:
     ]
     for figure in figures:
         assert _inside(figure)
+
+
+def test_panels_capped_beyond_two_parameters() -> None:
+    """Four parameters: panels over the last two, at most MAX_PANELS, the caption says so."""
+    from trainctl.report.figures_sweep import MAX_PANELS
+    from trainctl.report.sweep import build_sweep_context
+
+    keys = ["a.x", "a.y", "a.z", "a.w"]
+    rows = []
+    for point, (x, y, z, w) in enumerate((x, y, z, w) for x in (1, 2) for y in (1, 2)
+                                         for z in (1, 2, 3) for w in (1, 2, 3)):
+        rows.append({"point": point, "point_key": f"k{point}", "a.x": x, "a.y": y, "a.z": z,
+                     "a.w": w, "strategy": "", "check.c.status": "pass" if x < 2 else "fail",
+                     "check.c.value": float(x * y + z + w)})
+    context = build_sweep_context(_synthetic(rows, keys), deterministic=True)
+    figures = {f.key: f for f in context["check_figures"]}
+    assert set(figures) == {"check-c-status", "check-c-value"}
+    value = figures["check-c-value"]
+    assert f"Showing the first {MAX_PANELS} of 9 panels" in value.caption
+    assert "a.z = 1, a.w = 1" in value.svg and "a.z = 3, a.w = 3" not in value.svg
