@@ -28,6 +28,8 @@ Subcommands
     write its self-contained HTML design report (default
     ``reports/<name>.html``, see :func:`trainctl.report.batch.default_report_path`);
     ``--all`` writes every built-in's report and an ``index.html`` gallery.
+    For a sweep store (``trainctl sweep -o DIR``) the sweep report
+    (:mod:`trainctl.report.sweep`), by default ``DIR/report.html``.
 
 Output paths (``-o``): a regular file is replaced atomically; ``-``, a
 character device (``/dev/null``) or a pipe is written through, never
@@ -282,8 +284,9 @@ def _add_report(sub: Any) -> None:
         "scenario",
         metavar="SCENARIO",
         nargs="?",
-        help=f"built-in scenario name, path to a TOML file, or a directory written by "
-        f"'analyse --save' (default: {DEFAULT_SCENARIO})",
+        help=f"built-in scenario name, path to a TOML file, a directory written by "
+        f"'analyse --save', or a sweep store written by 'sweep' (its report goes to "
+        f"DIR/report.html) (default: {DEFAULT_SCENARIO})",
     )
     p_report.add_argument(
         "-o",
@@ -568,7 +571,7 @@ def _rebuild_argv(args: argparse.Namespace) -> list[str]:
 
 def _cmd_report(args: argparse.Namespace) -> int:
     from .parallel import want_pool
-    from .report import ReportData, is_saved_run, normalise_timestamp
+    from .report import ReportData, is_saved_run, normalise_timestamp, portable_command
     from .report.batch import (
         check_report_output,
         default_report_path,
@@ -597,6 +600,21 @@ def _cmd_report(args: argparse.Namespace) -> int:
               f"{time.perf_counter() - start:.1f} s)")
         return EXIT_OK
     source = args.scenario or DEFAULT_SCENARIO
+    from .sweep.store import is_sweep_store
+
+    if is_sweep_store(source):
+        from .report.sweep import default_sweep_report_path, write_sweep_report
+        from .report.sweep import summary_line as sweep_line
+
+        default = default_sweep_report_path(source)
+        path = check_report_output(args.output or default, default_name=default.name)
+        command = portable_command(["report", source] + (["--deterministic"]
+                                                         if args.deterministic else []))
+        _, sweep = write_sweep_report(source, path, generated_at=generated_at,
+                                      deterministic=args.deterministic, command=command)
+        print(f"wrote {path} ({sweep_line(sweep)}; {time.perf_counter() - start:.1f} s)",
+              file=sys.stderr if path.kind == "fd" else sys.stdout)
+        return EXIT_OK
     if Path(source).is_dir():
         if not is_saved_run(source):
             raise _UserError(f"{source}: is a directory but not one written by 'trainctl analyse "
