@@ -27,6 +27,16 @@ a Dask LocalCluster of two single-threaded worker processes on loopback
 (started beforehand and warmed, as a running cluster is; the client's
 connection is included). The speed-up is relative to ``-j 1``.
 
+Part 3 — the table of a large sweep: a store of ``--table-points`` points
+(default 10 000) is made from one real point's summary.json (hard-linked
+under 10 000 keys, R = 0, 1, 2, ...), and a fresh process builds and writes
+its rows.parquet (write_table: every summary read, its rows made, the frame
+built and written). Reported: the time, the peak resident memory above the
+process's before the call (modules imported and one point's table written, so
+only what grows with the points counts), and the Parquet bytes per row, as
+written (the copies' rows repeat, which Parquet compresses well) and with every
+float column replaced by random numbers (rows that differ, as a real sweep's).
+
 On a machine with two cores, shared with other work, part 2's ratios are
 bounded by 2 and lowered by whatever else runs.
 """
@@ -34,9 +44,12 @@ bounded by 2 and lowered by whatever else runs.
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import os
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from concurrent.futures import Executor
@@ -46,7 +59,7 @@ from typing import Any
 from trainctl.parallel import worker_pool
 from trainctl.run import run_scenario
 from trainctl.scenario import builtin_scenario_text, load_scenario
-from trainctl.sweep import SweepDefinition, parse_set, point_key
+from trainctl.sweep import SweepDefinition, SweepPoint, parse_set, point_key
 from trainctl.sweep.runner import dask_executor, run_point_results, run_sweep
 from trainctl.sweep.store import SweepStore
 
@@ -176,6 +189,68 @@ def part_speedup(scratch: Path, count: int, duration: float) -> dict[str, Any]:
     }
 
 
+TABLE_CHILD = """
+import io, json, resource, sys, time
+import numpy, pandas, pyarrow.parquet
+from trainctl.sweep.definition import SweepPoint
+from trainctl.sweep.rows import point_rows
+from trainctl.sweep.store import SweepStore, rows_frame
+
+def rss():
+    with open("/proc/self/status") as fh:
+        return next(int(line.split()[1]) * 1024 for line in fh if line.startswith("VmRSS:"))
+
+store = SweepStore.load(sys.argv[1])
+first = store.manifest["points"][0]
+warm = rows_frame(point_rows(SweepPoint(0, first["values"]), first["key"],
+                             store.summary(first["key"])), store.manifest["swept"])
+warm.to_parquet(io.BytesIO(), index=False, engine="pyarrow")
+before = rss()
+start = time.perf_counter()
+path = store.write_table()
+seconds = time.perf_counter() - start
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+frame = pandas.read_parquet(path)
+# the same table with every float replaced by a random one (NaN kept): rows that differ
+rng = numpy.random.default_rng(0)
+for name in frame.columns:
+    if frame[name].dtype == "float64":
+        frame[name] = frame[name].where(frame[name].isna(), rng.random(len(frame)))
+buffer = io.BytesIO()
+frame.to_parquet(buffer, index=False, engine="pyarrow")
+print(json.dumps({"seconds": seconds, "baseline_rss": before, "peak_rss": peak,
+                  "rows": len(frame), "columns": len(frame.columns),
+                  "bytes": path.stat().st_size, "random_bytes": len(buffer.getvalue())}))
+"""
+
+
+def part_table(scratch: Path, source: SweepStore, count: int) -> dict[str, Any]:
+    """Part 3: write the table of ``count`` copies of one stored point, in a fresh process."""
+    key = source.keys[0]
+    summary = source.points_dir / key / "summary.json"
+    axis = source.manifest["swept"][0]
+    points = [SweepPoint(i, {axis: float(i)}) for i in range(count)]
+    keys = [hashlib.sha256(str(i).encode()).hexdigest() for i in range(count)]
+    root = scratch / "table"
+    store = SweepStore.open(root, label=SCENARIO, scenario_text="", points=points, keys=keys,
+                            swept=[axis], simulate=True)
+    for k in keys:
+        (store.points_dir / k).mkdir()
+        os.link(summary, store.points_dir / k / "summary.json")
+    child = subprocess.run([sys.executable, "-c", TABLE_CHILD, str(root)], check=True,
+                           capture_output=True, text=True)
+    out = json.loads(child.stdout)
+    return {
+        "points": count, "rows": out["rows"], "seconds": out["seconds"],
+        "summary_bytes": summary.stat().st_size,
+        "columns": out["columns"],
+        "parquet_bytes": out["bytes"], "parquet_bytes_per_row": out["bytes"] / out["rows"],
+        "random_parquet_bytes_per_row": out["random_bytes"] / out["rows"],
+        "peak_memory_bytes": out["peak_rss"] - out["baseline_rss"],
+        "peak_memory_bytes_per_row": (out["peak_rss"] - out["baseline_rss"]) / out["rows"],
+    }
+
+
 def main() -> None:
     """Run both parts, print a table, write the numbers as JSON on request."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -185,11 +260,14 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=400.0,
                         help="simulated time per point [s] (default 400: about 2 s a point)")
     parser.add_argument("--repeats", type=int, default=3, help="repeats of part 1 (default 3)")
+    parser.add_argument("--table-points", type=int, default=10_000,
+                        help="points of part 3's store (default 10 000)")
     parser.add_argument("--json", help="also write the numbers to this file")
     args = parser.parse_args()
-    count, duration, repeats = args.points, args.duration, args.repeats
+    count, duration, repeats, table = (args.points, args.duration, args.repeats,
+                                       args.table_points)
     if args.quick:
-        count, duration, repeats = 4, 200.0, 2
+        count, duration, repeats, table = 4, 200.0, 2, 1000
     results: dict[str, Any] = {"load_average": os.getloadavg()}
     with tempfile.TemporaryDirectory() as tmp:
         scratch = Path(tmp)
@@ -219,7 +297,17 @@ def main() -> None:
         for name, seconds in two["seconds"].items():
             print(f"  {name:<16} {seconds:9.2f} {two['speedup'][name]:9.2f}")
         print(f"  (LocalCluster start, not included: {two['cluster_start_s']:.1f} s; "
-              f"tables identical: {two['tables_identical']})")
+              f"tables identical: {two['tables_identical']})", flush=True)
+        three = part_table(scratch, SweepStore.load(scratch / "overhead-0"), table)
+        results["table"] = three
+        print(f"Part 3: the table of {table} points ({three['rows']} rows), one process")
+        print(f"  write_table {three['seconds']:.1f} s; peak memory "
+              f"+{three['peak_memory_bytes'] / 2**20:.0f} MiB "
+              f"({three['peak_memory_bytes_per_row'] / 1024:.1f} KiB a row); rows.parquet "
+              f"{three['parquet_bytes'] / 2**20:.1f} MiB ({three['parquet_bytes_per_row']:.0f} "
+              f"bytes a row; {three['random_parquet_bytes_per_row']:.0f} with random floats, "
+              f"{three['columns']} columns); summary.json {three['summary_bytes'] / 1024:.0f} "
+              "KiB a point")
     if args.json:
         with open(args.json, "w", encoding="utf-8") as fh:
             json.dump(results, fh, indent=1)
