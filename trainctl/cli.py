@@ -14,13 +14,15 @@ Subcommands
     ``[simulation]`` section — the closed-loop metrics of a scenario (a
     built-in name or a file path); ``--save`` also writes everything a report
     shows to ``DIR``.
-``sweep SCENARIO [--set KEY=V1,V2,...]... [--seeds N] --dry-run``
+``sweep SCENARIO [--set KEY=V1,V2,...]... [--seeds N] [--dry-run] [-o DIR] ...``
     Validate every point of a parameter sweep (the scenario's ``[sweep]``,
-    or the ``--set`` axes and ``--seeds``; :mod:`trainctl.sweep`) and list
-    the points: index, the swept values and the start of each point's key.
-    Without ``--dry-run`` every point runs (``--no-simulate``, ``--jobs N``)
-    and one row per point and strategy is printed (``--json``:
-    :func:`trainctl.sweep.sweep_rows`).
+    or the ``--set`` axes and ``--seeds``; :mod:`trainctl.sweep`); with
+    ``--dry-run`` list the points: index, the swept values and the start of
+    each point's key. Otherwise every point runs (``--no-simulate``; serially,
+    on ``--jobs N`` processes or on the Dask cluster of ``--scheduler``) into
+    the store ``DIR`` (:mod:`trainctl.sweep.store`: ``rows.parquet``, one row
+    per point and strategy, and each run's arrays); an interrupted sweep run
+    again finishes the missing points; the rows are printed (``--json``).
 ``report [SCENARIO | DIR] [-o PATH] [--all] [--deterministic] [--timestamp T] [--jobs N]``
     Run a scenario (or read a directory saved by ``analyse --save``) and
     write its self-contained HTML design report (default

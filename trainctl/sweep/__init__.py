@@ -4,8 +4,10 @@
 A sweep varies file keys of a scenario along axes — lists, grids, random
 samples — and optionally the scenario seed; every point is validated by
 the scenario schema before anything runs (:mod:`trainctl.sweep.definition`);
-the points run serially or on a process pool into tidy rows, one per point
-and strategy (:mod:`trainctl.sweep.rows`).
+the points run serially, on a process pool or on a Dask cluster
+(:mod:`trainctl.sweep.runner`) into a resumable store
+(:mod:`trainctl.sweep.store`) whose table has one tidy row per point and
+strategy (:mod:`trainctl.sweep.rows`).
 A scenario file declares one in its ``[sweep]`` section
 (:attr:`trainctl.scenario.Scenario.sweep`); the command line with
 ``trainctl sweep SCENARIO --set KEY=V1,V2,... [--seeds N]``.
@@ -32,6 +34,8 @@ from .definition import (
     point_key,
 )
 from .rows import METRICS, point_rows, run_point, sweep_rows
+from .runner import dask_executor, run_point_results, run_sweep
+from .store import SweepStore, rows_frame
 
 __all__ = [
     "DISTRIBUTIONS",
@@ -49,4 +53,9 @@ __all__ = [
     "point_rows",
     "run_point",
     "sweep_rows",
+    "SweepStore",
+    "dask_executor",
+    "rows_frame",
+    "run_point_results",
+    "run_sweep",
 ]

@@ -22,9 +22,10 @@ points already stored stay, and the same call again runs only the rest.
 from __future__ import annotations
 
 import contextlib
+import itertools
 import os
 from collections.abc import Callable, Iterator, Mapping
-from concurrent.futures import Executor, Future, as_completed
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from typing import TYPE_CHECKING, Any
 
 from ..exceptions import ScenarioError
@@ -73,7 +74,7 @@ def run_point_results(scenario: Scenario, simulate: bool = True, arrays: bool = 
 def run_sweep(store: SweepStore, scenarios: Mapping[str, Scenario], *, simulate: bool = True,
               executor: Executor | None = None,
               on_point: Callable[[str], None] | None = None,
-              csv: bool = False) -> Any:
+              csv: bool = False, in_flight: int = 64) -> Any:
     """Run the store's missing points, store each, then write and return the table.
 
     Parameters
@@ -90,6 +91,9 @@ def run_sweep(store: SweepStore, scenarios: Mapping[str, Scenario], *, simulate:
         Called with the key of every point stored (progress).
     csv : bool
         Also write the table as CSV.
+    in_flight : int
+        Points submitted to ``executor`` and not yet stored, at most (keep it
+        above the number of workers so that none waits).
 
     Returns
     -------
@@ -114,16 +118,25 @@ def run_sweep(store: SweepStore, scenarios: Mapping[str, Scenario], *, simulate:
             if on_point is not None:
                 on_point(key)
     else:
+        # At most `in_flight` points are submitted and not yet stored: a 10 000-point sweep
+        # neither pickles every scenario up front nor holds every result in memory.
+        queue = iter(todo)
         futures: dict[Future[Any], str] = {}
         try:
-            for key in todo:
+            for key in itertools.islice(queue, max(1, int(in_flight))):
                 futures[executor.submit(run_point_results, scenarios[key], simulate,
                                         arrays)] = key
-            for future in as_completed(futures):
-                summary, sims = future.result()
-                store.write_point(futures[future], summary, sims)
-                if on_point is not None:
-                    on_point(futures[future])
+            while futures:
+                finished, _ = wait(futures, return_when=FIRST_COMPLETED)
+                for future in finished:
+                    key = futures.pop(future)
+                    summary, sims = future.result()
+                    store.write_point(key, summary, sims)
+                    if on_point is not None:
+                        on_point(key)
+                    for nxt in itertools.islice(queue, 1):
+                        futures[executor.submit(run_point_results, scenarios[nxt], simulate,
+                                                arrays)] = nxt
         except BaseException:
             for future in futures:
                 future.cancel()

@@ -3,7 +3,7 @@
 
 A store is a directory::
 
-    sweep.json                  manifest (format, trainctl version, the points and their keys)
+    sweep.json                  manifest (format, versions, the points and their keys)
     scenario.toml               the base scenario as read (its [sweep] included)
     points/<key>/summary.json   a finished point's run, summarised (run_point)
     points/<key>/runs/<strategy>/result.json, arrays.npz
@@ -173,7 +173,10 @@ class SweepStore:
                                 "that name exists. Give another --output.")
         if is_sweep_store(root):
             store = cls.load(root)
-            if store.manifest.get("fingerprint") != fingerprint:
+            old = store.manifest
+            if (old.get("fingerprint") != fingerprint or old.get("trainctl") != __version__
+                    or old.get("simulate") is not bool(simulate)
+                    or [p.get("key") for p in old["points"]] != list(keys)):
                 raise ScenarioError(
                     f"{root}: holds the results of another sweep "
                     f"({store.describe_difference(points, keys, simulate, __version__)}); "
@@ -185,9 +188,12 @@ class SweepStore:
             raise ScenarioError(f"{root}: not empty and not a sweep store ({MANIFEST} is "
                                 "missing); refusing to write into it. Give an empty or new "
                                 "--output directory.")
+        from ..sim.results import environment
+
         manifest = {
             "format": FORMAT,
             "trainctl": __version__,
+            "environment": environment(),
             "scenario": label,
             "simulate": bool(simulate),
             "arrays": str(arrays),
