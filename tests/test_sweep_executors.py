@@ -8,6 +8,7 @@ two worker processes the module starts on the loopback interface, reached by
 
 from __future__ import annotations
 
+import os
 import socket
 from collections.abc import Iterator
 from pathlib import Path
@@ -18,6 +19,7 @@ import pandas as pd
 import pytest
 
 from trainctl.cli import main
+from trainctl.parallel import WORKER_THREAD_VARIABLES, worker_pool
 from trainctl.sweep.runner import SCHEDULER_ENV
 from trainctl.sweep.store import SweepStore
 
@@ -70,6 +72,23 @@ def stored_arrays(store: SweepStore, key: str) -> dict[str, dict[str, np.ndarray
         with np.load(run / "arrays.npz") as data:
             out[run.name] = {name: data[name] for name in data.files}
     return out
+
+
+def thread_variables() -> dict[str, str | None]:
+    """The BLAS and OpenMP thread-count variables of the process it runs in."""
+    return {name: os.environ.get(name) for name in WORKER_THREAD_VARIABLES}
+
+
+class TestPoolWorkers:
+    def test_libraries_single_threaded(self) -> None:
+        """Pool workers see the thread variables at 1 (or as set); this process keeps its own."""
+        mine = thread_variables()
+        with worker_pool(2) as pool:
+            assert pool is not None
+            theirs = [pool.submit(thread_variables).result() for _ in range(2)]
+        assert thread_variables() == mine
+        expected = {name: value or "1" for name, value in mine.items()}
+        assert theirs == [expected, expected]
 
 
 @pytest.mark.slow
