@@ -430,23 +430,31 @@ def _run_sweep(args: argparse.Namespace, label: str, text: str, scenario: Any, s
                points: Any, scenarios: Any) -> int:
     """Run the points of ``trainctl sweep`` into its store and print the rows."""
     from .sweep import point_key
-    from .sweep.runner import scheduler_address
+    from .sweep.runner import dask_executor, scheduler_address
     from .sweep.store import SweepStore
 
     keys = [point_key(s) for s in scenarios]
     simulate = not args.no_simulate
     output = Path(args.output) if args.output else default_sweep_dir(scenario)
-    store = SweepStore.open(output, label=label, scenario_text=text, points=points, keys=keys,
-                            swept=sweep.keys, simulate=simulate, arrays=args.arrays)
-    todo = store.missing()
-    by_key = dict(zip(keys, scenarios, strict=True))
     address = scheduler_address(args.scheduler)
-    if todo and len(todo) < len(set(keys)):
-        print(f"{label}: resuming {output}: {len(set(keys)) - len(todo)} points stored, "
-              f"{len(todo)} to run", file=sys.stderr)
+    store: SweepStore | None = None
     try:
-        frame = _sweep_points(args, store, todo, by_key, address, simulate)
+        with contextlib.ExitStack() as stack:
+            # the cluster is reached before the store is made: an unreachable
+            # scheduler leaves nothing behind
+            cluster = stack.enter_context(dask_executor(address)) if address else None
+            store = SweepStore.open(output, label=label, scenario_text=text, points=points,
+                                    keys=keys, swept=sweep.keys, simulate=simulate,
+                                    arrays=args.arrays)
+            todo = store.missing()
+            by_key = dict(zip(keys, scenarios, strict=True))
+            if todo and len(todo) < len(set(keys)):
+                print(f"{label}: resuming {output}: {len(set(keys)) - len(todo)} points "
+                      f"stored, {len(todo)} to run", file=sys.stderr)
+            frame = _sweep_points(args, store, todo, by_key, cluster, simulate)
     except KeyboardInterrupt:
+        if store is None:
+            raise
         done = len(set(keys)) - len(store.missing())
         print(f"\n{PROG}: interrupted: {done} of {len(set(keys))} points are stored in "
               f"{output}; run the same command again to finish the others", file=sys.stderr)
@@ -455,16 +463,16 @@ def _run_sweep(args: argparse.Namespace, label: str, text: str, scenario: Any, s
 
 
 def _sweep_points(args: argparse.Namespace, store: Any, todo: list[str], by_key: Any,
-                  address: str | None, simulate: bool) -> Any:
-    """Run the missing points on the chosen executor with a progress bar; the table."""
+                  cluster: Executor | None, simulate: bool) -> Any:
+    """Run the missing points on ``cluster`` (Dask) or locally, with a progress bar; the table."""
     from ._progress import Progress
     from .parallel import worker_pool
-    from .sweep.runner import dask_executor, run_sweep
+    from .sweep.runner import run_sweep
 
     with contextlib.ExitStack() as stack:
         executor: Executor | None
-        if address and todo:
-            executor = stack.enter_context(dask_executor(address))
+        if cluster is not None:
+            executor = cluster
         else:
             workers = min(int(args.jobs), len(todo)) if args.jobs > 1 else 0
             executor = stack.enter_context(worker_pool(workers))
