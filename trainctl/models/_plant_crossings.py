@@ -118,7 +118,10 @@ def linear_flow(
         use = left >= tj
         if np.any(use):
             level = levels[j]
-            Y[:, use] = level[:, : 2 * n] @ Y[:, use] + level[:, 2 * n :] @ G[:, use]
+            if isinstance(level, np.ndarray):
+                Y[:, use] = level[:, : 2 * n] @ Y[:, use] + level[:, 2 * n :] @ G[:, use]
+            else:  # banded (CSR): one product on the stacked [Y; G]
+                Y[:, use] = level @ np.vstack([Y[:, use], G[:, use]])
             left[use] -= tj
     rate = plant._apply_a(Y, vbar)
     rate[:n] += G / plant.train.mass[:, None]

@@ -97,12 +97,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_positive
 from ..exceptions import DimensionError, ModelError
+from ._plant_banded import BANDED_MIN_VEHICLES
 from ._plant_crossings import SectionTracker
 from ._plant_dense import DenseOutput, DenseRecord
 from ._plant_integrate import integrate
@@ -132,6 +134,14 @@ class Plant(DenseOutput):
     max_substep : float
         Longest substep of the splitting integrator [s], > 0 (module docstring
         for the accuracy/speed trade-off).
+    propagation : {"auto", "dense", "banded"}
+        How the exact linear steps are built and applied: ``"dense"``, one
+        ``expm`` of the whole chain and dense products, O(n²) per substep;
+        ``"banded"``, the band of the same matrices built from windows of the
+        chain and applied as sparse products, O(n) per substep
+        (:mod:`trainctl.models._plant_banded`; entries below 1e-13 of their
+        block dropped); ``"auto"``, banded from
+        :data:`~trainctl.models._plant_banded.BANDED_MIN_VEHICLES` vehicles on.
 
     Examples
     --------
@@ -148,10 +158,11 @@ class Plant(DenseOutput):
     train: Train
     track: Track | None = None
     max_substep: float = 0.05
+    propagation: str = "auto"
     _cache: LRU[Propagator] = field(
         default_factory=lambda: LRU(CACHE_BYTES), init=False, repr=False, compare=False
     )
-    _ladders: LRU[NDArray[np.float64]] = field(
+    _ladders: LRU[Any] = field(
         default_factory=lambda: LRU(CACHE_BYTES), init=False, repr=False, compare=False
     )
     _drag: dict[float, tuple[NDArray[np.float64], NDArray[np.float64]]] = field(
@@ -166,6 +177,9 @@ class Plant(DenseOutput):
     _offsets: dict[tuple[float, int, int], NDArray[np.float64]] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
+    _margins: dict[float, int] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
 
     def __post_init__(self) -> None:
         if not isinstance(self.train, Train):
@@ -177,6 +191,11 @@ class Plant(DenseOutput):
         object.__setattr__(
             self, "max_substep", check_positive("Plant", "max_substep", self.max_substep)
         )
+        if self.propagation not in ("auto", "dense", "banded"):
+            raise ModelError(
+                "Plant: 'propagation' must be 'auto', 'dense' or 'banded' "
+                f"(got {self.propagation!r})."
+            )
 
     # ------------------------------------------------------------------ model
     @property
@@ -205,6 +224,13 @@ class Plant(DenseOutput):
                 self.train, davis[1] + 2.0 * vbar * davis[2], position=True
             )
         return chain
+
+    @cached_property
+    def _banded(self) -> bool:
+        """True when the propagators are banded (``propagation``, or "auto" by size)."""
+        if self.propagation == "auto":
+            return self.train.n_vehicles >= BANDED_MIN_VEHICLES
+        return self.propagation == "banded"
 
     @cached_property
     def _quadratic(self) -> bool:
