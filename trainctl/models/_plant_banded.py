@@ -67,7 +67,7 @@ __all__ = ["BAND_TOL", "BANDED_MIN_VEHICLES", "Band", "banded_flow", "sparse_nby
 BAND_TOL = 1e-13
 """Entries of [Φ | Γ] at most this times the largest of their block are dropped."""
 
-BANDED_MIN_VEHICLES = 24
+BANDED_MIN_VEHICLES = 128
 """``propagation="auto"`` uses the banded propagators from this many vehicles on
 (measured crossover: benchmarks/plant_advance.py --banded)."""
 
