@@ -194,3 +194,20 @@ def test_propagation_is_validated_and_auto_switches_by_length() -> None:
     assert below.n_vehicles < BANDED_MIN_VEHICLES <= above.n_vehicles
     assert not Plant(train=below)._banded and Plant(train=above)._banded
     assert not Plant(train=above, propagation="dense")._banded
+
+
+@pytest.mark.parametrize("n_vehicles", [1, 2])
+def test_banded_path_on_the_shortest_trains(n_vehicles: int) -> None:
+    """One and two vehicles, forced banded (one window, no or one coupler), on a grade."""
+    base = crh2_half()
+    train = Train(vehicles=base.vehicles[:n_vehicles], couplers=base.couplers[: n_vehicles - 1])
+    track = Track(sections=(TrackSection(start=0.0), TrackSection(start=30.0,
+                                                                  grade_permille=-8.0)))
+    x0 = np.r_[np.linspace(20.0, 21.0, n_vehicles), np.zeros(n_vehicles - 1), 0.0]
+    u = train.mass * np.linspace(0.05, -0.05, n_vehicles)
+    a, b = (Plant(train=train, track=track, propagation=m).advance(x0, u, 5.0)
+            for m in ("dense", "banded"))
+    assert a[-1] > 100.0
+    # Measured: 4e-12 m on the position, 1e-14 m/s.
+    assert np.abs(a[:n_vehicles] - b[:n_vehicles]).max() < 1e-12
+    assert np.abs(a - b).max() < 1e-10

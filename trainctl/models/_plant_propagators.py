@@ -8,6 +8,10 @@ expm([[A, B], [0, 0]] h), one ``scipy.linalg.expm``, cached per (h, v̄) on the
 plant (:func:`propagator`). On a track the crossings also need the flow over
 any t <= h, built from the binary ladder h/2^j (:func:`ladder`). The quadratic
 drag's remainder -a2 (v - v̄)² has the exact flow :func:`drag_flow`.
+
+For long trains (``Plant._banded``) the same matrices are banded CSR arrays
+built in O(n) by :func:`trainctl.models._plant_banded.banded_flow`; ``step @ z``
+and the ladder's products work on either.
 """
 
 from __future__ import annotations
