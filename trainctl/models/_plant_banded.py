@@ -62,7 +62,10 @@ from .chain import Chain
 if TYPE_CHECKING:
     from .plant import Plant
 
-__all__ = ["BAND_TOL", "BANDED_MIN_VEHICLES", "Band", "banded_flow", "sparse_nbytes"]
+__all__ = [
+    "BAND_TOL", "BANDED_MIN_VEHICLES", "Band", "LocalFlow", "banded_flow", "local_flow",
+    "sparse_nbytes",
+]
 
 BAND_TOL = 1e-13
 """Entries of [Φ | Γ] at most this times the largest of their block are dropped."""
@@ -82,13 +85,12 @@ def sparse_nbytes(matrix: Any) -> int:
     return int(matrix.data.nbytes + matrix.indices.nbytes + matrix.indptr.nbytes)
 
 
-def _window_expm(plant: Plant, lo: int, hi: int, t: float, vbar: float) -> Array:
-    """Top 2m rows of expm([[A_w, B_w], [0, 0]] t) of the sub-chain of vehicles lo..hi-1.
+def _window_matrices(plant: Plant, lo: int, hi: int, vbar: float) -> tuple[Array, Array]:
+    """(A_w, B_w) of the sub-chain of vehicles lo..hi-1 on ``[v, delta, s]``.
 
-    m = hi - lo; the local states are ``[v (m), delta (m-1), s, F (m)]``
-    (s = the position of vehicle lo, right only for lo = 0). A_w is built as
-    the plant's A (:func:`trainctl.models._plant_propagators.matrix_a`): the
-    linear Davis term, then the drag linearised about vbar.
+    s is the position of vehicle lo (the head's only for lo = 0). A_w is
+    built as the plant's A (:func:`trainctl.models._plant_propagators.matrix_a`):
+    the linear Davis term, then the drag linearised about vbar.
     """
     train = plant.train
     m = hi - lo
@@ -100,6 +102,18 @@ def _window_expm(plant: Plant, lo: int, hi: int, t: float, vbar: float) -> Array
     A, B = chain.matrices()
     if vbar != 0.0:
         A[np.arange(m), np.arange(m)] -= 2.0 * vbar * train.davis[2][lo:hi]
+    return A, B
+
+
+def _window_expm(plant: Plant, lo: int, hi: int, t: float, vbar: float) -> Array:
+    """Top 2m rows of expm([[A_w, B_w], [0, 0]] t) of the sub-chain of vehicles lo..hi-1.
+
+    m = hi - lo; the local states are ``[v (m), delta (m-1), s, F (m)]``
+    (:func:`_window_matrices`).
+    """
+    train = plant.train
+    m = hi - lo
+    A, B = _window_matrices(plant, lo, hi, vbar)
     # Balanced: elongations in units of 1/ω (ω = sqrt(mean k / mean m), the
     # couplers' rate) and forces per unit mass, so that every block is O(1).
     # expm(S M S⁻¹ t) = S expm(M t) S⁻¹ exactly; in rounding, the unbalanced
@@ -254,3 +268,60 @@ def banded_flow(plant: Plant, t: float, vbar: float, tol: float = BAND_TOL) -> B
     flow.sum_duplicates()
     flow.sort_indices()
     return Band(flow, reach, margin)
+
+
+class LocalFlow(NamedTuple):
+    """The exact flow of one window of the chain, for crossings on the banded path."""
+
+    lo: int
+    """First vehicle of the window."""
+    hi: int
+    """One past its last vehicle."""
+    levels: Array
+    """[Φ_w | Γ_w] over h/2^j, j = 0..L, shape (L+1, 2m, 3m), on ``[v, delta, s]``
+    of the window (s: the position of vehicle lo) and its forces."""
+    A: Array
+    """A_w, shape (2m, 2m), for the Taylor terms below h/2^L."""
+    inverse_mass: Array
+    """1/m_i of the window's vehicles [1/kg], shape (m, 1)."""
+
+
+def local_flow(plant: Plant, h: float, vbar: float, vehicle: int, levels: int) -> LocalFlow:
+    """The window of the chain around ``vehicle`` whose flow stands in for the chain's there.
+
+    The windows are those of :func:`banded_flow` for (h, vbar): a core of
+    consecutive vehicles plus the margin on each side, so that every vehicle
+    of the core is at least the margin from a cut. Over t <= h its rows of
+    the window's flow then equal the whole chain's to below :data:`BAND_TOL`
+    of their block, as the band's columns do. Kept on the plant per window
+    and (h, vbar); equal sub-chains share one ladder.
+    """
+    n = plant.train.n_vehicles
+    margin = max(plant._margins.get(h, 8), 8)
+    core = max(margin, _MIN_CORE)
+    clo = (vehicle // core) * core
+    lo, hi = max(0, clo - margin), min(n, clo + core + margin)
+    key = (h, vbar, lo, hi)
+    found = plant._local_flows.get(key)
+    if found is not None:
+        return found
+    m = hi - lo
+    shared = (h, vbar, _window_key(plant, lo, hi))
+    same = plant._local_flows.get(shared)
+    if same is None:
+        A = _window_matrices(plant, lo, hi, vbar)[0]
+        # One expm for the finest level, the others by squaring [Φ | Γ] -> [Φ², ΦΓ + Γ]
+        # as the dense ladder does (five expm of the window cost ~5x more).
+        ladder = np.empty((levels + 1, 2 * m, 3 * m))
+        ladder[levels] = _window_expm(plant, lo, hi, h / 2.0**levels, vbar)
+        for j in range(levels - 1, -1, -1):
+            finer = ladder[j + 1]
+            np.matmul(finer[:, : 2 * m], finer, out=ladder[j])
+            ladder[j, :, 2 * m :] += finer[:, 2 * m :]
+        same = LocalFlow(lo, hi, ladder, A, 1.0 / plant.train.mass[lo:hi, None])
+        if len(plant._local_flows) >= 256:
+            plant._local_flows.clear()
+        plant._local_flows[shared] = same
+    flow = LocalFlow(lo, hi, same.levels, same.A, same.inverse_mass)
+    plant._local_flows[key] = flow
+    return flow

@@ -198,6 +198,9 @@ class Plant(DenseOutput):
     _margins: dict[float, int] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
+    _local_flows: dict[Any, Any] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
 
     def __post_init__(self) -> None:
         if not isinstance(self.train, Train):
