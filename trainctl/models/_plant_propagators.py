@@ -123,10 +123,10 @@ def propagator(plant: Plant, h: float, vbar: float) -> Propagator:
     track = plant._track_arrays
     banded = plant._banded
     E: Any
-    if track is not None and track[0].size > 1:
-        E = ladder(plant, h, vbar)[0]  # crossings will need the ladder anyway
-    elif banded:
+    if banded:  # its crossings work on windows (no ladder of the whole chain needed)
         E = banded_flow(plant, h, vbar).flow
+    elif track is not None and track[0].size > 1:
+        E = ladder(plant, h, vbar)[0]  # crossings will need the ladder anyway
     else:
         E = augmented_expm(plant, h, vbar)[: 2 * n]
     # Drop the s column: A has a zero s column, so Φ[:, s] = e_s exactly.
@@ -148,7 +148,8 @@ def ladder(plant: Plant, h: float, vbar: float) -> Any:
 
     Dense: the finest level from ``expm``, the others by squaring. Banded: a
     list of the L+1 banded flows, each built directly
-    (:func:`~trainctl.models._plant_banded.banded_flow`).
+    (:func:`~trainctl.models._plant_banded.banded_flow`); on that path only
+    the inner points of the dense output need it (crossings use windows).
     """
     cached = plant._ladders.fetch((h, vbar))
     if cached is not None:
