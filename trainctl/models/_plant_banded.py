@@ -29,23 +29,44 @@ larger margin. Windows whose sub-chains are equal (the wagons of a
 heavy-haul train) share one ``expm``.
 
 Why windows of dense ``expm`` rather than the alternatives, measured on the
-204-vehicle chain at h = 0.05 s (2-core machine, shared):
+204-vehicle chain at h = 0.05 s, v̄ = 20 m/s (2-core machine shared with
+other jobs, single-threaded BLAS; times vary 2–3x with the load, the ratios
+less):
 
-- one dense ``expm`` of the 612 x 612 augmented matrix then truncation: the
-  same band, but 0.5–0.9 s per (h, v̄) and O(n³); the windows give the same
-  entries (to ~1e-15 relative) in a few ms, and a cost linear in n;
-- ``scipy.sparse.linalg.expm_multiply`` on probe columns (colouring of the
-  band): its error is controlled relative to the whole probe vector, which
-  mixes the blocks' very different scales (Φ ~ 1, Γ ~ 1e-7 s/kg), and it
-  needs ~2r + 1 probes of O(n) each: no cheaper than the windows, and less
-  accurate;
-- a Padé approximant applied with banded LU (``scipy.linalg.solve_banded``)
-  every substep: a solve per substep costs more than the banded product and
-  meets 1e-13 only with substeps well below h.
+- one dense ``expm`` of the 612 x 612 augmented matrix, then truncation:
+  the same band, but 0.25–0.35 s per (h, v̄), O(n³) (1.5 s at 404
+  vehicles); the windows take 0.04–0.1 s, ~0.1 s at 404 vehicles too;
+- ``scipy.sparse.linalg.expm_multiply`` on probe columns (a colouring of the
+  band: vehicles 23 apart share a probe): as accurate (7e-16 on the speed
+  block), but 0.15 s for the 23 speed probes, ~0.44 s for the three kinds
+  of column, against 0.135 s for the windows in the same run;
+- a Padé approximant applied every substep with banded LU
+  (``scipy.linalg.solve_banded``): not measured; ‖A h‖ ~ 1.5 at the default
+  substep, so a diagonal Padé approximant needs scaling and squaring (or
+  substeps well below h) to reach 1e-13, and every substep would pay for
+  several banded products and a solve instead of one product.
 
-The band is applied with the CSR product ``@`` (C++ ``csr_matvec``):
-~0.8 ns per stored entry, 20 µs per substep at 204 vehicles against 30–40 µs
-for the dense (408 x 611) product on the same loaded machine.
+The band is applied with the CSR product ``@`` (scipy's C++ ``csr_matvec``),
+~0.8 ns per stored entry: at 204 vehicles 25 000 entries, 23 µs per substep
+against 33 µs for the dense (408 x 611) product, measured side by side
+(``benchmarks/plant_banded.py``). A hand-vectorised block-tridiagonal product
+(groups of 12 vehicles, one batched ``np.matmul``) was no faster (39 against
+38 µs, same run), so scipy's is kept.
+
+Rounding: each window's augmented matrix is balanced before its ``expm``
+(:func:`_window_expm`); each row's dropped entries are lumped onto its own
+vehicle, per block, so that a uniform speed (the rigid-body motion) is
+propagated as by the whole matrix. Without the lumping the 204-vehicle chain
+drifted 4e-10 m/s from the dense path in 20 s (the dropped ~1e-13 add up on
+the common speed); with it 1.5e-11 m/s.
+
+Section crossings (:func:`local_flow`): the banded plant locates a crossing
+and adds its jump response on the window of the chain around the crossing
+vehicle (the windows above, for (h, v̄)), with a dense ladder of that window
+(one ``expm``, then squarings), instead of on the whole chain: the same
+Newton iteration and response, on ~150 states instead of 612, to below the
+band tolerance. Measured at 204 vehicles over 600 s with 698 crossings: 0.8
+against 2.0 s for the crossings of the dense path, same run.
 """
 
 from __future__ import annotations
@@ -71,8 +92,11 @@ BAND_TOL = 1e-13
 """Entries of [Φ | Γ] at most this times the largest of their block are dropped."""
 
 BANDED_MIN_VEHICLES = 128
-"""``propagation="auto"`` uses the banded propagators from this many vehicles on
-(measured crossover: benchmarks/plant_advance.py --banded)."""
+"""``propagation="auto"`` uses the banded propagators from this many vehicles on.
+
+Measured per substep (``benchmarks/plant_banded.py --sizes 64,124,204``,
+interleaved): dense/banded = 0.68 at 64 vehicles, 0.96 at 124, 1.48 at 204,
+4.8 at 404; below ~125 vehicles the dense product is faster."""
 
 _MIN_CORE = 8
 """Fewest core vehicles per window (cores as wide as the margin minimise the cost)."""
@@ -293,21 +317,27 @@ def local_flow(plant: Plant, h: float, vbar: float, vehicle: int, levels: int) -
     consecutive vehicles plus the margin on each side, so that every vehicle
     of the core is at least the margin from a cut. Over t <= h its rows of
     the window's flow then equal the whole chain's to below :data:`BAND_TOL`
-    of their block, as the band's columns do. Kept on the plant per window
-    and (h, vbar); equal sub-chains share one ladder.
+    of their block, as the band's columns do. Kept on the plant per (h, vbar)
+    (a least-recently-used cache with a byte budget); equal sub-chains share
+    one ladder.
     """
     n = plant.train.n_vehicles
     margin = max(plant._margins.get(h, 8), 8)
     core = max(margin, _MIN_CORE)
     clo = (vehicle // core) * core
     lo, hi = max(0, clo - margin), min(n, clo + core + margin)
-    key = (h, vbar, lo, hi)
-    found = plant._local_flows.get(key)
+    group: dict[Any, LocalFlow] | None = plant._local_flows.fetch((h, vbar))
+    if group is None:
+        group = {}
+        width = min(n, core + 2 * margin)
+        plant._local_flows.store(
+            (h, vbar), group, (n // core + 1) * (levels + 1) * 6 * width * width * 8)
+    found = group.get((lo, hi))
     if found is not None:
         return found
     m = hi - lo
-    shared = (h, vbar, _window_key(plant, lo, hi))
-    same = plant._local_flows.get(shared)
+    shared = _window_key(plant, lo, hi)
+    same = group.get(shared)
     if same is None:
         A = _window_matrices(plant, lo, hi, vbar)[0]
         # One expm for the finest level, the others by squaring [Φ | Γ] -> [Φ², ΦΓ + Γ]
@@ -318,10 +348,6 @@ def local_flow(plant: Plant, h: float, vbar: float, vehicle: int, levels: int) -
             finer = ladder[j + 1]
             np.matmul(finer[:, : 2 * m], finer, out=ladder[j])
             ladder[j, :, 2 * m :] += finer[:, 2 * m :]
-        same = LocalFlow(lo, hi, ladder, A, 1.0 / plant.train.mass[lo:hi, None])
-        if len(plant._local_flows) >= 256:
-            plant._local_flows.clear()
-        plant._local_flows[shared] = same
-    flow = LocalFlow(lo, hi, same.levels, same.A, same.inverse_mass)
-    plant._local_flows[key] = flow
+        same = group[shared] = LocalFlow(lo, hi, ladder, A, 1.0 / plant.train.mass[lo:hi, None])
+    flow = group[(lo, hi)] = LocalFlow(lo, hi, same.levels, same.A, same.inverse_mass)
     return flow

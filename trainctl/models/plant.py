@@ -83,21 +83,24 @@ largest within ~11 vehicles of the diagonal at h = 0.05 s. From
 :data:`~trainctl.models._plant_banded.BANDED_MIN_VEHICLES` (128) vehicles on
 (``propagation="auto"``; ``"dense"`` or ``"banded"`` force either) the plant
 builds that band from ``expm`` of overlapping windows of the chain, in O(n),
-and applies it as a sparse (CSR) product, O(n) per substep; the crossing
-ladder holds banded flows as well (:mod:`trainctl.models._plant_banded`).
-The dropped entries are below 1e-13 of their block, and each row's dropped
-sum is lumped onto its own vehicle, so a uniform speed is propagated exactly
-as by the whole matrix. Measured on the 204-vehicle heavy-haul chain against
-the dense path: 5e-12 m/s and 1 µN over 60 s with grade changes and a
-varying input (both 8e-9 m/s from ``solve_ivp`` at rtol 1e-9), 1e-10 m/s
-over 1 h. Costs (2-core machine shared with other jobs, single-threaded
-BLAS, the two paths measured interleaved): per substep 23 against 33 µs at
-204 vehicles, crossover at ~125 vehicles (dense wins below: 12 against 20 µs
-for CRH2); a new (h, v̄) costs ~0.08 s (0.2 s with the crossing ladder)
-instead of one expm of a 612 × 612 matrix (0.25–0.35 s) and four squarings,
-and stays ~0.1 s at 404 vehicles (dense 1.5 s). See
-``benchmarks/plant_banded.py``. The caches keep at most 128 MiB each, least
-recently used first.
+applies it as a sparse (CSR) product, O(n) per substep, and handles each
+section crossing on the window of the chain around the crossing vehicle
+(:mod:`trainctl.models._plant_banded`). The dropped entries are below 1e-13
+of their block, and each row's dropped sum is lumped onto its own vehicle,
+so a uniform speed is propagated exactly as by the whole matrix. Measured on
+the 204-vehicle heavy-haul chain against the dense path: 5e-12 m/s and 1 µN
+over 60 s with grade changes and a varying input (both 8e-9 m/s from
+``solve_ivp`` at rtol 1e-9), at most 1e-10 m/s over 1 h. Costs, the two
+paths timed interleaved in one process (``benchmarks/plant_banded.py``;
+2-core machine shared with other jobs, single-threaded BLAS; absolute times
+varied 2–5x with the load): per substep dense/banded = 0.7 at 64 vehicles,
+0.96 at 124, 1.5–5.8 at 204, 4.8–11 at 404; a new (h, v̄) costs 0.04–0.1 s
+instead of an expm of the 612 × 612 matrix (0.25–0.35 s; at 404 vehicles
+~0.1 s against 1.5 s); 1 h of the 204-vehicle chain at T = 1 s (72 000
+substeps, cold caches) took 6.2 s against 10.2 s on level track and 12.0 s
+against 27.1 s with a grade change every 2 km (~7 000 vehicle crossings),
+3.8 s banded on level track in a quieter moment. The caches keep at most
+128 MiB each, least recently used first.
 
 :meth:`Plant.advance_dense` also returns the states at the substep
 boundaries (the between-sample truth of a simulation), with the same
@@ -198,8 +201,8 @@ class Plant(DenseOutput):
     _margins: dict[float, int] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
-    _local_flows: dict[Any, Any] = field(
-        default_factory=dict, init=False, repr=False, compare=False
+    _local_flows: LRU[Any] = field(
+        default_factory=lambda: LRU(CACHE_BYTES), init=False, repr=False, compare=False
     )
 
     def __post_init__(self) -> None:
