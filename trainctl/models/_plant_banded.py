@@ -63,10 +63,11 @@ the common speed); with it 1.5e-11 m/s.
 Section crossings (:func:`local_flow`): the banded plant locates a crossing
 and adds its jump response on the window of the chain around the crossing
 vehicle (the windows above, for (h, v̄)), with a dense ladder of that window
-(one ``expm``, then squarings), instead of on the whole chain: the same
-Newton iteration and response, on ~150 states instead of 612, to below the
-band tolerance. Measured at 204 vehicles over 600 s with 698 crossings: 0.8
-against 2.0 s for the crossings of the dense path, same run.
+(one ``expm`` over h/1024, then ten squarings), instead of on the whole
+chain: the same Newton iteration and response, on ~150 states instead of
+612, to below the band tolerance. Measured at 204 vehicles over 600 s with
+698 crossing substeps, same run: 0.39 s against 1.38 s for the crossings of
+the dense path (0.8 against 2.05 s with the whole chain's banded ladder).
 """
 
 from __future__ import annotations

@@ -73,9 +73,10 @@ Section crossings cost no accuracy: CRH2 crossing a boundary every 200 m
 204-vehicle chain over 20 s with 500 m sections to 1e-9 m/s and 4 mN of a
 419 kN force range. Per sample of :meth:`Plant.advance` (warm caches):
 CRH2 ≈ 30 µs at T = 0.05 s flat (≈ 65 µs on a track with many sections);
-204 vehicles ≈ 90 µs at T = 0.05 s and ≈ 20 ms per 20 s sample flat
-(≈ 160 µs and 130 ms with a section boundary every 2 km, where ~40
-vehicles cross per 20 s sample).
+204 vehicles on the dense path ≈ 90 µs at T = 0.05 s and ≈ 20 ms per 20 s
+sample flat (≈ 160 µs and 130 ms with a section boundary every 2 km, where
+~40 vehicles cross per 20 s sample); the banded path (the default at 204
+vehicles) below.
 
 Long trains: banded propagators. The chain couples only neighbours, so
 [Φ | Γ] is numerically banded: its entries fall below 1e-13 of their block's
@@ -93,13 +94,14 @@ over 60 s with grade changes and a varying input (both 8e-9 m/s from
 ``solve_ivp`` at rtol 1e-9), at most 1e-10 m/s over 1 h. Costs, the two
 paths timed interleaved in one process (``benchmarks/plant_banded.py``;
 2-core machine shared with other jobs, single-threaded BLAS; absolute times
-varied 2–5x with the load): per substep dense/banded = 0.7 at 64 vehicles,
-0.96 at 124, 1.5–5.8 at 204, 4.8–11 at 404; a new (h, v̄) costs 0.04–0.1 s
-instead of an expm of the 612 × 612 matrix (0.25–0.35 s; at 404 vehicles
-~0.1 s against 1.5 s); 1 h of the 204-vehicle chain at T = 1 s (72 000
-substeps, cold caches) took 6.2 s against 10.2 s on level track and 12.0 s
-against 27.1 s with a grade change every 2 km (~7 000 vehicle crossings),
-3.8 s banded on level track in a quieter moment. The caches keep at most
+varied 2–5x with the load, the ratios less): per substep dense/banded =
+0.7 at 64 vehicles, 0.96–0.99 at 124, 1.4–1.55 at 204 (22 against 34 µs),
+3.3–6 at 404; a new (h, v̄) costs 0.04–0.1 s instead of an expm of the
+612 × 612 matrix (0.25–0.35 s; at 404 vehicles ~0.1 s against 1.5 s). One
+hour of the 204-vehicle chain at T = 1 s (72 000 substeps, cold caches, a
+speed law visiting ~7 grid speeds): 2.7 s against 4.5 s on level track,
+9.1 s against 18.2 s with a grade change every 2 km (~7 000 vehicle
+crossings, which then take about half of the time). The caches keep at most
 128 MiB each, least recently used first.
 
 :meth:`Plant.advance_dense` also returns the states at the substep
