@@ -9,6 +9,10 @@ Cases (warm caches; each timed as the best of ``--repeats`` batches, per sample)
   hh204 flat     the 204-vehicle 1+2+1 heavy-haul chain, T = 0.05 s and 20 s
   hh204 track    the same with a section boundary every 2 km
 
+The hh204 cases run on the plant's default propagators (banded from 128
+vehicles on, since the banded plant); ``benchmarks/plant_banded.py`` times the
+dense and banded paths side by side.
+
 Each batch starts from the same state (cruise plus a small disturbance, with
 an accelerating input so the drag linearisation speed moves), and advances it
 sample after sample. The script imports ``trainctl.sim.Plant``, which exists

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from ._plant_banded import LocalFlow, local_flow
 from ._plant_propagators import LADDER_LEVELS, TrackArrays, ladder
 from .train import Train
 
@@ -27,6 +28,11 @@ __all__ = ["SectionTracker", "crossings", "linear_flow", "sections"]
 
 TAYLOR_ORDER = 14
 """Order of the Taylor series for the flow over the remainder t < h/2^L."""
+
+WINDOW_LEVELS = 10
+"""Binary levels h/2^j, j = 0..10, of the window ladders of the banded path's crossings:
+squarings of a window are cheap, and below h/1024 about four Taylor terms reach
+rounding (measured: ~2x fewer numpy operations per flow than with 4 levels)."""
 
 _Start = tuple[NDArray[np.float64], float, NDArray[np.intp], float]
 """A substep's start: (z = [v, delta, F], s, sections, vbar)."""
@@ -118,7 +124,10 @@ def linear_flow(
         use = left >= tj
         if np.any(use):
             level = levels[j]
-            Y[:, use] = level[:, : 2 * n] @ Y[:, use] + level[:, 2 * n :] @ G[:, use]
+            if isinstance(level, np.ndarray):
+                Y[:, use] = level[:, : 2 * n] @ Y[:, use] + level[:, 2 * n :] @ G[:, use]
+            else:  # banded (CSR): one product on the stacked [Y; G]
+                Y[:, use] = level @ np.vstack([Y[:, use], G[:, use]])
             left[use] -= tj
     rate = plant._apply_a(Y, vbar)
     rate[:n] += G / plant.train.mass[:, None]
@@ -184,6 +193,12 @@ def crossings(
     idx = np.array(vehicles, dtype=np.intp)
     bnd = np.array(boundaries)
     tau = hermite_root(h, p0[idx], z0[idx], p1[idx], v1[idx], bnd)
+    if plant._banded:
+        fix, tau = _local_crossings(plant, h, vbar, x0, force0, p0, idx, bnd, tau,
+                                    np.array(jumps))
+        G = np.zeros((n, idx.size))
+        G[idx, np.arange(idx.size)] = jumps
+        return fix, tau, G
     # Newton on p_i(τ) = boundary; dp_i/dt = v_i. Position p_i = s - Σ_{j<i}(gap_j + δ_j).
     X = np.repeat(x0[:, None], idx.size, axis=1)
     G = np.repeat(force0[:, None], idx.size, axis=1)
@@ -206,6 +221,87 @@ def crossings(
     G[idx, np.arange(idx.size)] = jumps
     response = linear_flow(plant, h, vbar, np.zeros((2 * n, idx.size)), G, h - tau)
     return response.sum(axis=1), tau, G
+
+
+def _local_crossings(
+    plant: Plant,
+    h: float,
+    vbar: float,
+    x0: NDArray[np.float64],
+    force0: NDArray[np.float64],
+    p0: NDArray[np.float64],
+    idx: NDArray[np.intp],
+    bnd: NDArray[np.float64],
+    tau: NDArray[np.float64],
+    jumps: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`crossings` on the banded path: each crossing on the window of the chain
+    around its vehicle (:func:`~trainctl.models._plant_banded.local_flow`).
+
+    The same Newton iteration and the same exact jump response as on the
+    whole chain, but on ~3·(2M + core) states instead of 3n: the window's
+    flow equals the chain's near the vehicle to below the band tolerance,
+    and the response Γ(h - τ) e_i ΔF outside the window is below it too
+    (it is a column of the banded Γ). Measured at 204 vehicles: ~0.1 ms per
+    crossing instead of ~0.8 ms with two flows of the whole chain.
+    Returns the summed response (2n,) and the crossing times τ [s].
+    """
+    n = plant.train.n_vehicles
+    spacing = plant.train.spacing
+    fix = np.zeros(2 * n)
+    tau = tau.copy()
+    for c, i in enumerate(idx.tolist()):
+        flow = local_flow(plant, h, vbar, i, WINDOW_LEVELS)
+        lo, hi = flow.lo, flow.hi
+        m = hi - lo
+        X = np.r_[x0[lo:hi], x0[n + lo : n + hi - 1], 0.0][:, None]
+        G = force0[lo:hi, None]
+        gaps = float(spacing[lo:i].sum())
+        t = float(tau[c])
+        for _ in range(8):
+            Y = _window_flow(flow, h, X, G, t)
+            pos = p0[lo] + Y[2 * m - 1, 0] - (gaps + Y[m : m + i - lo, 0].sum())
+            vel = Y[i - lo, 0]
+            new = min(max(t - (pos - bnd[c]) / vel, 0.0), h) if vel != 0.0 else t
+            done = abs(new - t) <= 1e-6 * h
+            t = new
+            if done:
+                break
+        tau[c] = t
+        G = np.zeros((m, 1))
+        G[i - lo, 0] = jumps[c]
+        Y = _window_flow(flow, h, np.zeros((2 * m, 1)), G, h - t)
+        fix[lo:hi] += Y[:m, 0]
+        fix[n + lo : n + hi - 1] += Y[m : 2 * m - 1, 0]
+        if lo == 0:  # the window's position is the head's
+            fix[2 * n - 1] += Y[2 * m - 1, 0]
+    return fix, tau
+
+
+def _window_flow(
+    flow: LocalFlow, h: float, X: NDArray[np.float64], G: NDArray[np.float64], t: float
+) -> NDArray[np.float64]:
+    """e^{A_w t} X + Γ_w(t) G on a window, t in [0, h] [s], as :func:`linear_flow`."""
+    m = flow.hi - flow.lo
+    Y = X.copy()
+    left = t
+    for j in range(flow.levels.shape[0]):
+        tj = h / 2.0**j
+        if left >= tj:
+            level = flow.levels[j]
+            Y = level[:, : 2 * m] @ Y + level[:, 2 * m :] @ G
+            left -= tj
+    rate = flow.A @ Y
+    rate[:m] += G * flow.inverse_mass
+    term = left * rate
+    Y += term
+    tiny = 1e-17 * (float(np.abs(Y).max()) + 1e-300)
+    for k in range(2, TAYLOR_ORDER + 1):
+        if float(np.abs(term).max()) <= tiny:
+            break
+        term = (left / k) * (flow.A @ term)
+        Y += term
+    return Y
 
 
 def hermite_root(

@@ -266,8 +266,10 @@ class DenseRecord:
         if flows is None:
             if len(plant._inner_flows) >= 8:
                 plant._inner_flows.clear()
-            flows = plant._inner_flows[key] = _powers(
-                propagator(plant, h / self.inner, vbar).step, n, count)
+            step = propagator(plant, h / self.inner, vbar).step
+            if not isinstance(step, np.ndarray):  # banded: the powers fill in anyway
+                step = step.toarray()
+            flows = plant._inner_flows[key] = _powers(step, n, count)
         points = (flows @ z).reshape(count, 2 * n)
         rows = self.rows[self._column : self._column + count]
         rows[:, : 2 * n - 1] = points[:, : 2 * n - 1]

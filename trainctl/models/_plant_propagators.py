@@ -8,17 +8,23 @@ expm([[A, B], [0, 0]] h), one ``scipy.linalg.expm``, cached per (h, v̄) on the
 plant (:func:`propagator`). On a track the crossings also need the flow over
 any t <= h, built from the binary ladder h/2^j (:func:`ladder`). The quadratic
 drag's remainder -a2 (v - v̄)² has the exact flow :func:`drag_flow`.
+
+For long trains (``Plant._banded``) the same matrices are banded CSR arrays
+built in O(n) by :func:`trainctl.models._plant_banded.banded_flow`; ``step @ z``
+and the ladder's products work on either.
 """
 
 from __future__ import annotations
 
 from collections import OrderedDict
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
+
+from ._plant_banded import banded_flow, sparse_nbytes
 
 if TYPE_CHECKING:
     from .plant import Plant
@@ -59,9 +65,11 @@ def drag_flow(z: NDArray[np.float64], n: int, ta2: NDArray[np.float64], vbar: fl
 class Propagator:
     """Exact linear step of length h about speed vbar on ``[v, delta, s]`` with forcing F [N]."""
 
-    step: NDArray[np.float64]
+    step: Any
     """[Φ | Γ] restricted to columns [v, delta, F], (2n, 3n-1); the last row is the
-    increment of s (its own column, e_s, is left out so that s is added exactly)."""
+    increment of s (its own column, e_s, is left out so that s is added exactly).
+    A dense ndarray, or a ``scipy.sparse.csr_array`` on the banded path
+    (:mod:`trainctl.models._plant_banded`); ``step @ z`` either way."""
 
 
 class LRU(OrderedDict[tuple[float, float], _T]):
@@ -113,23 +121,44 @@ def propagator(plant: Plant, h: float, vbar: float) -> Propagator:
         return cached
     n = plant.train.n_vehicles
     track = plant._track_arrays
-    if track is not None and track[0].size > 1:
+    banded = plant._banded
+    E: Any
+    if banded:  # its crossings work on windows (no ladder of the whole chain needed)
+        E = banded_flow(plant, h, vbar).flow
+    elif track is not None and track[0].size > 1:
         E = ladder(plant, h, vbar)[0]  # crossings will need the ladder anyway
     else:
         E = augmented_expm(plant, h, vbar)[: 2 * n]
     # Drop the s column: A has a zero s column, so Φ[:, s] = e_s exactly.
     cols = np.r_[0 : 2 * n - 1, 2 * n : 3 * n]
-    prop = Propagator(step=np.ascontiguousarray(E[:, cols]))
-    plant._cache.store((h, vbar), prop, prop.step.nbytes)
+    if banded:
+        step = E[:, cols]
+        step.sort_indices()
+        nbytes = sparse_nbytes(step)
+    else:
+        step = np.ascontiguousarray(E[:, cols])
+        nbytes = step.nbytes
+    prop = Propagator(step=step)
+    plant._cache.store((h, vbar), prop, nbytes)
     return prop
 
 
-def ladder(plant: Plant, h: float, vbar: float) -> NDArray[np.float64]:
-    """[Φ | Γ] for durations h/2^j, j = 0..L, shape (L+1, 2n, 3n)."""
+def ladder(plant: Plant, h: float, vbar: float) -> Any:
+    """[Φ | Γ] for durations h/2^j, j = 0..L, shape (L+1, 2n, 3n).
+
+    Dense: the finest level from ``expm``, the others by squaring. Banded: a
+    list of the L+1 banded flows, each built directly
+    (:func:`~trainctl.models._plant_banded.banded_flow`); on that path only
+    the inner points of the dense output need it (crossings use windows).
+    """
     cached = plant._ladders.fetch((h, vbar))
     if cached is not None:
         return cached
     n = plant.train.n_vehicles
+    if plant._banded:
+        flows = [banded_flow(plant, h / 2.0**j, vbar).flow for j in range(LADDER_LEVELS + 1)]
+        plant._ladders.store((h, vbar), flows, sum(sparse_nbytes(f) for f in flows))
+        return flows
     levels = np.empty((LADDER_LEVELS + 1, 2 * n, 3 * n))
     levels[LADDER_LEVELS] = augmented_expm(plant, h / 2.0**LADDER_LEVELS, vbar)[: 2 * n]
     for j in range(LADDER_LEVELS - 1, -1, -1):

@@ -73,20 +73,43 @@ Section crossings cost no accuracy: CRH2 crossing a boundary every 200 m
 204-vehicle chain over 20 s with 500 m sections to 1e-9 m/s and 4 mN of a
 419 kN force range. Per sample of :meth:`Plant.advance` (warm caches):
 CRH2 ≈ 30 µs at T = 0.05 s flat (≈ 65 µs on a track with many sections);
-204 vehicles ≈ 90 µs at T = 0.05 s and ≈ 20 ms per 20 s sample flat
-(≈ 160 µs and 130 ms with a section boundary every 2 km, where ~40
-vehicles cross per 20 s sample).
+204 vehicles on the dense path ≈ 90 µs at T = 0.05 s and ≈ 20 ms per 20 s
+sample flat (≈ 160 µs and 130 ms with a section boundary every 2 km, where
+~40 vehicles cross per 20 s sample); the banded path (the default at 204
+vehicles) below.
 
-For the 204-vehicle heavy-haul chain the first use of each (h, v̄) costs
-one expm of a 612 × 612 matrix (0.1–0.3 s; with a track also four squarings
-for the crossing ladder); every substep is then one dense (408 × 611)
-product. The caches keep at most 128 MiB each, least recently used first.
+Long trains: banded propagators. The chain couples only neighbours, so
+[Φ | Γ] is numerically banded: its entries fall below 1e-13 of their block's
+largest within ~11 vehicles of the diagonal at h = 0.05 s. From
+:data:`~trainctl.models._plant_banded.BANDED_MIN_VEHICLES` (128) vehicles on
+(``propagation="auto"``; ``"dense"`` or ``"banded"`` force either) the plant
+builds that band from ``expm`` of overlapping windows of the chain, in O(n),
+applies it as a sparse (CSR) product, O(n) per substep, and handles each
+section crossing on the window of the chain around the crossing vehicle
+(:mod:`trainctl.models._plant_banded`). The dropped entries are below 1e-13
+of their block, and each row's dropped sum is lumped onto its own vehicle,
+so a uniform speed is propagated exactly as by the whole matrix. Measured on
+the 204-vehicle heavy-haul chain against the dense path: 5e-12 m/s and 1 µN
+over 60 s with grade changes and a varying input (both 8e-9 m/s from
+``solve_ivp`` at rtol 1e-9), at most 1e-10 m/s over 1 h. Costs, the two
+paths timed interleaved in one process (``benchmarks/plant_banded.py``;
+2-core machine shared with other jobs, single-threaded BLAS; absolute times
+varied 2–5x with the load, the ratios less): per substep dense/banded =
+0.7 at 64 vehicles, 0.96–0.99 at 124, 1.4–1.55 at 204 (22 against 34 µs),
+3.3–6 at 404; a new (h, v̄) costs 0.04–0.1 s instead of an expm of the
+612 × 612 matrix (0.25–0.35 s; at 404 vehicles ~0.1 s against 1.5 s). One
+hour of the 204-vehicle chain at T = 1 s (72 000 substeps, cold caches, a
+speed law visiting ~7 grid speeds): 2.7 s against 4.5 s on level track,
+9.1 s against 18.2 s with a grade change every 2 km (~7 000 vehicle
+crossings, which then take about half of the time). The caches keep at most
+128 MiB each, least recently used first.
 
 :meth:`Plant.advance_dense` also returns the states at the substep
 boundaries (the between-sample truth of a simulation), with the same
 integration bit for bit.
 
-The propagators live in :mod:`trainctl.models._plant_propagators`, the
+The propagators live in :mod:`trainctl.models._plant_propagators` (banded:
+:mod:`trainctl.models._plant_banded`), the
 substep loop and its dense output in :mod:`trainctl.models._plant_integrate`,
 the section crossings in :mod:`trainctl.models._plant_crossings` and the
 ``solve_ivp`` reference in :mod:`trainctl.models._plant_reference`.
@@ -97,12 +120,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_positive
 from ..exceptions import DimensionError, ModelError
+from ._plant_banded import BANDED_MIN_VEHICLES
 from ._plant_crossings import SectionTracker
 from ._plant_dense import DenseOutput, DenseRecord
 from ._plant_integrate import integrate
@@ -132,6 +157,14 @@ class Plant(DenseOutput):
     max_substep : float
         Longest substep of the splitting integrator [s], > 0 (module docstring
         for the accuracy/speed trade-off).
+    propagation : {"auto", "dense", "banded"}
+        How the exact linear steps are built and applied: ``"dense"``, one
+        ``expm`` of the whole chain and dense products, O(n²) per substep;
+        ``"banded"``, the band of the same matrices built from windows of the
+        chain and applied as sparse products, O(n) per substep
+        (:mod:`trainctl.models._plant_banded`; entries below 1e-13 of their
+        block dropped); ``"auto"``, banded from
+        :data:`~trainctl.models._plant_banded.BANDED_MIN_VEHICLES` vehicles on.
 
     Examples
     --------
@@ -148,10 +181,11 @@ class Plant(DenseOutput):
     train: Train
     track: Track | None = None
     max_substep: float = 0.05
+    propagation: str = "auto"
     _cache: LRU[Propagator] = field(
         default_factory=lambda: LRU(CACHE_BYTES), init=False, repr=False, compare=False
     )
-    _ladders: LRU[NDArray[np.float64]] = field(
+    _ladders: LRU[Any] = field(
         default_factory=lambda: LRU(CACHE_BYTES), init=False, repr=False, compare=False
     )
     _drag: dict[float, tuple[NDArray[np.float64], NDArray[np.float64]]] = field(
@@ -166,6 +200,12 @@ class Plant(DenseOutput):
     _offsets: dict[tuple[float, int, int], NDArray[np.float64]] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
+    _margins: dict[float, int] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
+    _local_flows: LRU[Any] = field(
+        default_factory=lambda: LRU(CACHE_BYTES), init=False, repr=False, compare=False
+    )
 
     def __post_init__(self) -> None:
         if not isinstance(self.train, Train):
@@ -177,6 +217,11 @@ class Plant(DenseOutput):
         object.__setattr__(
             self, "max_substep", check_positive("Plant", "max_substep", self.max_substep)
         )
+        if self.propagation not in ("auto", "dense", "banded"):
+            raise ModelError(
+                "Plant: 'propagation' must be 'auto', 'dense' or 'banded' "
+                f"(got {self.propagation!r})."
+            )
 
     # ------------------------------------------------------------------ model
     @property
@@ -207,6 +252,13 @@ class Plant(DenseOutput):
         return chain
 
     @cached_property
+    def _banded(self) -> bool:
+        """True when the propagators are banded (``propagation``, or "auto" by size)."""
+        if self.propagation == "auto":
+            return self.train.n_vehicles >= BANDED_MIN_VEHICLES
+        return self.propagation == "banded"
+
+    @cached_property
     def _quadratic(self) -> bool:
         """True when some vehicle has quadratic drag (a2 > 0)."""
         return bool(np.any(self.train.davis[2] > 0))
@@ -225,8 +277,12 @@ class Plant(DenseOutput):
         return starts, per_mass, starts.copy(), np.append(starts[1:], math.inf)
 
     def _apply_a(self, Y: NDArray[np.float64], vbar: float) -> NDArray[np.float64]:
-        """A(vbar) @ Y from the chain structure in O(n) per column."""
-        return self._chain(vbar).product(Y)
+        """A(vbar) @ Y in O(n) per column: the chain's structured product (dense path,
+        the arithmetic it always had) or its CSR matrix (banded path, ~7x faster)."""
+        chain = self._chain(vbar)
+        if self._banded:
+            return np.asarray(chain.sparse @ Y)
+        return chain.product(Y)
 
     # -------------------------------------------------------------- stepping
     def _check(

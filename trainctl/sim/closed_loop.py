@@ -189,6 +189,7 @@ def simulate(
         "n_vehicles": n,
         "track": _track_meta(plant),
         "max_substep": plant.max_substep,
+        "plant_propagators": "banded" if plant._banded else "dense",
         "substeps_per_sample": substeps,
         "duration": steps * dt,
         "preview_steps": int(preview_steps),
