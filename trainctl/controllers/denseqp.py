@@ -165,10 +165,10 @@ class FastDAQP:
         self._s_pos = position[s_cols] if not self.soft else np.zeros(0, dtype=np.int64)
         self._build_rows(A, keep, s_cols)
         self.H = np.ascontiguousarray(P[np.ix_(keep, keep)])
-        self._model = daqp.Model()
-        lower, upper, _ = self._bounds(fast.offset)
+        self._make = daqp.Model
+        self._lower0, self._upper0, _ = self._bounds(fast.offset)
         self._f0 = np.ascontiguousarray(fast.offset[keep])
-        self._setup(lower, upper)
+        self._setup()
         self.slack_solves = 0
         self._slack_form: FastDAQP | None = None
 
@@ -280,7 +280,10 @@ class FastDAQP:
         self._soft_part = slice(self._soft_first, self.n_simple + self.n_rows)
         self._A_soft = self.A[self._soft_first - self.n_simple:]
 
-    def _setup(self, lower: Array, upper: Array) -> None:
+    def _setup(self) -> None:
+        """A fresh DAQP workspace with the data at zero parameters (cold: empty working set)."""
+        lower, upper = self._lower0, self._upper0
+        self._model = self._make()
         flag, _ = self._model.setup(self.H, self._f0, self.A, _finite(upper), _finite(lower),
                                     self._sense0.copy())
         if flag < 0:
@@ -313,10 +316,14 @@ class FastDAQP:
 
     # -- solving -----------------------------------------------------------------------------
     def reset(self) -> None:
-        """Forget the warm start: the next solve starts from the empty working set."""
+        """Forget the warm start: a new DAQP workspace, as after construction.
+
+        The next solve starts from the empty working set and gives what a new
+        ``FastDAQP`` gives, bit for bit. A workspace that has not solved yet
+        is kept (it is already clean).
+        """
         if self._used:
-            self._model.update(sense=self._sense0.copy())
-            self._used = False
+            self._setup()
         if self._slack_form is not None:
             self._slack_form.reset()
 
