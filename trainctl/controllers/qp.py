@@ -53,7 +53,7 @@ __all__ = ["DAQP_MAX_DECISIONS", "OSQP_SETTINGS", "QP_SOLVERS", "ParametricQP", 
 QP_SOLVERS = ("auto", "osqp", "daqp")
 """QP solvers of the fast path: chosen by size, OSQP, DAQP."""
 
-DAQP_MAX_DECISIONS = 0  # placeholder, set from the measurement below
+DAQP_MAX_DECISIONS = 100  # provisional
 
 Array = NDArray[np.float64]
 PARAMETERS = ("g", "lb", "ub", "hl", "hu")
@@ -293,4 +293,6 @@ def _slack_penalty(s: cp.Variable, linear: float | ArrayLike,
     if w1.ndim == 0 and w2.ndim == 0:
         return float(w1) * cp.sum(s), 0.5 * float(w2) * cp.sum_squares(s)
     w1, w2 = np.broadcast_to(w1, s.shape), np.broadcast_to(w2, s.shape)
-    return w1 @ s, 0.5 * cp.sum_squares(cp.multiply(np.sqrt(w2), s))
+    # A constant quadratic form goes straight into P (no auxiliary variables), so the
+    # slacks keep the structure that the dense path turns into soft constraints.
+    return w1 @ s, 0.5 * cp.quad_form(s, cp.psd_wrap(np.diag(w2)))
