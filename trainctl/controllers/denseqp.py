@@ -1,5 +1,5 @@
 # The dense solve path: DAQP (dual active set) on the data identified for OSQP.
-"""DAQP driven directly with the QP data identified by :class:`~trainctl.controllers.fastqp.FastOSQP`.
+"""DAQP driven directly with the QP data identified by :class:`.fastqp.FastOSQP`.
 
 The per-coach QPs of the condensed MPC are small and dense (5–40 decisions,
 tens of rows): the class that dual active-set solvers are made for. DAQP
@@ -191,10 +191,10 @@ class FastDAQP:
         nonneg = np.zeros(s_cols.size, dtype=bool)
         soft_rows: list[list[int]] = [[] for _ in s_cols]
         for r in np.flatnonzero((S != 0).any(axis=1)):
-            j = np.flatnonzero(S[r])
-            if j.size != 1 or S[r, j[0]] >= 0 or r < self.fast.n_eq:
+            entries = np.flatnonzero(S[r])
+            if entries.size != 1 or S[r, entries[0]] >= 0 or r < self.fast.n_eq:
                 return f"row {r} is not an inequality with one slack entering as -s"
-            j = int(j[0])
+            j = int(entries[0])
             zpart = A[r, z_cols]
             if not zpart.any():
                 datum = n + r
@@ -210,8 +210,8 @@ class FastDAQP:
             if not rows:
                 return "a slack enters no soft row"
             lead = A[rows[0], z_cols] / -S[rows[0], j]
-            for r in rows[1:]:
-                zpart = A[r, z_cols] / -S[r, j]
+            for row in rows[1:]:
+                zpart = A[row, z_cols] / -S[row, j]
                 if not (np.array_equal(zpart, lead) or np.array_equal(zpart, -lead)):
                     return "the rows of a slack are not one two-sided row"
         return ""
@@ -241,34 +241,39 @@ class FastDAQP:
             if nz.size == 0:
                 zero_rows.append((r, 1.0))
                 continue
-            k = a[nz[np.abs(a[nz]).argmax()]]
-            k = abs(k) if a[nz[0]] > 0 else -abs(k)
+            largest = float(np.abs(a[nz]).max())
+            k = largest if a[nz[0]] > 0 else -largest
             if nz.size == 1:
                 simple.setdefault(int(nz[0]), []).append((r, float(a[nz[0]])))
                 continue
             canon = a / k + 0.0  # -0.0 becomes 0.0: a row and its negative group together
             general.setdefault(canon.tobytes(), (canon, []))[1].append((r, float(k)))
         self.n_simple = n_vars if simple else 0
-        rows, groups, factors = [], [], []
-        for var, members in simple.items():
+        rows: list[int] = []
+        groups: list[int] = []
+        factors: list[float] = []
+
+        def add(g: int, members: list[tuple[int, float]]) -> None:
             for r, k in members:
-                rows.append(r), groups.append(var), factors.append(k)
-        matrix, senses = [], []
+                rows.append(r)
+                groups.append(g)
+                factors.append(k)
+
+        for var, members in simple.items():
+            add(var, members)
+        matrix: list[Array] = []
+        senses: list[int] = []
         for canon, members in general.values():
-            g = self.n_simple + len(matrix)
+            add(self.n_simple + len(matrix), members)
             matrix.append(canon)
             senses.append(_EQUALITY if any(r < self._n_eq for r, _ in members) else _HARD)
-            for r, k in members:
-                rows.append(r), groups.append(g), factors.append(k)
         self._soft_first = self.n_simple + len(matrix)
         self._soft_slack = np.array(sorted(soft), dtype=np.int64)
         for j in self._soft_slack:
             canon, members = soft[int(j)]
-            g = self.n_simple + len(matrix)
+            add(self.n_simple + len(matrix), members)
             matrix.append(canon)
             senses.append(_SOFT)
-            for r, k in members:
-                rows.append(r), groups.append(g), factors.append(k)
         self.n_rows = len(matrix)
         self.A = np.ascontiguousarray(np.array(matrix).reshape(len(matrix), n_vars))
         simple_sense = [_HARD] * self.n_simple
