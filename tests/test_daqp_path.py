@@ -238,6 +238,15 @@ class TestStatuses:
             sol = qp.solve(np.array([np.nan, 0.0]), -np.ones(2), np.ones(2))
             assert sol.status == "error" and np.isnan(sol.z).all()
 
+    def test_unconstrained(self):
+        """No rows at all: solved by a Cholesky factor, as OSQP solves it."""
+        H = np.array([[2.0, 0.5], [0.5, 1.0]])
+        g = np.array([1.0, -3.0])
+        for qp in pair(H, np.zeros((0, 2)), np.zeros((0, 2))):
+            sol = qp.solve(g)
+            assert sol.status == "optimal"
+            np.testing.assert_allclose(sol.z, np.linalg.solve(H, -g), rtol=0, atol=TOL_KN)
+
     def test_iteration_limit(self):
         qp = ParametricQP(np.eye(3), np.eye(3), np.zeros((0, 3)), solver="osqp")
         dense = FastDAQP(qp.fast_path, settings={"iter_limit": 1})

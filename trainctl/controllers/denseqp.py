@@ -50,6 +50,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.linalg import cho_factor, cho_solve
 
 from ..exceptions import SolverError
 from .fastqp import FastOSQP, QPSolution, _as_slice
@@ -286,7 +287,15 @@ class FastDAQP:
         self._A_soft = self.A[self._soft_first - self.n_simple:]
 
     def _setup(self) -> None:
-        """A fresh DAQP workspace with the data at zero parameters (cold: empty working set)."""
+        """A fresh DAQP workspace with the data at zero parameters (cold: empty working set).
+
+        Without any constraint the QP is solved by a Cholesky factor of H instead.
+        """
+        self._used = False
+        if self.n_simple + self.n_rows == 0:
+            self._model = None
+            self._chol = cho_factor(self.H)
+            return
         lower, upper = self._lower0, self._upper0
         self._model = self._make()
         flag, _ = self._model.setup(self.H, self._f0, self.A, _finite(upper), _finite(lower),
@@ -305,7 +314,6 @@ class FastDAQP:
             rho[self._soft_part] = 1.0 / self._w2[self._soft_slack]
             w[self._soft_part] = self._w1[self._soft_slack]
             self._model.soft_weights(rho_l=rho, rho_u=rho, w_l=w, w_u=w)
-        self._used = False
 
     def _bounds(self, data: Array) -> tuple[Array, Array, bool]:
         """DAQP's (lower, upper) for OSQP's stacked data; True when a zero row is violated."""
@@ -356,8 +364,12 @@ class FastDAQP:
         if self.soft and (lower[self._soft_part] > upper[self._soft_part]).any():
             return self._solve_slack_form(data, start)
         self._used = True
-        self._model.update(f=data[self._keep_index], bupper=_finite(upper), blower=_finite(lower))
-        x, _, flag, info = self._model.solve()
+        if self._model is None:  # unconstrained: H x = -f
+            x, flag, info = -cho_solve(self._chol, data[self._keep_index]), 1, {"iterations": 0}
+        else:
+            self._model.update(f=data[self._keep_index], bupper=_finite(upper),
+                               blower=_finite(lower))
+            x, _, flag, info = self._model.solve()
         elapsed = time.perf_counter() - start
         status = from_daqp(flag)
         x = np.asarray(x, dtype=float)
