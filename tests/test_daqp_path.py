@@ -199,6 +199,44 @@ class TestController:
             make_mpc(scenario.train, d, dt=scenario.model.sample_time, qp_solver="qpoases")
 
 
+class TestLinearMPC:
+    def test_the_core_on_daqp_equals_osqp(self):
+        """The MPC core (make_linear_mpc) with qp_solver="daqp", soft state bounds active."""
+        import control as ct
+
+        from trainctl.controllers.mpc import make_linear_mpc
+
+        sysd = ct.ss([[1, 1], [0, 1]], [[0.5], [1]], np.eye(2), 0, dt=1)
+        kw = dict(Q=np.eye(2), R=0.1, prediction_horizon=8, u_min=-1, u_max=1, du_max=0.5,
+                  form="du", x_min=[-5, -1], x_max=[5, 1], soft={"x": (10.0, 1.0)})
+        mpcs = {s: make_linear_mpc(sysd, qp_solver=s, **kw) for s in ("osqp", "daqp")}
+        qp = mpcs["daqp"].block.qp
+        assert qp.dense_path.soft
+        seen = []
+        solve_data = qp.solve_data
+
+        def record(data):
+            seen.append(data.copy())
+            return solve_data(data)
+
+        qp.solve_data = record
+        for x0 in ([4.0, 0.0], [-3.0, 1.5], [0.5, -2.0]):
+            a, b = (mpcs[s].solve(x0, u_prev=[0.0]) for s in ("daqp", "osqp"))
+            assert a.status == b.status == "optimal"
+            x = clarabel(qp.fast_path, seen[-1])[qp.fast_path.z_index["z"]]
+            # the same data on the dense path (a fresh workspace) and on the OSQP fast path
+            z_dense = FastDAQP(qp.fast_path).solve_vector(seen[-1]).z
+            z_osqp = mpcs["osqp"].block.qp.fast_path.solve_vector(seen[-1]).z
+            np.testing.assert_allclose(z_dense, x, rtol=0, atol=TOL_KN)
+            # OSQP agrees, or it is the one off CLARABEL (its polishing can fail: 1e-3 here)
+            assert (np.abs(z_dense - z_osqp).max() <= TOL_KN
+                    or np.abs(z_osqp - x).max() > TOL_KN)
+            if np.abs(z_osqp - x).max() <= TOL_KN:
+                np.testing.assert_allclose(a.inputs, b.inputs, rtol=0, atol=TOL_KN)
+        with pytest.raises(ModelError, match="'qp_solver' must be one of"):
+            make_linear_mpc(sysd, qp_solver="x", **kw)
+
+
 def pair(H, C, F, **kw):
     """The same QP on both fast-path solvers."""
     return (ParametricQP(H, C, F, solver="osqp", **kw), ParametricQP(H, C, F, solver="daqp", **kw))
