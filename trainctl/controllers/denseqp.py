@@ -45,6 +45,7 @@ Python's handler as soon as the solve returns (``KeyboardInterrupt``).
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Any
 
@@ -68,6 +69,7 @@ _HUGE = 1e19          # data beyond this came from an infinite bound (FastOSQP c
 _DAQP_INF = 1e30      # DAQP's infinity
 _HARD, _EQUALITY, _SOFT = 0, 5, 8   # DAQP constraint senses
 _CONTRADICTION = 1e-9  # a row with lower - upper above this (relative) cannot be met
+_DAQP_STATUS = {1: "optimal", 2: "optimal"}  # the usual flags, without a function call
 
 
 class _Rows:
@@ -76,9 +78,12 @@ class _Rows:
     Member k of constraint ``group[k]`` is OSQP row ``row[k]`` divided by
     ``factor[k]``: its datum d (u, and l = u for an equality row) bounds the
     constraint from above (factor > 0) or below (factor < 0) by d / factor.
+    A datum of 1e19 or more stands for an infinite u (:class:`FastOSQP` clips
+    infinite parameters to 1e20); it gives DAQP's infinity, as does a side
+    without members.
     """
 
-    def __init__(self, n_constraints: int, rows: list[int], groups: list[int],
+    def __init__(self, n_constraints: int, n_data: int, rows: list[int], groups: list[int],
                  factors: list[float], n_eq: int) -> None:
         row, group = np.asarray(rows, dtype=np.int64), np.asarray(groups, dtype=np.int64)
         factor = np.asarray(factors, dtype=float)
@@ -87,24 +92,42 @@ class _Rows:
         self.n = n_constraints
         self.up_row, self.up_group, self.up_inv = row[upper], group[upper], 1.0 / factor[upper]
         self.lo_row, self.lo_group, self.lo_inv = row[lower], group[lower], 1.0 / factor[lower]
-        # One member per constraint and side (the usual case): a scatter, no reduction.
-        self.up_single = np.unique(self.up_group).size == self.up_group.size
-        self.lo_single = np.unique(self.lo_group).size == self.lo_group.size
+        # One member per constraint and side (the usual case): one gather from the data
+        # extended by a sentinel (DAQP's infinity) for the sides without members.
+        self.single = (np.unique(self.up_group).size == self.up_group.size
+                       and np.unique(self.lo_group).size == self.lo_group.size)
+        self._ext = np.empty(n_data + 1)
+        self._ext[n_data] = _DAQP_INF
+        self.up_src = np.full(n_constraints, n_data, dtype=np.int64)
+        self.up_src[self.up_group] = self.up_row
+        self.up_scale = np.ones(n_constraints)
+        self.up_scale[self.up_group] = self.up_inv
+        self.lo_src = np.full(n_constraints, n_data, dtype=np.int64)
+        self.lo_src[self.lo_group] = self.lo_row
+        self.lo_scale = -np.ones(n_constraints)
+        self.lo_scale[self.lo_group] = self.lo_inv
+        self.up_huge = _HUGE * np.abs(self.up_scale)
+        self.lo_huge = -_HUGE * np.abs(self.lo_scale)
 
     def bounds(self, d: Array) -> tuple[Array, Array]:
-        """(lower, upper) of every constraint from OSQP's row data ``d`` (infinities allowed)."""
-        upper = np.full(self.n, np.inf)
-        lower = np.full(self.n, -np.inf)
-        up = d[self.up_row] * self.up_inv
-        lo = d[self.lo_row] * self.lo_inv
-        if self.up_single:
-            upper[self.up_group] = up
+        """(lower, upper) of every constraint from OSQP's row data ``d`` (new arrays).
+
+        Infinite bounds are DAQP's infinity, ±1e30.
+        """
+        if self.single:
+            ext = self._ext
+            ext[:-1] = d
+            upper = ext[self.up_src]
+            upper *= self.up_scale
+            lower = ext[self.lo_src]
+            lower *= self.lo_scale
         else:
-            np.minimum.at(upper, self.up_group, up)
-        if self.lo_single:
-            lower[self.lo_group] = lo
-        else:
-            np.maximum.at(lower, self.lo_group, lo)
+            upper = np.full(self.n, _DAQP_INF)
+            lower = np.full(self.n, -_DAQP_INF)
+            np.minimum.at(upper, self.up_group, d[self.up_row] * self.up_inv)
+            np.maximum.at(lower, self.lo_group, d[self.lo_row] * self.lo_inv)
+        upper[upper >= self.up_huge] = _DAQP_INF
+        lower[lower <= self.lo_huge] = -_DAQP_INF
         return lower, upper
 
 
@@ -279,8 +302,9 @@ class FastDAQP:
         self.A = np.ascontiguousarray(np.array(matrix).reshape(len(matrix), n_vars))
         simple_sense = [_HARD] * self.n_simple
         self._sense0 = np.array(simple_sense + senses, dtype=np.int32)
-        self._rows = _Rows(self.n_simple + self.n_rows, rows, groups, factors, self._n_eq)
-        self._zero = _Rows(len(zero_rows), [r for r, _ in zero_rows],
+        m = A.shape[0]
+        self._rows = _Rows(self.n_simple + self.n_rows, m, rows, groups, factors, self._n_eq)
+        self._zero = _Rows(len(zero_rows), m, [r for r, _ in zero_rows],
                            list(range(len(zero_rows))), [1.0] * len(zero_rows), self._n_eq)
         self._hard = slice(0, self._soft_first)
         self._soft_part = slice(self._soft_first, self.n_simple + self.n_rows)
@@ -298,7 +322,7 @@ class FastDAQP:
             return
         lower, upper = self._lower0, self._upper0
         self._model = self._make()
-        flag, _ = self._model.setup(self.H, self._f0, self.A, _finite(upper), _finite(lower),
+        flag, _ = self._model.setup(self.H, self._f0, self.A, upper, lower,
                                     self._sense0.copy())
         if flag < 0:
             # A contradiction in the data at zero parameters; set up with open bounds.
@@ -317,9 +341,7 @@ class FastDAQP:
 
     def _bounds(self, data: Array) -> tuple[Array, Array, bool]:
         """DAQP's (lower, upper) for OSQP's stacked data; True when a zero row is violated."""
-        d = data[self._n:].copy()
-        d[d >= _HUGE] = np.inf
-        d[d <= -_HUGE] = -np.inf
+        d = data[self._n:]
         lower, upper = self._rows.bounds(d)
         violated = False
         if self._zero.n:
@@ -351,30 +373,30 @@ class FastDAQP:
         cold.
         """
         start = time.perf_counter()
-        n_z, n_s = self._z_pos.size, self.fast.z_index["s"].size
-        if np.isnan(data).any() or not np.isfinite(data[:self._n]).all():
-            return QPSolution(np.full(n_z, np.nan), np.full(n_s, np.nan), "error", 0,
-                              time.perf_counter() - start)
+        # One sum finds a NaN or an infinity (the data are clipped to ±1e20); then look closer.
+        if not math.isfinite(data.sum()) and (np.isnan(data).any()
+                                              or not np.isfinite(data[:self._n]).all()):
+            return self._failed("error", start)
         lower, upper, violated = self._bounds(data)
-        hard_gap = lower[self._hard] - upper[self._hard]
-        if violated or (hard_gap > _CONTRADICTION * np.maximum(
-                1.0, np.abs(upper[self._hard]))).any():
-            return QPSolution(np.full(n_z, np.nan), np.full(n_s, np.nan), "infeasible", 0,
-                              time.perf_counter() - start)
-        if self.soft and (lower[self._soft_part] > upper[self._soft_part]).any():
-            return self._solve_slack_form(data, start)
+        if violated:
+            return self._failed("infeasible", start)
+        if (lower > upper).any():
+            hard_gap = lower[self._hard] - upper[self._hard]
+            if (hard_gap > _CONTRADICTION * np.maximum(1.0, np.abs(upper[self._hard]))).any():
+                return self._failed("infeasible", start)
+            if self.soft and (lower[self._soft_part] > upper[self._soft_part]).any():
+                return self._solve_slack_form(data, start)
         self._used = True
         if self._model is None:  # unconstrained: H x = -f
             x, flag, info = -cho_solve(self._chol, data[self._keep_index]), 1, {"iterations": 0}
         else:
-            self._model.update(f=data[self._keep_index], bupper=_finite(upper),
-                               blower=_finite(lower))
+            self._model.update(f=data[self._keep_index], bupper=upper, blower=lower)
             x, _, flag, info = self._model.solve()
         elapsed = time.perf_counter() - start
-        status = from_daqp(flag)
-        x = np.asarray(x, dtype=float)
-        if status not in ("optimal", "optimal_inaccurate") or not np.isfinite(x).all():
+        status = _DAQP_STATUS.get(flag) or from_daqp(flag)
+        if status != "optimal":
             self.reset()
+            x = np.asarray(x, dtype=float)
             if not np.isfinite(x).all():
                 x = np.full(self.n_vars, np.nan)
         z = x[self._z_pos]
@@ -386,6 +408,12 @@ class FastDAQP:
             slack = x[self._s_pos]
         return QPSolution(z, slack, status, int(info["iterations"]), elapsed)
 
+    def _failed(self, status: str, start: float) -> QPSolution:
+        """No solve: NaN decisions and slacks with ``status``."""
+        return QPSolution(np.full(self._z_pos.size, np.nan),
+                          np.full(self.fast.z_index["s"].size, np.nan), status, 0,
+                          time.perf_counter() - start)
+
     def _solve_slack_form(self, data: Array, start: float) -> QPSolution:
         """A solve with hl > hu on a soft row: DAQP with the slack variables kept."""
         if self._slack_form is None:
@@ -395,7 +423,3 @@ class FastDAQP:
         return QPSolution(sol.z, sol.slack, sol.status, sol.iterations,
                           time.perf_counter() - start)
 
-
-def _finite(bound: Array) -> Array:
-    """Bounds with infinities as DAQP's infinity (±1e30)."""
-    return np.clip(bound, -_DAQP_INF, _DAQP_INF)
