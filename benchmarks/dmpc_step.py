@@ -22,7 +22,7 @@ coach plus slacks) is reported separately and is the same for all.
 
 Part 1b — the dense path against OSQP on the identical data: the recorded
 sequence replayed on raw OSQP, on the OSQP fast path and on the DAQP path
-(warm-started, and cold: a fresh working set for every QP), interleaved round
+(warm-started, and cold: the empty working set for every QP), interleaved round
 by round on the same machine; ratios of the per-round times, and the largest
 difference of the solutions [kN] (target: DAQP >= 4x faster than raw OSQP,
 solutions within 1e-6 kN).
@@ -161,8 +161,8 @@ def replay_raw_osqp_solutions(ctl, log):
 
 def replay_fast(ctl, log, steps, solver):
     """The recorded data on a fast-path solver of every block: ``"osqp"`` (FastOSQP, fresh
-    workspace), ``"daqp"`` (FastDAQP, warm-started) or ``"daqp-cold"`` (a fresh working
-    set for every QP). Returns the time per step and the solutions."""
+    workspace), ``"daqp"`` (FastDAQP, warm-started) or ``"daqp-cold"`` (the empty working
+    set for every QP, same workspace). Returns the time per step and the solutions."""
     from trainctl.controllers.denseqp import FastDAQP
 
     solvers = []
@@ -178,7 +178,7 @@ def replay_fast(ctl, log, steps, solver):
     start = time.perf_counter()
     for i, data in log:
         if cold:
-            solvers[i].reset()
+            solvers[i].clear_working_set()
         sols.append(solvers[i].solve_vector(data))
     return (time.perf_counter() - start) / steps, sols
 

@@ -367,6 +367,14 @@ class TestWarmStart:
         # than the empty one (the benchmark measures the closed-loop sequence).
         assert iters["warm"] > 0 and iters["cold"] > 0
 
+    def test_an_empty_working_set_gives_the_same_solution(self, solved):
+        ctl, entries = solved
+        dense = {i: FastDAQP(block.qp.fast_path) for i, block in enumerate(ctl.blocks)}
+        for i, data, sol in entries[:40]:
+            dense[i].clear_working_set()
+            cold = dense[i].solve_vector(data)
+            np.testing.assert_allclose(cold.z, sol.z, rtol=0, atol=1e-9)
+
     def test_reset_gives_a_fresh_workspace_bit_for_bit(self, solved):
         ctl, entries = solved
         i0 = entries[0][0]

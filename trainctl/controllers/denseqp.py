@@ -371,6 +371,15 @@ class FastDAQP:
         if self._slack_form is not None:
             self._slack_form.reset()
 
+    def clear_working_set(self) -> None:
+        """Start the next solve from the empty working set, in the same workspace.
+
+        Cheaper than :meth:`reset` (no new setup); for measuring what the warm
+        start saves.
+        """
+        if self._model is not None:
+            self._model.update(sense=self._sense0.copy())
+
     def solve_vector(self, data: Array) -> QPSolution:
         """Solve with OSQP's stacked data [q; b; h] already composed (as ``FastOSQP``).
 
