@@ -186,6 +186,22 @@ class TestController:
                                        atol=1e-3)
             assert recs["daqp"].status == recs["osqp"].status == "optimal"
 
+    @pytest.mark.parametrize("solver", ["auto", "osqp", "daqp"])
+    def test_the_scenario_key_reaches_every_qp(self, solver):
+        """[controller] qp_solver builds the family's controller on that solver."""
+        from trainctl.run import make_controller
+        from trainctl.scenario import builtin_scenario_text, parse_scenario
+
+        text = builtin_scenario_text("crh2-dmpc").replace(
+            "[controller]\n", f'[controller]\nqp_solver = "{solver}"\n', 1)
+        scenario = parse_scenario(text)
+        ctl = make_controller(scenario, "ndmpc", build_design(scenario))
+        expected = "osqp" if solver == "osqp" else "daqp"  # auto: 2 decisions per coach
+        assert ctl.qp_solver == solver
+        for block in ctl.blocks:
+            assert block.qp.solver == expected
+            assert (block.qp.dense_path is not None) == (expected == "daqp")
+
     def test_auto_takes_daqp_for_small_qps(self):
         assert choose_solver("auto", DAQP_MAX_DECISIONS) == "daqp"
         assert choose_solver("auto", DAQP_MAX_DECISIONS + 1) == "osqp"
