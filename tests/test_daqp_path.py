@@ -309,6 +309,33 @@ class TestStatuses:
         assert dense.solve_vector(data).status == "max_iterations"
 
 
+class TestEqualityRows:
+    def test_equalities_and_one_sided_rows(self):
+        """A general cvxpy problem on FastOSQP: equality rows (DAQP sense 5), rows of one side."""
+        import cvxpy as cvx
+
+        from trainctl.controllers.fastqp import FastOSQP
+
+        rng = np.random.default_rng(7)
+        M = rng.normal(size=(4, 4))
+        z, p, b, cap = cvx.Variable(4), cvx.Parameter(4), cvx.Parameter(), cvx.Parameter(2)
+        E = rng.normal(size=(2, 4))
+        problem = cvx.Problem(cvx.Minimize(cvx.sum_squares(M @ z) + p @ z),
+                              [cvx.sum(z) == b, E @ z <= cap, z >= -2])
+        fast = FastOSQP(problem, {"p": p, "b": b, "cap": cap}, z, None, name="eq")
+        dense = FastDAQP(fast)
+        assert fast.n_eq >= 1 and 5 in dense._sense0  # (sum_squares adds equality rows too)
+        for _ in range(5):
+            values = {"p": rng.normal(size=4) * 5, "b": rng.normal(), "cap": rng.normal(size=2)}
+            data = fast.compose(values)
+            a, ref = dense.solve_vector(data), fast.solve_vector(data)
+            x = clarabel(fast, data)
+            assert a.status == ref.status == "optimal"
+            np.testing.assert_allclose(a.z, x[fast.z_index["z"]], rtol=0, atol=TOL_KN)
+            np.testing.assert_allclose(a.z, ref.z, rtol=0, atol=TOL_KN)
+            assert abs(a.z.sum() - values["b"]) < 1e-9
+
+
 class TestSoftRows:
     def random_qp(self, rng, nz=6, nh=4, ns=10):
         M = rng.normal(size=(nz, nz))

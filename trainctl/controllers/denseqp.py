@@ -183,6 +183,8 @@ class FastDAQP:
         n, n_eq = fast.P.shape[0], fast.n_eq
         self._n, self._n_eq = n, n_eq
         P = fast.P.toarray()
+        if not np.array_equal(P, P.T):  # only a triangle stored: DAQP needs the whole H
+            P = np.triu(P) + np.triu(P, 1).T
         A = fast.Amat.toarray()
         s_cols = fast.z_index["s"]
         reason = self._soft_structure(P, A, s_cols) if soft and s_cols.size else \
