@@ -321,3 +321,32 @@ def test_seed003_repetitions_and_claims_fit_1280(tmp_path: Path) -> None:
     assert _console(_load(page, tmp_path / "c.png", tmp_path / "profile")) == []
     record = _measure(page, tmp_path)
     assert record["width"] <= WIDTH and record["problems"] == []
+
+
+@pytest.fixture(scope="module")
+def sweep_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The report of a small simulated sweep (2 × 2 points, three strategies)."""
+    root = tmp_path_factory.mktemp("browser-sweep")
+    store = root / "store"
+    assert main(["sweep", "crh2-dmpc", "--set", "controller.r_per_kn2=1,10", "--set",
+                 "model.sample_time=10.0,20.0", "-o", str(store), "-j", "2"]) == 0
+    assert main(["report", str(store), "--deterministic"]) == 0
+    return store / "report.html"
+
+
+def test_sweep_report_loads_cleanly_and_fits_1280(sweep_report: Path, tmp_path: Path) -> None:
+    """The sweep report: no console message, real content, nothing wider than 1280 px."""
+    shot = tmp_path / "sweep.png"
+    assert _console(_load(sweep_report, shot, tmp_path / "profile")) == []
+    with Image.open(shot) as image:
+        pixels = np.asarray(image.convert("RGB"))
+    assert len(np.unique(pixels.reshape(-1, 3), axis=0)) > 50  # not a blank page
+    ink_rows = np.any(np.any(pixels != pixels[0, 0], axis=-1), axis=1)
+    assert ink_rows[:1000].mean() > 0.3 and ink_rows[1000:].mean() > 0.3
+    record = _measure(sweep_report, tmp_path)
+    assert record["viewport"] == WIDTH
+    assert record["width"] <= WIDTH and record["problems"] == []
+    texts = _figure_texts(sweep_report.read_text(encoding="utf-8"))
+    for name in ("centralised", "decentralised", "ndmpc"):  # a panel per strategy
+        assert re.search(rf"(^|\s){name}(\s|$)", texts["metric-rms-error"]), name
+    assert "predicted pass" in texts["certificate-ndmpc-convergence"]

@@ -37,6 +37,7 @@ from trainctl.scenario import (
 
 BUILTIN_NAMES = [
     "crh2-dmpc",
+    "crh2-dmpc-convergence-sweep",
     "crh2-dmpc-well-sampled",
     "crh2-potential",
     "crh2-potential-unpinned",
@@ -44,6 +45,7 @@ BUILTIN_NAMES = [
     "heavy-haul-flocking-collision",
     "heavy-haul-hinf",
     "heavy-haul-hinf-delay",
+    "heavy-haul-hinf-delay-sweep",
     "heavy-haul-hinf-delayed-own-speed",
     "heavy-haul-hinf-ideal",
     "heavy-haul-hinf-interruption",

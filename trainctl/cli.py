@@ -28,6 +28,8 @@ Subcommands
     write its self-contained HTML design report (default
     ``reports/<name>.html``, see :func:`trainctl.report.batch.default_report_path`);
     ``--all`` writes every built-in's report and an ``index.html`` gallery.
+    For a sweep store (``trainctl sweep -o DIR``) the sweep report
+    (:mod:`trainctl.report.sweep`), by default ``DIR/report.html``.
 
 Output paths (``-o``): a regular file is replaced atomically; ``-``, a
 character device (``/dev/null``) or a pipe is written through, never
@@ -282,8 +284,9 @@ def _add_report(sub: Any) -> None:
         "scenario",
         metavar="SCENARIO",
         nargs="?",
-        help=f"built-in scenario name, path to a TOML file, or a directory written by "
-        f"'analyse --save' (default: {DEFAULT_SCENARIO})",
+        help=f"built-in scenario name, path to a TOML file, a directory written by "
+        f"'analyse --save', or a sweep store written by 'sweep' (its report goes to "
+        f"DIR/report.html) (default: {DEFAULT_SCENARIO})",
     )
     p_report.add_argument(
         "-o",
@@ -427,23 +430,31 @@ def _run_sweep(args: argparse.Namespace, label: str, text: str, scenario: Any, s
                points: Any, scenarios: Any) -> int:
     """Run the points of ``trainctl sweep`` into its store and print the rows."""
     from .sweep import point_key
-    from .sweep.runner import scheduler_address
+    from .sweep.runner import dask_executor, scheduler_address
     from .sweep.store import SweepStore
 
     keys = [point_key(s) for s in scenarios]
     simulate = not args.no_simulate
     output = Path(args.output) if args.output else default_sweep_dir(scenario)
-    store = SweepStore.open(output, label=label, scenario_text=text, points=points, keys=keys,
-                            swept=sweep.keys, simulate=simulate, arrays=args.arrays)
-    todo = store.missing()
-    by_key = dict(zip(keys, scenarios, strict=True))
     address = scheduler_address(args.scheduler)
-    if todo and len(todo) < len(set(keys)):
-        print(f"{label}: resuming {output}: {len(set(keys)) - len(todo)} points stored, "
-              f"{len(todo)} to run", file=sys.stderr)
+    store: SweepStore | None = None
     try:
-        frame = _sweep_points(args, store, todo, by_key, address, simulate)
+        with contextlib.ExitStack() as stack:
+            # the cluster is reached before the store is made: an unreachable
+            # scheduler leaves nothing behind
+            cluster = stack.enter_context(dask_executor(address)) if address else None
+            store = SweepStore.open(output, label=label, scenario_text=text, points=points,
+                                    keys=keys, swept=sweep.keys, simulate=simulate,
+                                    arrays=args.arrays)
+            todo = store.missing()
+            by_key = dict(zip(keys, scenarios, strict=True))
+            if todo and len(todo) < len(set(keys)):
+                print(f"{label}: resuming {output}: {len(set(keys)) - len(todo)} points "
+                      f"stored, {len(todo)} to run", file=sys.stderr)
+            frame = _sweep_points(args, store, todo, by_key, cluster, simulate)
     except KeyboardInterrupt:
+        if store is None:
+            raise
         done = len(set(keys)) - len(store.missing())
         print(f"\n{PROG}: interrupted: {done} of {len(set(keys))} points are stored in "
               f"{output}; run the same command again to finish the others", file=sys.stderr)
@@ -452,16 +463,16 @@ def _run_sweep(args: argparse.Namespace, label: str, text: str, scenario: Any, s
 
 
 def _sweep_points(args: argparse.Namespace, store: Any, todo: list[str], by_key: Any,
-                  address: str | None, simulate: bool) -> Any:
-    """Run the missing points on the chosen executor with a progress bar; the table."""
+                  cluster: Executor | None, simulate: bool) -> Any:
+    """Run the missing points on ``cluster`` (Dask) or locally, with a progress bar; the table."""
     from ._progress import Progress
     from .parallel import worker_pool
-    from .sweep.runner import dask_executor, run_sweep
+    from .sweep.runner import run_sweep
 
     with contextlib.ExitStack() as stack:
         executor: Executor | None
-        if address and todo:
-            executor = stack.enter_context(dask_executor(address))
+        if cluster is not None:
+            executor = cluster
         else:
             workers = min(int(args.jobs), len(todo)) if args.jobs > 1 else 0
             executor = stack.enter_context(worker_pool(workers))
@@ -568,7 +579,7 @@ def _rebuild_argv(args: argparse.Namespace) -> list[str]:
 
 def _cmd_report(args: argparse.Namespace) -> int:
     from .parallel import want_pool
-    from .report import ReportData, is_saved_run, normalise_timestamp
+    from .report import ReportData, is_saved_run, normalise_timestamp, portable_command
     from .report.batch import (
         check_report_output,
         default_report_path,
@@ -597,6 +608,21 @@ def _cmd_report(args: argparse.Namespace) -> int:
               f"{time.perf_counter() - start:.1f} s)")
         return EXIT_OK
     source = args.scenario or DEFAULT_SCENARIO
+    from .sweep.store import is_sweep_store
+
+    if is_sweep_store(source):
+        from .report.sweep import default_sweep_report_path, write_sweep_report
+        from .report.sweep import summary_line as sweep_line
+
+        default = default_sweep_report_path(source)
+        path = check_report_output(args.output or default, default_name=default.name)
+        command = portable_command(["report", source] + (["--deterministic"]
+                                                         if args.deterministic else []))
+        _, sweep = write_sweep_report(source, path, generated_at=generated_at,
+                                      deterministic=args.deterministic, command=command)
+        print(f"wrote {path} ({sweep_line(sweep)}; {time.perf_counter() - start:.1f} s)",
+              file=sys.stderr if path.kind == "fd" else sys.stdout)
+        return EXIT_OK
     if Path(source).is_dir():
         if not is_saved_run(source):
             raise _UserError(f"{source}: is a directory but not one written by 'trainctl analyse "

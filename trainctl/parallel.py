@@ -123,8 +123,32 @@ def _init_worker() -> None:
     silence_c_stdout()
 
 
+WORKER_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+"""Thread-count variables of the BLAS and OpenMP libraries, set to 1 for pool workers
+(unless set already): the workers are as many as the cores, so threads inside each would
+only compete for them (Dask's workers do the same)."""
+
+
+@contextlib.contextmanager
+def _single_threaded_libraries() -> Iterator[None]:
+    """Set :data:`WORKER_THREAD_VARIABLES` to 1 where unset, for processes started inside."""
+    unset = [name for name in WORKER_THREAD_VARIABLES if name not in os.environ]
+    for name in unset:
+        os.environ[name] = "1"
+    try:
+        yield
+    finally:
+        for name in unset:
+            os.environ.pop(name, None)
+
+
 def process_pool(workers: int) -> Executor:
     """A local process pool whose workers have trainctl imported.
+
+    The workers' BLAS and OpenMP libraries run single-threaded (one thread
+    per worker, :data:`WORKER_THREAD_VARIABLES`, unless those variables are
+    set), so that ``workers`` processes on as many cores do not oversubscribe
+    them.
 
     Parameters
     ----------
@@ -140,6 +164,10 @@ def process_pool(workers: int) -> Executor:
     try:
         forkserver = multiprocessing.get_context("forkserver")
         forkserver.set_forkserver_preload(["trainctl.run"])
+        from multiprocessing import forkserver as _server
+
+        with _single_threaded_libraries():
+            _server.ensure_running()  # the workers fork from it, with its environment
         context = forkserver
     except ValueError:  # pragma: no cover - platforms without forkserver
         context = multiprocessing.get_context("spawn")

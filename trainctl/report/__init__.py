@@ -11,6 +11,9 @@ The pipeline, each step usable on its own (e.g. in a notebook):
 3. :func:`render_report` — the package template, autoescaped, strict.
 4. :func:`write_report` — atomic write (temporary file, then rename).
 
+The report of a sweep store (``trainctl report SWEEP_DIR``) is
+:mod:`trainctl.report.sweep`, on the same environment, stylesheet and writes.
+
 Examples
 --------
 >>> from trainctl.report import make_environment

@@ -121,6 +121,16 @@ def simulate(
         the result's ``held_noise_square`` is, per sample, Σ n² of the values
         the controller held.
 
+    Notes
+    -----
+    A controller whose strategy iterates within a step (N-DMPC) may say how
+    far: its ``iteration_limit`` (most iterations per step) and
+    ``iteration_tolerance`` (the change, in the unit of its residuals, below
+    which a step has converged) are copied to ``meta["iteration_limit"]``
+    and ``meta["iteration_tolerance"]`` (both None when it has none), from
+    which :func:`~trainctl.sim.compute_metrics` counts the steps that
+    stopped at the limit.
+
     Returns
     -------
     SimulationResult
@@ -192,6 +202,7 @@ def simulate(
         "divergence_speed_error": bound if math.isfinite(bound) else None,
         "divergence": divergence,
         "wall_time": wall,
+        **_iteration_limit(controller),
     })
     history = network.history() if network is not None else None
     if history is not None:
@@ -209,6 +220,17 @@ def simulate(
         arrays["held_noise_square"] = history.held_noise_square(np.asarray(arrays["time"])[:-1])
     return SimulationResult(**arrays, controller_name=str(controller.name), seed=int(seed),
                             dt=dt, meta=meta)
+
+
+def _iteration_limit(controller: Controller) -> dict[str, Any]:
+    """``meta``'s ``iteration_limit`` and ``iteration_tolerance``: a controller's
+    optional attributes of those names (an iterating strategy's iterations per step and
+    the change, in its residuals' unit, below which a step has converged), else None."""
+    limit = getattr(controller, "iteration_limit", None)
+    tolerance = getattr(controller, "iteration_tolerance", None)
+    if limit is None or tolerance is None:
+        return {"iteration_limit": None, "iteration_tolerance": None}
+    return {"iteration_limit": int(limit), "iteration_tolerance": float(tolerance)}
 
 
 def _run(plant: Plant, controller: Controller, reference: Reference, log: Log,

@@ -24,6 +24,14 @@ braking limit (the samples flagged in ``result.saturation`` times their
 intervals: requests cut to the envelope, or asking for its limit), and when
 and where (the head position) it first happened.
 
+Iteration limit: a controller that iterates within a step (N-DMPC,
+cooperative DMPC) records its limit and tolerance in the result's ``meta``
+(:func:`~trainctl.sim.simulate`); a step stopped at the limit unconverged
+when it ran ``iteration_limit`` iterations and its last change (residual)
+is still above ``iteration_tolerance``. A step that converged in exactly
+``iteration_limit`` iterations does not count, and neither does a step with
+no iteration (a fault held the input).
+
 Energy quadrature: over interval k each vehicle's input u_k is held, and its
 speed is taken as the trapezoid (v_k + v_{k+1}) / 2, so the work is
 W_ik = u_ik (v_ik + v_i,k+1) / 2 · T — exact when the speed is linear over
@@ -118,6 +126,14 @@ class Metrics:
         Each coupler's admissible force [N], inf where there is none, shape (n-1,).
     coupler_over_time : ndarray
         Time each coupler's |f| was above its limit [s] (module docstring), shape (n-1,).
+    iteration_limit : int or None
+        Most distributed iterations per step of an iterating controller
+        (``meta["iteration_limit"]``); None when it does not iterate.
+    iteration_limit_steps : int or None
+        Steps that stopped at that limit unconverged: ``iteration_limit``
+        iterations, the last change still above the tolerance
+        (``meta["iteration_tolerance"]``, in the residuals' unit); None
+        without a limit.
     """
 
     settle_time: float
@@ -146,6 +162,16 @@ class Metrics:
     coupler_peak_time: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     coupler_limit: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     coupler_over_time: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    iteration_limit: int | None = None
+    iteration_limit_steps: int | None = None
+
+    @property
+    def iterations_converged(self) -> bool | None:
+        """True when no step stopped at the iteration limit unconverged; None when the
+        controller does not iterate or no step was recorded."""
+        if self.iteration_limit_steps is None or not sum(self.status_counts.values()):
+            return None
+        return self.iteration_limit_steps == 0
 
     @property
     def saturated(self) -> bool:
@@ -235,6 +261,9 @@ class Metrics:
             "coupler_limit": [num(x) for x in self.coupler_limit],
             "coupler_over_time": [float(x) for x in self.coupler_over_time],
             "coupler_verdict": self.coupler_verdict(),
+            "iteration_limit": self.iteration_limit,
+            "iteration_limit_steps": self.iteration_limit_steps,
+            "iterations_converged": self.iterations_converged,
         }
 
 
@@ -321,6 +350,7 @@ def compute_metrics(
                 else math.nan)
     iters = result.iterations
     times = result.solve_times
+    limit, stopped = _iteration_limit(result)
     has = iters.size > 0
     return Metrics(
         settle_time=settle,
@@ -343,6 +373,8 @@ def compute_metrics(
         fallback_counts=dict(Counter(f for f in result.fallbacks if f)),
         divergence=result.divergence,
         **_couplers(result.dense_time, forces, limits),
+        iteration_limit=limit,
+        iteration_limit_steps=stopped,
     )
 
 
@@ -360,6 +392,17 @@ def _after(result: SimulationResult, settle: float,
             )
         return np.ones_like(after), np.ones(result.dense_time.shape, dtype=bool)
     return after, result.dense_time >= settle - tol
+
+
+def _iteration_limit(result: SimulationResult) -> tuple[int | None, int | None]:
+    """The iteration limit of the run's controller and the steps that stopped at it
+    unconverged (:class:`Metrics`), from ``meta`` (None, None when it does not iterate)."""
+    limit = result.meta.get("iteration_limit")
+    tolerance = result.meta.get("iteration_tolerance")
+    if limit is None or tolerance is None:
+        return None, None
+    stopped = sum(1 for r in result.residuals if len(r) >= limit and r[-1] > tolerance)
+    return int(limit), stopped
 
 
 def _max_jerk(t: NDArray[np.float64], v: NDArray[np.float64]) -> float:

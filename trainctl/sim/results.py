@@ -131,8 +131,11 @@ class SimulationResult(ResultViews):
         Sample time [s].
     meta : dict
         JSON-safe extras: versions, train, plant and run settings; with
-        ``"plant_saturation"`` (bool) and ``"divergence"`` (None, or where
-        the run was stopped: see :attr:`divergence`).
+        ``"plant_saturation"`` (bool), ``"divergence"`` (None, or where
+        the run was stopped: see :attr:`divergence`) and, from
+        :func:`~trainctl.sim.simulate`, ``"iteration_limit"`` and
+        ``"iteration_tolerance"`` (an iterating controller's limit per step
+        and convergence tolerance; None otherwise).
     requested_inputs : ndarray or None
         Forces the controller asked for over [t_k, t_{k+1}) [N], shape
         (n, N) (a non-finite request is recorded as the input held instead);

@@ -35,11 +35,18 @@ if TYPE_CHECKING:
 __all__ = ["METRICS", "point_rows", "run_point", "sweep_rows"]
 
 METRICS = ("rms_error", "max_error", "max_coupler_force", "energy_kwh", "tracking_ok",
-           "iterations_mean", "diverged")
+           "iterations_mean", "diverged", "converged", "iteration_limit_steps",
+           "deviation_ratio")
 """Per-strategy metric columns: the RMS speed error over every vehicle and sample after
 ``settle_time`` [m/s], the largest speed error [m/s], the largest |coupler force| [N], the
-net traction energy [kWh], whether tracking held, the mean solver iterations per sample, and
-whether the run diverged."""
+net traction energy [kWh], whether tracking held, the mean solver iterations per sample,
+whether the run diverged, whether an iterating strategy's iteration (N-DMPC, cooperative
+DMPC) converged within its ``max_iterations`` at every step (bool), and the number of steps
+that stopped at that limit unconverged [-] (both None for a strategy that does not iterate:
+:class:`trainctl.sim.Metrics`), and the deviation ratio [-]: vehicle 1's RMS speed error over
+the whole run divided by the same in the run on the ``[simulation] baseline_network`` with
+the same seed (seed 003's case-(c) measure, :mod:`trainctl.claims`; None without a
+baseline network, or when the baseline run does not deviate)."""
 
 
 def run_point(scenario: Scenario, simulate: bool = True) -> dict[str, Any]:
@@ -65,10 +72,29 @@ def run_point(scenario: Scenario, simulate: bool = True) -> dict[str, Any]:
     return result
 
 
-def _metric(name: str, m: Mapping[str, Any]) -> Any:
+def _deviation_ratio(summary: Mapping[str, Any], strategy: str) -> float | None:
+    """Run 0's vehicle-1 whole-run RMS speed error over its baseline run's (same seed)."""
+    runs = (summary.get("repetitions") or {}).get(strategy) or []
+    first = next((r for r in runs if r.get("index") == 0), None)
+    base = [b for b in (summary.get("baseline_network") or {}).get(strategy) or []
+            if first is not None and b.get("seed") == first.get("seed")]
+    if first is None or not base:
+        return None
+    num, den = first["deviation"]["rms_error"][0], base[0]["deviation"]["rms_error"][0]
+    if num is None or den is None or not den > 0:
+        return None
+    return float(num) / float(den)
+
+
+def _metric(name: str, m: Mapping[str, Any], summary: Mapping[str, Any],
+            strategy: str) -> Any:
     value = m.get(name)
+    if name == "deviation_ratio":
+        return _deviation_ratio(summary, strategy)
     if name == "diverged":
         return m.get("divergence") is not None
+    if name == "converged":
+        return m.get("iterations_converged")
     if name == "rms_error":
         values = [float(x) for x in (value or []) if x is not None]
         return math.sqrt(sum(x * x for x in values) / len(values)) if values else None
@@ -115,7 +141,7 @@ def point_rows(point: SweepPoint, key: str, summary: Mapping[str, Any]) -> list[
     if not sims:
         return [{**base, "strategy": ""}]
     return [{**base, "strategy": strategy,
-             **{f"metric.{name}": _metric(name, m) for name in METRICS}}
+             **{f"metric.{name}": _metric(name, m, summary, strategy) for name in METRICS}}
             for strategy, m in sims.items()]
 
 

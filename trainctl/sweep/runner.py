@@ -42,9 +42,9 @@ SCHEDULER_ENV = "TRAINCTL_DASK_SCHEDULER"
 """Environment variable naming the Dask scheduler when ``--scheduler`` is not given."""
 
 
-def run_point_results(scenario: Scenario, simulate: bool = True, arrays: bool = True,
+def run_point_results(scenario: Scenario, simulate: bool = True, arrays: bool | str = True,
                       ) -> tuple[dict[str, Any], dict[str, SimulationResult]]:
-    """One point's run: its summary and (when ``arrays``) its simulation results.
+    """One point's run: its summary and the simulation results a store keeps of it.
 
     Parameters
     ----------
@@ -52,9 +52,13 @@ def run_point_results(scenario: Scenario, simulate: bool = True, arrays: bool = 
         The point's validated scenario.
     simulate : bool
         Run its ``[simulation]`` strategies.
-    arrays : bool
-        Return the simulation results too (their time series), else an
-        empty mapping.
+    arrays : {"dense", "sampled", "none"} or bool
+        What to return of the simulations' time series (the store's
+        ``arrays``, :data:`~trainctl.sweep.store.ARRAYS`): the results
+        whole (``"dense"`` or True), without their between-sample arrays
+        (``"sampled"``: the ``dense_*`` arrays are the sampled ones, so a
+        result travels back from a worker at a small fraction of its size),
+        or an empty mapping (``"none"`` or False).
 
     Returns
     -------
@@ -63,12 +67,24 @@ def run_point_results(scenario: Scenario, simulate: bool = True, arrays: bool = 
     simulations : dict of str to SimulationResult
         Strategy → result (run 0 of each strategy).
     """
+    import dataclasses
+
     from .._cli_support import without_wall_clock
     from ..run import run_scenario
 
+    if isinstance(arrays, bool):
+        arrays = "dense" if arrays else "none"
     run = run_scenario(scenario, simulate=simulate)
     summary: dict[str, Any] = without_wall_clock(run.to_dict())
-    return summary, (dict(run.simulations) if arrays else {})
+    if arrays == "none":
+        return summary, {}
+    if arrays == "dense":
+        return summary, dict(run.simulations)
+    # the between-sample arrays become the sampled ones (what a result without them loads as)
+    return summary, {name: dataclasses.replace(
+        result, dense_time=result.time, dense_states=result.states,
+        dense_coupler_forces=result.coupler_forces, dense_reference_speed=result.reference_speed)
+        for name, result in run.simulations.items()}
 
 
 def run_sweep(store: SweepStore, scenarios: Mapping[str, Scenario], *, simulate: bool = True,
@@ -110,7 +126,7 @@ def run_sweep(store: SweepStore, scenarios: Mapping[str, Scenario], *, simulate:
     if lost:
         raise ScenarioError(f"{store.path}: {len(lost)} points of the store have no scenario "
                             f"(first {lost[0][:12]}).")
-    arrays = store.manifest.get("arrays", "sampled") != "none"
+    arrays = str(store.manifest.get("arrays", "sampled"))
     if executor is None:
         for key in todo:
             summary, sims = run_point_results(scenarios[key], simulate, arrays)

@@ -64,13 +64,16 @@ from .problem import StepContext, TrainProblem
 from .settings import QP_SOLVERS, STRATEGIES, MPCConstraints
 from .strategies import make_strategy
 
-__all__ = ["HOLD_INPUT", "STRATEGIES", "MPCConstraints", "MPCController", "make_mpc"]
+__all__ = ["HOLD_INPUT", "ITERATING", "STRATEGIES", "MPCConstraints", "MPCController", "make_mpc"]
 
 KN = 1e3
 HOLD_INPUT = "hold correction"
 """Fallback of a step whose measurement was not finite: the feedforward plus the last
 correction, within the rate limit and the envelope."""
 Array = NDArray[np.float64]
+
+ITERATING = ("ndmpc", "cooperative")
+"""The strategies that iterate within a step, up to ``max_iterations`` times."""
 
 _DESIGN_MSG = (
     "{where}: the train MPC needs a design model of this train's deviation dynamics, "
@@ -158,6 +161,23 @@ class MPCController:
         self.problem = TrainProblem(design, force_matrix, constraints, self._strategy,
                                     name=self.name, path=path, qp_solver=qp_solver)
         self.reset()
+
+    @property
+    def iteration_limit(self) -> int | None:
+        """Most distributed iterations of one step (``max_iterations``) for the iterating
+        strategies (``"ndmpc"``, ``"cooperative"``); None for the single-solve ones.
+
+        The simulation records it with :attr:`iteration_tolerance` in the result's
+        ``meta``, so that its metrics count the steps that stopped at the limit
+        (:class:`trainctl.sim.Metrics`).
+        """
+        return self.max_iterations if self.strategy in ITERATING else None
+
+    @property
+    def iteration_tolerance(self) -> float | None:
+        """The change [kN] below which an iterating strategy's step has converged
+        (``tolerance``: the unit of the step residuals); None for the single-solve ones."""
+        return float(self.tolerance) if self.strategy in ITERATING else None
 
     @property
     def blocks(self) -> list[QPBlock]:
