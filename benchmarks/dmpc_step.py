@@ -8,6 +8,9 @@ envelope, 5 kN/step rate and 50 kN coupler-force limits), N-DMPC with the
 scenario's iteration settings, over the same closed-loop sequence of states:
 
   fast      trainctl, cvxpy-modelled QPs solved through the probed OSQP data
+            (qp_solver="osqp")
+  fast DAQP the same, solved by the dense active-set path (qp_solver="daqp",
+            trainctl.controllers.denseqp.FastDAQP)
   cvxpy     trainctl, the same QPs re-solved with Problem.solve(warm_start=True)
   rebuild   a new controller (cvxpy problems rebuilt) at every step
   raw OSQP  the identical (P, q, A, l, u) sequence the fast path produced,
@@ -15,7 +18,14 @@ scenario's iteration settings, over the same closed-loop sequence of states:
 
 The ratio fast / raw OSQP measures trainctl's overhead over the solver on the
 same data; the formulation (condensed: inputs are the only decisions, 5 per
-coach plus slacks) is reported separately and is the same for all four.
+coach plus slacks) is reported separately and is the same for all.
+
+Part 1b — the dense path against OSQP on the identical data: the recorded
+sequence replayed on raw OSQP, on the OSQP fast path and on the DAQP path
+(warm-started, and cold: the empty working set for every QP), interleaved round
+by round on the same machine; ratios of the per-round times, and the largest
+difference of the solutions [kN] (target: DAQP >= 4x faster than raw OSQP,
+solutions within 1e-6 kN).
 
 Part 2 — per-iteration time and iteration counts of the fast path for trains
 of 4, 8, 16, 32 and 64 coaches (T-M-M-T units of seed 000's coaches).
@@ -127,14 +137,100 @@ def replay_raw_osqp(ctl, log, steps):
     return (time.perf_counter() - start) / steps
 
 
-def part1(steps):
+def replay_raw_osqp_solutions(ctl, log):
+    """Raw OSQP on the recorded data (as :func:`replay_raw_osqp`): each QP's decisions."""
+    import osqp
+
+    solvers = []
+    for block in ctl.blocks:
+        fast = block.qp.fast_path
+        solver = osqp.OSQP()
+        q, lo, up = fast.qlu(fast.offset)
+        solver.setup(sp.csc_matrix(sp.triu(fast.P, format="csc")), q, sp.csc_matrix(fast.Amat),
+                     lo, up, verbose=False, warm_starting=True, **OSQP_SETTINGS)
+        solvers.append((solver, fast))
+    out = []
+    for i, data in log:
+        solver, fast = solvers[i]
+        q, lo, up = fast.qlu(data)
+        solver.update(q=q, l=lo, u=up)
+        res = solver.solve(raise_error=False)
+        out.append((res.x[fast.z_index["z"]], res.info.status_val))
+    return out
+
+
+def replay_fast(ctl, log, steps, solver):
+    """The recorded data on a fast-path solver of every block: ``"osqp"`` (FastOSQP, fresh
+    workspace), ``"daqp"`` (FastDAQP, warm-started) or ``"daqp-cold"`` (the empty working
+    set for every QP, same workspace). Returns the time per step and the solutions."""
+    from trainctl.controllers.denseqp import FastDAQP
+
+    solvers = []
+    for block in ctl.blocks:
+        fast = block.qp.fast_path
+        if solver == "osqp":
+            fast.reset()
+            solvers.append(fast)
+        else:
+            solvers.append(FastDAQP(fast))
+    cold = solver == "daqp-cold"
+    sols = []
+    start = time.perf_counter()
+    for i, data in log:
+        if cold:
+            solvers[i].clear_working_set()
+        sols.append(solvers[i].solve_vector(data))
+    return (time.perf_counter() - start) / steps, sols
+
+
+def part1b(fast, log, steps, rounds):
+    """Part 1b (module docstring): DAQP vs raw OSQP vs the OSQP fast path, same data."""
+    names = ("raw OSQP", "OSQP fast path", "DAQP path (warm)", "DAQP path (cold)")
+    times = {name: [] for name in names}
+    for _ in range(rounds):  # interleaved: each round times every solver once
+        times["raw OSQP"].append(replay_raw_osqp(fast, log, steps))
+        for name, key in (("OSQP fast path", "osqp"), ("DAQP path (warm)", "daqp"),
+                          ("DAQP path (cold)", "daqp-cold")):
+            t, sols = replay_fast(fast, log, steps, key)
+            times[name].append(t)
+            if key == "daqp":
+                dense = sols
+            elif key == "osqp":
+                fast_sols = sols
+    raw = replay_raw_osqp_solutions(fast, log)
+    raw_ok = [k for k, (_, status) in enumerate(raw) if status == 1]
+    diff_raw = max(np.abs(dense[k].z - raw[k][0]).max() for k in raw_ok)
+    diff_fast = max(np.abs(d.z - f.z).max() for d, f in zip(dense, fast_sols, strict=True))
+    statuses = {s.status for s in dense}
+    blocks = [b.qp for b in fast.blocks]
+    from trainctl.controllers.denseqp import FastDAQP
+
+    shapes = {(d.n_vars, d.n_simple, d.n_rows, d.soft) for d in
+              (FastDAQP(qp.fast_path) for qp in blocks)}
+    print(f"\nDense path on the identical data ({len(log)} QPs, {rounds} interleaved rounds; "
+          "DAQP problem per coach: variables, simple bounds, rows, soft):", sorted(shapes))
+    print(f"{'':24}{'median [ms/step]':>18}{'raw OSQP / this':>18}{'(min..max)':>20}")
+    for name in names:
+        ratios = [r / t for r, t in zip(times["raw OSQP"], times[name], strict=True)]
+        print(f"{name:24}{statistics.median(times[name]) * 1e3:18.3f}"
+              f"{statistics.median(ratios):18.2f}{f'{min(ratios):.2f}..{max(ratios):.2f}':>20}")
+    print(f"largest |DAQP - raw OSQP| over the {len(raw_ok)} QPs OSQP solved: {diff_raw:.2e} kN; "
+          f"|DAQP - OSQP fast path|: {diff_fast:.2e} kN (target <= 1e-6); DAQP statuses "
+          f"{sorted(statuses)}; raw OSQP not solved: {len(raw) - len(raw_ok)}")
+
+
+def part1(steps, rounds=5):
     scenario = load_scenario("crh2-dmpc-well-sampled")
     train, dt = scenario.train, scenario.model.sample_time
     d = build_design(scenario).family("mpc").mpc
     states = closed_loop_states(train, d, dt, steps)
-    fast = make_mpc(train, d, dt=dt, strategy="ndmpc", constraints=CONSTRAINTS, tolerance=1e-4)
+    fast = make_mpc(train, d, dt=dt, strategy="ndmpc", constraints=CONSTRAINTS, tolerance=1e-4,
+                    qp_solver="osqp")
+    dense = make_mpc(train, d, dt=dt, strategy="ndmpc", constraints=CONSTRAINTS,
+                     tolerance=1e-4, qp_solver="daqp")
     recorder = Recorder(fast)
     t_fast, iters = time_controller(fast, states, d, dt)
+    t_dense, _ = time_controller(dense, states, d, dt)
     raw = replay_raw_osqp(fast, recorder.log, steps)
     plain = make_mpc(train, d, dt=dt, strategy="ndmpc", constraints=CONSTRAINTS, tolerance=1e-4,
                      path="cvxpy")
@@ -154,15 +250,18 @@ def part1(steps):
           f"rows, {block.ns} soft rows (+{block.ns} slacks)")
     mean_fast = sum(t_fast) / steps
     rows = [("trainctl fast path", statistics.median(t_fast), mean_fast),
+            ("trainctl fast path, DAQP", statistics.median(t_dense), sum(t_dense) / steps),
             ("trainctl plain cvxpy re-solve", statistics.median(t_cvxpy), sum(t_cvxpy) / steps),
             ("cvxpy rebuilt every step", statistics.median(t_rebuild),
              sum(t_rebuild) / len(t_rebuild)),
             ("raw OSQP on the same data", raw, raw)]
+    print("(the controller rows run one after the other; part 1b interleaves the solvers)")
     print(f"{'':32}{'median [ms]':>12}{'mean [ms]':>12}{'mean / raw':>12}")
     for name, med, mean in rows:
         print(f"{name:32}{med * 1e3:12.2f}{mean * 1e3:12.2f}{mean / raw:12.2f}")
     print(f"overhead ratio (fast / raw OSQP, same iterations and data): {mean_fast / raw:.2f} "
           "(target <= 1.5)")
+    part1b(fast, recorder.log, steps, rounds)
 
 
 def chain(n):
@@ -182,12 +281,12 @@ def part2(sizes, steps, compute_r=False):
     from trainctl.analysis.mpc import MPCDesign
     from trainctl.models import discretise, linearise
 
-    print(f"\nScaling (fast path, N-DMPC, adjacent neighbourhoods, T = 0.05 s, P = 40, M = 5, "
-          f"{steps} steps):")
+    print("\nScaling (fast path with OSQP and with DAQP, N-DMPC, adjacent neighbourhoods, "
+          f"T = 0.05 s, P = 40, M = 5, {steps} steps):")
     print("R = max(0.2, 2 R*) per kN² (R* to 5 %): the Jacobi iteration converges")
     print("(times are for closed-loop steps from a 1 m/s error on every coach)")
-    print(f"{'coaches':>8}{'R':>8}{'build [s]':>11}{'iterations':>12}{'per iteration [ms]':>20}"
-          f"{'per coach-QP [ms]':>19}")
+    print(f"{'coaches':>8}{'solver':>8}{'R':>8}{'build [s]':>11}{'iterations':>12}"
+          f"{'per iteration [ms]':>20}{'per coach-QP [ms]':>19}")
     for n in sizes:
         train = chain(n)
         sys_c = linearise(train, 50.0, outputs=("v", "force"))
@@ -204,15 +303,16 @@ def part2(sizes, steps, compute_r=False):
         else:
             r = SCALING_R[n]
         d = d.with_r(r)
-        start = time.perf_counter()
-        ctl = make_mpc(train, d, dt=0.05, strategy="ndmpc", constraints=CONSTRAINTS,
-                       tolerance=1e-4)
-        build = time.perf_counter() - start
-        times, iters = time_closed_loop(ctl, train, d, 0.05, steps)
-        per_iter = sum(times) / max(sum(iters), 1)
-        print(f"{n:>8}{r:>8.3g}{build:>11.2f}{statistics.median(iters):>12.1f}"
-              f"{per_iter * 1e3:>20.2f}"
-              f"{per_iter / n * 1e3:>19.3f}")
+        for solver in ("osqp", "daqp"):
+            start = time.perf_counter()
+            ctl = make_mpc(train, d, dt=0.05, strategy="ndmpc", constraints=CONSTRAINTS,
+                           tolerance=1e-4, qp_solver=solver)
+            build = time.perf_counter() - start
+            times, iters = time_closed_loop(ctl, train, d, 0.05, steps)
+            per_iter = sum(times) / max(sum(iters), 1)
+            print(f"{n:>8}{solver:>8}{r:>8.3g}{build:>11.2f}{statistics.median(iters):>12.1f}"
+                  f"{per_iter * 1e3:>20.2f}"
+                  f"{per_iter / n * 1e3:>19.3f}")
 
 
 def main():
@@ -221,7 +321,7 @@ def main():
     parser.add_argument("--compute-r", action="store_true",
                         help="recompute R* for every train size (slow)")
     args = parser.parse_args()
-    part1(steps=10 if args.quick else 60)
+    part1(steps=10 if args.quick else 60, rounds=2 if args.quick else 5)
     part2([4, 8] if args.quick else [4, 8, 16, 32, 64], steps=3 if args.quick else 6,
           compute_r=args.compute_r)
 

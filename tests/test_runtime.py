@@ -235,6 +235,8 @@ sys.exit(main(sys.argv[1:]))
 _LATE = """
 import ctypes, signal, sys
 import trainctl.controllers.fastqp as fastqp
+import trainctl.controllers.qp as qp
+qp.DAQP_MAX_DECISIONS = -1  # qp_solver "auto" takes OSQP: the signal must land in OSQP
 real_runner, solves = fastqp.osqp_runner, [0]
 def runner(solver, *, internal=True):
     run, route = real_runner(solver, internal=internal)

@@ -1670,6 +1670,19 @@ class TestControllerConstraints:
         for path in SOLVER_PATHS:
             assert controller_with(f'solver_path = "{path}"').solver_path == path
 
+    def test_qp_solver(self) -> None:
+        """qp_solver defaults to "auto"; each of "auto", "osqp", "daqp" is accepted."""
+        assert controller_with().qp_solver == "auto"
+        for solver in ("auto", "osqp", "daqp"):
+            assert controller_with(f'qp_solver = "{solver}"').qp_solver == solver
+
+    def test_bad_qp_solver(self) -> None:
+        check_fails(
+            with_controller('qp_solver = "dapq"'),
+            "[controller].qp_solver must be one of 'auto', 'osqp', 'daqp' (got 'dapq', a "
+            "string).",
+        )
+
     def test_mpc_constraints(self) -> None:
         """mpc_constraints() copies the settings into MPCConstraints, limits in N."""
         from trainctl.controllers.mpc import MPCConstraints

@@ -411,11 +411,15 @@ class FastOSQP:
             out[key] = np.arange(offsets[var.id], offsets[var.id] + var.size)
         return out
 
-    def solve(self, values: Mapping[str, Array]) -> QPSolution:
-        """Solve for the parameter values (keys of ``params``; clipped to ±1e20)."""
+    def compose(self, values: Mapping[str, Array]) -> Array:
+        """OSQP's stacked data [q; b; h] for the parameter values (clipped to ±1e20)."""
         flat = np.concatenate([np.clip(np.asarray(values[key], dtype=float).ravel(), -1e20, 1e20)
                                for key, p in self._all.items() if p.size])
-        return self.solve_vector(self.offset + self.jac @ flat)
+        return self.offset + self.jac @ flat
+
+    def solve(self, values: Mapping[str, Array]) -> QPSolution:
+        """Solve for the parameter values (keys of ``params``; clipped to ±1e20)."""
+        return self.solve_vector(self.compose(values))
 
     def solve_vector(self, data: Array) -> QPSolution:
         """Solve with OSQP's stacked data [q; b; h] already composed.

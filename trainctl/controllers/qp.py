@@ -17,10 +17,13 @@ step. :class:`ParametricQP` models it once in cvxpy with those vectors as
     cvxpy's per-solve canonicalisation (about 2 ms here).
 ``solve(..., path="fast")``
     The probed OSQP data of :class:`~trainctl.controllers.fastqp.FastOSQP`:
-    one matrix-vector product and an OSQP data update + solve, warm-started.
+    one matrix-vector product and a data update + solve, warm-started, by
+    the QP solver ``solver`` chose: OSQP (ADMM, sparse) or DAQP (dual active
+    set, dense; :class:`~trainctl.controllers.denseqp.FastDAQP`) on the same
+    data. ``solver="auto"`` takes DAQP up to :data:`DAQP_MAX_DECISIONS`
+    decisions.
 
-Both paths use OSQP with the same settings, so they return the same
-solutions to solver tolerance (tested).
+The solvers return the same solutions to OSQP's accuracy (tested to 1e-6).
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..exceptions import ModelError, SolverError
+from .denseqp import FastDAQP
 from .fastqp import (
     OSQP_SETTINGS,
     SOLVER_OUTPUT,
@@ -43,7 +47,26 @@ from .fastqp import (
 )
 from .status import from_cvxpy
 
-__all__ = ["OSQP_SETTINGS", "ParametricQP", "QPSolution"]
+__all__ = ["DAQP_MAX_DECISIONS", "OSQP_SETTINGS", "QP_SOLVERS", "ParametricQP", "QPSolution",
+           "choose_solver"]
+
+QP_SOLVERS = ("auto", "osqp", "daqp")
+"""QP solvers of the fast path: chosen by size, OSQP, DAQP."""
+
+DAQP_MAX_DECISIONS = 240
+"""Largest QP (decisions, slacks of soft rows not counted) that ``solver="auto"`` gives DAQP.
+
+Measured (2026-11-30, 2 shared cores, both solvers interleaved on the identical
+data of a closed loop from a 1 m/s error; centralised MPC with every coach in
+the cost, T = 0.05 s, P = 40, M = 5, 50 kN coupler and 5 kN/step rate limits,
+trains of the benchmark's T-M-M-T chain): OSQP fast path / DAQP path time per
+QP = 11 (10 decisions), 51 (20), 168 (40), 430 (60), 774 (120), 272 (240), the
+solutions equal to 6e-12 kN. No crossover was reached: DAQP's time grows
+faster (0.34 ms at 120 decisions, 6.2 ms at 240) but OSQP's ADMM needs
+thousands of iterations on these QPs. 240 is the largest size measured;
+above it the dense matrices (rows x decisions) grow quadratically and OSQP
+is kept until measured.
+"""
 
 Array = NDArray[np.float64]
 PARAMETERS = ("g", "lb", "ub", "hl", "hu")
@@ -71,6 +94,9 @@ class ParametricQP:
         Label for error messages and variable names.
     fast : bool
         Build the fast path (probing) as well.
+    solver : {"auto", "osqp", "daqp"}
+        The fast path's QP solver (:func:`choose_solver`); the ``"cvxpy"``
+        path always solves with OSQP through cvxpy.
 
     Examples
     --------
@@ -83,7 +109,9 @@ class ParametricQP:
 
     def __init__(self, H: Array, C: Array, F: Array, *, soft_linear: float | ArrayLike = 1e3,
                  soft_quadratic: float | ArrayLike = 1e2, name: str = "qp",
-                 fast: bool = True) -> None:
+                 fast: bool = True, solver: str = "osqp") -> None:
+        if solver not in QP_SOLVERS:
+            raise ModelError(f"{name}: 'solver' must be one of {QP_SOLVERS} (got {solver!r}).")
         self.nz = H.shape[0]
         self.nh, self.ns = C.shape[0], F.shape[0]
         self.name = name
@@ -111,12 +139,20 @@ class ParametricQP:
                              strict=True))
         self._fast: FastOSQP | None = (FastOSQP(self.problem, self._all, self._z, self._s,
                                                 name=name) if fast else None)
+        self.solver = choose_solver(solver, self.nz)
+        """The fast path's QP solver, ``"osqp"`` or ``"daqp"``."""
+        self._dense: FastDAQP | None = (FastDAQP(self._fast) if self._fast is not None
+                                        and self.solver == "daqp" else None)
+        self._solve_vector = (self._dense.solve_vector if self._dense is not None
+                              else self._fast.solve_vector if self._fast is not None else None)
         self._cold = False  # the next cvxpy solve sets OSQP up anew (after reset())
 
     def reset(self) -> None:
         """Forget every warm start: the next solve starts cold, on either path."""
         if self._fast is not None:
             self._fast.reset()
+        if self._dense is not None:
+            self._dense.reset()
         self._cold = True
 
     @property
@@ -128,6 +164,11 @@ class ParametricQP:
     def fast_path(self) -> FastOSQP | None:
         """The probed OSQP path (None when built with ``fast=False``)."""
         return self._fast
+
+    @property
+    def dense_path(self) -> FastDAQP | None:
+        """The DAQP solver of the fast path (None unless ``solver`` chose DAQP)."""
+        return self._dense
 
     def data_map(self) -> tuple[Array, dict[str, Array]]:
         """The identified affine map from parameters to OSQP's stacked (q, l, u) data.
@@ -145,9 +186,9 @@ class ParametricQP:
 
     def solve_data(self, data: Array) -> QPSolution:
         """Fast path with the data vector already composed (see :meth:`data_map`)."""
-        if self._fast is None:
+        if self._solve_vector is None:
             raise SolverError(f"{self.name}: built without the fast path (fast=False).")
-        return self._fast.solve_vector(data)
+        return self._solve_vector(data)
 
     def _assign(self, values: dict[str, Array]) -> None:
         for key, p in self._all.items():
@@ -178,6 +219,8 @@ class ParametricQP:
         values = {"g": g, "lb": _or(lb, self.nh, -np.inf), "ub": _or(ub, self.nh, np.inf),
                   "hl": _or(hl, self.ns, -np.inf), "hu": _or(hu, self.ns, np.inf)}
         if path == "fast" and self._fast is not None:
+            if self._dense is not None:
+                return self._dense.solve_vector(self._fast.compose(values))
             return self._fast.solve(values)
         if path not in ("fast", "cvxpy"):
             raise ModelError(
@@ -213,6 +256,32 @@ class ParametricQP:
                           elapsed)
 
 
+def choose_solver(solver: str, n_decisions: int) -> str:
+    """The fast path's QP solver for a QP of ``n_decisions`` decisions.
+
+    Parameters
+    ----------
+    solver : {"auto", "osqp", "daqp"}
+        The choice; ``"auto"`` takes DAQP up to :data:`DAQP_MAX_DECISIONS`
+        decisions (slacks of soft rows not counted), OSQP above.
+    n_decisions : int
+        Decisions of the QP [-].
+
+    Returns
+    -------
+    {"osqp", "daqp"}
+        The solver.
+
+    Examples
+    --------
+    >>> choose_solver("auto", 5), choose_solver("osqp", 5)
+    ('daqp', 'osqp')
+    """
+    if solver == "auto":
+        return "daqp" if n_decisions <= DAQP_MAX_DECISIONS else "osqp"
+    return solver
+
+
 def _last_osqp_interrupt(problem: cp.Problem) -> tuple[int, int]:
     """OSQP's status code of the problem's last solve and its record of a caught SIGINT.
 
@@ -237,4 +306,6 @@ def _slack_penalty(s: cp.Variable, linear: float | ArrayLike,
     if w1.ndim == 0 and w2.ndim == 0:
         return float(w1) * cp.sum(s), 0.5 * float(w2) * cp.sum_squares(s)
     w1, w2 = np.broadcast_to(w1, s.shape), np.broadcast_to(w2, s.shape)
-    return w1 @ s, 0.5 * cp.sum_squares(cp.multiply(np.sqrt(w2), s))
+    # A constant quadratic form goes straight into P (no auxiliary variables), so the
+    # slacks keep the structure that the dense path turns into soft constraints.
+    return w1 @ s, 0.5 * cp.quad_form(s, cp.psd_wrap(np.diag(w2)))

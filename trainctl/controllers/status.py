@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-__all__ = ["from_cvxpy", "from_osqp", "is_usable"]
+__all__ = ["from_cvxpy", "from_daqp", "from_osqp", "is_usable"]
 
 _CVXPY = {
     "optimal": "optimal",
@@ -42,6 +42,20 @@ def _osqp_codes() -> dict[int, str]:
 
 
 _OSQP = _osqp_codes()
+
+# DAQP's exit flags (daqp's constants.h; the Python module does not export them).
+_DAQP = {
+    2: "optimal",          # EXIT_SOFT_OPTIMAL: optimal, some soft constraint violated
+    1: "optimal",          # EXIT_OPTIMAL
+    -1: "infeasible",      # EXIT_INFEASIBLE
+    -2: "error",           # EXIT_CYCLE: the active-set iteration cycled
+    -3: "error",           # EXIT_UNBOUNDED: a modelling error
+    -4: "max_iterations",  # EXIT_ITERLIMIT
+    -5: "error",           # EXIT_NONCONVEX
+    -6: "error",           # EXIT_OVERDETERMINED_INITIAL: bad warm-start working set
+    -7: "max_iterations",  # EXIT_TIMELIMIT
+    -8: "error",           # EXIT_UNSUPPORTED
+}
 
 
 def from_cvxpy(status: str | None) -> str:
@@ -84,6 +98,27 @@ def from_osqp(status_val: int) -> str:
     ('optimal', 'infeasible', 'max_iterations')
     """
     return _OSQP.get(int(status_val), "error")
+
+
+def from_daqp(exitflag: int) -> str:
+    """Step status for a DAQP exit flag.
+
+    Parameters
+    ----------
+    exitflag : int
+        DAQP's ``exitflag`` (> 0 success, < 0 failure).
+
+    Returns
+    -------
+    str
+        One of :data:`trainctl.controllers.base.STATUSES` (unknown flags: ``"error"``).
+
+    Examples
+    --------
+    >>> from_daqp(1), from_daqp(2), from_daqp(-1), from_daqp(-4), from_daqp(-3)
+    ('optimal', 'optimal', 'infeasible', 'max_iterations', 'error')
+    """
+    return _DAQP.get(int(exitflag), "error")
 
 
 def is_usable(status: str) -> bool:

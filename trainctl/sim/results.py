@@ -62,8 +62,8 @@ ARRAY_NAMES = _ARRAYS
 """The arrays every result has, the required members of its ``arrays.npz``."""
 OPTIONAL_ARRAY_NAMES = _EXTRA_ARRAYS
 """Arrays a saved result may lack (saved before they existed); they take their defaults."""
-_DEPENDENCIES = ("numpy", "scipy", "control", "slycot", "cvxpy", "osqp", "matplotlib", "pandas",
-                 "pyarrow")
+_DEPENDENCIES = ("numpy", "scipy", "control", "slycot", "cvxpy", "osqp", "daqp", "matplotlib",
+                 "pandas", "pyarrow")
 
 
 def environment() -> dict[str, object]:

@@ -61,7 +61,7 @@ from ..base import Measurement, ReferencePreview, StepRecord
 from ..observer import KalmanObserver, ObserverSettings
 from .condensed import QPBlock, shifted
 from .problem import StepContext, TrainProblem
-from .settings import STRATEGIES, MPCConstraints
+from .settings import QP_SOLVERS, STRATEGIES, MPCConstraints
 from .strategies import make_strategy
 
 __all__ = ["HOLD_INPUT", "ITERATING", "STRATEGIES", "MPCConstraints", "MPCController", "make_mpc"]
@@ -113,6 +113,8 @@ class MPCController:
         Convex weights for ``"cooperative"`` (default 1/n).
     path : {"fast", "cvxpy"}
         QP solve path.
+    qp_solver : {"auto", "osqp", "daqp"}
+        QP solver of the fast path (:func:`~trainctl.controllers.qp.choose_solver`).
     name : str
         Label.
     observer : KalmanObserver or None
@@ -124,7 +126,8 @@ class MPCController:
                  strategy: str, constraints: MPCConstraints, max_iterations: int = 50,
                  tolerance: float = 1e-6, relaxation: float = 1.0,
                  cooperative_weights: Array | None = None, path: str = "fast",
-                 name: str | None = None, observer: KalmanObserver | None = None) -> None:
+                 qp_solver: str = "auto", name: str | None = None,
+                 observer: KalmanObserver | None = None) -> None:
         if strategy not in STRATEGIES:
             raise ModelError(
                 f"MPCController: 'strategy' must be one of {STRATEGIES} (got {strategy!r}).")
@@ -132,9 +135,13 @@ class MPCController:
             raise ModelError(f"MPCController: 'relaxation' must be in (0, 1] (got {relaxation!r}).")
         if path not in ("fast", "cvxpy"):
             raise ModelError(f"MPCController: 'path' must be 'fast' or 'cvxpy' (got {path!r}).")
+        if qp_solver not in QP_SOLVERS:
+            raise ModelError(f"MPCController: 'qp_solver' must be one of {QP_SOLVERS} "
+                             f"(got {qp_solver!r}).")
         _check_design("MPCController", train, design, force_matrix)
         self.train, self.design, self.dt = train, design, float(dt)
         self.strategy, self.constraints, self.path = strategy, constraints, path
+        self.qp_solver = qp_solver
         self.max_iterations, self.tolerance, self.relaxation = max_iterations, tolerance, relaxation
         self.name = name or strategy
         self.observer = observer
@@ -152,7 +159,7 @@ class MPCController:
                                        tolerance=tolerance, relaxation=relaxation,
                                        weights=self.weights)
         self.problem = TrainProblem(design, force_matrix, constraints, self._strategy,
-                                    name=self.name, path=path)
+                                    name=self.name, path=path, qp_solver=qp_solver)
         self.reset()
 
     @property
@@ -330,7 +337,8 @@ def make_mpc(train: Train, design: MPCDesign, *, dt: float, strategy: str = "ndm
              constraints: MPCConstraints | None = None, max_iterations: int = 50,
              tolerance: float = 1e-6, relaxation: float = 1.0,
              cooperative_weights: Array | None = None, path: str = "fast",
-             name: str | None = None, observer: ObserverSettings | None = None,
+             qp_solver: str = "auto", name: str | None = None,
+             observer: ObserverSettings | None = None,
              design_speed: float | None = None) -> MPCController:
     """Build an MPC controller; every QP is modelled once here.
 
@@ -357,6 +365,8 @@ def make_mpc(train: Train, design: MPCDesign, *, dt: float, strategy: str = "ndm
         Convex weights of cooperative DMPC.
     path : {"fast", "cvxpy"}
         QP solve path.
+    qp_solver : {"auto", "osqp", "daqp"}
+        QP solver of the fast path (:func:`~trainctl.controllers.qp.choose_solver`).
     name : str or None
         Label (default: the strategy).
     observer : ObserverSettings or None
@@ -383,7 +393,7 @@ def make_mpc(train: Train, design: MPCDesign, *, dt: float, strategy: str = "ndm
                          constraints=constraints or MPCConstraints(),
                          max_iterations=max_iterations, tolerance=tolerance,
                          relaxation=relaxation, cooperative_weights=cooperative_weights,
-                         path=path, name=name, observer=kalman)
+                         path=path, qp_solver=qp_solver, name=name, observer=kalman)
 
 
 def _check_design(where: str, train: Train, design: MPCDesign, force_matrix: Array) -> None:

@@ -159,7 +159,8 @@ def make_mpc_controller(design: MPCFamilyDesign, strategy: str) -> MPCController
                          constraints=ctl.mpc_constraints(), max_iterations=ctl.max_iterations,
                          tolerance=ctl.iteration_tolerance, relaxation=ctl.relaxation,
                          cooperative_weights=design.cooperative_weights(),
-                         path=ctl.solver_path, name=strategy, observer=observer)
+                         path=ctl.solver_path, qp_solver=ctl.qp_solver, name=strategy,
+                         observer=observer)
 
 
 def mpc_closed_loop(design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:

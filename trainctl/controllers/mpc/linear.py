@@ -38,7 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 from ...analysis.mpc import prediction_matrices
 from ...exceptions import DimensionError, ModelError
 from ..base import Measurement, ReferencePreview, StepRecord
-from ..qp import ParametricQP
+from ..qp import QP_SOLVERS, ParametricQP
 from ..status import is_usable
 from . import validate as check
 from .condensed import block_parameters, build_block, move_maps
@@ -118,14 +118,17 @@ class LinearMPC:
         The decision.
     path : {"fast", "cvxpy"}
         QP solve path.
+    qp_solver : {"auto", "osqp", "daqp"}
+        QP solver of the fast path (:func:`~trainctl.controllers.qp.choose_solver`).
     name : str
         Label of the QP.
     """
 
     def __init__(self, sysd: ct.StateSpace, settings: check.CoreSettings, *, path: str,
-                 name: str) -> None:
+                 name: str, qp_solver: str = "osqp") -> None:
         s = self._settings = settings
         self.sys, self.dt, self.path, self.name = sysd, s.dt, path, name
+        self.qp_solver = qp_solver
         self.prediction_horizon, self.control_horizon, self.form = s.P, s.M, s.form
         nx, nu = s.B.shape
         self.n_states, self.n_inputs, self.n_outputs = nx, nu, s.C.shape[0]
@@ -139,7 +142,8 @@ class LinearMPC:
         H, Kc = self._cost()
         self.hard, self.soft = constraint_rows(self.maps, self._x, self._y, s.bounds, s.soft)
         qp = ParametricQP(H, self.hard.rows, self.soft.rows, soft_linear=self.soft.linear,
-                          soft_quadratic=self.soft.quadratic, name=name, fast=path == "fast")
+                          soft_quadratic=self.soft.quadratic, name=name, fast=path == "fast",
+                          solver=qp_solver)
         nz, nh, ns = H.shape[0], self.hard.size, self.soft.size
         ends = np.cumsum([0, nz, nh, nh, ns, ns])
         params = {key: np.arange(ends[i], ends[i + 1])
@@ -352,7 +356,8 @@ def make_linear_mpc(sysd: ct.StateSpace, *, Q: ArrayLike, R: ArrayLike, predicti
                     x_min: ArrayLike | None = None, x_max: ArrayLike | None = None,
                     y_min: ArrayLike | None = None, y_max: ArrayLike | None = None,
                     soft: Mapping[str, bool | tuple[float, float]] | None = None,
-                    path: str = "fast", name: str = "mpc") -> LinearMPC:
+                    path: str = "fast", qp_solver: str = "osqp",
+                    name: str = "mpc") -> LinearMPC:
     """Build an MPC on any discrete linear model; the QP is modelled once here.
 
     Parameters
@@ -386,6 +391,10 @@ def make_linear_mpc(sysd: ct.StateSpace, *, Q: ArrayLike, R: ArrayLike, predicti
         slack penalties w1 >= 0, w2 > 0. Other bounds are hard.
     path : {"fast", "cvxpy"}
         QP solve path: probed OSQP data or ``Problem.solve`` (same solutions).
+    qp_solver : {"osqp", "daqp", "auto"}
+        QP solver of the fast path: OSQP, DAQP (dense active set, on the same
+        data) or ``"auto"`` (DAQP up to
+        :data:`~trainctl.controllers.qp.DAQP_MAX_DECISIONS` decisions).
     name : str
         Label of the QP and of error messages.
 
@@ -424,4 +433,7 @@ def make_linear_mpc(sysd: ct.StateSpace, *, Q: ArrayLike, R: ArrayLike, predicti
                                  "y": (y_min, y_max)}, soft=soft)
     if path not in PATHS:
         raise ModelError(f"make_linear_mpc: 'path' must be one of {PATHS} (got {path!r}).")
-    return LinearMPC(sysd, settings, path=path, name=str(name))
+    if qp_solver not in QP_SOLVERS:
+        raise ModelError(f"make_linear_mpc: 'qp_solver' must be one of {QP_SOLVERS} "
+                         f"(got {qp_solver!r}).")
+    return LinearMPC(sysd, settings, path=path, name=str(name), qp_solver=qp_solver)

@@ -103,12 +103,15 @@ class TrainProblem:
         Label of the QPs.
     path : {"fast", "cvxpy"}
         QP solve path.
+    qp_solver : {"auto", "osqp", "daqp"}
+        QP solver of the fast path (:func:`~trainctl.controllers.qp.choose_solver`).
     """
 
     def __init__(self, design: MPCDesign, force_matrix: Array, constraints: MPCConstraints,
-                 strategy: Strategy, *, name: str, path: str) -> None:
+                 strategy: Strategy, *, name: str, path: str,
+                 qp_solver: str = "auto") -> None:
         self.design, self.constraints, self.strategy = design, constraints, strategy
-        self.name, self.path = name, path
+        self.name, self.path, self.qp_solver = name, path, qp_solver
         n, M, P = design.n_inputs, design.control_horizon, design.prediction_horizon
         self.n, self.M, self.P = n, M, P
         self.pred: Prediction = prediction(design)
@@ -182,7 +185,7 @@ class TrainProblem:
                           rate=math.isfinite(c.rate_limit))
         qp = ParametricQP(H, hard, F, soft_linear=c.soft_linear, soft_quadratic=c.soft_quadratic,
                           name=f"{self.name}[{','.join(map(str, inputs))}]",
-                          fast=self.path == "fast")
+                          fast=self.path == "fast", solver=self.qp_solver)
         Kc = 2.0 * Gi.T * weight[None, :]
         Ko = Kc @ pred.G
         Ko[:, cols] = 0.0

@@ -41,6 +41,7 @@ __all__ = [
     "CONTROLLER_FORMS",
     "NEIGHBOURHOODS",
     "OBSERVERS",
+    "QP_SOLVERS",
     "SOLVER_PATHS",
     "STRATEGIES",
     "ControllerSettings",
@@ -55,6 +56,10 @@ CONTROLLER_FORMS = ("u", "du")
 
 SOLVER_PATHS = ("fast", "cvxpy")
 """QP solve paths of the MPC."""
+
+QP_SOLVERS = ("auto", "osqp", "daqp")
+"""QP solvers of the fast path (``trainctl.controllers.qp.QP_SOLVERS``): ``"auto"`` takes
+DAQP for QPs of at most ``trainctl.controllers.qp.DAQP_MAX_DECISIONS`` decisions, OSQP above."""
 
 OBSERVERS = ("none", "kalman")
 """Full-state feedback, or a Kalman observer of the state and a grade-like disturbance."""
@@ -162,6 +167,11 @@ class ControllerSettings:
         Quadratic penalty on a coupler-force violation [per kN^2], > 0.
     solver_path : {"fast", "cvxpy"}
         QP solve path of the MPC.
+    qp_solver : {"auto", "osqp", "daqp"}
+        QP solver of the fast path: OSQP (ADMM), DAQP (dual active set,
+        dense) or ``"auto"``, DAQP for the small QPs (up to
+        ``trainctl.controllers.qp.DAQP_MAX_DECISIONS`` decisions), OSQP
+        for larger ones. The ``"cvxpy"`` path always uses OSQP.
     observer : {"none", "kalman"}
         ``"none"``: the controller measures the full state. ``"kalman"``: it
         measures the (noisy) speeds only and estimates the state and a
@@ -225,6 +235,9 @@ class ControllerSettings:
     soft_penalty_quadratic: Annotated[float, Number(gt=0), Key(
         "Quadratic penalty on a coupler-force violation", unit="per kN²")] = 100.0
     solver_path: Annotated[str, Choice(SOLVER_PATHS), Key("QP solve path")] = "fast"
+    qp_solver: Annotated[str, Choice(QP_SOLVERS), Key(
+        "QP solver of the fast path: 'osqp', 'daqp' (dense active set) or 'auto' (DAQP for "
+        "small QPs, OSQP for large ones)")] = "auto"
     observer: Annotated[str, Choice(OBSERVERS), Key(
         "'kalman': measure the (noisy) speeds only and estimate the state and a grade-like "
         "disturbance, which the feedforward compensates")] = "none"
