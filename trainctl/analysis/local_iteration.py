@@ -115,6 +115,7 @@ __all__ = [
     "local_nash_gain",
     "local_prediction_error",
     "local_threshold_weight",
+    "rows_response",
     "train_state_owner",
 ]
 
@@ -400,6 +401,40 @@ def _coach_prediction(design: MPCDesign, model: LocalModel, coach: int,
                   substeps=N, every=1)
     return CoachPrediction(coach=coach, members=mem, states=S, outer=out, inputs=inputs, rows=R,
                            own=own, Ad=Ad, Bd=Bd, E0=E0, E1=E1, y=y, z=z)
+
+
+def rows_response(design: MPCDesign, model: LocalModel, coach: CoachPrediction, rows: Array, *,
+                  every: int) -> LocalResponse:
+    """The local prediction of other rows on the global state (e.g. coupler forces).
+
+    Parameters
+    ----------
+    design : MPCDesign
+        The design (horizons, form).
+    model : LocalModel
+        The partitioned model the coach's prediction was built with.
+    coach : CoachPrediction
+        The coach's local prediction.
+    rows : ndarray
+        Rows (k, nx) on the global state; they may only involve the
+        neighbourhood's states and its outer states.
+    every : int
+        Record every ``every``-th fine step (``model.substeps``: the samples).
+
+    Returns
+    -------
+    LocalResponse
+        The rows' prediction, step-major.
+    """
+    rows = np.asarray(rows, dtype=float).reshape(-1, design.A.shape[0])
+    known = np.union1d(coach.states, coach.outer)
+    if np.any(np.delete(rows, known, axis=1)):
+        raise ModelError(f"rows_response: the rows involve states outside coach {coach.coach}'s "
+                         "neighbourhood and its outer states.")
+    return _response(coach.Ad, coach.Bd, coach.E0, coach.E1, rows[:, coach.states],
+                     rows[:, coach.outer], P=design.prediction_horizon,
+                     M=design.control_horizon, form=design.form, substeps=model.substeps,
+                     every=every)
 
 
 def coach_predictions(design: MPCDesign, model: LocalModel) -> tuple[CoachPrediction, ...]:

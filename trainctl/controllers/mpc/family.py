@@ -23,6 +23,7 @@ if TYPE_CHECKING:
     import control as ct
 
     from ...analysis.dmpc import DMPCAnalysis
+    from ...analysis.local_iteration import LocalModel
     from ...analysis.mpc import MPCDesign
     from ...analysis.review import Check
     from ...design import DesignModel
@@ -47,7 +48,8 @@ CHECK_NAMES = (
 )
 """The MPC family's design checks."""
 
-STRATEGY_COST = {"centralised": 1.0, "decentralised": 1.5, "ndmpc": 2.5, "cooperative": 3.0}
+STRATEGY_COST = {"centralised": 1.0, "decentralised": 1.5, "ndmpc": 2.5, "cooperative": 3.0,
+                 "ndmpc-local": 2.5}
 """Relative cost of a controller step per strategy (iterating strategies solve more QPs)."""
 
 
@@ -79,6 +81,23 @@ class MPCFamilyDesign:
 
         return analyse_dmpc(self.mpc, iterations=self.settings.iterations,
                             cooperative_weights=self.cooperative_weights())
+
+    @cached_property
+    def local(self) -> LocalModel:
+        """The continuous design model partitioned by coach, for ``"ndmpc-local"``.
+
+        The coach owns its speed and the elongation of the coupler behind it;
+        the outer states are exchanged with a first-order hold at the sample
+        time and the book's state boundary
+        (:func:`~trainctl.analysis.local_iteration.local_model`). Needs the
+        zero-order-hold design model (``discretisation = "zoh"``).
+        """
+        from ...analysis.local_iteration import local_model, train_state_owner
+
+        sys = self.model.design
+        return local_model(self.mpc, np.asarray(sys.A, dtype=float),
+                           np.asarray(sys.B, dtype=float), self.scenario.model.sample_time,
+                           train_state_owner(self.mpc.n_inputs))
 
     def cooperative_weights(self) -> np.ndarray | None:
         """Convex weights of cooperative DMPC (None: uniform)."""
@@ -159,7 +178,8 @@ def make_mpc_controller(design: MPCFamilyDesign, strategy: str) -> MPCController
                          constraints=ctl.mpc_constraints(), max_iterations=ctl.max_iterations,
                          tolerance=ctl.iteration_tolerance, relaxation=ctl.relaxation,
                          cooperative_weights=design.cooperative_weights(),
-                         path=ctl.solver_path, name=strategy, observer=observer)
+                         path=ctl.solver_path, name=strategy, observer=observer,
+                         local_model=design.local if strategy == "ndmpc-local" else None)
 
 
 def mpc_closed_loop(design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:
@@ -171,7 +191,8 @@ def mpc_closed_loop(design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:
     deviations ``d[i]`` [m] (:meth:`DesignModel.loop_outputs`). The state matrix is the
     one the checks judge: centralised and cooperative (whose fixed point is
     the centralised optimum) the centralised loop, ``ndmpc`` the converged
-    Nash loop, ``decentralised`` each coach optimising its own outputs with
+    Nash loop, ``ndmpc-local`` the converged Nash loop of the local
+    formulation, ``decentralised`` each coach optimising its own outputs with
     the others at their feedforward.
 
     Parameters
@@ -193,6 +214,11 @@ def mpc_closed_loop(design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:
         A_cl = res.closed_loop_centralised
     elif strategy == "ndmpc":
         A_cl = res.closed_loop_nash
+    elif strategy == "ndmpc-local":
+        from ...analysis.local_iteration import local_closed_loop, local_iteration, local_nash_gain
+
+        it = local_iteration(design.mpc, design.local)
+        A_cl = local_closed_loop(design.mpc, local_nash_gain(it)[:it.n_plan])
     else:
         A_cl = _decentralised_closed_loop(design.mpc)
     model = design.model

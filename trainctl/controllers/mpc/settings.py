@@ -47,8 +47,8 @@ __all__ = [
     "MPCConstraints",
 ]
 
-STRATEGIES = ("centralised", "decentralised", "ndmpc", "cooperative")
-"""The MPC strategies."""
+STRATEGIES = ("centralised", "decentralised", "ndmpc", "cooperative", "ndmpc-local")
+"""The MPC strategies (``"ndmpc-local"``: N-DMPC on the neighbourhood models only)."""
 
 CONTROLLER_FORMS = ("u", "du")
 """Penalise the input (``"u"``) or its increments (``"du"``)."""
