@@ -19,6 +19,10 @@ coach plus slacks) is reported separately and is the same for all four.
 
 Part 2 — per-iteration time and iteration counts of the fast path for trains
 of 4, 8, 16, 32 and 64 coaches (T-M-M-T units of seed 000's coaches).
+
+Part 3 — per-coach-QP time of the global N-DMPC ("ndmpc") and the
+neighbourhood-local one ("ndmpc-local") side by side, 4 → 32 (global) and
+4 → 256 (local) coaches, a fixed number of Jacobi sweeps per step.
 """
 
 from __future__ import annotations
@@ -215,6 +219,60 @@ def part2(sizes, steps, compute_r=False):
               f"{per_iter / n * 1e3:>19.3f}")
 
 
+def chain_design(n, r):
+    """The part-2 design of an n-coach chain and its continuous model partitioned by coach."""
+    from trainctl.analysis.local_iteration import local_model, train_state_owner
+    from trainctl.analysis.mpc import MPCDesign
+    from trainctl.models import discretise, linearise
+
+    train = chain(n)
+    sys_c = linearise(train, 50.0, outputs=("v", "force"))
+    scale = np.concatenate([np.ones(n), np.full(n - 1, 1e-3)])
+    sysd = discretise(sys_c, 0.05)
+    d = MPCDesign(A=sysd.A, B=sysd.B * 1e3, C=scale[:, None] * sysd.C,
+                  prediction_horizon=40, control_horizon=5, form="u",
+                  q=np.concatenate([np.full(n, 10.0), np.full(n - 1, 0.01)]),
+                  r=np.full(n, r), output_owner=tuple(range(n)) + tuple(range(n - 1)),
+                  neighbourhoods=tuple(tuple(j for j in (i - 1, i, i + 1) if 0 <= j < n)
+                                       for i in range(n)))
+    model = local_model(d, sys_c.A, sys_c.B * 1e3, 0.05, train_state_owner(n))
+    return train, d, model
+
+
+def part3(global_sizes, local_sizes, steps, sweeps=5, r=30.0):
+    """Per-coach-QP time of the global and the local N-DMPC formulations, side by side."""
+    print(f"\nGlobal vs local N-DMPC (T = 0.05 s, P = 40, M = 5, R = {r:g} per kN², "
+          f"{sweeps} Jacobi sweeps per step, {steps} steps from a 1 m/s error):")
+    print("global: every coach QP from the global model (data depend on every plan); "
+          "local ('ndmpc-local'): neighbourhood model, plans and own-state trajectories "
+          "exchanged")
+    print(f"{'coaches':>8}{'form':>8}{'build [s]':>11}{'distinct QPs':>14}{'QP rows':>9}"
+          f"{'per coach-QP [ms]':>19}{'per sweep [ms]':>16}")
+    results = {}
+    for n in sorted(set(global_sizes) | set(local_sizes)):
+        train, d, model = chain_design(n, r)
+        for form, strategy, sizes in (("global", "ndmpc", global_sizes),
+                                      ("local", "ndmpc-local", local_sizes)):
+            if n not in sizes:
+                continue
+            start = time.perf_counter()
+            ctl = make_mpc(train, d, dt=0.05, strategy=strategy, constraints=CONSTRAINTS,
+                           tolerance=0.0, max_iterations=sweeps,
+                           local_model=model if form == "local" else None)
+            build = time.perf_counter() - start
+            times, iters = time_closed_loop(ctl, train, d, 0.05, steps)
+            per_sweep = sum(times) / max(sum(iters), 1)
+            distinct = getattr(ctl.problem, "distinct", n)
+            rows = max(b.qp.nh + b.qp.ns for b in ctl.blocks)
+            results[n, form] = per_sweep / n
+            print(f"{n:>8}{form:>8}{build:>11.2f}{distinct:>14}{rows:>9}"
+                  f"{per_sweep / n * 1e3:>19.3f}{per_sweep * 1e3:>16.2f}")
+    shared = [n for n in global_sizes if (n, "local") in results]
+    if shared:
+        print("global / local per coach-QP: " + ", ".join(
+            f"{n}: {results[n, 'global'] / results[n, 'local']:.2f}" for n in shared))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer steps and sizes (smoke run)")
@@ -224,6 +282,8 @@ def main():
     part1(steps=10 if args.quick else 60)
     part2([4, 8] if args.quick else [4, 8, 16, 32, 64], steps=3 if args.quick else 6,
           compute_r=args.compute_r)
+    part3([4, 8] if args.quick else [4, 8, 16, 32], [4, 8] if args.quick
+          else [4, 8, 16, 32, 64, 128, 256], steps=2 if args.quick else 4)
 
 
 if __name__ == "__main__":

@@ -163,3 +163,31 @@ def test_constrained_run_tracks_on_the_well_sampled_train():
     assert set(res.statuses) == {"optimal"}
     assert np.max(np.abs(res.coupler_forces)) <= 50e3
     assert np.max(np.abs(np.diff(res.inputs, axis=1))) <= 5e3 + 1.0
+
+
+def test_design_review_reports_both_formulations():
+    """With ndmpc-local simulated, the convergence and Nash-loop checks carry the local numbers."""
+    from trainctl.analysis.dmpc import analyse_local_dmpc
+    from trainctl.analysis.iteration import spectral_radius
+    from trainctl.controllers.mpc.family import FAMILY
+
+    sc = load_scenario("crh2-dmpc-well-sampled")
+    plain = build_design(sc).family("mpc")
+    assert not plain.simulates_local
+    assert "local" not in dict(FAMILY.checks(plain)[0].details)
+    fam = build_design(sc.replace("simulation.strategies", ["ndmpc", "ndmpc-local"])).family("mpc")
+    checks = {c.name: c for c in FAMILY.checks(fam)}
+    it = local_iteration(fam.mpc, fam.local)
+    conv = checks["ndmpc_convergence"]
+    assert conv.details["local"]["rho_d0"] == pytest.approx(it.rho, rel=1e-9)
+    assert conv.details["rho_D0"] == pytest.approx(fam.analysis.rho_d0)
+    # P = 40 at R = 0.2: the global iteration converges (0.61), the local one diverges (1.41)
+    assert fam.analysis.rho_d0 < 1 <= it.rho and conv.status == "warn"
+    assert "ndmpc-local" in conv.message and "ndmpc-local" in conv.hint
+    nash = checks["closed_loop_nash"]
+    radius = spectral_radius(local_closed_loop(fam.mpc, local_nash_gain(it)[:it.n_plan]))
+    assert nash.details["local"]["closed_loop_radius"] == pytest.approx(radius, rel=1e-12)
+    res = analyse_local_dmpc(fam.mpc, fam.local)
+    assert res.rho_d0 == pytest.approx(it.rho, rel=1e-9) and not res.converges
+    loop = FAMILY.closed_loop(fam, "ndmpc-local")
+    np.testing.assert_allclose(loop.A, res.closed_loop_nash)

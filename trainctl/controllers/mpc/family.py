@@ -22,7 +22,7 @@ from .settings import STRATEGIES
 if TYPE_CHECKING:
     import control as ct
 
-    from ...analysis.dmpc import DMPCAnalysis
+    from ...analysis.dmpc import DMPCAnalysis, LocalDMPCAnalysis
     from ...analysis.local_iteration import LocalModel
     from ...analysis.mpc import MPCDesign
     from ...analysis.review import Check
@@ -98,6 +98,19 @@ class MPCFamilyDesign:
         return local_model(self.mpc, np.asarray(sys.A, dtype=float),
                            np.asarray(sys.B, dtype=float), self.scenario.model.sample_time,
                            train_state_owner(self.mpc.n_inputs))
+
+    @property
+    def simulates_local(self) -> bool:
+        """True when the scenario simulates ``"ndmpc-local"`` (its checks then report it)."""
+        sim = getattr(self.scenario, "simulation", None)
+        return sim is not None and "ndmpc-local" in tuple(sim.strategies)
+
+    @cached_property
+    def local_analysis(self) -> LocalDMPCAnalysis:
+        """The closed-form analysis of neighbourhood-local N-DMPC (computed once)."""
+        from ...analysis.dmpc import analyse_local_dmpc
+
+        return analyse_local_dmpc(self.mpc, self.local)
 
     def cooperative_weights(self) -> np.ndarray | None:
         """Convex weights of cooperative DMPC (None: uniform)."""
@@ -215,10 +228,7 @@ def mpc_closed_loop(design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:
     elif strategy == "ndmpc":
         A_cl = res.closed_loop_nash
     elif strategy == "ndmpc-local":
-        from ...analysis.local_iteration import local_closed_loop, local_iteration, local_nash_gain
-
-        it = local_iteration(design.mpc, design.local)
-        A_cl = local_closed_loop(design.mpc, local_nash_gain(it)[:it.n_plan])
+        A_cl = design.local_analysis.closed_loop_nash
     else:
         A_cl = _decentralised_closed_loop(design.mpc)
     model = design.model
