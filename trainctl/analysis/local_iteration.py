@@ -85,6 +85,52 @@ Fixed point and closed loop
 With every neighbourhood the whole train, S_i is every state, O_i is empty,
 the local discretisation is the global one and the fixed point is the
 centralised optimum (tested).
+
+Numbers: CRH2 half train (``benchmarks/local_ndmpc.py``)
+    ================================  ========  =======  ============  ==========
+    crh2-dmpc-well-sampled, R = 0.2   ρ(D0)     R*       ρ(A_cl Nash)  pred. err.
+    ================================  ========  =======  ============  ==========
+    global                            0.6098    0.0563   0.998777      0
+    centralised                                          0.998250
+    local, state, FOH, N = 1          1.4090    24.6     1.001567      0.152
+    local, state, ZOH, N = 1          1.3891    10.2     1.001080      0.77
+    local, state, FOH, N = 4          1.4263    24.5     1.013531      0.0100
+    local, force, FOH, N = 1          1.2980    2.50     0.998317      0.15
+    local, force, FOH, N = 4          1.3442    3.61     0.998299      0.0100
+    ================================  ========  =======  ============  ==========
+
+    crh2-dmpc (T = 20 s, Δu-form, R = 10): global ρ(D0) 0.306, R* 2.25; local
+    (state, FOH) ρ(D0) 1.002, R* 55.6, (state, ZOH) 2.016, (force, FOH) 0.699;
+    the Nash loops keep the three internal-force eigenvalues at 1 as the
+    global one does (state/ZOH: 1.196 and force/FOH, N = 1: 1.024, unstable),
+    and the local predictions are meaningless (errors 60–570 times the
+    prediction: a 20 s hold of states oscillating at 12–28 rad/s).
+
+    Why the local variant is worse:
+
+    - ρ(D0): the local iteration has a second channel, the exchanged
+      trajectories, absent from the global D0. A coach's plan reacts to the
+      outer trajectory (through the stiff boundary coupler) and the
+      resulting own-state trajectory moves the next neighbourhood's
+      boundary: a disturbance travels along the train every iteration. The
+      gain grows with the horizon (well-sampled, R = 0.2: ρ = 0.30 / 0.62 /
+      1.04 / 1.41 for P = 5 / 10 / 20 / 40) and with the train length (P =
+      40, R = 30: 0.98 / 1.29 / 1.61 for 4 / 8 / 16 coaches), so R* is
+      about 440 times the global one at P = 40; a finer exchange (N) does not help
+      — it is not a discretisation effect.
+    - Closed loop: the local Nash point is another equilibrium (see "Fixed
+      point" above). With the book's state boundary the rear boundary ties
+      the neighbourhood to the outer coach's predicted speed, so a coach
+      near the head sees almost no authority over its neighbourhood's speed
+      and a coach near the tail a lot (first moves for 1 m/s on every coach:
+      local [-0.07, -0.18, -1.42, -1.66] kN, global [-0.82, -1.10, -1.12,
+      -0.87] kN); the loop is then unstable (a coupler mode at 11 rad/s,
+      ρ 1.0016), the more so the better the local model (N = 4: 1.0135).
+      With force boundaries every neighbourhood keeps its rigid-body mode,
+      the allocation is symmetric and the Nash loop (0.99832) is closer to
+      the centralised one (0.99825) than the global Nash loop (0.99878) — but
+      its iteration diverges too (ρ 1.30; relaxation ω ≈ 0.08 converges at a
+      rate 0.9996).
 """
 
 from __future__ import annotations

@@ -73,6 +73,7 @@ class _Coach:
     y: LocalResponse       # cost rows
     f: LocalResponse | None  # bounded force rows
     f_rows: Index          # the bounded rows in the stacked feedforward forces
+    f_sel: Index           # ... and in the force response
     Gz_own: Array          # own-state trajectory from its own moves
     Gz_xi: Array           # ... from ξ_i
     g: slice               # its g, hl, hu in the source vector
@@ -175,7 +176,7 @@ class LocalTrainProblem(TrainProblem):
                 outer_idx=(fine[:, None] * self.nx + c.outer[None, :]).ravel(),
                 own_idx=(fine[:, None] * self.nx + c.own[None, :]).ravel(),
                 up_idx=c.inputs, y=c.y, f=f,
-                f_rows=f_rows if f is not None else empty, Gz_own=c.z.G[:, own_cols],
+                f_rows=f_rows if f is not None else empty, f_sel=sel, Gz_own=c.z.G[:, own_cols],
                 Gz_xi=np.hstack([c.z.G[:, others], c.z.Psi]), g=g, hl=hl, hu=hu))
         self.distinct = len(shared)
         self.blocks = [c.block for c in self.coaches]
@@ -218,13 +219,10 @@ class LocalTrainProblem(TrainProblem):
             self._free_z[k] = z0
             if c.f is not None and c.f_rows.size:
                 f = c.f
-                f0 = (f.Phi @ xs + f.Phi_o @ xo)
+                f0 = f.Phi @ xs + f.Phi_o @ xo
                 if self._du:
                     f0 += f.Su @ up[c.up_idx]
-                steps = np.array(self._force_steps, dtype=np.int64)
-                nc = f.Phi.shape[0] // self.P
-                sel = (steps[:, None] * nc + np.arange(nc)[None, :]).ravel()
-                f0 = f0[sel] + ctx.f_ff[c.f_rows]
+                f0 = f0[c.f_sel] + ctx.f_ff[c.f_rows]
                 src[c.hl] = -self._limit - f0
                 src[c.hu] = self._limit - f0
         self._x = x
