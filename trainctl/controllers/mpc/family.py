@@ -87,17 +87,17 @@ class MPCFamilyDesign:
         """The continuous design model partitioned by coach, for ``"ndmpc-local"``.
 
         The coach owns its speed and the elongation of the coupler behind it;
-        the outer states are exchanged with a first-order hold at the sample
-        time and the book's state boundary
+        hold, substeps and boundary are the ``local_*`` settings
         (:func:`~trainctl.analysis.local_iteration.local_model`). Needs the
         zero-order-hold design model (``discretisation = "zoh"``).
         """
         from ...analysis.local_iteration import local_model, train_state_owner
 
-        sys = self.model.design
+        sys, ctl = self.model.design, self.settings
         return local_model(self.mpc, np.asarray(sys.A, dtype=float),
                            np.asarray(sys.B, dtype=float), self.scenario.model.sample_time,
-                           train_state_owner(self.mpc.n_inputs))
+                           train_state_owner(self.mpc.n_inputs), hold=ctl.local_hold,
+                           substeps=ctl.local_substeps, boundary=ctl.local_boundary)
 
     @property
     def simulates_local(self) -> bool:
