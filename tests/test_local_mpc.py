@@ -191,3 +191,23 @@ def test_design_review_reports_both_formulations():
     assert res.rho_d0 == pytest.approx(it.rho, rel=1e-9) and not res.converges
     loop = FAMILY.closed_loop(fam, "ndmpc-local")
     np.testing.assert_allclose(loop.A, res.closed_loop_nash)
+
+
+def test_cvxpy_path_with_shared_problems_equals_the_fast_path():
+    """Clones share the cvxpy problem: re-solving it per coach gives the fast path's plan."""
+    train, d, model = chain_design(12, r=2.0)
+    eq = equilibrium(train, 50.0)
+    x = np.r_[np.full(12, 0.3), np.zeros(11)]
+    state = np.concatenate([50.0 + x[:12], eq.elongations, [0.0]])
+    times = 0.05 * np.arange(d.prediction_horizon + 1)
+    prev = ReferencePreview(times=times, speed=np.full(times.size, 50.0),
+                            acceleration=np.zeros(times.size))
+    limits = MPCConstraints(rate_limit=5e3, coupler_force_limit=50e3)
+    out = {}
+    for path in ("fast", "cvxpy"):
+        ctl = make_mpc(train, d, dt=0.05, strategy="ndmpc-local", constraints=limits,
+                       tolerance=1e-7, max_iterations=200, local_model=model, path=path)
+        rec = ctl.step(0.0, Measurement(state=state), prev)
+        assert rec.status in ("optimal", "optimal_inaccurate")
+        out[path] = rec.inputs / 1e3
+    np.testing.assert_allclose(out["fast"], out["cvxpy"], atol=1e-4)
