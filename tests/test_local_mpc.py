@@ -187,8 +187,11 @@ def test_design_review_reports_both_formulations():
     nash = checks["closed_loop_nash"]
     radius = spectral_radius(local_closed_loop(fam.mpc, local_nash_gain(it)[:it.n_plan]))
     assert nash.details["local"]["closed_loop_radius"] == pytest.approx(radius, rel=1e-12)
-    res = analyse_local_dmpc(fam.mpc, fam.local)
+    res = analyse_local_dmpc(fam.mpc, fam.local, iterations=fam.settings.iterations)
     assert res.rho_d0 == pytest.approx(it.rho, rel=1e-9) and not res.converges
+    fixed = checks["closed_loop_iterations"].details["local"]["closed_loop_iterations_radius"]
+    assert fixed == pytest.approx(res.closed_loop_iterations_radius, rel=1e-12)
+    assert res.closed_loop_iterations.shape[0] == 7 + it.D0.shape[0]
     loop = FAMILY.closed_loop(fam, "ndmpc-local")
     np.testing.assert_allclose(loop.A, res.closed_loop_nash)
 
@@ -211,3 +214,31 @@ def test_cvxpy_path_with_shared_problems_equals_the_fast_path():
         assert rec.status in ("optimal", "optimal_inaccurate")
         out[path] = rec.inputs / 1e3
     np.testing.assert_allclose(out["fast"], out["cvxpy"], atol=1e-4)
+
+
+@pytest.mark.parametrize(("form", "r"), [("u", 1.0), ("du", 50.0)])
+def test_fixed_iteration_count_closed_loop_equals_the_controller(well, form, r):
+    """L = 3 iterations per sample from the shifted plans and trajectories, as the controller."""
+    from trainctl.analysis.local_iteration import local_finite_iteration_closed_loop
+
+    train, d0, sys = well
+    d = _design(d0, form=form, r=r)
+    model = local_model(d, sys.A, sys.B, 0.05, train_state_owner(4))
+    it = local_iteration(d, model)
+    A_cl = local_finite_iteration_closed_loop(d, it, 3)
+    ctl = make_mpc(train, d, dt=0.05, strategy="ndmpc-local", constraints=NONE, tolerance=0.0,
+                   max_iterations=3, local_model=model)
+    eq = equilibrium(train, V0)
+    x = np.r_[0.3, 0.2, -0.1, 0.25, 1e-4, -5e-5, 2e-5]
+    # first sample: no previous plan, trajectories held at the measured state
+    aug = np.concatenate([x, np.zeros(4)] if form == "du" else [x])
+    aug = np.concatenate([aug, np.zeros(it.n_plan), np.tile(x, d.prediction_horizon)])
+    for k in range(4):
+        state = np.concatenate([V0 + x[:4], eq.elongations + x[4:], [0.0]])
+        rec = ctl.step(k * 0.05, Measurement(state=state), _preview(d.prediction_horizon, 0.05))
+        u = rec.inputs / 1e3 - eq.inputs / 1e3
+        x = d.A @ x + d.B @ u
+        aug = A_cl @ aug
+        np.testing.assert_allclose(aug[:7], x, rtol=1e-7, atol=1e-10)
+        if form == "du":
+            np.testing.assert_allclose(aug[7:11], u, rtol=1e-6, atol=1e-7)  # OSQP eps 1e-6

@@ -28,6 +28,7 @@ from .iteration import (
 from .local_iteration import (
     LocalModel,
     local_closed_loop,
+    local_finite_iteration_closed_loop,
     local_iteration,
     local_nash_gain,
     local_prediction_error,
@@ -176,6 +177,11 @@ class LocalDMPCAnalysis:
         Relaxed-Jacobi range and best rate.
     closed_loop_nash : ndarray
         Closed loop (on the global model) with the converged local Nash plan.
+    closed_loop_iterations : ndarray
+        Closed loop with ``iterations`` local sweeps per sample from the
+        shifted plans and trajectories (state augmented with them).
+    iterations : int
+        Sweeps per sample in ``closed_loop_iterations``.
     prediction_error : ndarray
         Relative error of each coach's local output prediction
         (:func:`~trainctl.analysis.local_iteration.local_prediction_error`).
@@ -191,6 +197,8 @@ class LocalDMPCAnalysis:
     d0_eigenvalues: NDArray[np.complex128]
     relaxation: RelaxationResult
     closed_loop_nash: NDArray[np.float64]
+    closed_loop_iterations: NDArray[np.float64]
+    iterations: int
     prediction_error: NDArray[np.float64]
     threshold_weight: float | None
     hold: str
@@ -207,17 +215,24 @@ class LocalDMPCAnalysis:
         """Spectral radius of the converged local closed loop."""
         return spectral_radius(self.closed_loop_nash)
 
+    @property
+    def closed_loop_iterations_radius(self) -> float:
+        """Spectral radius of the closed loop with ``iterations`` sweeps per sample."""
+        return spectral_radius(self.closed_loop_iterations)
+
     def to_dict(self) -> dict[str, object]:
         """JSON-safe dict."""
         r_star = self.threshold_weight
         return {"rho_d0": self.rho_d0, "relaxation": self.relaxation.to_dict(),
                 "closed_loop_radius": self.closed_loop_radius,
+                "closed_loop_iterations_radius": self.closed_loop_iterations_radius,
+                "iterations": self.iterations,
                 "prediction_error": [float(e) for e in self.prediction_error],
                 "threshold_weight": None if r_star is None or math.isinf(r_star) else r_star,
                 "hold": self.hold, "boundary": self.boundary, "substeps": self.substeps}
 
 
-def analyse_local_dmpc(design: MPCDesign, model: LocalModel, *,
+def analyse_local_dmpc(design: MPCDesign, model: LocalModel, *, iterations: int = 10,
                        threshold: bool = False) -> LocalDMPCAnalysis:
     """Convergence and closed loop of neighbourhood-local N-DMPC.
 
@@ -227,6 +242,8 @@ def analyse_local_dmpc(design: MPCDesign, model: LocalModel, *,
         The design (design units).
     model : LocalModel
         Its continuous model partitioned by coach.
+    iterations : int
+        Sweeps per sample for the finite-iteration closed loop, >= 1.
     threshold : bool
         Also find R* by bisection (tens of eigenvalue problems of size
         M·n + P·N·nx).
@@ -243,6 +260,9 @@ def analyse_local_dmpc(design: MPCDesign, model: LocalModel, *,
         d0_eigenvalues=eig,
         relaxation=relaxation(it.D0),
         closed_loop_nash=local_closed_loop(design, local_nash_gain(it)[:it.n_plan]),
+        closed_loop_iterations=local_finite_iteration_closed_loop(design, it, iterations,
+                                                                  model.substeps),
+        iterations=iterations,
         prediction_error=local_prediction_error(design, model, it.coaches),
         threshold_weight=local_threshold_weight(design, model, rtol=1e-3) if threshold else None,
         hold=model.hold, boundary=model.boundary, substeps=model.substeps,

@@ -156,10 +156,12 @@ __all__ = [
     "LocalResponse",
     "coach_predictions",
     "local_closed_loop",
+    "local_finite_iteration_closed_loop",
     "local_iteration",
     "local_model",
     "local_nash_gain",
     "local_prediction_error",
+    "local_shift_matrix",
     "local_threshold_weight",
     "rows_response",
     "train_state_owner",
@@ -627,6 +629,72 @@ def local_closed_loop(design: MPCDesign, plan_gain: Array) -> Array:
     top = np.hstack([A + B @ Kx, B @ (np.eye(n) + Ku)])
     bottom = np.hstack([Kx, np.eye(n) + Ku])
     return np.asarray(np.vstack([top, bottom]), dtype=np.float64)
+
+
+def local_shift_matrix(design: MPCDesign, it: LocalIteration, substeps: int) -> Array:
+    """Warm start of the next sample: ξ = [U; X] shifted by one sample.
+
+    The plan as :func:`~trainctl.analysis.iteration.shift_matrix`; the
+    trajectories drop their first N fine samples and repeat the last one N
+    times (as ``ndmpc-local`` does).
+    """
+    from .iteration import shift_matrix
+
+    MN, size = it.n_plan, it.D0.shape[0]
+    nx = design.A.shape[0]
+    fine = (size - MN) // nx
+    S = np.zeros((size, size))
+    S[:MN, :MN] = shift_matrix(design)
+    for tau in range(fine):
+        src = min(tau + substeps, fine - 1)
+        rows = MN + tau * nx + np.arange(nx)
+        S[rows, MN + src * nx + np.arange(nx)] = 1.0
+    return S
+
+
+def local_finite_iteration_closed_loop(design: MPCDesign, it: LocalIteration, iterations: int,
+                                       substeps: int = 1) -> Array:
+    """Closed loop with L local Jacobi iterations per sample from the shifted previous ξ.
+
+    The state is augmented with the previous [plans; trajectories]:
+    [x; ξ_prev] (u-form) or [x; u(k-1); ξ_prev] (Δu-form), with
+    ξ = D0^L S ξ_prev + Σ_{k<L} D0^k D1 θ, θ = [x; u(k-1)].
+
+    Parameters
+    ----------
+    design : MPCDesign
+        The design (its A, B: the true discrete model).
+    it : LocalIteration
+        The local iteration.
+    iterations : int
+        L >= 1.
+    substeps : int
+        N of the local model (the trajectories' fine samples per sample).
+
+    Returns
+    -------
+    ndarray
+        The augmented closed-loop matrix.
+    """
+    nx, n = design.A.shape[0], design.n_inputs
+    D0, D1 = it.D0, it.D1
+    DL = np.linalg.matrix_power(D0, iterations)
+    SL = sum((np.linalg.matrix_power(D0, k) for k in range(iterations)), np.zeros_like(D0))
+    xi_prev = DL @ local_shift_matrix(design, it, substeps)   # ξ from ξ_prev
+    xi_theta = SL @ D1                                         # ξ from θ
+    F = np.zeros((n, D0.shape[0]))
+    F[:, :n] = np.eye(n)                                       # first move of every coach
+    A, B = design.A, design.B
+    if design.form == "u":
+        Kx = F @ xi_theta[:, :nx]
+        top = np.hstack([A + B @ Kx, B @ F @ xi_prev])
+        return np.asarray(np.vstack([top, np.hstack([xi_theta[:, :nx], xi_prev])]),
+                          dtype=np.float64)
+    Kx, Ku = F @ xi_theta[:, :nx], F @ xi_theta[:, nx:]
+    rows_x = np.hstack([A + B @ Kx, B @ (np.eye(n) + Ku), B @ F @ xi_prev])
+    rows_u = np.hstack([Kx, np.eye(n) + Ku, F @ xi_prev])
+    rows_p = np.hstack([xi_theta[:, :nx], xi_theta[:, nx:], xi_prev])
+    return np.asarray(np.vstack([rows_x, rows_u, rows_p]), dtype=np.float64)
 
 
 def local_threshold_weight(design: MPCDesign, model: LocalModel, *, low: float = 1e-12,

@@ -54,8 +54,9 @@ def mpc_checks(design: MPCFamilyDesign) -> list[Check]:
         _relaxation_check(res.rho_d0, res.relaxation),
         _with_local(_radius(design, "closed_loop_nash", res.closed_loop_nash, labels,
                             "converged N-DMPC (Nash point)"), local, "closed_loop_radius"),
-        _radius(design, "closed_loop_iterations", res.closed_loop_iterations, labels + plan,
-                f"N-DMPC with {ctl.iterations} iteration(s) per sample"),
+        _with_local(_radius(design, "closed_loop_iterations", res.closed_loop_iterations,
+                            labels + plan, f"N-DMPC with {ctl.iterations} iteration(s) per sample"),
+                    local, "closed_loop_iterations_radius"),
         _gap_check(res.cost_gap),
         Check(name="cooperative_convergence", status="pass" if res.rho_cooperative < 1 else "fail",
               value=res.rho_cooperative, threshold=1.0, unit="",
@@ -90,6 +91,8 @@ def _with_local(check: Check, local: Any, what: str) -> Check:
         return check
     value = float(getattr(local, what))
     label = "ρ(D0)" if what == "rho_d0" else "closed-loop ρ"
+    if what == "closed_loop_iterations_radius":
+        label = f"closed-loop ρ with {local.iterations} iteration(s)"
     message = f"{check.message}; local formulation (ndmpc-local): {label} = {value:.6g}"
     details = dict(check.details or {})
     details["local"] = local.to_dict()

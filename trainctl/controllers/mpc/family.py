@@ -110,7 +110,7 @@ class MPCFamilyDesign:
         """The closed-form analysis of neighbourhood-local N-DMPC (computed once)."""
         from ...analysis.dmpc import analyse_local_dmpc
 
-        return analyse_local_dmpc(self.mpc, self.local)
+        return analyse_local_dmpc(self.mpc, self.local, iterations=self.settings.iterations)
 
     def cooperative_weights(self) -> np.ndarray | None:
         """Convex weights of cooperative DMPC (None: uniform)."""
