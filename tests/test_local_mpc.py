@@ -242,3 +242,27 @@ def test_fixed_iteration_count_closed_loop_equals_the_controller(well, form, r):
         np.testing.assert_allclose(aug[:7], x, rtol=1e-7, atol=1e-10)
         if form == "du":
             np.testing.assert_allclose(aug[7:11], u, rtol=1e-6, atol=1e-7)  # OSQP eps 1e-6
+
+
+def test_infeasible_step_is_recorded_and_falls_back(well):
+    """A bound that drops faster than the rate limit allows: status recorded, fallback used."""
+    train, d0, sys = well
+    d = _design(d0, P=10, M=5, r=2.0)
+    model = local_model(d, sys.A, sys.B, 0.05, train_state_owner(4))
+    ctl = make_mpc(train, d, dt=0.05, strategy="ndmpc-local",
+                   constraints=MPCConstraints(rate_limit=100.0), max_iterations=5,
+                   local_model=model)
+    x = equilibrium(train, 20.0).state(position=0.0)
+    times = 0.05 * np.arange(11)
+    ramp = ReferencePreview(times=times, speed=20.0 + 0.6 * times,
+                            acceleration=np.full(times.size, 0.6))
+    first = ctl.step(0.0, Measurement(state=x), ramp)
+    # Jump the reference to 83 m/s: the power limit cuts the bound from ~60 to 14.4 kN.
+    jump = ReferencePreview(times=times + 0.05, speed=np.full(times.size, 83.0),
+                            acceleration=np.zeros(times.size))
+    second = ctl.step(0.05, Measurement(state=x), jump)
+    assert second.status == "infeasible" and second.fallback == "shifted plan"
+    assert np.all(np.isfinite(second.inputs))
+    assert first.status in ("optimal", "max_iterations")
+    third = ctl.step(0.1, Measurement(state=x), jump)  # the exchange carries on
+    assert np.all(np.isfinite(third.inputs))
