@@ -76,6 +76,12 @@ Fixed point: not the global Nash point
     neighbourhood to a prescribed motion), so the local Nash point is a
     different equilibrium even with an exact local discretisation
     (``substeps`` → ∞); ``boundary="force"`` changes which equilibrium.
+    (The reconstruction note that exchanging the predictions every iteration
+    gives the global-model fixed point holds for the trajectories, not for
+    the plans: a sensitivity-corrected variant — the exact own-input
+    sensitivity G_{N_i,i} of the global model in the QP, the local
+    prediction for the rest — has that fixed point in exact arithmetic, but
+    ρ(D0) 89–330 on crh2-dmpc-well-sampled: unusable.)
 
 Fixed point and closed loop
     ξ* = (I - D0)⁻¹ D1 θ (the Nash point of the local formulation); the first
