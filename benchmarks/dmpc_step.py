@@ -29,6 +29,10 @@ solutions within 1e-6 kN).
 
 Part 2 — per-iteration time and iteration counts of the fast path for trains
 of 4, 8, 16, 32 and 64 coaches (T-M-M-T units of seed 000's coaches).
+
+Part 3 — per-coach-QP time of the global N-DMPC ("ndmpc") and the
+neighbourhood-local one ("ndmpc-local") side by side, 4 → 64 (global) and
+4 → 256 (local) coaches, P = 10 (where both iterations converge).
 """
 
 from __future__ import annotations
@@ -315,6 +319,77 @@ def part2(sizes, steps, compute_r=False):
                   f"{per_iter / n * 1e3:>19.3f}")
 
 
+def chain_design(n, r, P=40):
+    """The part-2 design of an n-coach chain and its continuous model partitioned by coach."""
+    from trainctl.analysis.local_iteration import local_model, train_state_owner
+    from trainctl.analysis.mpc import MPCDesign
+    from trainctl.models import discretise, linearise
+
+    train = chain(n)
+    sys_c = linearise(train, 50.0, outputs=("v", "force"))
+    scale = np.concatenate([np.ones(n), np.full(n - 1, 1e-3)])
+    sysd = discretise(sys_c, 0.05)
+    d = MPCDesign(A=sysd.A, B=sysd.B * 1e3, C=scale[:, None] * sysd.C,
+                  prediction_horizon=P, control_horizon=5, form="u",
+                  q=np.concatenate([np.full(n, 10.0), np.full(n - 1, 0.01)]),
+                  r=np.full(n, r), output_owner=tuple(range(n)) + tuple(range(n - 1)),
+                  neighbourhoods=tuple(tuple(j for j in (i - 1, i, i + 1) if 0 <= j < n)
+                                       for i in range(n)))
+    model = local_model(d, sys_c.A, sys_c.B * 1e3, 0.05, train_state_owner(n))
+    return train, d, model
+
+
+def part3(global_sizes, local_sizes, steps, P=10, r=2.0):
+    """Per-coach-QP time of the global and the local N-DMPC formulations, side by side.
+
+    P = 10, R = 2 per kN²: both Jacobi iterations converge for every size (ρ(D0_local)
+    0.32 at 4 coaches, 0.46 at 16; at P = 40, R = 0.2 the local one diverges, ρ 1.41).
+    """
+    print(f"\nGlobal vs local N-DMPC (T = 0.05 s, P = {P}, M = 5, R = {r:g} per kN², "
+          f"iterations to 1e-4 kN, {steps} steps from a 1 m/s error):")
+    print("global: every coach QP from the global model (data depend on every plan); "
+          "local ('ndmpc-local'): neighbourhood model, plans and own-state trajectories "
+          "exchanged")
+    print("per coach-QP: all of a sweep's work divided by n; 'OSQP' the solver's share, "
+          "'rest' the data composition and exchange (what the formulation changes)")
+    print(f"{'coaches':>8}{'form':>8}{'build [s]':>11}{'distinct':>10}{'rows':>6}"
+          f"{'Jacobi':>8}{'OSQP iters':>12}{'per coach-QP [ms]':>19}{'OSQP [ms]':>11}"
+          f"{'rest [ms]':>11}")
+    results = {}
+    for n in sorted(set(global_sizes) | set(local_sizes)):
+        train, d, model = chain_design(n, r, P)
+        for form, strategy, sizes in (("global", "ndmpc", global_sizes),
+                                      ("local", "ndmpc-local", local_sizes)):
+            if n not in sizes:
+                continue
+            start = time.perf_counter()
+            ctl = make_mpc(train, d, dt=0.05, strategy=strategy, constraints=CONSTRAINTS,
+                           tolerance=1e-4, local_model=model if form == "local" else None)
+            build = time.perf_counter() - start
+            solves = []
+            for block in ctl.blocks:
+                def record(data, _orig=block.qp.solve_data, _log=solves):
+                    sol = _orig(data)
+                    _log.append((sol.iterations, sol.solve_time))
+                    return sol
+                block.qp.solve_data = record
+            times, iters = time_closed_loop(ctl, train, d, 0.05, steps)
+            qps = max(sum(iters), 1) * n
+            per_qp = sum(times) / qps
+            osqp = sum(t for _, t in solves) / qps
+            distinct = getattr(ctl.problem, "distinct", n)
+            rows = max(b.qp.nh + b.qp.ns for b in ctl.blocks)
+            results[n, form] = (per_qp, per_qp - osqp)
+            print(f"{n:>8}{form:>8}{build:>11.2f}{distinct:>10}{rows:>6}"
+                  f"{statistics.mean(iters):>8.1f}"
+                  f"{statistics.mean(i for i, _ in solves):>12.0f}{per_qp * 1e3:>19.3f}"
+                  f"{osqp * 1e3:>11.3f}{(per_qp - osqp) * 1e3:>11.3f}")
+    shared = [n for n in global_sizes if (n, "local") in results]
+    if shared:
+        print("rest per coach-QP, global / local: " + ", ".join(
+            f"{n}: {results[n, 'global'][1] / results[n, 'local'][1]:.2f}" for n in shared))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer steps and sizes (smoke run)")
@@ -324,6 +399,8 @@ def main():
     part1(steps=10 if args.quick else 60, rounds=2 if args.quick else 5)
     part2([4, 8] if args.quick else [4, 8, 16, 32, 64], steps=3 if args.quick else 6,
           compute_r=args.compute_r)
+    part3([4, 8] if args.quick else [4, 8, 16, 32, 64], [4, 8] if args.quick
+          else [4, 8, 16, 32, 64, 128, 256], steps=2 if args.quick else 4)
 
 
 if __name__ == "__main__":

@@ -431,3 +431,20 @@ class TestWarmStart:
         a, b = used.solve_vector(data), fresh.solve_vector(data)
         np.testing.assert_array_equal(a.z, b.z)
         assert a.iterations == b.iterations
+
+
+def test_a_clone_has_its_own_dense_workspace():
+    """A cloned DAQP QP solves with its own workspace: the original's solves leave it alone."""
+    from trainctl.controllers.qp import ParametricQP
+
+    H = np.array([[2.0, 0.5], [0.5, 1.0]])
+    C = np.eye(2)
+    qp = ParametricQP(H, C, np.zeros((0, 2)), name="a", solver="daqp")
+    twin = qp.clone(name="b")
+    assert twin.dense_path is not None and twin.dense_path is not qp.dense_path
+    lb, ub = np.array([-1.0, -1.0]), np.array([1.0, 1.0])
+    a = qp.solve(g=np.array([-4.0, 0.0]), lb=lb, ub=ub)
+    b = twin.solve(g=np.array([0.0, 3.0]), lb=lb, ub=ub)
+    # independent routes: the box-constrained minimisers by hand
+    np.testing.assert_allclose(a.z, [1.0, -0.5], atol=1e-9)
+    np.testing.assert_allclose(b.z, [0.25, -1.0], atol=1e-9)

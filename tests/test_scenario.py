@@ -2046,7 +2046,7 @@ class TestSimulationErrors:
         check_fails(
             self._strategies('["centralised", "ndmpcc"]'),
             "[simulation].strategies[1] must be one of 'centralised', 'decentralised', "
-            "'ndmpc', 'cooperative' (got 'ndmpcc', a string).",
+            "'ndmpc', 'cooperative', 'ndmpc-local' (got 'ndmpcc', a string).",
             "Did you mean 'ndmpc'?",
         )
 

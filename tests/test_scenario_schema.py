@@ -235,7 +235,7 @@ class TestFamilies:
         text = with_simulation().replace('"ndmpc"]', '"lqr.centralised"]')
         with pytest.raises(ScenarioError, match=re.escape(
             "[simulation].strategies[2] must be one of 'centralised', 'decentralised', "
-            "'ndmpc', 'cooperative' (got 'lqr.centralised', a string)"
+            "'ndmpc', 'cooperative', 'ndmpc-local' (got 'lqr.centralised', a string)"
         )) as info:
             parse_scenario(text)
         assert "needs that family's [controller.lqr] table" in str(info.value)

@@ -421,7 +421,7 @@ def _strategy_seconds(scenario: Scenario, strategy: str, samples: int, horizon: 
         steps = samples * scenario.model.sample_time / interval
         under = substeps * interval / scenario.model.sample_time
         return _BUILD + steps * (1 + n / 32) * (_LAW + _LAW_SUBSTEP * under)
-    if name in ("ndmpc", "cooperative"):
+    if name in ("ndmpc", "cooperative", "ndmpc-local"):
         limit = int(getattr(settings, "max_iterations", _ITERATIONS) or _ITERATIONS)
         step = _QP * n * min(limit, _ITERATIONS)
     elif name == "decentralised":

@@ -1,5 +1,10 @@
 # The DMPC design conditions of one MPC design, as one frozen result.
-"""Convergence and closed-loop conditions of N-DMPC, cooperative and centralised MPC."""
+"""Convergence and closed-loop conditions of N-DMPC, cooperative and centralised MPC.
+
+:func:`analyse_dmpc` judges the global formulation (every coach predicts with
+the global model); :func:`analyse_local_dmpc` the neighbourhood-local one of
+:mod:`trainctl.analysis.local_iteration` (strategy ``"ndmpc-local"``).
+"""
 
 from __future__ import annotations
 
@@ -20,9 +25,18 @@ from .iteration import (
     spectral_radius,
     threshold_weight,
 )
+from .local_iteration import (
+    LocalModel,
+    local_closed_loop,
+    local_finite_iteration_closed_loop,
+    local_iteration,
+    local_nash_gain,
+    local_prediction_error,
+    local_threshold_weight,
+)
 from .mpc import MPCDesign, prediction
 
-__all__ = ["DMPCAnalysis", "analyse_dmpc"]
+__all__ = ["DMPCAnalysis", "LocalDMPCAnalysis", "analyse_dmpc", "analyse_local_dmpc"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -146,4 +160,110 @@ def analyse_dmpc(
         iterations=iterations,
         cost_gap=(j_n - j_c) / j_c if j_c > 0 else 0.0,
         rho_cooperative=spectral_radius(T_coop),
+    )
+
+
+@dataclass(frozen=True, kw_only=True)
+class LocalDMPCAnalysis:
+    """Unconstrained conditions of neighbourhood-local N-DMPC, in design units.
+
+    Parameters
+    ----------
+    rho_d0 : float
+        Spectral radius of the local iteration matrix (plans and exchanged trajectories).
+    d0_eigenvalues : ndarray
+        Its eigenvalues.
+    relaxation : RelaxationResult
+        Relaxed-Jacobi range and best rate.
+    closed_loop_nash : ndarray
+        Closed loop (on the global model) with the converged local Nash plan.
+    closed_loop_iterations : ndarray
+        Closed loop with ``iterations`` local sweeps per sample from the
+        shifted plans and trajectories (state augmented with them).
+    iterations : int
+        Sweeps per sample in ``closed_loop_iterations``.
+    prediction_error : ndarray
+        Relative error of each coach's local output prediction
+        (:func:`~trainctl.analysis.local_iteration.local_prediction_error`).
+    threshold_weight : float or None
+        R* of the local iteration [per design unit²] (None: not computed).
+    hold, boundary : str
+        The local model's hold and boundary.
+    substeps : int
+        Exchanged samples per sample time.
+    """
+
+    rho_d0: float
+    d0_eigenvalues: NDArray[np.complex128]
+    relaxation: RelaxationResult
+    closed_loop_nash: NDArray[np.float64]
+    closed_loop_iterations: NDArray[np.float64]
+    iterations: int
+    prediction_error: NDArray[np.float64]
+    threshold_weight: float | None
+    hold: str
+    boundary: str
+    substeps: int
+
+    @property
+    def converges(self) -> bool:
+        """True when plain Jacobi iteration converges (ρ(D0) < 1)."""
+        return self.rho_d0 < 1
+
+    @property
+    def closed_loop_radius(self) -> float:
+        """Spectral radius of the converged local closed loop."""
+        return spectral_radius(self.closed_loop_nash)
+
+    @property
+    def closed_loop_iterations_radius(self) -> float:
+        """Spectral radius of the closed loop with ``iterations`` sweeps per sample."""
+        return spectral_radius(self.closed_loop_iterations)
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-safe dict."""
+        r_star = self.threshold_weight
+        return {"rho_d0": self.rho_d0, "relaxation": self.relaxation.to_dict(),
+                "closed_loop_radius": self.closed_loop_radius,
+                "closed_loop_iterations_radius": self.closed_loop_iterations_radius,
+                "iterations": self.iterations,
+                "prediction_error": [float(e) for e in self.prediction_error],
+                "threshold_weight": None if r_star is None or math.isinf(r_star) else r_star,
+                "hold": self.hold, "boundary": self.boundary, "substeps": self.substeps}
+
+
+def analyse_local_dmpc(design: MPCDesign, model: LocalModel, *, iterations: int = 10,
+                       threshold: bool = False) -> LocalDMPCAnalysis:
+    """Convergence and closed loop of neighbourhood-local N-DMPC.
+
+    Parameters
+    ----------
+    design : MPCDesign
+        The design (design units).
+    model : LocalModel
+        Its continuous model partitioned by coach.
+    iterations : int
+        Sweeps per sample for the finite-iteration closed loop, >= 1.
+    threshold : bool
+        Also find R* by bisection (tens of eigenvalue problems of size
+        M·n + P·N·nx).
+
+    Returns
+    -------
+    LocalDMPCAnalysis
+        The numbers.
+    """
+    it = local_iteration(design, model)
+    eig = np.asarray(np.linalg.eigvals(it.D0), dtype=np.complex128)
+    return LocalDMPCAnalysis(
+        rho_d0=float(np.max(np.abs(eig))) if eig.size else 0.0,
+        d0_eigenvalues=eig,
+        relaxation=relaxation(it.D0),
+        closed_loop_nash=local_closed_loop(design, local_nash_gain(it)[:it.n_plan]),
+        closed_loop_iterations=local_finite_iteration_closed_loop(design, it, iterations,
+                                                                  model.substeps),
+        iterations=iterations,
+        prediction_error=local_prediction_error(design, model, it.coaches),
+        threshold_weight=local_threshold_weight(design, model, rtol=1e-3) if threshold else None,
+        hold=model.hold, boundary=model.boundary, substeps=model.substeps,
     )

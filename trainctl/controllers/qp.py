@@ -28,6 +28,7 @@ The solvers return the same solutions to OSQP's accuracy (tested to 1e-6).
 
 from __future__ import annotations
 
+import copy
 import sys
 import time
 
@@ -146,6 +147,47 @@ class ParametricQP:
         self._solve_vector = (self._dense.solve_vector if self._dense is not None
                               else self._fast.solve_vector if self._fast is not None else None)
         self._cold = False  # the next cvxpy solve sets OSQP up anew (after reset())
+
+    def clone(self, *, name: str | None = None) -> ParametricQP:
+        """The same QP with its own OSQP workspace, without modelling or probing it again.
+
+        The clone shares the cvxpy problem (its ``path="cvxpy"`` solves then
+        share cvxpy's warm start) and the identified data map; on the fast
+        path it gets a fresh OSQP workspace set up with the same matrices, so
+        its warm starts are its own.
+
+        Parameters
+        ----------
+        name : str or None
+            Label of the clone (default: this QP's).
+
+        Returns
+        -------
+        ParametricQP
+            The clone, cold.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> qp = ParametricQP(np.eye(1), np.eye(1), np.zeros((0, 1)), name="a")
+        >>> twin = qp.clone(name="b")
+        >>> sol = twin.solve(g=np.array([-2.0]), lb=np.array([-1.0]), ub=np.array([1.0]))
+        >>> twin.name, sol.z.round(6).tolist(), twin.fast_path is not qp.fast_path
+        ('b', [1.0], True)
+        """
+        twin = copy.copy(self)
+        twin.name = self.name if name is None else name
+        if self._fast is not None:
+            fast = copy.copy(self._fast)
+            fast.name = twin.name
+            fast._setup(type(self._fast.solver), internal=self._fast.route == "internal")
+            twin._fast = fast
+            # its own DAQP workspace too, and solve_vector bound to the clone's paths
+            twin._dense = FastDAQP(fast) if self._dense is not None else None
+            twin._solve_vector = (twin._dense.solve_vector if twin._dense is not None
+                                  else fast.solve_vector)
+        twin._cold = True
+        return twin
 
     def reset(self) -> None:
         """Forget every warm start: the next solve starts cold, on either path."""

@@ -46,7 +46,7 @@ Examples
 >>> family_names()[:2]
 ('mpc', 'lqr')
 >>> get_family("mpc").strategies
-('centralised', 'decentralised', 'ndmpc', 'cooperative')
+('centralised', 'decentralised', 'ndmpc', 'cooperative', 'ndmpc-local')
 """
 
 from __future__ import annotations

@@ -109,8 +109,8 @@ def strategy_names(families: Sequence[str] | None = None) -> tuple[str, ...]:
     Examples
     --------
     >>> strategy_names(["mpc", "lqr"])
-    ('centralised', 'decentralised', 'ndmpc', 'cooperative', 'lqr.centralised', \
-'lqr.decentralised')
+    ('centralised', 'decentralised', 'ndmpc', 'cooperative', 'ndmpc-local', \
+'lqr.centralised', 'lqr.decentralised')
     """
     if families is None:
         known = _families()

@@ -6,6 +6,7 @@ Weight thresholds are reported in the unit the scenario used (per kN² or per N�
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import TYPE_CHECKING, Any
 
@@ -46,13 +47,16 @@ def mpc_checks(design: MPCFamilyDesign) -> list[Check]:
     unit = f"per {ctl.input_weight_unit}²"
     labels = design.closed_loop_labels()
     plan = [f"plan[{i}]" for i in range(res.closed_loop_iterations.shape[0] - len(labels))]
+    local = design.local_analysis if design.simulates_local else None
     return [
-        _convergence_check(res.rho_d0, res.threshold_weight * unit_scale, unit, res.relaxation),
+        _with_local(_convergence_check(res.rho_d0, res.threshold_weight * unit_scale, unit,
+                                       res.relaxation), local, "rho_d0"),
         _relaxation_check(res.rho_d0, res.relaxation),
-        _radius(design, "closed_loop_nash", res.closed_loop_nash, labels,
-                "converged N-DMPC (Nash point)"),
-        _radius(design, "closed_loop_iterations", res.closed_loop_iterations, labels + plan,
-                f"N-DMPC with {ctl.iterations} iteration(s) per sample"),
+        _with_local(_radius(design, "closed_loop_nash", res.closed_loop_nash, labels,
+                            "converged N-DMPC (Nash point)"), local, "closed_loop_radius"),
+        _with_local(_radius(design, "closed_loop_iterations", res.closed_loop_iterations,
+                            labels + plan, f"N-DMPC with {ctl.iterations} iteration(s) per sample"),
+                    local, "closed_loop_iterations_radius"),
         _gap_check(res.cost_gap),
         Check(name="cooperative_convergence", status="pass" if res.rho_cooperative < 1 else "fail",
               value=res.rho_cooperative, threshold=1.0, unit="",
@@ -74,6 +78,32 @@ def _radius(design: MPCFamilyDesign, name: str, A_cl: Any, labels: list[str], wh
                 if design.mpc.form == "du" else "penalise the states along these directions")
     return radius_check(name, A_cl, labels, what, marginal_hint=marginal,
                         unstable_hint="raise R, lengthen P, or penalise coupler forces")
+
+
+def _with_local(check: Check, local: Any, what: str) -> Check:
+    """``check`` (of the global formulation) with the local formulation's number beside it.
+
+    Only when the scenario simulates ``"ndmpc-local"``: the local number goes
+    to the message and ``details["local"]``; a pass becomes a warn when the
+    local formulation fails where the global one passes (ρ ≥ 1).
+    """
+    if local is None:
+        return check
+    value = float(getattr(local, what))
+    label = "ρ(D0)" if what == "rho_d0" else "closed-loop ρ"
+    if what == "closed_loop_iterations_radius":
+        label = f"closed-loop ρ with {local.iterations} iteration(s)"
+    message = f"{check.message}; local formulation (ndmpc-local): {label} = {value:.6g}"
+    details = dict(check.details or {})
+    details["local"] = local.to_dict()
+    status, hint = check.status, check.hint
+    if value >= 1 and status == "pass":
+        status = "warn"
+        hint = ("the neighbourhood-local formulation (ndmpc-local) "
+                + ("diverges: raise R" if what == "rho_d0" else "is unstable")
+                + "; see trainctl.analysis.local_iteration")
+    return dataclasses.replace(check, status=status, message=message, details=details,
+                               hint=hint)
 
 
 def _convergence_check(rho: float, r_star: float, unit: str, relax: Any) -> Check:

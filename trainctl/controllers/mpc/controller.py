@@ -24,6 +24,13 @@ strategy (:mod:`.strategies`) decides the blocks and combines their plans:
 ``"cooperative"``
     Every coach optimises the whole-train cost over its own moves; the new
     plan is the convex combination Σ_i w_i (plan with block i replaced).
+``"ndmpc-local"``
+    N-DMPC as the seed defines it: coach i predicts only its neighbourhood,
+    with its own sampled neighbourhood model, the states just outside taken
+    from the trajectories the other coaches predicted for their own states
+    (exchanged every iteration with the plans); its QP's size and build cost
+    do not depend on the train length (:mod:`.local`,
+    :mod:`trainctl.analysis.local_iteration`). Needs ``local_model``.
 
 Constraints: the traction/braking envelope of every coach at the reference
 speed (hard; trailers brake only), the input rate (hard, per step), and the
@@ -52,6 +59,7 @@ import time
 import numpy as np
 from numpy.typing import NDArray
 
+from ...analysis.local_iteration import LocalModel
 from ...analysis.mpc import MPCDesign
 from ...exceptions import ModelError
 from ...models.envelope import EnvelopeBounds
@@ -60,6 +68,7 @@ from ...models.train import Train
 from ..base import Measurement, ReferencePreview, StepRecord
 from ..observer import KalmanObserver, ObserverSettings
 from .condensed import QPBlock, shifted
+from .local import LocalTrainProblem
 from .problem import StepContext, TrainProblem
 from .settings import QP_SOLVERS, STRATEGIES, MPCConstraints
 from .strategies import make_strategy
@@ -120,6 +129,10 @@ class MPCController:
     observer : KalmanObserver or None
         With an observer the controller uses the measured speeds only
         (``measurement.outputs``) and compensates the estimated disturbance.
+    local_model : LocalModel or None
+        The continuous design model partitioned by coach
+        (:func:`trainctl.analysis.local_iteration.local_model`); required by
+        ``"ndmpc-local"``, ignored otherwise.
     """
 
     def __init__(self, train: Train, design: MPCDesign, force_matrix: Array, *, dt: float,
@@ -127,7 +140,8 @@ class MPCController:
                  tolerance: float = 1e-6, relaxation: float = 1.0,
                  cooperative_weights: Array | None = None, path: str = "fast",
                  qp_solver: str = "auto", name: str | None = None,
-                 observer: KalmanObserver | None = None) -> None:
+                 observer: KalmanObserver | None = None,
+                 local_model: LocalModel | None = None) -> None:
         if strategy not in STRATEGIES:
             raise ModelError(
                 f"MPCController: 'strategy' must be one of {STRATEGIES} (got {strategy!r}).")
@@ -158,8 +172,18 @@ class MPCController:
         self._strategy = make_strategy(strategy, max_iterations=max_iterations,
                                        tolerance=tolerance, relaxation=relaxation,
                                        weights=self.weights)
-        self.problem = TrainProblem(design, force_matrix, constraints, self._strategy,
-                                    name=self.name, path=path, qp_solver=qp_solver)
+        self.problem: TrainProblem
+        if strategy == "ndmpc-local":
+            if local_model is None:
+                raise ModelError(f"{self.name}: 'ndmpc-local' needs the continuous design model "
+                                 "partitioned by coach (local_model=trainctl.analysis."
+                                 "local_iteration.local_model(design, A, B, dt, owners)).")
+            self.problem = LocalTrainProblem(design, local_model, force_matrix, constraints,
+                                             self._strategy, name=self.name, path=path,
+                                             qp_solver=qp_solver)
+        else:
+            self.problem = TrainProblem(design, force_matrix, constraints, self._strategy,
+                                        name=self.name, path=path, qp_solver=qp_solver)
         self.reset()
 
     @property
@@ -339,7 +363,8 @@ def make_mpc(train: Train, design: MPCDesign, *, dt: float, strategy: str = "ndm
              cooperative_weights: Array | None = None, path: str = "fast",
              qp_solver: str = "auto", name: str | None = None,
              observer: ObserverSettings | None = None,
-             design_speed: float | None = None) -> MPCController:
+             design_speed: float | None = None,
+             local_model: LocalModel | None = None) -> MPCController:
     """Build an MPC controller; every QP is modelled once here.
 
     Parameters
@@ -374,6 +399,8 @@ def make_mpc(train: Train, design: MPCDesign, *, dt: float, strategy: str = "ndm
         (output feedback, offset-free tracking) instead of measuring the state.
     design_speed : float or None
         Speed at which the observer gain is designed [m/s]; required with ``observer``.
+    local_model : LocalModel or None
+        Required by ``"ndmpc-local"`` (see :class:`MPCController`).
 
     Returns
     -------
@@ -393,7 +420,8 @@ def make_mpc(train: Train, design: MPCDesign, *, dt: float, strategy: str = "ndm
                          constraints=constraints or MPCConstraints(),
                          max_iterations=max_iterations, tolerance=tolerance,
                          relaxation=relaxation, cooperative_weights=cooperative_weights,
-                         path=path, qp_solver=qp_solver, name=name, observer=kalman)
+                         path=path, qp_solver=qp_solver, name=name, observer=kalman,
+                         local_model=local_model)
 
 
 def _check_design(where: str, train: Train, design: MPCDesign, force_matrix: Array) -> None:

@@ -22,7 +22,8 @@ from .settings import STRATEGIES
 if TYPE_CHECKING:
     import control as ct
 
-    from ...analysis.dmpc import DMPCAnalysis
+    from ...analysis.dmpc import DMPCAnalysis, LocalDMPCAnalysis
+    from ...analysis.local_iteration import LocalModel
     from ...analysis.mpc import MPCDesign
     from ...analysis.review import Check
     from ...design import DesignModel
@@ -47,7 +48,8 @@ CHECK_NAMES = (
 )
 """The MPC family's design checks."""
 
-STRATEGY_COST = {"centralised": 1.0, "decentralised": 1.5, "ndmpc": 2.5, "cooperative": 3.0}
+STRATEGY_COST = {"centralised": 1.0, "decentralised": 1.5, "ndmpc": 2.5, "cooperative": 3.0,
+                 "ndmpc-local": 2.5}
 """Relative cost of a controller step per strategy (iterating strategies solve more QPs)."""
 
 
@@ -79,6 +81,36 @@ class MPCFamilyDesign:
 
         return analyse_dmpc(self.mpc, iterations=self.settings.iterations,
                             cooperative_weights=self.cooperative_weights())
+
+    @cached_property
+    def local(self) -> LocalModel:
+        """The continuous design model partitioned by coach, for ``"ndmpc-local"``.
+
+        The coach owns its speed and the elongation of the coupler behind it;
+        hold, substeps and boundary are the ``local_*`` settings
+        (:func:`~trainctl.analysis.local_iteration.local_model`). Needs the
+        zero-order-hold design model (``discretisation = "zoh"``).
+        """
+        from ...analysis.local_iteration import local_model, train_state_owner
+
+        sys, ctl = self.model.design, self.settings
+        return local_model(self.mpc, np.asarray(sys.A, dtype=float),
+                           np.asarray(sys.B, dtype=float), self.scenario.model.sample_time,
+                           train_state_owner(self.mpc.n_inputs), hold=ctl.local_hold,
+                           substeps=ctl.local_substeps, boundary=ctl.local_boundary)
+
+    @property
+    def simulates_local(self) -> bool:
+        """True when the scenario simulates ``"ndmpc-local"`` (its checks then report it)."""
+        sim = getattr(self.scenario, "simulation", None)
+        return sim is not None and "ndmpc-local" in tuple(sim.strategies)
+
+    @cached_property
+    def local_analysis(self) -> LocalDMPCAnalysis:
+        """The closed-form analysis of neighbourhood-local N-DMPC (computed once)."""
+        from ...analysis.dmpc import analyse_local_dmpc
+
+        return analyse_local_dmpc(self.mpc, self.local, iterations=self.settings.iterations)
 
     def cooperative_weights(self) -> np.ndarray | None:
         """Convex weights of cooperative DMPC (None: uniform)."""
@@ -160,7 +192,8 @@ def make_mpc_controller(design: MPCFamilyDesign, strategy: str) -> MPCController
                          tolerance=ctl.iteration_tolerance, relaxation=ctl.relaxation,
                          cooperative_weights=design.cooperative_weights(),
                          path=ctl.solver_path, qp_solver=ctl.qp_solver, name=strategy,
-                         observer=observer)
+                         observer=observer,
+                         local_model=design.local if strategy == "ndmpc-local" else None)
 
 
 def mpc_closed_loop(design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:
@@ -172,7 +205,8 @@ def mpc_closed_loop(design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:
     deviations ``d[i]`` [m] (:meth:`DesignModel.loop_outputs`). The state matrix is the
     one the checks judge: centralised and cooperative (whose fixed point is
     the centralised optimum) the centralised loop, ``ndmpc`` the converged
-    Nash loop, ``decentralised`` each coach optimising its own outputs with
+    Nash loop, ``ndmpc-local`` the converged Nash loop of the local
+    formulation, ``decentralised`` each coach optimising its own outputs with
     the others at their feedforward.
 
     Parameters
@@ -194,6 +228,8 @@ def mpc_closed_loop(design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:
         A_cl = res.closed_loop_centralised
     elif strategy == "ndmpc":
         A_cl = res.closed_loop_nash
+    elif strategy == "ndmpc-local":
+        A_cl = design.local_analysis.closed_loop_nash
     else:
         A_cl = _decentralised_closed_loop(design.mpc)
     model = design.model

@@ -40,6 +40,8 @@ from .rules import NEIGHBOURHOODS, CooperativeWeightsRule, NeighbourhoodRule, co
 __all__ = [
     "CONTROLLER_FORMS",
     "NEIGHBOURHOODS",
+    "LOCAL_BOUNDARIES",
+    "LOCAL_HOLDS",
     "OBSERVERS",
     "QP_SOLVERS",
     "SOLVER_PATHS",
@@ -48,8 +50,8 @@ __all__ = [
     "MPCConstraints",
 ]
 
-STRATEGIES = ("centralised", "decentralised", "ndmpc", "cooperative")
-"""The MPC strategies."""
+STRATEGIES = ("centralised", "decentralised", "ndmpc", "cooperative", "ndmpc-local")
+"""The MPC strategies (``"ndmpc-local"``: N-DMPC on the neighbourhood models only)."""
 
 CONTROLLER_FORMS = ("u", "du")
 """Penalise the input (``"u"``) or its increments (``"du"``)."""
@@ -60,6 +62,12 @@ SOLVER_PATHS = ("fast", "cvxpy")
 QP_SOLVERS = ("auto", "osqp", "daqp")
 """QP solvers of the fast path (``trainctl.controllers.qp.QP_SOLVERS``): ``"auto"`` takes
 DAQP for QPs of at most ``trainctl.controllers.qp.DAQP_MAX_DECISIONS`` decisions, OSQP above."""
+
+LOCAL_HOLDS = ("foh", "zoh")
+"""ndmpc-local: first- or zero-order hold of the exchanged outer states."""
+
+LOCAL_BOUNDARIES = ("state", "force")
+"""ndmpc-local: what a neighbourhood takes from outside (trainctl.analysis.local_iteration)."""
 
 OBSERVERS = ("none", "kalman")
 """Full-state feedback, or a Kalman observer of the state and a grade-like disturbance."""
@@ -181,6 +189,14 @@ class ControllerSettings:
     coupler_force_steps : tuple of int or None
         Prediction steps (1..P, increasing) at which the coupler-force bound
         applies; None for every step.
+    local_hold : {"foh", "zoh"}
+        ``"ndmpc-local"``: the exchanged outer states between their samples,
+        linear or constant (:func:`trainctl.analysis.local_iteration.local_model`).
+    local_substeps : int
+        ``"ndmpc-local"``: exchanged trajectory samples per sample time, 1..64.
+    local_boundary : {"state", "force"}
+        ``"ndmpc-local"``: ``"state"`` the book's neighbourhood model,
+        ``"force"`` the boundary coupler elongations exchanged too.
 
     Examples
     --------
@@ -246,6 +262,14 @@ class ControllerSettings:
     coupler_force_steps: Annotated[Annotated[tuple[int, ...], _STEPS] | None, Key(
         "Prediction steps (1..P, increasing) at which the coupler-force bound applies",
         omitted="every step")] = None
+    local_hold: Annotated[str, Choice(LOCAL_HOLDS), Key(
+        "ndmpc-local: the exchanged outer states between their samples, 'foh' linear or "
+        "'zoh' constant")] = "foh"
+    local_substeps: Annotated[int, Integer(ge=1, le=64), Key(
+        "ndmpc-local: exchanged trajectory samples per sample time")] = 1
+    local_boundary: Annotated[str, Choice(LOCAL_BOUNDARIES), Key(
+        "ndmpc-local: 'state' the book's neighbourhood model (outer states exchanged), "
+        "'force' the boundary coupler elongations exchanged too")] = "state"
 
     @model_validator(mode="after")
     def _cross_field_rules(self, info: ValidationInfo) -> ControllerSettings:

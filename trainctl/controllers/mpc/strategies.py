@@ -17,6 +17,9 @@ blocks' solutions become one plan:
 ``Cooperative``
     One block per coach over the whole-train cost; the new plan is the
     convex combination Σ_i w_i (plan with block i replaced).
+``LocalNDMPC`` (:mod:`.local`)
+    N-DMPC on the neighbourhood models only: one block per coach whose data
+    depend on the neighbours' plans and the exchanged predicted trajectories.
 
 A block whose solve gives no usable solution takes the fallback plan it is
 given (the shifted previous plan, clipped to the rate limit and the
@@ -195,6 +198,11 @@ def make_strategy(name: str, *, max_iterations: int, tolerance: float, relaxatio
         return Decentralised()
     if name == "ndmpc":
         return NDMPC(max_iterations=max_iterations, tolerance=tolerance, relaxation=relaxation)
+    if name == "ndmpc-local":
+        from .local import LocalNDMPC
+
+        return LocalNDMPC(max_iterations=max_iterations, tolerance=tolerance,
+                          relaxation=relaxation)
     return Cooperative(max_iterations=max_iterations, tolerance=tolerance, weights=weights)
 
 
