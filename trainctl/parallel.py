@@ -212,9 +212,12 @@ def _terminate(pool: Executor) -> None:
     """Cancel queued work and terminate the workers at once (SIGTERM, then SIGKILL)."""
     # ProcessPoolExecutor keeps its workers in _processes (no public handle).
     procs = list((getattr(pool, "_processes", None) or {}).values())
-    pool.shutdown(wait=False, cancel_futures=True)
+    # Workers first: a worker still starting (unpickling its queues) when shutdown frees
+    # the queues' semaphores prints a FileNotFoundError traceback; SIGTERM ends it silently
+    # (seen when Ctrl-C came during a slow pool start on a loaded machine).
     for process in procs:
         process.terminate()
+    pool.shutdown(wait=False, cancel_futures=True)
     for process in procs:
         process.join(timeout=0.3)
         if process.is_alive():
