@@ -309,6 +309,8 @@ class LocalFlow(NamedTuple):
     """A_w, shape (2m, 2m), for the Taylor terms below h/2^L."""
     inverse_mass: Array
     """1/m_i of the window's vehicles [1/kg], shape (m, 1)."""
+    norm: float = 0.0
+    """‖A_w‖₁, which bounds the growth of the Taylor terms of the flow."""
 
 
 def local_flow(plant: Plant, h: float, vbar: float, vehicle: int, levels: int) -> LocalFlow:
@@ -349,6 +351,8 @@ def local_flow(plant: Plant, h: float, vbar: float, vehicle: int, levels: int) -
             finer = ladder[j + 1]
             np.matmul(finer[:, : 2 * m], finer, out=ladder[j])
             ladder[j, :, 2 * m :] += finer[:, 2 * m :]
-        same = group[shared] = LocalFlow(lo, hi, ladder, A, 1.0 / plant.train.mass[lo:hi, None])
-    flow = group[(lo, hi)] = LocalFlow(lo, hi, same.levels, same.A, same.inverse_mass)
+        same = group[shared] = LocalFlow(lo, hi, ladder, A, 1.0 / plant.train.mass[lo:hi, None],
+                                         float(np.abs(A).sum(axis=0).max()))
+    flow = group[(lo, hi)] = LocalFlow(lo, hi, same.levels, same.A, same.inverse_mass,
+                                       same.norm)
     return flow

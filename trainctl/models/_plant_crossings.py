@@ -24,7 +24,8 @@ from .train import Train
 if TYPE_CHECKING:
     from .plant import Plant
 
-__all__ = ["SectionTracker", "crossings", "linear_flow", "sections"]
+__all__ = ["SectionTracker", "crossings", "hermite_root", "hermite_root1", "linear_flow",
+           "sections"]
 
 TAYLOR_ORDER = 14
 """Order of the Taylor series for the flow over the remainder t < h/2^L."""
@@ -41,19 +42,32 @@ _Start = tuple[NDArray[np.float64], float, NDArray[np.intp], float]
 class SectionTracker:
     """Which section each vehicle is in, and the line-resistance forces that follow.
 
-    While the head has moved less than ``budget`` (plus the elongation
-    changes) since (s_ref, d_ref), no vehicle can have left its section, and
-    the sections need no lookup.
+    Vehicle i is at p_i = s - Σ_{j<i}(gap_j + δ_j), so since the last lookup
+    at (s_ref, d_ref) it has moved by Δs - Σ_{j<i} Δδ_j, within
+    Δs ± Σ_j |Δδ_j|. No vehicle can have left its section forward while
+    Δs + Σ|Δδ| stays below ``ahead`` (the least distance of a vehicle to the
+    end of its section), nor backward while Σ|Δδ| - Δs stays below
+    ``behind`` (the least distance past a section's start), and the sections
+    then need no lookup. The two are kept apart because a vehicle that has
+    just crossed is close behind its new section's start while the train
+    moves away from it: one bound for both (the original |Δs| + Σ|Δδ| against
+    the least of all distances) looked the sections up every substep or two
+    near a grade change.
     """
+
+    SLACK = 1e-6
+    """[m] subtracted from both budgets: positions are recomputed by a cumulative sum
+    whose rounding (~1e-12 m) the bound on the motion does not see."""
 
     def __init__(self, plant: Plant, track: TrackArrays, s: float, z: NDArray[np.float64]):
         n = plant.train.n_vehicles
         self.plant, self.track, self.n = plant, track, n
-        # All set by the first visit, which always looks the sections up (budget < 0).
+        # All set by the first visit, which always looks the sections up (ahead < 0).
         self.sec: NDArray[np.intp] = np.empty(0, dtype=np.intp)
         self.resist: NDArray[np.float64] = np.empty(0)
         """Line-resistance force of each vehicle in its section [N]."""
-        self.budget, self.s_ref, self.d_ref = -1.0, s, z[n : 2 * n - 1]
+        self.ahead, self.behind = -1.0, -1.0
+        self.s_ref, self.d_ref = s, z[n : 2 * n - 1]
         self.prev: _Start | None = None
         self.crossed: tuple[NDArray[np.float64], NDArray[np.float64], float] | None = None
         """The last visit's crossings in the previous substep: (τ [s], the jumps as forcing
@@ -70,11 +84,13 @@ class SectionTracker:
         """
         n = self.n
         self.crossed = None
-        if self.budget < 0.0 or (
-            abs(s - self.s_ref) + float(np.abs(z[n : 2 * n - 1] - self.d_ref).sum())
-            >= self.budget
-        ):
+        if self.ahead < 0.0:
             s = self._locate(z, s, force, h)
+        else:
+            moved = s - self.s_ref
+            spread = float(np.abs(z[n : 2 * n - 1] - self.d_ref).sum())
+            if moved + spread >= self.ahead or spread - moved >= self.behind:
+                s = self._locate(z, s, force, h)
         if not final:
             self.prev = (z.copy(), s, self.sec, vbar)
         return s
@@ -93,7 +109,8 @@ class SectionTracker:
             s += fix[2 * n - 1]
             p0, now = sections(plant.train, z, s, track)
         lo, hi = track[2][now], track[3][now]
-        self.budget = min(float((p0 - lo).min()), float((hi - p0).min()))
+        self.ahead = max(float((hi - p0).min()) - self.SLACK, 0.0)
+        self.behind = max(float((p0 - lo).min()) - self.SLACK, 0.0)
         self.s_ref, self.d_ref = s, z[n : 2 * n - 1].copy()
         if prev is None or np.any(now != self.sec):
             self.sec = now
@@ -177,28 +194,29 @@ def crossings(
     z0, s0, sec0, vbar = prev
     n = plant.train.n_vehicles
     m = plant.train.mass
-    x0 = np.r_[z0[: 2 * n - 1], s0]
-    force0 = z0[2 * n - 1 :]
     p0 = sections(plant.train, z0, s0, track)[0]
     vehicles: list[int] = []
     boundaries: list[float] = []
     jumps: list[float] = []
-    for i in np.flatnonzero(sec1 != sec0):
-        step = 1 if sec1[i] > sec0[i] else -1
-        for sec in range(int(sec0[i]), int(sec1[i]), step):
+    for i in np.flatnonzero(sec1 != sec0).tolist():
+        a, b = int(sec0[i]), int(sec1[i])
+        step = 1 if b > a else -1
+        for sec in range(a, b, step):
             new = sec + step
-            vehicles.append(int(i))
+            vehicles.append(i)
             boundaries.append(float(starts[max(sec, new)]))
-            jumps.append(-m[i] * (per_mass[new] - per_mass[sec]))
+            jumps.append(float(-m[i] * (per_mass[new] - per_mass[sec])))
     idx = np.array(vehicles, dtype=np.intp)
-    bnd = np.array(boundaries)
-    tau = hermite_root(h, p0[idx], z0[idx], p1[idx], v1[idx], bnd)
     if plant._banded:
-        fix, tau = _local_crossings(plant, h, vbar, x0, force0, p0, idx, bnd, tau,
-                                    np.array(jumps))
+        fix, tau = _local_crossings(plant, h, vbar, z0, s0, p0, p1, v1, vehicles,
+                                    boundaries, jumps)
         G = np.zeros((n, idx.size))
         G[idx, np.arange(idx.size)] = jumps
         return fix, tau, G
+    x0 = np.r_[z0[: 2 * n - 1], s0]
+    force0 = z0[2 * n - 1 :]
+    bnd = np.array(boundaries)
+    tau = hermite_root(h, p0[idx], z0[idx], p1[idx], v1[idx], bnd)
     # Newton on p_i(τ) = boundary; dp_i/dt = v_i. Position p_i = s - Σ_{j<i}(gap_j + δ_j).
     X = np.repeat(x0[:, None], idx.size, axis=1)
     G = np.repeat(force0[:, None], idx.size, axis=1)
@@ -227,81 +245,135 @@ def _local_crossings(
     plant: Plant,
     h: float,
     vbar: float,
-    x0: NDArray[np.float64],
-    force0: NDArray[np.float64],
+    z0: NDArray[np.float64],
+    s0: float,
     p0: NDArray[np.float64],
-    idx: NDArray[np.intp],
-    bnd: NDArray[np.float64],
-    tau: NDArray[np.float64],
-    jumps: NDArray[np.float64],
+    p1: NDArray[np.float64],
+    v1: NDArray[np.float64],
+    vehicles: list[int],
+    boundaries: list[float],
+    jumps: list[float],
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """:func:`crossings` on the banded path: each crossing on the window of the chain
     around its vehicle (:func:`~trainctl.models._plant_banded.local_flow`).
 
-    The same Newton iteration and the same exact jump response as on the
-    whole chain, but on ~3·(2M + core) states instead of 3n: the window's
+    The same Hermite seed, Newton iteration and exact jump response as on
+    the whole chain, but on ~3·(2M + core) states instead of 3n: the window's
     flow equals the chain's near the vehicle to below the band tolerance,
     and the response Γ(h - τ) e_i ΔF outside the window is below it too
-    (it is a column of the banded Γ). Measured at 204 vehicles: ~0.1 ms per
-    crossing instead of ~0.8 ms with two flows of the whole chain.
+    (it is a column of the banded Γ). Everything per crossing is scalar
+    Python or one matrix-vector product per ladder level (1-D, the forces
+    stacked under the state: one product per level); Newton's later
+    iterates continue the flow from the previous iterate by the Taylor series
+    over the (short) correction instead of rebuilding it from the start.
     Returns the summed response (2n,) and the crossing times τ [s].
     """
     n = plant.train.n_vehicles
     spacing = plant.train.spacing
     fix = np.zeros(2 * n)
-    tau = tau.copy()
-    for c, i in enumerate(idx.tolist()):
+    tau = np.empty(len(vehicles))
+    finest = h / 2.0**WINDOW_LEVELS
+    for c, i in enumerate(vehicles):
+        bnd = boundaries[c]
+        t = hermite_root1(h, float(p0[i]), float(z0[i]), float(p1[i]), float(v1[i]), bnd)
         flow = local_flow(plant, h, vbar, i, WINDOW_LEVELS)
         lo, hi = flow.lo, flow.hi
         m = hi - lo
-        X = np.r_[x0[lo:hi], x0[n + lo : n + hi - 1], 0.0][:, None]
-        G = force0[lo:hi, None]
+        k = i - lo
+        w = np.empty(3 * m)  # [v, delta, s (0: the window's own position), F] of the window
+        w[:m] = z0[lo:hi]
+        w[m : 2 * m - 1] = z0[n + lo : n + hi - 1]
+        w[2 * m - 1] = 0.0
+        w[2 * m :] = z0[2 * n - 1 + lo : 2 * n - 1 + hi]
+        G = w[2 * m :]
         gaps = float(spacing[lo:i].sum())
-        t = float(tau[c])
+        base = float(p0[lo])
+        Y = _window_flow(flow, h, w, t)
         for _ in range(8):
-            Y = _window_flow(flow, h, X, G, t)
-            pos = p0[lo] + Y[2 * m - 1, 0] - (gaps + Y[m : m + i - lo, 0].sum())
-            vel = Y[i - lo, 0]
-            new = min(max(t - (pos - bnd[c]) / vel, 0.0), h) if vel != 0.0 else t
-            done = abs(new - t) <= 1e-6 * h
-            t = new
-            if done:
+            pos = base + float(Y[2 * m - 1]) - (gaps + float(Y[m : m + k].sum()))
+            vel = float(Y[k])
+            new = min(max(t - (pos - bnd) / vel, 0.0), h) if vel != 0.0 else t
+            if abs(new - t) <= 1e-6 * h:
+                t = new
                 break
+            if abs(new - t) <= finest:  # continue the flow over the correction
+                Y = _taylor(flow, Y, G, new - t)
+            else:
+                Y = _window_flow(flow, h, w, new)
+            t = new
         tau[c] = t
-        G = np.zeros((m, 1))
-        G[i - lo, 0] = jumps[c]
-        Y = _window_flow(flow, h, np.zeros((2 * m, 1)), G, h - t)
-        fix[lo:hi] += Y[:m, 0]
-        fix[n + lo : n + hi - 1] += Y[m : 2 * m - 1, 0]
+        w = np.zeros(3 * m)
+        w[2 * m + k] = jumps[c]
+        Y = _window_flow(flow, h, w, h - t)
+        fix[lo:hi] += Y[:m]
+        fix[n + lo : n + hi - 1] += Y[m : 2 * m - 1]
         if lo == 0:  # the window's position is the head's
-            fix[2 * n - 1] += Y[2 * m - 1, 0]
+            fix[2 * n - 1] += Y[2 * m - 1]
     return fix, tau
 
 
-def _window_flow(
-    flow: LocalFlow, h: float, X: NDArray[np.float64], G: NDArray[np.float64], t: float
-) -> NDArray[np.float64]:
-    """e^{A_w t} X + Γ_w(t) G on a window, t in [0, h] [s], as :func:`linear_flow`."""
+def _window_flow(flow: LocalFlow, h: float, w: NDArray[np.float64], t: float
+                 ) -> NDArray[np.float64]:
+    """e^{A_w t} X + Γ_w(t) G on a window, t in [0, h] [s], as :func:`linear_flow`;
+    ``w`` = [X; G] (3m,), returns the state (2m,)."""
     m = flow.hi - flow.lo
-    Y = X.copy()
+    G = w[2 * m :]
+    Y = w[: 2 * m]
     left = t
+    stacked = w
     for j in range(flow.levels.shape[0]):
         tj = h / 2.0**j
         if left >= tj:
-            level = flow.levels[j]
-            Y = level[:, : 2 * m] @ Y + level[:, 2 * m :] @ G
+            Y = flow.levels[j] @ stacked
             left -= tj
+            if stacked is w:
+                stacked = np.empty(3 * m)
+                stacked[2 * m :] = G
+            stacked[: 2 * m] = Y
+    return _taylor(flow, Y, G, left)
+
+
+def _taylor(flow: LocalFlow, Y: NDArray[np.float64], G: NDArray[np.float64], left: float
+            ) -> NDArray[np.float64]:
+    """The window's flow over a short ``left`` [s] (|left| <= h/2^L), by its Taylor
+    series from the state Y (2m,) with the forces G (m,) held; a new array.
+
+    The number of terms comes from the bound ‖A_w‖₁ |left| on each term's growth
+    (their sum below 1e-17 of the state), as the adaptive stop of
+    :func:`linear_flow` would find, without two reductions per term."""
+    m = flow.hi - flow.lo
     rate = flow.A @ Y
-    rate[:m] += G * flow.inverse_mass
+    rate[:m] += G * flow.inverse_mass[:, 0]
     term = left * rate
-    Y += term
-    tiny = 1e-17 * (float(np.abs(Y).max()) + 1e-300)
+    Y = Y + term
+    r = flow.norm * abs(left)
+    bound = r
     for k in range(2, TAYLOR_ORDER + 1):
-        if float(np.abs(term).max()) <= tiny:
+        bound *= r / k
+        if bound <= 1e-17:
             break
         term = (left / k) * (flow.A @ term)
         Y += term
     return Y
+
+
+def hermite_root1(h: float, p0: float, v0: float, p1: float, v1: float, target: float
+                  ) -> float:
+    """:func:`hermite_root` for one crossing, in Python floats (the same arithmetic)."""
+    travel = p1 - p0
+    tau = h * (target - p0) / travel if travel != 0.0 else 0.5 * h
+    tau = min(max(tau, 0.0), h)
+    for _ in range(2):
+        r = tau / h
+        h00, h10 = (1 + 2 * r) * (1 - r) ** 2, r * (1 - r) ** 2
+        h01, h11 = r * r * (3 - 2 * r), r * r * (r - 1)
+        pos = h00 * p0 + h10 * h * v0 + h01 * p1 + h11 * h * v1
+        d00, d10 = 6 * r * (r - 1), (1 - r) * (1 - 3 * r)
+        d01, d11 = 6 * r * (1 - r), r * (3 * r - 2)
+        vel = (d00 * p0 + d01 * p1) / h + d10 * v0 + d11 * v1
+        step = (pos - target) / vel if vel != 0.0 else 0.0
+        tau = min(max(tau - step, 0.0), h)
+    return tau
 
 
 def hermite_root(
