@@ -63,8 +63,12 @@ def grid_speed(speed: float) -> float:
 
 def drag_flow(z: NDArray[np.float64], n: int, ta2: NDArray[np.float64], vbar: float) -> None:
     """Exact flow of dv/dt = -a2 (v - vbar)² over t [s], in place on z[:n]; ta2 = t·a2."""
-    w = z[:n] - vbar
-    z[:n] = vbar + w / (1.0 + ta2 * w)
+    w = z[:n]  # in place, the same operations as vbar + w / (1 + ta2 w), w = v - vbar
+    w -= vbar
+    d = ta2 * w
+    d += 1.0
+    w /= d
+    w += vbar
 
 
 @dataclass(frozen=True)
