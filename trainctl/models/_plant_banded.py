@@ -312,6 +312,9 @@ class LocalFlow(NamedTuple):
     norm: float = 0.0
     """‖S A_w S⁻¹‖₁ (S: elongations times ω, as :func:`_window_expm` balances), which
     bounds the growth of the Taylor terms of the flow."""
+    rows: dict[int, Array] | None = None
+    """Per vehicle k of the window: the rows e_k A_w^j, j = 0, 1, ..., (the speed of
+    vehicle k and its derivatives), filled by the crossings as they need them."""
 
 
 def local_flow(plant: Plant, h: float, vbar: float, vehicle: int, levels: int) -> LocalFlow:
@@ -361,7 +364,7 @@ def local_flow(plant: Plant, h: float, vbar: float, vehicle: int, levels: int) -
         scale = np.r_[np.ones(m), np.full(m - 1, omega), 1.0]
         norm = float(np.abs(A * scale[:, None] / scale[None, :]).sum(axis=0).max())
         same = group[shared] = LocalFlow(lo, hi, ladder, A, 1.0 / plant.train.mass[lo:hi, None],
-                                         norm)
+                                         norm, {})
     flow = group[(lo, hi)] = LocalFlow(lo, hi, same.levels, same.A, same.inverse_mass,
-                                       same.norm)
+                                       same.norm, same.rows)
     return flow

@@ -35,6 +35,10 @@ WINDOW_LEVELS = 10
 squarings of a window are cheap, and below h/1024 about four Taylor terms reach
 rounding (measured: ~2x fewer numpy operations per flow than with 4 levels)."""
 
+SPEED_TERMS = 8
+"""Terms of the series of a crossing vehicle's speed over the remainder |t| <= h/2^L of
+the window ladder: ‖A_w‖ h/2^L <= 0.003 at 204 vehicles, so the 8th term is < 1e-23."""
+
 _Start = tuple[NDArray[np.float64], float, NDArray[np.intp], float]
 """A substep's start: (z = [v, delta, F], s, sections, vbar)."""
 
@@ -288,18 +292,37 @@ def _local_crossings(
         G = w[2 * m :]
         gaps = float(spacing[lo:i].sum())
         base = float(p0[lo])
-        Y = _window_flow(flow, h, w, t)
+        rows = flow.rows.get(k)  # type: ignore[union-attr]
+        if rows is None:  # e_k A^j: the speed of vehicle k and its time derivatives
+            rows = np.empty((SPEED_TERMS, 2 * m))
+            rows[0] = 0.0
+            rows[0, k] = 1.0
+            for j in range(1, SPEED_TERMS):
+                rows[j] = rows[j - 1] @ flow.A
+            flow.rows[k] = rows  # type: ignore[index]
+        push = rows[:-1, :m] @ (G * flow.inverse_mass[:, 0])
+        Y, left = _levels(flow, h, w, t)
+        at = t - left  # the ladder's time: Y = Y(at), Taylor in left = t - at
         for _ in range(8):
-            pos = base + float(Y[2 * m - 1]) - (gaps + float(Y[m : m + k].sum()))
-            vel = float(Y[k])
+            # Speed derivatives at `at`: v^(0) = e_k Y, v^(j) = e_k A^(j-1) (A Y + b).
+            d = rows @ Y
+            d[1:] += push
+            offset = base + float(Y[2 * m - 1]) - (gaps + float(Y[m : m + k].sum()))
+            pos, vel, power = 0.0, 0.0, 1.0
+            for j in range(SPEED_TERMS):  # p(at + left) = p(at) + Σ left^(j+1)/(j+1)! v^(j)
+                vel += power * d[j]
+                power *= left / (j + 1)
+                pos += power * d[j]
+            pos += offset
             new = min(max(t - (pos - bnd) / vel, 0.0), h) if vel != 0.0 else t
             if abs(new - t) <= 1e-6 * h:
                 t = new
                 break
-            if abs(new - t) <= finest:  # continue the flow over the correction
-                Y = _taylor(flow, Y, G, new - t)
+            if abs(new - at) > finest:  # outside the series' reach: the ladder again
+                Y, left = _levels(flow, h, w, new)
+                at = new - left
             else:
-                Y = _window_flow(flow, h, w, new)
+                left = new - at
             t = new
         tau[c] = t
         w = np.zeros(3 * m)
@@ -312,12 +335,11 @@ def _local_crossings(
     return fix, tau
 
 
-def _window_flow(flow: LocalFlow, h: float, w: NDArray[np.float64], t: float
-                 ) -> NDArray[np.float64]:
-    """e^{A_w t} X + Γ_w(t) G on a window, t in [0, h] [s], as :func:`linear_flow`;
-    ``w`` = [X; G] (3m,), returns the state (2m,)."""
+def _levels(flow: LocalFlow, h: float, w: NDArray[np.float64], t: float
+            ) -> tuple[NDArray[np.float64], float]:
+    """The window's state (2m,) after the ladder's levels h/2^j that fit in t, from
+    ``w`` = [X; G] (3m,), and the time left (< h/2^L) [s]."""
     m = flow.hi - flow.lo
-    G = w[2 * m :]
     Y = w[: 2 * m]
     left = t
     stacked = w
@@ -328,9 +350,17 @@ def _window_flow(flow: LocalFlow, h: float, w: NDArray[np.float64], t: float
             left -= tj
             if stacked is w:
                 stacked = np.empty(3 * m)
-                stacked[2 * m :] = G
+                stacked[2 * m :] = w[2 * m :]
             stacked[: 2 * m] = Y
-    return _taylor(flow, Y, G, left)
+    return Y, left
+
+
+def _window_flow(flow: LocalFlow, h: float, w: NDArray[np.float64], t: float
+                 ) -> NDArray[np.float64]:
+    """e^{A_w t} X + Γ_w(t) G on a window, t in [0, h] [s], as :func:`linear_flow`;
+    ``w`` = [X; G] (3m,), returns the state (2m,)."""
+    Y, left = _levels(flow, h, w, t)
+    return _taylor(flow, Y, w[2 * (flow.hi - flow.lo) :], left)
 
 
 def _taylor(flow: LocalFlow, Y: NDArray[np.float64], G: NDArray[np.float64], left: float
