@@ -111,10 +111,19 @@ class SectionTracker:
             self.crossed = (tau, jumps, prev[3])
             z[: 2 * n - 1] += fix[: 2 * n - 1]
             s += fix[2 * n - 1]
-            p0, now = sections(plant.train, z, s, track)
+            # The fix moves vehicle i by fix_s - Σ_{j<i} fix_δj: at most `shift`.
+            shift = abs(float(fix[2 * n - 1])) + float(np.abs(fix[n : 2 * n - 1]).sum())
+        else:
+            shift = 0.0
         lo, hi = track[2][now], track[3][now]
-        self.ahead = max(float((hi - p0).min()) - self.SLACK, 0.0)
-        self.behind = max(float((p0 - lo).min()) - self.SLACK, 0.0)
+        ahead = float((hi - p0).min()) - shift - self.SLACK
+        behind = float((p0 - lo).min()) - shift - self.SLACK
+        if shift and (ahead <= 0.0 or behind <= 0.0):  # the fix may have moved one across
+            p0, now = sections(plant.train, z, s, track)
+            lo, hi = track[2][now], track[3][now]
+            ahead = float((hi - p0).min()) - self.SLACK
+            behind = float((p0 - lo).min()) - self.SLACK
+        self.ahead, self.behind = max(ahead, 0.0), max(behind, 0.0)
         self.s_ref, self.d_ref = s, z[n : 2 * n - 1].copy()
         if prev is None or np.any(now != self.sec):
             self.sec = now
@@ -325,9 +334,17 @@ def _local_crossings(
                 left = new - at
             t = new
         tau[c] = t
+        # The response Γ_w(h - τ) e_k ΔF: from a zero state the first level that fits is
+        # the column ΔF L_j[:, 2m+k] (the product with the zeros added, exactly).
         w = np.zeros(3 * m)
         w[2 * m + k] = jumps[c]
-        Y = _window_flow(flow, h, w, h - t)
+        left, j = h - t, 0
+        while j < flow.levels.shape[0] and left < h / 2.0**j:
+            j += 1
+        if j < flow.levels.shape[0]:
+            w[: 2 * m] = flow.levels[j][:, 2 * m + k] * jumps[c]
+            left -= h / 2.0**j
+        Y = _window_flow(flow, h, w, left, j + 1)
         fix[lo:hi] += Y[:m]
         fix[n + lo : n + hi - 1] += Y[m : 2 * m - 1]
         if lo == 0:  # the window's position is the head's
@@ -335,15 +352,15 @@ def _local_crossings(
     return fix, tau
 
 
-def _levels(flow: LocalFlow, h: float, w: NDArray[np.float64], t: float
+def _levels(flow: LocalFlow, h: float, w: NDArray[np.float64], t: float, first: int = 0
             ) -> tuple[NDArray[np.float64], float]:
-    """The window's state (2m,) after the ladder's levels h/2^j that fit in t, from
-    ``w`` = [X; G] (3m,), and the time left (< h/2^L) [s]."""
+    """The window's state (2m,) after the ladder's levels h/2^j (j >= ``first``) that
+    fit in t, from ``w`` = [X; G] (3m,), and the time left (< h/2^L) [s]."""
     m = flow.hi - flow.lo
     Y = w[: 2 * m]
     left = t
     stacked = w
-    for j in range(flow.levels.shape[0]):
+    for j in range(first, flow.levels.shape[0]):
         tj = h / 2.0**j
         if left >= tj:
             Y = flow.levels[j] @ stacked
@@ -355,11 +372,11 @@ def _levels(flow: LocalFlow, h: float, w: NDArray[np.float64], t: float
     return Y, left
 
 
-def _window_flow(flow: LocalFlow, h: float, w: NDArray[np.float64], t: float
-                 ) -> NDArray[np.float64]:
-    """e^{A_w t} X + Γ_w(t) G on a window, t in [0, h] [s], as :func:`linear_flow`;
-    ``w`` = [X; G] (3m,), returns the state (2m,)."""
-    Y, left = _levels(flow, h, w, t)
+def _window_flow(flow: LocalFlow, h: float, w: NDArray[np.float64], t: float,
+                 first: int = 0) -> NDArray[np.float64]:
+    """e^{A_w t} X + Γ_w(t) G on a window, t in [0, h] [s], as :func:`linear_flow`
+    (levels from ``first`` on); ``w`` = [X; G] (3m,), returns the state (2m,)."""
+    Y, left = _levels(flow, h, w, t, first)
     return _taylor(flow, Y, w[2 * (flow.hi - flow.lo) :], left)
 
 
