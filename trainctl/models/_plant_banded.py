@@ -312,9 +312,10 @@ class LocalFlow(NamedTuple):
     norm: float = 0.0
     """‖S A_w S⁻¹‖₁ (S: elongations times ω, as :func:`_window_expm` balances), which
     bounds the growth of the Taylor terms of the flow."""
-    rows: dict[int, Array] | None = None
+    rows: dict[int, Any] | None = None
     """Per vehicle k of the window: the rows e_k A_w^j, j = 0, 1, ..., (the speed of
-    vehicle k and its derivatives), filled by the crossings as they need them."""
+    vehicle k and its derivatives), filled by the crossings as they need them; at -1
+    the CSR product by A_w."""
 
 
 def local_flow(plant: Plant, h: float, vbar: float, vehicle: int, levels: int) -> LocalFlow:
