@@ -8,6 +8,20 @@ Hermite interpolation), and the jump ΔF of its line resistance is added exactly
 as Γ(h - τ) e_i ΔF (:func:`crossings`). The flow over arbitrary t <= h
 (:func:`linear_flow`) comes from the plant's cached propagators for h/2^j and a
 short Taylor series in the chain's structured product.
+
+Cost (issue 14): near a grade change most of a long train's substeps see no
+crossing, and those that do see one vehicle cross. So the tracker looks the
+sections up only when the bound on the vehicles' motion since the last lookup
+reaches the distance to a section's end (forward) or start (backward), kept
+apart (:class:`SectionTracker`), and skips the second lookup after a fix that
+cannot move a vehicle across; on the banded path each crossing is handled in
+scalar Python plus one matrix-vector product per ladder level of its window
+(:func:`_local_crossings`): the Hermite seed in floats, Newton on the series
+of the vehicle's speed about the ladder's time (rows e_k A^j cached per
+window, so later iterates cost no flow), the Taylor terms with the window's
+A as a CSR product. The 204-vehicle chain's run over 60 s with ~120
+crossings gives the result of the code before to 3e-14 m/s
+(``tests/test_banded_plant.py``).
 """
 
 from __future__ import annotations
