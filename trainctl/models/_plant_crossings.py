@@ -8,23 +8,40 @@ Hermite interpolation), and the jump ΔF of its line resistance is added exactly
 as Γ(h - τ) e_i ΔF (:func:`crossings`). The flow over arbitrary t <= h
 (:func:`linear_flow`) comes from the plant's cached propagators for h/2^j and a
 short Taylor series in the chain's structured product.
+
+Cost (issue 14): near a grade change most of a long train's substeps see no
+crossing, and those that do see one vehicle cross. So the tracker looks the
+sections up only when the bound on the vehicles' motion since the last lookup
+reaches the distance to a section's end (forward) or start (backward), kept
+apart (:class:`SectionTracker`), and skips the second lookup after a fix that
+cannot move a vehicle across; on the banded path each crossing is handled in
+scalar Python plus one matrix-vector product per ladder level of its window
+(:func:`_local_crossings`): the Hermite seed in floats, Newton on the series
+of the vehicle's speed about the ladder's time (rows e_k A^j cached per
+window, so later iterates cost no flow), the Taylor terms with the window's
+A as a CSR product. The 204-vehicle chain's run over 60 s with ~120
+crossings gives the result of the code before to 3e-14 m/s
+(``tests/test_banded_plant.py``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
+import scipy.sparse
 from numpy.typing import NDArray
 
 from ._plant_banded import LocalFlow, local_flow
-from ._plant_propagators import LADDER_LEVELS, TrackArrays, ladder
+from ._plant_propagators import LADDER_LEVELS, TrackArrays, ladder, product
 from .train import Train
 
 if TYPE_CHECKING:
     from .plant import Plant
 
-__all__ = ["SectionTracker", "crossings", "linear_flow", "sections"]
+__all__ = ["SectionTracker", "crossings", "hermite_root", "hermite_root1", "linear_flow",
+           "sections"]
 
 TAYLOR_ORDER = 14
 """Order of the Taylor series for the flow over the remainder t < h/2^L."""
@@ -34,6 +51,10 @@ WINDOW_LEVELS = 10
 squarings of a window are cheap, and below h/1024 about four Taylor terms reach
 rounding (measured: ~2x fewer numpy operations per flow than with 4 levels)."""
 
+SPEED_TERMS = 8
+"""Terms of the series of a crossing vehicle's speed over the remainder |t| <= h/2^L of
+the window ladder: ‖A_w‖ h/2^L <= 0.003 at 204 vehicles, so the 8th term is < 1e-23."""
+
 _Start = tuple[NDArray[np.float64], float, NDArray[np.intp], float]
 """A substep's start: (z = [v, delta, F], s, sections, vbar)."""
 
@@ -41,19 +62,32 @@ _Start = tuple[NDArray[np.float64], float, NDArray[np.intp], float]
 class SectionTracker:
     """Which section each vehicle is in, and the line-resistance forces that follow.
 
-    While the head has moved less than ``budget`` (plus the elongation
-    changes) since (s_ref, d_ref), no vehicle can have left its section, and
-    the sections need no lookup.
+    Vehicle i is at p_i = s - Σ_{j<i}(gap_j + δ_j), so since the last lookup
+    at (s_ref, d_ref) it has moved by Δs - Σ_{j<i} Δδ_j, within
+    Δs ± Σ_j |Δδ_j|. No vehicle can have left its section forward while
+    Δs + Σ|Δδ| stays below ``ahead`` (the least distance of a vehicle to the
+    end of its section), nor backward while Σ|Δδ| - Δs stays below
+    ``behind`` (the least distance past a section's start), and the sections
+    then need no lookup. The two are kept apart because a vehicle that has
+    just crossed is close behind its new section's start while the train
+    moves away from it: one bound for both (the original |Δs| + Σ|Δδ| against
+    the least of all distances) looked the sections up every substep or two
+    near a grade change.
     """
+
+    SLACK = 1e-6
+    """[m] subtracted from both budgets: positions are recomputed by a cumulative sum
+    whose rounding (~1e-12 m) the bound on the motion does not see."""
 
     def __init__(self, plant: Plant, track: TrackArrays, s: float, z: NDArray[np.float64]):
         n = plant.train.n_vehicles
         self.plant, self.track, self.n = plant, track, n
-        # All set by the first visit, which always looks the sections up (budget < 0).
+        # All set by the first visit, which always looks the sections up (ahead < 0).
         self.sec: NDArray[np.intp] = np.empty(0, dtype=np.intp)
         self.resist: NDArray[np.float64] = np.empty(0)
         """Line-resistance force of each vehicle in its section [N]."""
-        self.budget, self.s_ref, self.d_ref = -1.0, s, z[n : 2 * n - 1]
+        self.ahead, self.behind = -1.0, -1.0
+        self.s_ref, self.d_ref = s, z[n : 2 * n - 1]
         self.prev: _Start | None = None
         self.crossed: tuple[NDArray[np.float64], NDArray[np.float64], float] | None = None
         """The last visit's crossings in the previous substep: (τ [s], the jumps as forcing
@@ -70,11 +104,13 @@ class SectionTracker:
         """
         n = self.n
         self.crossed = None
-        if self.budget < 0.0 or (
-            abs(s - self.s_ref) + float(np.abs(z[n : 2 * n - 1] - self.d_ref).sum())
-            >= self.budget
-        ):
+        if self.ahead < 0.0:
             s = self._locate(z, s, force, h)
+        else:
+            moved = s - self.s_ref
+            spread = float(np.abs(z[n : 2 * n - 1] - self.d_ref).sum())
+            if moved + spread >= self.ahead or spread - moved >= self.behind:
+                s = self._locate(z, s, force, h)
         if not final:
             self.prev = (z.copy(), s, self.sec, vbar)
         return s
@@ -91,9 +127,19 @@ class SectionTracker:
             self.crossed = (tau, jumps, prev[3])
             z[: 2 * n - 1] += fix[: 2 * n - 1]
             s += fix[2 * n - 1]
-            p0, now = sections(plant.train, z, s, track)
+            # The fix moves vehicle i by fix_s - Σ_{j<i} fix_δj: at most `shift`.
+            shift = abs(float(fix[2 * n - 1])) + float(np.abs(fix[n : 2 * n - 1]).sum())
+        else:
+            shift = 0.0
         lo, hi = track[2][now], track[3][now]
-        self.budget = min(float((p0 - lo).min()), float((hi - p0).min()))
+        ahead = float((hi - p0).min()) - shift - self.SLACK
+        behind = float((p0 - lo).min()) - shift - self.SLACK
+        if shift and (ahead <= 0.0 or behind <= 0.0):  # the fix may have moved one across
+            p0, now = sections(plant.train, z, s, track)
+            lo, hi = track[2][now], track[3][now]
+            ahead = float((hi - p0).min()) - self.SLACK
+            behind = float((p0 - lo).min()) - self.SLACK
+        self.ahead, self.behind = max(ahead, 0.0), max(behind, 0.0)
         self.s_ref, self.d_ref = s, z[n : 2 * n - 1].copy()
         if prev is None or np.any(now != self.sec):
             self.sec = now
@@ -177,28 +223,29 @@ def crossings(
     z0, s0, sec0, vbar = prev
     n = plant.train.n_vehicles
     m = plant.train.mass
-    x0 = np.r_[z0[: 2 * n - 1], s0]
-    force0 = z0[2 * n - 1 :]
     p0 = sections(plant.train, z0, s0, track)[0]
     vehicles: list[int] = []
     boundaries: list[float] = []
     jumps: list[float] = []
-    for i in np.flatnonzero(sec1 != sec0):
-        step = 1 if sec1[i] > sec0[i] else -1
-        for sec in range(int(sec0[i]), int(sec1[i]), step):
+    for i in np.flatnonzero(sec1 != sec0).tolist():
+        a, b = int(sec0[i]), int(sec1[i])
+        step = 1 if b > a else -1
+        for sec in range(a, b, step):
             new = sec + step
-            vehicles.append(int(i))
+            vehicles.append(i)
             boundaries.append(float(starts[max(sec, new)]))
-            jumps.append(-m[i] * (per_mass[new] - per_mass[sec]))
+            jumps.append(float(-m[i] * (per_mass[new] - per_mass[sec])))
     idx = np.array(vehicles, dtype=np.intp)
-    bnd = np.array(boundaries)
-    tau = hermite_root(h, p0[idx], z0[idx], p1[idx], v1[idx], bnd)
     if plant._banded:
-        fix, tau = _local_crossings(plant, h, vbar, x0, force0, p0, idx, bnd, tau,
-                                    np.array(jumps))
+        fix, tau = _local_crossings(plant, h, vbar, z0, s0, p0, p1, v1, vehicles,
+                                    boundaries, jumps)
         G = np.zeros((n, idx.size))
         G[idx, np.arange(idx.size)] = jumps
         return fix, tau, G
+    x0 = np.r_[z0[: 2 * n - 1], s0]
+    force0 = z0[2 * n - 1 :]
+    bnd = np.array(boundaries)
+    tau = hermite_root(h, p0[idx], z0[idx], p1[idx], v1[idx], bnd)
     # Newton on p_i(τ) = boundary; dp_i/dt = v_i. Position p_i = s - Σ_{j<i}(gap_j + δ_j).
     X = np.repeat(x0[:, None], idx.size, axis=1)
     G = np.repeat(force0[:, None], idx.size, axis=1)
@@ -227,81 +274,186 @@ def _local_crossings(
     plant: Plant,
     h: float,
     vbar: float,
-    x0: NDArray[np.float64],
-    force0: NDArray[np.float64],
+    z0: NDArray[np.float64],
+    s0: float,
     p0: NDArray[np.float64],
-    idx: NDArray[np.intp],
-    bnd: NDArray[np.float64],
-    tau: NDArray[np.float64],
-    jumps: NDArray[np.float64],
+    p1: NDArray[np.float64],
+    v1: NDArray[np.float64],
+    vehicles: list[int],
+    boundaries: list[float],
+    jumps: list[float],
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """:func:`crossings` on the banded path: each crossing on the window of the chain
     around its vehicle (:func:`~trainctl.models._plant_banded.local_flow`).
 
-    The same Newton iteration and the same exact jump response as on the
-    whole chain, but on ~3·(2M + core) states instead of 3n: the window's
+    The same Hermite seed, Newton iteration and exact jump response as on
+    the whole chain, but on ~3·(2M + core) states instead of 3n: the window's
     flow equals the chain's near the vehicle to below the band tolerance,
     and the response Γ(h - τ) e_i ΔF outside the window is below it too
-    (it is a column of the banded Γ). Measured at 204 vehicles: ~0.1 ms per
-    crossing instead of ~0.8 ms with two flows of the whole chain.
+    (it is a column of the banded Γ). Everything per crossing is scalar
+    Python or one matrix-vector product per ladder level (1-D, the forces
+    stacked under the state: one product per level); Newton's later
+    iterates continue the flow from the previous iterate by the Taylor series
+    over the (short) correction instead of rebuilding it from the start.
     Returns the summed response (2n,) and the crossing times τ [s].
     """
     n = plant.train.n_vehicles
     spacing = plant.train.spacing
     fix = np.zeros(2 * n)
-    tau = tau.copy()
-    for c, i in enumerate(idx.tolist()):
+    tau = np.empty(len(vehicles))
+    finest = h / 2.0**WINDOW_LEVELS
+    for c, i in enumerate(vehicles):
+        bnd = boundaries[c]
+        t = hermite_root1(h, float(p0[i]), float(z0[i]), float(p1[i]), float(v1[i]), bnd)
         flow = local_flow(plant, h, vbar, i, WINDOW_LEVELS)
         lo, hi = flow.lo, flow.hi
         m = hi - lo
-        X = np.r_[x0[lo:hi], x0[n + lo : n + hi - 1], 0.0][:, None]
-        G = force0[lo:hi, None]
+        k = i - lo
+        w = np.empty(3 * m)  # [v, delta, s (0: the window's own position), F] of the window
+        w[:m] = z0[lo:hi]
+        w[m : 2 * m - 1] = z0[n + lo : n + hi - 1]
+        w[2 * m - 1] = 0.0
+        w[2 * m :] = z0[2 * n - 1 + lo : 2 * n - 1 + hi]
+        G = w[2 * m :]
         gaps = float(spacing[lo:i].sum())
-        t = float(tau[c])
+        base = float(p0[lo])
+        rows = flow.rows.get(k)  # type: ignore[union-attr]
+        if rows is None:  # e_k A^j: the speed of vehicle k and its time derivatives
+            rows = np.empty((SPEED_TERMS, 2 * m))
+            rows[0] = 0.0
+            rows[0, k] = 1.0
+            for j in range(1, SPEED_TERMS):
+                rows[j] = rows[j - 1] @ flow.A
+            flow.rows[k] = rows  # type: ignore[index]
+        push = rows[:-1, :m] @ (G * flow.inverse_mass[:, 0])
+        Y, left = _levels(flow, h, w, t)
+        at = t - left  # the ladder's time: Y = Y(at), Taylor in left = t - at
         for _ in range(8):
-            Y = _window_flow(flow, h, X, G, t)
-            pos = p0[lo] + Y[2 * m - 1, 0] - (gaps + Y[m : m + i - lo, 0].sum())
-            vel = Y[i - lo, 0]
-            new = min(max(t - (pos - bnd[c]) / vel, 0.0), h) if vel != 0.0 else t
-            done = abs(new - t) <= 1e-6 * h
-            t = new
-            if done:
+            # Speed derivatives at `at`: v^(0) = e_k Y, v^(j) = e_k A^(j-1) (A Y + b).
+            d = rows @ Y
+            d[1:] += push
+            offset = base + float(Y[2 * m - 1]) - (gaps + float(Y[m : m + k].sum()))
+            pos, vel, power = 0.0, 0.0, 1.0
+            for j in range(SPEED_TERMS):  # p(at + left) = p(at) + Σ left^(j+1)/(j+1)! v^(j)
+                vel += power * d[j]
+                power *= left / (j + 1)
+                pos += power * d[j]
+            pos += offset
+            new = min(max(t - (pos - bnd) / vel, 0.0), h) if vel != 0.0 else t
+            if abs(new - t) <= 1e-6 * h:
+                t = new
                 break
+            if abs(new - at) > finest:  # outside the series' reach: the ladder again
+                Y, left = _levels(flow, h, w, new)
+                at = new - left
+            else:
+                left = new - at
+            t = new
         tau[c] = t
-        G = np.zeros((m, 1))
-        G[i - lo, 0] = jumps[c]
-        Y = _window_flow(flow, h, np.zeros((2 * m, 1)), G, h - t)
-        fix[lo:hi] += Y[:m, 0]
-        fix[n + lo : n + hi - 1] += Y[m : 2 * m - 1, 0]
+        # The response Γ_w(h - τ) e_k ΔF: from a zero state the first level that fits is
+        # the column ΔF L_j[:, 2m+k] (the product with the zeros added, exactly).
+        w = np.zeros(3 * m)
+        w[2 * m + k] = jumps[c]
+        left, j = h - t, 0
+        while j < flow.levels.shape[0] and left < h / 2.0**j:
+            j += 1
+        if j < flow.levels.shape[0]:
+            w[: 2 * m] = flow.levels[j][:, 2 * m + k] * jumps[c]
+            left -= h / 2.0**j
+        Y = _window_flow(flow, h, w, left, j + 1)
+        fix[lo:hi] += Y[:m]
+        fix[n + lo : n + hi - 1] += Y[m : 2 * m - 1]
         if lo == 0:  # the window's position is the head's
-            fix[2 * n - 1] += Y[2 * m - 1, 0]
+            fix[2 * n - 1] += Y[2 * m - 1]
     return fix, tau
 
 
-def _window_flow(
-    flow: LocalFlow, h: float, X: NDArray[np.float64], G: NDArray[np.float64], t: float
-) -> NDArray[np.float64]:
-    """e^{A_w t} X + Γ_w(t) G on a window, t in [0, h] [s], as :func:`linear_flow`."""
-    m = flow.hi - flow.lo
-    Y = X.copy()
+def _levels(flow: LocalFlow, h: float, w: NDArray[np.float64], t: float, first: int = 0
+            ) -> tuple[NDArray[np.float64], float]:
+    """The window's state (2m,) after the ladder's levels h/2^j (j >= ``first``) that
+    fit in t, from ``w`` = [X; G] (3m,), and the time left (< h/2^L) [s]."""
+    m2 = 2 * (flow.hi - flow.lo)
+    levels = flow.levels
     left = t
-    for j in range(flow.levels.shape[0]):
+    src = w
+    buf: list[NDArray[np.float64]] = []
+    for j in range(first, levels.shape[0]):
         tj = h / 2.0**j
         if left >= tj:
-            level = flow.levels[j]
-            Y = level[:, : 2 * m] @ Y + level[:, 2 * m :] @ G
+            if not buf:  # two stacked [Y; G] buffers, written in turn
+                both = np.empty((2, w.size))
+                both[:, m2:] = w[m2:]
+                buf = [both[0], both[1]]
+            dst = buf[0] if src is not buf[0] else buf[1]
+            np.dot(levels[j], src, out=dst[:m2])
+            src = dst
             left -= tj
-    rate = flow.A @ Y
-    rate[:m] += G * flow.inverse_mass
+    Y = src[:m2]
+    return Y, left
+
+
+def _window_flow(flow: LocalFlow, h: float, w: NDArray[np.float64], t: float,
+                 first: int = 0) -> NDArray[np.float64]:
+    """e^{A_w t} X + Γ_w(t) G on a window, t in [0, h] [s], as :func:`linear_flow`
+    (levels from ``first`` on); ``w`` = [X; G] (3m,), returns the state (2m,)."""
+    Y, left = _levels(flow, h, w, t, first)
+    return _taylor(flow, Y, w[2 * (flow.hi - flow.lo) :], left)
+
+
+def _taylor(flow: LocalFlow, Y: NDArray[np.float64], G: NDArray[np.float64], left: float
+            ) -> NDArray[np.float64]:
+    """The window's flow over a short ``left`` [s] (|left| <= h/2^L), by its Taylor
+    series from the state Y (2m,) with the forces G (m,) held; a new array.
+
+    The number of terms comes from the bound ‖A_w‖₁ |left| on each term's growth
+    (their sum below 1e-17 of the state), as the adaptive stop of
+    :func:`linear_flow` would find, without two reductions per term."""
+    m = flow.hi - flow.lo
+    a = _sparse_a(flow)  # A_w has ~5 entries a row: CSR, ~5x fewer operations than dense
+    rate = a(Y)
+    rate[:m] += G * flow.inverse_mass[:, 0]
     term = left * rate
-    Y += term
-    tiny = 1e-17 * (float(np.abs(Y).max()) + 1e-300)
+    Y = Y + term
+    r = flow.norm * abs(left)
+    bound = r
     for k in range(2, TAYLOR_ORDER + 1):
-        if float(np.abs(term).max()) <= tiny:
+        bound *= r / k
+        if bound <= 1e-17:
             break
-        term = (left / k) * (flow.A @ term)
+        term = a(term)
+        term *= left / k
         Y += term
     return Y
+
+
+def _sparse_a(flow: LocalFlow) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
+    """``Y -> A_w @ Y`` as a CSR product (kept in the window's ``rows`` dict, shared
+    by the windows of equal sub-chains)."""
+    cache = flow.rows
+    assert cache is not None
+    a = cache.get(-1)
+    if a is None:
+        a = cache[-1] = product(scipy.sparse.csr_array(flow.A))
+    return a
+
+
+def hermite_root1(h: float, p0: float, v0: float, p1: float, v1: float, target: float
+                  ) -> float:
+    """:func:`hermite_root` for one crossing, in Python floats (the same arithmetic)."""
+    travel = p1 - p0
+    tau = h * (target - p0) / travel if travel != 0.0 else 0.5 * h
+    tau = min(max(tau, 0.0), h)
+    for _ in range(2):
+        r = tau / h
+        h00, h10 = (1 + 2 * r) * (1 - r) ** 2, r * (1 - r) ** 2
+        h01, h11 = r * r * (3 - 2 * r), r * r * (r - 1)
+        pos = h00 * p0 + h10 * h * v0 + h01 * p1 + h11 * h * v1
+        d00, d10 = 6 * r * (r - 1), (1 - r) * (1 - 3 * r)
+        d01, d11 = 6 * r * (1 - r), r * (3 * r - 2)
+        vel = (d00 * p0 + d01 * p1) / h + d10 * v0 + d11 * v1
+        step = (pos - target) / vel if vel != 0.0 else 0.0
+        tau = min(max(tau - step, 0.0), h)
+    return tau
 
 
 def hermite_root(

@@ -64,7 +64,7 @@ def integrate(
             break
         if record is not None and record.inner > 1:
             record.take_inner(plant, z, s, h, vbar)
-        new = prop.step @ z
+        new = prop.apply(z)
         s += new[2 * n - 1]
         z[: 2 * n - 1] = new[: 2 * n - 1]
         if not quadratic:
