@@ -27,7 +27,8 @@ if TYPE_CHECKING:
 
 __all__ = [
     "LEGEND_MAX", "MARK_MAX", "fixed_margins", "legend_outside", "limit_lines", "line_style",
-    "mark_samples", "new_axes", "picked", "plain_log_labels", "series_style", "thin", "trace",
+    "mark_samples", "new_axes", "picked", "pin_titles", "plain_log_labels", "series_style",
+    "thin", "trace",
 ]
 
 LEGEND_MAX = 10
@@ -348,10 +349,28 @@ def fixed_margins(figure: Figure, *, left: float = 0.85, right: float = 0.2,
     axes_h = (span_h - hspace * (nrows - 1)) / nrows
     axes_w = (span_w - wspace * (ncols - 1)) / ncols
     figure.set_layout_engine("none")
+    pin_titles(figure)
     figure.subplots_adjust(left=left / width, right=1.0 - right / width,
                            bottom=bottom / height, top=1.0 - top / height,
                            hspace=hspace / axes_h, wspace=wspace / axes_w)
     return figure
+
+
+def pin_titles(figure: Figure) -> None:
+    """Fix every axes title at the top of its axes (y = 1), as placed when nothing is above.
+
+    Left to itself, matplotlib measures the tick labels of every titled axes
+    (and its twins) again at each draw to lift the title over labels at the
+    top; the report's figures have none there, and the measuring was a fifth
+    of their drawing time. Text, size and weight are kept.
+    """
+    for ax in figure.axes:
+        for loc in ("left", "center", "right"):
+            text = ax.get_title(loc=loc)
+            if text:
+                title = ax.title if loc == "center" else getattr(ax, f"_{loc}_title")
+                ax.set_title(text, loc=loc, y=1.0, fontsize=title.get_fontsize(),
+                             fontweight=title.get_fontweight(), color=title.get_color())
 
 
 def _row_major(count: int, cols: int) -> list[int]:
