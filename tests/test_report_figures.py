@@ -389,3 +389,26 @@ def test_svg_paths_to_a_hundredth_of_a_point() -> None:
         x_ours = re.findall(r"-?\d+(?:\.\d+)?", b)
         assert all(len(v.partition(".")[2]) <= 2 for v in x_ours)
         assert np.allclose(x_raw, np.array(x_ours, dtype=float), rtol=0, atol=0.005 + 1e-9)
+
+
+def test_family_figures_inside(monkeypatch) -> None:
+    """The communication graph and the N-DMPC convergence figure keep everything on canvas."""
+    import trainctl.report.figures as report_figures
+    from trainctl.controllers.mpc.report import mpc_report_figures
+    from trainctl.graphs import make_graph
+    from trainctl.report.figures_graph import graph_figure, graph_report_data
+
+    figures: dict[str, Figure] = {}
+    graph_figure(graph_report_data(make_graph("bidirectional", 8, pinned="head")),
+                 family="potential", make=lambda key, title, caption, figure, **_:
+                 figures.setdefault(key, figure))
+    monkeypatch.setattr(report_figures, "figure_svg",
+                        lambda figure, *, prefix: figures.setdefault(prefix, figure))
+    weights = np.logspace(-2, 3, 40)
+    mpc_report_figures({"weight_sweep": {"weights": weights, "radii": 3 / (1 + weights / 2),
+                                         "threshold": 2.135, "design_weight": 10.0,
+                                         "unit": "per kN²"}})
+    assert len(figures) == 2
+    for key, figure in figures.items():
+        assert figure.get_layout_engine() is None, key
+        assert _inside(figure), key

@@ -34,16 +34,17 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
-import networkx as nx
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .exceptions import ModelError
 
 if TYPE_CHECKING:
+    import networkx as nx
     from matplotlib.axes import Axes
 
 __all__ = [
@@ -87,7 +88,6 @@ class CommunicationGraph:
     adjacency: Array
     pinning: Array
     topology: str = "explicit"
-    _graph: Any = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         a = np.array(self.adjacency, dtype=float)
@@ -110,9 +110,12 @@ class CommunicationGraph:
         p.setflags(write=False)
         object.__setattr__(self, "adjacency", a)
         object.__setattr__(self, "pinning", p)
-        object.__setattr__(self, "_graph", self._build())
 
-    def _build(self) -> nx.DiGraph:
+    @cached_property
+    def _graph(self) -> nx.DiGraph:
+        """The networkx graph, built on first use (networkx is imported only then)."""
+        import networkx as nx
+
         graph = nx.DiGraph()
         graph.add_node(REFERENCE)
         graph.add_nodes_from(range(self.n))
@@ -165,15 +168,21 @@ class CommunicationGraph:
         leader-following consensus needs (L + P is then nonsingular, with
         eigenvalues in the open right half plane).
         """
+        import networkx as nx
+
         return len(nx.descendants(self._graph, REFERENCE)) == self.n
 
     def unreached(self) -> tuple[int, ...]:
         """The vehicles (0-based) the reference does not reach, head first."""
+        import networkx as nx
+
         reached = nx.descendants(self._graph, REFERENCE)
         return tuple(i for i in range(self.n) if i not in reached)
 
     def is_connected(self) -> bool:
         """True when the vehicles form one weakly connected graph (ignoring the reference)."""
+        import networkx as nx
+
         vehicles = self._graph.subgraph(range(self.n))
         return self.n == 1 or bool(nx.is_weakly_connected(vehicles))
 
@@ -292,6 +301,8 @@ def make_graph(topology: str, n: int, *, pinned: str | ArrayLike = "all",
 
 def _named(topology: str, n: int) -> Array:
     """The 0/1 adjacency (receiver rows) of a named topology, built with networkx."""
+    import networkx as nx
+
     if topology == "all-to-all":
         graph = nx.complete_graph(n, create_using=nx.DiGraph)
     elif topology == "bidirectional":

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import pickle
+import threading
 from collections.abc import Callable, Mapping
 from concurrent.futures import Executor, Future
 from dataclasses import dataclass, field
@@ -20,6 +22,7 @@ if TYPE_CHECKING:
     from .claims import Claim
     from .controllers.base import Controller
     from .design import Design
+    from .models.plant import Plant
     from .repetitions import Repetition
     from .scenario import Scenario
     from .sim.metrics import Metrics
@@ -451,13 +454,37 @@ def simulate_strategy(
 
             network = Network(scenario.network, scenario.graph(),
                               seed=np.random.SeedSequence([scenario.seed, NETWORK_STREAM]))
-        return simulate(Plant(train=scenario.train, track=scenario.track), controller, profile,
+        return simulate(_shared_plant(Plant, scenario), controller, profile,
                         duration=sim.duration, initial_state=state,
                         preview_steps=_preview_steps(controller),
                         measurement_noise=sim.measurement_noise, seed=scenario.seed,
                         full_state=getattr(controller, "needs_full_state", True),
                         saturation=sim.plant_saturation, output_interval=sim.output_interval,
                         divergence_speed_error=sim.divergence_speed_error, network=network)
+
+
+_PLANTS = threading.local()
+
+
+def _shared_plant(plant_class: type[Plant], scenario: Scenario) -> Plant:
+    """The plant of this scenario's train and track, shared by its strategies in this thread.
+
+    A :class:`~trainctl.models.Plant` caches its propagators (matrix
+    exponentials per substep and linearisation speed); the strategies of one
+    scenario simulate the same train on the same track, so the second and
+    later ones find them computed. Every cache entry is a pure function of
+    its key, so a shared plant gives the same bits as a fresh one. The key
+    is the pickled train and track (a process-pool worker receives a fresh
+    copy of the scenario with each task); each thread keeps only the last
+    plant, so the caches' memory stays that of one plant.
+    """
+    key = pickle.dumps((scenario.train, scenario.track), protocol=pickle.HIGHEST_PROTOCOL)
+    last: tuple[bytes, Plant] | None = getattr(_PLANTS, "last", None)
+    if last is not None and last[0] == key and type(last[1]) is plant_class:
+        return last[1]
+    plant = plant_class(train=scenario.train, track=scenario.track)
+    _PLANTS.last = (key, plant)
+    return plant
 
 
 def _preview_steps(controller: Controller) -> int:

@@ -27,6 +27,7 @@ from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
 from .. import plot
+from .._plotting import pin_titles
 
 if TYPE_CHECKING:
     from .data import ReportData
@@ -246,6 +247,7 @@ def eigenvalue_figure(spectra: Mapping[str, NDArray[np.complex128]],
         legend.remove()
     figure.legend(handles, [str(h.get_label()) for h in handles], loc="upper left",
                   bbox_to_anchor=(0.61, 0.91), fontsize="small", frameon=False)
+    pin_titles(figure)
     return make("eigenvalues", "Eigenvalues against the unit circle",
                   "Discrete-time eigenvalues of the open loop (the design model, without the "
                   "book's dummy state) and of the unconstrained closed loops, legend beside "

@@ -19,7 +19,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from .._plotting import legend_outside, series_style
+from .._plotting import fixed_margins, legend_outside, series_style
 
 if TYPE_CHECKING:
     from .data import ReportData
@@ -66,7 +66,7 @@ def performance_figure(data: ReportData,
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.sqrt(np.where(w2 > 0, s2 / w2, np.nan))
 
-    figure = Figure(figsize=(7.5, 4.8), layout="constrained")
+    figure = Figure(figsize=(7.5, 4.8))
     top, bottom = figure.subplots(2, 1, sharex=True)
     w_style, s_style = series_style(1), series_style(0)
     top.plot(t, w_now, linewidth=0.6, **w_style)
@@ -87,6 +87,7 @@ def performance_figure(data: ReportData,
     for ax in (top, bottom):
         ax.tick_params(labelsize="small")
     legend_outside(figure, handles)
+    fixed_margins(figure, hspace=0.15)
     caption = (f"Run of {strategy}. Top: the size of the performance output s̃ (speed errors "
                f"over {settings.output_scale:g} m/s) and of the disturbance w̃ (the link and "
                f"reference noise the law held, over {settings.noise_scale:g} m/s) at each "

@@ -19,7 +19,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from .. import freqplot
-from .._plotting import legend_outside, series_style
+from .._plotting import fixed_margins, legend_outside, series_style
 
 if TYPE_CHECKING:
     from .figures import ReportFigure
@@ -96,7 +96,7 @@ def _positive(rows: Any) -> bool:
 
 def _sigma_figure(curves: Mapping[str, Mapping[str, Any]], quantity: str, ylabel: str, *,
                   order: list[str]) -> Figure:
-    figure = Figure(figsize=(7.5, 3.9), layout="constrained")
+    figure = Figure(figsize=(7.5, 3.9))
     ax = figure.add_subplot()
     for name, c in curves.items():
         style = series_style(order.index(name))
@@ -110,7 +110,7 @@ def _sigma_figure(curves: Mapping[str, Mapping[str, Any]], quantity: str, ylabel
         ax.set_ylim(bottom=max(ax.get_ylim()[0], top * 1e-4))
     _nyquist(ax, curves)
     legend_outside(figure)
-    return figure
+    return fixed_margins(figure)
 
 
 def _nyquist(ax: Axes, curves: Mapping[str, Mapping[str, Any]]) -> None:
@@ -123,7 +123,7 @@ def _nyquist(ax: Axes, curves: Mapping[str, Mapping[str, Any]]) -> None:
 
 def _steps(curves: Mapping[str, Mapping[str, Any]],
            make: Callable[..., ReportFigure]) -> ReportFigure:
-    figure = Figure(figsize=(7.5, 5.6), layout="constrained")
+    figure = Figure(figsize=(7.5, 5.6))
     axes = figure.subplots(2, 2, sharex=True)
     panels = (("speeds", "speed deviation [m/s]", axes[0, 0]),
               ("forces", "coupler force [kN]", axes[0, 1]),
@@ -146,6 +146,7 @@ def _steps(curves: Mapping[str, Mapping[str, Any]],
     handles = [Line2D([], [], linewidth=1.3, label=name, **series_style(k))
                for k, name in enumerate(curves)]
     legend_outside(figure, handles)
+    fixed_margins(figure, top=0.3, hspace=0.45, wspace=0.85)
     caption = ("Responses of the linear closed loops (unconstrained, at the linearisation "
                "speed) to a 1 ‰ down-grade step, w = g·10⁻³ m/s², starting at t = 0: on every "
                "vehicle (top) and on the head vehicle only (bottom). One line per vehicle or "
@@ -165,7 +166,7 @@ _STRING_PANELS = (("d", "|G_wd| [m/(m/s²)]"), ("f", "|G_wf| [kN/(m/s²)]"))
 
 
 def _string_figure(strings: Mapping[str, Mapping[str, Any]]) -> Figure:
-    figure = Figure(figsize=(7.5, 0.6 + 2.1 * len(strings)), layout="constrained")
+    figure = Figure(figsize=(7.5, 0.6 + 2.1 * len(strings)))
     axes = figure.subplots(len(strings), 2, sharex=True, squeeze=False)
     for row, (name, c) in zip(axes, strings.items(), strict=True):
         for ax, (quantity, ylabel) in zip(row, _STRING_PANELS, strict=True):
@@ -180,4 +181,7 @@ def _string_figure(strings: Mapping[str, Mapping[str, Any]]) -> Figure:
             if c.get("nyquist"):
                 ax.axvline(c["nyquist"], color="0.5", linestyle=":", linewidth=0.9)
         row[0].legend(fontsize="x-small", ncols=2, loc="lower left")
-    return figure
+    for row in axes[:-1]:  # the shared frequency axis is labelled once, at the bottom
+        for ax in row:
+            ax.set_xlabel("")
+    return fixed_margins(figure, top=0.3, hspace=0.45, wspace=0.85)

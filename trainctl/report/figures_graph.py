@@ -31,6 +31,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from .. import plot
+from .._plotting import fixed_margins
 from ..graphs import CommunicationGraph
 from ._format import format_number
 from .figures import encode, family_section
@@ -116,9 +117,10 @@ def graph_figure(data: Mapping[str, Any], *, family: str, usage: str = "",
         Key :func:`graph_figure_key`, section ``family-<family>``.
     """
     graph = graph_from_data(data)
-    figure = Figure(figsize=GRAPH_FIGSIZE, layout="constrained")
+    figure = Figure(figsize=GRAPH_FIGSIZE)
     ax = plot.graph_plot(graph, ax=figure.add_subplot())
     ax.set_title("")  # the caption says it
+    fixed_margins(figure, left=0.05, right=0.05, bottom=0.05, top=0.05)  # no tick labels
     return make(graph_figure_key(family), f"Communication graph ({graph.topology})",
                 graph_caption(graph.summary(), usage), figure, section=family_section(family))
 

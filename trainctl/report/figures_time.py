@@ -21,7 +21,7 @@ from matplotlib.lines import Line2D
 from numpy.typing import NDArray
 
 from .. import plot
-from .._plotting import legend_outside, limit_lines, series_style
+from .._plotting import fixed_margins, legend_outside, limit_lines, series_style
 
 if TYPE_CHECKING:
     from ..scenario import Scenario
@@ -112,7 +112,7 @@ def time_figures(scenario: Scenario, sims: Mapping[str, SimulationResult],
 def _panels(count: int, *, top: float = 0.0) -> tuple[Figure, list[Axes]]:
     """A figure of ``count`` stacked panels sharing the time axis (and a taller first one)."""
     ratios = ([top / PANEL_HEIGHT] if top else []) + [1.0] * count
-    figure = Figure(figsize=(7.5, 0.9 + top + PANEL_HEIGHT * count), layout="constrained")
+    figure = Figure(figsize=(7.5, 0.9 + top + PANEL_HEIGHT * count))
     axes = figure.subplots(len(ratios), 1, sharex=True, squeeze=False,
                            gridspec_kw={"height_ratios": ratios})[:, 0]
     for ax in axes[:-1]:
@@ -164,6 +164,7 @@ def _speed(scenario: Scenario, sims: Mapping[str, SimulationResult],
     if settle is not None:
         handles.append(Line2D([], [], color="0.3", linestyle=":", label="settle time"))
     legend_outside(figure, handles)
+    fixed_margins(figure)
     caption = ("Top: every vehicle's speed [m/s] against the reference (wide grey line); at "
                "this scale the traces mostly coincide. Below, one panel per vehicle (1 = head): "
                "speed minus reference [m/s], every strategy overlaid; dots mark the sample "
@@ -204,6 +205,7 @@ def _couplers(scenario: Scenario, sims: Mapping[str, SimulationResult],
         handles.append(Line2D([], [], color=ADMISSIBLE_COLOUR, linestyle="-.",
                               label="coupler admissible force"))
     legend_outside(figure, handles)
+    fixed_margins(figure)
     bound = (f"the controller's coupler-force limit ±{limit / 1e3:.4g} kN (a soft constraint) "
              "is dashed when near the forces and named at the panel's edge when far outside "
              "them" if np.isfinite(limit) else "the controller sets no coupler-force limit")
@@ -235,6 +237,7 @@ def _inputs(scenario: Scenario, sims: Mapping[str, SimulationResult],
     handles = _strategy_handles(sims) + [Line2D([], [], color="0.3", linestyle="--",
                                                 label="vehicle's own limits")]
     legend_outside(figure, handles)
+    fixed_margins(figure)
     caption = ("One panel per vehicle (number and name): applied traction (+) or braking (−) "
                "force [kN], held over each sample, every strategy overlaid. Dashed: that "
                "vehicle's own traction and braking limits at the reference speed (a trailer "
@@ -260,6 +263,7 @@ def _iterations(sims: Mapping[str, SimulationResult],
                Line2D([], [], color="tab:orange", label="final residual [kN]"),
                Line2D([], [], color="red", marker="x", linestyle="none", label="not optimal")]
     legend_outside(figure, handles)
+    fixed_margins(figure, right=0.85, top=0.3, hspace=0.35)
     caption = ("Strategies that iterate (more than one iteration at some sample): iterations "
                "per sample (left axis) and the last iteration's plan change [kN] (right, log "
                "scale); red crosses mark samples that were not solved to optimality.")

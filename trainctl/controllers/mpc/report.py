@@ -99,14 +99,16 @@ def mpc_report_figures(data: Mapping[str, Any]) -> list[ReportFigure]:
     from matplotlib.figure import Figure
 
     from ... import plot
+    from ..._plotting import fixed_margins
     from ...report.figures import ReportFigure, figure_svg
 
     sweep = data["weight_sweep"]
     threshold = math.inf if sweep["threshold"] is None else sweep["threshold"]
-    figure = Figure(figsize=(7.0, 3.6), layout="constrained")
+    figure = Figure(figsize=(7.0, 3.6))
     plot.convergence_plot(np.asarray(sweep["weights"]), np.asarray(sweep["radii"]),
                           threshold=threshold, design_weight=sweep["design_weight"],
                           unit=sweep["unit"], ax=figure.add_subplot())
+    fixed_margins(figure, left=0.7, right=1.6, top=0.3)  # title above, legend right
     return [ReportFigure("convergence", "N-DMPC convergence against the input weight",
                          f"Spectral radius of the Jacobi iteration matrix D0 against a common "
                          f"input weight R [{sweep['unit']}]; the iteration converges where "
