@@ -353,6 +353,8 @@ def key_title(key: str) -> str:
     --------
     >>> key_title("model.sample_time")
     'Sample time of the discrete model'
+    >>> key_title("controller.r_per_kn2") != ""   # a key of the primary family (MPC)
+    True
     """
     return _schema_entry(key)[0]
 
@@ -370,7 +372,16 @@ def _schema_entry(key: str) -> tuple[str, str]:
         node = _resolve(node, defs)
         props = node.get("properties", {}) if isinstance(node, dict) else {}
         if name not in props:
-            return "", _unit_from_name(key)
+            # [controller] holds the primary family's keys at its top level; the schema
+            # declares them in the family's sub-table (controller.mpc, ...): the first
+            # family that has the key names it.
+            families = [_resolve(v, defs) for v in props.values()
+                        if isinstance(v, dict) and "$ref" in v]
+            found = [f["properties"][name] for f in families
+                     if isinstance(f, dict) and name in f.get("properties", {})]
+            if not found:
+                return "", _unit_from_name(key)
+            props = {name: found[0]}
         node = props[name]
         if indexed:  # train.vehicle[1]: an item of the array (or the one table)
             node = _resolve(node, defs)
