@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,6 +39,7 @@ __all__ = [
     "cooperative_iteration",
     "finite_iteration_closed_loop",
     "iteration_matrices",
+    "log_bisection",
     "nash_gain",
     "relaxation",
     "shift_matrix",
@@ -223,6 +224,33 @@ def threshold_weight(
         D0, _ = iteration_matrices(design.with_r(r), trial)
         return spectral_radius(D0) - 1.0
 
+    return log_bisection(excess, low, high, rtol)
+
+
+def log_bisection(excess: Callable[[float], float], low: float, high: float,
+                  rtol: float) -> float:
+    """Smallest weight in [low, high] where ``excess(log10 weight) < 0``, by bisection on log R.
+
+    Parameters
+    ----------
+    excess : callable
+        log10 R → ρ(R) - 1, decreasing through 0 once in the bracket.
+    low, high : float
+        Search bracket (> 0).
+    rtol : float
+        Relative accuracy of the result.
+
+    Returns
+    -------
+    float
+        ``low`` if ``excess`` is negative already there; inf if it is not
+        negative even at ``high``.
+
+    Examples
+    --------
+    >>> round(log_bisection(lambda log_r: 2.0 - log_r, 1e-3, 1e6, 1e-9), 6)
+    100.0
+    """
     lo, hi = math.log10(low), math.log10(high)
     if excess(lo) < 0:
         return low

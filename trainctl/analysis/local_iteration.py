@@ -149,7 +149,6 @@ Numbers: CRH2 half train (``benchmarks/local_ndmpc.py``)
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -158,7 +157,7 @@ from numpy.typing import NDArray
 from scipy.linalg import expm
 
 from ..exceptions import ModelError
-from .iteration import spectral_radius
+from .iteration import log_bisection, spectral_radius
 from .mpc import MPCDesign, prediction
 
 __all__ = [
@@ -736,18 +735,7 @@ def local_threshold_weight(design: MPCDesign, model: LocalModel, *, low: float =
     def excess(log_r: float) -> float:
         return local_iteration(design, model, coaches, r=10.0**log_r).rho - 1.0
 
-    lo, hi = math.log10(low), math.log10(high)
-    if excess(lo) < 0:
-        return low
-    if excess(hi) >= 0:
-        return math.inf
-    while hi - lo > rtol / math.log(10):
-        mid = 0.5 * (lo + hi)
-        if excess(mid) >= 0:
-            lo = mid
-        else:
-            hi = mid
-    return 10.0**hi
+    return log_bisection(excess, low, high, rtol)
 
 
 def local_prediction_error(design: MPCDesign, model: LocalModel,

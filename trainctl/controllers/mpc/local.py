@@ -50,7 +50,7 @@ from .condensed import (
     input_rows,
     move_maps,
 )
-from .problem import KN, StepContext, TrainProblem
+from .problem import KN, StepContext, TrainProblem, fill_move_sources
 from .settings import MPCConstraints
 from .strategies import FALLBACK, FallbackPlan, PlanResult, Strategy, _PerCoach, worst_status
 
@@ -195,19 +195,7 @@ class LocalTrainProblem(TrainProblem):
     def sources(self, ctx: StepContext) -> Array:
         """Every coach's QP parameters at ξ = 0 (layout of :class:`TrainProblem`, then per coach
         g, hl, hu); also stores the free response of each coach's own states."""
-        n = self.n
-        base = ctx.u_dev_prev_tiled
-        if self.constraints.input_bounds:
-            if self._du:
-                np.subtract(ctx.bounds, base, out=self._src_bounds)
-            else:
-                self._src_bounds[...] = ctx.bounds
-        if math.isfinite(self.constraints.rate_limit):
-            ff = ctx.u_ff.ravel()
-            offset = ff - np.concatenate((ctx.u_prev, ff[:-n]))
-            if self._du:
-                offset += self.maps.D @ base
-            np.subtract(self._rate_pair, offset, out=self._src_rate)
+        fill_move_sources(self, ctx)
         x, up = ctx.x, ctx.u_dev_prev
         src = self._src
         for k, c in enumerate(self.coaches):

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,6 +38,9 @@ from .condensed import (
 )
 from .settings import MPCConstraints
 from .strategies import Strategy
+
+if TYPE_CHECKING:
+    from .local import LocalTrainProblem
 
 __all__ = ["StepContext", "TrainProblem"]
 
@@ -234,20 +238,8 @@ class TrainProblem:
         by coach, so the other coaches' moves do not enter a block's bounds.
         """
         # In the u-form ũ(k-1) = 0 and S_u = 0: their terms are left out.
-        pred, n = self.pred, self.n
-        base = ctx.u_dev_prev_tiled
-        if self.constraints.input_bounds:
-            if self._du:
-                np.subtract(ctx.bounds, base, out=self._src_bounds)
-            else:
-                self._src_bounds[...] = ctx.bounds
-        if math.isfinite(self.constraints.rate_limit):
-            ff = ctx.u_ff.ravel()
-            # u_ff(m) - u_ff(m-1), with the applied u(k-1) before move 0
-            offset = ff - np.concatenate((ctx.u_prev, ff[:-n]))
-            if self._du:
-                offset += self.maps.D @ base
-            np.subtract(self._rate_pair, offset, out=self._src_rate)
+        pred = self.pred
+        fill_move_sources(self, ctx)
         if self._bounded_rows.size:
             f0 = self._fPhi @ ctx.x
             if self._du:
@@ -306,3 +298,30 @@ class TrainProblem:
         z = maps.D @ moves
         z[:n] -= ctx.u_dev_prev
         return z
+
+
+def fill_move_sources(problem: TrainProblem | LocalTrainProblem, ctx: StepContext) -> None:
+    """Fill ``problem._src_bounds`` and ``problem._src_rate``: the input-bound and rate rows'
+    parameters at ξ = 0, shared by :class:`TrainProblem` and the local problem.
+
+    Parameters
+    ----------
+    problem : TrainProblem or LocalTrainProblem
+        Has ``constraints``, ``maps``, ``n``, ``_du``, ``_src_bounds``, ``_src_rate`` and
+        ``_rate_pair``.
+    ctx : StepContext
+        This step's context.
+    """
+    base = ctx.u_dev_prev_tiled
+    if problem.constraints.input_bounds:
+        if problem._du:
+            np.subtract(ctx.bounds, base, out=problem._src_bounds)
+        else:
+            problem._src_bounds[...] = ctx.bounds
+    if math.isfinite(problem.constraints.rate_limit):
+        ff = ctx.u_ff.ravel()
+        # u_ff(m) - u_ff(m-1), with the applied u(k-1) before move 0
+        offset = ff - np.concatenate((ctx.u_prev, ff[:-problem.n]))
+        if problem._du:
+            offset += problem.maps.D @ base
+        np.subtract(problem._rate_pair, offset, out=problem._src_rate)
