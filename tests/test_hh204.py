@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from trainctl.analysis.review import scenario_checks
 from trainctl.controllers.mpc.controller import fixed_inputs
 from trainctl.design import build_design
 from trainctl.run import make_controller, simulate_strategy
@@ -55,3 +56,11 @@ def test_short_run_tracks(short, strategy: str) -> None:
     wagons = [i for i in range(204) if i not in LOCOS]
     assert np.all(result.inputs[wagons] == 0.0)
     assert np.all(np.isfinite(result.inputs[LOCOS]))
+
+
+def test_scenario_checks_pass(short) -> None:
+    """Feasibility and plausibility (the review's cheap part; the whole review takes minutes)."""
+    scenario, _ = short
+    found = {c.name: c.status for c in scenario_checks(scenario)}
+    assert found == {"feasibility": "pass", "plausibility": "pass"}
+    assert {k: scenario.expected[k] for k in found} == found
