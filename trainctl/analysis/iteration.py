@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,12 +46,6 @@ __all__ = [
 ]
 
 Array = NDArray[np.float64]
-
-
-def _local_weight(design: MPCDesign, members: Sequence[int]) -> Array:
-    mask = np.array([owner in members for owner in design.output_owner], dtype=float)
-    weight = np.kron(np.eye(design.prediction_horizon), np.diag(design.q * mask))
-    return np.asarray(weight, dtype=np.float64)
 
 
 def iteration_matrices(design: MPCDesign, pred: Prediction | None = None) -> tuple[Array, Array]:
