@@ -50,13 +50,26 @@ class TestEstimate:
         assert estimate_run(load_scenario("crh2-dmpc"), simulate=False).controller_steps == 0
 
     def test_builtins_well_inside_the_default_budget(self) -> None:
-        """Every built-in, and all of them together, stay far below the default budget."""
-        estimates = [estimate_run(load_scenario(b.name)) for b in builtin_scenarios()]
+        """Every built-in, and all of them together, stay far below the default budget.
+
+        Except heavy-haul-204-ndmpc, the one built-in meant to run for minutes (204
+        vehicles): see test_long_chain_is_estimated_at_hours.
+        """
+        estimates = [estimate_run(load_scenario(b.name)) for b in builtin_scenarios()
+                     if b.name != "heavy-haul-204-ndmpc"]
         assert all(e.seconds < DEFAULT_MAX_TIME / 10 for e in estimates)
         total = total_estimate(estimates)
         assert total.seconds < DEFAULT_MAX_TIME / 5
         assert total.controller_steps == sum(e.controller_steps for e in estimates)
         check_budget(total, DEFAULT_MAX_TIME)
+
+    def test_long_chain_is_estimated_at_hours(self) -> None:
+        """The 204-vehicle chain: the estimate (calibrated on short trains, n^2.5 for the MPC
+        analysis) is above the default budget, so analyse needs --max-time (issue 14); measured:
+        model checks 100 s, string stability 230 s, the local iteration analysis over 8 min."""
+        est = estimate_run(load_scenario("heavy-haul-204-ndmpc"))
+        assert est.vehicles == 204 and est.controller_steps == 12000
+        assert est.seconds > DEFAULT_MAX_TIME
 
     def test_grows_with_the_train_and_the_horizon(self) -> None:
         """Longer trains and horizons cost more; the dominant part is named with its key."""

@@ -180,7 +180,8 @@ def analyse_stability(
         dist = abs(value) - 1.0 if discrete else value.real
         cluster = np.abs(lam - value) <= max(tol * scale, 1e-12)
         alg = int(cluster.sum())
-        geo = _geometric_multiplicity(A, value, rank_tol)
+        # A simple eigenvalue has one eigenvector: the SVD (O(n³) per mode) only for clusters.
+        geo = 1 if alg == 1 else _geometric_multiplicity(A, value, rank_tol)
         if dist > tol * scale:
             status = "unstable"
         elif dist < -tol * scale:

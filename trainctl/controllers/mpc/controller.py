@@ -169,6 +169,11 @@ class MPCController:
                 raise ModelError(f"{self.name}: vehicles {idx.tolist()} form a coupled group "
                                  "without traction (all traction_share are 0).")
         self._precompute()
+        self.fixed_inputs = fixed_inputs(train, design, constraints)
+        """Coaches whose force the envelope pins (no traction, no braking: an unpowered
+        wagon); u-form with input bounds only. They get no QP: their moves are the bound."""
+        self._fixed_cols = (np.array([m * n + i for m in range(M) for i in self.fixed_inputs],
+                                     dtype=np.int64))
         self._strategy = make_strategy(strategy, max_iterations=max_iterations,
                                        tolerance=tolerance, relaxation=relaxation,
                                        weights=self.weights)
@@ -180,10 +185,11 @@ class MPCController:
                                  "local_iteration.local_model(design, A, B, dt, owners)).")
             self.problem = LocalTrainProblem(design, local_model, force_matrix, constraints,
                                              self._strategy, name=self.name, path=path,
-                                             qp_solver=qp_solver)
+                                             qp_solver=qp_solver, fixed=self.fixed_inputs)
         else:
             self.problem = TrainProblem(design, force_matrix, constraints, self._strategy,
-                                        name=self.name, path=path, qp_solver=qp_solver)
+                                        name=self.name, path=path, qp_solver=qp_solver,
+                                        fixed=self.fixed_inputs)
         self.reset()
 
     @property
@@ -243,9 +249,14 @@ class MPCController:
         ctx = self._context(state, reference)
         problem = self.problem
         plan0 = shifted(problem.maps, self._plan)
+        pinned = self._fixed_cols
+        if pinned.size:  # u-form: the moves of a pinned coach are its (equal) bounds
+            plan0[pinned] = ctx.bounds[0, pinned]
         result = self._strategy.plan(problem, problem.parameters(ctx), plan0,
                                      lambda block: problem.fallback(block, ctx, plan0))
         U = result.plan
+        if pinned.size:
+            U[pinned] = ctx.bounds[0, pinned]
         if result.fallback:  # the combined plan too: within the rate limit and the envelope
             U = problem.safe_plan(ctx, U)
         moves = problem.maps.first @ U + ctx.u_dev_prev_tiled[: self.n]
@@ -438,3 +449,26 @@ def _check_design(where: str, train: Train, design: MPCDesign, force_matrix: Arr
             "the design model of trainctl.design.build_model does)." if dummy else "")
     raise ModelError(_DESIGN_MSG.format(where=where, nx=2 * n - 1, n=n, got_x=nx, got_u=nu,
                                         hint=hint))
+
+
+def fixed_inputs(train: Train, design: MPCDesign, constraints: MPCConstraints) -> tuple[int, ...]:
+    """Coaches whose envelope pins their force at zero: no traction and no braking.
+
+    Only in the u-form with input bounds, where such a coach's admissible moves are
+    the single point ũ = -u_ff: its QP has nothing to decide, so none is built or
+    solved (an unpowered heavy-haul wagon whose air brake the MPC does not command).
+
+    Examples
+    --------
+    >>> from trainctl.models import heavy_haul_1p2p1
+    >>> from types import SimpleNamespace
+    >>> train = heavy_haul_1p2p1(detail="full", wagons_per_group=2)
+    >>> fixed_inputs(train, SimpleNamespace(form="u"), MPCConstraints())
+    (1, 2, 5, 6)
+    >>> fixed_inputs(train, SimpleNamespace(form="du"), MPCConstraints())
+    ()
+    """
+    if design.form != "u" or not constraints.input_bounds:
+        return ()
+    return tuple(i for i, v in enumerate(train.vehicles)
+                 if v.envelope.max_traction == 0.0 and v.envelope.max_braking == 0.0)

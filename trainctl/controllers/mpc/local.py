@@ -102,12 +102,16 @@ class LocalTrainProblem(TrainProblem):
         QP solve path.
     qp_solver : {"auto", "osqp", "daqp"}
         The fast path's QP solver (:func:`trainctl.controllers.qp.choose_solver`).
+    fixed : tuple of int
+        Coaches whose moves the envelope pins (:func:`~.controller.fixed_inputs`): no QP
+        is solved for them; they still publish their predicted own-state trajectory.
     """
 
     def __init__(self, design: MPCDesign, model: LocalModel, force_matrix: Array,
                  constraints: MPCConstraints, strategy: Strategy, *, name: str,
-                 path: str, qp_solver: str = "auto") -> None:
+                 path: str, qp_solver: str = "auto", fixed: tuple[int, ...] = ()) -> None:
         self.design, self.constraints, self.strategy = design, constraints, strategy
+        self.fixed = frozenset(fixed)
         self.model, self.name, self.path = model, name, path
         n, M, P = design.n_inputs, design.control_horizon, design.prediction_horizon
         self.n, self.M, self.P, self.nx = n, M, P, design.A.shape[0]
@@ -251,12 +255,15 @@ class LocalTrainProblem(TrainProblem):
             newU, newX = U.copy(), X.copy()
             for k, (c, prep) in enumerate(zip(self.coaches, params, strict=True)):
                 xi = np.concatenate([U[c.other_cols], X[c.outer_idx]])
+                cols = c.block.cols
+                if c.pred.coach in self.fixed:  # pinned moves (set in plan0 by the controller)
+                    newX[c.own_idx] = self._free_z[k] + c.Gz_xi @ xi + c.Gz_own @ U[cols]
+                    continue
                 sol = c.block.solve(prep, xi, self.path)
                 z, status = sol.z, sol.status
                 if not is_usable(status):
                     z, applied = fallback(c.block), FALLBACK
                 statuses.append(status)
-                cols = c.block.cols
                 newU[cols] = z if w == 1.0 else w * z + (1 - w) * U[cols]
                 newX[c.own_idx] = self._free_z[k] + c.Gz_xi @ xi + c.Gz_own @ newU[cols]
             change = float(np.max(np.abs(newU - U)))

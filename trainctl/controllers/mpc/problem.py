@@ -109,12 +109,16 @@ class TrainProblem:
         QP solve path.
     qp_solver : {"auto", "osqp", "daqp"}
         QP solver of the fast path (:func:`~trainctl.controllers.qp.choose_solver`).
+    fixed : tuple of int
+        Coaches whose moves the envelope pins (:func:`~.controller.fixed_inputs`): a
+        block of only such coaches is not built; their moves are the controller's.
     """
 
     def __init__(self, design: MPCDesign, force_matrix: Array, constraints: MPCConstraints,
                  strategy: Strategy, *, name: str, path: str,
-                 qp_solver: str = "auto") -> None:
+                 qp_solver: str = "auto", fixed: tuple[int, ...] = ()) -> None:
         self.design, self.constraints, self.strategy = design, constraints, strategy
+        self.fixed = frozenset(fixed)
         self.name, self.path, self.qp_solver = name, path, qp_solver
         n, M, P = design.n_inputs, design.control_horizon, design.prediction_horizon
         self.n, self.M, self.P = n, M, P
@@ -128,6 +132,8 @@ class TrainProblem:
         self.blocks: list[QPBlock] = []
         g_start = self._source_g
         for inputs in strategy.block_inputs(n):
+            if self.fixed.issuperset(inputs):
+                continue  # pinned by its envelope: its moves are set by the controller
             self.blocks.append(self._build_block(inputs, g_start))
             g_start += self.blocks[-1].cols.size
         self._source_buffer(g_start)
