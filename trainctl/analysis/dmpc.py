@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import NDArray
@@ -85,6 +86,10 @@ class DMPCAnalysis:
 
     def radii(self) -> dict[str, float]:
         """Closed-loop spectral radii: nash, iterations, centralised."""
+        return dict(self._radii)
+
+    @cached_property
+    def _radii(self) -> dict[str, float]:
         return {name: spectral_radius(getattr(self, f"closed_loop_{name}"))
                 for name in ("nash", "iterations", "centralised")}
 
@@ -149,11 +154,12 @@ def analyse_dmpc(
     j_c = pred.cost(pred.centralised_gain() @ e, e)
     j_n = pred.cost(nash @ e, e)
     T_coop, _ = cooperative_iteration(design, cooperative_weights, None)
+    eig = np.asarray(np.linalg.eigvals(D0), dtype=np.complex128)
     return DMPCAnalysis(
-        rho_d0=spectral_radius(D0),
-        d0_eigenvalues=np.asarray(np.linalg.eigvals(D0), dtype=np.complex128),
+        rho_d0=float(np.max(np.abs(eig))) if eig.size else 0.0,
+        d0_eigenvalues=eig,
         threshold_weight=threshold_weight(design),
-        relaxation=relaxation(D0),
+        relaxation=relaxation(D0, eig),
         closed_loop_nash=closed_loop_matrix(design, nash, pred),
         closed_loop_iterations=finite_iteration_closed_loop(design, D0, D1, iterations, pred),
         closed_loop_centralised=closed_loop_matrix(design, pred.centralised_gain(), pred),
@@ -210,12 +216,12 @@ class LocalDMPCAnalysis:
         """True when plain Jacobi iteration converges (ρ(D0) < 1)."""
         return self.rho_d0 < 1
 
-    @property
+    @cached_property
     def closed_loop_radius(self) -> float:
         """Spectral radius of the converged local closed loop."""
         return spectral_radius(self.closed_loop_nash)
 
-    @property
+    @cached_property
     def closed_loop_iterations_radius(self) -> float:
         """Spectral radius of the closed loop with ``iterations`` sweeps per sample."""
         return spectral_radius(self.closed_loop_iterations)
@@ -258,7 +264,7 @@ def analyse_local_dmpc(design: MPCDesign, model: LocalModel, *, iterations: int 
     return LocalDMPCAnalysis(
         rho_d0=float(np.max(np.abs(eig))) if eig.size else 0.0,
         d0_eigenvalues=eig,
-        relaxation=relaxation(it.D0),
+        relaxation=relaxation(it.D0, eig),
         closed_loop_nash=local_closed_loop(design, local_nash_gain(it)[:it.n_plan]),
         closed_loop_iterations=local_finite_iteration_closed_loop(design, it, iterations,
                                                                   model.substeps),

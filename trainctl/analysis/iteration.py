@@ -336,7 +336,7 @@ class RelaxationResult:
                 "omega_best": clean(self.omega_best), "rate": clean(self.rate)}
 
 
-def relaxation(D0: Array) -> RelaxationResult:
+def relaxation(D0: Array, eigenvalues: Array | None = None) -> RelaxationResult:
     """Best relaxation factor for the Jacobi iteration matrix D0.
 
     The relaxed iteration matrix (1-ω)I + ωD0 has eigenvalues 1 - ω(1 - λ);
@@ -346,6 +346,9 @@ def relaxation(D0: Array) -> RelaxationResult:
     ----------
     D0 : ndarray
         Jacobi iteration matrix.
+    eigenvalues : ndarray or None
+        D0's eigenvalues when already computed (the spectrum of a long train's
+        local iteration matrix takes seconds).
 
     Returns
     -------
@@ -360,7 +363,10 @@ def relaxation(D0: Array) -> RelaxationResult:
     >>> res.exists, round(res.omega_best, 4), round(res.rate, 4)
     (True, 0.7273, 0.8182)
     """
-    lam = np.linalg.eigvals(D0) if D0.size else np.zeros(1)
+    if eigenvalues is not None and np.size(eigenvalues):
+        lam = np.asarray(eigenvalues)
+    else:
+        lam = np.linalg.eigvals(D0) if D0.size else np.zeros(1)
     if np.any(lam.real >= 1.0 - 1e-12):
         return RelaxationResult(
             exists=False, omega_max=math.nan, omega_best=math.nan, rate=math.nan
