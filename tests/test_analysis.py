@@ -81,6 +81,40 @@ class TestControllability:
         for res in (analyse_controllability(sys_kn), analyse_observability(sys)):
             assert res.full_rank and not res.modes
 
+    @pytest.mark.parametrize("name", ["crh2-dmpc", "crh2-dmpc-well-sampled", "heavy-haul-hinf",
+                                      "crh2-potential", "heavy-haul-flocking"])
+    def test_pbh_screen_changes_no_verdict(self, name, monkeypatch):
+        """The Cholesky screen on and off: the same modes, margins and directions."""
+        from trainctl.analysis import controllability as module
+        from trainctl.design import build_design
+        from trainctl.scenario import load_scenario
+
+        model = build_design(load_scenario(name)).model
+        systems = [model.select(model.design), model.select(model.discrete)]
+        screened = [(analyse_controllability(s).modes, analyse_observability(s).modes)
+                    for s in systems]
+        monkeypatch.setattr(module._RankScreen, "clearly_full_rank", lambda self, value: False)
+        plain = [(analyse_controllability(s).modes, analyse_observability(s).modes)
+                 for s in systems]
+        assert screened == plain
+
+    def test_pbh_screen_proves_only_full_rank(self):
+        """Never passes an uncontrollable eigenvalue; passes a well-controllable one."""
+        from trainctl.analysis.controllability import _RankScreen
+
+        sys = linearise(crh2_half(), V300, dummy_state=True)
+        A, B = np.asarray(sys.A), np.asarray(sys.B)
+        screen = _RankScreen(A, B, 1e-9)
+        for value in np.linalg.eigvals(A):
+            sv = np.linalg.svd(np.hstack([A - value * np.eye(A.shape[0]), B]), compute_uv=False)
+            full = sv[A.shape[0] - 1] > 1e-9 * sv[0]
+            assert full or not screen.clearly_full_rank(complex(value)), value
+        # a hand case: x1' = -x1 + u, x2' = -2 x2 (x2 unreachable); and one reachable mode
+        A2, B2 = np.diag([-1.0, -2.0]), np.array([[1.0], [0.0]])
+        screen = _RankScreen(A2, B2, 1e-9)
+        assert not screen.clearly_full_rank(-2.0)
+        assert screen.clearly_full_rank(-1.0)
+
     def test_kalman_matrix_agrees_with_python_control(self):
         """kalman_matrix equals control.ctrb/obsv, and the ranks agree on a well-scaled model."""
         sys = discretise(linearise(crh2_half(), V300), 0.1)
