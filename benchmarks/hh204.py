@@ -1,8 +1,11 @@
 """Benchmark: the 204-vehicle heavy-haul chain under MPC (heavy-haul-204-ndmpc).
 
-Run:  .venv/bin/python benchmarks/hh204.py [--duration S]
+Run:  .venv/bin/python benchmarks/hh204.py [--duration S] [--review]
 
-The built-in's closed loops (1+2+1 train, one agent per vehicle, T = 0.1 s,
+The scenario benchmarks/scenarios/heavy-haul-204-ndmpc.toml (run it with
+``trainctl analyse benchmarks/scenarios/heavy-haul-204-ndmpc.toml``): with
+--review, its whole design review first (timed, statuses against its
+[expected]); then its closed loops (1+2+1 train, one agent per vehicle, T = 0.1 s,
 P = 10, M = 3, 600 s by default: 6000 samples), one strategy after the other
 in this process: ``decentralised`` (the baseline: one QP per locomotive, no
 exchange) and ``ndmpc-local`` (neighbourhood-local N-DMPC: every coach
@@ -35,32 +38,43 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # threads thrash on a loaded machine
 
 import numpy as np  # noqa: E402
 
 import trainctl.run as run  # noqa: E402
+from trainctl.analysis.review import review_design  # noqa: E402
 from trainctl.design import build_design  # noqa: E402
 from trainctl.scenario import load_scenario  # noqa: E402
 
-NAME = "heavy-haul-204-ndmpc"
+SCENARIO = str(Path(__file__).resolve().parent / "scenarios" / "heavy-haul-204-ndmpc.toml")
 STRATEGIES = ("decentralised", "ndmpc-local")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--duration", type=float, default=600.0, help="simulated time [s]")
+    parser.add_argument("--review", action="store_true",
+                        help="also time the whole design review and compare it with [expected]")
     args = parser.parse_args()
-    scenario = load_scenario(NAME)
+    scenario = load_scenario(SCENARIO)
     if args.duration != scenario.simulation.duration:
         settle = min(scenario.simulation.settle_time, 0.5 * args.duration)
         scenario = (scenario.replace("simulation.settle_time", settle)
                     .replace("simulation.duration", args.duration))
     start = time.perf_counter()
     design = build_design(scenario)
-    print(f"{NAME}: {scenario.train.n_vehicles} vehicles, {args.duration:g} s simulated; "
-          f"design built in {time.perf_counter() - start:.2f} s")
+    print(f"heavy-haul-204-ndmpc: {scenario.train.n_vehicles} vehicles, {args.duration:g} s "
+          f"simulated; design built in {time.perf_counter() - start:.2f} s")
+    if args.review:
+        start = time.perf_counter()
+        review = review_design(scenario, design)
+        found = {c.name: c.status for c in review.checks}
+        wrong = {k: (v, found.get(k)) for k, v in scenario.expected.items() if found.get(k) != v}
+        print(f"  design review {time.perf_counter() - start:.1f} s, {len(found)} checks; "
+              f"[expected]: {'all match' if not wrong else wrong}")
     rows = {}
     for strategy in STRATEGIES:
         start = time.perf_counter()

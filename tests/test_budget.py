@@ -50,26 +50,28 @@ class TestEstimate:
         assert estimate_run(load_scenario("crh2-dmpc"), simulate=False).controller_steps == 0
 
     def test_builtins_well_inside_the_default_budget(self) -> None:
-        """Every built-in, and all of them together, stay far below the default budget.
-
-        Except heavy-haul-204-ndmpc, the one built-in meant to run for minutes (204
-        vehicles): see test_long_chain_is_estimated_at_hours.
-        """
-        estimates = [estimate_run(load_scenario(b.name)) for b in builtin_scenarios()
-                     if b.name != "heavy-haul-204-ndmpc"]
+        """Every built-in, and all of them together, stay far below the default budget."""
+        estimates = [estimate_run(load_scenario(b.name)) for b in builtin_scenarios()]
         assert all(e.seconds < DEFAULT_MAX_TIME / 10 for e in estimates)
         total = total_estimate(estimates)
         assert total.seconds < DEFAULT_MAX_TIME / 5
         assert total.controller_steps == sum(e.controller_steps for e in estimates)
         check_budget(total, DEFAULT_MAX_TIME)
 
-    def test_long_chain_is_estimated_at_hours(self) -> None:
-        """The 204-vehicle chain: the estimate (calibrated on short trains, n^2.5 for the MPC
-        analysis) is above the default budget, so analyse needs --max-time (issue 14); measured:
-        model checks 100 s, string stability 230 s, the local iteration analysis over 8 min."""
-        est = estimate_run(load_scenario("heavy-haul-204-ndmpc"))
+    def test_long_chain_within_the_default_budget(self) -> None:
+        """The 204-vehicle benchmark chain: measured review about 80 s and closed loops of
+        21 s (decentralised) and about 100 s (local N-DMPC) on the 2-core machine
+        (benchmarks/hh204.py); the estimate within a factor 3 of each, under the default
+        budget, and its decentralised run priced by its 4 locomotives' QPs, not 204."""
+        path = Path(__file__).resolve().parents[1] / "benchmarks" / "scenarios"
+        scenario = load_scenario(str(path / "heavy-haul-204-ndmpc.toml"))
+        est = estimate_run(scenario)
         assert est.vehicles == 204 and est.controller_steps == 12000
-        assert est.seconds > DEFAULT_MAX_TIME
+        assert 80 / 3 < est.design_seconds < 80 * 3
+        assert (21 + 100) / 3 < est.simulation_seconds < (21 + 100) * 3
+        check_budget(est, DEFAULT_MAX_TIME)
+        unpinned = estimate_run(scenario.replace("train.vehicle[1].max_traction_kn", 1.0))
+        assert unpinned.simulation_seconds > est.simulation_seconds
 
     def test_grows_with_the_train_and_the_horizon(self) -> None:
         """Longer trains and horizons cost more; the dominant part is named with its key."""
@@ -113,10 +115,14 @@ class TestIssueCases:
     @pytest.mark.parametrize("name", ["heavy-haul-hinf", "heavy-haul-flocking"])
     def test_500_vehicles_refused_by_the_budget(self, name: str, tmp_path: Path,
                                                 capsys: pytest.CaptureFixture[str]) -> None:
-        """count = 500: exit 2 at once, with the estimate and the option to raise it."""
+        """count = 500: estimated up front (minutes: the review's rank tests of 1000 states,
+        which ran 7 min here); over a 2-minute budget, exit 2 at once with the estimate and
+        the option to raise it."""
         path = tmp_path / "long.toml"
         path.write_text(edited(name, "count", "500"), encoding="utf-8")
-        assert main(["analyse", str(path)]) == 2
+        est = estimate_run(load_scenario(str(path)))
+        assert est.vehicles >= 500 and est.seconds > 120
+        assert main(["analyse", str(path), "--max-time", "2min"]) == 2
         err = capsys.readouterr().err
         assert "estimated at about" in err and "500 vehicles" in err
         assert "--max-time" in err and "Traceback" not in err
@@ -148,10 +154,11 @@ class TestIssueCases:
 
     def test_500_vehicle_report_refused(self, tmp_path: Path,
                                         capsys: pytest.CaptureFixture[str]) -> None:
-        """The same for report, which writes nothing."""
+        """The same for report (over a 2-minute budget), which writes nothing."""
         path = tmp_path / "long.toml"
         path.write_text(edited("heavy-haul-hinf", "count", "500"), encoding="utf-8")
-        assert main(["report", str(path), "-o", str(tmp_path / "r.html")]) == 2
+        assert main(["report", str(path), "-o", str(tmp_path / "r.html"),
+                     "--max-time", "2min"]) == 2
         assert "estimated at about" in capsys.readouterr().err
         assert sorted(p.name for p in tmp_path.iterdir()) == ["long.toml"]
 

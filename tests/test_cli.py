@@ -21,7 +21,6 @@ from trainctl.scenario import builtin_scenario_text, load_scenario
 REPO = Path(__file__).resolve().parents[1]
 # Every file in the repository's analyses/ is a built-in scenario.
 BUILTINS = tuple(sorted(p.stem for p in (REPO / "analyses").glob("*.toml")))
-HH204 = "heavy-haul-204-ndmpc"  # minutes of review and simulation: see tests/test_hh204.py
 XSS_NAME = "<script>alert(1)</script>"
 
 
@@ -252,7 +251,7 @@ class TestAnalyse:
         assert data["n_states"] > 0
         assert all({"kind", "eigenvalue"} <= set(mode) for mode in data["modes"])
 
-    @pytest.mark.parametrize("name", [b for b in BUILTINS if b != HH204])
+    @pytest.mark.parametrize("name", BUILTINS)
     def test_every_builtin(self, name: str, capsys: pytest.CaptureFixture[str]) -> None:
         """Every built-in analyses with exit 0; --strict exits 1 exactly when a check fails."""
         from trainctl.analysis.review import review_design
@@ -530,10 +529,9 @@ class TestReport:
         import trainctl.scenario as scenario_module
 
         # The long well-sampled simulation is covered by benchmarks/report.py, seed 003's
-        # cases by tests/test_seed003_cases.py, the 204-vehicle MPC chain by tests/test_hh204.py
-        # (short) and benchmarks/hh204.py; here the gallery machinery runs on the others.
+        # cases by tests/test_seed003_cases.py; here the gallery machinery runs on the others.
         every = scenario_module.builtin_scenarios()
-        chosen = [b for b in every if b.name not in ("crh2-dmpc-well-sampled", HH204)
+        chosen = [b for b in every if b.name != "crh2-dmpc-well-sampled"
                   and not b.name.startswith("heavy-haul-hinf-")]
         monkeypatch.setattr(scenario_module, "builtin_scenarios", lambda: chosen)
         out = tmp_path / "gallery"

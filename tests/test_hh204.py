@@ -1,11 +1,15 @@
-"""The 204-vehicle heavy-haul chain under MPC (``heavy-haul-204-ndmpc``), in a short version.
+"""The 204-vehicle heavy-haul chain under MPC, in a short version.
 
-The full run (600 s, 6000 samples, both strategies) is a benchmark
-(``benchmarks/hh204.py``); here 5 s of it: both strategies build, track and
-solve every step to optimality, and only the four locomotives apply a force.
+The scenario is ``benchmarks/scenarios/heavy-haul-204-ndmpc.toml``; its full
+run (600 s, 6000 samples, both strategies) and its whole design review are a
+benchmark (``benchmarks/hh204.py``); here 5 s of it: both strategies build,
+track and solve every step to optimality, and only the four locomotives apply
+a force.
 """
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,14 +20,15 @@ from trainctl.design import build_design
 from trainctl.run import make_controller, simulate_strategy
 from trainctl.scenario import load_scenario
 
-NAME = "heavy-haul-204-ndmpc"
+SCENARIO = str(Path(__file__).resolve().parents[1] / "benchmarks" / "scenarios"
+               / "heavy-haul-204-ndmpc.toml")
 LOCOS = [0, 101, 102, 203]
 
 
 @pytest.fixture(scope="module")
 def short():
     """The scenario cut to 5 s (tracking judged from the start), and its design."""
-    scenario = (load_scenario(NAME).replace("simulation.settle_time", 0.0)
+    scenario = (load_scenario(SCENARIO).replace("simulation.settle_time", 0.0)
                 .replace("simulation.duration", 5.0))
     return scenario, build_design(scenario)
 

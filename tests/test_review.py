@@ -34,13 +34,8 @@ def book_text(controller_lines: dict[str, str]) -> str:
     return "\n".join(out + [f"{k} = {v}" for k, v in controller_lines.items()]) + "\n"
 
 
-# The 204-vehicle chain's review takes minutes (rank tests and string stability of 408
-# states, the local iteration matrix of 4682): tests/test_hh204.py checks its cheap part.
-REVIEWED = [b.name for b in builtin_scenarios() if b.name != "heavy-haul-204-ndmpc"]
-
-
 class TestDeclaredExpectations:
-    @pytest.mark.parametrize("name", REVIEWED)
+    @pytest.mark.parametrize("name", [b.name for b in builtin_scenarios()])
     def test_every_check_has_the_status_its_scenario_declares(self, name):
         """Each built-in's [expected] table matches what the review finds."""
         run = run_scenario(load_scenario(name), simulate=False)
@@ -277,7 +272,7 @@ class TestFeasibility:
 
 # -- plausibility ---------------------------------------------------------------------------------
 class TestPlausibility:
-    @pytest.mark.parametrize("name", REVIEWED)
+    @pytest.mark.parametrize("name", [b.name for b in builtin_scenarios()])
     def test_no_warning_on_any_builtin(self, name):
         """Every built-in's physical values are in their usual ranges."""
         check = review_design(load_scenario(name)).check("plausibility")

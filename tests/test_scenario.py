@@ -41,7 +41,6 @@ BUILTIN_NAMES = [
     "crh2-dmpc-well-sampled",
     "crh2-potential",
     "crh2-potential-unpinned",
-    "heavy-haul-204-ndmpc",
     "heavy-haul-flocking",
     "heavy-haul-flocking-collision",
     "heavy-haul-hinf",

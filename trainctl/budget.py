@@ -12,15 +12,22 @@ budget (``trainctl analyse/report --max-time``, default
 :data:`DEFAULT_MAX_TIME`) or the machine's memory.
 
 The time model is an order-of-magnitude one, calibrated on a 2-core machine
-(trainctl 0.x, OSQP 1.1): the design review grows like (vehicles + 2) ×
-states⁴ for the modal and controllability checks and like vehicles^2.5 ×
-horizon^1.2 (plus a horizon³ term) for the MPC iteration analysis, and like
-(solves) × states⁴ for the H∞ family's semidefinite programs; each
-controller step costs the plant's substeps plus the strategy's QPs
-(centralised: one QP of vehicles × control-horizon moves, cubic in it;
-decentralised: one small QP per vehicle; N-DMPC and cooperative: that per
-iteration). Expect it within a factor of 3 or so; it is meant to tell a
-minute from an hour from a week.
+(trainctl 0.x, OSQP 1.1, DAQP 0.7): the design review grows like states⁴
+for the modal and controllability checks (one dense factorisation per
+eigenvalue), like vehicles × horizon^1.2 (plus a horizon³ term) for the
+global MPC iteration analysis and like the cube of the local iteration's size
+(vehicles × (control horizon + 2 × prediction horizon)) when
+neighbourhood-local N-DMPC is simulated, and like (solves) × states⁴ for the
+H∞ family's semidefinite programs; each controller step costs the plant's
+substeps plus the strategy's QPs (centralised: one QP of vehicles ×
+control-horizon moves, cubic in it; decentralised: one small QP per vehicle
+with a force to decide — none for a vehicle whose envelope pins it at 0 kN;
+N-DMPC and cooperative: that per iteration, plus the exchange of every
+vehicle's predictions). Recalibrated on the 204-vehicle chain
+(``benchmarks/scenarios/heavy-haul-204-ndmpc.toml``: review about 80 s,
+600 s of decentralised MPC 21 s and of local N-DMPC about 100 s) with the
+CRH2 built-ins unchanged. Expect it within a factor of 3 or so; it is meant
+to tell a minute from an hour from a week.
 
 Examples
 --------
@@ -60,9 +67,13 @@ PRINT_ESTIMATE_FROM = 20.0
 
 # Calibration (seconds), see the module docstring.
 _BASE = 0.3                 # scenario, model and review overhead
-_MODAL = 5e-11              # × (n + 2) · states⁴: modal, controllability, observability checks
-_MPC = 5e-4                 # × n^2.5 · P^1.2: N-DMPC iteration analysis
-_MPC_LONG = 3e-9            # × n^2.5 · P^3: the same at long horizons
+_MODAL = 4e-10              # × states⁴: modal, controllability, observability checks (the PBH
+                            # test's Cholesky screen and the Kalman SVD; 408 states: ~12 s)
+_MPC = 4e-3                 # × n · P^1.2: global N-DMPC iteration analysis (n = 4, P = 40: ~1.3 s;
+                            # n = 204, P = 10: ~10 s)
+_MPC_LONG = 2.4e-8          # × n · P^3: the same at long horizons
+_LOCAL = 5e-10              # × (n · (M + 2P))³: the local iteration's spectra (n = 204: ~55 s)
+_EXCHANGE = 3e-5            # per vehicle and iteration: exchanging the local predictions
 _SUBSTEP = 1e-4             # × (1 + n / 32) per plant substep
 _STEP = 5e-4                # controller overhead per step
 _LAW = 2e-4                 # × (1 + n / 32): an explicit law's step with its network
@@ -363,11 +374,17 @@ def _horizons(scenario: Scenario) -> tuple[int, int]:
 def _design_cost(n: int, horizon: int, scenario: Scenario) -> tuple[float, float, str]:
     """Seconds and peak bytes of the design stage and review, and what dominates."""
     states = 2 * n
-    modal = _MODAL * (n + 2) * states**4
+    modal = _MODAL * float(states) ** 4
     mpc = 0.0
+    memory = 10 * 8 * float(states) ** 2
     if any(hasattr(s, "prediction_horizon") for s in scenario.controllers.values()):
-        mpc = _MPC * n**2.5 * horizon**1.2 + _MPC_LONG * n**2.5 * horizon**3
-    memory = max(_DENSE_MATRICES * float(n * horizon) ** 2, 10 * 8 * float(states) ** 2)
+        mpc = _MPC * n * horizon**1.2 + _MPC_LONG * n * horizon**3
+        memory = max(memory, _DENSE_MATRICES * float(n * horizon) ** 2)
+        sim = scenario.simulation
+        if sim is not None and "ndmpc-local" in tuple(sim.strategies):
+            size = float(n * (_horizons(scenario)[1] + 2 * horizon))
+            mpc += _LOCAL * size**3
+            memory = max(memory, _DENSE_MATRICES * size**2)
     sdp = _sdp_seconds(n, scenario)
     if sdp > max(mpc, modal):
         return _BASE + modal + mpc + sdp, memory, (
@@ -421,11 +438,15 @@ def _strategy_seconds(scenario: Scenario, strategy: str, samples: int, horizon: 
         steps = samples * scenario.model.sample_time / interval
         under = substeps * interval / scenario.model.sample_time
         return _BUILD + steps * (1 + n / 32) * (_LAW + _LAW_SUBSTEP * under)
+    # A vehicle whose envelope pins its force at 0 kN has no QP (u-form with input bounds:
+    # trainctl.controllers.mpc.controller.fixed_inputs); counted here from the envelope alone.
+    pinned = sum(1 for v in scenario.train.vehicles
+                 if v.envelope.max_traction == 0.0 and v.envelope.max_braking == 0.0)
     if name in ("ndmpc", "cooperative", "ndmpc-local"):
         limit = int(getattr(settings, "max_iterations", _ITERATIONS) or _ITERATIONS)
-        step = _QP * n * min(limit, _ITERATIONS)
+        step = (_QP * (n - pinned) + _EXCHANGE * n) * min(limit, _ITERATIONS)
     elif name == "decentralised":
-        step = _QP * n
+        step = _QP * (n - pinned)
     else:  # centralised, and other families' strategies
         step = _QP + _CENTRAL * float(n * moves) ** 3
     build = _BUILD + _BUILD_SIZE * float(n * horizon) ** 1.5
