@@ -488,7 +488,7 @@ def main():
                         help="recompute R* for every train size (slow)")
     parser.add_argument("--global-sizes", type=sizes_arg, default=None,
                         help="part 3: coaches of the global formulation (default 4,8,16,32,64; "
-                             "its build grows faster than n^2: 56 s at 64)")
+                             "its build grows faster than linearly)")
     parser.add_argument("--local-sizes", type=sizes_arg, default=None,
                         help="part 3: coaches of the local formulation "
                              "(default 4,8,16,32,64,128,256)")
