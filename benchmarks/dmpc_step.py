@@ -1,6 +1,6 @@
 """Benchmark: one N-DMPC step, trainctl's fast path against its baselines.
 
-Run:  .venv/bin/python benchmarks/dmpc_step.py [--quick]
+Run:  .venv/bin/python benchmarks/dmpc_step.py [--quick] [--part 1,2,3,4]
 
 Part 1 — CRH2 half train, the well-sampled design (crh2-dmpc-well-sampled:
 T = 0.05 s, P = 40, M = 5, u-form, outputs speeds and coupler forces,
@@ -31,8 +31,18 @@ Part 2 — per-iteration time and iteration counts of the fast path for trains
 of 4, 8, 16, 32 and 64 coaches (T-M-M-T units of seed 000's coaches).
 
 Part 3 — per-coach-QP time of the global N-DMPC ("ndmpc") and the
-neighbourhood-local one ("ndmpc-local") side by side, 4 → 64 (global) and
-4 → 256 (local) coaches, P = 10 (where both iterations converge).
+neighbourhood-local one ("ndmpc-local") side by side, each on both QP paths
+(qp_solver="osqp" and "daqp"), 4 → 64 (global) and 4 → 256 (local) coaches
+(--global-sizes, --local-sizes), P = 10 (where both iterations converge):
+build time, per-Jacobi-iteration and per-coach-QP time, as ratios to the
+smallest train of the same formulation and path, and OSQP / DAQP at each size.
+
+Part 4 — the plant's 1 h run (benchmarks/plant_banded.py) of 4, 16, 64 and
+204 vehicles, dense against banded propagation interleaved, level and graded
+track: seconds, banded / dense, largest speed difference.
+
+--part selects parts (e.g. --part 3,4); --quick is a smoke run of every part.
+Set OPENBLAS_NUM_THREADS=1 for stable numbers on a shared machine.
 """
 
 from __future__ import annotations
@@ -339,22 +349,28 @@ def chain_design(n, r, P=40):
     return train, d, model
 
 
-def part3(global_sizes, local_sizes, steps, P=10, r=2.0):
-    """Per-coach-QP time of the global and the local N-DMPC formulations, side by side.
+def part3(global_sizes, local_sizes, steps, P=10, r=2.0, repeats=3,
+          solvers=("osqp", "daqp")):
+    """Per-coach-QP time of the global and the local N-DMPC formulations on both QP paths.
 
     P = 10, R = 2 per kN²: both Jacobi iterations converge for every size (ρ(D0_local)
     0.32 at 4 coaches, 0.46 at 16; at P = 40, R = 0.2 the local one diverges, ρ 1.41).
+    For every (size, formulation) one controller per QP path is built, then the same
+    closed loop (``steps`` steps) is run ``repeats`` times, the paths interleaved
+    (reset before each run); times are medians over the repeats. Ratios: to the
+    smallest size of the same (formulation, path), and OSQP / DAQP at the same size.
     """
-    print(f"\nGlobal vs local N-DMPC (T = 0.05 s, P = {P}, M = 5, R = {r:g} per kN², "
-          f"iterations to 1e-4 kN, {steps} steps from a 1 m/s error):")
+    print(f"\nGlobal vs local N-DMPC, QP paths {' and '.join(solvers)} (T = 0.05 s, P = {P}, "
+          f"M = 5, R = {r:g} per kN², iterations to 1e-4 kN, {steps} steps from a 1 m/s "
+          f"error, median of {repeats} interleaved runs):")
     print("global: every coach QP from the global model (data depend on every plan); "
           "local ('ndmpc-local'): neighbourhood model, plans and own-state trajectories "
           "exchanged")
-    print("per coach-QP: all of a sweep's work divided by n; 'OSQP' the solver's share, "
-          "'rest' the data composition and exchange (what the formulation changes)")
-    print(f"{'coaches':>8}{'form':>8}{'build [s]':>11}{'distinct':>10}{'rows':>6}"
-          f"{'Jacobi':>8}{'OSQP iters':>12}{'per coach-QP [ms]':>19}{'OSQP [ms]':>11}"
-          f"{'rest [ms]':>11}")
+    print("per coach-QP: all of a sweep's work divided by n; 'solver' the QP solver's share, "
+          "'rest' the data composition and exchange; 'per iter.': one Jacobi sweep of all n")
+    print(f"{'coaches':>8}{'form':>8}{'path':>6}{'build [s]':>11}{'distinct':>10}{'rows':>6}"
+          f"{'Jacobi':>8}{'QP iters':>10}{'per iter. [ms]':>16}{'per coach-QP [ms]':>19}"
+          f"{'solver [ms]':>13}{'rest [ms]':>11}")
     results = {}
     for n in sorted(set(global_sizes) | set(local_sizes)):
         train, d, model = chain_design(n, r, P)
@@ -362,45 +378,145 @@ def part3(global_sizes, local_sizes, steps, P=10, r=2.0):
                                       ("local", "ndmpc-local", local_sizes)):
             if n not in sizes:
                 continue
-            start = time.perf_counter()
-            ctl = make_mpc(train, d, dt=0.05, strategy=strategy, constraints=CONSTRAINTS,
-                           tolerance=1e-4, local_model=model if form == "local" else None)
-            build = time.perf_counter() - start
-            solves = []
-            for block in ctl.blocks:
-                def record(data, _orig=block.qp.solve_data, _log=solves):
-                    sol = _orig(data)
-                    _log.append((sol.iterations, sol.solve_time))
-                    return sol
-                block.qp.solve_data = record
-            times, iters = time_closed_loop(ctl, train, d, 0.05, steps)
-            qps = max(sum(iters), 1) * n
-            per_qp = sum(times) / qps
-            osqp = sum(t for _, t in solves) / qps
-            distinct = getattr(ctl.problem, "distinct", n)
-            rows = max(b.qp.nh + b.qp.ns for b in ctl.blocks)
-            results[n, form] = (per_qp, per_qp - osqp)
-            print(f"{n:>8}{form:>8}{build:>11.2f}{distinct:>10}{rows:>6}"
-                  f"{statistics.mean(iters):>8.1f}"
-                  f"{statistics.mean(i for i, _ in solves):>12.0f}{per_qp * 1e3:>19.3f}"
-                  f"{osqp * 1e3:>11.3f}{(per_qp - osqp) * 1e3:>11.3f}")
-    shared = [n for n in global_sizes if (n, "local") in results]
-    if shared:
-        print("rest per coach-QP, global / local: " + ", ".join(
-            f"{n}: {results[n, 'global'][1] / results[n, 'local'][1]:.2f}" for n in shared))
+            ctls, builds, logs = {}, {}, {}
+            for solver in solvers:
+                start = time.perf_counter()
+                ctl = make_mpc(train, d, dt=0.05, strategy=strategy, constraints=CONSTRAINTS,
+                               tolerance=1e-4, qp_solver=solver,
+                               local_model=model if form == "local" else None)
+                builds[solver] = time.perf_counter() - start
+                used = {b.qp.solver for b in ctl.blocks}
+                if used != {solver}:
+                    raise RuntimeError(f"{form} {n}: asked for {solver}, blocks use {used}")
+                log = logs[solver] = []
+                for block in ctl.blocks:
+                    def record(data, _orig=block.qp.solve_data, _log=log):
+                        sol = _orig(data)
+                        _log.append((sol.iterations, sol.solve_time))
+                        return sol
+                    block.qp.solve_data = record
+                ctls[solver] = ctl
+            runs = {solver: [] for solver in solvers}
+            for _ in range(repeats):
+                for solver, ctl in ctls.items():
+                    ctl.reset()
+                    logs[solver].clear()
+                    times, iters = time_closed_loop(ctl, train, d, 0.05, steps)
+                    qps = max(sum(iters), 1) * n
+                    runs[solver].append((sum(times) / max(sum(iters), 1), sum(times) / qps,
+                                         sum(t for _, t in logs[solver]) / qps,
+                                         statistics.mean(iters),
+                                         statistics.mean(i for i, _ in logs[solver])))
+            for solver, ctl in ctls.items():
+                per_iter, per_qp, solve, jacobi, qp_iters = (
+                    statistics.median(col) for col in zip(*runs[solver], strict=True))
+                distinct = getattr(ctl.problem, "distinct", n)
+                rows = max(b.qp.nh + b.qp.ns for b in ctl.blocks)
+                results[n, form, solver] = dict(build=builds[solver], per_iter=per_iter,
+                                                per_qp=per_qp, solve=solve, jacobi=jacobi,
+                                                runs=[run[1] for run in runs[solver]])
+                print(f"{n:>8}{form:>8}{solver:>6}{builds[solver]:>11.2f}{distinct:>10}"
+                      f"{rows:>6}{jacobi:>8.1f}{qp_iters:>10.1f}{per_iter * 1e3:>16.3f}"
+                      f"{per_qp * 1e3:>19.4f}{solve * 1e3:>13.4f}{(per_qp - solve) * 1e3:>11.4f}",
+                      flush=True)
+    part3_ratios(results, global_sizes, local_sizes, solvers)
+    return results
+
+
+def part3_ratios(results, global_sizes, local_sizes, solvers):
+    """Part 3's ratios: to the smallest size of the same (formulation, path), OSQP / DAQP."""
+    print("\nRatios to the smallest train of the same formulation and path "
+          "(per coach-QP: target flat within 1.5x for the local formulation), "
+          "and OSQP / DAQP per coach-QP at the same size (per-run ratios, median):")
+    print(f"{'coaches':>8}{'form':>8}{'path':>6}{'per coach-QP':>14}{'per iter.':>11}"
+          f"{'build':>8}{'OSQP/DAQP':>11}")
+    for form, sizes in (("global", global_sizes), ("local", local_sizes)):
+        sizes = sorted(sizes)
+        for solver in solvers:
+            base = results.get((sizes[0], form, solver)) if sizes else None
+            if base is None:
+                continue
+            for n in sizes:
+                row = results[n, form, solver]
+                pair = ""
+                if solver == "osqp" and (n, form, "daqp") in results:
+                    ratio = statistics.median(
+                        o / q for o, q in zip(row["runs"], results[n, form, "daqp"]["runs"],
+                                              strict=True))
+                    pair = f"{ratio:.1f}"
+                print(f"{n:>8}{form:>8}{solver:>6}{row['per_qp'] / base['per_qp']:>14.2f}"
+                      f"{row['per_iter'] / base['per_iter']:>11.2f}"
+                      f"{row['build'] / base['build']:>8.2f}{pair:>11}")
+            ratios = [results[n, form, solver]["per_qp"] / base["per_qp"] for n in sizes]
+            print(f"{form} {solver}: per coach-QP {sizes[0]} -> {sizes[-1]} coaches within "
+                  f"{min(ratios):.2f}..{max(ratios):.2f}x of {sizes[0]} coaches "
+                  f"({'flat' if max(ratios) <= 1.5 else 'not flat'} within 1.5x)")
+
+
+def part4(sizes, duration, grades=(False, True)):
+    """The plant's 1 h run, dense against banded propagation (benchmarks/plant_banded.py)."""
+    from plant_banded import hour
+
+    print(f"\nPlant, {duration:g} s at T = 1 s ({int(duration) * 20} substeps), speed law "
+          "15 -> 25 -> 18 m/s, dense and banded propagation interleaved sample by sample, "
+          "cold caches:")
+    print(f"{'vehicles':>8}{'track':>8}{'km':>7}{'dense [s]':>11}{'banded [s]':>12}"
+          f"{'banded/dense':>14}{'max |dv| [m/s]':>16}")
+    out = {}
+    for n in sizes:
+        for graded in grades:
+            tag = "grades" if graded else "level"
+            res = hour(duration, grades=graded, vehicles=n, verbose=False)
+            dense, banded = res[f"hour {tag} dense s"], res[f"hour {tag} banded s"]
+            out[n, tag] = res
+            print(f"{n:>8}{tag:>8}{res[f'hour {tag} km']:>7.1f}{dense:>11.2f}{banded:>12.2f}"
+                  f"{banded / dense:>14.3f}{res[f'hour {tag} max dv']:>16.1e}", flush=True)
+    return out
+
+
+def sizes_arg(text):
+    return [int(s) for s in text.split(",") if s]
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer steps and sizes (smoke run)")
+    parser.add_argument("--part", default="1,2,3,4",
+                        help="parts to run, comma-separated, of 1 (with 1b), 2, 3, 4 "
+                             "(default all)")
     parser.add_argument("--compute-r", action="store_true",
                         help="recompute R* for every train size (slow)")
+    parser.add_argument("--global-sizes", type=sizes_arg, default=None,
+                        help="part 3: coaches of the global formulation (default 4,8,16,32,64; "
+                             "its build grows faster than linearly)")
+    parser.add_argument("--local-sizes", type=sizes_arg, default=None,
+                        help="part 3: coaches of the local formulation "
+                             "(default 4,8,16,32,64,128,256)")
+    parser.add_argument("--repeats", type=int, default=None,
+                        help="part 3: interleaved runs per controller (default 3)")
+    parser.add_argument("--plant-sizes", type=sizes_arg, default=None,
+                        help="part 4: vehicles per chain (default 4,16,64,204)")
+    parser.add_argument("--seconds", type=float, default=None,
+                        help="part 4: simulated time [s] (default 3600)")
     args = parser.parse_args()
-    part1(steps=10 if args.quick else 60, rounds=2 if args.quick else 5)
-    part2([4, 8] if args.quick else [4, 8, 16, 32, 64], steps=3 if args.quick else 6,
-          compute_r=args.compute_r)
-    part3([4, 8] if args.quick else [4, 8, 16, 32, 64], [4, 8] if args.quick
-          else [4, 8, 16, 32, 64, 128, 256], steps=2 if args.quick else 4)
+    parts = {p.strip() for p in args.part.split(",")}
+    unknown = parts - {"1", "2", "3", "4"}
+    if unknown:
+        parser.error(f"--part: unknown part(s) {sorted(unknown)}")
+    quick = args.quick
+    if "1" in parts:
+        part1(steps=10 if quick else 60, rounds=2 if quick else 5)
+    if "2" in parts:
+        part2([4, 8] if quick else [4, 8, 16, 32, 64], steps=3 if quick else 6,
+              compute_r=args.compute_r)
+    if "3" in parts:
+        part3(args.global_sizes or ([4, 8] if quick else [4, 8, 16, 32, 64]),
+              args.local_sizes or ([4, 8] if quick else [4, 8, 16, 32, 64, 128, 256]),
+              steps=2 if quick else 4,
+              repeats=args.repeats or (1 if quick else 3))
+    if "4" in parts:
+        part4(args.plant_sizes or ([4, 16] if quick else [4, 16, 64, 204]),
+              args.seconds or (60.0 if quick else 3600.0))
 
 
 if __name__ == "__main__":

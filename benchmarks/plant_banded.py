@@ -93,10 +93,12 @@ def reference_speed(t: float) -> float:
     return float(np.interp(t, [0.0, 600.0, 1500.0, 2700.0, 3600.0], [15.0, 15.0, 25.0, 18.0, 18.0]))
 
 
-def hour(duration: float = 3600.0, grades: bool = True) -> dict[str, float]:
-    """The 1 h run of the 204-vehicle chain, both paths interleaved sample by sample,
-    on a track with a grade change every 2 km (``grades``) or on level track."""
-    train = heavy_haul_1p2p1(detail="full")
+def hour(duration: float = 3600.0, grades: bool = True, vehicles: int = 204,
+         verbose: bool = True) -> dict[str, float]:
+    """The 1 h run of a chain of ``vehicles`` (default the 204-vehicle one, see :func:`trains`),
+    both paths interleaved sample by sample, on a track with a grade change every 2 km
+    (``grades``) or on level track."""
+    train = trains((vehicles,))[0]
     n = train.n_vehicles
     track = Track(sections=tuple(
         TrackSection(start=2000.0 * i, grade_permille=3.0 * ((-1) ** i)) for i in range(60)
@@ -118,17 +120,20 @@ def hour(duration: float = 3600.0, grades: bool = True) -> dict[str, float]:
             spent[mode] += time.perf_counter() - t0
         worst = max(worst, float(np.abs(states["dense"][:n] - states["banded"][:n]).max()))
     end = states["banded"]
+    tag = "grades" if grades else "level"
+    out = {f"hour {tag} dense s": spent["dense"], f"hour {tag} banded s": spent["banded"],
+           f"hour {tag} max dv": worst, f"hour {tag} km": float(end[-1]) / 1e3}
+    if not verbose:
+        return out
     where = "grade change every 2 km" if grades else "level track"
-    print(f"1 h of the 204-vehicle chain ({int(duration)} s at T = 1 s, "
+    print(f"1 h of the {n}-vehicle chain ({int(duration)} s at T = 1 s, "
           f"{int(duration) * 20} substeps, cold caches, {end[-1] / 1e3:.1f} km, {where}):")
     print(f"  dense {spent['dense']:.2f} s   banded {spent['banded']:.2f} s   "
           f"dense/banded {spent['dense'] / spent['banded']:.2f}")
     print(f"  per substep: dense {spent['dense'] / (20 * duration) * 1e6:.0f} µs, "
           f"banded {spent['banded'] / (20 * duration) * 1e6:.0f} µs; "
           f"max |v_dense - v_banded| over the run {worst:.1e} m/s")
-    tag = "grades" if grades else "level"
-    return {f"hour {tag} dense s": spent["dense"], f"hour {tag} banded s": spent["banded"],
-            f"hour {tag} max dv": worst}
+    return out
 
 
 def main() -> None:
