@@ -88,6 +88,9 @@ class SectionTracker:
         """Line-resistance force of each vehicle in its section [N]."""
         self.ahead, self.behind = -1.0, -1.0
         self.s_ref, self.d_ref = s, z[n : 2 * n - 1]
+        self.writes = 0
+        """How many times a visit has written the forces z[2n-1:] (so that the
+        integrator knows when to recompute Γ F)."""
         self.prev: _Start | None = None
         self.crossed: tuple[NDArray[np.float64], NDArray[np.float64], float] | None = None
         """The last visit's crossings in the previous substep: (τ [s], the jumps as forcing
@@ -145,6 +148,7 @@ class SectionTracker:
             self.sec = now
             self.resist = plant.train.mass * track[1][now]
             z[2 * n - 1 :] = force - self.resist
+            self.writes += 1
         return s
 
 def linear_flow(
