@@ -154,7 +154,7 @@ def product(step: Any) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
     return apply
 
 
-class LRU(OrderedDict[tuple[float, float], _T]):
+class LRU(OrderedDict[tuple[Any, ...], _T]):
     """A small least-recently-used cache with a byte budget."""
 
     def __init__(self, budget: int = 1 << 27) -> None:
@@ -162,13 +162,13 @@ class LRU(OrderedDict[tuple[float, float], _T]):
         self.budget = budget
         self.limit = 1 << 30
 
-    def fetch(self, key: tuple[float, float]) -> _T | None:
+    def fetch(self, key: tuple[Any, ...]) -> _T | None:
         value = self.get(key)
         if value is not None:
             self.move_to_end(key)
         return value
 
-    def store(self, key: tuple[float, float], value: _T, nbytes: int) -> None:
+    def store(self, key: tuple[Any, ...], value: _T, nbytes: int) -> None:
         self.limit = max(2, self.budget // max(nbytes, 1))
         self[key] = value
         while len(self) > self.limit:
