@@ -77,6 +77,7 @@ class SectionTracker:
         """Line-resistance force of each vehicle in its section [N]."""
         self.ahead, self.behind = -1.0, -1.0
         self.s_ref, self.d_ref = s, z[n : 2 * n - 1]
+        self.buf = np.empty(n - 1)
         self.writes = 0
         """How many times a visit has written the forces z[2n-1:] (so that the
         integrator knows when to recompute Γ F)."""
@@ -100,7 +101,9 @@ class SectionTracker:
             s = self._locate(z, s, force, h)
         else:
             moved = s - self.s_ref
-            spread = float(np.abs(z[n : 2 * n - 1] - self.d_ref).sum())
+            buf = self.buf
+            np.subtract(z[n : 2 * n - 1], self.d_ref, out=buf)
+            spread = float(np.add.reduce(np.abs(buf, out=buf)))
             if moved + spread >= self.ahead or spread - moved >= self.behind:
                 s = self._locate(z, s, force, h)
         if not final:
@@ -303,12 +306,11 @@ def _local_crossings(
         flow = local_flow(plant, h, vbar, i, None)
         lo, hi = flow.lo, flow.hi
         m = hi - lo
-        rows, cols, inv_fact, int_fact, ratio = _series(flow, h, i - lo)
+        derivs, cols, inv_fact, int_fact, ratio = _series(flow, h, i - lo)
         # The speed derivatives at the substep's start: v^(0) = e_k Y, and
         # v^(j) = e_k A^(j-1) (A Y + B G) (G: the window's forces, held).
-        d = rows[:, :m] @ z0[lo:hi]
-        d += rows[:, m : 2 * m - 1] @ z0[n + lo : n + hi - 1]
-        d[1:] += rows[:-1, :m] @ (z0[2 * n - 1 + lo : 2 * n - 1 + hi] * flow.inverse_mass[:, 0])
+        d = derivs @ np.concatenate((z0[lo:hi], z0[n + lo : n + hi - 1],
+                                     z0[2 * n - 1 + lo : 2 * n - 1 + hi]))
         speed = (d * inv_fact).tolist()  # v(t) = Σ speed_j t^j
         travel = (d * int_fact).tolist()  # p(t) - p(0) = Σ travel_j t^(j+1)
         start = float(p0[i]) - bnd
@@ -336,8 +338,10 @@ def _local_crossings(
 def _series(flow: LocalFlow, h: float, k: int) -> tuple[NDArray[np.float64], ...]:
     """The Taylor series of vehicle k of a window over a substep of length h.
 
-    Returns rows e_k A_w^j (J, 2m), columns A_w^j B e_k (J, 2m) (B e_k = e_k/m_k on
-    the speeds), 1/j!, 1/(j+1)! and 1/(j+1) (J,), j < J; cached in the window's ``rows``
+    Returns the map from the window's [v, delta, F] (3m-1) to the speed derivatives
+    v_k^(j)(0) = e_k A_w^j Y + e_k A_w^(j-1) B G (J, 3m-1), the columns A_w^j B e_k
+    (J, 2m) (B e_k = e_k/m_k on the speeds), 1/j!, 1/(j+1)! and 1/(j+1) (J,), j < J;
+    cached in the window's ``rows``
     per k (shared by the windows of equal sub-chains). J is the first order
     whose term bound r^J/J! is at most 1e-17, r = ‖S A_w S⁻¹‖ h (the larger of
     the balanced 1- and ∞-norms, ~2.6 at 204 vehicles and h = 0.05 s: J = 27);
@@ -364,8 +368,12 @@ def _series(flow: LocalFlow, h: float, k: int) -> tuple[NDArray[np.float64], ...
     for j in range(1, order):
         rows[j] = rows[j - 1] @ flow.A
         cols[j] = flow.A @ cols[j - 1]
+    m = m2 // 2
+    derivs = np.zeros((order, 3 * m - 1))
+    derivs[:, : 2 * m - 1] = rows[:, : 2 * m - 1]  # the window's s column of A_w is 0
+    derivs[1:, 2 * m - 1 :] = rows[:-1, :m] * flow.inverse_mass[:, 0]
     fact = np.cumprod(np.r_[1.0, np.arange(1.0, order + 1.0)])  # j!, j = 0..order
-    found = cache[k] = (rows, cols, 1.0 / fact[:-1], 1.0 / fact[1:],
+    found = cache[k] = (derivs, cols, 1.0 / fact[:-1], 1.0 / fact[1:],
                         1.0 / np.arange(1.0, order + 1.0))
     return found
 
