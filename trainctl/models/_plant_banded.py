@@ -70,8 +70,8 @@ chain: the same Newton iteration and response, on ~150 states instead of
 the dense path (0.8 against 2.05 s with the whole chain's banded ladder).
 The window's ladder has since given way to Taylor series of A_w over the
 whole substep (``local_flow(..., levels=None)``,
-:func:`trainctl.models._plant_crossings._local_crossings`): ~25 against
-~150 µs per crossing, no ``expm`` of the window.
+:func:`trainctl.models._plant_crossings._local_crossings`): 39 against
+107–124 µs per crossing, no ``expm`` of the window.
 """
 
 from __future__ import annotations
@@ -321,6 +321,8 @@ class LocalFlow(NamedTuple):
     """Per vehicle k of the window: the Taylor series' rows e_k A_w^j and columns
     A_w^j B e_k (:func:`trainctl.models._plant_crossings._series`), filled by the
     crossings as they need them."""
+    core: tuple[int, int] = (0, 0)
+    """The window's core vehicles (those it stands in for), local indices lo..hi-1."""
 
 
 def local_flow(plant: Plant, h: float, vbar: float, vehicle: int, levels: int | None
@@ -378,5 +380,6 @@ def local_flow(plant: Plant, h: float, vbar: float, vehicle: int, levels: int | 
         same = group[shared] = LocalFlow(lo, hi, ladder, A, 1.0 / plant.train.mass[lo:hi, None],
                                          norm, {})
     flow = group[(lo, hi)] = LocalFlow(lo, hi, same.levels, same.A, same.inverse_mass,
-                                       same.norm, same.rows)
+                                       same.norm, same.rows,
+                                       (clo - lo, min(n, clo + core) - lo))
     return flow
