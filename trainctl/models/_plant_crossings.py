@@ -296,7 +296,7 @@ def _local_crossings(
     wall clock around this function, interleaved runs of both versions): 39 µs
     per crossing, the series' construction included, against 107–124 µs for the
     window ladders (h/2^j, j <= 10, dense products, their ``expm`` included) and
-    short Taylor steps they replace; the hour's end state equal to 2e-14 m/s.
+    short Taylor steps they replace; the hour's end state equal to 4e-14 m/s.
     Returns the summed response (2n,) and the crossing times τ [s].
     """
     n = plant.train.n_vehicles
