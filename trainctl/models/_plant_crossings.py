@@ -116,7 +116,7 @@ class SectionTracker:
         """Look the sections up; add the crossings since the last substep's start."""
         n, track, plant, prev = self.n, self.track, self.plant, self.prev
         p0, now = sections(plant.train, z, s, track)
-        if prev is not None and np.any(now != prev[2]):
+        if prev is not None and (now != prev[2]).any():
             # Crossings in the previous substep: add their exact effect.
             fix, tau, jumps = crossings(plant, h, prev, p0, z[:n], now, track)
             self.crossed = (tau, jumps, prev[3])
@@ -136,7 +136,7 @@ class SectionTracker:
             behind = float((p0 - lo).min()) - self.SLACK
         self.ahead, self.behind = max(ahead, 0.0), max(behind, 0.0)
         self.s_ref, self.d_ref = s, z[n : 2 * n - 1].copy()
-        if prev is None or np.any(now != self.sec):
+        if prev is None or (now != self.sec).any():
             self.sec = now
             self.resist = plant.train.mass * track[1][now]
             z[2 * n - 1 :] = force - self.resist
