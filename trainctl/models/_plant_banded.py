@@ -101,7 +101,11 @@ BANDED_MIN_VEHICLES = 128
 
 Measured per substep (``benchmarks/plant_banded.py --sizes 64,124,204``,
 interleaved): dense/banded = 0.68 at 64 vehicles, 0.96 at 124, 1.48 at 204,
-4.8 at 404; below ~125 vehicles the dense product is faster."""
+4.8 at 404; below ~125 vehicles the dense product was faster. Since the banded
+substep applies only Φ (Γ F once per value of F,
+:class:`~trainctl.models._plant_propagators.Split`): 0.98 at 64 and 2.4–2.5 at
+204 vehicles (three runs); the threshold is kept (below it the paths are
+about even)."""
 
 _MIN_CORE = 8
 """Fewest core vehicles per window (cores as wide as the margin minimise the cost)."""
