@@ -68,6 +68,10 @@ chain: the same Newton iteration and response, on ~150 states instead of
 612, to below the band tolerance. Measured at 204 vehicles over 600 s with
 698 crossing substeps, same run: 0.39 s against 1.38 s for the crossings of
 the dense path (0.8 against 2.05 s with the whole chain's banded ladder).
+The window's ladder has since given way to Taylor series of A_w over the
+whole substep (``local_flow(..., levels=None)``,
+:func:`trainctl.models._plant_crossings._local_crossings`): 39 against
+107–124 µs per crossing, no ``expm`` of the window.
 """
 
 from __future__ import annotations
@@ -97,7 +101,11 @@ BANDED_MIN_VEHICLES = 128
 
 Measured per substep (``benchmarks/plant_banded.py --sizes 64,124,204``,
 interleaved): dense/banded = 0.68 at 64 vehicles, 0.96 at 124, 1.48 at 204,
-4.8 at 404; below ~125 vehicles the dense product is faster."""
+4.8 at 404; below ~125 vehicles the dense product was faster. Since the banded
+substep applies only Φ (Γ F once per value of F,
+:class:`~trainctl.models._plant_propagators.Split`): 0.98 at 64 and 2.4–2.5 at
+204 vehicles (three runs); the threshold is kept (below it the paths are
+about even)."""
 
 _MIN_CORE = 8
 """Fewest core vehicles per window (cores as wide as the margin minimise the cost)."""
@@ -310,15 +318,19 @@ class LocalFlow(NamedTuple):
     inverse_mass: Array
     """1/m_i of the window's vehicles [1/kg], shape (m, 1)."""
     norm: float = 0.0
-    """‖S A_w S⁻¹‖₁ (S: elongations times ω, as :func:`_window_expm` balances), which
-    bounds the growth of the Taylor terms of the flow."""
+    """The larger of ‖S A_w S⁻¹‖₁ and ‖S A_w S⁻¹‖_∞ (S: elongations times ω, as
+    :func:`_window_expm` balances), which bounds the growth of the Taylor terms of
+    the flow."""
     rows: dict[int, Any] | None = None
-    """Per vehicle k of the window: the rows e_k A_w^j, j = 0, 1, ..., (the speed of
-    vehicle k and its derivatives), filled by the crossings as they need them; at -1
-    the CSR product by A_w."""
+    """Per vehicle k of the window: the Taylor series' rows e_k A_w^j and columns
+    A_w^j B e_k (:func:`trainctl.models._plant_crossings._series`), filled by the
+    crossings as they need them."""
+    core: tuple[int, int] = (0, 0)
+    """The window's core vehicles (those it stands in for), local indices lo..hi-1."""
 
 
-def local_flow(plant: Plant, h: float, vbar: float, vehicle: int, levels: int) -> LocalFlow:
+def local_flow(plant: Plant, h: float, vbar: float, vehicle: int, levels: int | None
+               ) -> LocalFlow:
     """The window of the chain around ``vehicle`` whose flow stands in for the chain's there.
 
     The windows are those of :func:`banded_flow` for (h, vbar): a core of
@@ -327,19 +339,21 @@ def local_flow(plant: Plant, h: float, vbar: float, vehicle: int, levels: int) -
     the window's flow then equal the whole chain's to below :data:`BAND_TOL`
     of their block, as the band's columns do. Kept on the plant per (h, vbar)
     (a least-recently-used cache with a byte budget); equal sub-chains share
-    one ladder.
+    one ladder. ``levels`` None: no ladder (``levels`` of the result empty), the
+    crossings use Taylor series of A_w over the whole substep instead.
     """
     n = plant.train.n_vehicles
     margin = max(plant._margins.get(h, 8), 8)
     core = max(margin, _MIN_CORE)
     clo = (vehicle // core) * core
     lo, hi = max(0, clo - margin), min(n, clo + core + margin)
-    group: dict[Any, LocalFlow] | None = plant._local_flows.fetch((h, vbar))
+    group: dict[Any, LocalFlow] | None = plant._local_flows.fetch((h, vbar, levels))
     if group is None:
         group = {}
         width = min(n, core + 2 * margin)
-        plant._local_flows.store(
-            (h, vbar), group, (n // core + 1) * (levels + 1) * 6 * width * width * 8)
+        # The ladders, or the series' rows and columns (~30 per vehicle of a core).
+        per_window = (6 * (levels + 1) * width if levels is not None else 120 * core) * width
+        plant._local_flows.store((h, vbar, levels), group, (n // core + 1) * per_window * 8)
     found = group.get((lo, hi))
     if found is not None:
         return found
@@ -348,11 +362,13 @@ def local_flow(plant: Plant, h: float, vbar: float, vehicle: int, levels: int) -
     same = group.get(shared)
     if same is None:
         A = _window_matrices(plant, lo, hi, vbar)[0]
+        ladder = np.empty((0, 2 * m, 3 * m))
         # One expm for the finest level, the others by squaring [Φ | Γ] -> [Φ², ΦΓ + Γ]
         # as the dense ladder does (five expm of the window cost ~5x more).
-        ladder = np.empty((levels + 1, 2 * m, 3 * m))
-        ladder[levels] = _window_expm(plant, lo, hi, h / 2.0**levels, vbar)
-        for j in range(levels - 1, -1, -1):
+        if levels is not None:
+            ladder = np.empty((levels + 1, 2 * m, 3 * m))
+            ladder[levels] = _window_expm(plant, lo, hi, h / 2.0**levels, vbar)
+        for j in range(-1 if levels is None else levels - 1, -1, -1):
             finer = ladder[j + 1]
             np.matmul(finer[:, : 2 * m], finer, out=ladder[j])
             ladder[j, :, 2 * m :] += finer[:, 2 * m :]
@@ -363,9 +379,11 @@ def local_flow(plant: Plant, h: float, vbar: float, vehicle: int, levels: int) -
         omega = (float(np.sqrt(k.mean() / plant.train.mass.mean()))
                  if k.size and k.mean() > 0 else 1.0)
         scale = np.r_[np.ones(m), np.full(m - 1, omega), 1.0]
-        norm = float(np.abs(A * scale[:, None] / scale[None, :]).sum(axis=0).max())
+        balanced = np.abs(A * scale[:, None] / scale[None, :])
+        norm = float(max(balanced.sum(axis=0).max(), balanced.sum(axis=1).max()))
         same = group[shared] = LocalFlow(lo, hi, ladder, A, 1.0 / plant.train.mass[lo:hi, None],
                                          norm, {})
     flow = group[(lo, hi)] = LocalFlow(lo, hi, same.levels, same.A, same.inverse_mass,
-                                       same.norm, same.rows)
+                                       same.norm, same.rows,
+                                       (clo - lo, min(n, clo + core) - lo))
     return flow

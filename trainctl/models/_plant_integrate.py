@@ -53,6 +53,10 @@ def integrate(
     z[2 * n - 1 :] = force
     if quadratic:
         drag_flow(z, n, half, vbar)
+    # Banded path: Γ F once per value of F (prop.split), recomputed when v̄ changes
+    # (g = None) or the tracker writes new forces (its count of writes moved on).
+    g: Array | None = None
+    forced = 0
     for j in range(steps + 1):
         if tracker is not None:
             s = tracker.visit(z, s, force, vbar, h, j == steps)
@@ -64,7 +68,15 @@ def integrate(
             break
         if record is not None and record.inner > 1:
             record.take_inner(plant, z, s, h, vbar)
-        new = prop.apply(z)
+        split = prop.split
+        if split is None:
+            new = prop.apply(z)
+        else:
+            writes = 0 if tracker is None else tracker.writes
+            if g is None or writes != forced:
+                g, forced = split.forcing(z[2 * n - 1 :]), writes
+            new = g.copy()
+            split.state(z, new)
         s += new[2 * n - 1]
         z[: 2 * n - 1] = new[: 2 * n - 1]
         if not quadratic:
@@ -79,6 +91,7 @@ def integrate(
         drag_flow(z, n, half, vbar)
         vbar = nbar
         prop = propagator(plant, h, vbar)
+        g = None
         force = base + plant._forces[1] * vbar**2
         z[2 * n - 1 :] = force if tracker is None else force - tracker.resist
         drag_flow(z, n, half, vbar)

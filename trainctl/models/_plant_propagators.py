@@ -19,10 +19,11 @@ from __future__ import annotations
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Any, NamedTuple, TypeVar
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse
 from numpy.typing import NDArray
 
 from ._plant_banded import banded_flow, sparse_nbytes
@@ -36,8 +37,9 @@ if TYPE_CHECKING:
     from .plant import Plant
 
 __all__ = [
-    "CACHE_BYTES", "LADDER_LEVELS", "LRU", "Propagator", "TrackArrays", "augmented_expm",
-    "drag_flow", "grid_speed", "ladder", "matrix_a", "product", "propagator",
+    "CACHE_BYTES", "LADDER_LEVELS", "LRU", "Propagator", "Split", "TrackArrays",
+    "augmented_expm", "drag_flow", "grid_speed", "ladder", "matrix_a", "product", "propagator",
+    "split_product",
 ]
 
 LADDER_LEVELS = 4
@@ -58,7 +60,7 @@ TrackArrays = tuple[
 
 def grid_speed(speed: float) -> float:
     """The grid speed nearest ``speed`` [m/s]."""
-    return float(SPEED_GRID * round(speed / SPEED_GRID))
+    return float(SPEED_GRID * round(float(speed) / SPEED_GRID))
 
 
 def drag_flow(z: NDArray[np.float64], n: int, ta2: NDArray[np.float64], vbar: float) -> None:
@@ -84,10 +86,54 @@ class Propagator:
         default=None, compare=False, repr=False)  # type: ignore[assignment]
     """``z -> step @ z`` (a new array), bit for bit, without the dispatch of ``@``
     on a CSR array (:func:`product`); set from ``step`` when not given."""
+    split: Split | None = field(default=None, compare=False, repr=False)
+    """Banded path: the step as Φ on [v, delta] plus Γ F, the latter computed only when
+    F changes (:func:`split_product`); None on the dense path."""
 
     def __post_init__(self) -> None:
         if self.apply is None:
             object.__setattr__(self, "apply", product(self.step))
+
+
+class Split(NamedTuple):
+    """One step ``z -> [Φ | Γ] z`` in two parts, for inputs held over many substeps.
+
+    F (the forces, z[2n-1:]) changes only when v̄ changes or a vehicle crosses a
+    section boundary, a few times per sample, so Γ F is computed then
+    (``forcing``) and each substep applies only Φ (``state(z, out)``: out += Φ
+    z[:2n-1], scipy's ``csr_matvec`` accumulating into ``out``). At 204 vehicles
+    Φ holds 17 000 of the step's 25 000 entries: measured 8.9 against 14.2 µs per
+    product (``csr_matvec`` called directly, best of 5 x 20 000, same run). The
+    sums are taken in another order (Γ F first): the same to rounding.
+    """
+
+    state: Callable[[NDArray[np.float64], NDArray[np.float64]], None]
+    forcing: Callable[[NDArray[np.float64]], NDArray[np.float64]]
+
+
+def split_product(step: Any, n: int) -> Split | None:
+    """The :class:`Split` of a float64 CSR step on ``[v, delta, F]`` (None: not CSR, or
+    no direct ``csr_matvec``)."""
+    if isinstance(step, np.ndarray) or _csr_matvec is None or step.format != "csr" \
+            or step.dtype != np.float64:
+        return None
+    rows, cols = step.shape
+    coo = step.tocoo()
+    state_part = coo.col < 2 * n - 1
+    phi = scipy.sparse.csr_array(
+        (coo.data[state_part], (coo.row[state_part], coo.col[state_part])), shape=(rows, cols))
+    phi.sort_indices()
+    gamma = scipy.sparse.csr_array(
+        (coo.data[~state_part], (coo.row[~state_part], coo.col[~state_part] - (2 * n - 1))),
+        shape=(rows, n))
+    gamma.sort_indices()
+    indptr, indices, data = phi.indptr, phi.indices, phi.data
+    matvec = _csr_matvec
+
+    def state(z: NDArray[np.float64], out: NDArray[np.float64]) -> None:
+        matvec(rows, cols, indptr, indices, data, z, out)
+
+    return Split(state, product(gamma))
 
 
 def product(step: Any) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
@@ -108,7 +154,7 @@ def product(step: Any) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
     return apply
 
 
-class LRU(OrderedDict[tuple[float, float], _T]):
+class LRU(OrderedDict[tuple[Any, ...], _T]):
     """A small least-recently-used cache with a byte budget."""
 
     def __init__(self, budget: int = 1 << 27) -> None:
@@ -116,13 +162,13 @@ class LRU(OrderedDict[tuple[float, float], _T]):
         self.budget = budget
         self.limit = 1 << 30
 
-    def fetch(self, key: tuple[float, float]) -> _T | None:
+    def fetch(self, key: tuple[Any, ...]) -> _T | None:
         value = self.get(key)
         if value is not None:
             self.move_to_end(key)
         return value
 
-    def store(self, key: tuple[float, float], value: _T, nbytes: int) -> None:
+    def store(self, key: tuple[Any, ...], value: _T, nbytes: int) -> None:
         self.limit = max(2, self.budget // max(nbytes, 1))
         self[key] = value
         while len(self) > self.limit:
@@ -170,11 +216,11 @@ def propagator(plant: Plant, h: float, vbar: float) -> Propagator:
     if banded:
         step = E[:, cols]
         step.sort_indices()
-        nbytes = sparse_nbytes(step)
+        nbytes = 2 * sparse_nbytes(step)  # and its split
     else:
         step = np.ascontiguousarray(E[:, cols])
         nbytes = step.nbytes
-    prop = Propagator(step=step)
+    prop = Propagator(step=step, split=split_product(step, n) if banded else None)
     plant._cache.store((h, vbar), prop, nbytes)
     return prop
 

@@ -108,8 +108,22 @@ the windows' Taylor terms; the substep's CSR product called without scipy's
 dispatch) took the banded path's hour to 0.61x of its time with the grade
 changes and 0.89x on level track (interleaved runs of the two versions, 3
 each, same machine under load: 6.7 against 11.1 s and 3.3 against 3.7 s),
-with the same result to 4e-14 m/s after the hour (level: bit for bit). The
-caches keep at most 128 MiB each, least recently used first.
+with the same result to 4e-14 m/s after the hour (level: bit for bit). Then
+(the issue's target: the hour under 3 s) each substep applies only Φ on
+[v, delta] (17 000 of the band's 25 000 entries) and adds Γ F computed once
+per value of F (a change of v̄ or a section), and each crossing takes its
+crossing time and jump response from Taylor series of its window over the
+whole substep (one cached product each, no window ladders): interleaved
+runs of ``benchmarks/plant_banded.py --hour``, 3 each, the previous version
+first: banded 1 h 1.14, 1.10, 1.15 s against 2.50, 1.62, 1.58 s on level
+track, 2.34, 2.24, 2.33 s against 4.81, 3.60, 3.61 s with the grade changes
+(0.62–0.73x and 0.49–0.65x; per substep 15–16 against 22 µs level), the end
+state equal to 3e-13 m/s (level) and 9e-13 m/s (grades), rounding of the
+reordered sums. The substeps themselves stay: the quadratic drag's
+remainder is applied between them (Strang splitting), so one propagator
+over the whole sample would change the result by the splitting error
+(~1e-9 m/s), not by rounding. The caches keep at most 128 MiB each, least
+recently used first.
 
 :meth:`Plant.advance_dense` also returns the states at the substep
 boundaries (the between-sample truth of a simulation), with the same
