@@ -337,3 +337,26 @@ def _observed_rate(d, rng, iterations=14):
             break  # further iterates are at solver precision
     k = 1 if len(diffs) < 8 else len(diffs) // 2
     return (diffs[-1] / diffs[k]) ** (1.0 / (len(diffs) - 1 - k))
+
+
+class TestModelSummaryText:
+    def test_long_train_shows_the_ends_of_the_mode_table(self):
+        """204 vehicles (205 distinct modes): the text shows 24 rows and says how many it
+        left out; the JSON keeps every mode."""
+        from pathlib import Path
+
+        from trainctl.analysis.summary import model_summary
+        from trainctl.scenario import load_scenario
+
+        path = Path(__file__).resolve().parents[1] / "benchmarks" / "scenarios"
+        summary = model_summary(load_scenario(str(path / "heavy-haul-204-ndmpc.toml")))
+        lines = summary.format_text().splitlines()
+        start = lines.index("Modes (continuous):") + 2
+        end = lines.index("Sampling:") - 1
+        table = lines[start:end]
+        assert len(summary.modes) == 205 and len(table) == 25
+        assert table[12].strip() == "... 181 more modes (analyse --json lists every mode)"
+        assert table[0].split()[0] == summary.modes[0].kind
+        assert float(table[-1].split()[2]) == pytest.approx(summary.modes[-1].eigenvalue.imag,
+                                                            abs=1e-4)
+        assert len(summary.to_dict()["modes"]) == 205

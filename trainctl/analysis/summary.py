@@ -172,6 +172,10 @@ def model_summary(scenario: Scenario, model: DesignModel | None = None) -> Model
     )
 
 
+_MODES_SHOWN = 24
+"""Rows of the text summary's mode table; a longer list shows its first and last halves."""
+
+
 def _text_lines(s: ModelSummary) -> list[str]:
     eq = s.equilibrium
     lines = [
@@ -207,7 +211,15 @@ def _text_lines(s: ModelSummary) -> list[str]:
     )
     lines += ["", "Modes (continuous):",
               f"  {'kind':<12}{'Re [1/s]':>12}{'Im [rad/s]':>12}{'wn [rad/s]':>12}{'zeta':>10}"]
-    for m in s.modes:
+    modes: list = list(s.modes)
+    if len(modes) > _MODES_SHOWN:  # a long train: the slowest and the fastest modes
+        half = _MODES_SHOWN // 2
+        modes = modes[:half] + [None] + modes[-half:]
+    for m in modes:
+        if m is None:
+            lines.append(f"  ... {len(s.modes) - 2 * half} more modes (analyse --json lists "
+                         "every mode)")
+            continue
         zeta = "-" if math.isnan(m.damping_ratio) else f"{m.damping_ratio:.2e}"
         lines.append(f"  {m.kind:<12}{m.eigenvalue.real:>12.4e}{m.eigenvalue.imag:>12.4f}"
                      f"{m.natural_frequency:>12.4f}{zeta:>10}")
