@@ -24,9 +24,9 @@ control-horizon moves, cubic in it; decentralised: one small QP per vehicle
 with a force to decide — none for a vehicle whose envelope pins it at 0 kN;
 N-DMPC and cooperative: that per iteration, plus the exchange of every
 vehicle's predictions). Recalibrated on the 204-vehicle chain
-(``benchmarks/scenarios/heavy-haul-204-ndmpc.toml``: review about 80 s,
-600 s of decentralised MPC 21 s and of local N-DMPC about 100 s) with the
-CRH2 built-ins unchanged. Expect it within a factor of 3 or so; it is meant
+(``benchmarks/scenarios/heavy-haul-204-ndmpc.toml`` on the idle machine:
+review 104 s on one BLAS thread, 600 s of decentralised MPC 2.9 s and of
+local N-DMPC 22.6 s) with the CRH2 built-ins' estimates unchanged. Expect it within a factor of 3 or so; it is meant
 to tell a minute from an hour from a week.
 
 Examples
@@ -73,8 +73,10 @@ _MPC = 4e-3                 # × n · P^1.2: global N-DMPC iteration analysis (n
                             # n = 204, P = 10: ~10 s)
 _MPC_LONG = 2.4e-8          # × n · P^3: the same at long horizons
 _LOCAL = 5e-10              # × (n · (M + 2P))³: the local iteration's spectra (n = 204: ~55 s)
-_EXCHANGE = 3e-5            # per vehicle and iteration: exchanging the local predictions
-_SUBSTEP = 1e-4             # × (1 + n / 32) per plant substep
+_EXCHANGE = 5e-6            # per vehicle and iteration: exchanging the local predictions
+                            # (204 vehicles, 4 QPs: 2.5 ms per iteration measured)
+_SUBSTEP = 1e-4             # × (1 + n / 256) per plant substep and its recording (banded
+                            # from 128 vehicles: 204 vehicles ~90 µs measured)
 _STEP = 5e-4                # controller overhead per step
 _LAW = 2e-4                 # × (1 + n / 32): an explicit law's step with its network
                             # messages, and per plant substep under it:
@@ -427,7 +429,7 @@ def _strategy_seconds(scenario: Scenario, strategy: str, samples: int, horizon: 
     n = scenario.train.n_vehicles
     family, _, name = strategy.rpartition(".")
     substeps = Plant(train=scenario.train).substeps(scenario.model.sample_time)
-    plant = _SUBSTEP * (1 + n / 32) * substeps
+    plant = _SUBSTEP * (1 + n / 256) * substeps
     if family == "lqr":
         return samples * (plant + _STEP)
     settings = scenario.controllers.get(family) if family else scenario.controller
