@@ -26,8 +26,9 @@ N-DMPC and cooperative: that per iteration, plus the exchange of every
 vehicle's predictions). Recalibrated on the 204-vehicle chain
 (``benchmarks/scenarios/heavy-haul-204-ndmpc.toml`` on the idle machine:
 review 104 s on one BLAS thread, 600 s of decentralised MPC 2.9 s and of
-local N-DMPC 22.6 s) with the CRH2 built-ins' estimates unchanged. Expect it within a factor of 3 or so; it is meant
-to tell a minute from an hour from a week.
+local N-DMPC 22.6 s) with the CRH2 built-ins' estimates unchanged. Expect
+it within a factor of 3 or so; it is meant to tell a minute from an hour
+from a week.
 
 Examples
 --------

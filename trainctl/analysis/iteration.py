@@ -336,7 +336,7 @@ class RelaxationResult:
                 "omega_best": clean(self.omega_best), "rate": clean(self.rate)}
 
 
-def relaxation(D0: Array, eigenvalues: Array | None = None) -> RelaxationResult:
+def relaxation(D0: Array, eigenvalues: NDArray[np.complex128] | None = None) -> RelaxationResult:
     """Best relaxation factor for the Jacobi iteration matrix D0.
 
     The relaxed iteration matrix (1-ω)I + ωD0 has eigenvalues 1 - ω(1 - λ);
@@ -363,10 +363,11 @@ def relaxation(D0: Array, eigenvalues: Array | None = None) -> RelaxationResult:
     >>> res.exists, round(res.omega_best, 4), round(res.rate, 4)
     (True, 0.7273, 0.8182)
     """
+    lam: NDArray[np.complex128]
     if eigenvalues is not None and np.size(eigenvalues):
-        lam = np.asarray(eigenvalues)
+        lam = np.asarray(eigenvalues, dtype=np.complex128)
     else:
-        lam = np.linalg.eigvals(D0) if D0.size else np.zeros(1)
+        lam = np.asarray(np.linalg.eigvals(D0) if D0.size else np.zeros(1), dtype=np.complex128)
     if np.any(lam.real >= 1.0 - 1e-12):
         return RelaxationResult(
             exists=False, omega_max=math.nan, omega_best=math.nan, rate=math.nan

@@ -389,7 +389,7 @@ def _gain(g: ct.StateSpace, w: float) -> float:
     return float(np.abs(np.asarray(g(point, warn_infinite=False), dtype=complex)).max())
 
 
-def _dc_gain(g: _Channel, poles: Array) -> float:
+def _dc_gain(g: _Channel, poles: NDArray[Any]) -> float:
     """|G| at DC; ``inf`` when a closed-loop pole at DC (z = 1, s = 0) reaches the channel.
 
     The resolvent is singular at such a pole even when the channel cannot
@@ -406,7 +406,7 @@ def _dc_gain(g: _Channel, poles: Array) -> float:
     return math.inf if lower > _INTEGRATOR_GROWTH * low else lower
 
 
-def _peak(g: _Channel, w: Array, curve: Array, poles: Array) -> tuple[float, float]:
+def _peak(g: _Channel, w: Array, curve: Array, poles: NDArray[Any]) -> tuple[float, float]:
     """(sup gain, frequency [rad/s]): the DC gain, the grid's maximum refined, or inf."""
     dc = _dc_gain(g, poles)
     if math.isinf(dc):
