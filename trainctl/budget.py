@@ -443,8 +443,7 @@ def _strategy_seconds(scenario: Scenario, strategy: str, samples: int, horizon: 
         return _BUILD + steps * (1 + n / 32) * (_LAW + _LAW_SUBSTEP * under)
     # A vehicle whose envelope pins its force at 0 kN has no QP (u-form with input bounds:
     # trainctl.controllers.mpc.controller.fixed_inputs); counted here from the envelope alone.
-    pinned = sum(1 for v in scenario.train.vehicles
-                 if v.envelope.max_traction == 0.0 and v.envelope.max_braking == 0.0)
+    pinned = sum(1 for v in scenario.train.vehicles if v.envelope.pins_force)
     if name in ("ndmpc", "cooperative", "ndmpc-local"):
         limit = int(getattr(settings, "max_iterations", _ITERATIONS) or _ITERATIONS)
         step = (_QP * (n - pinned) + _EXCHANGE * n) * min(limit, _ITERATIONS)

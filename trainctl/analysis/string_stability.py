@@ -257,11 +257,17 @@ def string_stability(
                              f"{list(QUANTITIES)} (got {unknown}).")
     j = list(sys.input_labels).index(input)
     w = _grid(sys) if omega is None else np.asarray(omega, dtype=float)
+    # One eigendecomposition for every output family (O(n³)); the loop's poles from it.
+    D = np.asarray(sys.D, dtype=float)
+    modal = _Modal.build(sys, np.asarray(sys.B, dtype=float)[:, j],
+                         np.asarray(sys.C, dtype=float), D[:, j])
+    poles = (modal.poles if modal is not None else
+             np.linalg.eigvals(np.asarray(sys.A, dtype=float)) if sys.nstates else np.zeros(0))
     chains = {}
     for q in outputs:
         rows = [k for k, name in enumerate(sys.output_labels) if name.startswith(f"{q}[")]
         if rows:
-            chains[q] = _chain(sys, q, rows, j, w)
+            chains[q] = _chain(sys, q, rows, j, w, modal, poles)
     dt = float(sys.dt) if sys.isdtime(strict=True) else None
     return StringStabilityResult(name=str(sys.name), input=input, dt=dt, omega=w, chains=chains)
 
@@ -295,14 +301,16 @@ def _continuous_grid(poles: Array) -> Array:
     return np.logspace(lo, hi, 50 * (hi - lo) + 1)
 
 
-def _chain(sys: ct.StateSpace, q: str, rows: list[int], j: int, w: Array) -> ChainPeaks:
+def _chain(sys: ct.StateSpace, q: str, rows: list[int], j: int, w: Array,
+           modal: _Modal | None, poles: NDArray[Any]) -> ChainPeaks:
     """Peaks of the channels ``rows`` from input ``j``.
 
     The grid is evaluated once for all channels (one single-input system,
     one resolvent solve per frequency; per channel it was 2(n−1) solves per
     frequency, measured 77 s of the 86 s review of a 64-car train), and
     the loop's poles once for every channel's DC test. The refinement
-    evaluates channels in modal coordinates where that is accurate
+    evaluates channels in modal coordinates (``modal``, every output of input
+    ``j``; None: python-control for every channel) where that is accurate
     (:class:`_Modal`).
     """
     C, D = np.asarray(sys.C, dtype=float), np.asarray(sys.D, dtype=float)
@@ -310,12 +318,9 @@ def _chain(sys: ct.StateSpace, q: str, rows: list[int], j: int, w: Array) -> Cha
     column = ct.ss(sys.A, B, C[rows], D[rows][:, [j]], sys.dt)
     response = ct.frequency_response(column, w, squeeze=False)
     curves = np.abs(np.asarray(response.magnitude, dtype=float))[:, 0, :]
-    modal = _Modal.build(sys, B[:, 0], C[rows], D[rows, j])
-    poles = (modal.poles if modal is not None else
-             np.linalg.eigvals(np.asarray(sys.A, dtype=float)) if sys.nstates else np.zeros(0))
     peaks = []
-    for index, (k, curve) in enumerate(zip(rows, curves, strict=True)):
-        channel = modal.channel(index, w, curve) if modal is not None else None
+    for k, curve in zip(rows, curves, strict=True):
+        channel = modal.channel(k, w, curve) if modal is not None else None
         if channel is None:
             channel = _Channel.of(ct.ss(sys.A, B, C[[k]], D[[k]][:, [j]], sys.dt))
         peaks.append(_peak(channel, w, curve, poles))
@@ -339,7 +344,8 @@ class _Channel:
 
 
 class _Modal:
-    """The channels c_k (sI − A)⁻¹ b + d_k of one input, in A's eigenvector basis.
+    """The channels c_k (sI − A)⁻¹ b + d_k of one input (k: output index), in A's
+    eigenvector basis.
 
     With A = V Λ V⁻¹ (computed once), G_k(s) = Σ_i (c_k V)_i (V⁻¹ b)_i / (s − λ_i) + d_k:
     O(n) per evaluation instead of python-control's O(n³) Hessenberg reduction at every

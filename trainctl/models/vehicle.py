@@ -93,6 +93,12 @@ class TractionEnvelope:
     def __post_init__(self) -> None:
         check_fields("TractionEnvelope", self, ENVELOPE_RULES)
 
+    @property
+    def pins_force(self) -> bool:
+        """True when the vehicle can produce no force at all: no traction and no braking
+        (e.g. an unpowered wagon whose air brake a controller does not command)."""
+        return self.max_traction == 0.0 and self.max_braking == 0.0
+
     def traction_limit(self, speed: ArrayLike, *, mass: float) -> NDArray[np.float64]:
         """Largest tractive force available at ``speed``.
 

@@ -470,5 +470,4 @@ def fixed_inputs(train: Train, design: MPCDesign, constraints: MPCConstraints) -
     """
     if design.form != "u" or not constraints.input_bounds:
         return ()
-    return tuple(i for i, v in enumerate(train.vehicles)
-                 if v.envelope.max_traction == 0.0 and v.envelope.max_braking == 0.0)
+    return tuple(i for i, v in enumerate(train.vehicles) if v.envelope.pins_force)
