@@ -405,6 +405,39 @@ class TestErrors:
         net.reset()
         net.receive(0.0, 1)  # time starts again after reset
 
+    def test_send_all_checks_before_it_sends(self):
+        """A bad value anywhere in send_all sends nothing, not even the reference's."""
+        net = Network(NetworkSettings(), make_graph("bidirectional", 3, pinned="all"))
+        with pytest.raises(ModelError, match=r"'values' must be finite \(got nan for vehicle 2\); "
+                                             r"nothing was sent"):
+            net.send_all(1.0, [20.0, 21.0, math.nan], reference=20.5)
+        with pytest.raises(DimensionError, match=r"the shape of the first one sent, \(\)"):
+            net.send_all(1.0, [[20.0, 1.0], [21.0, 1.0], [22.0, 1.0]], reference=20.5)
+        assert len(net.history()) == 0
+        net.send_all(1.0, [[20.0, 1.0], [21.0, 1.0], [22.0, 1.0]], reference=[20.5, 0.0])
+        assert net.history().sent.shape == (3 + 4, 2)   # the first shape sent is (2,)
+
+    def test_send_all_equals_single_sends(self):
+        """send_all makes the draws and deliveries of the reference's then each vehicle's send."""
+        settings = NetworkSettings(delay_range_s=(0.0, 1.0), loss_probability=0.2,
+                                   communication_noise_std=0.1)
+        graph = make_graph("bidirectional", 4, pinned="all")
+        whole, single = Network(settings, graph, seed=5), Network(settings, graph, seed=5)
+        for k in range(30):
+            t = 0.25 * k
+            values = 20.0 + np.sin(t + np.arange(4.0))
+            whole.send_all(t, values, reference=20.0 + 0.1 * t)
+            single.send(t, REFERENCE, 20.0 + 0.1 * t)
+            for j in range(4):
+                single.send(t, j, float(values[j]))
+            assert whole.messages(t) == {link: single.receive(t, link[0])[link[1]]
+                                         for link in whole.links
+                                         if link[1] in single.receive(t, link[0])}
+        a, b = whole.history(), single.history()
+        assert np.array_equal(a.delivered, b.delivered, equal_nan=True)
+        assert np.array_equal(a.fate, b.fate) and np.array_equal(a.t_arrival, b.t_arrival,
+                                                                 equal_nan=True)
+
 
 
 class TestNetworkSection:

@@ -416,6 +416,9 @@ def plain_log_labels(axis: Axis) -> None:
     axis.set_minor_locator(_LogMinor())
 
 
+_EVERY = (2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0)
+
+
 class _LogMinor(LogLocator):
     """Minor ticks of a log axis: 2, …, 9 on spans up to two decades, 2 and 5 on longer ones.
 
@@ -426,10 +429,10 @@ class _LogMinor(LogLocator):
     """
 
     def __init__(self) -> None:
-        super().__init__(base=10.0, subs=np.arange(2.0, 10.0))
+        super().__init__(base=10.0, subs=_EVERY)
 
     def tick_values(self, vmin: float, vmax: float) -> Any:
         lo, hi = sorted((abs(vmin), abs(vmax)))
         long = lo > 0 and hi / lo > 100.0
-        self.set_params(subs=(2.0, 5.0) if long else np.arange(2.0, 10.0))
+        self.set_params(subs=(2.0, 5.0) if long else _EVERY)
         return super().tick_values(vmin, vmax)

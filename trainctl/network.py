@@ -667,6 +667,13 @@ class Network:
         self._windows: dict[Link, tuple[tuple[float, float], ...]] = {
             link: tuple((w.start, w.end) for w in settings.interruptions if w.blocks(link))
             for link in self.links}
+        # Per sender, its links in receiver order with their outage windows, and its noise.
+        self._fanout: dict[Sender, tuple[tuple[Link, tuple[tuple[float, float], ...]], ...]] = {
+            sender: tuple(((int(i), sender), self._windows[(int(i), sender)])
+                          for i in receivers)
+            for sender, receivers in self._receivers.items()}
+        self._noise_std = {sender: float(settings.noise_std(sender))
+                           for sender in self._receivers}
         self._lo, self._hi = settings.delay_bounds()
         self._loss = float(settings.loss_probability)
         self.reset()
@@ -718,8 +725,10 @@ class Network:
             If the value's shape differs from the first value sent.
         """
         t = self._advance("send", t)
-        sender = self._check_sender(sender)
-        x = self._check_value(value)
+        self._emit(t, self._check_sender(sender), self._check_value(value))
+
+    def _emit(self, t: float, sender: Sender, x: NDArray[np.float64]) -> None:
+        """:meth:`send` after its checks (``x`` read-only, of the network's value shape)."""
         receivers = self._receivers[sender]
         k = receivers.size
         if k == 0:
@@ -727,17 +736,16 @@ class Network:
         u = self._rng.random((k, 2))
         z = self._rng.standard_normal((k, *x.shape))
         delay = self._lo + (self._hi - self._lo) * u[:, 0]
-        lost = u[:, 1] < self._loss
-        noise = self.settings.noise_std(sender) * z
-        fate = np.where(lost, _LOST, _DELIVERED).astype(np.int8)
-        for m in range(k):
-            link = (int(receivers[m]), sender)
+        noise = self._noise_std[sender] * z
+        fate = np.where(u[:, 1] < self._loss, _LOST, _DELIVERED).astype(np.int8)
+        scalar = x.ndim == 0
+        delivered = x + noise
+        for m, (link, windows) in enumerate(self._fanout[sender]):
             arrival = t + float(delay[m])
-            if any(t < end and arrival >= start for start, end in self._windows[link]):
+            if windows and any(t < end and arrival >= start for start, end in windows):
                 fate[m] = _BLOCKED
             if fate[m] == _DELIVERED:
-                delivered = x + noise[m]
-                item = float(delivered) if delivered.ndim == 0 else delivered
+                item = float(delivered[m]) if scalar else delivered[m]
                 heapq.heappush(self._pending[link], (arrival, t, self._seq, item))
             self._seq += 1
         self._batches.append(_Batch(t, sender, receivers, delay, fate, x, noise))
@@ -763,10 +771,27 @@ class Network:
         if array.ndim < 1 or array.shape[0] != self.n:
             raise DimensionError(f"Network.send_all: 'values' must hold one value per vehicle, "
                                  f"shape ({self.n}, ...) (got shape {array.shape}).")
-        if reference is not None:
-            self.send(t, REFERENCE, reference)
+        # The time and every value checked once, before anything is sent; then each
+        # sender's messages, with the draws n + 1 calls of send would make.
+        t = self._advance("send", t)
+        shape = self._shape
+        try:
+            first = None if reference is None else self._check_value(reference)
+            self._check_value(array[0])
+            bad = ~np.isfinite(array.reshape(self.n, -1)).all(axis=1)
+            if bad.any():
+                j = int(np.argmax(bad))
+                raise ModelError(f"Network.send_all: 'values' must be finite (got "
+                                 f"{array[j].tolist()!r} for vehicle {j}); nothing was sent.")
+        except (ModelError, DimensionError):
+            self._shape = shape   # nothing was sent: the first value is still to come
+            raise
+        if first is not None:
+            self._emit(t, REFERENCE, first)
+        rows = array.copy()
+        rows.setflags(write=False)
         for j in range(self.n):
-            self.send(t, j, array[j])
+            self._emit(t, j, rows[j, ...])
 
     def receive(self, t: float, receiver: int) -> dict[Sender, Received]:
         """The newest message from each sender ``receiver`` hears, arrived by ``t``.
@@ -788,7 +813,10 @@ class Network:
         """
         t = self._advance("receive", t)
         i = self._check_receiver(receiver)
-        due = t + ARRIVAL_TOLERANCE * max(1.0, abs(t))
+        return self._collect(i, t + ARRIVAL_TOLERANCE * max(1.0, abs(t)))
+
+    def _collect(self, i: int, due: float) -> dict[Sender, Received]:
+        """:meth:`receive` after its checks: what receiver ``i`` holds at arrival time ``due``."""
         out: dict[Sender, Received] = {}
         for sender in self._senders[i]:
             link = (i, sender)
@@ -818,7 +846,9 @@ class Network:
         dict
             ``(receiver, sender)`` → :class:`Received`, receivers in order.
         """
-        return {(i, s): msg for i in range(self.n) for s, msg in self.receive(t, i).items()}
+        t = self._advance("receive", t)
+        due = t + ARRIVAL_TOLERANCE * max(1.0, abs(t))
+        return {(i, s): msg for i in range(self.n) for s, msg in self._collect(i, due).items()}
 
     def history(self) -> MessageLog:
         """Every message sent since the last :meth:`reset`, in send order.
