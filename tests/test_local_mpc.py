@@ -196,6 +196,28 @@ def test_design_review_reports_both_formulations():
     np.testing.assert_allclose(loop.A, res.closed_loop_nash)
 
 
+def test_design_review_gives_the_local_threshold_weight():
+    """The local R* in the check: ρ(D0_local) crosses 1 there, by direct evaluation beside it."""
+    import re
+
+    from trainctl.controllers.mpc.family import FAMILY
+
+    sc = load_scenario("crh2-dmpc").replace("simulation.strategies", ["ndmpc", "ndmpc-local"])
+    fam = build_design(sc).family("mpc")
+    conv = {c.name: c for c in FAMILY.checks(fam)}["ndmpc_convergence"]
+    found = re.search(r"local formulation \(ndmpc-local\): ρ\(D0\) = [0-9.]+, "
+                      r"R\* = ([0-9.]+) per kN²", conv.message)
+    assert found, conv.message
+    r_star = float(found.group(1))                     # per kN², the design unit of CRH2
+    assert conv.details["local"]["threshold_weight"] == pytest.approx(r_star, rel=1e-3)
+    below = local_iteration(fam.mpc, fam.local, r=r_star * 0.99).rho
+    above = local_iteration(fam.mpc, fam.local, r=r_star * 1.01).rho
+    assert below > 1 > above
+    # the scenario's R lies between the global R* (2.25) and the local one: the local one warns
+    assert np.all((fam.analysis.threshold_weight < fam.mpc.r) & (fam.mpc.r < r_star))   # R = 10
+    assert conv.status == "warn" and f"raise R above its R* = {r_star:.4g}" in conv.hint
+
+
 def test_cvxpy_path_with_shared_problems_equals_the_fast_path():
     """Clones share the cvxpy problem: re-solving it per coach gives the fast path's plan."""
     train, d, model = chain_design(12, r=2.0)

@@ -50,7 +50,8 @@ def mpc_checks(design: MPCFamilyDesign) -> list[Check]:
     local = design.local_analysis if design.simulates_local else None
     return [
         _with_local(_convergence_check(res.rho_d0, res.threshold_weight * unit_scale, unit,
-                                       res.relaxation), local, "rho_d0"),
+                                       res.relaxation), local, "rho_d0",
+                    weight_unit=(unit_scale, unit)),
         _relaxation_check(res.rho_d0, res.relaxation),
         _with_local(_radius(design, "closed_loop_nash", res.closed_loop_nash, labels,
                             "converged N-DMPC (Nash point)"), local, "closed_loop_radius"),
@@ -80,12 +81,15 @@ def _radius(design: MPCFamilyDesign, name: str, A_cl: Any, labels: list[str], wh
                         unstable_hint="raise R, lengthen P, or penalise coupler forces")
 
 
-def _with_local(check: Check, local: Any, what: str) -> Check:
+def _with_local(check: Check, local: Any, what: str, *,
+                weight_unit: tuple[float, str] | None = None) -> Check:
     """``check`` (of the global formulation) with the local formulation's number beside it.
 
     Only when the scenario simulates ``"ndmpc-local"``: the local number goes
     to the message and ``details["local"]``; a pass becomes a warn when the
-    local formulation fails where the global one passes (ρ ≥ 1).
+    local formulation fails where the global one passes (ρ ≥ 1). With
+    ``weight_unit`` (scale from design units, unit label) the message also
+    gives the local threshold weight R*, when it was computed.
     """
     if local is None:
         return check
@@ -94,13 +98,26 @@ def _with_local(check: Check, local: Any, what: str) -> Check:
     if what == "closed_loop_iterations_radius":
         label = f"closed-loop ρ with {local.iterations} iteration(s)"
     message = f"{check.message}; local formulation (ndmpc-local): {label} = {value:.6g}"
+    raise_r = "raise R"
+    if weight_unit is not None:
+        r_star = local.threshold_weight
+        if r_star is None:
+            message += (" (its R* is not computed at this size: call "
+                        "trainctl.analysis.local_iteration.local_threshold_weight)")
+        elif math.isinf(r_star):
+            message += ", no R makes it converge"
+            raise_r = "no R makes it converge: shorten P or widen the neighbourhoods"
+        else:
+            scale, unit = weight_unit
+            message += f", R* = {r_star * scale:.4g} {unit}"
+            raise_r = f"raise R above its R* = {r_star * scale:.4g} {unit}"
     details = dict(check.details or {})
     details["local"] = local.to_dict()
     status, hint = check.status, check.hint
     if value >= 1 and status == "pass":
         status = "warn"
         hint = ("the neighbourhood-local formulation (ndmpc-local) "
-                + ("diverges: raise R" if what == "rho_d0" else "is unstable")
+                + (f"diverges: {raise_r}" if what == "rho_d0" else "is unstable")
                 + "; see trainctl.analysis.local_iteration")
     return dataclasses.replace(check, status=status, message=message, details=details,
                                hint=hint)
