@@ -84,6 +84,7 @@ Either way A₀ + B K is the delay-free loop A_cl = A + B F.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -179,12 +180,18 @@ class HinfLaw:
         """
         e0 = np.asarray(reference_errors, dtype=float)
         e = np.asarray(neighbour_errors, dtype=float)
-        weights = np.where(self.adjacency > 0, self.adjacency, 0.0)
-        pin = np.where(self.pinning > 0, self.pinning * np.nan_to_num(e0, nan=0.0), 0.0)
-        consensus = np.sum(np.where(weights > 0, weights * np.nan_to_num(e, nan=0.0), 0.0),
-                           axis=1)
+        pin_weights, weights = self._weights
+        # An absent term (NaN) or a pair that does not listen adds 0.
+        pin = np.where((pin_weights > 0) & ~np.isnan(e0), pin_weights * e0, 0.0)
+        consensus = np.sum(np.where((weights > 0) & ~np.isnan(e), weights * e, 0.0), axis=1)
         return np.asarray(float(reference_acceleration) - self.kappa_p * pin
                           - self.kappa_c * consensus, dtype=float)
+
+    @cached_property
+    def _weights(self) -> tuple[Array, Array]:
+        """b_i and a_ij with the non-positive entries (no link) set to 0."""
+        return (np.where(self.pinning > 0, self.pinning, 0.0),
+                np.where(self.adjacency > 0, self.adjacency, 0.0))
 
     def feedforward(self, speeds: ArrayLike) -> Array:
         """R_i(v_i) = m_i (a0_i + a1_i v_i + a2_i v_i²) [N]: each vehicle's own resistance.
