@@ -65,8 +65,10 @@ for mode in stab.modes:
 
 ctrb = analyse_controllability(sys)
 obsv = analyse_observability(sys)
-print(f"controllability rank = {ctrb.rank}/{ctrb.n_states}, condition number {ctrb.condition_number:.3g}")
-print(f"observability rank = {obsv.rank}/{obsv.n_states}, condition number {obsv.condition_number:.3g}")
+print(f"controllability rank = {ctrb.rank}/{ctrb.n_states}, "
+      f"condition number {ctrb.condition_number:.3g}")
+print(f"observability rank = {obsv.rank}/{obsv.n_states}, "
+      f"condition number {obsv.condition_number:.3g}")
 
 # %%
 # Why T = 20 s aliases the couplers
@@ -96,7 +98,8 @@ print("B_d speed rows [m/s per kN]:")
 print((sysd.B[:4] * 1e3).round(4))
 
 fast = analyse_sampling(sys, 0.05, n_vehicles=4)
-print(f"at T = 0.05 s: omega_max*T = {fast.omega_t:.3f} rad, input collapse = {fast.input_collapse:.3g}")
+print(f"at T = 0.05 s: omega_max*T = {fast.omega_t:.3f} rad, "
+      f"input collapse = {fast.input_collapse:.3g}")
 
 # %%
 # The eigenvalues of the two sampled models
@@ -109,7 +112,7 @@ print(f"at T = 0.05 s: omega_max*T = {fast.omega_t:.3f} rad, input collapse = {f
 
 fig, axes = plt.subplots(1, 2, figsize=(7, 3.5))
 theta = np.linspace(0, 2 * np.pi, 200 if SHORT else 1000)
-for ax, dt in zip(axes, (T, 0.05)):
+for ax, dt in zip(axes, (T, 0.05), strict=True):
     z = np.linalg.eigvals(discretise(sys, dt).A)
     ax.plot(np.cos(theta), np.sin(theta), "k-", lw=0.5)
     ax.plot(z.real, z.imag, "x")

@@ -126,5 +126,6 @@ ax.plot(run.time, run.coupler_forces.T / 1e3)
 ax.set_xlabel("time [s]")
 ax.set_ylabel("coupler force [kN]")
 ax.set_title("law as printed, constant 1 s delay")
-print(f"largest |coupler force| in {duration:g} s = {np.abs(run.coupler_forces).max() / 1e3:.0f} kN")
+peak = np.abs(run.coupler_forces).max() / 1e3  # [kN]
+print(f"largest |coupler force| in {duration:g} s = {peak:.0f} kN")
 plt.show()
