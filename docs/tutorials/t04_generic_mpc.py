@@ -16,7 +16,7 @@ reproduce exactly.
 #
 # The regulation example of the MPT3 toolbox, which python-control also uses
 # in its own tests: x(k+1) = [[1, 1], [0, 1]] x + [1, 0.5] u, Q = I, R = 1,
-# P = 4, |u| ≤ 1, |x| ≤ 5, from x = [4, 0]. The optimal plan is
+# P = 4, bounds ``|u| <= 1`` and ``|x| <= 5``, from x = [4, 0]. The optimal plan is
 # ``plan = [-1.0000, -1.0000, 0.1393, 0.3361]``: the first two moves sit on
 # the input bound.
 
