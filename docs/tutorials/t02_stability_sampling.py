@@ -110,7 +110,7 @@ print(f"at T = 0.05 s: omega_max*T = {fast.omega_t:.3f} rad, "
 # folded back into (-π, π], and nothing in the sampled model tells the three
 # coupler modes from slower oscillations.
 
-fig, axes = plt.subplots(1, 2, figsize=(7, 3.5))
+fig, axes = plt.subplots(1, 2, figsize=(7, 3.5), layout="constrained")
 theta = np.linspace(0, 2 * np.pi, 200 if SHORT else 1000)
 for ax, dt in zip(axes, (T, 0.05), strict=True):
     z = np.linalg.eigvals(discretise(sys, dt).A)

@@ -63,7 +63,7 @@ print(f"rho(D0) at R* = {r_star:.4f}")
 
 weights = np.logspace(-1, 2, 13 if SHORT else 61)  # R [per kN^2]
 rho = convergence_sweep(mpc.mpc, weights)
-fig, ax = plt.subplots(figsize=(6, 3.5))
+fig, ax = plt.subplots(figsize=(6, 3.5), layout="constrained")
 ax.loglog(weights, rho, "o-", ms=3)
 ax.axhline(1.0, color="k", lw=0.8)
 ax.axvline(res.threshold_weight, color="r", ls="--", label="R*")
@@ -112,7 +112,7 @@ for strategy in ("centralised", "decentralised", "ndmpc"):
     print(f"{strategy:>13s}: max speed error after 100 s = "
           f"{np.max(m.max_error):.3f} m/s")
 
-fig, ax = plt.subplots(figsize=(6, 3.5))
+fig, ax = plt.subplots(figsize=(6, 3.5), layout="constrained")
 for strategy, result in results.items():
     ax.plot(result.time, result.velocities[0], label=strategy)
 ax.plot(results["ndmpc"].time, results["ndmpc"].reference_speed, "k--", lw=0.8,

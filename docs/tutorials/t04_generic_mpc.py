@@ -89,7 +89,7 @@ print(f"first move = [{us[0, 0]:.1f}, {us[0, 1]:.1f}] kN")
 print(f"speed error after {steps * T:g} s = {np.abs(xs[-1, :2]).max():.4f} m/s")
 
 t = np.arange(steps + 1) * T
-fig, axes = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
+fig, axes = plt.subplots(2, 1, figsize=(6, 5), sharex=True, layout="constrained")
 axes[0].plot(t, xs[:, 0], label="v_1")
 axes[0].plot(t, xs[:, 1], "--", label="v_2")
 axes[0].set_ylabel("speed deviation [m/s]")

@@ -130,7 +130,7 @@ fl = flocking.replace("simulation.settle_time", fl_time / 2).replace(
 pot_run = simulate_strategy(pot, "consensus")
 fl_run = simulate_strategy(fl, "flocking")
 
-fig, axes = plt.subplots(1, 2, figsize=(8, 3.5))
+fig, axes = plt.subplots(1, 2, figsize=(8, 3.5), layout="constrained")
 axes[0].plot(pot_run.time, (pot_run.velocities - pot_run.reference_speed).T)
 axes[0].set_title("potential law: speed errors")
 axes[0].set_xlabel("time [s]")

@@ -75,7 +75,7 @@ print(f"bound / margin = {bound / margin.margin:.2f}")
 
 taus = np.linspace(0.02, 1.0, 15 if SHORT else 60)  # delay [s]
 absc = [delay_abscissa(A, np.eye(A.shape[0]), A_d, tau) for tau in taus]
-fig, ax = plt.subplots(figsize=(6, 3.5))
+fig, ax = plt.subplots(figsize=(6, 3.5), layout="constrained")
 ax.plot(taus, absc, "o-", ms=3)
 ax.axhline(0.0, color="k", lw=0.8)
 ax.axvline(margin.margin, color="r", ls="--", label="delay margin")
@@ -121,7 +121,7 @@ duration = 60.0 if SHORT else 600.0
 run = simulate_strategy(
     printed.replace("simulation.settle_time", duration / 2).replace(
         "simulation.duration", duration), "distributed")
-fig, ax = plt.subplots(figsize=(6, 3.5))
+fig, ax = plt.subplots(figsize=(6, 3.5), layout="constrained")
 ax.plot(run.time, run.coupler_forces.T / 1e3)
 ax.set_xlabel("time [s]")
 ax.set_ylabel("coupler force [kN]")

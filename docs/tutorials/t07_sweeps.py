@@ -143,7 +143,7 @@ if __name__ == "__main__":
     same = remote[columns].reset_index(drop=True).equals(local[columns].reset_index(drop=True))
     print(f"Dask table equals local table: {same}")
 
-    fig, ax = plt.subplots(figsize=(6, 3.5))
+    fig, ax = plt.subplots(figsize=(6, 3.5), layout="constrained")
     for t, group in local.groupby("model.sample_time"):
         ax.semilogx(group["controller.r_per_kn2"], group["check.ndmpc_convergence.value"], "o-",
                     label=f"T = {t:g} s")

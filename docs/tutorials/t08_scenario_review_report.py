@@ -126,7 +126,7 @@ print(f"omega_max*T = {samp.omega_t:.3f} rad")
 print(f"checks differing from [expected]: {', '.join(run.unexpected_checks()) or 'none'}")
 print(f"strict failures: {len(run.strict_failures())}")
 
-fig, ax = plt.subplots(figsize=(6, 3.5))
+fig, ax = plt.subplots(figsize=(6, 3.5), layout="constrained")
 for name, result in run.simulations.items():
     ax.plot(result.time, (result.velocities[0] - result.reference_speed) * 1e3, label=name)
 ax.set_xlabel("time [s]")
