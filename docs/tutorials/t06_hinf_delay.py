@@ -31,7 +31,7 @@ import trainctl
 from trainctl.analysis import review_design
 from trainctl.analysis.consensus_hinf import consensus_loop
 from trainctl.analysis.delay import consensus_delay_bound, delay_abscissa, delay_margin
-from trainctl.design.model import build_model
+from trainctl.design import build_model
 from trainctl.run import simulate_strategy
 
 SHORT = os.environ.get("TRAINCTL_TUTORIAL_SHORT") == "1"
