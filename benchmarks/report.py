@@ -5,7 +5,7 @@ Run:  .venv/bin/python benchmarks/report.py [--repeat N] [--skip-all] [--baselin
 Each measurement is a fresh `python -m trainctl ...` process in a scratch
 directory, so imports, analysis, simulations, figures, HTML and the write are
 all included — what a user waits for. Targets on a quiet 2-core machine (issue 14; issue 5
-asked for 10 s and 60 s, when the gallery had four built-ins and no Monte-Carlo scenario):
+had asked for 10 s and 60 s):
 
   default   `trainctl report`          (crh2-dmpc: analysis, 3 simulations, figures)  <= 2.5 s
   all       `trainctl report --all`    (every built-in and the gallery)                 <= 20 s
