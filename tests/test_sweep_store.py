@@ -341,3 +341,32 @@ def test_cli_refuses_another_sweep_in_the_store(tmp_path: Path,
     assert code == 2 and "holds the results of another sweep" in err
     assert "Traceback" not in err
     assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+
+
+def test_sweep_scenario_in_one_call(tmp_path):
+    """sweep_scenario: each point's check equals a review of the scenario with that key set;
+    a second call into the same directory runs nothing; nothing to sweep is refused."""
+    from trainctl.analysis import review_design
+    from trainctl.sweep import sweep_scenario
+
+    axes = ["controller.r_per_kn2=0.5,2", "model.sample_time=10,20"]
+    table = sweep_scenario("crh2-dmpc", tmp_path / "s", axes=axes, simulate=False)
+    assert len(table) == 4
+    base = load_scenario("crh2-dmpc")
+    for _, row in table.iterrows():
+        point = (base.replace("controller.r_per_kn2", float(row["controller.r_per_kn2"]))
+                 .replace("model.sample_time", float(row["model.sample_time"])))
+        check = review_design(point).check("ndmpc_convergence")
+        assert row["check.ndmpc_convergence.value"] == pytest.approx(check.value, rel=1e-12)
+        assert row["check.ndmpc_convergence.status"] == check.status
+    def stored():
+        return {p: p.stat().st_mtime_ns for p in (tmp_path / "s" / "points").rglob("*.json")}
+
+    before = stored()
+    assert len(before) >= 4
+    again = sweep_scenario("crh2-dmpc", tmp_path / "s", axes=axes, simulate=False)
+    pd.testing.assert_frame_equal(again, table)
+    assert stored() == before   # every point was stored: none ran again
+    with pytest.raises(ScenarioError, match="no sweep to run"):
+        sweep_scenario("crh2-dmpc", tmp_path / "t")
+    assert not (tmp_path / "t").exists()

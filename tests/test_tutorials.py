@@ -81,6 +81,7 @@ QUOTED: dict[str, tuple[str, ...]] = {
         "certified gamma = 0.255",
     ),
     "t07_sweeps": (
+        "points in the file's sweep: 8",
         "rho(D0) at R = 0.05, T = 0.05 s: 1.0395",
         "rho(D0) at R = 1, T = 0.05 s: 0.2201",
         "converged: False",

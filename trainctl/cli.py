@@ -393,17 +393,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     axes = [parse_set(text) for text in args.sets]
     text, label = read_scenario_text(args.scenario)
     scenario = parse_scenario(text, source=label)
-    given = scenario.sweep
-    if not axes and given is None and args.seeds is None:
-        raise _UserError(f"{label}: no sweep to run: the scenario has no [sweep] section. Give "
-                         "--set KEY=V1,V2,... (e.g. --set controller.r_per_kn2=0.1,1,10) or "
-                         "--seeds N, or add a [sweep] section.")
-    if axes or given is None:
-        sweep = SweepDefinition(tuple(axes), seed=given.seed if given else 0,
-                                seeds=args.seeds or (given.seeds if given else 1))
-    else:
-        sweep = SweepDefinition(given.axes, seed=given.seed, samples=given.samples,
-                                seeds=args.seeds or given.seeds)
+    sweep = SweepDefinition.of(scenario, axes, seeds=args.seeds)
     points = sweep.points(base_seed=scenario.seed)
     scenarios = sweep.validate(scenario)
     if not args.dry_run:

@@ -16,15 +16,24 @@ the closed-form ρ(D0) says it should?
 """
 
 # %%
-# The sweep definition
-# --------------------
+# The sweep in one call
+# ---------------------
 #
-# ``SweepDefinition`` takes axes (``parse_set`` reads the command line's
-# ``KEY=V1,V2,...`` form); ``points`` lists the points and ``validate``
-# builds each point's scenario, checked by the schema like a file, before
-# anything runs. The built-in's own sweep has 8 points (4 weights × 2 sample
-# times); the short mode of these tutorials runs two of them, R = 0.05 and
-# 1 per kN² at T = 0.05 s.
+# ``sweep_scenario`` does what ``trainctl sweep`` does: it takes the
+# scenario's ``[sweep]`` (or axes given as ``"KEY=V1,V2,..."``, the command
+# line's ``--set``), validates every point's scenario with the schema before
+# anything runs, opens a resumable store in a directory (each finished point
+# is written at once; the same sweep into the same directory again runs only
+# the points it lacks) and runs the points on any
+# ``concurrent.futures.Executor``. ``worker_pool(2)`` is a pool of two local
+# processes (each with a single BLAS thread); without an executor the points
+# run one after the other in this process. The result is a pandas table with
+# one row per point and strategy: every check's status and value and every
+# metric.
+#
+# The built-in's own sweep has 8 points (4 weights × 2 sample times:
+# ``points in the file's sweep: 8``); the short mode of these tutorials runs
+# two of them, R = 0.05 and 1 per kN² at T = 0.05 s.
 #
 # The code runs under ``if __name__ == "__main__":``. A process pool starts
 # fresh Python processes that import this script to find what it defines;
@@ -38,59 +47,21 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 
+import trainctl
 from trainctl.parallel import worker_pool
-from trainctl.scenario import parse_scenario, read_scenario_text
-from trainctl.sweep import (
-    SweepDefinition,
-    SweepStore,
-    dask_executor,
-    parse_set,
-    point_key,
-    run_sweep,
-)
+from trainctl.sweep import SweepDefinition, dask_executor, sweep_scenario
 
 SHORT = os.environ.get("TRAINCTL_TUTORIAL_SHORT") == "1"
+NAME = "crh2-dmpc-convergence-sweep"
+AXES = ["controller.r_per_kn2=0.05,1", "model.sample_time=0.05"] if SHORT else []
 
 if __name__ == "__main__":
-    text, label = read_scenario_text("crh2-dmpc-convergence-sweep")
-    base = parse_scenario(text, source=label)
+    base = trainctl.load_scenario(NAME)
     print("the file's sweep:", [(axis.key, axis.values) for axis in base.sweep.axes])
-    if SHORT:
-        sweep = SweepDefinition((parse_set("controller.r_per_kn2=0.05,1"),
-                                 parse_set("model.sample_time=0.05")))
-    else:
-        sweep = SweepDefinition(base.sweep.axes)
-    points = sweep.points(base_seed=base.seed)
-    scenarios = sweep.validate(base)
-    keys = [point_key(s) for s in scenarios]  # a hash of each point's scenario
-    by_key = dict(zip(keys, scenarios, strict=True))
-    print(f"{len(points)} points:", [dict(p) for p in points])
-
-# %%
-# On the local cores
-# ------------------
-#
-# ``SweepStore.open`` makes a resumable store in a directory: each finished
-# point is written at once, and running the same sweep into the same
-# directory again runs only the missing points. ``run_sweep`` runs the
-# points on any ``concurrent.futures.Executor``; ``worker_pool(2)`` is a
-# pool of two local processes (each with a single BLAS thread), ``None``
-# runs them one after the other in this process. The result is a pandas
-# table with one row per point and strategy: every check's status and value
-# and every metric.
-
-
-def open_store(path, label, text, points, keys, sweep):
-    """A new store for the sweep's points in the directory ``path``."""
-    return SweepStore.open(path, label=label, scenario_text=text, points=points, keys=keys,
-                           swept=sweep.keys, simulate=True)
-
-
-if __name__ == "__main__":
+    print("points in the file's sweep:", SweepDefinition.of(base).n_points)
     workdir = Path(tempfile.mkdtemp(prefix="trainctl-sweep-"))
     with worker_pool(2) as pool:
-        store = open_store(workdir / "local", label, text, points, keys, sweep)
-        local = run_sweep(store, by_key, executor=pool)
+        local = sweep_scenario(NAME, workdir / "local", axes=AXES, executor=pool)
     columns = ["controller.r_per_kn2", "model.sample_time", "check.ndmpc_convergence.value",
                "metric.converged", "metric.iteration_limit_steps"]
     print(local[columns].to_string(index=False))
@@ -138,8 +109,7 @@ if __name__ == "__main__":
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:
         with dask_executor(cluster.scheduler_address) as executor:
-            store = open_store(workdir / "dask", label, text, points, keys, sweep)
-            remote = run_sweep(store, by_key, executor=executor)
+            remote = sweep_scenario(NAME, workdir / "dask", axes=AXES, executor=executor)
     same = remote[columns].reset_index(drop=True).equals(local[columns].reset_index(drop=True))
     print(f"Dask table equals local table: {same}")
 

@@ -34,7 +34,7 @@ from .definition import (
     point_key,
 )
 from .rows import METRICS, point_rows, run_point, sweep_rows
-from .runner import dask_executor, run_point_results, run_sweep
+from .runner import dask_executor, run_point_results, run_sweep, sweep_scenario
 from .store import SweepStore, rows_frame
 
 __all__ = [
@@ -58,4 +58,5 @@ __all__ = [
     "rows_frame",
     "run_point_results",
     "run_sweep",
+    "sweep_scenario",
 ]

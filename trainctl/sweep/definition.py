@@ -452,6 +452,53 @@ class SweepDefinition:
             raise ScenarioError(f"sweep: {self.n_points} points, more than {MAX_POINTS}. Split "
                                 "the sweep or use fewer values.")
 
+    @classmethod
+    def of(cls, scenario: Scenario, axes: Sequence[Axis] = (), *,
+           seeds: int | None = None) -> SweepDefinition:
+        """The sweep ``trainctl sweep SCENARIO [--set ...] [--seeds N]`` runs.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The base scenario; its ``[sweep]`` section (if any) gives the
+            axes when ``axes`` is empty, and its seed options.
+        axes : sequence of Axis
+            Axes that replace the section's (e.g. from :func:`parse_set`).
+        seeds : int or None
+            Seeds per point (None: the section's, else 1).
+
+        Returns
+        -------
+        SweepDefinition
+
+        Raises
+        ------
+        ScenarioError
+            If there is nothing to sweep: no axes, no ``[sweep]`` section and
+            no seeds.
+
+        Examples
+        --------
+        >>> from trainctl.scenario import load_scenario
+        >>> base = load_scenario("crh2-dmpc-convergence-sweep")
+        >>> SweepDefinition.of(base).n_points
+        8
+        >>> SweepDefinition.of(base, [parse_set("controller.r_per_kn2=1,2")], seeds=3).keys
+        ('controller.r_per_kn2', 'seed')
+        """
+        given = scenario.sweep
+        axes = tuple(axes)
+        if not axes and given is None and seeds is None:
+            raise ScenarioError(f"{scenario.source}: no sweep to run: the scenario has no [sweep] "
+                                "section. Give axes (--set KEY=V1,V2,..., e.g. --set "
+                                "controller.r_per_kn2=0.1,1,10) or seeds (--seeds N), or add a "
+                                "[sweep] section.")
+        if axes or given is None:
+            return cls(axes, seed=given.seed if given else 0,
+                       seeds=seeds or (given.seeds if given else 1))
+        return cls(given.axes, seed=given.seed, samples=given.samples,
+                   seeds=seeds or given.seeds)
+
     @property
     def n_points(self) -> int:
         """Number of points: product of the grid sizes × samples (if random) × seeds."""

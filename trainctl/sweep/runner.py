@@ -24,7 +24,7 @@ from __future__ import annotations
 import contextlib
 import itertools
 import os
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from typing import TYPE_CHECKING, Any
 
@@ -33,9 +33,10 @@ from ..exceptions import ScenarioError
 if TYPE_CHECKING:
     from ..scenario import Scenario
     from ..sim.results import SimulationResult
+    from .definition import Axis
     from .store import SweepStore
 
-__all__ = ["SCHEDULER_ENV", "dask_executor", "run_point_results", "run_sweep",
+__all__ = ["SCHEDULER_ENV", "dask_executor", "run_point_results", "run_sweep", "sweep_scenario",
            "scheduler_address"]
 
 SCHEDULER_ENV = "TRAINCTL_DASK_SCHEDULER"
@@ -85,6 +86,77 @@ def run_point_results(scenario: Scenario, simulate: bool = True, arrays: bool | 
         result, dense_time=result.time, dense_states=result.states,
         dense_coupler_forces=result.coupler_forces, dense_reference_speed=result.reference_speed)
         for name, result in run.simulations.items()}
+
+
+def sweep_scenario(scenario: str | os.PathLike[str], directory: str | os.PathLike[str], *,
+                   axes: Sequence[str | Axis] = (), seeds: int | None = None,
+                   executor: Executor | None = None, simulate: bool = True,
+                   arrays: str = "sampled", csv: bool = False) -> Any:
+    """Run a scenario's sweep into a store and return its table, in one call.
+
+    What ``trainctl sweep SCENARIO [--set ...] [--seeds N] -o DIRECTORY``
+    does, for a script or a notebook: the sweep
+    (:meth:`SweepDefinition.of`), every point validated before anything
+    runs, the store opened (or reopened: running the same sweep into the same
+    directory again runs only the points it lacks) and the points run
+    (:func:`run_sweep`).
+
+    Parameters
+    ----------
+    scenario : str or path-like
+        A built-in scenario's name or a scenario file.
+    directory : str or path-like
+        The store's directory: missing or empty, or a store of this same sweep.
+    axes : sequence of str or Axis
+        Axes replacing the scenario's ``[sweep]``: :class:`Axis` objects or
+        ``"KEY=V1,V2,..."`` strings (:func:`parse_set`).
+    seeds : int or None
+        Seeds per point (None: the ``[sweep]`` section's, else 1).
+    executor : concurrent.futures.Executor or None
+        Where the points run (:func:`trainctl.parallel.worker_pool`,
+        :func:`dask_executor`); None: here, one after the other.
+    simulate : bool
+        Run each point's simulations (False: the design review only).
+    arrays : {"sampled", "dense", "none"}
+        What the store keeps of each simulation's time series.
+    csv : bool
+        Also write the table as CSV.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per point and strategy (:meth:`SweepStore.table`).
+
+    Raises
+    ------
+    ScenarioError
+        If the scenario, an axis or a point is invalid, or there is nothing
+        to sweep; nothing runs then.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     table = sweep_scenario("crh2-dmpc", tmp, axes=["controller.r_per_kn2=1,10"],
+    ...                            simulate=False)
+    >>> [round(v, 4) for v in table["check.ndmpc_convergence.value"]]
+    [1.5849, 0.3057]
+    """
+    from ..scenario import parse_scenario, read_scenario_text
+    from .definition import SweepDefinition, parse_set, point_key
+    from .store import SweepStore
+
+    text, label = read_scenario_text(scenario)
+    base = parse_scenario(text, source=label)
+    sweep = SweepDefinition.of(base, [parse_set(a) if isinstance(a, str) else a for a in axes],
+                               seeds=seeds)
+    points = sweep.points(base_seed=base.seed)
+    scenarios = sweep.validate(base)
+    keys = [point_key(s) for s in scenarios]
+    store = SweepStore.open(directory, label=label, scenario_text=text, points=points,
+                            keys=keys, swept=sweep.keys, simulate=simulate, arrays=arrays)
+    return run_sweep(store, dict(zip(keys, scenarios, strict=True)), simulate=simulate,
+                     executor=executor, csv=csv)
 
 
 def run_sweep(store: SweepStore, scenarios: Mapping[str, Scenario], *, simulate: bool = True,
