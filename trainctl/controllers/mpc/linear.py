@@ -375,6 +375,10 @@ def make_linear_mpc(sysd: ct.StateSpace, *, Q: ArrayLike, R: ArrayLike, predicti
         M moves, 1 <= M <= P (default P); the input is held after move M.
     terminal_weight : array_like or None
         Qf, the weight of the state x(k+P): (nx, nx) matrix, diagonal or scalar.
+        It is added to the output weight of step P, whose cost is
+        x(k+P)ᵀ (CᵀQC + Qf) x(k+P): for a terminal cost xᵀSx (e.g. the
+        Riccati solution of ``control.dlqr``, which makes the MPC equal to
+        LQR while no constraint is active) pass ``S - C.T @ Q @ C``.
     form : {"u", "du"}
         Decide (and weight with R) the inputs or their increments.
     u_min, u_max : array_like or None
