@@ -341,7 +341,7 @@ class Choice(Rule):
         return core_schema.literal_schema(list(self.options))
 
     def doc_type(self) -> str:
-        """The options as TOML strings, e.g. ```"u"` or `"du"```."""
+        """The options as TOML strings quoted for Markdown, joined by commas and "or"."""
         return _or([f'`"{o}"`' for o in self.options])
 
     def explain(self, error_type: str, value: Any) -> Violation:
@@ -409,7 +409,7 @@ class NameList(Rule):
         return Violation(text=f"must be {self.want()}", got=value)
 
     def doc_type(self) -> str:
-        """An array of names, e.g. ``array of `"v"`, `"force"` ``."""
+        """The type column of an array of names: the allowed names quoted for Markdown."""
         names = self.names()
         return "non-empty array of distinct " + (
             _or([f'`"{o}"`' for o in names]) if len(names) <= 6 else f"{self.noun} names"

@@ -58,9 +58,12 @@ Iteration (Jacobi, what is exchanged)
 
         ξ^{l+1} = D0 ξ^l + D1 θ,
 
-    U_i rows:  U_i = K_i (-Φ_i x_S - Φ°_i x_O - S_i u_I - Ψ_i X_O - Σ_{j∈I_i, j≠i} G_ij U_j),
-               K_i = (G_iiᵀ Q_i G_ii + R_i)⁻¹ G_iiᵀ Q_i;
-    X_i rows:  X_i = Φz x_S + Φz° x_O + Sz u_I + Ψz X_O + Σ_{j∈I_i} Gz_ij U_j  (U_i the new plan).
+    The row blocks::
+
+        U_i rows:  U_i = K_i (-Φ_i x_S - Φ°_i x_O - S_i u_I - Ψ_i X_O - Σ_{j∈I_i, j≠i} G_ij U_j),
+                   K_i = (G_iiᵀ Q_i G_ii + R_i)⁻¹ G_iiᵀ Q_i;
+        X_i rows:  X_i = Φz x_S + Φz° x_O + Sz u_I + Ψz X_O + Σ_{j∈I_i} Gz_ij U_j
+                   (U_i the new plan).
 
     Unlike the global D0 (size M·n), this D0 also carries the trajectories
     (size M·n + P·N·n_x): a second channel (waveform relaxation of the

@@ -83,7 +83,7 @@ InputWeightUnit = Annotated[
 
 
 def per_kn2(weight: float, unit: str) -> float:
-    """An input weight given per ``unit``² as a weight per kN² (the design unit).
+    """An input weight given per square ``unit``, as a weight per kN² (the design unit).
 
     Parameters
     ----------

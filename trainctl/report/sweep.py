@@ -14,7 +14,7 @@ Sections:
    parameters and their values, seeds, whether the points were simulated;
    the table of points (in a closed ``<details>`` beyond
    :data:`POINTS_OPEN` points).
-2. *Design checks* and 3. *Metrics* — each check's status and value and
+2. *Design checks* and *Metrics* (two sections) — each check's status and value and
    each metric against the swept parameters (:mod:`trainctl.report.figures_sweep`):
    one parameter, lines (one per strategy; median and min–max band over
    seeds); two, heat maps (one per strategy); more than two, heat maps over
@@ -24,14 +24,14 @@ Sections:
    with the count of passing seeds). A sweep of seeds only draws against
    the seed. Columns constant over the sweep, or empty, are listed in one
    table instead of drawn.
-4. *Certificates against simulation* — each pair of :data:`CERTIFICATES`
+3. *Certificates against simulation* — each pair of :data:`CERTIFICATES`
    (a design check and the simulation outcome that tests its promise) whose
    columns the table has: the count table (predicted pass / warn / fail
    against simulated ok / not ok) and the certificate's verdict per cell
    (laid out as the heat maps above) with the simulated outcome
    marked (a row of cells for one parameter); then every check against
    ``metric.tracking_ok`` (tracking held in every simulated strategy).
-5. *Reproducibility* — the store, the command, versions.
+4. *Reproducibility* — the store, the command, versions.
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ what every such problem needs, whatever the model:
   is split among several optimisers, enter through the coupling maps Ko, Fo);
 - :func:`block_parameters` — the per-step parameters of a list of blocks.
 
-The MPC core (:mod:`.linear`) is one block over the whole plan; the train
+The MPC core (:mod:`trainctl.controllers.mpc.linear`) is one block over the whole plan; the train
 MPC (:mod:`.problem`) is one block per optimiser of its strategy.
 """
 
