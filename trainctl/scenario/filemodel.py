@@ -54,9 +54,37 @@ __all__ = [
 
 
 class FileTable(BaseModel):
-    """Base of every file table: unknown keys are errors."""
+    """Base of every file table: unknown keys are errors.
+
+    A table's JSON Schema description is the first paragraph of its
+    docstring; the Parameters section there is for the API reference (the
+    keys' own descriptions come from their declarations).
+    """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
+
+    @classmethod
+    def __get_pydantic_json_schema__(cls, core_schema: Any, handler: Any) -> Any:
+        """The schema pydantic makes, its description cut to the docstring's summary.
+
+        Parameters
+        ----------
+        core_schema : pydantic_core.CoreSchema
+            The table's core schema.
+        handler : pydantic.GetJsonSchemaHandler
+            pydantic's schema generator.
+
+        Returns
+        -------
+        dict
+            The table's JSON Schema.
+        """
+        json_schema = handler(core_schema)
+        target = handler.resolve_ref_schema(json_schema)
+        description = target.get("description")
+        if isinstance(description, str):
+            target["description"] = description.split("\n\n")[0]
+        return json_schema
 
 
 @dataclass(frozen=True)
