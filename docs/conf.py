@@ -56,6 +56,9 @@ html_theme_options = {
     "show_toc_level": 2,
 }
 html_static_path: list[str] = []
+# The theme's script logs an error for a page without a stored colour mode
+# unless the default mode is one it knows.
+html_context = {"default_mode": "auto"}
 
 autosummary_generate = False
 autodoc_default_options = {"member-order": "bysource"}
