@@ -38,7 +38,8 @@ MISSING = [name for name in ("sphinx", "pydata_sphinx_theme", "numpydoc", "sphin
 
 
 THEME_LOG = re.compile(r'"\[PST\]: (Changed to \w+ mode using the \w+ theme\.'
-                       r'|Scrolled sidebar using (last active link|stored browser position)\.\.\.)"')
+                       r'|Scrolled sidebar using (last active link|stored browser position)'
+                       r'\.\.\.)"')
 """The theme script's informational messages (console.log of the colour mode and the
 sidebar's scroll position), the only console lines a clean page shows."""
 
