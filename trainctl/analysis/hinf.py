@@ -179,7 +179,7 @@ def state_balance(A: Array, B: Array, C: Array) -> Array:
     Returns
     -------
     ndarray
-        d, (n,), positive powers of 2.
+        The scaling d, shape (n,), positive powers of 2.
 
     Examples
     --------
@@ -780,7 +780,7 @@ def certified_level(M0: Array, level: Sequence[int]) -> float:
     Returns
     -------
     float
-        t (≥ 0), or inf when the rest of M0 is not negative definite.
+        The level t (≥ 0), or inf when the rest of M0 is not negative definite.
 
     Examples
     --------
@@ -1189,7 +1189,7 @@ def bounded_real_gamma(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike | 
     Returns
     -------
     BoundedRealResult
-        γ, P (V = xᵀPx), the solver status.
+        The level γ, the matrix P (V = xᵀPx) and the solver status.
 
     Examples
     --------

@@ -100,7 +100,7 @@ STATUSES = ("pass", "warn", "fail")
 class Outcome:
     """A simulated outcome: a boolean metric column and the value that means "fine".
 
-    Attributes
+    Parameters
     ----------
     metric : str
         The metric's name (column ``metric.<metric>``).
@@ -128,7 +128,7 @@ class Outcome:
 class Certificate:
     """A design check and the simulation outcome that tests its promise.
 
-    Attributes
+    Parameters
     ----------
     check : str
         The check's name (columns ``check.<check>.status``/``.value``).
@@ -174,7 +174,7 @@ CERTIFICATES: tuple[Certificate, ...] = (
 class SweepReportData:
     """What the sweep report shows, read from a store.
 
-    Attributes
+    Parameters
     ----------
     name : str
         The store directory's name.
@@ -226,6 +226,16 @@ class SweepReportData:
 
 def default_sweep_report_path(store: str | os.PathLike[str]) -> Path:
     """Default output of ``trainctl report SWEEP_DIR``: ``SWEEP_DIR/report.html``.
+
+    Parameters
+    ----------
+    store : str or os.PathLike
+        The sweep store's directory.
+
+    Returns
+    -------
+    pathlib.Path
+        The report's path inside it.
 
     Examples
     --------

@@ -301,7 +301,7 @@ def closed_loop_matrices(model: DesignModel, law: FlockingLaw) -> tuple[Array, A
     Returns
     -------
     (A_open, B_open, A_cl) : ndarray
-        ξ̇ = A_open ξ + B_open û (û [N]) on ξ = [v̂, z, p], shapes (2n, 2n)
+        The loop ξ̇ = A_open ξ + B_open û (û [N]) on ξ = [v̂, z, p], shapes (2n, 2n)
         and (2n, n); A_cl = A_open + B_open F [1/s].
     """
     sys = model.observer_model()

@@ -281,7 +281,17 @@ class LocalTrainProblem(TrainProblem):
 
 @dataclass(frozen=True)
 class LocalNDMPC(_PerCoach):
-    """Neighbourhood-local N-DMPC: relaxed Jacobi on plans and exchanged trajectories."""
+    """Neighbourhood-local N-DMPC: relaxed Jacobi on plans and exchanged trajectories.
+
+    Parameters
+    ----------
+    max_iterations : int
+        Largest number of Jacobi iterations per step.
+    tolerance : float
+        Convergence tolerance on the change of the plans.
+    relaxation : float
+        Relaxation factor ω in (0, 1].
+    """
 
     max_iterations: int
     tolerance: float

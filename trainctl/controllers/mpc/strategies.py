@@ -153,7 +153,17 @@ class Decentralised(_PerCoach):
 
 @dataclass(frozen=True)
 class NDMPC(_PerCoach):
-    """Neighbourhood optimisation, relaxed Jacobi iterations (relaxation ω in (0, 1])."""
+    """Neighbourhood optimisation, relaxed Jacobi iterations (relaxation ω in (0, 1]).
+
+    Parameters
+    ----------
+    max_iterations : int
+        Largest number of Jacobi iterations per step.
+    tolerance : float
+        Convergence tolerance on the change of the plans.
+    relaxation : float
+        Relaxation factor ω in (0, 1].
+    """
 
     max_iterations: int
     tolerance: float
@@ -172,7 +182,17 @@ class NDMPC(_PerCoach):
 
 @dataclass(frozen=True)
 class Cooperative(_PerCoach):
-    """Every coach over the whole-train cost; convex combination with weights w."""
+    """Every coach over the whole-train cost; convex combination with weights w.
+
+    Parameters
+    ----------
+    max_iterations : int
+        Largest number of iterations per step.
+    tolerance : float
+        Convergence tolerance on the change of the plans.
+    weights : ndarray
+        The combination weight w_i of each coach, summing to 1.
+    """
 
     max_iterations: int
     tolerance: float
@@ -191,7 +211,26 @@ class Cooperative(_PerCoach):
 
 def make_strategy(name: str, *, max_iterations: int, tolerance: float, relaxation: float,
                   weights: Array) -> Strategy:
-    """The strategy called ``name`` (one of :data:`~.settings.STRATEGIES`)."""
+    """The strategy called ``name`` (one of :data:`~.settings.STRATEGIES`).
+
+    Parameters
+    ----------
+    name : str
+        The strategy's name.
+    max_iterations : int
+        Largest number of iterations per step (iterating strategies).
+    tolerance : float
+        Convergence tolerance (iterating strategies).
+    relaxation : float
+        Relaxation factor ω in (0, 1] (N-DMPC).
+    weights : ndarray
+        Combination weights of the coaches (cooperative DMPC).
+
+    Returns
+    -------
+    Strategy
+        The strategy, with the settings it uses.
+    """
     if name == "centralised":
         return Centralised()
     if name == "decentralised":
