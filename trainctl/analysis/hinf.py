@@ -1102,7 +1102,7 @@ class BoundedRealProblem:
         Returns
         -------
         BoundedRealResult
-            γ = inf with the reason when the solver finds no certificate (an
+            The level; γ = inf with the reason when the solver finds no certificate (an
             unstable A(θ) makes the SDP infeasible) or the check fails;
             a non-optimal status is reported in ``status`` and ``message``.
         """

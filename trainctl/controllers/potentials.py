@@ -625,7 +625,7 @@ class FlockingPotential:
         Returns
         -------
         float
-            k_eff [1/s²], > 0 (rear train: ``ddx_i ≈ k_eff (dx_j - dx_i)``).
+            The stiffness k_eff [1/s²], > 0 (rear train: ``ddx_i ≈ k_eff (dx_j - dx_i)``).
 
         Examples
         --------

@@ -129,7 +129,8 @@ class FlockingLaw:
         Returns
         -------
         ndarray
-            s_ij = Σ_{k=i}^{j-1} s_k + Σ_{k=i+1}^{j-1} L_k for i < j, symmetric, 0 diagonal.
+            The gaps s_ij = Σ_{k=i}^{j-1} s_k + Σ_{k=i+1}^{j-1} L_k for i < j, symmetric,
+            0 diagonal.
         """
         head = -np.concatenate([[0.0], np.cumsum(self.length[:-1] + gaps)])
         tail = head - self.length

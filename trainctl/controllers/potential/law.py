@@ -156,7 +156,8 @@ class PotentialLaw:
         Returns
         -------
         ndarray
-            û [N], shape (n,); NaN where the potential is undefined (a barrier crossed).
+            The forces û [N], shape (n,); NaN where the potential is undefined (a
+            barrier crossed).
         """
         grad = np.asarray(self.potential.gradient(np.asarray(z, dtype=float)), dtype=float)
         damping = self.speed_gain * v_err + self.consensus_laplacian() @ v_err
