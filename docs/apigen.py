@@ -130,7 +130,7 @@ def _title(text: str, mark: str) -> str:
 
 def module_page(page: Page) -> str:
     """The reStructuredText of one module's page."""
-    lines = [_title(f"``{page.module}``", "="), f".. automodule:: {page.module}",
+    lines = [_title(page.module, "="), f".. automodule:: {page.module}",
              "   :no-members:", "", f".. currentmodule:: {page.module}", ""]
     if page.own:
         lines += [".. autosummary::", ""]
@@ -160,7 +160,7 @@ def write(out: Path = OUT) -> int:
         groups.setdefault(group_of(page.module), []).append(page)
         (out / f"{page.module}.rst").write_text(module_page(page), encoding="utf-8")
     for group, members in groups.items():
-        heading = "Top-level modules" if group == "core" else f"``trainctl.{group}``"
+        heading = "Top-level modules" if group == "core" else f"trainctl.{group}"
         text = [_title(heading, "="), ".. toctree::", "   :maxdepth: 1", ""]
         text += [f"   {page.module}" for page in members]
         (out / f"group-{group}.rst").write_text("\n".join(text) + "\n", encoding="utf-8")
