@@ -52,7 +52,7 @@ test: $(STAMP_TEST)
 	$(BIN)/python -m pytest -n auto --dist loadfile
 
 docs: $(STAMP_DOCS)
-	$(BIN)/sphinx-build -W --keep-going -b html docs docs/_build/html
+	$(BIN)/python -m sphinx -W --keep-going -b html docs docs/_build/html
 
 lint: $(STAMP_TEST)
 	$(BIN)/ruff check .
