@@ -10,13 +10,15 @@ BIN := $(VENV)/bin
 PIP := $(BIN)/python -m pip --disable-pip-version-check
 STAMP_RUN := $(VENV)/.trainctl-install.stamp
 STAMP_TEST := $(VENV)/.trainctl-install-test.stamp
+STAMP_DOCS := $(VENV)/.trainctl-install-docs.stamp
 INSTALL_DEPS := pyproject.toml trainctl/__init__.py
 
-.PHONY: help report test install install-test lint clean
+.PHONY: help report test docs install install-test install-docs lint clean
 
 help:
 	@echo "make report   write reports/crh2-dmpc.html (creates .venv when missing)"
 	@echo "make test     run the whole test suite, doctests included"
+	@echo "make docs     build the documentation into docs/_build/html (warnings are errors)"
 	@echo "make lint     ruff check and mypy"
 	@echo "make clean    remove build artefacts and caches (keeps .venv)"
 
@@ -33,9 +35,15 @@ $(STAMP_TEST): $(INSTALL_DEPS) | $(BIN)/python
 	$(PIP) install --quiet -e '.[test]'
 	@touch $@ $(STAMP_RUN)
 
+$(STAMP_DOCS): $(INSTALL_DEPS) | $(BIN)/python
+	$(PIP) install --quiet -e '.[docs]'
+	@touch $@ $(STAMP_RUN)
+
 install: $(STAMP_RUN)
 
 install-test: $(STAMP_TEST)
+
+install-docs: $(STAMP_DOCS)
 
 report: $(STAMP_RUN)
 	$(BIN)/trainctl report
@@ -43,10 +51,13 @@ report: $(STAMP_RUN)
 test: $(STAMP_TEST)
 	$(BIN)/python -m pytest -n auto --dist loadfile
 
+docs: $(STAMP_DOCS)
+	$(BIN)/python -m sphinx -W --keep-going -b html docs docs/_build/html
+
 lint: $(STAMP_TEST)
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 
 clean:
-	rm -rf build dist .pytest_cache .hypothesis .mypy_cache .ruff_cache
+	rm -rf build dist docs/_build docs/auto_tutorials docs/api/generated docs/sg_execution_times.rst .pytest_cache .hypothesis .mypy_cache .ruff_cache
 	find . -path ./$(VENV) -prune -o -name __pycache__ -type d -exec rm -rf {} +

@@ -23,9 +23,7 @@ Outside CI a missing browser skips these tests with a visible reason; with
 from __future__ import annotations
 
 import json
-import os
 import re
-import shutil
 import subprocess
 from pathlib import Path
 from typing import Any
@@ -34,24 +32,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from tests import chromium
 from trainctl.cli import main
 
 pytestmark = pytest.mark.slow
-
-_CANDIDATES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
-
-
-def _browser() -> str:
-    for name in _CANDIDATES:
-        found = shutil.which(name)
-        if found:
-            return found
-    reason = ("no headless Chromium found (tried " + ", ".join(_CANDIDATES) +
-              "); install Debian's 'chromium' to run the browser test")
-    if os.environ.get("CI", "").lower() == "true":
-        pytest.fail(reason + " — required in CI (CI=true)")
-    pytest.skip(reason)
-
 
 WIDTH = 1280
 """Window width [px] the report must fit."""
@@ -81,16 +65,7 @@ MEASURE = """
 
 
 def _command(page: Path, profile: Path, height: int, *extra: str) -> list[str]:
-    command = [
-        _browser(), "--headless", "--disable-gpu", "--no-first-run", "--no-default-browser-check",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync",
-        "--disable-extensions", "--hide-scrollbars", "--enable-logging=stderr", "--v=0",
-        f"--user-data-dir={profile}", f"--window-size={WIDTH},{height}", *extra,
-        page.resolve().as_uri(),
-    ]
-    if hasattr(os, "geteuid") and os.geteuid() == 0:
-        command.insert(1, "--no-sandbox")  # Chromium refuses to run as root with the sandbox
-    return command
+    return chromium.command(page, profile, WIDTH, height, *extra)
 
 
 def _load(page: Path, shot: Path, profile: Path, *, height: int = 3000) -> str:
@@ -129,8 +104,7 @@ def _figure_texts(html: str) -> dict[str, str]:
             for key, body in figures}
 
 
-def _console(stderr: str) -> list[str]:
-    return [line for line in stderr.splitlines() if ":CONSOLE" in line]
+_console = chromium.console
 
 
 @pytest.fixture(scope="module")

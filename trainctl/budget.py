@@ -284,7 +284,13 @@ def check_budget(estimate: RunEstimate, max_time: float) -> None:
 
 
 def physical_memory() -> float | None:
-    """Total physical memory [bytes], or None where unknown."""
+    """Total physical memory [bytes], or None where unknown.
+
+    Returns
+    -------
+    float or None
+        The machine's physical memory [bytes]; None where the system does not say.
+    """
     try:
         return float(os.sysconf("SC_PAGE_SIZE")) * float(os.sysconf("SC_PHYS_PAGES"))
     except (AttributeError, OSError, ValueError):  # pragma: no cover - not POSIX
@@ -293,6 +299,16 @@ def physical_memory() -> float | None:
 
 def format_duration(seconds: float) -> str:
     """A duration in the largest fitting unit.
+
+    Parameters
+    ----------
+    seconds : float
+        Duration [s]; inf reads "no limit".
+
+    Returns
+    -------
+    str
+        The duration in s, min, h or days.
 
     Examples
     --------
@@ -311,6 +327,16 @@ def format_duration(seconds: float) -> str:
 
 def format_bytes(size: float) -> str:
     """A memory size in MB, GB or TB (decimal).
+
+    Parameters
+    ----------
+    size : float
+        Size [bytes].
+
+    Returns
+    -------
+    str
+        The size with two significant digits and its unit.
 
     Examples
     --------

@@ -332,8 +332,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     Returns
     -------
     int
-        Exit status: 0 ran, 1 ``--strict`` found a failure, 2 user error.
-        (argparse exits with 2 by itself on a usage error, 0 for ``--help``.)
+        Exit status: 0 ran, 1 ``--strict`` found a failure, 2 user error
+        (argparse exits with 2 by itself on a usage error, 0 for ``--help``).
     """
     parser = build_parser()
     args = parser.parse_args(list(argv) if argv is not None else None)

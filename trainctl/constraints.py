@@ -150,6 +150,22 @@ def _integral(value: Any) -> Any:
 class Number(Rule):
     """A real number (not a bool), finite unless ``allow_inf``, within bounds.
 
+    Parameters
+    ----------
+    gt : float or None
+        Exclusive lower bound (None: none).
+    ge : float or None
+        Inclusive lower bound (None: none).
+    le : float or None
+        Inclusive upper bound (None: none).
+    allow_inf : bool
+        Accept inf, meaning what ``inf`` says.
+    inf : str
+        What an infinite value means, for messages (e.g. "no limit").
+    why : str
+        Why the bounds are where they are, added to a message about a value
+        outside them.
+
     Examples
     --------
     >>> Number(gt=0, le=1).want(), Number(ge=0, allow_inf=True).want(python=True)
@@ -237,6 +253,15 @@ class Number(Rule):
 class Integer(Rule):
     """An integer (not a bool or float) >= ``ge``.
 
+    Parameters
+    ----------
+    ge : int
+        Smallest allowed value.
+    le : int or None
+        Largest allowed value (None: no upper bound).
+    why : str
+        Why the bounds are where they are (see :class:`Number`).
+
     Examples
     --------
     >>> Integer(ge=1).want()
@@ -295,7 +320,15 @@ class Flag(Rule):
 
 @dataclass(frozen=True)
 class Text(Rule):
-    """A string; optionally with a non-space character, or on one line."""
+    """A string; optionally with a non-space character, or on one line.
+
+    Parameters
+    ----------
+    nonblank : bool
+        Require at least one character that is not white space.
+    single_line : bool
+        Refuse line breaks.
+    """
 
     nonblank: bool = False
     single_line: bool = False
@@ -321,6 +354,13 @@ class Text(Rule):
 class Choice(Rule):
     """One string out of a fixed vocabulary, with a near-miss suggestion.
 
+    Parameters
+    ----------
+    options : tuple of str
+        The accepted strings.
+    hint : str
+        A sentence added to the message about a string outside ``options``.
+
     Examples
     --------
     >>> Choice(("u", "du")).want(), Choice(("u", "du")).want(python=True)
@@ -341,7 +381,7 @@ class Choice(Rule):
         return core_schema.literal_schema(list(self.options))
 
     def doc_type(self) -> str:
-        """The options as TOML strings, e.g. ```"u"` or `"du"```."""
+        """The options as TOML strings quoted for Markdown, joined by commas and "or"."""
         return _or([f'`"{o}"`' for o in self.options])
 
     def explain(self, error_type: str, value: Any) -> Violation:
@@ -360,6 +400,19 @@ class NameList(Rule):
     ``options`` may be a callable that reads the vocabulary from the
     validation context (e.g. the strategies of the families in a scenario).
     From Python a single name stands for a one-item tuple.
+
+    Parameters
+    ----------
+    options : tuple of str or callable
+        The vocabulary, or a function of the validation context returning it.
+    noun : str
+        What one name is called in messages and documentation.
+    hint : str or callable
+        A sentence added to the message about an unknown name, or a function
+        of that name returning one.
+    single : bool
+        Accept a bare string for a one-item tuple (from Python; files must
+        write an array).
     """
 
     options: tuple[str, ...] | Callable[[dict[str, Any] | None], tuple[str, ...]]
@@ -409,7 +462,7 @@ class NameList(Rule):
         return Violation(text=f"must be {self.want()}", got=value)
 
     def doc_type(self) -> str:
-        """An array of names, e.g. ``array of `"v"`, `"force"` ``."""
+        """The type column of an array of names: the allowed names quoted for Markdown."""
         names = self.names()
         return "non-empty array of distinct " + (
             _or([f'`"{o}"`' for o in names]) if len(names) <= 6 else f"{self.noun} names"
@@ -423,6 +476,15 @@ class NameList(Rule):
 @dataclass(frozen=True)
 class Array(Rule):
     """An array of values that each follow ``item``; stored as a tuple.
+
+    Parameters
+    ----------
+    item : Rule
+        The rule every element follows.
+    length : int or None
+        The exact number of elements; None: any number, at least one.
+    extra : dict
+        Further JSON Schema keywords declared with the array.
 
     Examples
     --------

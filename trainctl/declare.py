@@ -232,6 +232,18 @@ def first_error(exc: ValidationError) -> ErrorDetails:
 def render_refs(text: str, name: Callable[[str], str | None]) -> str:
     """Replace ``{field}`` references in ``text`` by ``name(field)``.
 
+    Parameters
+    ----------
+    text : str
+        A message with ``{field}`` references.
+    name : callable
+        The displayed name of a field (None: the reference is left as it is).
+
+    Returns
+    -------
+    str
+        The message with the references replaced.
+
     Examples
     --------
     >>> render_refs("must be less than {duration}", lambda f: repr(f))

@@ -57,6 +57,16 @@ FiniteFloat = Annotated[StrictFloat, AfterValidator(_finite)]
 def json_path(loc: Sequence[str | int]) -> str:
     """``("results", "checks", 3, "status")`` -> ``"results.checks[3].status"``.
 
+    Parameters
+    ----------
+    loc : sequence of str or int
+        Keys and list indices from the document's root.
+
+    Returns
+    -------
+    str
+        The dotted path, "the document" for the root.
+
     Examples
     --------
     >>> json_path(("results", "checks", 3, "status")), json_path(())

@@ -498,12 +498,12 @@ class MessageLog:
     fate : ndarray
         One of :data:`FATES` per message, shape (m,).
     sent : ndarray
-        Value sent, shape (m, *value shape).
+        Value sent, shape (m, ``*value_shape``).
     delivered : ndarray
         Value delivered (sent plus noise), NaN for lost or blocked messages,
-        shape (m, *value shape).
+        shape (m, ``*value_shape``).
     noise : ndarray
-        Noise drawn (standard deviation times z), shape (m, *value shape).
+        Noise drawn (standard deviation times z), shape (m, ``*value_shape``).
     """
 
     t_sent: NDArray[np.float64]
@@ -758,7 +758,7 @@ class Network:
         t : float
             Send time [s].
         values : array_like
-            One value per vehicle, head first: shape (n, *value shape).
+            One value per vehicle, head first: shape (n, ``*value_shape``).
         reference : float or array_like or None
             The reference's value; None: the reference sends nothing.
 

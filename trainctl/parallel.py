@@ -50,7 +50,13 @@ below a few thousand steps the simulations finish sooner in the main process.
 
 
 def available_cpus() -> int:
-    """CPUs this process may run on (``os.sched_getaffinity`` where available)."""
+    """CPUs this process may run on (``os.sched_getaffinity`` where available).
+
+    Returns
+    -------
+    int
+        The number of usable CPUs, at least 1.
+    """
     try:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # pragma: no cover - not on Linux

@@ -72,6 +72,16 @@ BASELINE = -1
 def baseline_index(index: int) -> int:
     """The ``index`` of the baseline run paired with repetition ``index`` (and back).
 
+    Parameters
+    ----------
+    index : int
+        A repetition's index (>= 0) or a baseline's (< 0).
+
+    Returns
+    -------
+    int
+        The paired index, -1 - ``index``.
+
     Examples
     --------
     >>> baseline_index(0), baseline_index(3), baseline_index(-4)
@@ -367,6 +377,16 @@ def collect_repetitions(
 
 def spread(values: Any) -> dict[str, float]:
     """Median, min and max of some numbers (inf kept), JSON-safe as floats.
+
+    Parameters
+    ----------
+    values : array_like
+        The numbers.
+
+    Returns
+    -------
+    dict
+        ``median``, ``min``, ``max`` and ``count``.
 
     Examples
     --------

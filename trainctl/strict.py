@@ -66,8 +66,9 @@ class StrictFailure:
 
 
 def strict_failures(run: AnalysisRun) -> tuple[StrictFailure, ...]:
-    """Every reason a run fails ``--strict``, by kind (check, tracking, saturation, coupler,
-    expected).
+    """Every reason a run fails ``--strict``, grouped by kind.
+
+    The kinds are check, tracking, saturation, coupler and expected.
 
     Parameters
     ----------

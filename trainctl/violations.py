@@ -111,7 +111,20 @@ def raise_at(loc: Sequence[str | int], violation: Violation, value: Any = None) 
 
 
 def suggest(word: object, choices: Iterable[str]) -> str:
-    """A "Did you mean" sentence for a near miss, or ""."""
+    """A "Did you mean" sentence for a near miss, or "".
+
+    Parameters
+    ----------
+    word : object
+        What was given (not a string: no suggestion).
+    choices : iterable of str
+        The accepted words.
+
+    Returns
+    -------
+    str
+        The sentence naming the closest choice, or "" when none is close.
+    """
     if not isinstance(word, str):
         return ""
     close = difflib.get_close_matches(word, list(choices), n=1)

@@ -140,6 +140,24 @@ def delay_abscissa(A0: ArrayLike, B: ArrayLike, K: ArrayLike, tau: float,
                    order: int = DEFAULT_ORDERS[0]) -> float:
     """Largest Re λ [1/s] of :func:`pade_loop` (negative: stable at this delay).
 
+    Parameters
+    ----------
+    A0 : array_like
+        Open-loop state matrix (n, n) [1/s].
+    B : array_like
+        Input matrix (n, m).
+    K : array_like
+        Feedback gain (m, n) acting on the delayed state.
+    tau : float
+        Loop delay [s], ≥ 0.
+    order : int
+        Order of the Padé approximation of the delay.
+
+    Returns
+    -------
+    float
+        The spectral abscissa of the Padé loop [1/s].
+
     Examples
     --------
     >>> delay_abscissa([[0.0]], [[1.0]], [[-1.0]], 1.0) < 0 < delay_abscissa(

@@ -179,7 +179,7 @@ def state_balance(A: Array, B: Array, C: Array) -> Array:
     Returns
     -------
     ndarray
-        d, (n,), positive powers of 2.
+        The scaling d, shape (n,), positive powers of 2.
 
     Examples
     --------
@@ -780,7 +780,7 @@ def certified_level(M0: Array, level: Sequence[int]) -> float:
     Returns
     -------
     float
-        t (≥ 0), or inf when the rest of M0 is not negative definite.
+        The level t (≥ 0), or inf when the rest of M0 is not negative definite.
 
     Examples
     --------
@@ -1102,7 +1102,7 @@ class BoundedRealProblem:
         Returns
         -------
         BoundedRealResult
-            γ = inf with the reason when the solver finds no certificate (an
+            The level; γ = inf with the reason when the solver finds no certificate (an
             unstable A(θ) makes the SDP infeasible) or the check fails;
             a non-optimal status is reported in ``status`` and ``message``.
         """
@@ -1189,7 +1189,7 @@ def bounded_real_gamma(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike | 
     Returns
     -------
     BoundedRealResult
-        γ, P (V = xᵀPx), the solver status.
+        The level γ, the matrix P (V = xᵀPx) and the solver status.
 
     Examples
     --------

@@ -100,12 +100,36 @@ def iteration_matrices(design: MPCDesign, pred: Prediction | None = None) -> tup
 
 
 def spectral_radius(M: Array) -> float:
-    """Largest |eigenvalue| of a square matrix (0 for an empty one)."""
+    """Largest |eigenvalue| of a square matrix (0 for an empty one).
+
+    Parameters
+    ----------
+    M : ndarray
+        A square matrix.
+
+    Returns
+    -------
+    float
+        The spectral radius max |λ(M)|, 0.0 when M is empty.
+    """
     return float(np.max(np.abs(np.linalg.eigvals(M)))) if M.size else 0.0
 
 
 def nash_gain(D0: Array, D1: Array) -> Array:
-    """T_N with U_Nash = T_N e: (I - D0)⁻¹ D1."""
+    """T_N with U_Nash = T_N e: (I - D0)⁻¹ D1.
+
+    Parameters
+    ----------
+    D0 : ndarray
+        Jacobi iteration matrix (M, M).
+    D1 : ndarray
+        Map from the initial state (and last input) into one iteration (M, k).
+
+    Returns
+    -------
+    ndarray
+        The gain T_N (M, k) from that vector to the Nash plan.
+    """
     return np.asarray(np.linalg.solve(np.eye(D0.shape[0]) - D0, D1), dtype=np.float64)
 
 
@@ -141,7 +165,18 @@ def closed_loop_matrix(
 
 
 def shift_matrix(design: MPCDesign) -> Array:
-    """Warm start from the previous plan: drop the first move, repeat (u) or zero (Δu) the last."""
+    """Warm start from the previous plan: drop the first move, repeat (u) or zero (Δu) the last.
+
+    Parameters
+    ----------
+    design : MPCDesign
+        The design: its horizons, input count and form (``"u"`` or ``"du"``).
+
+    Returns
+    -------
+    ndarray
+        The square matrix mapping a plan to the next sample's starting plan.
+    """
     nu, M = design.n_inputs, design.control_horizon
     S = np.zeros((M * nu, M * nu))
     for m in range(M):
@@ -281,7 +316,7 @@ def convergence_sweep(design: MPCDesign, weights: ArrayLike) -> Array:
     Returns
     -------
     ndarray
-        ρ(D0) for each weight, same shape as ``weights``.
+        The spectral radius ρ(D0) for each weight, same shape as ``weights``.
 
     Examples
     --------

@@ -58,9 +58,12 @@ Iteration (Jacobi, what is exchanged)
 
         ξ^{l+1} = D0 ξ^l + D1 θ,
 
-    U_i rows:  U_i = K_i (-Φ_i x_S - Φ°_i x_O - S_i u_I - Ψ_i X_O - Σ_{j∈I_i, j≠i} G_ij U_j),
-               K_i = (G_iiᵀ Q_i G_ii + R_i)⁻¹ G_iiᵀ Q_i;
-    X_i rows:  X_i = Φz x_S + Φz° x_O + Sz u_I + Ψz X_O + Σ_{j∈I_i} Gz_ij U_j  (U_i the new plan).
+    The row blocks::
+
+        U_i rows:  U_i = K_i (-Φ_i x_S - Φ°_i x_O - S_i u_I - Ψ_i X_O - Σ_{j∈I_i, j≠i} G_ij U_j),
+                   K_i = (G_iiᵀ Q_i G_ii + R_i)⁻¹ G_iiᵀ Q_i;
+        X_i rows:  X_i = Φz x_S + Φz° x_O + Sz u_I + Ψz X_O + Σ_{j∈I_i} Gz_ij U_j
+                   (U_i the new plan).
 
     Unlike the global D0 (size M·n), this D0 also carries the trajectories
     (size M·n + P·N·n_x): a second channel (waveform relaxation of the
@@ -189,6 +192,16 @@ def train_state_owner(n: int) -> tuple[int, ...]:
     """Owner of each state of the train design model [v_0..v_{n-1}, delta_0..delta_{n-2}].
 
     Coach i owns its speed and the elongation of the coupler behind it (z_i of eq. 12.12).
+
+    Parameters
+    ----------
+    n : int
+        Number of coaches.
+
+    Returns
+    -------
+    tuple of int
+        The owning coach of each of the 2n - 1 states.
 
     Examples
     --------
@@ -614,7 +627,18 @@ def local_iteration(design: MPCDesign, model: LocalModel,
 
 
 def local_nash_gain(it: LocalIteration) -> Array:
-    """(I - D0)⁻¹ D1: the fixed point ξ* = gain θ (plans, then predicted states)."""
+    """(I - D0)⁻¹ D1: the fixed point ξ* = gain θ (plans, then predicted states).
+
+    Parameters
+    ----------
+    it : LocalIteration
+        The local iteration, with its matrices D0 and D1.
+
+    Returns
+    -------
+    ndarray
+        The gain from θ = [x(k); u(k-1)] to the fixed point ξ*.
+    """
     return np.asarray(np.linalg.solve(np.eye(it.D0.shape[0]) - it.D0, it.D1), dtype=np.float64)
 
 
@@ -651,6 +675,20 @@ def local_shift_matrix(design: MPCDesign, it: LocalIteration, substeps: int) -> 
     The plan as :func:`~trainctl.analysis.iteration.shift_matrix`; the
     trajectories drop their first N fine samples and repeat the last one N
     times (as ``ndmpc-local`` does).
+
+    Parameters
+    ----------
+    design : MPCDesign
+        The design (horizons, inputs, form).
+    it : LocalIteration
+        The local iteration whose ξ is shifted.
+    substeps : int
+        N, the fine samples per controller sample.
+
+    Returns
+    -------
+    ndarray
+        The square matrix mapping ξ to the next sample's warm start.
     """
     from .iteration import shift_matrix
 
@@ -772,7 +810,7 @@ def local_prediction_error(design: MPCDesign, model: LocalModel,
     Returns
     -------
     ndarray
-        err_i per coach [-].
+        The relative error err_i of each coach [-].
     """
     coaches = coach_predictions(design, model) if coaches is None else tuple(coaches)
     n, nx = design.n_inputs, design.A.shape[0]

@@ -167,7 +167,7 @@ def nyquist_sample_time(modes: tuple[Mode, ...]) -> float:
     Returns
     -------
     float
-        π divided by the largest coupler-mode |Im(lambda)|; inf without
+        The time π / max |Im λ| over the coupler modes [s]; inf without
         coupler modes.
 
     Examples

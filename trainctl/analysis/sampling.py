@@ -95,7 +95,7 @@ def analyse_sampling(
     Returns
     -------
     SamplingResult
-        ω_max·T, the Nyquist sample time and the input collapse.
+        The product ω_max·T, the Nyquist sample time and the input collapse.
 
     Examples
     --------

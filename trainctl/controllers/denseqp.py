@@ -3,7 +3,7 @@
 
 The per-coach QPs of the condensed MPC are small and dense (5–40 decisions,
 tens of rows): the class that dual active-set solvers are made for. DAQP
-(Arnström, Bemporad, Axehill) solves
+(Arnström, Bemporad, Axehill) solves::
 
     minimise    ½ xᵀ H x + fᵀ x
     subject to  blower ≤ x[:ms] ≤ bupper[:ms]      (simple bounds)

@@ -173,7 +173,7 @@ def sigma_grad(z: ArrayLike, eps: float) -> Floats:
     Returns
     -------
     float or numpy.ndarray
-        d ||z||_sigma / dz [-].
+        The gradient d ||z||_sigma / dz [-].
 
     Examples
     --------
@@ -208,7 +208,7 @@ def bump(z: ArrayLike, h: float) -> Floats:
     Returns
     -------
     float or numpy.ndarray
-        rho_h(z) in [0, 1] [-].
+        The bump rho_h(z) in [0, 1] [-].
 
     Raises
     ------
@@ -236,7 +236,7 @@ def sigma1(z: ArrayLike) -> Floats:
     Returns
     -------
     float or numpy.ndarray
-        sigma_1(z) [-].
+        The sigmoid sigma_1(z) [-].
 
     Examples
     --------
@@ -277,7 +277,7 @@ def phi(z: ArrayLike, a: float, b: float) -> Floats:
     Returns
     -------
     float or numpy.ndarray
-        phi(z) [-].
+        The action phi(z) [-].
 
     Examples
     --------
@@ -319,7 +319,7 @@ def phi_alpha(z: ArrayLike, *, d_alpha: float, r_alpha: float, h: float = 0.2,
     Returns
     -------
     float or numpy.ndarray
-        phi_alpha(z) [-].
+        The action phi_alpha(z) [-].
 
     Examples
     --------
@@ -379,7 +379,7 @@ def psi_alpha(z: ArrayLike, *, d_alpha: float, r_alpha: float, h: float = 0.2,
     Returns
     -------
     float or numpy.ndarray
-        psi_alpha(z) [-], >= 0.
+        The potential psi_alpha(z) [-], >= 0.
 
     Examples
     --------
@@ -402,7 +402,7 @@ def psi_alpha(z: ArrayLike, *, d_alpha: float, r_alpha: float, h: float = 0.2,
 class CollisionBound(NamedTuple):
     """Energy barrier of a collision (spec §3.4 item 1).
 
-    Attributes
+    Parameters
     ----------
     energy : float
         Pair potential at gap 0 minus its minimum [m²/s²] (per unit mass).
@@ -625,7 +625,7 @@ class FlockingPotential:
         Returns
         -------
         float
-            k_eff [1/s²], > 0 (rear train: ``ddx_i ≈ k_eff (dx_j - dx_i)``).
+            The stiffness k_eff [1/s²], > 0 (rear train: ``ddx_i ≈ k_eff (dx_j - dx_i)``).
 
         Examples
         --------

@@ -2,7 +2,7 @@
 """Parametric quadratic programs for MPC: built once, re-solved many times.
 
 Every MPC problem in trainctl (the core's, the train's centralised problem,
-one coach's local problem) has the form
+one coach's local problem) has the form::
 
     minimise    ½ zᵀ H z + gᵀ z + w1ᵀ s + ½ sᵀ diag(w2) s
     subject to  lb ≤ C z ≤ ub          (hard rows: input, rate, state bounds)

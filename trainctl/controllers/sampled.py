@@ -42,7 +42,7 @@ ZERO_TOL = 1e-9
 class ClosedLoopSpectrum(NamedTuple):
     """A continuous closed loop's spectrum, split into zero and other modes.
 
-    Attributes
+    Parameters
     ----------
     eigenvalues : ndarray
         All eigenvalues [1/s].
@@ -152,6 +152,16 @@ def initial_errors(scenario: Scenario) -> NDArray[np.float64]:
 def incidence(n: int) -> NDArray[np.float64]:
     """E (n × n−1): E[k, k] = 1 (front vehicle of link k), E[k+1, k] = −1 (rear vehicle).
 
+    Parameters
+    ----------
+    n : int
+        Number of vehicles.
+
+    Returns
+    -------
+    ndarray
+        The incidence matrix E, shape (n, n − 1).
+
     Examples
     --------
     >>> incidence(3).tolist()
@@ -165,6 +175,16 @@ def incidence(n: int) -> NDArray[np.float64]:
 
 def cumulative(n: int) -> NDArray[np.float64]:
     """S (n × n−1): S[i, k] = 1 for k < i, so that x̂ = 1·p − S z.
+
+    Parameters
+    ----------
+    n : int
+        Number of vehicles.
+
+    Returns
+    -------
+    ndarray
+        The matrix S, shape (n, n − 1).
 
     Examples
     --------

@@ -122,5 +122,16 @@ def from_daqp(exitflag: int) -> str:
 
 
 def is_usable(status: str) -> bool:
-    """True when a solution with this status may be applied (optimal or inaccurate)."""
+    """True when a solution with this status may be applied (optimal or inaccurate).
+
+    Parameters
+    ----------
+    status : str
+        A solver status as trainctl names it.
+
+    Returns
+    -------
+    bool
+        Whether the solution may drive the train.
+    """
     return status in ("optimal", "optimal_inaccurate")

@@ -83,7 +83,7 @@ InputWeightUnit = Annotated[
 
 
 def per_kn2(weight: float, unit: str) -> float:
-    """An input weight given per ``unit``² as a weight per kN² (the design unit).
+    """An input weight given per square ``unit``, as a weight per kN² (the design unit).
 
     Parameters
     ----------
@@ -103,6 +103,13 @@ def per_kn2(weight: float, unit: str) -> float:
 def check_force_weight(outputs: Sequence[str], q_force: float) -> None:
     """A coupler-force weight needs the coupler forces among the outputs.
 
+    Parameters
+    ----------
+    outputs : sequence of str
+        The design's outputs (``"v"``, ``"force"``).
+    q_force : float
+        The coupler-force weight.
+
     Raises
     ------
     pydantic.ValidationError
@@ -119,6 +126,13 @@ def check_force_weight(outputs: Sequence[str], q_force: float) -> None:
 
 def check_outputs_fit(outputs: Sequence[str], n: int | None) -> None:
     """A train of one vehicle has no couplers, hence no force output.
+
+    Parameters
+    ----------
+    outputs : sequence of str
+        The design's outputs.
+    n : int or None
+        Number of vehicles (None: not known yet, nothing checked).
 
     Raises
     ------

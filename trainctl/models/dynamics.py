@@ -92,7 +92,7 @@ def train_rhs(
     Returns
     -------
     ndarray
-        d(state)/dt, same shape as ``state``.
+        The derivative d(state)/dt, same shape as ``state``.
 
     Examples
     --------

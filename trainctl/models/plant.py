@@ -340,7 +340,7 @@ class Plant(DenseOutput):
         Returns
         -------
         int
-            ceil(dt / max_substep), at least 1 (a ratio within 1e-9 of an
+            The count ceil(dt / max_substep), at least 1 (a ratio within 1e-9 of an
             integer is taken as that integer).
 
         Examples

@@ -388,6 +388,16 @@ def _coach(coach: Mapping[str, Any]) -> dict[str, Any]:
 def headline(data: ReportData) -> str:
     """One line of key results (the gallery shows it under the link).
 
+    Parameters
+    ----------
+    data : ReportData
+        The report's data.
+
+    Returns
+    -------
+    str
+        The check counts, ρ(D0) where known and the best tracking strategy.
+
     Examples
     --------
     ``12 checks: 7 pass, 3 warn, 2 fail · ρ(D0) = 0.306 · best tracking: ndmpc,

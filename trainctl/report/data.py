@@ -230,7 +230,18 @@ def check_save_target(path: str | os.PathLike[str]) -> None:
 
 
 def is_saved_run(path: str | os.PathLike[str]) -> bool:
-    """True when ``path`` is a directory holding :data:`MANIFEST`."""
+    """True when ``path`` is a directory holding :data:`MANIFEST`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A path given to ``trainctl report``.
+
+    Returns
+    -------
+    bool
+        Whether it is a saved run.
+    """
     return (Path(path) / MANIFEST).is_file()
 
 

@@ -76,6 +76,16 @@ FIGURES_SECTION = "figures"
 def family_section(name: str) -> str:
     """Section id of a controller family's part of the page.
 
+    Parameters
+    ----------
+    name : str
+        The family's name.
+
+    Returns
+    -------
+    str
+        The HTML id of its section.
+
     Examples
     --------
     >>> family_section("potential")
@@ -234,7 +244,20 @@ def _figures(data: ReportData) -> Iterator[ReportFigure]:
 
 def eigenvalue_figure(spectra: Mapping[str, NDArray[np.complex128]],
                       make: Callable[..., ReportFigure] = encode) -> ReportFigure:
-    """The eigenvalue map of the report (``make`` as for :func:`encode`)."""
+    """The eigenvalue map of the report (``make`` as for :func:`encode`).
+
+    Parameters
+    ----------
+    spectra : mapping
+        Eigenvalues by label (e.g. open loop, each strategy's closed loop).
+    make : callable
+        Turns the matplotlib figure into a report figure.
+
+    Returns
+    -------
+    ReportFigure
+        The figure.
+    """
     # A fixed layout: constrained layout misplaces an equal-aspect box beside a legend.
     figure = Figure(figsize=(7.5, 4.4))
     ax = figure.add_axes((0.11, 0.11, 0.47, 0.80))

@@ -89,7 +89,18 @@ def graph_from_data(data: Mapping[str, Any]) -> CommunicationGraph:
 
 
 def graph_figure_key(family: str) -> str:
-    """Key (HTML anchor ``figure-<key>``) of a family's graph figure, e.g. ``graph-potential``."""
+    """Key (HTML anchor ``figure-<key>``) of a family's graph figure, e.g. ``graph-potential``.
+
+    Parameters
+    ----------
+    family : str
+        The family's name.
+
+    Returns
+    -------
+    str
+        The figure's key.
+    """
     return f"graph-{family}"
 
 

@@ -66,6 +66,16 @@ MISSING_COLOUR = "#FFFFFF"
 def is_log(values: Sequence[float]) -> bool:
     """True when every value is > 0 and they span more than a decade.
 
+    Parameters
+    ----------
+    values : sequence of float
+        An axis's values.
+
+    Returns
+    -------
+    bool
+        Whether the axis is drawn on a logarithmic scale.
+
     Examples
     --------
     >>> is_log([1, 3, 10, 30]), is_log([10.0, 20.0]), is_log([0, 10, 100])
@@ -79,7 +89,7 @@ def is_log(values: Sequence[float]) -> bool:
 class Panel:
     """One heat-map (or scatter) panel: a grid of cells over two parameters.
 
-    Attributes
+    Parameters
     ----------
     title : str
         The panel's title (strategy, fixed further parameters), may be empty.

@@ -43,6 +43,18 @@ ADMISSIBLE_COLOUR = "#b2182b"
 def shown_indices(count: int, limit: int = MAX_PANELS) -> list[int]:
     """Indices of the panels shown: all, or ``limit`` spread from the first to the last.
 
+    Parameters
+    ----------
+    count : int
+        Number of panels there are.
+    limit : int
+        Most panels shown.
+
+    Returns
+    -------
+    list of int
+        The shown panels' indices, increasing.
+
     Examples
     --------
     >>> shown_indices(4), shown_indices(20, 5)

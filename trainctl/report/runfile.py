@@ -142,7 +142,39 @@ class Coach(_Closed):
 
 
 class RunFile(_Closed):
-    """``trainctl-run.json``: everything of a saved run except the time series."""
+    """``trainctl-run.json``: everything of a saved run except the time series.
+
+    Parameters
+    ----------
+    format : str
+        The file format's name and version.
+    source : str
+        The scenario's text as it was run.
+    scenario_sha256 : str
+        SHA-256 of that text (:func:`text_digest`).
+    strategies : list of str
+        The simulated strategies, in order.
+    results : Results
+        The model summary, the checks and each strategy's metrics.
+    subsystems : list of Coach
+        Per coach: its local model's summary.
+    spectra : dict
+        Eigenvalues by label, as (real, imaginary) pairs [1/s].
+    families : dict
+        Per controller family: its design summary and checks.
+    frequency : dict
+        The frequency-domain data of the report's figures.
+    expected : dict
+        The scenario's ``[expected]`` statuses, check name to status.
+    unexpected : dict
+        Checks whose status differs from ``[expected]``: name to (expected, got).
+    environment : dict
+        Versions of Python, trainctl and its dependencies.
+    command : str
+        The command that saved the run.
+    timings : dict
+        Wall times of the run's parts [s].
+    """
 
     format: StrictStr
     source: StrictStr
@@ -162,6 +194,16 @@ class RunFile(_Closed):
 
 def text_digest(text: str) -> str:
     """SHA-256 (hex) of a scenario's text as saved (UTF-8).
+
+    Parameters
+    ----------
+    text : str
+        The scenario file's text.
+
+    Returns
+    -------
+    str
+        The digest, 64 hexadecimal digits.
 
     Examples
     --------

@@ -14,7 +14,7 @@ Sections:
    parameters and their values, seeds, whether the points were simulated;
    the table of points (in a closed ``<details>`` beyond
    :data:`POINTS_OPEN` points).
-2. *Design checks* and 3. *Metrics* — each check's status and value and
+2. *Design checks* and *Metrics* (two sections) — each check's status and value and
    each metric against the swept parameters (:mod:`trainctl.report.figures_sweep`):
    one parameter, lines (one per strategy; median and min–max band over
    seeds); two, heat maps (one per strategy); more than two, heat maps over
@@ -24,14 +24,14 @@ Sections:
    with the count of passing seeds). A sweep of seeds only draws against
    the seed. Columns constant over the sweep, or empty, are listed in one
    table instead of drawn.
-4. *Certificates against simulation* — each pair of :data:`CERTIFICATES`
+3. *Certificates against simulation* — each pair of :data:`CERTIFICATES`
    (a design check and the simulation outcome that tests its promise) whose
    columns the table has: the count table (predicted pass / warn / fail
    against simulated ok / not ok) and the certificate's verdict per cell
    (laid out as the heat maps above) with the simulated outcome
    marked (a row of cells for one parameter); then every check against
    ``metric.tracking_ok`` (tracking held in every simulated strategy).
-5. *Reproducibility* — the store, the command, versions.
+4. *Reproducibility* — the store, the command, versions.
 """
 
 from __future__ import annotations
@@ -100,7 +100,7 @@ STATUSES = ("pass", "warn", "fail")
 class Outcome:
     """A simulated outcome: a boolean metric column and the value that means "fine".
 
-    Attributes
+    Parameters
     ----------
     metric : str
         The metric's name (column ``metric.<metric>``).
@@ -128,7 +128,7 @@ class Outcome:
 class Certificate:
     """A design check and the simulation outcome that tests its promise.
 
-    Attributes
+    Parameters
     ----------
     check : str
         The check's name (columns ``check.<check>.status``/``.value``).
@@ -174,7 +174,7 @@ CERTIFICATES: tuple[Certificate, ...] = (
 class SweepReportData:
     """What the sweep report shows, read from a store.
 
-    Attributes
+    Parameters
     ----------
     name : str
         The store directory's name.
@@ -226,6 +226,16 @@ class SweepReportData:
 
 def default_sweep_report_path(store: str | os.PathLike[str]) -> Path:
     """Default output of ``trainctl report SWEEP_DIR``: ``SWEEP_DIR/report.html``.
+
+    Parameters
+    ----------
+    store : str or os.PathLike
+        The sweep store's directory.
+
+    Returns
+    -------
+    pathlib.Path
+        The report's path inside it.
 
     Examples
     --------

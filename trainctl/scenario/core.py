@@ -46,14 +46,26 @@ RESERVED_SECTIONS = ("report",)
 """Top-level sections reserved for later releases (rejected today)."""
 
 def model_check_names() -> tuple[str, ...]:
-    """The model-level checks, which need no controller."""
+    """The model-level checks, which need no controller.
+
+    Returns
+    -------
+    tuple of str
+        Their names, in the review's order.
+    """
     from ..analysis.review import MODEL_CHECK_NAMES
 
     return MODEL_CHECK_NAMES
 
 
 def check_statuses() -> tuple[str, ...]:
-    """The statuses a check may have (``[expected]`` values)."""
+    """The statuses a check may have (``[expected]`` values).
+
+    Returns
+    -------
+    tuple of str
+        The statuses, best first.
+    """
     from ..analysis.review import STATUSES
 
     return STATUSES
@@ -122,6 +134,16 @@ def strategy_names(families: Sequence[str] | None = None) -> tuple[str, ...]:
 
 def family_of(settings: object) -> str:
     """The family name of a settings object (its ``family`` or its registry type).
+
+    Parameters
+    ----------
+    settings : object
+        A controller family's settings.
+
+    Returns
+    -------
+    str
+        The family's registered name.
 
     Raises
     ------
@@ -224,6 +246,11 @@ class Scenario:
         a check of one of the scenario's families) to status (``"pass"``,
         ``"warn"`` or ``"fail"``), in file order; read-only, empty when the
         file has no ``[expected]``.
+    sweep : SweepDefinition or None
+        The parameter sweep of the ``[sweep]`` section
+        (:class:`trainctl.sweep.SweepDefinition`); None without one. It
+        does not change the scenario itself: its points are validated and
+        run by ``trainctl sweep``.
     source : str
         Where the scenario came from: the file path as given, ``"builtin:NAME"``
         or ``"<string>"`` (a scenario made by :meth:`replace` adds the change).
@@ -231,11 +258,6 @@ class Scenario:
         The TOML document the scenario was parsed from, read-only (tables as
         mappings, arrays as tuples); None for a scenario built in Python.
         :meth:`replace` edits a copy of it.
-    sweep : SweepDefinition or None
-        The parameter sweep of the ``[sweep]`` section
-        (:class:`trainctl.sweep.SweepDefinition`); None without one. It
-        does not change the scenario itself: its points are validated and
-        run by ``trainctl sweep``.
     tags : Mapping of str to str
         Where the file's values come from: file key path (``"model.speed_kmh"``,
         ``"train.vehicle[0].mass_t"``) or table path to the source tag of its

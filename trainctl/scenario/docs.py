@@ -186,13 +186,29 @@ def markdown_tables() -> dict[str, str]:
 
 
 def markdown_text() -> str:
-    """Every schema table between its README markers, one after the other."""
+    """Every schema table between its README markers, one after the other.
+
+    Returns
+    -------
+    str
+        The Markdown text of all tables.
+    """
     return "".join(f"<!-- schema:{name} -->\n{markdown}\n<!-- /schema:{name} -->\n\n"
                    for name, markdown in markdown_tables().items())
 
 
 def update_readme(text: str) -> str:
     """``text`` with every marked table replaced by the generated one.
+
+    Parameters
+    ----------
+    text : str
+        The README's text.
+
+    Returns
+    -------
+    str
+        The text with the tables brought up to date.
 
     Raises
     ------
@@ -204,7 +220,18 @@ def update_readme(text: str) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m trainctl.scenario.docs [--write] [README]``."""
+    """``python -m trainctl.scenario.docs [--write] [README]``.
+
+    Parameters
+    ----------
+    argv : sequence of str or None
+        The arguments (None: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        Exit status.
+    """
     parser = argparse.ArgumentParser(prog="python -m trainctl.scenario.docs",
                                      description="Print or rewrite the schema tables.")
     parser.add_argument("readme", nargs="?", default=str(README), help="the README to update")

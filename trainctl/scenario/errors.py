@@ -38,6 +38,16 @@ def _short(text: str, limit: int = 60) -> str:
 def got(value: Any) -> str:
     """Describe a TOML value for a ``(got ...)`` clause.
 
+    Parameters
+    ----------
+    value : object
+        The value found in the file.
+
+    Returns
+    -------
+    str
+        The value with its TOML type where that helps.
+
     Examples
     --------
     >>> got(True), got("20"), got([1, 2]), got(-1.0)
@@ -140,7 +150,22 @@ def _model_at(model: type[BaseModel] | None, loc: tuple[Any, ...]) -> type[BaseM
 
 
 def describe(violation: Violation, table: _Table, loc: tuple[Any, ...]) -> str:
-    """The message of a rule violation at ``loc`` of ``table`` (without the file)."""
+    """The message of a rule violation at ``loc`` of ``table`` (without the file).
+
+    Parameters
+    ----------
+    violation : Violation
+        What is wrong with the value.
+    table : mapping
+        The file table holding the value.
+    loc : tuple
+        The value's location in the table (keys and indices).
+
+    Returns
+    -------
+    str
+        The message, naming the key.
+    """
     parent = table.table_loc(loc)
     text = render_refs(violation.text, lambda name: table.ref(parent, name))
     shown = "" if violation.got is NOTHING and not violation.got_text else (

@@ -16,7 +16,9 @@ model) is its own file table.
 
 from __future__ import annotations
 
+import inspect
 import math
+import re
 import types
 import typing
 from collections.abc import Callable, Iterator, Mapping
@@ -39,6 +41,7 @@ from ..limits import in_unit
 
 __all__ = [
     "FileTable",
+    "parameters_section",
     "Section",
     "one_of_schema",
     "Target",
@@ -54,14 +57,105 @@ __all__ = [
 
 
 class FileTable(BaseModel):
-    """Base of every file table: unknown keys are errors."""
+    """Base of every file table: unknown keys are errors.
+
+    A subclass's docstring gets a Parameters section written from its keys'
+    :class:`~trainctl.declare.Key` declarations (:func:`parameters_section`),
+    so each key is described once, for the schema, the Markdown tables and
+    the API reference alike. A table's JSON Schema description stays the
+    first paragraph of its docstring.
+    """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
+
+    @classmethod
+    def __pydantic_init_subclass__(cls, **kwargs: Any) -> None:
+        """Append the Parameters section of the new table to its own docstring.
+
+        Parameters
+        ----------
+        **kwargs : dict
+            Class keywords, passed on to pydantic.
+        """
+        super().__pydantic_init_subclass__(**kwargs)
+        doc = cls.__dict__.get("__doc__")
+        section = parameters_section(cls)
+        if doc and section and "\nParameters\n" not in doc:
+            cls.__doc__ = f"{inspect.cleandoc(doc)}\n\n{section}"
+
+    @classmethod
+    def __get_pydantic_json_schema__(cls, core_schema: Any, handler: Any) -> Any:
+        """The schema pydantic makes, its description cut to the docstring's summary.
+
+        Parameters
+        ----------
+        core_schema : pydantic_core.CoreSchema
+            The table's core schema.
+        handler : pydantic.GetJsonSchemaHandler
+            pydantic's schema generator.
+
+        Returns
+        -------
+        dict
+            The table's JSON Schema.
+        """
+        json_schema = handler(core_schema)
+        target = handler.resolve_ref_schema(json_schema)
+        description = target.get("description")
+        if isinstance(description, str):
+            target["description"] = description.split("\n\n")[0]
+        return json_schema
+
+
+def _type_text(annotation: Any) -> str:
+    """A field's type as the API reference shows it, without module paths."""
+    text = annotation.__name__ if isinstance(annotation, type) else str(annotation)
+    return re.sub(r"\b(?:[A-Za-z_]\w*\.)+([A-Za-z_]\w*)", r"\1", text)
+
+
+def parameters_section(cls: type[BaseModel]) -> str:
+    """The numpydoc Parameters section of a file table, from its keys' declarations.
+
+    A field without a :class:`~trainctl.declare.Key` is left out (and so
+    shows as undocumented to a docstring check).
+
+    Parameters
+    ----------
+    cls : type
+        A file table (a pydantic model whose fields carry ``Key`` metadata).
+
+    Returns
+    -------
+    str
+        The section, "" when no field is declared.
+
+    Examples
+    --------
+    >>> from trainctl.scenario.tables import SectionTable
+    >>> print(parameters_section(SectionTable).splitlines()[2:4])
+    ['start : float', "    Where the section starts; it runs to the next section's start [m]."]
+    """
+    entries = []
+    for f in declared_fields(cls):
+        if f.key is None:
+            continue
+        optional = "" if f.required else ", optional"
+        entries.append(f"{f.name} : {_type_text(f.info.annotation)}{optional}\n"
+                       f"    {f.key.describe()}")
+    return "Parameters\n----------\n" + "\n".join(entries) + "\n" if entries else ""
 
 
 @dataclass(frozen=True)
 class Target:
-    """Metadata of a generated file field: the SI field it sets, and how."""
+    """Metadata of a generated file field: the SI field it sets, and how.
+
+    Parameters
+    ----------
+    field : str
+        The SI field of the settings class.
+    sets : mapping
+        How the file value becomes the SI value (converter and alternatives).
+    """
 
     field: str
     sets: Mapping[str, Any]
@@ -69,14 +163,33 @@ class Target:
 
 @dataclass(frozen=True)
 class Section:
-    """Metadata of a field that is a sub-table (``model``) or an array of them."""
+    """Metadata of a field that is a sub-table (``model``) or an array of them.
+
+    Parameters
+    ----------
+    model : type or None
+        The sub-table's model (None: checked by the section's own settings).
+    array : bool
+        An array of tables rather than one.
+    """
 
     model: type[BaseModel] | None
     array: bool = False
 
 
 def is_declared(cls: type) -> bool:
-    """True for a settings class whose fields carry :class:`Key` declarations."""
+    """True for a settings class whose fields carry :class:`Key` declarations.
+
+    Parameters
+    ----------
+    cls : type
+        Any class.
+
+    Returns
+    -------
+    bool
+        Whether it is a declared settings class (not itself a file table).
+    """
     return any(f.key is not None for f in declared_fields(cls)) and not issubclass_safe(
         cls, BaseModel
     )
@@ -88,7 +201,18 @@ def issubclass_safe(cls: Any, base: type) -> bool:
 
 
 def rule_of(f: DeclaredField) -> Rule | None:
-    """The rule of a field, also inside ``Annotated[...] | None``."""
+    """The rule of a field, also inside ``Annotated[...] | None``.
+
+    Parameters
+    ----------
+    f : DeclaredField
+        The field.
+
+    Returns
+    -------
+    Rule or None
+        Its rule, or None without one.
+    """
     return f.rule or _rule_in(f.info.annotation)
 
 
@@ -185,7 +309,18 @@ def _make(name: str, fields: dict[str, Any], doc: str) -> type[BaseModel]:
 
 
 def one_of_schema(*groups: tuple[str, ...]) -> dict[str, Any]:
-    """JSON Schema keywords: exactly one key of each group."""
+    """JSON Schema keywords: exactly one key of each group.
+
+    Parameters
+    ----------
+    *groups : tuple of str
+        Groups of alternative keys.
+
+    Returns
+    -------
+    dict
+        The keywords to merge into a table's schema.
+    """
     options = [{"oneOf": [{"required": [k]} for k in keys]} for keys in groups]
     return options[0] if len(options) == 1 else {"allOf": options}
 
@@ -215,6 +350,20 @@ def _one_of_check(keys: tuple[str, ...], hint: str) -> Any:
 
 def exactly_one(table: BaseModel, keys: tuple[str, ...], hint: str) -> str:
     """The one key of ``keys`` given in ``table`` (a violation otherwise).
+
+    Parameters
+    ----------
+    table : pydantic.BaseModel
+        The validated file table.
+    keys : tuple of str
+        The alternative keys.
+    hint : str
+        A sentence added to the message.
+
+    Returns
+    -------
+    str
+        The key given.
 
     Raises
     ------
@@ -301,7 +450,22 @@ def relocate(
 
 
 def file_loc(cls: type, loc: tuple[Any, ...], table: Mapping[str, Any]) -> tuple[Any, ...]:
-    """Map the location of an SI field of ``cls`` to its file key location."""
+    """Map the location of an SI field of ``cls`` to its file key location.
+
+    Parameters
+    ----------
+    cls : type
+        The settings class.
+    loc : tuple
+        The SI field's location (field names and indices).
+    table : mapping
+        The file table, which tells which alternative key was written.
+
+    Returns
+    -------
+    tuple
+        The location of the file key.
+    """
     if not loc or not is_declared(cls):
         return loc
     f = next((f for f in declared_fields(cls) if f.name == loc[0]), None)
@@ -327,7 +491,18 @@ def _models_in(annotation: Any) -> list[type[BaseModel]]:
 
 
 def table_kind(f: DeclaredField) -> str:
-    """``"table"``, ``"tables"`` (array of tables), ``"either"`` or ``"value"``."""
+    """``"table"``, ``"tables"`` (array of tables), ``"either"`` or ``"value"``.
+
+    Parameters
+    ----------
+    f : DeclaredField
+        A field of a file table.
+
+    Returns
+    -------
+    str
+        What the field holds in the file.
+    """
     section = next((m for m in f.info.metadata if isinstance(m, Section)), None)
     if section is not None:
         return "tables" if section.array else "table"
@@ -360,7 +535,20 @@ def sub_model(f: DeclaredField) -> type[BaseModel] | None:
 
 
 def field_at(model: type[BaseModel] | None, loc: tuple[Any, ...]) -> DeclaredField | None:
-    """The declared field at ``loc`` (file keys and indices) below ``model``."""
+    """The declared field at ``loc`` (file keys and indices) below ``model``.
+
+    Parameters
+    ----------
+    model : type or None
+        The file table's model.
+    loc : tuple
+        File keys and array indices.
+
+    Returns
+    -------
+    DeclaredField or None
+        The field, or None where ``loc`` leads to no declared field.
+    """
     found = None
     for part in loc:
         if isinstance(part, int):

@@ -12,7 +12,13 @@ _V = TypeVar("_V")
 
 
 class FrozenMapping(Mapping[str, _V], Generic[_V]):
-    """A read-only, hashable, picklable mapping with string keys, in insertion order."""
+    """A read-only, hashable, picklable mapping with string keys, in insertion order.
+
+    Parameters
+    ----------
+    items : mapping or iterable of (str, value) pairs
+        The content, copied.
+    """
 
     __slots__ = ("_data",)
     _data: dict[str, _V]

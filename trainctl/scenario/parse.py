@@ -69,6 +69,18 @@ MAX_TEXT_BYTES = 4 * 1024 * 1024
 def load_toml(text: str, source: str) -> dict[str, Any]:
     """The TOML document, or ScenarioError naming the syntax error (or the size or depth).
 
+    Parameters
+    ----------
+    text : str
+        The scenario file's text.
+    source : str
+        Where the text comes from, for messages.
+
+    Returns
+    -------
+    dict
+        The parsed document.
+
     Examples
     --------
     >>> try:
@@ -88,7 +100,15 @@ def load_toml(text: str, source: str) -> dict[str, Any]:
 
 
 def check_size(size: int, source: str) -> None:
-    """Refuse scenario text over :data:`MAX_TEXT_BYTES` bytes (ScenarioError)."""
+    """Refuse scenario text over :data:`MAX_TEXT_BYTES` bytes (ScenarioError).
+
+    Parameters
+    ----------
+    size : int
+        The text's size [bytes].
+    source : str
+        Where the text comes from, for the message.
+    """
     if size > MAX_TEXT_BYTES:
         raise ScenarioError(
             f"{source}: is too large for a scenario file (more than {MAX_TEXT_BYTES} bytes, "

@@ -463,7 +463,20 @@ def family_table(names: tuple[str, ...], default: str) -> type[FileTable]:
 
 
 def expected_table(checks: Mapping[str, str], statuses: tuple[str, ...]) -> type[FileTable]:
-    """The ``[expected]`` table: one optional status key per check (name -> doc)."""
+    """The ``[expected]`` table: one optional status key per check (name -> doc).
+
+    Parameters
+    ----------
+    checks : mapping
+        Check name to its documentation line.
+    statuses : tuple of str
+        The statuses a key may take.
+
+    Returns
+    -------
+    type
+        The table's model (made once per set of checks).
+    """
     return _expected_table(tuple(checks.items()), tuple(statuses))
 
 

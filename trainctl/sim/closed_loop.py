@@ -121,16 +121,6 @@ def simulate(
         the result's ``held_noise_square`` is, per sample, Σ n² of the values
         the controller held.
 
-    Notes
-    -----
-    A controller whose strategy iterates within a step (N-DMPC) may say how
-    far: its ``iteration_limit`` (most iterations per step) and
-    ``iteration_tolerance`` (the change, in the unit of its residuals, below
-    which a step has converged) are copied to ``meta["iteration_limit"]``
-    and ``meta["iteration_tolerance"]`` (both None when it has none), from
-    which :func:`~trainctl.sim.compute_metrics` counts the steps that
-    stopped at the limit.
-
     Returns
     -------
     SimulationResult
@@ -143,6 +133,16 @@ def simulate(
         On invalid settings (duration not a multiple of dt, negative noise, ...).
     DimensionError
         When the initial state or a controller's inputs have the wrong shape.
+
+    Notes
+    -----
+    A controller whose strategy iterates within a step (N-DMPC) may say how
+    far: its ``iteration_limit`` (most iterations per step) and
+    ``iteration_tolerance`` (the change, in the unit of its residuals, below
+    which a step has converged) are copied to ``meta["iteration_limit"]``
+    and ``meta["iteration_tolerance"]`` (both None when it has none), from
+    which :func:`~trainctl.sim.compute_metrics` counts the steps that
+    stopped at the limit.
 
     Examples
     --------

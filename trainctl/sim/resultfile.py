@@ -40,7 +40,27 @@ RESULT_HINT = (" The saved result was edited or damaged; write it again with "
 
 
 class ResultFile(BaseModel):
-    """``result.json``: everything of a result except its arrays."""
+    """``result.json``: everything of a result except its arrays.
+
+    Parameters
+    ----------
+    format : str
+        The file format's name and version.
+    controller_name : str
+        The controller's name.
+    seed : int
+        Seed of the measurement-noise generator.
+    dt : float
+        Sample time [s], > 0.
+    statuses : list of str
+        Step status per sample.
+    fallbacks : list of str
+        Fallback applied per sample ("" when none).
+    residuals : list of list of float
+        Iteration residuals per sample [kN].
+    meta : dict
+        The result's JSON-safe extras.
+    """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 

@@ -145,11 +145,6 @@ class SimulationResult(ResultViews):
         limit (the request cut to it, or asking for it), -1 at the braking
         limit, 0 elsewhere (:class:`~trainctl.models.ActuatorLimits`), shape
         (n, N); None: zeros. ``requested_inputs != inputs`` shows the cuts.
-    held_noise_square : ndarray or None
-        Per sample: Σ over the network's links of the squared noise of the
-        value the controller held during it (its unit squared, (m/s)² for
-        speeds; :meth:`trainctl.network.MessageLog.held_noise_square`),
-        shape (N,); None: zeros (no network).
     dense_time : ndarray or None
         The dense grid [s], strictly increasing, shape (D,), holding every
         sample instant; None: the samples (``time``).
@@ -161,6 +156,11 @@ class SimulationResult(ResultViews):
     dense_reference_speed : ndarray or None
         Reference speed on the dense grid [m/s], shape (D,); None:
         ``reference_speed``.
+    held_noise_square : ndarray or None
+        Per sample: Σ over the network's links of the squared noise of the
+        value the controller held during it (its unit squared, (m/s)² for
+        speeds; :meth:`trainctl.network.MessageLog.held_noise_square`),
+        shape (N,); None: zeros (no network).
 
     Examples
     --------

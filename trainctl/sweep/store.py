@@ -73,7 +73,18 @@ _PARTIAL = ".partial-"
 
 
 def is_sweep_store(path: str | os.PathLike[str]) -> bool:
-    """True when ``path`` is a directory holding a sweep manifest."""
+    """True when ``path`` is a directory holding a sweep manifest.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A path given to ``trainctl report``.
+
+    Returns
+    -------
+    bool
+        Whether it is a sweep store.
+    """
     return (Path(path) / MANIFEST).is_file()
 
 
@@ -112,7 +123,7 @@ def sweep_fingerprint(points: Sequence[SweepPoint], keys: Sequence[str], simulat
 class SweepStore:
     """An open sweep store (module docstring); make one with :meth:`open` or :meth:`load`.
 
-    Attributes
+    Parameters
     ----------
     path : pathlib.Path
         The store's directory.

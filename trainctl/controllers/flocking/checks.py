@@ -81,7 +81,8 @@ def flocking_checks(design: FlockingDesign) -> list[Check]:
     Returns
     -------
     list of Check
-        parameters, closed loop, sampling, collision, connectivity, actuators.
+        The checks parameters, closed loop, sampling, collision, connectivity
+        and actuators.
     """
     energy = initial_energy(design)
     return [parameters_check(design), closed_loop_check(design),
@@ -100,7 +101,18 @@ def initial_errors(design: FlockingDesign) -> tuple[Array, Array, Array]:
 
 
 def initial_energy(design: FlockingDesign) -> float | None:
-    """H(0) [m²/s²] of the scenario's initial errors; None when a gap starts negative."""
+    """H(0) [m²/s²] of the scenario's initial errors; None when a gap starts negative.
+
+    Parameters
+    ----------
+    design : FlockingDesign
+        The family's design, with the scenario's initial state.
+
+    Returns
+    -------
+    float or None
+        The initial energy per unit mass [m²/s²], or None.
+    """
     v, z, x = initial_errors(design)
     if np.any(design.law.gaps(z) < 0.0):
         return None

@@ -142,7 +142,8 @@ def design_flocking(scenario: Scenario, model: DesignModel, settings: Any) -> Fl
     ------
     ScenarioError
         If the simulation's duration is not a whole multiple of the control
-        interval, or the formation cannot carry the law (:func:`~.law.law_of`).
+        interval, or the formation cannot carry the law
+        (:func:`~trainctl.controllers.flocking.law.law_of`).
 
     Examples
     --------

@@ -129,7 +129,8 @@ class FlockingLaw:
         Returns
         -------
         ndarray
-            s_ij = Σ_{k=i}^{j-1} s_k + Σ_{k=i+1}^{j-1} L_k for i < j, symmetric, 0 diagonal.
+            The gaps s_ij = Σ_{k=i}^{j-1} s_k + Σ_{k=i+1}^{j-1} L_k for i < j, symmetric,
+            0 diagonal.
         """
         head = -np.concatenate([[0.0], np.cumsum(self.length[:-1] + gaps)])
         tail = head - self.length
@@ -301,7 +302,7 @@ def closed_loop_matrices(model: DesignModel, law: FlockingLaw) -> tuple[Array, A
     Returns
     -------
     (A_open, B_open, A_cl) : ndarray
-        ξ̇ = A_open ξ + B_open û (û [N]) on ξ = [v̂, z, p], shapes (2n, 2n)
+        The loop ξ̇ = A_open ξ + B_open û (û [N]) on ξ = [v̂, z, p], shapes (2n, 2n)
         and (2n, n); A_cl = A_open + B_open F [1/s].
     """
     sys = model.observer_model()

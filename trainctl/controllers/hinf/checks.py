@@ -116,7 +116,18 @@ def hinf_checks(design: HinfDesign) -> list[Check]:
 
 
 def closed_loop_check(design: HinfDesign) -> Check:
-    """Hurwitz test of the delay-free continuous loop."""
+    """Hurwitz test of the delay-free continuous loop.
+
+    Parameters
+    ----------
+    design : HinfDesign
+        The family's design.
+
+    Returns
+    -------
+    Check
+        The named check of the closed loop's stability, with its status, value and hint.
+    """
     spectrum = closed_loop_spectrum(design.loops.A_cl)
     lam = spectrum.eigenvalues
     alpha = float(max(lam.real))
@@ -145,7 +156,18 @@ def closed_loop_check(design: HinfDesign) -> Check:
 
 
 def sampling_check(design: HinfDesign) -> Check:
-    """ω_max·T_c against 0.1 rad; the held loop's spectral radius."""
+    """ω_max·T_c against 0.1 rad; the held loop's spectral radius.
+
+    Parameters
+    ----------
+    design : HinfDesign
+        The family's design.
+
+    Returns
+    -------
+    Check
+        The named check of sampling, with its status, value and hint.
+    """
     return shared_sampling_check("hinf_sampling", design.loops.A_cl,
                                  design.sampled_matrix(), design.control_interval)
 
@@ -164,7 +186,18 @@ def _bound_text(design: HinfDesign, margin: float) -> str:
 
 
 def delay_check(design: HinfDesign) -> Check:
-    """The full loop's delay margin against the ``[network]`` worst-case delay."""
+    """The full loop's delay margin against the ``[network]`` worst-case delay.
+
+    Parameters
+    ----------
+    design : HinfDesign
+        The family's design.
+
+    Returns
+    -------
+    Check
+        The named check of the delay margin, with its status, value and hint.
+    """
     name = "hinf_delay_margin"
     res = design.delay
     margin = res.margin
@@ -208,7 +241,18 @@ def delay_check(design: HinfDesign) -> Check:
 
 
 def connectivity_check(design: HinfDesign) -> Check:
-    """Joint connectivity after every interruption window of ``[network]``."""
+    """Joint connectivity after every interruption window of ``[network]``.
+
+    Parameters
+    ----------
+    design : HinfDesign
+        The family's design.
+
+    Returns
+    -------
+    Check
+        The named check of connectivity, with its status, value and hint.
+    """
     name = "hinf_connectivity"
     windows = design.connectivity
     unreached = design.graph.unreached()
@@ -263,7 +307,18 @@ def _near(x: float) -> str:
 
 
 def gamma_check(design: HinfDesign) -> Check:
-    """The certified γ of the gains in use against 1, per group, with the independent norms."""
+    """The certified γ of the gains in use against 1, per group, with the independent norms.
+
+    Parameters
+    ----------
+    design : HinfDesign
+        The family's design.
+
+    Returns
+    -------
+    Check
+        The named check of the certified γ, with its status, value and hint.
+    """
     name = "hinf_gamma"
     res = design.gamma
     s = design.settings

@@ -15,7 +15,7 @@ where
   speed vehicle i has received over the network (noise included, held
   during outages and after losses: :class:`trainctl.network.Network`), and
   t_i0, t_ij the times at which they were sent;
-- v_i(t_··) is vehicle i's own measured speed at that send time, from its
+- ``v_i(t_··)`` is vehicle i's own measured speed at that send time, from its
   record of its own measurements (``own_speed = "delayed"``: spec §4.2's
   β(v_i(t − τ), v_j(t − τ)) with β linear, β′ ≡ 1, so that both sides of
   each difference are equally old), or its measured speed now

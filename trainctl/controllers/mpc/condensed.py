@@ -16,7 +16,7 @@ what every such problem needs, whatever the model:
   is split among several optimisers, enter through the coupling maps Ko, Fo);
 - :func:`block_parameters` — the per-step parameters of a list of blocks.
 
-The MPC core (:mod:`.linear`) is one block over the whole plan; the train
+The MPC core (:mod:`trainctl.controllers.mpc.linear`) is one block over the whole plan; the train
 MPC (:mod:`.problem`) is one block per optimiser of its strategy.
 """
 
@@ -72,6 +72,20 @@ class MoveMaps:
 def move_maps(n_inputs: int, control_horizon: int, form: str) -> MoveMaps:
     """The :class:`MoveMaps` of nu inputs over M moves in the u- or Δu-form.
 
+    Parameters
+    ----------
+    n_inputs : int
+        nu, the number of inputs.
+    control_horizon : int
+        M, the number of moves.
+    form : {"u", "du"}
+        Whether the plan holds the inputs or their increments.
+
+    Returns
+    -------
+    MoveMaps
+        The maps from the plan to the inputs and the shift of a plan.
+
     Examples
     --------
     >>> maps = move_maps(1, 3, "du")
@@ -92,6 +106,18 @@ def shifted(maps: MoveMaps, plan: Array | None) -> Array:
     """The previous plan shifted by one move (u-form: last move repeated; Δu-form: zero).
 
     None (no previous plan) gives zeros.
+
+    Parameters
+    ----------
+    maps : MoveMaps
+        The plan's maps (:func:`move_maps`).
+    plan : ndarray or None
+        The previous plan, or None.
+
+    Returns
+    -------
+    ndarray
+        The starting plan of the next sample.
     """
     n, M = maps.n_inputs, maps.control_horizon
     if plan is None:
@@ -159,6 +185,35 @@ class QPBlock:
     every solver datum comes from one parameter); it is then stored as
     ``pick`` and ``scale``, with J·clip(source[gather]) =
     scale·clip(source)[pick], the same numbers without the dense product.
+
+    Parameters
+    ----------
+    inputs : tuple of int
+        The inputs (coaches) the block decides for.
+    cols : ndarray of int
+        Their columns in the decision vector.
+    Kc : ndarray
+        Map from the free response e to g.
+    Ko : ndarray or None
+        Kc G with the block's own columns zeroed: the other moves into g.
+    Fo : ndarray or None
+        The soft rows of the plan, own columns zeroed.
+    Jo : ndarray or None
+        Fast path: the solver data's sensitivity to U.
+    qp : ParametricQP
+        The block's QP.
+    params : dict
+        Positions of g, lb, ub, hl and hu in the source vector.
+    gather : ndarray of int
+        The QP's parameters (its map's columns) in the source vector.
+    J : ndarray or None
+        Fast path: the data's sensitivity to those parameters.
+    offset : ndarray or None
+        Fast path: the data at zero parameters.
+    pick : ndarray of int or None
+        Fast path with J a scaled selection: the source entry of each datum.
+    scale : ndarray or None
+        The factor of each picked entry (0 for constant data).
     """
 
     inputs: tuple[int, ...]          # the inputs (coaches) it decides for

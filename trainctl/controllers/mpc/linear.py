@@ -106,6 +106,19 @@ class LinearMPC:
 
     Build it with :func:`make_linear_mpc`; call :meth:`solve` every sample.
 
+    Parameters
+    ----------
+    sysd : control.StateSpace
+        The discrete model.
+    settings : CoreSettings
+        The validated weights, horizons, form, bounds and soft groups.
+    path : {"fast", "cvxpy"}
+        QP solve path.
+    name : str
+        Label of the QP and of error messages.
+    qp_solver : {"osqp", "daqp", "auto"}
+        QP solver of the fast path.
+
     Attributes
     ----------
     sys : control.StateSpace
@@ -307,6 +320,17 @@ class LinearMPCController:
     ``reference`` argument of :meth:`step` (the
     train's speed preview) is ignored: the output reference is fixed when the
     controller is built. Build it with :meth:`LinearMPC.controller`.
+
+    Parameters
+    ----------
+    mpc : LinearMPC
+        The MPC solved every step.
+    reference : array_like or None
+        Output reference, fixed for every step.
+    initial_input : array_like or None
+        u(k-1) before the first step (None: zeros).
+    name : str or None
+        Label (None: the MPC's name).
     """
 
     def __init__(self, mpc: LinearMPC, *, reference: ArrayLike | None,

@@ -197,8 +197,11 @@ class LocalTrainProblem(TrainProblem):
 
     # -- one step -----------------------------------------------------------------------------
     def sources(self, ctx: StepContext) -> Array:
-        """Every coach's QP parameters at ξ = 0 (layout of :class:`TrainProblem`, then per coach
-        g, hl, hu); also stores the free response of each coach's own states."""
+        """Every coach's QP parameters at ξ = 0; stores each coach's own free response too.
+
+        The layout is that of :class:`TrainProblem`, then per coach g, hl and
+        hu.
+        """
         fill_move_sources(self, ctx)
         x, up = ctx.x, ctx.u_dev_prev
         src = self._src
@@ -232,8 +235,11 @@ class LocalTrainProblem(TrainProblem):
         self._X = None
 
     def initial_trajectories(self) -> Array:
-        """The exchanged trajectories to start from: the last ones shifted by one sample
-        (the last sample repeated), or the measured state held at the first step."""
+        """The exchanged trajectories to start from.
+
+        The last ones shifted by one sample (the last sample repeated), or the
+        measured state held at the first step.
+        """
         nx, fine, N = self.nx, self.P * self.N, self.N
         if self._X is None:
             return np.tile(self._x, fine)
@@ -281,7 +287,17 @@ class LocalTrainProblem(TrainProblem):
 
 @dataclass(frozen=True)
 class LocalNDMPC(_PerCoach):
-    """Neighbourhood-local N-DMPC: relaxed Jacobi on plans and exchanged trajectories."""
+    """Neighbourhood-local N-DMPC: relaxed Jacobi on plans and exchanged trajectories.
+
+    Parameters
+    ----------
+    max_iterations : int
+        Largest number of Jacobi iterations per step.
+    tolerance : float
+        Convergence tolerance on the change of the plans.
+    relaxation : float
+        Relaxation factor ω in (0, 1].
+    """
 
     max_iterations: int
     tolerance: float
@@ -289,10 +305,12 @@ class LocalNDMPC(_PerCoach):
     name = "ndmpc-local"
 
     def members(self, inputs: tuple[int, ...], design: MPCDesign) -> tuple[int, ...]:
+        """The coach's neighbourhood."""
         return design.neighbourhoods[inputs[0]]
 
     def plan(self, problem: object, params: Sequence[BlockParameters], plan0: Array,
              fallback: FallbackPlan) -> PlanResult:
+        """Relaxed Jacobi iterations on the local problem's plans and trajectories."""
         if not isinstance(problem, LocalTrainProblem):
             raise TypeError("ndmpc-local plans on a LocalTrainProblem.")
         return problem.iterate(params, plan0, fallback, max_iterations=self.max_iterations,

@@ -27,7 +27,18 @@ _WEIGHT_SUM_TOL = 1e-9
 
 
 def coaches(info: ValidationInfo | None) -> int | None:
-    """The number of coaches from the validation context, if known."""
+    """The number of coaches from the validation context, if known.
+
+    Parameters
+    ----------
+    info : pydantic.ValidationInfo or None
+        The validation info, whose context may name the train.
+
+    Returns
+    -------
+    int or None
+        The number of coaches, or None without a context.
+    """
     context = info.context if info is not None else None
     return context.get("n_coaches") if isinstance(context, dict) else None
 

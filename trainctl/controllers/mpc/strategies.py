@@ -125,16 +125,20 @@ class Centralised:
     name = "centralised"
 
     def block_inputs(self, n: int) -> list[tuple[int, ...]]:
+        """One block deciding for every input."""
         return [tuple(range(n))]
 
     def members(self, inputs: tuple[int, ...], design: MPCDesign) -> tuple[int, ...]:
+        """Every coach: the block's cost is the whole train's."""
         return tuple(range(design.n_inputs))
 
     def couplers(self, inputs: tuple[int, ...], n_couplers: int) -> list[int]:
+        """Every coupler."""
         return list(range(n_couplers))
 
     def plan(self, problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
              fallback: FallbackPlan) -> PlanResult:
+        """One solve of the single block gives the plan."""
         return solve_once(problem, params, plan0, fallback)
 
 
@@ -144,16 +148,28 @@ class Decentralised(_PerCoach):
     name = "decentralised"
 
     def members(self, inputs: tuple[int, ...], design: MPCDesign) -> tuple[int, ...]:
+        """The block's own coach only."""
         return inputs
 
     def plan(self, problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
              fallback: FallbackPlan) -> PlanResult:
+        """One solve per block, the others' moves at their feedforward."""
         return solve_once(problem, params, plan0, fallback)
 
 
 @dataclass(frozen=True)
 class NDMPC(_PerCoach):
-    """Neighbourhood optimisation, relaxed Jacobi iterations (relaxation ω in (0, 1])."""
+    """Neighbourhood optimisation, relaxed Jacobi iterations (relaxation ω in (0, 1]).
+
+    Parameters
+    ----------
+    max_iterations : int
+        Largest number of Jacobi iterations per step.
+    tolerance : float
+        Convergence tolerance on the change of the plans.
+    relaxation : float
+        Relaxation factor ω in (0, 1].
+    """
 
     max_iterations: int
     tolerance: float
@@ -161,10 +177,12 @@ class NDMPC(_PerCoach):
     name = "ndmpc"
 
     def members(self, inputs: tuple[int, ...], design: MPCDesign) -> tuple[int, ...]:
+        """The coach's neighbourhood."""
         return design.neighbourhoods[inputs[0]]
 
     def plan(self, problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
              fallback: FallbackPlan) -> PlanResult:
+        """Relaxed Jacobi iterations over the blocks until the plans settle."""
         weights = [self.relaxation] * len(problem.blocks)
         return jacobi(problem, params, plan0, fallback, weights=weights,
                       max_iterations=self.max_iterations, tolerance=self.tolerance)
@@ -172,7 +190,17 @@ class NDMPC(_PerCoach):
 
 @dataclass(frozen=True)
 class Cooperative(_PerCoach):
-    """Every coach over the whole-train cost; convex combination with weights w."""
+    """Every coach over the whole-train cost; convex combination with weights w.
+
+    Parameters
+    ----------
+    max_iterations : int
+        Largest number of iterations per step.
+    tolerance : float
+        Convergence tolerance on the change of the plans.
+    weights : ndarray
+        The combination weight w_i of each coach, summing to 1.
+    """
 
     max_iterations: int
     tolerance: float
@@ -180,10 +208,12 @@ class Cooperative(_PerCoach):
     name = "cooperative"
 
     def members(self, inputs: tuple[int, ...], design: MPCDesign) -> tuple[int, ...]:
+        """Every coach: each block weighs the whole-train cost."""
         return tuple(range(design.n_inputs))
 
     def plan(self, problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
              fallback: FallbackPlan) -> PlanResult:
+        """Jacobi iterations combining the blocks' plans with the weights w."""
         weights = [self.weights[block.inputs[0]] for block in problem.blocks]
         return jacobi(problem, params, plan0, fallback, weights=weights,
                       max_iterations=self.max_iterations, tolerance=self.tolerance)
@@ -191,7 +221,26 @@ class Cooperative(_PerCoach):
 
 def make_strategy(name: str, *, max_iterations: int, tolerance: float, relaxation: float,
                   weights: Array) -> Strategy:
-    """The strategy called ``name`` (one of :data:`~.settings.STRATEGIES`)."""
+    """The strategy called ``name`` (one of :data:`~.settings.STRATEGIES`).
+
+    Parameters
+    ----------
+    name : str
+        The strategy's name.
+    max_iterations : int
+        Largest number of iterations per step (iterating strategies).
+    tolerance : float
+        Convergence tolerance (iterating strategies).
+    relaxation : float
+        Relaxation factor ω in (0, 1] (N-DMPC).
+    weights : ndarray
+        Combination weights of the coaches (cooperative DMPC).
+
+    Returns
+    -------
+    Strategy
+        The strategy, with the settings it uses.
+    """
     if name == "centralised":
         return Centralised()
     if name == "decentralised":

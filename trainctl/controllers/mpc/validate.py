@@ -35,7 +35,31 @@ SOFT_PENALTY = (1e3, 1e2)
 
 @dataclass(frozen=True, kw_only=True)
 class CoreSettings:
-    """Validated arguments of :func:`~.linear.make_linear_mpc` (see there)."""
+    """Validated arguments of :func:`~.linear.make_linear_mpc` (see there).
+
+    Parameters
+    ----------
+    A, B, C : ndarray
+        The discrete model's matrices.
+    dt : float
+        Its sample time [s].
+    Q : ndarray
+        Output weight (ny, ny).
+    R : ndarray
+        Plan weight (nu, nu).
+    Qf : ndarray or None
+        Terminal state weight (nx, nx), or None.
+    P : int
+        Prediction horizon [samples].
+    M : int
+        Control horizon [moves].
+    form : {"u", "du"}
+        The decision.
+    bounds : dict
+        Per group (``"u"``, ``"du"``, ``"x"``, ``"y"``): the (lower, upper) vectors.
+    soft : dict
+        Per group: None (hard) or the (linear, quadratic) slack penalties.
+    """
 
     A: Array
     B: Array
@@ -56,7 +80,20 @@ _DISCRETISE = ("Discretise it first, e.g. control.sample_system(sys, T) or "
 
 
 def check_system(where: str, sysd: object) -> tuple[Array, Array, Array, float]:
-    """(A, B, C, dt) of a discrete, strictly proper ``control.StateSpace``."""
+    """(A, B, C, dt) of a discrete, strictly proper ``control.StateSpace``.
+
+    Parameters
+    ----------
+    where : str
+        The caller's name, for error messages.
+    sysd : object
+        The model given.
+
+    Returns
+    -------
+    tuple
+        The matrices A, B, C and the sample time dt [s].
+    """
     if not isinstance(sysd, ct.StateSpace):
         raise TypeError(f"{where}: 'sysd' must be a discrete control.StateSpace (got "
                         f"{type(sysd).__name__}). Build one with control.ss(A, B, C, 0, dt=T).")
@@ -83,7 +120,22 @@ def check_system(where: str, sysd: object) -> tuple[Array, Array, Array, float]:
 
 def check_horizons(where: str, prediction_horizon: object,
                    control_horizon: object | None) -> tuple[int, int]:
-    """(P, M) as ints with 1 <= M <= P (M = P when None)."""
+    """(P, M) as ints with 1 <= M <= P (M = P when None).
+
+    Parameters
+    ----------
+    where : str
+        The caller's name, for error messages.
+    prediction_horizon : object
+        P as given.
+    control_horizon : object or None
+        M as given, or None.
+
+    Returns
+    -------
+    tuple of int
+        The horizons (P, M).
+    """
     P = _int(where, "prediction_horizon", prediction_horizon)
     if P < 1:
         raise ModelError(f"{where}: 'prediction_horizon' must be an int >= 1 (got {P}).")
@@ -116,7 +168,26 @@ def _array(where: str, name: str, value: object) -> Array:
 
 
 def as_weight(where: str, name: str, value: ArrayLike, n: int, what: str) -> Array:
-    """An (n, n) symmetric positive semidefinite weight from a scalar, a diagonal or a matrix."""
+    """An (n, n) symmetric positive semidefinite weight from a scalar, a diagonal or a matrix.
+
+    Parameters
+    ----------
+    where : str
+        The caller's name, for error messages.
+    name : str
+        The argument's name.
+    value : array_like
+        The weight given.
+    n : int
+        The size wanted.
+    what : str
+        What the weighted entries are, for messages.
+
+    Returns
+    -------
+    ndarray
+        The weight matrix, shape (n, n).
+    """
     arr = _array(where, name, value)
     if arr.ndim == 0:
         arr = float(arr) * np.eye(n)
@@ -141,7 +212,26 @@ def as_weight(where: str, name: str, value: ArrayLike, n: int, what: str) -> Arr
 
 
 def as_vector(where: str, name: str, value: ArrayLike, n: int, what: str) -> Array:
-    """A length-n float vector from a length-n sequence or column (finite entries)."""
+    """A length-n float vector from a length-n sequence or column (finite entries).
+
+    Parameters
+    ----------
+    where : str
+        The caller's name, for error messages.
+    name : str
+        The argument's name.
+    value : array_like
+        The vector given.
+    n : int
+        The length wanted.
+    what : str
+        What the entries are, for messages.
+
+    Returns
+    -------
+    ndarray
+        The vector, shape (n,).
+    """
     arr = _array(where, name, value)
     if arr.shape == (n, 1):
         arr = arr[:, 0]
@@ -155,7 +245,28 @@ def as_vector(where: str, name: str, value: ArrayLike, n: int, what: str) -> Arr
 
 def as_bound(where: str, name: str, value: ArrayLike | None, n: int, what: str,
              fill: float) -> Array:
-    """A length-n bound from None (``fill``), a scalar or a vector; ±inf allowed."""
+    """A length-n bound from None (``fill``), a scalar or a vector; ±inf allowed.
+
+    Parameters
+    ----------
+    where : str
+        The caller's name, for error messages.
+    name : str
+        The argument's name.
+    value : array_like or None
+        The bound given.
+    n : int
+        The length wanted.
+    what : str
+        What the entries are, for messages (e.g. "inputs").
+    fill : float
+        The value of a bound not given (±inf).
+
+    Returns
+    -------
+    ndarray
+        The bound, shape (n,).
+    """
     if value is None:
         return np.full(n, fill)
     arr = _array(where, name, value)
@@ -179,7 +290,22 @@ def check_order(where: str, lower: tuple[str, Array], upper: tuple[str, Array]) 
 
 def as_soft(where: str, soft: Mapping[str, object] | None,
             bounded: Mapping[str, bool]) -> dict[str, tuple[float, float] | None]:
-    """Per bound group: None (hard) or the (linear, quadratic) penalty of its slack."""
+    """Per bound group: None (hard) or the (linear, quadratic) penalty of its slack.
+
+    Parameters
+    ----------
+    where : str
+        The caller's name, for error messages.
+    soft : mapping or None
+        The soft groups given: True or a (linear, quadratic) pair each.
+    bounded : mapping
+        Per group, whether it has any finite bound.
+
+    Returns
+    -------
+    dict
+        Per group: None or the (w1, w2) penalties.
+    """
     out: dict[str, tuple[float, float] | None] = dict.fromkeys(BOUND_GROUPS)
     for key, value in (soft or {}).items():
         if key not in BOUND_GROUPS:
@@ -211,7 +337,34 @@ def core_settings(where: str, sysd: object, *, Q: ArrayLike, R: ArrayLike, P: ob
                   M: object | None, Qf: ArrayLike | None, form: str,
                   bounds: Mapping[str, tuple[ArrayLike | None, ArrayLike | None]],
                   soft: Mapping[str, object] | None) -> CoreSettings:
-    """Validate the arguments of :func:`~.linear.make_linear_mpc`."""
+    """Validate the arguments of :func:`~.linear.make_linear_mpc`.
+
+    Parameters
+    ----------
+    where : str
+        The caller's name, for error messages.
+    sysd : object
+        The discrete model.
+    Q, R : array_like
+        Output and plan weights.
+    P : object
+        Prediction horizon.
+    M : object or None
+        Control horizon (None: P).
+    Qf : array_like or None
+        Terminal state weight.
+    form : str
+        ``"u"`` or ``"du"``.
+    bounds : mapping
+        Per group, the (lower, upper) bounds given.
+    soft : mapping or None
+        The soft groups given.
+
+    Returns
+    -------
+    CoreSettings
+        The validated settings.
+    """
     A, B, C, dt = check_system(where, sysd)
     (nx, nu), ny = B.shape, C.shape[0]
     P, M = check_horizons(where, P, M)

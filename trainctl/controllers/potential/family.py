@@ -159,7 +159,8 @@ def design_potential(scenario: Scenario, model: DesignModel, settings: Any) -> P
     ------
     ScenarioError
         If the simulation's duration is not a whole multiple of the control
-        interval, or the train cannot carry the law (:func:`~.law.law_of`).
+        interval, or the train cannot carry the law
+        (:func:`~trainctl.controllers.potential.law.law_of`).
 
     Examples
     --------

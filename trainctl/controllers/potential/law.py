@@ -156,7 +156,8 @@ class PotentialLaw:
         Returns
         -------
         ndarray
-            û [N], shape (n,); NaN where the potential is undefined (a barrier crossed).
+            The forces û [N], shape (n,); NaN where the potential is undefined (a
+            barrier crossed).
         """
         grad = np.asarray(self.potential.gradient(np.asarray(z, dtype=float)), dtype=float)
         damping = self.speed_gain * v_err + self.consensus_laplacian() @ v_err
@@ -214,7 +215,7 @@ def closed_loop_matrices(model: DesignModel, law: PotentialLaw) -> tuple[Array, 
     Returns
     -------
     (A_open, B_open, A_cl) : ndarray
-        ξ̇ = A_open ξ + B_open û (û [N]) on ξ = [v̂, z, p], shapes (2n, 2n) and
+        The loop ξ̇ = A_open ξ + B_open û (û [N]) on ξ = [v̂, z, p], shapes (2n, 2n) and
         (2n, n); A_cl = A_open + B_open F [1/s].
     """
     sys = model.observer_model()

@@ -60,7 +60,18 @@ def synchronous_checks(design: SynchronousDesign) -> list[Check]:
 
 
 def closed_loop_check(design: SynchronousDesign) -> Check:
-    """Hurwitz test of the delay-free continuous loop."""
+    """Hurwitz test of the delay-free continuous loop.
+
+    Parameters
+    ----------
+    design : SynchronousDesign
+        The family's design.
+
+    Returns
+    -------
+    Check
+        The named check of the closed loop's stability, with its status, value and hint.
+    """
     spectrum = closed_loop_spectrum(design.loops.A_cl)
     lam = spectrum.eigenvalues
     alpha = float(max(lam.real))
@@ -79,13 +90,35 @@ def closed_loop_check(design: SynchronousDesign) -> Check:
 
 
 def sampling_check(design: SynchronousDesign) -> Check:
-    """ω_max·T_c against 0.1 rad; the held loop's spectral radius."""
+    """ω_max·T_c against 0.1 rad; the held loop's spectral radius.
+
+    Parameters
+    ----------
+    design : SynchronousDesign
+        The family's design.
+
+    Returns
+    -------
+    Check
+        The named check of sampling, with its status, value and hint.
+    """
     return shared_sampling_check("synchronous_sampling", design.loops.A_cl,
                                  design.sampled_matrix(), design.control_interval)
 
 
 def delay_check(design: SynchronousDesign) -> Check:
-    """The relay's delay margin against the ``[network]`` worst-case delay."""
+    """The relay's delay margin against the ``[network]`` worst-case delay.
+
+    Parameters
+    ----------
+    design : SynchronousDesign
+        The family's design.
+
+    Returns
+    -------
+    Check
+        The named check of the delay margin, with its status, value and hint.
+    """
     name = "synchronous_delay_margin"
     res = design.delay
     margin = res.margin

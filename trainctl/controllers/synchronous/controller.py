@@ -52,6 +52,9 @@ class SynchronousController:
         Clip each force to the vehicle's envelope at its measured speed.
     name : str
         Label.
+    relay_factory : callable or None
+        Makes a fresh relay from a run's ``[network]`` settings and seed when
+        the controller is reset for that run (None: ``relay`` is reseeded).
 
     Examples
     --------

@@ -192,7 +192,8 @@ def design_synchronous(scenario: Scenario, model: DesignModel,
     ------
     ScenarioError
         If the simulation's duration is not a whole multiple of the control
-        interval, or the train cannot carry the law (:func:`~.law.law_of`).
+        interval, or the train cannot carry the law
+        (:func:`~trainctl.controllers.synchronous.law.law_of`).
 
     Examples
     --------

@@ -95,6 +95,8 @@ class SynchronousLaw:
         κ [1/s].
     lead : int
         Index ℓ of the lead locomotive (0-based).
+    line : Track or None
+        The line whose resistance the lead feeds forward (None: not fed forward).
 
     Examples
     --------
@@ -217,6 +219,20 @@ class SynchronousLaw:
 
 def own_resistance(mass: Array, davis: Array, speeds: ArrayLike) -> Array:
     """R_i(v_i) = m_i (a0_i + a1_i v_i + a2_i v_i²) [N]: each vehicle's Davis resistance.
+
+    Parameters
+    ----------
+    mass : ndarray
+        Masses m_i [kg], shape (n,).
+    davis : ndarray
+        Davis coefficients per unit mass [m/s², 1/s, 1/m], shape (3, n).
+    speeds : array_like
+        Speeds v_i [m/s], shape (n,).
+
+    Returns
+    -------
+    ndarray
+        The resistances R_i [N], shape (n,).
 
     Examples
     --------
