@@ -33,7 +33,7 @@ $(STAMP_RUN): $(INSTALL_DEPS) | $(BIN)/python
 
 $(STAMP_TEST): $(INSTALL_DEPS) | $(BIN)/python
 	$(PIP) install --quiet -e '.[test]'
-	@touch $@ $(STAMP_RUN)
+	@touch $@ $(STAMP_RUN) $(STAMP_DOCS)
 
 $(STAMP_DOCS): $(INSTALL_DEPS) | $(BIN)/python
 	$(PIP) install --quiet -e '.[docs]'
