@@ -63,6 +63,12 @@ class Measurement:
         (:func:`trainctl.models.dynamics.vehicle_positions`): what a
         locomotive's odometry and line data give it, for laws that feed the
         grade forward; None when not given.
+
+    Examples
+    --------
+    >>> m = Measurement(outputs=np.array([20.0, 19.5]))
+    >>> m.outputs.tolist(), m.state is None  # two measured speeds [m/s]
+    ([20.0, 19.5], True)
     """
 
     state: NDArray[np.float64] | None = None
@@ -83,6 +89,14 @@ class ReferencePreview:
         Reference speed at those times [m/s], shape (P+1,).
     acceleration : ndarray
         Reference acceleration [m/s²], shape (P+1,).
+
+    Examples
+    --------
+    >>> t = 0.5 * np.arange(3)  # P = 2 samples of T = 0.5 s
+    >>> preview = ReferencePreview(times=t, speed=20.0 + 0.2 * t,
+    ...                            acceleration=np.full(3, 0.2))
+    >>> preview.speed.tolist()  # 20 m/s rising at 0.2 m/s²
+    [20.0, 20.1, 20.2]
     """
 
     times: NDArray[np.float64]
@@ -112,6 +126,12 @@ class StepRecord:
     info : mapping
         Controller-specific extras (JSON-safe); ``"reason"`` says why a step
         is ``"error"``.
+
+    Examples
+    --------
+    >>> record = StepRecord(inputs=np.array([120e3, -40e3]))
+    >>> record.status, record.fallback, (record.inputs / 1e3).tolist()  # [kN]
+    ('optimal', '', [120.0, -40.0])
     """
 
     inputs: NDArray[np.float64]
@@ -133,6 +153,20 @@ class Controller(Protocol):
         Sample time T [s] at which the simulation calls :meth:`step`.
     name : str
         Label used in results and reports.
+
+    Examples
+    --------
+    Any object with ``dt``, ``name``, ``reset()`` and ``step()`` is a
+    controller; the protocol is checked at run time:
+
+    >>> class Coast:
+    ...     dt, name = 0.5, "coast"
+    ...     def reset(self):
+    ...         pass
+    ...     def step(self, t, measurement, reference):
+    ...         return StepRecord(inputs=np.zeros(2))
+    >>> isinstance(Coast(), Controller), isinstance(object(), Controller)
+    (True, False)
     """
 
     dt: float
@@ -168,6 +202,18 @@ def measured_speeds(measurement: Measurement, n: int, name: str) -> NDArray[np.f
     ------
     ModelError
         When the measurement holds neither, or not n speeds.
+
+    Examples
+    --------
+    The state ``[v1, v2, delta, s]`` of two vehicles gives its first two entries:
+
+    >>> state = np.array([20.0, 19.0, 0.3, 100.0])
+    >>> measured_speeds(Measurement(state=state), 2, "demo").tolist()  # [m/s]
+    [20.0, 19.0]
+    >>> measured_speeds(Measurement(), 2, "demo")
+    Traceback (most recent call last):
+    ...
+    trainctl.exceptions.ModelError: demo: needs the measured speeds (Measurement.outputs) or the state (got neither).
     """
     if measurement.outputs is not None:
         speeds = np.asarray(measurement.outputs, dtype=float)

@@ -64,6 +64,12 @@ class QPSolution:
         Solver iterations.
     solve_time : float
         Wall time of the solve [s].
+
+    Examples
+    --------
+    >>> sol = QPSolution(np.array([0.5, 1.0]), np.zeros(0), "optimal", 25, 1e-4)
+    >>> sol.status, sol.z.tolist(), sol.slack.size
+    ('optimal', [0.5, 1.0], 0)
     """
 
     z: Array
@@ -293,6 +299,18 @@ class FastOSQP:
         OSQP's constant cost and constraint matrices.
     route : {"internal", "public"}
         How OSQP is called (:func:`osqp_runner`).
+
+    Examples
+    --------
+    Project a parameter p onto the box z <= 1: minimise ‖z - p‖² subject to
+    z <= 1, whose solution is min(p, 1) entrywise.
+
+    >>> z, p = cp.Variable(2), cp.Parameter(2)
+    >>> problem = cp.Problem(cp.Minimize(cp.sum_squares(z - p)), [z <= 1.0])
+    >>> qp = FastOSQP(problem, {"p": p}, z, None, name="demo")
+    >>> sol = qp.solve({"p": np.array([0.5, 3.0])})
+    >>> sol.status, np.round(sol.z, 4).tolist()
+    ('optimal', [0.5, 1.0])
     """
 
     def __init__(self, problem: cp.Problem, params: Mapping[str, cp.Parameter],

@@ -83,6 +83,17 @@ def flocking_checks(design: FlockingDesign) -> list[Check]:
     list of Check
         The checks parameters, closed loop, sampling, collision, connectivity
         and actuators.
+
+    Examples
+    --------
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> from trainctl.controllers.flocking.family import design_flocking
+    >>> scenario = load_scenario("heavy-haul-flocking")
+    >>> design = design_flocking(scenario, build_model(scenario),
+    ...                          scenario.controllers["flocking"])
+    >>> [(c.name, c.status) for c in flocking_checks(design)][1:4]
+    [('flocking_closed_loop', 'pass'), ('flocking_sampling', 'pass'), ('flocking_collision', 'pass')]
     """
     energy = initial_energy(design)
     return [parameters_check(design), closed_loop_check(design),
@@ -112,6 +123,24 @@ def initial_energy(design: FlockingDesign) -> float | None:
     -------
     float or None
         The initial energy per unit mass [m²/s²], or None.
+
+    Examples
+    --------
+    The four trains start at speed errors ±2 m/s, so the kinetic part alone
+    is ½·4·2² = 8 m²/s²; the gaps' potential energy adds to it, and the
+    total stays below the collision barrier E(0):
+
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> from trainctl.controllers.flocking.family import design_flocking
+    >>> scenario = load_scenario("heavy-haul-flocking")
+    >>> design = design_flocking(scenario, build_model(scenario),
+    ...                          scenario.controllers["flocking"])
+    >>> H0 = initial_energy(design)
+    >>> round(H0, 2), H0 > 8.0
+    (14.28, True)
+    >>> H0 < design.law.potential.collision_energy_bound().energy  # no gap can reach 0
+    True
     """
     v, z, x = initial_errors(design)
     if np.any(design.law.gaps(z) < 0.0):
@@ -278,6 +307,23 @@ def trajectory_gaps(design: FlockingDesign, result: SimulationResult) -> tuple[f
     (float, float)
         The extremes of every gap over the recorded states [m]; the
         formation stayed connected when the largest is below the range.
+
+    Examples
+    --------
+    A stand-in result with two recorded states of four trains: the gap
+    deviations z (rows 4–6) are added to the desired gap of 500 m.
+
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> from trainctl.controllers.flocking.family import design_flocking
+    >>> scenario = load_scenario("heavy-haul-flocking")
+    >>> design = design_flocking(scenario, build_model(scenario),
+    ...                          scenario.controllers["flocking"])
+    >>> from types import SimpleNamespace
+    >>> states = np.zeros((8, 2))
+    >>> states[4:7] = [[90.0, 0.0], [-100.0, -50.0], [90.0, 20.0]]
+    >>> trajectory_gaps(design, SimpleNamespace(states=states, dense_states=None))
+    (400.0, 590.0)
     """
     n = design.law.n
     dense = result.dense_states
@@ -304,6 +350,25 @@ def trajectory_checks(design: FlockingDesign, strategy: str,
     list of Check
         Replacing the design review's checks of the same names (module
         docstring).
+
+    Examples
+    --------
+    With the stand-in result of :func:`trajectory_gaps` (gaps between 400 m
+    and 590 m, inside the 600 m interaction range), both checks pass:
+
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> from trainctl.controllers.flocking.family import design_flocking
+    >>> scenario = load_scenario("heavy-haul-flocking")
+    >>> design = design_flocking(scenario, build_model(scenario),
+    ...                          scenario.controllers["flocking"])
+    >>> from types import SimpleNamespace
+    >>> states = np.zeros((8, 2))
+    >>> states[4:7] = [[90.0, 0.0], [-100.0, -50.0], [90.0, 20.0]]
+    >>> result = SimpleNamespace(states=states, dense_states=None)
+    >>> collision, connectivity = trajectory_checks(design, "flocking", result)
+    >>> collision.details["simulated_min_gap_m"], connectivity.status, connectivity.value
+    (400.0, 'pass', 590.0)
     """
     p = design.law.potential
     smallest, widest = trajectory_gaps(design, result)

@@ -224,6 +224,16 @@ def desired_gaps(scenario: Scenario) -> Array:
     -------
     ndarray
         Gaps [m], shape (n-1,).
+
+    Examples
+    --------
+    Trains 1300 m long whose centres are 1800 m apart leave
+    1800 - 1300 = 500 m between them:
+
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("heavy-haul-flocking")
+    >>> desired_gaps(scenario).tolist()
+    [500.0, 500.0, 500.0]
     """
     train = scenario.train
     length = np.array([v.length for v in train.vehicles], dtype=float)
@@ -277,6 +287,16 @@ def law_of(scenario: Scenario, settings: Any) -> FlockingLaw:
         If a link is physical, the gaps differ, ``desired_gap_m`` disagrees
         with the coupler's gap, or the potential's parameters are invalid
         (e.g. the range not beyond the gap).
+
+    Examples
+    --------
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("heavy-haul-flocking")
+    >>> law = law_of(scenario, scenario.controllers["flocking"])
+    >>> law.n, law.potential.desired_gap, law.potential.r  # trains, gap and range [m]
+    (4, 500.0, 600.0)
+    >>> law.graph.sum(axis=1).tolist()  # a chain: the end trains have one neighbour
+    [1.0, 2.0, 2.0, 1.0]
     """
     train = scenario.train
     return FlockingLaw(
@@ -304,6 +324,20 @@ def closed_loop_matrices(model: DesignModel, law: FlockingLaw) -> tuple[Array, A
     (A_open, B_open, A_cl) : ndarray
         The loop ξ̇ = A_open ξ + B_open û (û [N]) on ξ = [v̂, z, p], shapes (2n, 2n)
         and (2n, n); A_cl = A_open + B_open F [1/s].
+
+    Examples
+    --------
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("heavy-haul-flocking")
+    >>> from trainctl.design import build_model
+    >>> law = law_of(scenario, scenario.controllers["flocking"])
+    >>> A, B, A_cl = closed_loop_matrices(build_model(scenario), law)
+    >>> A.shape, B.shape
+    ((8, 8), (8, 4))
+    >>> A[-1].tolist()  # ṗ = v̂_0: the head's position error integrates its speed error
+    [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    >>> bool(np.max(np.linalg.eigvals(A_cl).real) < 0.0)  # the closed loop is stable
+    True
     """
     sys = model.observer_model()
     nx, n = int(sys.nstates), model.n_vehicles
