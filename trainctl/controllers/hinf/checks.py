@@ -110,6 +110,18 @@ def hinf_checks(design: HinfDesign) -> list[Check]:
     -------
     list of Check
         In :data:`~trainctl.controllers.hinf.family.CHECK_NAMES` order.
+
+    Examples
+    --------
+    >>> from trainctl.controllers.hinf.family import design_hinf
+    >>> from trainctl.controllers.hinf.settings import HinfSettings
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("heavy-haul-hinf")
+    >>> design = design_hinf(scenario, build_model(scenario), HinfSettings())
+    >>> [(c.name, c.status) for c in hinf_checks(design)]  # doctest: +NORMALIZE_WHITESPACE
+    [('hinf_closed_loop', 'pass'), ('hinf_sampling', 'warn'), ('hinf_delay_margin', 'warn'),
+     ('hinf_connectivity', 'pass'), ('hinf_gamma', 'fail')]
     """
     return [closed_loop_check(design), sampling_check(design), delay_check(design),
             connectivity_check(design), gamma_check(design)]
@@ -127,6 +139,21 @@ def closed_loop_check(design: HinfDesign) -> Check:
     -------
     Check
         The named check of the closed loop's stability, with its status, value and hint.
+
+    Examples
+    --------
+    Every vehicle is pinned with κ_p = 0.1 1/s, so the slowest mode (all
+    speeds together) decays at -κ_p:
+
+    >>> from trainctl.controllers.hinf.family import design_hinf
+    >>> from trainctl.controllers.hinf.settings import HinfSettings
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("heavy-haul-hinf")
+    >>> design = design_hinf(scenario, build_model(scenario), HinfSettings())
+    >>> check = closed_loop_check(design)
+    >>> check.status, round(check.value, 4), check.unit  # max Re λ
+    ('pass', -0.1, '1/s')
     """
     spectrum = closed_loop_spectrum(design.loops.A_cl)
     lam = spectrum.eigenvalues
@@ -167,6 +194,21 @@ def sampling_check(design: HinfDesign) -> Check:
     -------
     Check
         The named check of sampling, with its status, value and hint.
+
+    Examples
+    --------
+    The fastest mode, ω_max = 4.06 rad/s, turns by 0.406 rad in one 0.1 s
+    interval: beyond the 0.1 rad rule, so the check warns.
+
+    >>> from trainctl.controllers.hinf.family import design_hinf
+    >>> from trainctl.controllers.hinf.settings import HinfSettings
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("heavy-haul-hinf")
+    >>> design = design_hinf(scenario, build_model(scenario), HinfSettings())
+    >>> check = sampling_check(design)
+    >>> check.status, round(check.value, 3), check.threshold, check.unit
+    ('warn', 0.406, 0.1, 'rad')
     """
     return shared_sampling_check("hinf_sampling", design.loops.A_cl,
                                  design.sampled_matrix(), design.control_interval)
@@ -197,6 +239,21 @@ def delay_check(design: HinfDesign) -> Check:
     -------
     Check
         The named check of the delay margin, with its status, value and hint.
+
+    Examples
+    --------
+    The scenario has no ``[network]`` section: the margin is reported, with
+    no worst-case delay to compare it with.
+
+    >>> from trainctl.controllers.hinf.family import design_hinf
+    >>> from trainctl.controllers.hinf.settings import HinfSettings
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("heavy-haul-hinf")
+    >>> design = design_hinf(scenario, build_model(scenario), HinfSettings())
+    >>> check = delay_check(design)
+    >>> check.status, round(check.value, 2), check.unit  # delay margin
+    ('warn', 0.57, 's')
     """
     name = "hinf_delay_margin"
     res = design.delay
@@ -252,6 +309,18 @@ def connectivity_check(design: HinfDesign) -> Check:
     -------
     Check
         The named check of connectivity, with its status, value and hint.
+
+    Examples
+    --------
+    >>> from trainctl.controllers.hinf.family import design_hinf
+    >>> from trainctl.controllers.hinf.settings import HinfSettings
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("heavy-haul-hinf")
+    >>> design = design_hinf(scenario, build_model(scenario), HinfSettings())
+    >>> check = connectivity_check(design)  # no [network]: no interruption window
+    >>> check.status, check.value, check.unit
+    ('pass', 0.0, 'vehicles')
     """
     name = "hinf_connectivity"
     windows = design.connectivity
@@ -318,6 +387,22 @@ def gamma_check(design: HinfDesign) -> Check:
     -------
     Check
         The named check of the certified γ, with its status, value and hint.
+
+    Examples
+    --------
+    With a force disturbance of 1 m/s² per unit mass and pinning
+    κ_p = 0.1 1/s, the speed error settles at 1/κ_p = 10 m/s per 1 m/s²:
+    γ ≈ 10 > 1, so the check fails.
+
+    >>> from trainctl.controllers.hinf.family import design_hinf
+    >>> from trainctl.controllers.hinf.settings import HinfSettings
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("heavy-haul-hinf")
+    >>> design = design_hinf(scenario, build_model(scenario), HinfSettings())
+    >>> check = gamma_check(design)
+    >>> check.status, round(check.value, 1), check.threshold
+    ('fail', 10.1, 1.0)
     """
     name = "hinf_gamma"
     res = design.gamma

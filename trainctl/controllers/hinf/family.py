@@ -127,6 +127,18 @@ class HinfDesign:
     synthesis_error : str
         Why a requested synthesis gave no gains ("" otherwise); the law then
         keeps ``kappa_p_per_s`` and ``kappa_c_per_s``.
+
+    Examples
+    --------
+    >>> from trainctl.controllers.hinf.settings import HinfSettings
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("heavy-haul-hinf")
+    >>> design = design_hinf(scenario, build_model(scenario), HinfSettings())
+    >>> design.gains_source, design.law.kappa_p, design.control_interval  # [1/s], [s]
+    ('given', 0.1, 0.1)
+    >>> design.network is None, design.loops.A_cl.shape
+    (True, (7, 7))
     """
 
     scenario: Scenario
@@ -375,7 +387,20 @@ def _age_rows(design: HinfDesign) -> list[tuple[str, str]]:
 
 
 class HinfFamily:
-    """Seed 003's distributed robust H∞ cooperative law (leader-following speed consensus)."""
+    """Seed 003's distributed robust H∞ cooperative law (leader-following speed consensus).
+
+    Examples
+    --------
+    >>> from trainctl.controllers.hinf.settings import HinfSettings
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("heavy-haul-hinf")
+    >>> design = FAMILY.design(scenario, build_model(scenario), HinfSettings())
+    >>> FAMILY.name, FAMILY.strategies
+    ('hinf', ('distributed',))
+    >>> FAMILY.make(design, "distributed").dt  # the control interval [s]
+    0.1
+    """
 
     name = "hinf"
     title = "Distributed robust H∞ cooperative control"
