@@ -210,10 +210,10 @@ def measured_speeds(measurement: Measurement, n: int, name: str) -> NDArray[np.f
     >>> state = np.array([20.0, 19.0, 0.3, 100.0])
     >>> measured_speeds(Measurement(state=state), 2, "demo").tolist()  # [m/s]
     [20.0, 19.0]
-    >>> measured_speeds(Measurement(), 2, "demo")
+    >>> measured_speeds(Measurement(), 2, "demo")  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    trainctl.exceptions.ModelError: demo: needs the measured speeds (Measurement.outputs) or the state (got neither).
+    trainctl.exceptions.ModelError: demo: needs the measured speeds (Measurement.outputs) ...
     """
     if measurement.outputs is not None:
         speeds = np.asarray(measurement.outputs, dtype=float)

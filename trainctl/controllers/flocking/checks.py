@@ -92,8 +92,9 @@ def flocking_checks(design: FlockingDesign) -> list[Check]:
     >>> scenario = load_scenario("heavy-haul-flocking")
     >>> design = design_flocking(scenario, build_model(scenario),
     ...                          scenario.controllers["flocking"])
-    >>> [(c.name, c.status) for c in flocking_checks(design)][1:4]
-    [('flocking_closed_loop', 'pass'), ('flocking_sampling', 'pass'), ('flocking_collision', 'pass')]
+    >>> [(c.name, c.status) for c in flocking_checks(design)][1:4]  # doctest: +NORMALIZE_WHITESPACE
+    [('flocking_closed_loop', 'pass'), ('flocking_sampling', 'pass'),
+     ('flocking_collision', 'pass')]
     """
     energy = initial_energy(design)
     return [parameters_check(design), closed_loop_check(design),

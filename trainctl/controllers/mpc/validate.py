@@ -59,6 +59,19 @@ class CoreSettings:
         Per group (``"u"``, ``"du"``, ``"x"``, ``"y"``): the (lower, upper) vectors.
     soft : dict
         Per group: None (hard) or the (linear, quadratic) slack penalties.
+
+    Examples
+    --------
+    The settings of a double integrator sampled at 0.1 s (position
+    measured), one move per step over 5 steps:
+
+    >>> sysd = ct.ss([[1.0, 0.1], [0.0, 1.0]], [[0.0], [0.1]], [[1.0, 0.0]], 0, dt=0.1)
+    >>> cs = core_settings("demo", sysd, Q=1.0, R=0.1, P=5, M=None, Qf=None, form="u",
+    ...                    bounds={"u": (-1.0, 1.0)}, soft=None)
+    >>> cs.P, cs.M, cs.dt, cs.R.tolist()
+    (5, 5, 0.1, [[0.1]])
+    >>> cs.bounds["u"][1].tolist(), cs.soft["u"]
+    ([1.0], None)
     """
 
     A: Array
@@ -93,6 +106,18 @@ def check_system(where: str, sysd: object) -> tuple[Array, Array, Array, float]:
     -------
     tuple
         The matrices A, B, C and the sample time dt [s].
+
+    Examples
+    --------
+    >>> sysd = ct.ss([[1.0, 0.1], [0.0, 1.0]], [[0.0], [0.1]], [[1.0, 0.0]], 0, dt=0.1)
+    >>> A, B, C, dt = check_system("demo", sysd)
+    >>> A.shape, B.shape, C.shape, dt
+    ((2, 2), (2, 1), (1, 2), 0.1)
+    >>> continuous = ct.ss([[0.0]], [[1.0]], [[1.0]], 0)  # dt = 0: continuous time
+    >>> check_system("demo", continuous)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    trainctl.exceptions.ModelError: demo: 'sysd' must be discrete-time with a sample time ...
     """
     if not isinstance(sysd, ct.StateSpace):
         raise TypeError(f"{where}: 'sysd' must be a discrete control.StateSpace (got "
@@ -135,6 +160,15 @@ def check_horizons(where: str, prediction_horizon: object,
     -------
     tuple of int
         The horizons (P, M).
+
+    Examples
+    --------
+    >>> check_horizons("demo", 10, None), check_horizons("demo", 10, 3)
+    ((10, 10), (10, 3))
+    >>> check_horizons("demo", 4, 6)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    trainctl.exceptions.ModelError: demo: 'control_horizon' must be an int with 1 <= M <= P ...
     """
     P = _int(where, "prediction_horizon", prediction_horizon)
     if P < 1:
@@ -187,6 +221,20 @@ def as_weight(where: str, name: str, value: ArrayLike, n: int, what: str) -> Arr
     -------
     ndarray
         The weight matrix, shape (n, n).
+
+    Examples
+    --------
+    A scalar weights every entry alike; a vector is the diagonal:
+
+    >>> as_weight("demo", "Q", 2.0, 2, "outputs").tolist()
+    [[2.0, 0.0], [0.0, 2.0]]
+    >>> as_weight("demo", "Q", [1.0, 3.0], 2, "outputs").tolist()
+    [[1.0, 0.0], [0.0, 3.0]]
+    >>> indefinite = [[1.0, 2.0], [2.0, 1.0]]  # eigenvalues 3 and -1
+    >>> as_weight("demo", "Q", indefinite, 2, "outputs")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    trainctl.exceptions.ModelError: demo: 'Q' must be positive semidefinite (got smallest ...
     """
     arr = _array(where, name, value)
     if arr.ndim == 0:
@@ -231,6 +279,15 @@ def as_vector(where: str, name: str, value: ArrayLike, n: int, what: str) -> Arr
     -------
     ndarray
         The vector, shape (n,).
+
+    Examples
+    --------
+    >>> as_vector("demo", "x0", [[1.0], [2.0]], 2, "states").tolist()  # a column is flattened
+    [1.0, 2.0]
+    >>> as_vector("demo", "x0", [1.0, 2.0, 3.0], 2, "states")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    trainctl.exceptions.DimensionError: demo: 'x0' must be a vector of the 2 states (got ...
     """
     arr = _array(where, name, value)
     if arr.shape == (n, 1):
@@ -266,6 +323,13 @@ def as_bound(where: str, name: str, value: ArrayLike | None, n: int, what: str,
     -------
     ndarray
         The bound, shape (n,).
+
+    Examples
+    --------
+    >>> as_bound("demo", "u_max", None, 2, "inputs", np.inf).tolist()  # not given: no bound
+    [inf, inf]
+    >>> as_bound("demo", "u_max", 300.0, 2, "inputs", np.inf).tolist()  # a scalar for each [kN]
+    [300.0, 300.0]
     """
     if value is None:
         return np.full(n, fill)
@@ -305,6 +369,16 @@ def as_soft(where: str, soft: Mapping[str, object] | None,
     -------
     dict
         Per group: None or the (w1, w2) penalties.
+
+    Examples
+    --------
+    ``True`` takes the default penalties :data:`SOFT_PENALTY`; a pair is
+    checked and kept:
+
+    >>> soft = as_soft("demo", {"x": True, "u": (10.0, 1.0)},
+    ...                {"u": True, "du": False, "x": True, "y": False})
+    >>> soft["x"], soft["u"], soft["du"]
+    ((1000.0, 100.0), (10.0, 1.0), None)
     """
     out: dict[str, tuple[float, float] | None] = dict.fromkeys(BOUND_GROUPS)
     for key, value in (soft or {}).items():
@@ -364,6 +438,18 @@ def core_settings(where: str, sysd: object, *, Q: ArrayLike, R: ArrayLike, P: ob
     -------
     CoreSettings
         The validated settings.
+
+    Examples
+    --------
+    A rate bound ``du_max`` is symmetric: its lower bound is -du_max.
+
+    >>> sysd = ct.ss([[1.0, 0.1], [0.0, 1.0]], [[0.0], [0.1]], [[1.0, 0.0]], 0, dt=0.1)
+    >>> cs = core_settings("demo", sysd, Q=1.0, R=0.1, P=8, M=2, Qf=None, form="du",
+    ...                    bounds={"du": (None, 0.5), "y": (None, None)}, soft={"du": True})
+    >>> (cs.P, cs.M, cs.form), [b.tolist() for b in cs.bounds["du"]]
+    ((8, 2, 'du'), [[-0.5], [0.5]])
+    >>> sorted(cs.bounds), cs.soft["du"]  # an unbounded group is dropped
+    (['du'], (1000.0, 100.0))
     """
     A, B, C, dt = check_system(where, sysd)
     (nx, nu), ny = B.shape, C.shape[0]
