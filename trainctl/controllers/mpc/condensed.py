@@ -58,6 +58,17 @@ class MoveMaps:
     shift : ndarray of int
         Index of the plan shifted by one move (the last move repeated; in the
         Δu-form :func:`shifted` then zeroes it).
+
+    Examples
+    --------
+    Two inputs over two moves in the u-form: the plan is the moves, and D
+    takes the difference of consecutive moves of each input.
+
+    >>> maps = move_maps(2, 2, "u")
+    >>> maps.L.tolist() == np.eye(4).tolist(), maps.shift.tolist()
+    (True, [2, 3, 2, 3])
+    >>> maps.D.astype(int).tolist()
+    [[1, 0, 0, 0], [0, 1, 0, 0], [-1, 0, 1, 0], [0, -1, 0, 1]]
     """
 
     n_inputs: int
@@ -118,6 +129,15 @@ def shifted(maps: MoveMaps, plan: Array | None) -> Array:
     -------
     ndarray
         The starting plan of the next sample.
+
+    Examples
+    --------
+    >>> shifted(move_maps(2, 2, "u"), np.array([1.0, 2.0, 3.0, 4.0])).tolist()  # last repeated
+    [3.0, 4.0, 3.0, 4.0]
+    >>> shifted(move_maps(1, 3, "du"), np.array([1.0, 2.0, 3.0])).tolist()  # last increment 0
+    [2.0, 3.0, 0.0]
+    >>> shifted(move_maps(1, 3, "du"), None).tolist()
+    [0.0, 0.0, 0.0]
     """
     n, M = maps.n_inputs, maps.control_horizon
     if plan is None:
@@ -145,6 +165,17 @@ def input_rows(maps: MoveMaps, cols: Index, *, bounds: bool, rate: bool) -> Arra
     -------
     ndarray
         The stacked rows, (0, cols.size) when neither is asked for.
+
+    Examples
+    --------
+    The first input's columns (0 and 2) of a u-form plan of two inputs over
+    two moves: its moves u_0, u_1, then its rates u_0 - 0 and u_1 - u_0.
+
+    >>> maps = move_maps(2, 2, "u")
+    >>> input_rows(maps, np.array([0, 2]), bounds=True, rate=True).tolist()
+    [[1.0, 0.0], [0.0, 1.0], [1.0, 0.0], [-1.0, 1.0]]
+    >>> input_rows(maps, np.array([0, 2]), bounds=False, rate=False).shape
+    (0, 2)
     """
     rows = []
     if bounds:
@@ -164,6 +195,12 @@ class BlockParameters:
         Fast path: OSQP's stacked data.
     values : dict of str to ndarray or None
         Otherwise: the vectors g, lb, ub, hl, hu.
+
+    Examples
+    --------
+    >>> prep = BlockParameters(values={"g": np.array([-2.0, 1.0])})
+    >>> prep.data is None, prep.values["g"].tolist()
+    (True, [-2.0, 1.0])
     """
 
     data: Array | None = None
@@ -214,6 +251,21 @@ class QPBlock:
         Fast path with J a scaled selection: the source entry of each datum.
     scale : ndarray or None
         The factor of each picked entry (0 for constant data).
+
+    Examples
+    --------
+    A single block deciding two inputs, with g, lb and ub taken from a
+    6-entry source vector. Each OSQP datum comes from one source entry, so
+    the fast path stores a scaled selection (the lower bounds enter as -z <=
+    -lb, hence the factor -1):
+
+    >>> from trainctl.controllers.qp import ParametricQP
+    >>> qp = ParametricQP(np.eye(2), np.eye(2), np.zeros((0, 2)), name="demo")
+    >>> params = {"g": np.arange(2), "lb": np.arange(2, 4), "ub": np.arange(4, 6),
+    ...           "hl": np.arange(0), "hu": np.arange(0)}
+    >>> block = build_block(qp, inputs=(0, 1), cols=np.arange(2), Kc=np.eye(2), params=params)
+    >>> block.pick.tolist(), block.scale.tolist()
+    ([0, 1, 2, 3, 4, 5], [1.0, 1.0, -1.0, -1.0, 1.0, 1.0])
     """
 
     inputs: tuple[int, ...]          # the inputs (coaches) it decides for
@@ -272,6 +324,21 @@ def build_block(qp: ParametricQP, *, inputs: tuple[int, ...], cols: Index, Kc: A
     -------
     QPBlock
         The block.
+
+    Examples
+    --------
+    Minimise ½‖z‖² + gᵀz with g = (-2, 1) in the box -0.5 <= z <= 0.5: the
+    unconstrained optimum -g = (2, -1) is clipped to (0.5, -0.5).
+
+    >>> from trainctl.controllers.qp import ParametricQP
+    >>> qp = ParametricQP(np.eye(2), np.eye(2), np.zeros((0, 2)), name="demo")
+    >>> params = {"g": np.arange(2), "lb": np.arange(2, 4), "ub": np.arange(4, 6),
+    ...           "hl": np.arange(0), "hu": np.arange(0)}
+    >>> block = build_block(qp, inputs=(0, 1), cols=np.arange(2), Kc=np.eye(2), params=params)
+    >>> src = np.array([-2.0, 1.0, -0.5, -0.5, 0.5, 0.5])  # g, lb, ub
+    >>> [prep] = block_parameters([block], src, fast=True)
+    >>> block.solve(prep, None, "fast").z.round(6).tolist()
+    [0.5, -0.5]
     """
     # The map's columns are the QP's non-empty parameters in this order (ParametricQP).
     gather = np.concatenate([params[key] for key in PARAMETERS if params[key].size])
@@ -309,6 +376,25 @@ def block_parameters(blocks: list[QPBlock], src: Array, fast: bool) -> list[Bloc
     -------
     list of BlockParameters
         One per block.
+
+    Examples
+    --------
+    The block of :func:`build_block`: without the fast path the vectors are
+    picked from the source; with it, OSQP's data [q; h] are composed, the
+    lower bounds negated (-z <= -lb).
+
+    >>> from trainctl.controllers.qp import ParametricQP
+    >>> qp = ParametricQP(np.eye(2), np.eye(2), np.zeros((0, 2)), name="demo")
+    >>> params = {"g": np.arange(2), "lb": np.arange(2, 4), "ub": np.arange(4, 6),
+    ...           "hl": np.arange(0), "hu": np.arange(0)}
+    >>> block = build_block(qp, inputs=(0, 1), cols=np.arange(2), Kc=np.eye(2), params=params)
+    >>> src = np.array([-2.0, 1.0, -0.5, -0.5, 0.5, 0.5])  # g, lb, ub
+    >>> [prep] = block_parameters([block], src, fast=False)
+    >>> prep.values["lb"].tolist(), prep.data is None
+    ([-0.5, -0.5], True)
+    >>> [prep] = block_parameters([block], src, fast=True)
+    >>> prep.data.tolist()
+    [-2.0, 1.0, 0.5, 0.5, 0.5, 0.5]
     """
     if fast:
         # The map was identified with parameters clipped to ±1e20 (ParametricQP);
