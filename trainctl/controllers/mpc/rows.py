@@ -37,6 +37,18 @@ class ConstraintRows:
         The bounds (±inf allowed on one side).
     linear, quadratic : ndarray
         Slack penalties w1, w2 per row (soft rows; zeros for hard rows).
+
+    Examples
+    --------
+    One soft row x(1) <= 5 m of a scalar state, x(1) = x + u_0: at x = 2 m the
+    plan may move by up to 3 m.
+
+    >>> rows = ConstraintRows(np.array([[1.0]]), np.array([[1.0]]), np.array([[0.0]]),
+    ...                       np.array([-np.inf]), np.array([5.0]), np.array([10.0]),
+    ...                       np.array([1.0]))
+    >>> lower, upper = rows.bounds(np.array([2.0]), np.array([0.0]))
+    >>> rows.size, lower.tolist(), upper.tolist()
+    (1, [-inf], [3.0])
     """
 
     rows: Array
@@ -80,6 +92,22 @@ def constraint_rows(maps: MoveMaps, states: Prediction, outputs: Prediction,
     -------
     hard, soft : ConstraintRows
         The rows, in the order u, du, x, y.
+
+    Examples
+    --------
+    A scalar integrator x(k+1) = x(k) + u(k) over P = M = 2 steps: x(1) = x + u_0,
+    x(2) = x + u_0 + u_1, so Φ = S_u = [1; 1] and G = [[1, 0], [1, 1]].
+
+    >>> from trainctl.controllers.mpc.condensed import move_maps
+    >>> pred = (np.ones((2, 1)), np.ones((2, 1)), np.array([[1.0, 0.0], [1.0, 1.0]]))
+    >>> hard, soft = constraint_rows(move_maps(1, 2, "u"), pred, pred,
+    ...                              {"u": (np.array([-1.0]), np.array([1.0])),
+    ...                               "x": (np.array([-np.inf]), np.array([5.0]))},
+    ...                              {"u": None, "x": (10.0, 1.0)})
+    >>> hard.rows.tolist(), soft.rows.tolist()  # |u_m| <= 1 hard, x(1..2) <= 5 soft
+    ([[1.0, 0.0], [0.0, 1.0]], [[1.0, 0.0], [1.0, 1.0]])
+    >>> [b.tolist() for b in soft.bounds(np.array([2.0]), np.array([0.0]))]  # at x = 2
+    [[-inf, -inf], [3.0, 3.0]]
     """
     nu, M = maps.n_inputs, maps.control_horizon
     nx, nz = states[0].shape[1], maps.L.shape[1]

@@ -38,13 +38,31 @@ def coaches(info: ValidationInfo | None) -> int | None:
     -------
     int or None
         The number of coaches, or None without a context.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> coaches(None), coaches(SimpleNamespace(context={"n_coaches": 3}))
+    (None, 3)
     """
     context = info.context if info is not None else None
     return context.get("n_coaches") if isinstance(context, dict) else None
 
 
 class NeighbourhoodRule(Rule):
-    """A named neighbourhood, or one array of distinct coach indices per coach."""
+    """A named neighbourhood, or one array of distinct coach indices per coach.
+
+    Examples
+    --------
+    >>> rule = NeighbourhoodRule()
+    >>> rule.check("adjacent", None), rule.check([[0, 1], [0, 1]], None)
+    ('adjacent', ((0, 1), (0, 1)))
+    >>> try:
+    ...     rule.check([[1], [1]], None)  # coach 0 must weigh its own outputs
+    ... except ValueError as exc:
+    ...     print(type(exc).__name__)
+    ValidationError
+    """
 
     def want(self, *, python: bool = False, n: int | None = None) -> str:
         """The named kinds or an array of ``n`` arrays of coach indices."""
@@ -109,7 +127,19 @@ _POSITIVE_WEIGHTS: TypeAdapter[tuple[float, ...]] = TypeAdapter(
 
 
 class CooperativeWeightsRule(Rule):
-    """``"uniform"``, or one weight > 0 per coach, summing to 1 (within 1e-9)."""
+    """``"uniform"``, or one weight > 0 per coach, summing to 1 (within 1e-9).
+
+    Examples
+    --------
+    >>> rule = CooperativeWeightsRule()
+    >>> rule.check("uniform", None), rule.check([0.25, 0.75], None)
+    ('uniform', (0.25, 0.75))
+    >>> try:
+    ...     rule.check([0.5, 0.6], None)  # sums to 1.1
+    ... except ValueError as exc:
+    ...     print(exc)
+    must sum to 1 within 1e-9
+    """
 
     def want(self, *, python: bool = False, n: int | None = None) -> str:
         """``'uniform'`` or an array of ``n`` numbers > 0 summing to 1."""
