@@ -69,6 +69,12 @@ class PlanResult:
         Largest change of the plan per iteration [kN].
     fallback : str
         The fallback applied ("" when none).
+
+    Examples
+    --------
+    >>> result = PlanResult(np.array([0.5, -0.5]), "optimal", 3, [0.4, 0.05, 0.001], "")
+    >>> result.iterations, result.residuals[-1], result.fallback  # last change [kN]
+    (3, 0.001, '')
     """
 
     plan: Array
@@ -87,7 +93,17 @@ class Blocks(Protocol):
 
 
 class Strategy(Protocol):
-    """The protocol of the four strategies."""
+    """The protocol of the four strategies.
+
+    Examples
+    --------
+    Each strategy built by :func:`make_strategy` has the protocol's members:
+
+    >>> ndmpc = make_strategy("ndmpc", max_iterations=10, tolerance=1e-3, relaxation=0.5,
+    ...                       weights=np.full(2, 0.5))
+    >>> ndmpc.name, [hasattr(ndmpc, m) for m in ("block_inputs", "members", "couplers", "plan")]
+    ('ndmpc', [True, True, True, True])
+    """
 
     name: str
 
@@ -120,7 +136,32 @@ class _PerCoach:
 
 
 class Centralised:
-    """One QP over every coach's moves and the whole-train cost."""
+    """One QP over every coach's moves and the whole-train cost.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> strategy = Centralised()
+    >>> strategy.block_inputs(3), strategy.couplers((0, 1, 2), 2)
+    ([(0, 1, 2)], [0, 1])
+    >>> strategy.members((0, 1, 2), SimpleNamespace(n_inputs=3))
+    (0, 1, 2)
+
+    Its plan is one solve of the single block: here min ½‖U‖² + gᵀU with
+    g = (-2, 1) in the box |U| <= 0.5, whose solution clips -g to (0.5, -0.5).
+
+    >>> from trainctl.controllers.qp import ParametricQP
+    >>> from trainctl.controllers.mpc.condensed import block_parameters, build_block
+    >>> qp = ParametricQP(np.eye(2), np.eye(2), np.zeros((0, 2)), name="demo")
+    >>> params = {"g": np.arange(2), "lb": np.arange(2, 4), "ub": np.arange(4, 6),
+    ...           "hl": np.arange(0), "hu": np.arange(0)}
+    >>> block = build_block(qp, inputs=(0, 1), cols=np.arange(2), Kc=np.eye(2), params=params)
+    >>> prep = block_parameters([block], np.array([-2.0, 1.0, -0.5, -0.5, 0.5, 0.5]), True)
+    >>> problem = SimpleNamespace(blocks=[block], path="fast", residual_cols=None)
+    >>> result = strategy.plan(problem, prep, np.zeros(2), fallback=None)
+    >>> result.status, result.iterations, result.plan.round(6).tolist()
+    ('optimal', 1, [0.5, -0.5])
+    """
 
     name = "centralised"
 
@@ -143,7 +184,18 @@ class Centralised:
 
 
 class Decentralised(_PerCoach):
-    """Each coach over its own outputs; the others' inputs at their feedforward."""
+    """Each coach over its own outputs; the others' inputs at their feedforward.
+
+    Examples
+    --------
+    One block per coach, bounding the couplers in front of and behind it:
+
+    >>> strategy = Decentralised()
+    >>> strategy.block_inputs(3), strategy.members((1,), None)
+    ([(0,), (1,), (2,)], (1,))
+    >>> [strategy.couplers((i,), 2) for i in range(3)]
+    [[0], [0, 1], [1]]
+    """
 
     name = "decentralised"
 
@@ -169,6 +221,16 @@ class NDMPC(_PerCoach):
         Convergence tolerance on the change of the plans.
     relaxation : float
         Relaxation factor ω in (0, 1].
+
+    Examples
+    --------
+    A coach's block counts the outputs of its neighbourhood:
+
+    >>> from types import SimpleNamespace
+    >>> strategy = NDMPC(max_iterations=20, tolerance=1e-3, relaxation=0.5)
+    >>> design = SimpleNamespace(neighbourhoods=((0, 1), (0, 1, 2), (1, 2)))
+    >>> strategy.name, strategy.block_inputs(3), strategy.members((1,), design)
+    ('ndmpc', [(0,), (1,), (2,)], (0, 1, 2))
     """
 
     max_iterations: int
@@ -200,6 +262,13 @@ class Cooperative(_PerCoach):
         Convergence tolerance on the change of the plans.
     weights : ndarray
         The combination weight w_i of each coach, summing to 1.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> strategy = Cooperative(max_iterations=20, tolerance=1e-3, weights=np.full(3, 1 / 3))
+    >>> strategy.name, strategy.members((1,), SimpleNamespace(n_inputs=3))  # whole-train cost
+    ('cooperative', (0, 1, 2))
     """
 
     max_iterations: int
@@ -240,6 +309,14 @@ def make_strategy(name: str, *, max_iterations: int, tolerance: float, relaxatio
     -------
     Strategy
         The strategy, with the settings it uses.
+
+    Examples
+    --------
+    >>> common = dict(max_iterations=10, tolerance=1e-3, relaxation=0.5, weights=np.ones(1))
+    >>> type(make_strategy("centralised", **common)).__name__
+    'Centralised'
+    >>> make_strategy("ndmpc", **common)
+    NDMPC(max_iterations=10, tolerance=0.001, relaxation=0.5)
     """
     if name == "centralised":
         return Centralised()
