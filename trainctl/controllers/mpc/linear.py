@@ -76,6 +76,21 @@ class MPCSolution:
         Solver iterations.
     solve_time : float
         Wall time of the QP solve [s].
+
+    Examples
+    --------
+    The MPT3 regulation problem of :func:`make_linear_mpc` from x = (4, 0):
+    the first move is at its bound -1, which takes x to (4 - 1, -0.5).
+
+    >>> import control as ct
+    >>> sysd = ct.ss([[1, 1], [0, 1]], [[1], [0.5]], np.eye(2), 0, dt=1)
+    >>> mpc = make_linear_mpc(sysd, Q=np.eye(2), R=1, prediction_horizon=4,
+    ...                       u_min=-1, u_max=1, x_min=-5, x_max=5)
+    >>> sol = mpc.solve([4.0, 0.0])
+    >>> sol.inputs.shape, sol.states.shape  # (P, nu), (P + 1, nx)
+    ((4, 1), (5, 2))
+    >>> sol.first_move.round(4).tolist(), sol.states[1].round(4).tolist()
+    ([-1.0], [3.0, -0.5])
     """
 
     inputs: Array
@@ -135,6 +150,20 @@ class LinearMPC:
         QP solver of the fast path (:func:`~trainctl.controllers.qp.choose_solver`).
     name : str
         Label of the QP.
+
+    Examples
+    --------
+    The MPT3 regulation problem (python-control's pinned case), built by
+    :func:`make_linear_mpc`; from x = (4, 0) the first move saturates at -1:
+
+    >>> import control as ct
+    >>> sysd = ct.ss([[1, 1], [0, 1]], [[1], [0.5]], np.eye(2), 0, dt=1)
+    >>> mpc = make_linear_mpc(sysd, Q=np.eye(2), R=1, prediction_horizon=4,
+    ...                       u_min=-1, u_max=1, x_min=-5, x_max=5)
+    >>> type(mpc).__name__, mpc.prediction_horizon, mpc.control_horizon, mpc.form
+    ('LinearMPC', 4, 4, 'u')
+    >>> mpc.solve([4.0, 0.0]).first_move.round(4).tolist()
+    [-1.0]
     """
 
     def __init__(self, sysd: ct.StateSpace, settings: check.CoreSettings, *, path: str,
@@ -331,6 +360,24 @@ class LinearMPCController:
         u(k-1) before the first step (None: zeros).
     name : str or None
         Label (None: the MPC's name).
+
+    Examples
+    --------
+    The MPT3 problem of :func:`make_linear_mpc` in closed loop: the first
+    step applies the saturated move -1; a state with a NaN is not solved, and
+    the previous input is held.
+
+    >>> import control as ct
+    >>> sysd = ct.ss([[1, 1], [0, 1]], [[1], [0.5]], np.eye(2), 0, dt=1)
+    >>> mpc = make_linear_mpc(sysd, Q=np.eye(2), R=1, prediction_horizon=4,
+    ...                       u_min=-1, u_max=1, x_min=-5, x_max=5)
+    >>> ctl = mpc.controller()
+    >>> rec = ctl.step(0.0, Measurement(state=np.array([4.0, 0.0])))
+    >>> rec.status, rec.inputs.round(4).tolist()
+    ('optimal', [-1.0])
+    >>> rec = ctl.step(1.0, Measurement(state=np.array([np.nan, 0.0])))
+    >>> rec.status, rec.fallback, rec.inputs.round(4).tolist()
+    ('error', 'hold input', [-1.0])
     """
 
     def __init__(self, mpc: LinearMPC, *, reference: ArrayLike | None,

@@ -93,6 +93,14 @@ class MPCConstraints:
         Prediction steps (1..P) at which the coupler forces are bounded; None
         for every step. Bounding a subset (e.g. the first few steps, then every
         fifth) shrinks each QP with little effect when the bound is far from active.
+
+    Examples
+    --------
+    >>> limits = MPCConstraints(rate_limit=50e3, coupler_force_limit=200e3)
+    >>> limits.input_bounds, limits.rate_limit / 1e3, limits.coupler_force_limit / 1e3  # [kN]
+    (True, 50.0, 200.0)
+    >>> MPCConstraints().rate_limit  # no rate limit by default
+    inf
     """
 
     input_bounds: bool = True
