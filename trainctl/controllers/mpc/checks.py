@@ -34,6 +34,23 @@ def mpc_checks(design: MPCFamilyDesign) -> list[Check]:
         ``centralised_closed_loop``, then the review()-grade checks of
         :mod:`~trainctl.controllers.mpc.review_checks`: ``prediction_horizon``,
         ``qp_conditioning``, ``rate_limit_conflict``, ``coupler_force_conflict``.
+
+    Examples
+    --------
+    The design weight R = 10 per kN² is above the convergence threshold
+    R* ≈ 2.25 per kN², so the Jacobi iterations of N-DMPC converge
+    (ρ(D0) ≈ 0.31 < 1):
+
+    >>> from trainctl.controllers.mpc.family import FAMILY
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> design = FAMILY.design(scenario, build_model(scenario), scenario.controllers["mpc"])
+    >>> checks = {c.name: c for c in mpc_checks(design)}
+    >>> len(checks), checks["ndmpc_convergence"].status
+    (11, 'pass')
+    >>> round(design.analysis.rho_d0, 2), round(design.analysis.threshold_weight, 2)
+    (0.31, 2.25)
     """
     from .review_checks import (
         coupler_force_check,

@@ -67,6 +67,19 @@ class MPCFamilyDesign:
         The family's ``[controller]`` settings.
     mpc : MPCDesign
         The unconstrained design in design units (inputs kN).
+
+    Examples
+    --------
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> design = FAMILY.design(scenario, build_model(scenario), scenario.controllers["mpc"])
+    >>> design.mpc.prediction_horizon, design.mpc.control_horizon, design.mpc.form
+    (4, 2, 'du')
+    >>> design.mpc.neighbourhoods  # N-DMPC: each coach and the coaches next to it
+    ((0, 1), (0, 1, 2), (1, 2, 3), (2, 3))
+    >>> design.closed_loop_labels()[-4:]  # Δu-form: the previous inputs join the state
+    ['u_prev[0]', 'u_prev[1]', 'u_prev[2]', 'u_prev[3]']
     """
 
     scenario: Scenario
@@ -254,7 +267,20 @@ def _decentralised_closed_loop(mpc: MPCDesign) -> np.ndarray:
 
 
 class MPCFamily:
-    """Centralised, decentralised, N-DMPC and cooperative DMPC of the train."""
+    """Centralised, decentralised, N-DMPC and cooperative DMPC of the train.
+
+    Examples
+    --------
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> design = FAMILY.design(scenario, build_model(scenario), scenario.controllers["mpc"])
+    >>> FAMILY.name, "ndmpc" in FAMILY.strategies
+    ('mpc', True)
+    >>> ctl = FAMILY.make(design, "ndmpc")
+    >>> type(ctl).__name__, ctl.name, ctl.dt  # the scenario's sample time [s]
+    ('MPCController', 'ndmpc', 20.0)
+    """
 
     name = "mpc"
     title = "Model predictive control"

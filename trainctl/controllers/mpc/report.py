@@ -50,6 +50,19 @@ def mpc_report_data(design: MPCFamilyDesign) -> dict[str, Any]:
         ``weight_sweep``: ``weights`` and ``radii`` (ρ(D0)) lists,
         ``threshold`` R* (None when infinite) and ``design_weight`` R, in
         ``unit``; plus display values for the section.
+
+    Examples
+    --------
+    >>> from trainctl.controllers.mpc.family import FAMILY
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> design = FAMILY.design(scenario, build_model(scenario), scenario.controllers["mpc"])
+    >>> data = mpc_report_data(design)
+    >>> data["horizons"], data["form"], data["rho_text"], data["unit"]
+    ([4, 2], 'du', '0.3057', 'per kN²')
+    >>> list(data["spectra"])
+    ['centralised', 'N-DMPC (Nash)', 'N-DMPC (10 iterations)']
     """
     from ...analysis.iteration import convergence_sweep, threshold_weight
 
@@ -95,6 +108,16 @@ def mpc_report_figures(data: Mapping[str, Any]) -> list[ReportFigure]:
     -------
     list of ReportFigure
         One figure.
+
+    Examples
+    --------
+    A hand-made sweep whose radius crosses 1 between R = 1 and R = 10:
+
+    >>> sweep = {"weights": [0.1, 1.0, 10.0], "radii": [3.0, 1.2, 0.3], "threshold": 2.0,
+    ...          "design_weight": 10.0, "unit": "per kN²"}
+    >>> [figure] = mpc_report_figures({"weight_sweep": sweep})
+    >>> figure.key, figure.title
+    ('convergence', 'N-DMPC convergence against the input weight')
     """
     from matplotlib.figure import Figure
 
