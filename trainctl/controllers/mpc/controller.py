@@ -133,6 +133,29 @@ class MPCController:
         The continuous design model partitioned by coach
         (:func:`trainctl.analysis.local_iteration.local_model`); required by
         ``"ndmpc-local"``, ignored otherwise.
+
+    Examples
+    --------
+    On the reference at the cruise speed, at the equilibrium state, there is
+    nothing to correct: N-DMPC's plan is the feedforward, the equilibrium
+    forces of the two motor cars [kN].
+
+    >>> from trainctl.controllers.mpc.family import FAMILY
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> design = FAMILY.design(scenario, build_model(scenario), scenario.controllers["mpc"])
+    >>> from trainctl.models import equilibrium
+    >>> v = scenario.model.speed  # 83.3 m/s
+    >>> eq = equilibrium(scenario.train, v)
+    >>> ref = ReferencePreview(times=20.0 * np.arange(5), speed=np.full(5, v),
+    ...                        acceleration=np.zeros(5))
+    >>> ctl = FAMILY.make(design, "ndmpc")
+    >>> rec = ctl.step(0.0, Measurement(state=eq.state(position=0.0)), ref)
+    >>> rec.status, bool(np.allclose(rec.inputs, eq.inputs))
+    ('optimal', True)
+    >>> (rec.inputs / 1e3).round(2).tolist()
+    [0.0, 11.79, 11.79, 0.0]
     """
 
     def __init__(self, train: Train, design: MPCDesign, force_matrix: Array, *, dt: float,
@@ -417,6 +440,29 @@ def make_mpc(train: Train, design: MPCDesign, *, dt: float, strategy: str = "ndm
     -------
     MPCController
         Ready to ``step``.
+
+    Examples
+    --------
+    A centralised MPC on the ``crh2-dmpc`` design, stepped at the
+    equilibrium state on a constant reference: it keeps the equilibrium
+    forces.
+
+    >>> from trainctl.controllers.mpc.family import FAMILY
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> design = FAMILY.design(scenario, build_model(scenario), scenario.controllers["mpc"])
+    >>> from trainctl.models import equilibrium
+    >>> v = scenario.model.speed  # 83.3 m/s
+    >>> eq = equilibrium(scenario.train, v)
+    >>> ref = ReferencePreview(times=20.0 * np.arange(5), speed=np.full(5, v),
+    ...                        acceleration=np.zeros(5))
+    >>> ctl = make_mpc(scenario.train, design.mpc, dt=20.0, strategy="centralised")
+    >>> ctl.name, len(ctl.problem.blocks)  # one QP over the four coaches
+    ('centralised', 1)
+    >>> rec = ctl.step(0.0, Measurement(state=eq.state(position=0.0)), ref)
+    >>> rec.status, bool(np.allclose(rec.inputs, eq.inputs))
+    ('optimal', True)
     """
     from ...models.linear import linearise
 

@@ -105,6 +105,19 @@ class LocalTrainProblem(TrainProblem):
     fixed : tuple of int
         Coaches whose moves the envelope pins (:func:`~.controller.fixed_inputs`): no QP
         is solved for them; they still publish their predicted own-state trajectory.
+
+    Examples
+    --------
+    The problem of the ``"ndmpc-local"`` controller: one QP per coach.
+
+    >>> from trainctl.controllers.mpc.family import FAMILY
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> design = FAMILY.design(scenario, build_model(scenario), scenario.controllers["mpc"])
+    >>> problem = FAMILY.make(design, "ndmpc-local").problem
+    >>> type(problem).__name__, [block.inputs for block in problem.blocks]
+    ('LocalTrainProblem', [(0,), (1,), (2,), (3,)])
     """
 
     def __init__(self, design: MPCDesign, model: LocalModel, force_matrix: Array,
@@ -297,6 +310,29 @@ class LocalNDMPC(_PerCoach):
         Convergence tolerance on the change of the plans.
     relaxation : float
         Relaxation factor ω in (0, 1].
+
+    Examples
+    --------
+    At the equilibrium state on a constant reference the local iterations
+    keep the equilibrium forces of the two motor cars [kN]:
+
+    >>> from trainctl.controllers.mpc.family import FAMILY
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> design = FAMILY.design(scenario, build_model(scenario), scenario.controllers["mpc"])
+    >>> from trainctl.controllers.base import Measurement, ReferencePreview
+    >>> from trainctl.models import equilibrium
+    >>> v = scenario.model.speed  # 83.3 m/s
+    >>> eq = equilibrium(scenario.train, v)
+    >>> ref = ReferencePreview(times=20.0 * np.arange(5), speed=np.full(5, v),
+    ...                        acceleration=np.zeros(5))
+    >>> ctl = FAMILY.make(design, "ndmpc-local")
+    >>> type(ctl._strategy).__name__
+    'LocalNDMPC'
+    >>> rec = ctl.step(0.0, Measurement(state=eq.state(position=0.0)), ref)
+    >>> rec.status, (rec.inputs / 1e3).round(2).tolist()
+    ('optimal', [0.0, 11.79, 11.79, 0.0])
     """
 
     max_iterations: int

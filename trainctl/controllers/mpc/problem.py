@@ -69,6 +69,18 @@ class StepContext:
         ũ(k-1) repeated for every move, (M·n,) [kN].
     bounds : ndarray
         Lower and upper bounds of the input moves ũ, (2, M·n) [kN].
+
+    Examples
+    --------
+    A step of a four-coach train at zero deviation, M = 2 moves and P = 4
+    steps (three couplers), with moves bounded by ±100 kN:
+
+    >>> ctx = StepContext(x=np.zeros(7), u_ff=np.zeros((2, 4)), f_ff=np.zeros(12),
+    ...                   u_prev=np.zeros(4), u_dev_prev=np.zeros(4),
+    ...                   u_dev_prev_tiled=np.zeros(8),
+    ...                   bounds=np.vstack([np.full(8, -100.0), np.full(8, 100.0)]))
+    >>> ctx.lb[:2].tolist(), ctx.ub[:2].tolist()  # [kN]
+    ([-100.0, -100.0], [100.0, 100.0])
     """
 
     x: Array
@@ -112,6 +124,33 @@ class TrainProblem:
     fixed : tuple of int
         Coaches whose moves the envelope pins (:func:`~.controller.fixed_inputs`): a
         block of only such coaches is not built; their moves are the controller's.
+
+    Examples
+    --------
+    The centralised problem of the ``crh2-dmpc`` design has one block over
+    the 2 moves of the 4 coaches; at zero deviation its optimal plan is zero.
+
+    >>> from trainctl.controllers.mpc.family import FAMILY
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> design = FAMILY.design(scenario, build_model(scenario), scenario.controllers["mpc"])
+    >>> from trainctl.controllers.mpc.strategies import make_strategy
+    >>> strategy = make_strategy("centralised", max_iterations=1, tolerance=1e-6,
+    ...                          relaxation=1.0, weights=np.full(4, 0.25))
+    >>> problem = TrainProblem(design.mpc, design.model.force_rows() / 1e3,
+    ...                        design.settings.mpc_constraints(), strategy, name="demo",
+    ...                        path="fast")
+    >>> len(problem.blocks), problem.blocks[0].inputs, problem.blocks[0].cols.size
+    (1, (0, 1, 2, 3), 8)
+    >>> ctx = StepContext(x=np.zeros(7), u_ff=np.zeros((2, 4)), f_ff=np.zeros(12),
+    ...                   u_prev=np.zeros(4), u_dev_prev=np.zeros(4),
+    ...                   u_dev_prev_tiled=np.zeros(8),
+    ...                   bounds=np.vstack([np.full(8, -100.0), np.full(8, 100.0)]))
+    >>> result = strategy.plan(problem, problem.parameters(ctx), np.zeros(8),
+    ...                        lambda block: np.zeros(block.cols.size))
+    >>> result.status, float(np.abs(result.plan).max().round(6))
+    ('optimal', 0.0)
     """
 
     def __init__(self, design: MPCDesign, force_matrix: Array, constraints: MPCConstraints,
