@@ -52,6 +52,16 @@ class ObserverSettings:
     disturbance_noise : float
         Random-walk step of the disturbance per sample [m/s²], > 0; larger
         tracks grade changes faster, smaller filters noise more.
+
+    Examples
+    --------
+    >>> settings = ObserverSettings(measurement_noise=0.1)
+    >>> settings.measurement_noise, settings.disturbance_noise  # [m/s], [m/s²]
+    (0.1, 0.001)
+    >>> ObserverSettings(measurement_noise=0.0)
+    Traceback (most recent call last):
+    ...
+    trainctl.exceptions.ModelError: ObserverSettings: 'measurement_noise' must be > 0 (got 0.0).
     """
 
     measurement_noise: float = 0.05

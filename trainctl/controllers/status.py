@@ -133,5 +133,10 @@ def is_usable(status: str) -> bool:
     -------
     bool
         Whether the solution may drive the train.
+
+    Examples
+    --------
+    >>> [is_usable(s) for s in ("optimal", "optimal_inaccurate", "max_iterations", "infeasible")]
+    [True, True, False, False]
     """
     return status in ("optimal", "optimal_inaccurate")

@@ -96,6 +96,13 @@ def per_kn2(weight: float, unit: str) -> float:
     -------
     float
         The weight per kN².
+
+    Examples
+    --------
+    1 kN² = 10⁶ N², so a weight of 2e-6 per N² is 2 per kN²:
+
+    >>> per_kn2(2e-6, "N"), per_kn2(0.5, "kN")
+    (2.0, 0.5)
     """
     return weight * _N2_PER_KN2 if unit == "N" else weight
 
@@ -114,6 +121,15 @@ def check_force_weight(outputs: Sequence[str], q_force: float) -> None:
     ------
     pydantic.ValidationError
         At ``q_force`` when it is > 0 and ``"force"`` is not in ``outputs``.
+
+    Examples
+    --------
+    >>> check_force_weight(("v", "force"), 1.0)  # weighted and controlled: fine
+    >>> try:
+    ...     check_force_weight(("v",), 1.0)
+    ... except ValueError as exc:
+    ...     print(type(exc).__name__, exc.errors()[0]["loc"])
+    ValidationError ('q_force',)
     """
     if q_force > 0 and "force" not in outputs:
         raise_at(("q_force",), Violation(
@@ -138,6 +154,15 @@ def check_outputs_fit(outputs: Sequence[str], n: int | None) -> None:
     ------
     pydantic.ValidationError
         At the ``"force"`` item of ``outputs`` when ``n`` is 1.
+
+    Examples
+    --------
+    >>> check_outputs_fit(("v", "force"), 2)  # two vehicles, one coupler: fine
+    >>> try:
+    ...     check_outputs_fit(("v", "force"), 1)
+    ... except ValueError as exc:
+    ...     print(type(exc).__name__, exc.errors()[0]["loc"])
+    ValidationError ('outputs', 1)
     """
     if n is not None and n < 2 and "force" in outputs:
         raise_at(("outputs", list(outputs).index("force")), Violation(
