@@ -114,6 +114,15 @@ class ControllerFamily(Protocol):
         Jinja source of the family's report section (rendered with ``data``,
         the family's :meth:`report_data`, and ``design`` as context), or ""
         for none.
+
+    Examples
+    --------
+    Every built-in family satisfies the protocol, which is checked at run time:
+
+    >>> [isinstance(get_family(name), ControllerFamily) for name in ("mpc", "hinf")]
+    [True, True]
+    >>> isinstance(object(), ControllerFamily)
+    False
     """
 
     name: str
@@ -217,6 +226,19 @@ def register_family(family: ControllerFamily) -> None:
     ------
     ValueError
         If ``family.name`` is a built-in family or not an identifier.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> toy = SimpleNamespace(name="toy", strategies=("hold",))
+    >>> register_family(toy)
+    >>> family_names()[-1], get_family("toy") is toy
+    ('toy', True)
+    >>> unregister_family("toy")
+    >>> register_family(SimpleNamespace(name="mpc"))
+    Traceback (most recent call last):
+    ...
+    ValueError: register_family: 'mpc' is a built-in family and cannot be replaced.
     """
     name = getattr(family, "name", None)
     if not isinstance(name, str) or not name.isidentifier():
@@ -233,6 +255,17 @@ def unregister_family(name: str) -> None:
     ----------
     name : str
         The family's name.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> register_family(SimpleNamespace(name="toy"))
+    >>> "toy" in family_names()
+    True
+    >>> unregister_family("toy")
+    >>> "toy" in family_names()
+    False
+    >>> unregister_family("toy")  # absent: nothing happens
     """
     _REGISTERED.pop(name, None)
 
