@@ -56,6 +56,16 @@ class ClosedLoopSpectrum(NamedTuple):
         The zero eigenvalues have as many eigenvectors as their multiplicity
         (rank deficiency of A = their count): a translation that stays
         constant, not one that grows.
+
+    Examples
+    --------
+    A double integrator ẍ = 0 has a zero eigenvalue twice but one
+    eigenvector (a Jordan block): the translation grows, so it is not
+    semisimple.
+
+    >>> s = closed_loop_spectrum(np.array([[0.0, 1.0], [0.0, 0.0]]))
+    >>> int(s.zero.sum()), s.abscissa, s.semisimple
+    (2, 0.0, False)
     """
 
     eigenvalues: NDArray[np.complex128]
@@ -116,6 +126,25 @@ def control_interval(scenario: Scenario, model: DesignModel, settings: Any,
     ------
     ScenarioError
         If the simulated duration is not a whole multiple of it.
+
+    Examples
+    --------
+    ``crh2-dmpc-well-sampled`` samples at 0.05 s and simulates 1200 s:
+
+    >>> from types import SimpleNamespace
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc-well-sampled")
+    >>> model = build_model(scenario)
+    >>> control_interval(scenario, model, SimpleNamespace(control_interval=None), "potential")
+    0.05
+    >>> control_interval(scenario, model, SimpleNamespace(control_interval=0.1), "potential")
+    0.1
+    >>> try:  # 1200 s / 0.7 s = 1714.29 intervals
+    ...     control_interval(scenario, model, SimpleNamespace(control_interval=0.7), "potential")
+    ... except ScenarioError as exc:
+    ...     print(type(exc).__name__)
+    ScenarioError
     """
     interval = float(settings.control_interval or model.settings.sample_time)
     sim = scenario.simulation
@@ -141,6 +170,15 @@ def initial_errors(scenario: Scenario) -> NDArray[np.float64]:
     -------
     ndarray
         Speed errors, spacing deviations and the head's position error, shape (2n,).
+
+    Examples
+    --------
+    ``heavy-haul-flocking`` starts its four trains ±2 m/s off the reference
+    and its three gaps off by 90, -100 and 90 m:
+
+    >>> from trainctl.scenario import load_scenario
+    >>> initial_errors(load_scenario("heavy-haul-flocking")).tolist()
+    [-2.0, 2.0, -2.0, 2.0, 90.0, -100.0, 90.0, 0.0]
     """
     n = scenario.train.n_vehicles
     xi = np.zeros(2 * n)
@@ -252,6 +290,18 @@ def sampling_check(name: str, A_cl: NDArray[np.float64], held: NDArray[np.float6
     -------
     Check
         Value ω_max·T_c [rad].
+
+    Examples
+    --------
+    ẋ = u with u = -x: ω_max = 1 rad/s, and held over T the loop is
+    x⁺ = (1 - T) x.
+
+    >>> A_cl, A, B, F = -np.ones((1, 1)), np.zeros((1, 1)), np.ones((1, 1)), -np.ones((1, 1))
+    >>> [sampling_check("demo", A_cl, held_loop(A, B, F, T), T).status for T in (0.05, 0.5, 3.0)]
+    ['pass', 'warn', 'fail']
+    >>> check = sampling_check("demo", A_cl, held_loop(A, B, F, 3.0), 3.0)
+    >>> round(check.details["sampled_radius"], 6)  # |1 - 3| = 2 > 1: unstable
+    2.0
     """
     from ..analysis.check import Check
 
