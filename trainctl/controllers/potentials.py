@@ -409,6 +409,14 @@ class CollisionBound(NamedTuple):
     relative_speed : float
         ``sqrt(2 energy)`` [m/s]: a pair closing faster than this (with no
         other energy in the loop) could overcome the barrier.
+
+    Examples
+    --------
+    >>> b = CollisionBound(energy=50.0, relative_speed=math.sqrt(2 * 50.0))
+    >>> b.relative_speed  # √(2·50 m²/s²) = 10 m/s
+    10.0
+    >>> isinstance(FlockingPotential().collision_energy_bound(), CollisionBound)
+    True
     """
 
     energy: float
@@ -714,6 +722,18 @@ class PairPotential(Protocol):
     cars are farther apart than nominal. The rear car's specific force is
     ``+gradient(z)`` and the front car's ``-gradient(z)`` [m/s²], i.e.
     ``u_4i = -m_i sum_j grad_{x_i} U_ij``.
+
+    Examples
+    --------
+    The quadratic spring and the barrier both provide the four methods; near
+    z = 0 the barrier κ/2 ln(Δ²/(Δ² - z²)) ≈ κ z²/(2Δ²) is a spring of
+    stiffness κ/Δ²:
+
+    >>> members = ("energy", "gradient", "curvature", "bound")
+    >>> for p in (QuadraticPotential(0.5), BarrierPotential(kappa=0.02, delta=0.2)):
+    ...     print(type(p).__name__, all(hasattr(p, m) for m in members), round(p.curvature(), 6))
+    QuadraticPotential True 0.5
+    BarrierPotential True 0.5
     """
 
     def energy(self, z: ArrayLike) -> Floats:
