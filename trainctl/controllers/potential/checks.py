@@ -100,6 +100,18 @@ def potential_checks(design: PotentialDesign) -> list[Check]:
     -------
     list of Check
         In :data:`~trainctl.controllers.potential.family.CHECK_NAMES` order.
+
+    Examples
+    --------
+    >>> from trainctl.controllers.potential.family import FAMILY
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-potential")
+    >>> design = FAMILY.design(scenario, build_model(scenario), scenario.controllers["potential"])
+    >>> [(c.name, c.status) for c in potential_checks(design)]  # doctest: +NORMALIZE_WHITESPACE
+    [('potential_closed_loop', 'pass'), ('potential_lyapunov', 'pass'),
+     ('potential_spacing_bound', 'pass'), ('potential_sampling', 'pass'),
+     ('potential_position', 'pass'), ('potential_linearisation', 'pass')]
     """
     certificate = design.certificate
     return [closed_loop_check(design), lyapunov_check(design, certificate),
@@ -437,6 +449,24 @@ def barrier_bound(design: PotentialDesign) -> float:
     -------
     float
         The bound [m]; Δ itself when an initial deviation is outside the band.
+
+    Examples
+    --------
+    A stand-in design of two equal cars, 0.1 m/s either side of the
+    reference at their nominal spacing: V(0)/m = ½(0.1² + 0.1²) = 0.01 m²/s²,
+    so with κ = 0.02 m²/s² and Δ = 0.2 m the bound is
+    0.2 √(1 − e^(−2·0.01/0.02)) = 0.2 √(1 − e^(−1)) ≈ 0.159 m.
+
+    >>> from types import SimpleNamespace
+    >>> from trainctl.controllers.potentials import BarrierPotential
+    >>> law = SimpleNamespace(n=2, mass=np.full(2, 4e4), pinning=np.zeros(2),
+    ...                       potential=BarrierPotential(kappa=0.02, delta=0.2))
+    >>> design = SimpleNamespace(law=law, initial_errors=np.array([0.1, -0.1, 0.0, 0.0]),
+    ...                          scenario=SimpleNamespace(train=SimpleNamespace(
+    ...                              stiffness=np.array([1e7]))),
+    ...                          settings=SimpleNamespace(barrier=0.2))
+    >>> round(barrier_bound(design), 4)  # [m]
+    0.159
     """
     from ..sampled import cumulative, incidence
 
@@ -600,5 +630,24 @@ def trajectory_checks(design: PotentialDesign, strategy: str,
     -------
     list of Check
         Replacing the design review's checks of the same names.
+
+    Examples
+    --------
+    A stand-in result in which every car keeps within 0.5 m/s of the
+    reference, far below the linearisation limit 0.1 (a1/a2 + 2 v_r):
+
+    >>> from trainctl.controllers.potential.family import FAMILY
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-potential")
+    >>> design = FAMILY.design(scenario, build_model(scenario), scenario.controllers["potential"])
+    >>> from types import SimpleNamespace
+    >>> t = np.array([0.0, 1.0])
+    >>> v_ref = np.full(2, design.model.settings.speed)
+    >>> result = SimpleNamespace(time=t, dense_time=None, reference_speed=v_ref,
+    ...                          velocities=v_ref + np.array([[0.5], [-0.5]] * 4))
+    >>> [check] = trajectory_checks(design, "potential", result)
+    >>> check.name, check.status, check.value  # largest |v̂| [m/s]
+    ('potential_linearisation', 'pass', 0.5)
     """
     return [linearisation_check(design, result, strategy)]

@@ -87,6 +87,19 @@ class PotentialDesign:
         Continuous linear closed loop [1/s], (2n, 2n).
     initial_errors : ndarray
         ξ(0) of the scenario's ``[simulation]`` (zeros without one).
+
+    Examples
+    --------
+    The eight cars of ``crh2-potential``: ξ = [v̂ (8), z (7), p]:
+
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-potential")
+    >>> design = FAMILY.design(scenario, build_model(scenario), scenario.controllers["potential"])
+    >>> design.A_cl.shape, design.control_interval, design.pinned  # T_c [s]
+    ((16, 16), 0.002, True)
+    >>> design.initial_errors[:4].tolist()  # speed errors [m/s]
+    [1.0, -1.0, 1.0, -1.0]
     """
 
     scenario: Scenario
@@ -184,7 +197,20 @@ def design_potential(scenario: Scenario, model: DesignModel, settings: Any) -> P
 
 
 class PotentialFamily:
-    """Zhao & Wang's potential-function consensus law (seed 001)."""
+    """Zhao & Wang's potential-function consensus law (seed 001).
+
+    Examples
+    --------
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-potential")
+    >>> design = FAMILY.design(scenario, build_model(scenario), scenario.controllers["potential"])
+    >>> FAMILY.name, FAMILY.check_names[0]
+    ('potential', 'potential_closed_loop')
+    >>> ctl = FAMILY.make(design, FAMILY.strategies[0])
+    >>> ctl.dt  # the law runs every control interval [s]
+    0.002
+    """
 
     name = "potential"
     title = "Potential-function consensus"

@@ -116,6 +116,20 @@ class PotentialLaw:
         c·a_ij [1/s], shape (n, n), zero diagonal.
     potential : PairPotential
         U on the spacing deviation [m²/s² per unit mass].
+
+    Examples
+    --------
+    Two 10 t cars with a spring κ = 0.5 1/s² and speed gain d_v = 0.5 1/s:
+    a gap 0.2 m too wide pulls them together with m κ z = 1e4·0.5·0.2 =
+    1000 N; the front car 0.1 m/s too fast is braked by m d_v v̂ = 500 N.
+
+    >>> from trainctl.controllers.potentials import QuadraticPotential
+    >>> law = PotentialLaw(mass=np.full(2, 1e4), pinning=np.zeros(2), speed_gain=0.5,
+    ...                    consensus=np.zeros((2, 2)), potential=QuadraticPotential(0.5))
+    >>> law.force(np.zeros(2), np.array([0.2]), np.zeros(2)).tolist()  # [N], front first
+    [-1000.0, 1000.0]
+    >>> float(law.force(np.array([0.1, 0.0]), np.zeros(1), np.zeros(2))[0])
+    -500.0
     """
 
     mass: Array
@@ -184,6 +198,20 @@ def law_of(scenario: Scenario, settings: Any) -> PotentialLaw:
     ScenarioError
         If the train has fewer than 2 cars or no physical coupler (k is the
         mean stiffness of the physical couplers).
+
+    Examples
+    --------
+    Every car is pinned (weight 1) with position_gain = 0.1 times the
+    coupler stiffness 1.0488e7 N/m:
+
+    >>> from trainctl.controllers.potential.settings import PotentialSettings
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc-well-sampled")
+    >>> law = law_of(scenario, PotentialSettings())
+    >>> law.pinning.tolist()  # [N/m]
+    [1048800.0, 1048800.0, 1048800.0, 1048800.0]
+    >>> law.speed_gain, law.potential  # [1/s]
+    (0.5, QuadraticPotential(kappa=0.5))
     """
     train = scenario.train
     physical = train.stiffness[~train.virtual] if train.n_couplers else np.zeros(0)
@@ -217,6 +245,21 @@ def closed_loop_matrices(model: DesignModel, law: PotentialLaw) -> tuple[Array, 
     (A_open, B_open, A_cl) : ndarray
         The loop ξ̇ = A_open ξ + B_open û (û [N]) on ξ = [v̂, z, p], shapes (2n, 2n) and
         (2n, n); A_cl = A_open + B_open F [1/s].
+
+    Examples
+    --------
+    >>> from trainctl.controllers.potential.settings import PotentialSettings
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc-well-sampled")
+    >>> from trainctl.design import build_model
+    >>> law = law_of(scenario, PotentialSettings())
+    >>> A, B, A_cl = closed_loop_matrices(build_model(scenario), law)
+    >>> A.shape, B.shape  # four cars: ξ = [v̂ (4), z (3), p]
+    ((8, 8), (8, 4))
+    >>> A[-1].tolist()  # ṗ = v̂_0
+    [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    >>> bool(np.max(np.linalg.eigvals(A_cl).real) < 0.0)
+    True
     """
     sys = model.observer_model()
     nx, n = int(sys.nstates), model.n_vehicles
