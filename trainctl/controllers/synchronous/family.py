@@ -91,6 +91,18 @@ class SynchronousDesign:
         The scenario's ``[network]`` (None: an instantaneous relay).
     loops : LoopMatrices
         Open loop, undelayed and relayed parts, delay-free closed loop.
+
+    Examples
+    --------
+    >>> from trainctl.controllers.synchronous.settings import SynchronousSettings
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("heavy-haul-hinf")
+    >>> design = FAMILY.design(scenario, build_model(scenario), SynchronousSettings())
+    >>> design.law.lead, design.control_interval, design.network is None  # lead 0, T_c [s]
+    (0, 0.1, True)
+    >>> design.loops.K_relay.shape  # three remotes follow the lead
+    (3, 7)
     """
 
     scenario: Scenario
@@ -222,7 +234,20 @@ def _seconds(x: float | None) -> str:
 
 
 class SynchronousFamily:
-    """Centralised synchronous operation (the LOCOTROL-type baseline of seed 003)."""
+    """Centralised synchronous operation (the LOCOTROL-type baseline of seed 003).
+
+    Examples
+    --------
+    >>> from trainctl.controllers.synchronous.settings import SynchronousSettings
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("heavy-haul-hinf")
+    >>> design = FAMILY.design(scenario, build_model(scenario), SynchronousSettings())
+    >>> FAMILY.name, FAMILY.strategies
+    ('synchronous', ('synchronous',))
+    >>> FAMILY.make(design, "synchronous").dt  # the control interval [s]
+    0.1
+    """
 
     name = "synchronous"
     title = "Synchronous operation (centralised)"
