@@ -60,6 +60,17 @@ def cut_graph(graph: CommunicationGraph, windows: Sequence[Interruption]) -> Com
     -------
     CommunicationGraph
         Same vehicles; cut adjacency entries and pinnings set to 0.
+
+    Examples
+    --------
+    >>> from trainctl.graphs import make_graph
+    >>> from trainctl.network import Interruption
+    >>> g = make_graph("predecessor", 3, pinned="head")
+    >>> c = cut_graph(g, [Interruption(start=10.0, end=20.0, links=[[1, 0]])])
+    >>> c.adjacency.tolist()  # only vehicle 2 still hears vehicle 1
+    [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+    >>> c.unreached()  # vehicle 1 lost its only source, and 2 hears only 1
+    (1, 2)
     """
     a = np.array(graph.adjacency, dtype=float)
     p = np.array(graph.pinning, dtype=float)
@@ -90,6 +101,22 @@ def union_graph(graphs: Sequence[CommunicationGraph]) -> CommunicationGraph:
     -------
     CommunicationGraph
         Links present in any of them.
+
+    Examples
+    --------
+    Cutting the 1 → 0 link in one graph and the reference pinning in the
+    other: the union has every link back.
+
+    >>> from trainctl.graphs import make_graph
+    >>> from trainctl.network import Interruption
+    >>> g = make_graph("predecessor", 3, pinned="head")
+    >>> a = cut_graph(g, [Interruption(start=0.0, end=1.0, links=[[1, 0]])])
+    >>> b = cut_graph(g, [Interruption(start=0.0, end=1.0, links=[[0, "reference"]])])
+    >>> a.reference_reaches_all(), b.reference_reaches_all()
+    (False, False)
+    >>> u = union_graph([a, b])
+    >>> u.pinning.tolist(), u.reference_reaches_all()
+    ([1.0, 0.0, 0.0], True)
     """
     if not graphs:
         raise ModelError("union_graph: 'graphs' must hold at least one graph (got none).")
@@ -114,6 +141,17 @@ class GraphSegment:
         The graph in force.
     windows : tuple of int
         Indices of the interruption windows open over it.
+
+    Examples
+    --------
+    >>> from trainctl.graphs import make_graph
+    >>> from trainctl.network import Interruption
+    >>> g = make_graph("predecessor", 3, pinned="head")
+    >>> seg = graph_segments(g, [Interruption(start=10.0, end=20.0, links=[[1, 0]])], 60.0)[1]
+    >>> seg.start, seg.end, seg.windows  # [s], window 0 open
+    (10.0, 20.0, (0,))
+    >>> seg.unreached
+    (1, 2)
     """
 
     start: float
@@ -144,6 +182,18 @@ def graph_segments(graph: CommunicationGraph, windows: Sequence[Interruption],
     -------
     list of GraphSegment
         In time order, covering [0, duration).
+
+    Examples
+    --------
+    Two overlapping windows split a 60 s run at 10, 20 and 30 s:
+
+    >>> from trainctl.graphs import make_graph
+    >>> from trainctl.network import Interruption
+    >>> g = make_graph("predecessor", 3, pinned="head")
+    >>> cuts = [Interruption(start=10.0, end=30.0, links=[[2, 1]]),
+    ...         Interruption(start=20.0, end=30.0, links=[[1, 0]])]
+    >>> [(s.start, s.end, s.windows, s.unreached) for s in graph_segments(g, cuts, 60.0)]
+    [(0.0, 10.0, (), ()), (10.0, 20.0, (0,), (2,)), (20.0, 30.0, (0, 1), (1, 2)), (30.0, 60.0, (), ())]
     """
     if not (isinstance(duration, int | float | np.floating) and math.isfinite(duration)
             and duration > 0):
@@ -180,6 +230,19 @@ class WindowConnectivity:
     recovery_time : float or None
         The window's end when recovered [s], None when not (or when the
         window lasts to the end of the run).
+
+    Examples
+    --------
+    A cut that lasts to the end of the run leaves no time to recover:
+
+    >>> from trainctl.graphs import make_graph
+    >>> from trainctl.network import Interruption
+    >>> g = make_graph("predecessor", 3, pinned="head")
+    >>> w = joint_connectivity(g, [Interruption(start=10.0, end=60.0, links=[[1, 0]])], 60.0)[0]
+    >>> w.cut_off, w.recovered, w.recovery_time
+    ((1, 2), False, None)
+    >>> w.to_dict()["cut_off_vehicles"]  # 1-based
+    [2, 3]
     """
 
     window: int
@@ -213,6 +276,19 @@ def joint_connectivity(graph: CommunicationGraph, windows: Sequence[Interruption
     -------
     list of WindowConnectivity
         One per window, in the given order.
+
+    Examples
+    --------
+    The first window only drops the head's pinning and is over at 20 s, so the
+    links are back afterwards; the second lasts to the end of the run.
+
+    >>> from trainctl.graphs import make_graph
+    >>> from trainctl.network import Interruption
+    >>> g = make_graph("predecessor", 3, pinned="head")
+    >>> cuts = [Interruption(start=10.0, end=20.0, links=[[0, "reference"]]),
+    ...         Interruption(start=40.0, end=60.0, links=[[2, 1]])]
+    >>> [(w.cut_off, w.recovered, w.recovery_time) for w in joint_connectivity(g, cuts, 60.0)]
+    [((0, 1, 2), True, 20.0), ((2,), False, None)]
     """
     segments = graph_segments(graph, windows, duration)
     out = []
