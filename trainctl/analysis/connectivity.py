@@ -192,8 +192,12 @@ def graph_segments(graph: CommunicationGraph, windows: Sequence[Interruption],
     >>> g = make_graph("predecessor", 3, pinned="head")
     >>> cuts = [Interruption(start=10.0, end=30.0, links=[[2, 1]]),
     ...         Interruption(start=20.0, end=30.0, links=[[1, 0]])]
-    >>> [(s.start, s.end, s.windows, s.unreached) for s in graph_segments(g, cuts, 60.0)]
-    [(0.0, 10.0, (), ()), (10.0, 20.0, (0,), (2,)), (20.0, 30.0, (0, 1), (1, 2)), (30.0, 60.0, (), ())]
+    >>> for s in graph_segments(g, cuts, 60.0):
+    ...     print(s.start, s.end, s.windows, s.unreached)
+    0.0 10.0 () ()
+    10.0 20.0 (0,) (2,)
+    20.0 30.0 (0, 1) (1, 2)
+    30.0 60.0 () ()
     """
     if not (isinstance(duration, int | float | np.floating) and math.isfinite(duration)
             and duration > 0):

@@ -111,6 +111,14 @@ def spectral_radius(M: Array) -> float:
     -------
     float
         The spectral radius max |λ(M)|, 0.0 when M is empty.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> spectral_radius(np.array([[0.5, 1.0], [0.0, -0.8]]))  # triangular: eigenvalues 0.5, -0.8
+    0.8
+    >>> spectral_radius(np.array([[0.0, -1.0], [1.0, 0.0]]))  # a rotation: ±j
+    1.0
     """
     return float(np.max(np.abs(np.linalg.eigvals(M)))) if M.size else 0.0
 
@@ -129,6 +137,18 @@ def nash_gain(D0: Array, D1: Array) -> Array:
     -------
     ndarray
         The gain T_N (M, k) from that vector to the Nash plan.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> # Two players on one integrator, both weighing the same output (P = M = 1, q = r = 1).
+    >>> d = MPCDesign(A=np.eye(1), B=np.ones((1, 2)), C=np.eye(1), prediction_horizon=1,
+    ...               control_horizon=1, form="u", q=np.ones(1), r=np.ones(2),
+    ...               output_owner=(0,), neighbourhoods=((0, 1), (0, 1)))
+    >>> D0, D1 = iteration_matrices(d)
+    >>> # Player i minimises (x + u_i + u_j)² + u_i², so u_i = -(x + u_j)/2: u = -x/3 each.
+    >>> np.round(nash_gain(D0, D1), 4).tolist()  # U = T_N e with e = -x
+    [[0.3333], [0.3333]]
     """
     return np.asarray(np.linalg.solve(np.eye(D0.shape[0]) - D0, D1), dtype=np.float64)
 
@@ -151,6 +171,18 @@ def closed_loop_matrix(
     -------
     ndarray
         A_cl on x (u-form) or on [x; u(k-1)] (Δu-form).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> # Two players on one integrator, both weighing the same output (P = M = 1, q = r = 1).
+    >>> d = MPCDesign(A=np.eye(1), B=np.ones((1, 2)), C=np.eye(1), prediction_horizon=1,
+    ...               control_horizon=1, form="u", q=np.ones(1), r=np.ones(2),
+    ...               output_owner=(0,), neighbourhoods=((0, 1), (0, 1)))
+    >>> D0, D1 = iteration_matrices(d)
+    >>> # Both players apply u = -x/3: x(k+1) = x - 2x/3 = x/3.
+    >>> np.round(closed_loop_matrix(d, nash_gain(D0, D1)), 4).tolist()
+    [[0.3333]]
     """
     pred = prediction(design) if pred is None else pred
     A, B = design.A, design.B
@@ -176,6 +208,18 @@ def shift_matrix(design: MPCDesign) -> Array:
     -------
     ndarray
         The square matrix mapping a plan to the next sample's starting plan.
+
+    Examples
+    --------
+    >>> import dataclasses
+    >>> import numpy as np
+    >>> d = MPCDesign(A=np.eye(1), B=np.ones((1, 1)), C=np.eye(1), prediction_horizon=3,
+    ...               control_horizon=3, form="u", q=np.ones(1), r=np.ones(1),
+    ...               output_owner=(0,), neighbourhoods=((0,),))
+    >>> shift_matrix(d).tolist()  # [u1, u2, u2]: the last input is held
+    [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]]
+    >>> shift_matrix(dataclasses.replace(d, form="du")).tolist()  # [Δu1, Δu2, 0]
+    [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 0.0]]
     """
     nu, M = design.n_inputs, design.control_horizon
     S = np.zeros((M * nu, M * nu))
@@ -210,6 +254,23 @@ def finite_iteration_closed_loop(
     -------
     ndarray
         The augmented closed-loop matrix.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> # Two players on one integrator, both weighing the same output (P = M = 1, q = r = 1).
+    >>> d = MPCDesign(A=np.eye(1), B=np.ones((1, 2)), C=np.eye(1), prediction_horizon=1,
+    ...               control_horizon=1, form="u", q=np.ones(1), r=np.ones(2),
+    ...               output_owner=(0,), neighbourhoods=((0, 1), (0, 1)))
+    >>> D0, D1 = iteration_matrices(d)
+    >>> # One sweep from the previous plan: x(k+1) = -(u1_prev + u2_prev)/2, and the loop on
+    >>> # [x; U_prev] is -(J - I)/2 with eigenvalues -1, 1/2, 1/2: marginally stable.
+    >>> F = finite_iteration_closed_loop(d, D0, D1, 1)
+    >>> F.tolist()
+    [[0.0, -0.5, -0.5], [-0.5, 0.0, -0.5], [-0.5, -0.5, 0.0]]
+    >>> F2 = finite_iteration_closed_loop(d, D0, D1, 2)  # two sweeps per sample
+    >>> round(spectral_radius(F), 4), round(spectral_radius(F2), 4)
+    (1.0, 0.5)
     """
     pred = prediction(design) if pred is None else pred
     A, B, nu = design.A, design.B, design.n_inputs
@@ -248,6 +309,18 @@ def threshold_weight(
     float
         R* (``low`` if the iteration converges already at ``low``; inf if it
         diverges even at ``high``).
+
+    Examples
+    --------
+    Three identical inputs on one integrator: ρ(D0) = 10/(5 + R)
+    (:func:`convergence_sweep`), so R* = 5.
+
+    >>> import numpy as np
+    >>> d = MPCDesign(A=np.eye(1), B=np.ones((1, 3)), C=np.eye(1), prediction_horizon=2,
+    ...               control_horizon=1, form="u", q=np.ones(1), r=np.full(3, 0.1),
+    ...               output_owner=(0,), neighbourhoods=((0, 1, 2),) * 3)
+    >>> round(threshold_weight(d), 4)
+    5.0
     """
     pred = prediction(design)  # independent of R: build once, swap the weight block
     M = design.control_horizon
@@ -356,6 +429,15 @@ class RelaxationResult:
         ω in (0, 1] minimising the spectral radius (NaN when none exists).
     rate : float
         max|1 - ω + ωλ| at ``omega_best``.
+
+    Examples
+    --------
+    D0 with an eigenvalue at +2: no relaxation factor converges.
+
+    >>> import numpy as np
+    >>> res = relaxation(np.array([[0.0, 2.0], [2.0, 0.0]]))
+    >>> res.exists, res.to_dict()["omega_best"]
+    (False, None)
     """
 
     exists: bool
@@ -447,6 +529,22 @@ def cooperative_iteration(
         Iteration matrix (I - W) + W D0_coop.
     D1w : ndarray
         W D1_coop, so that U^{l+1} = T U^l + D1w e.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> # Two players on one integrator, both weighing the same output (P = M = 1, q = r = 1).
+    >>> d = MPCDesign(A=np.eye(1), B=np.ones((1, 2)), C=np.eye(1), prediction_horizon=1,
+    ...               control_horizon=1, form="u", q=np.ones(1), r=np.ones(2),
+    ...               output_owner=(0,), neighbourhoods=((0, 1), (0, 1)))
+    >>> D0, D1 = iteration_matrices(d)
+    >>> T, D1w = cooperative_iteration(d)  # weights 1/2: T = I/2 + D0/2
+    >>> T.tolist(), D1w.tolist()
+    ([[0.5, -0.25], [-0.25, 0.5]], [[0.25], [0.25]])
+    >>> spectral_radius(T)  # eigenvalues 1/2 ± 1/4
+    0.75
+    >>> np.round(np.linalg.solve(np.eye(2) - T, D1w), 4).tolist()  # fixed point: centralised -x/3
+    [[0.3333], [0.3333]]
     """
     n = design.n_inputs
     w = np.full(n, 1.0 / n) if weights is None else np.asarray(weights, dtype=float)
