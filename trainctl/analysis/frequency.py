@@ -48,6 +48,19 @@ class Peak:
         max over ω of σ_max(G(e^{jωT})), in the transfer's unit.
     frequency : float
         Where it occurs [rad/s].
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> # One vehicle, v(k+1) = 0.5 v(k) + T w(k) with T = 0.1 s: G(z) = T/(z - 0.5).
+    >>> loop = ct.ss([[0.5]], [[0.1]], [[1.0]], [[0.0]], 0.1, inputs=["w[0]"], outputs=["v[0]"],
+    ...              name="toy")
+    >>> res = analyse_frequency(loop)
+    >>> # |G| is largest at DC: T/(1 - 0.5) = 0.2 s.
+    >>> res.speed_peak
+    Peak(gain=0.2, frequency=0.0)
+    >>> res.speed_peak.to_dict()
+    {'gain': 0.2, 'frequency': 0.0}
     """
 
     gain: float
@@ -84,6 +97,21 @@ class FrequencyResult:
     bandwidth : float
         Of the common-mode T [rad/s] (NaN: infinite DC gain or no S/T; inf:
         no 3 dB drop below the Nyquist frequency).
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> # One vehicle, v(k+1) = 0.5 v(k) + T w(k) with T = 0.1 s: G(z) = T/(z - 0.5).
+    >>> loop = ct.ss([[0.5]], [[0.1]], [[1.0]], [[0.0]], 0.1, inputs=["w[0]"], outputs=["v[0]"],
+    ...              name="toy")
+    >>> res = analyse_frequency(loop)
+    >>> round(res.nyquist, 4)  # π/T [rad/s]
+    31.4159
+    >>> # At the Nyquist frequency z = -1: |G| = 0.1/1.5 s.
+    >>> round(float(res.speed_sigma[0, -1]), 4)
+    0.0667
+    >>> res.sensitivity_peak is None, res.bandwidth_note  # no plant given
+    (True, 'no S and T: the loop is not state feedback around the plant')
     """
 
     name: str
