@@ -51,6 +51,18 @@ class ClosedLoopResponse:
     string : StringStabilityResult or None
         Peak gains from the head's disturbance along the train (None with a
         single vehicle).
+
+    Examples
+    --------
+    >>> from trainctl.design import build_design
+    >>> from trainctl.scenario import load_scenario
+    >>> design = build_design(load_scenario("crh2-dmpc"))
+    >>> res = analyse_closed_loops(design, ["centralised"])["centralised"]
+    >>> res.strategy, res.frequency.dt, res.string is not None  # T = 20 s, 4 coaches
+    ('centralised', 20.0, True)
+    >>> d = res.to_dict()
+    >>> d["sample_time"], d["grade_step"]["grade_permille"]
+    (20.0, 1.0)
     """
 
     strategy: str
@@ -85,6 +97,23 @@ def loop_strategies(design: Design) -> tuple[str, ...]:
         ``[simulation] strategies`` when the scenario has them, else every
         strategy of its controller families (other than the primary family's
         as ``"family.strategy"``); empty without a controller.
+
+    Examples
+    --------
+    >>> import dataclasses
+    >>> from trainctl.design import build_design
+    >>> from trainctl.scenario import load_scenario
+    >>> sc = load_scenario("crh2-potential")
+    >>> loop_strategies(build_design(sc))  # as listed in [simulation]
+    ('consensus', 'mpc.ndmpc', 'lqr.centralised')
+
+    Without a ``[simulation]``, every strategy of every family, the
+    secondary families' prefixed; without a controller, none:
+
+    >>> loop_strategies(build_design(dataclasses.replace(sc, simulation=None)))[:3]
+    ('consensus', 'mpc.centralised', 'mpc.decentralised')
+    >>> loop_strategies(build_design(load_scenario("heavy-haul-hinf")))
+    ()
     """
     from ..controllers.registry import get_family
 
