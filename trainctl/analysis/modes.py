@@ -48,6 +48,24 @@ class Mode:
         -Re(lambda)/|lambda| [-]; NaN for a zero eigenvalue.
     multiplicity : int
         1 for a real eigenvalue, 2 for a conjugate pair.
+
+    Examples
+    --------
+    Two vehicles with k/m = 0.5 1/s² on one coupler and a resistance slope of
+    0.02 1/s: the coupler pair solves λ² + 0.02λ + 2·0.5 = 0, so |λ| = 1 rad/s
+    and ζ = 0.01; the whole train decays at −0.02 1/s.
+
+    >>> import control as ct
+    >>> A = [[-0.02, 0.0, -0.5], [0.0, -0.02, 0.5], [1.0, -1.0, 0.0]]
+    >>> sys = ct.ss(A, [[1.0], [0.0], [0.0]], [[1.0, 0.0, 0.0]], 0,
+    ...             states=["v[0]", "v[1]", "delta[0]"])
+    >>> rigid, pair = continuous_modes(sys, n_vehicles=2)
+    >>> rigid.kind, round(rigid.eigenvalue.real, 4), rigid.period
+    ('rigid-body', -0.02, inf)
+    >>> pair.kind, pair.multiplicity, round(pair.natural_frequency, 4)
+    ('coupler', 2, 1.0)
+    >>> round(pair.damping_ratio, 4), round(pair.period, 5)  # 2π/√(1 - 0.01²) s
+    (0.01, 6.2835)
     """
 
     eigenvalue: complex
@@ -139,6 +157,19 @@ def classify_mode(value: complex, vec: np.ndarray, n: int, labels: list[str], sc
     str
         ``"coupler"`` (oscillatory), ``"dummy"``, ``"integrator"`` (zero),
         ``"rigid-body"`` (all speeds of one sign) or ``"real"``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> labels = ["v[0]", "v[1]", "delta[0]"]
+    >>> classify_mode(-0.02, np.array([1.0, 1.0, 0.0]), 2, labels, 1.0)  # both speeds alike
+    'rigid-body'
+    >>> classify_mode(-0.02, np.array([1.0, -1.0, 0.5]), 2, labels, 1.0)  # opposite speeds
+    'real'
+    >>> classify_mode(0.0, np.array([1.0, 1.0, 0.0]), 2, labels, 1.0)  # no resistance: drift
+    'integrator'
+    >>> classify_mode(-0.01 + 1j, np.array([1.0, -1.0, 1j]), 2, labels, 1.0)
+    'coupler'
     """
     if abs(value.imag) > ZERO_TOL * scale:
         return "coupler"
