@@ -59,6 +59,24 @@ class MPCDesign:
         The coach owning each output row.
     neighbourhoods : tuple of tuple of int
         N_i^out for each coach (must contain i).
+
+    Examples
+    --------
+    One coach on an integrator, x(k+1) = x + u, weighing y = x over P = 2 steps:
+
+    >>> import numpy as np
+    >>> d = MPCDesign(A=np.eye(1), B=np.eye(1), C=np.eye(1), prediction_horizon=2,
+    ...               control_horizon=1, form="u", q=np.ones(1), r=np.ones(1),
+    ...               output_owner=(0,), neighbourhoods=((0,),))
+    >>> d.n_inputs, d.with_r(4.0).r.tolist()
+    (1, [4.0])
+    >>> try:
+    ...     MPCDesign(A=np.eye(1), B=np.eye(1), C=np.eye(1), prediction_horizon=2,
+    ...               control_horizon=3, form="u", q=np.ones(1), r=np.ones(1),
+    ...               output_owner=(0,), neighbourhoods=((0,),))
+    ... except ModelError as err:
+    ...     print(err)
+    MPCDesign: horizons must be ints with 1 <= M <= P (got P=2, M=3).
     """
 
     A: Array
@@ -134,6 +152,24 @@ class Prediction:
         Decision-vector indices owned by each input.
     first_move : ndarray
         Γ, selects the first move of every input from the decision vector.
+
+    Examples
+    --------
+    An integrator with one held move over P = 2 steps: G = [1, 2]ᵀ, so
+    H = 1 + 4 + r = 6 and K_c = [1, 2]/6; from x = 1 (e = −Φx = [−1, −1])
+    the plan is u = −3/6 = −0.5 and the cost 0.5² + 0² + 0.5² = 0.5.
+
+    >>> import numpy as np
+    >>> d = MPCDesign(A=np.eye(1), B=np.eye(1), C=np.eye(1), prediction_horizon=2,
+    ...               control_horizon=1, form="u", q=np.ones(1), r=np.ones(1),
+    ...               output_owner=(0,), neighbourhoods=((0,),))
+    >>> p = prediction(d)
+    >>> p.G.tolist(), p.hessian().tolist()
+    ([[1.0], [2.0]], [[6.0]])
+    >>> e = -p.Phi @ np.ones(1)
+    >>> U = p.centralised_gain() @ e
+    >>> U.round(4).tolist(), round(p.cost(U, e), 4)
+    ([-0.5], 0.5)
     """
 
     Phi: Array
