@@ -59,6 +59,17 @@ class Range:
         Bounds (inclusive).
     unit : str
         Unit of the bounds (as the message quotes them).
+
+    Examples
+    --------
+    A CRH2 coupler stiffness of 10 488 kN/m is usual; the same number read as
+    N/m (10.488 kN/m) is not:
+
+    >>> r = RANGES["stiffness"]
+    >>> r.text()
+    '100–1e+06 kN/m'
+    >>> r.holds(10488.0), r.holds(10.488)
+    (True, False)
     """
 
     low: float

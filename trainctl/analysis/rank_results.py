@@ -32,6 +32,18 @@ class UncontrollableMode:
     direction : dict of str to float
         Largest components of the left eigenvector (w^T A = lambda w^T,
         w^T B = 0), by state name.
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> from trainctl.analysis import analyse_controllability, analyse_observability
+    >>> # Two decoupled states; the input drives and the output sees only "a".
+    >>> sys = ct.ss([[-1.0, 0.0], [0.0, -2.0]], [[1.0], [0.0]], [[1.0, 0.0]], 0, states=["a", "b"])
+    >>> (mode,) = analyse_controllability(sys).uncontrollable
+    >>> mode.eigenvalue, mode.direction, mode.pbh_margin  # [A + 2I, B] loses rank
+    ((-2+0j), {'b': 1.0}, 0.0)
+    >>> mode.to_dict()["eigenvalue"]
+    [-2.0, 0.0]
     """
 
     eigenvalue: complex
@@ -57,6 +69,16 @@ class UnobservableMode(UncontrollableMode):
     direction : dict of str to float
         Largest components of the right eigenvector (A v = lambda v,
         C v = 0), by state name: the state combination the outputs miss.
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> from trainctl.analysis import analyse_controllability, analyse_observability
+    >>> # Two decoupled states; the input drives and the output sees only "a".
+    >>> sys = ct.ss([[-1.0, 0.0], [0.0, -2.0]], [[1.0], [0.0]], [[1.0, 0.0]], 0, states=["a", "b"])
+    >>> (mode,) = analyse_observability(sys).unobservable
+    >>> mode.eigenvalue, mode.direction  # C v = 0 for v = e_b
+    ((-2+0j), {'b': 1.0})
     """
 
 
@@ -110,6 +132,19 @@ class ControllabilityResult(_RankTest):
         Modes failing the PBH test.
     kind : str
         ``"controllability"``.
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> from trainctl.analysis import analyse_controllability, analyse_observability
+    >>> # Two decoupled states; the input drives and the output sees only "a".
+    >>> sys = ct.ss([[-1.0, 0.0], [0.0, -2.0]], [[1.0], [0.0]], [[1.0, 0.0]], 0, states=["a", "b"])
+    >>> res = analyse_controllability(sys)
+    >>> res.rank, res.n_states, res.full_rank, res.condition_number
+    (1, 2, False, inf)
+    >>> # Gramian over T = 10 s: "a" gets ∫ e^{-2t} dt = 0.5, "b" nothing.
+    >>> res.gramian_horizon, res.gramian_eigenvalues.round(4).tolist()
+    (10.0, [0.0, 0.5])
     """
 
     uncontrollable: tuple[UncontrollableMode, ...]
@@ -153,6 +188,17 @@ class ObservabilityResult(_RankTest):
         Eigenvalues of the finite-horizon observability Gramian, ascending.
     unobservable : tuple of UnobservableMode
         Modes failing the PBH test: state directions the outputs do not see.
+
+    Examples
+    --------
+    >>> import control as ct
+    >>> from trainctl.analysis import analyse_controllability, analyse_observability
+    >>> # Two decoupled states; the input drives and the output sees only "a".
+    >>> sys = ct.ss([[-1.0, 0.0], [0.0, -2.0]], [[1.0], [0.0]], [[1.0, 0.0]], 0, states=["a", "b"])
+    >>> res = analyse_observability(sys)
+    >>> res.kind, res.rank, res.full_rank, len(res.modes)
+    ('observability', 1, False, 1)
+    >>> res.to_dict()["condition_number"]  # inf is written as None
     """
 
     unobservable: tuple[UnobservableMode, ...]
