@@ -131,6 +131,24 @@ def with_simulations(review: DesignReview, design: Design,
     DesignReview
         The same checks, in the same order, some replaced; ``review`` itself
         when nothing was simulated that a family judges.
+
+    Examples
+    --------
+    Before the run, the flocking family can only warn that a gap may leave the
+    communication range later; the simulated trajectory settles it.
+
+    >>> from trainctl.run import simulate_strategy
+    >>> from trainctl.design import build_design
+    >>> from trainctl.scenario import load_scenario
+    >>> sc = load_scenario("heavy-haul-flocking-collision").replace("simulation.duration", 450.0)
+    >>> design = build_design(sc)
+    >>> review = review_design(sc, design=design)
+    >>> result = simulate_strategy(sc, "flocking", design)
+    >>> judged = with_simulations(review, design, {"flocking": result})
+    >>> review.check("flocking_connectivity").status, judged.check("flocking_connectivity").status
+    ('warn', 'pass')
+    >>> len(judged.checks) == len(review.checks)
+    True
     """
     from ..controllers.registry import get_family
 
@@ -166,6 +184,20 @@ def model_checks(model: DesignModel, *, measured_gaps: bool = False) -> list[Che
     -------
     list of Check
         In the order of :data:`MODEL_CHECK_NAMES`.
+
+    Examples
+    --------
+    The CRH2 half train sampled at T = 20 s: its fastest coupler mode
+    (27.77 rad/s) is far beyond the Nyquist limit, ω_max·T = 555.4 rad ≥ π.
+
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> checks = model_checks(build_model(load_scenario("crh2-dmpc")))
+    >>> [(c.name, c.status) for c in checks]  # doctest: +NORMALIZE_WHITESPACE
+    [('open_loop_stability', 'pass'), ('controllability', 'pass'), ('observability', 'pass'),
+     ('sampling', 'fail'), ('input_collapse', 'fail')]
+    >>> round(checks[3].value, 1)  # ω_max·T [rad]
+    555.4
     """
     train, cfg = model.train, model.settings
     n = train.n_vehicles
@@ -243,6 +275,20 @@ def radius_check(name: str, A_cl: NDArray[np.float64], labels: list[str], what: 
     -------
     Check
         Value ρ, threshold 1; details with the eigenvalues on the circle.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> def judge(A):
+    ...     return radius_check("demo", A, ["v[0]", "v[1]"], "toy loop",
+    ...                         marginal_hint="on the circle", unstable_hint="outside")
+    >>> judge(np.diag([0.5, 0.9])).status, judge(np.diag([0.5, 0.9])).value
+    ('pass', 0.9)
+    >>> c = judge(np.diag([0.5, 1.0]))  # v[1] never decays
+    >>> c.status, c.details["unit_circle"][0]["direction"]
+    ('warn', {'v[1]': 1.0})
+    >>> judge(np.diag([0.5, 1.1])).message
+    'toy loop: closed loop unstable, ρ = 1.1'
     """
     lam, vec = np.linalg.eig(A_cl)
     rho = float(np.max(np.abs(lam)))
