@@ -110,6 +110,23 @@ def loop_sensitivity(
         S and T from ``w`` to the total and to the controller's specific
         force at the plant input (module docstring); None when the loop is
         not state feedback around ``plant`` with the disturbance at its input.
+
+    Examples
+    --------
+    An integrator plant x⁺ = x + u (T = 1 s) under u = −0.5 x, the disturbance
+    entering with u (M = 1): A_cl = 0.5 and S(z) = 1 − 0.5/(z − 0.5), so S = 0
+    at DC (a constant disturbance is fully rejected) and S(−1) = 4/3.
+
+    >>> plant = ct.ss([[1.0]], [[1.0]], [[1.0]], 0, 1.0)
+    >>> loop = ct.ss([[0.5]], [[1.0]], [[1.0]], 0, 1.0, inputs=["w[0]"], outputs=["v[0]"],
+    ...              name="toy")
+    >>> S, T = loop_sensitivity(loop, plant)
+    >>> S.name, T.output_labels
+    ('S_toy', ['c[0]'])
+    >>> [round(float(abs(G(z))), 4) for G in (S, T) for z in (1.0, -1.0)]  # at DC, at π/T
+    [0.0, 1.3333, 1.0, 0.3333]
+    >>> loop_sensitivity(ct.ss([[0.5]], [[1.0]], [[1.0]], 0, 2.0), plant) is None  # other T
+    True
     """
     A_cl, B_cl = (np.asarray(m, dtype=float) for m in (loop.A, loop.B))
     A, B = (np.asarray(m, dtype=float) for m in (plant.A, plant.B))
