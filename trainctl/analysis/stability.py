@@ -58,6 +58,18 @@ class ModeStability:
         ``"coupler"``), else ``""``.
     direction : dict of str to float
         Largest components of the (normalised) eigenvector by state name.
+
+    Examples
+    --------
+    A double integrator: one eigenvalue 0 of algebraic multiplicity 2 but a
+    single eigenvector (a Jordan block), so the position grows like t.
+
+    >>> import numpy as np
+    >>> mode = analyse_stability(np.array([[0.0, 1.0], [0.0, 0.0]])).modes[0]
+    >>> mode.status, mode.algebraic_multiplicity, mode.geometric_multiplicity
+    ('marginal-defective', 2, 1)
+    >>> mode.direction, mode.to_dict()["damping_ratio"]  # ζ undefined at s = 0
+    ({'x[0]': 1.0}, None)
     """
 
     eigenvalue: complex
@@ -97,6 +109,19 @@ class StabilityResult:
         Half-width of the marginal band around the stability boundary.
     modes : tuple of ModeStability
         One entry per eigenvalue.
+
+    Examples
+    --------
+    A discrete system with z = 0.5 and z = −1 at T = 0.1 s: the second sits on
+    the unit circle; the first is s = ln(0.5)/T = −6.931 1/s.
+
+    >>> import control as ct
+    >>> res = analyse_stability(ct.ss([[0.5, 0.0], [0.0, -1.0]], [[1.0], [1.0]], [[1.0, 0.0]], 0,
+    ...                               0.1))
+    >>> res.discrete, res.status, res.count("stable"), round(res.spectral_abscissa, 4)
+    (True, 'marginal-semisimple', 1, 1.0)
+    >>> round(res.modes[0].natural_frequency, 3)  # [rad/s]
+    6.931
     """
 
     discrete: bool
