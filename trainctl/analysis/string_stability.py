@@ -88,6 +88,19 @@ class ChainPeaks:
         Where each peak occurs [rad/s] (0: the DC gain).
     curves : ndarray
         |G_i| on the result's ``omega``, shape (channels, len(omega)).
+
+    Examples
+    --------
+    Peaks that double along the train (a string-unstable chain):
+
+    >>> import numpy as np
+    >>> g = np.array([1.0, 2.0, 4.0, 8.0])
+    >>> c = ChainPeaks(quantity="d", labels=("d[0]", "d[1]", "d[2]", "d[3]"), gains=g,
+    ...                frequencies=np.zeros(4), curves=np.zeros((4, 1)))
+    >>> c.ratios.tolist(), c.non_increasing, c.finite
+    ([2.0, 2.0, 2.0], False, True)
+    >>> round(c.growth_rate, 6)  # exp of the slope of log γ_i over the rear half
+    2.0
     """
 
     quantity: str
@@ -162,6 +175,20 @@ class StringStabilityResult:
         Grid frequencies [rad/s] of the curves.
     chains : dict of str to ChainPeaks
         By output family (``"d"``, ``"f"``), those the loop has.
+
+    Examples
+    --------
+    A continuous toy loop: the head's disturbance reaches d[0] through
+    1/(s + 1) and d[1] through 0.5/(s + 1); both peak at DC.
+
+    >>> import control as ct
+    >>> sys = ct.ss([[-1.0]], [[1.0]], [[1.0], [0.5]], [[0.0], [0.0]], inputs=["w[0]"],
+    ...             outputs=["d[0]", "d[1]"], name="toy")
+    >>> res = string_stability(sys)
+    >>> res.dt, list(res.chains), res.chains["d"].gains.tolist()  # [s²]
+    (None, ['d'], [1.0, 0.5])
+    >>> res.string_stable, res.max_ratio
+    (True, 0.5)
     """
 
     name: str
@@ -467,6 +494,21 @@ def string_stability_check(design: Design) -> Check | None:
         Value the largest consecutive peak ratio γ_{i+1}/γ_i [-], threshold
         1; None without a linear closed loop, without a disturbance input
         ``w[0]`` or with a single vehicle.
+
+    Examples
+    --------
+    The book's CRH2 design (T = 20 s) amplifies the head's disturbance down
+    the train; sampled at 0.05 s it does not:
+
+    >>> from trainctl.design import build_design
+    >>> from trainctl.scenario import load_scenario
+    >>> check = string_stability_check(build_design(load_scenario("crh2-dmpc")))
+    >>> check.status, round(check.value, 2)  # largest γ_{i+1}/γ_i [-]
+    ('fail', 1.4)
+    >>> string_stability_check(build_design(load_scenario("crh2-dmpc-well-sampled"))).status
+    'pass'
+    >>> string_stability_check(build_design(load_scenario("heavy-haul-hinf"))) is None  # no law
+    True
     """
     from ..controllers.registry import get_family
 
