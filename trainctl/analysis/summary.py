@@ -49,6 +49,20 @@ class ModelSummary:
         Largest |eigenvalue| of the discretised model [-].
     failed_checks : tuple of str
         Names of failed design checks (none at this level).
+
+    Examples
+    --------
+    The CRH2 half train (T-M-M-T) at 300 km/h, sampled at 0.05 s, below the
+    limit π/ω_max = 0.113 s:
+
+    >>> from trainctl.scenario import load_scenario
+    >>> s = model_summary(load_scenario("crh2-dmpc-well-sampled"))
+    >>> s.train_name, round(s.speed * 3.6, 1), s.sample_time, s.resolves_couplers  # km/h, s
+    ('T-M-M-T', 300.0, 0.05, True)
+    >>> s.vehicles[0]  # [kg], [m]
+    {'name': 'T', 'mass': 42800.0, 'length': 25.0, 'traction_share': 0.0}
+    >>> [m.kind for m in s.modes]
+    ['dummy', 'rigid-body', 'coupler', 'coupler', 'coupler']
     """
 
     scenario_name: str
