@@ -65,6 +65,29 @@ class Rule:
 
     Subclasses give the core schema that checks a value (:meth:`schema`) and
     the phrase that names what is allowed (:meth:`want`).
+
+    Examples
+    --------
+    A rule of one's own needs the phrase and the core schema; the wording of
+    the failure follows from :meth:`want`:
+
+    >>> from typing import Annotated
+    >>> from pydantic import TypeAdapter, ValidationError
+    >>> class Even(Rule):
+    ...     def want(self, *, python=False):
+    ...         return "an even integer"
+    ...     def schema(self, handler):
+    ...         return core_schema.int_schema(strict=True, multiple_of=2)
+    >>> Even().doc_type()
+    'even integer'
+    >>> even = TypeAdapter(Annotated[int, Even()])
+    >>> even.validate_python(4)
+    4
+    >>> try:
+    ...     even.validate_python(3)
+    ... except ValidationError as exc:
+    ...     print(exc.errors()[0]["ctx"]["violation"].text)
+    must be an even integer
     """
 
     def want(self, *, python: bool = False) -> str:
@@ -303,7 +326,25 @@ class Integer(Rule):
 
 @dataclass(frozen=True)
 class Flag(Rule):
-    """A boolean (TOML ``true`` / ``false``)."""
+    """A boolean (TOML ``true`` / ``false``).
+
+    Examples
+    --------
+    Strict: 1 is not a boolean.
+
+    >>> from typing import Annotated
+    >>> from pydantic import TypeAdapter, ValidationError
+    >>> flag = TypeAdapter(Annotated[bool, Flag()])
+    >>> flag.validate_python(True)
+    True
+    >>> try:
+    ...     flag.validate_python(1)
+    ... except ValidationError as exc:
+    ...     print(exc.errors()[0]["ctx"]["violation"].text)
+    must be true or false
+    >>> Flag().doc_type(), Flag().want(python=True)
+    ('boolean', 'True or False')
+    """
 
     def want(self, *, python: bool = False) -> str:
         """``"true or false"``."""
@@ -328,6 +369,20 @@ class Text(Rule):
         Require at least one character that is not white space.
     single_line : bool
         Refuse line breaks.
+
+    Examples
+    --------
+    >>> from typing import Annotated
+    >>> from pydantic import TypeAdapter, ValidationError
+    >>> def problem(rule, value):
+    ...     try:
+    ...         TypeAdapter(Annotated[str, rule]).validate_python(value)
+    ...     except ValidationError as exc:
+    ...         return exc.errors()[0]["ctx"]["violation"].text
+    >>> problem(Text(nonblank=True), "  "), problem(Text(single_line=True), "a\\nb")
+    ('must be a non-empty string', 'must be a single line')
+    >>> problem(Text(), 3), problem(Text(nonblank=True), "CRH2") is None
+    ('must be a string', True)
     """
 
     nonblank: bool = False
@@ -413,6 +468,21 @@ class NameList(Rule):
     single : bool
         Accept a bare string for a one-item tuple (from Python; files must
         write an array).
+
+    Examples
+    --------
+    >>> from typing import Annotated
+    >>> from pydantic import TypeAdapter, ValidationError
+    >>> names = TypeAdapter(Annotated[tuple, NameList(("centralised", "ndmpc"), noun="strategy")])
+    >>> names.validate_python("ndmpc"), names.validate_python(["ndmpc", "centralised"])
+    (('ndmpc',), ('ndmpc', 'centralised'))
+    >>> for bad in (["ndmpc", "ndmpc"], ["nmdpc"]):
+    ...     try:
+    ...         names.validate_python(bad)
+    ...     except ValidationError as exc:
+    ...         print(exc.errors()[0]["ctx"]["violation"].text)
+    must not repeat an earlier strategy
+    must be one of 'centralised', 'ndmpc'
     """
 
     options: tuple[str, ...] | Callable[[dict[str, Any] | None], tuple[str, ...]]
