@@ -73,6 +73,22 @@ class DesignModel:
         Per-coach blocks (with the dummy state as ``settings`` asks).
     equilibrium : Equilibrium
         Cruise equilibrium at ``settings.speed`` on the scenario's track.
+
+    Examples
+    --------
+    The CRH2 half train (4 vehicles, 3 couplers) with the dummy state:
+
+    >>> from trainctl.scenario import load_scenario
+    >>> m = build_model(load_scenario("crh2-dmpc"))
+    >>> m.linear.nstates, m.design.nstates, m.n_vehicles  # the design model drops the dummy
+    (8, 7, 4)
+    >>> # Inputs in kN: 1 kN on the 42.8 t head vehicle gives 1000/42800 = 0.02336 m/s².
+    >>> round(float(m.design.B[0, 0]), 5)
+    0.02336
+    >>> m.select(m.design, ("force",)).output_labels  # coupler forces only [kN]
+    ['f[0]', 'f[1]', 'f[2]']
+    >>> m.discrete.dt  # [s]
+    20.0
     """
 
     train: Train
