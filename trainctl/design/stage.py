@@ -32,6 +32,17 @@ class Design:
     families : mapping of str to object
         Each controller family's design, by family name (primary family
         first); empty without a ``[controller]`` section.
+
+    Examples
+    --------
+    >>> from trainctl.scenario import load_scenario
+    >>> design = build_design(load_scenario("crh2-potential"))
+    >>> list(design.families)  # primary family first
+    ['potential', 'mpc', 'lqr']
+    >>> type(design.family("mpc")).__name__, design.resolve("mpc.ndmpc")
+    ('MPCFamilyDesign', ('mpc', 'ndmpc'))
+    >>> design.closed_loop("consensus").dt  # a continuous-time law
+    0
     """
 
     scenario: Scenario
@@ -114,6 +125,15 @@ def scenario_controllers(scenario: Scenario) -> dict[str, Any]:
     -------
     dict of str to settings
         Empty without a ``[controller]`` section.
+
+    Examples
+    --------
+    >>> from trainctl.scenario import load_scenario
+    >>> ctl = scenario_controllers(load_scenario("crh2-potential"))
+    >>> list(ctl), type(ctl["lqr"]).__name__
+    (['potential', 'mpc', 'lqr'], 'LQRSettings')
+    >>> scenario_controllers(load_scenario("heavy-haul-hinf"))  # no [controller]
+    {}
     """
     return dict(scenario.controllers)
 
@@ -140,6 +160,18 @@ def split_strategy(scenario: Scenario, strategy: str) -> tuple[str, str]:
     ------
     ScenarioError
         If the scenario has no such family or the family no such strategy.
+
+    Examples
+    --------
+    >>> from trainctl.scenario import load_scenario
+    >>> sc = load_scenario("crh2-potential")
+    >>> split_strategy(sc, "consensus"), split_strategy(sc, "lqr.centralised")
+    (('potential', 'consensus'), ('lqr', 'centralised'))
+    >>> try:
+    ...     split_strategy(sc, "lqr.nash")
+    ... except ScenarioError as err:
+    ...     print(err)
+    builtin:crh2-potential: family 'lqr' has no strategy 'nash' (it has centralised, decentralised).
     """
     from ..controllers.registry import get_family
 
