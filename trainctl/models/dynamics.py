@@ -226,6 +226,24 @@ class Equilibrium:
     braking_limit : ndarray or None
         Braking available at ``speed`` per vehicle, as positive numbers [N];
         None: not limited.
+
+    Examples
+    --------
+    A locomotive hauling one wagon, each 100 t with 0.01 m/s² of resistance
+    (1 kN): the locomotive supplies both 2 kN, so the coupler carries the
+    wagon's 1 kN in tension and stretches 1 kN / (10⁶ N/m) = 1 mm.
+
+    >>> from trainctl.models.train import Train
+    >>> from trainctl.models.vehicle import Coupler, Vehicle
+    >>> loco = Vehicle(mass=1e5, a0=0.01, a1=0.0, a2=0.0, traction_share=1.0)
+    >>> wagon = Vehicle(mass=1e5, a0=0.01, a1=0.0, a2=0.0, traction_share=0.0)
+    >>> eq = equilibrium(Train(vehicles=(loco, wagon), couplers=(Coupler(stiffness=1e6),)), 20.0)
+    >>> eq.inputs.tolist(), eq.coupler_forces.tolist()  # [N]
+    ([2000.0, 0.0], [1000.0])
+    >>> eq.state().round(6).tolist()  # [v0, v1 (m/s), delta0 (m)]
+    [20.0, 20.0, 0.001]
+    >>> eq.feasible  # no traction limits given
+    True
     """
 
     speed: float
