@@ -38,6 +38,22 @@ class EnvelopeBounds:
         (forces, powers, adhesions as [braking; traction] x 1 x vehicles, and
         the masses); None when some vehicle has another envelope type, which
         is then called one vehicle at a time.
+
+    Examples
+    --------
+    The CRH2 half train (T-M-M-T): the motor coaches give 80 kN up to the
+    speed where 1200 kW runs out, at 300 km/h 1200 kW / 83.33 m/s = 14.4 kN;
+    the trailers only brake (40 kN).
+
+    >>> from trainctl.models import crh2_half
+    >>> bounds = EnvelopeBounds(crh2_half(), enabled=True)
+    >>> lb, ub = bounds.pair(np.array([10.0, 300 / 3.6]))  # two previewed moves [kN]
+    >>> ub.round(1).tolist()
+    [0.0, 80.0, 80.0, 0.0, 0.0, 14.4, 14.4, 0.0]
+    >>> lb.round(1).tolist()
+    [-40.0, -40.0, -40.0, -40.0, -40.0, -14.4, -14.4, -40.0]
+    >>> EnvelopeBounds(crh2_half(), enabled=False).pair(np.array([10.0]))[1].tolist()
+    [inf, inf, inf, inf]
     """
 
     def __init__(self, train: Train, *, enabled: bool) -> None:
