@@ -47,6 +47,24 @@ class QuasiStaticForces:
         Static elongations f / k [m] (0 for virtual links), shape (k, n-1).
     resistance : ndarray
         Each vehicle's need w [N] (resistance plus m·a), shape (k, n).
+
+    Examples
+    --------
+    A locomotive hauling one wagon (100 t each, 0.01 m/s² of resistance) at
+    cruise, then accelerating at 0.1 m/s²: each needs 1 kN, then
+    1 kN + 100 t · 0.1 m/s² = 11 kN; the locomotive supplies both needs and the
+    coupler passes the wagon's on.
+
+    >>> from trainctl.models.train import Train
+    >>> from trainctl.models.vehicle import Coupler, Vehicle
+    >>> loco = Vehicle(mass=1e5, a0=0.01, a1=0.0, a2=0.0, traction_share=1.0)
+    >>> wagon = Vehicle(mass=1e5, a0=0.01, a1=0.0, a2=0.0, traction_share=0.0)
+    >>> train = Train(vehicles=(loco, wagon), couplers=(Coupler(stiffness=1e6),))
+    >>> q = ForceSplit(train)([20.0, 20.0], [0.0, 0.1])
+    >>> (q.inputs / 1e3).round(3).tolist(), (q.coupler_forces / 1e3).round(3).tolist()  # [kN]
+    ([[2.0, 0.0], [22.0, 0.0]], [[1.0], [11.0]])
+    >>> q.elongations.round(4).tolist()  # f / k [m]
+    [[0.001], [0.011]]
     """
 
     inputs: Array
