@@ -53,6 +53,24 @@ class CoachSubsystems:
         Output rows C_i (speed of coach i).
     state_labels : tuple of tuple of str
         Names of each subsystem's states.
+
+    Examples
+    --------
+    >>> from trainctl.models.train import Train
+    >>> from trainctl.models.vehicle import Coupler, Vehicle
+    >>> # Three 100 t coaches on 10⁶ N/m couplers, no resistance: k/m = 10 1/s².
+    >>> car = Vehicle(mass=1e5, a0=0.0, a1=0.0, a2=0.0)
+    >>> train = Train(vehicles=(car, car, car), couplers=(Coupler(stiffness=1e6),) * 2)
+    >>> sub = coach_subsystems(train, 20.0)
+    >>> sub.n_coaches, sub.state_labels[1]
+    (3, ('v[1]', 'delta[1]'))
+    >>> sub.A[1, 0].tolist()  # coach 0's coupler pulls coach 1 forward: +k/m on delta[0]
+    [[0.0, 10.0], [0.0, 0.0]]
+    >>> float(sub.B[0][0, 0])  # 1/m [1/kg]
+    1e-05
+    >>> A, B, C = sub.global_matrices()
+    >>> A.shape, sub.block(0, 2).tolist()  # coaches 0 and 2 do not touch
+    ((6, 6), [[0.0, 0.0], [0.0, 0.0]])
     """
 
     A: dict[tuple[int, int], NDArray[np.float64]]
@@ -200,6 +218,20 @@ class Neighbourhood:
         Block-diagonal input matrix for the stacked member inputs [1/kg].
     C_hat : ndarray
         Block-diagonal output matrix (member speeds).
+
+    Examples
+    --------
+    >>> from trainctl.models.train import Train
+    >>> from trainctl.models.vehicle import Coupler, Vehicle
+    >>> # Three 100 t coaches on 10⁶ N/m couplers, no resistance: k/m = 10 1/s².
+    >>> car = Vehicle(mass=1e5, a0=0.0, a1=0.0, a2=0.0)
+    >>> train = Train(vehicles=(car, car, car), couplers=(Coupler(stiffness=1e6),) * 2)
+    >>> sub = coach_subsystems(train, 20.0)
+    >>> nb = neighbourhood(sub, 0)  # coaches {0, 1}
+    >>> nb.owner, nb.members, nb.A_hat.shape
+    (0, (0, 1), (4, 4))
+    >>> nb.couplings[2].tolist()  # v[2] stretches delta[1], the last member state
+    [[0.0, 0.0], [0.0, 0.0], [0.0, 0.0], [-1.0, 0.0]]
     """
 
     owner: int
@@ -278,6 +310,17 @@ def neighbourhoods(subsystems: CoachSubsystems) -> tuple[Neighbourhood, ...]:
     -------
     tuple of Neighbourhood
         One per coach.
+
+    Examples
+    --------
+    >>> from trainctl.models.train import Train
+    >>> from trainctl.models.vehicle import Coupler, Vehicle
+    >>> # Three 100 t coaches on 10⁶ N/m couplers, no resistance: k/m = 10 1/s².
+    >>> car = Vehicle(mass=1e5, a0=0.0, a1=0.0, a2=0.0)
+    >>> train = Train(vehicles=(car, car, car), couplers=(Coupler(stiffness=1e6),) * 2)
+    >>> sub = coach_subsystems(train, 20.0)
+    >>> [(nb.owner, nb.members, sorted(nb.couplings)) for nb in neighbourhoods(sub)]
+    [(0, (0, 1), [2]), (1, (0, 1, 2), []), (2, (1, 2), [0])]
     """
     return tuple(neighbourhood(subsystems, i) for i in range(subsystems.n_coaches))
 
