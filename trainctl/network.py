@@ -472,6 +472,20 @@ class Received(NamedTuple):
         When the sender sent it [s]: its age at time t is ``t - t_sent``.
     value : float or ndarray
         The value received, noise included (a float for scalar values).
+
+    Examples
+    --------
+    With a constant 1 s delay, vehicle 1 holds nothing from vehicle 0 until
+    the message sent at t = 0 arrives:
+
+    >>> from trainctl.graphs import make_graph
+    >>> net = Network(NetworkSettings(delay_s=1.0), make_graph("predecessor", 2, pinned="none"))
+    >>> net.send(0.0, 0, 15.0)
+    >>> net.receive(0.5, 1)
+    {}
+    >>> got = net.receive(1.5, 1)[0]
+    >>> got, 1.5 - got.t_sent  # the value [m/s] and its age [s]
+    (Received(t_sent=0.0, value=15.0), 1.5)
     """
 
     t_sent: float
@@ -504,6 +518,24 @@ class MessageLog:
         shape (m, ``*value_shape``).
     noise : ndarray
         Noise drawn (standard deviation times z), shape (m, ``*value_shape``).
+
+    Examples
+    --------
+    Vehicle 1 hears vehicle 0 with a 1 s delay; the link is cut over
+    [0.5, 1.5) s, so the message sent at 0 s (due at 1 s) and the one sent at
+    1 s are blocked, the one sent at 2 s arrives at 3 s.
+
+    >>> from trainctl.graphs import make_graph
+    >>> cut = Interruption(start=0.5, end=1.5, links=[[1, 0]])
+    >>> net = Network(NetworkSettings(delay_s=1.0, interruptions=[cut]),
+    ...               make_graph("predecessor", 2, pinned="none"))
+    >>> for t in (0.0, 1.0, 2.0):
+    ...     net.send_all(t, [15.0 + t, 14.0])
+    >>> log = net.history()
+    >>> len(log), log.fate.tolist(), log.t_arrival.tolist()
+    (3, ['blocked', 'blocked', 'delivered'], [nan, nan, 3.0])
+    >>> log.rows()[2]["delivered"], log.sender  # vehicle 0's speed [m/s]
+    (17.0, (0, 0, 0))
     """
 
     t_sent: NDArray[np.float64]
