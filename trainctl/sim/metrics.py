@@ -134,6 +134,29 @@ class Metrics:
         iterations, the last change still above the tolerance
         (``meta["iteration_tolerance"]``, in the residuals' unit); None
         without a limit.
+
+    Examples
+    --------
+    One vehicle pushed with 1 kN for one 10 s sample, from 10 to 20.5 m/s
+    while the reference goes to 20 m/s: speed errors 0 and 0.5 m/s, so
+    RMS √(0.25/2) = 0.3536 m/s; work 1000 N · (10 + 20.5)/2 m/s · 10 s =
+    152.5 kJ = 0.04236 kWh.
+
+    >>> from trainctl.sim.results import SimulationResult
+    >>> result = SimulationResult(
+    ...     time=np.array([0.0, 10.0]), states=np.array([[10.0, 20.5], [0.0, 152.5]]),
+    ...     velocities=np.array([[10.0, 20.5]]), coupler_forces=np.zeros((0, 2)),
+    ...     inputs=np.array([[1000.0]]), reference_speed=np.array([10.0, 20.0]),
+    ...     reference_acceleration=np.ones(2), statuses=("optimal",),
+    ...     iterations=np.array([2]), residuals=((),), solve_times=np.array([0.01]),
+    ...     fallbacks=("",), controller_name="demo", seed=0, dt=10.0)
+    >>> m = compute_metrics(result, settle_time=0.0)
+    >>> m.rms_error.round(4).tolist(), m.max_error.tolist()  # [m/s]
+    ([0.3536], [0.5])
+    >>> round(m.energy, 5), m.braking_energy, m.saturated  # [kWh]
+    (0.04236, 0.0, False)
+    >>> m.status_counts["optimal"], m.iterations_mean, m.worst_coupler
+    (1, 2.0, None)
     """
 
     settle_time: float
