@@ -26,7 +26,27 @@ __all__ = ["Reference", "SpeedProfile", "ramp_profile"]
 
 @runtime_checkable
 class Reference(Protocol):
-    """What the simulation needs from a reference: speed, acceleration, preview."""
+    """What the simulation needs from a reference: speed, acceleration, preview.
+
+    Examples
+    --------
+    A :class:`SpeedProfile` is one; so is a small class of one's own, e.g. a
+    constant 25 m/s:
+
+    >>> isinstance(SpeedProfile(times=(0.0,), speeds=(20.0,)), Reference)
+    True
+    >>> class Cruise:
+    ...     def speed(self, t):
+    ...         return np.full(np.shape(t), 25.0)
+    ...     def acceleration(self, t):
+    ...         return np.zeros(np.shape(t))
+    ...     def preview(self, t, dt, steps):
+    ...         times = t + dt * np.arange(steps + 1)
+    ...         return ReferencePreview(times=times, speed=self.speed(times),
+    ...                                 acceleration=self.acceleration(times))
+    >>> isinstance(Cruise(), Reference), Cruise().preview(0.0, 0.5, 2).speed.tolist()
+    (True, [25.0, 25.0, 25.0])
+    """
 
     def speed(self, t: ArrayLike) -> NDArray[np.float64]:
         """Reference speed [m/s] at times ``t`` [s]."""
