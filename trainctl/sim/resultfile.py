@@ -60,6 +60,19 @@ class ResultFile(BaseModel):
         Iteration residuals per sample [kN].
     meta : dict
         The result's JSON-safe extras.
+
+    Examples
+    --------
+    >>> from pydantic import ValidationError
+    >>> doc = {"format": FORMAT, "controller_name": "demo", "seed": 0, "dt": 10.0,
+    ...        "statuses": ["optimal"], "fallbacks": [""], "residuals": [[]], "meta": {}}
+    >>> ResultFile.model_validate(doc).dt  # [s]
+    10.0
+    >>> try:
+    ...     ResultFile.model_validate({**doc, "dt": 0.0})  # a sample time must be > 0
+    ... except ValidationError as exc:
+    ...     print(exc.errors()[0]["loc"], exc.errors()[0]["type"])
+    ('dt',) greater_than
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -98,6 +111,27 @@ def read_result(directory: str | Path) -> dict[str, Any]:
     ------
     ModelError
         Naming the file and the key or array at fault.
+
+    Examples
+    --------
+    A one-sample result saved and read back (in a temporary directory):
+
+    >>> import tempfile
+    >>> from trainctl.sim.results import SimulationResult
+    >>> result = SimulationResult(
+    ...     time=np.array([0.0, 10.0]), states=np.array([[10.0, 20.0], [0.0, 150.0]]),
+    ...     velocities=np.array([[10.0, 20.0]]), coupler_forces=np.zeros((0, 2)),
+    ...     inputs=np.array([[1000.0]]), reference_speed=np.array([10.0, 20.0]),
+    ...     reference_acceleration=np.ones(2), statuses=("optimal",),
+    ...     iterations=np.array([2]), residuals=((),), solve_times=np.array([0.01]),
+    ...     fallbacks=("",), controller_name="demo", seed=0, dt=10.0)
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     _ = result.save(folder)
+    ...     fields = read_result(folder)
+    >>> fields["controller_name"], fields["statuses"], fields["inputs"].tolist()  # [N]
+    ('demo', ('optimal',), [[1000.0]])
+    >>> SimulationResult(**fields).velocities.tolist()  # [m/s]
+    [[10.0, 20.0]]
     """
     path = Path(directory)
     raw = read_json(path / "result.json", hint=RESULT_HINT, error=ModelError, finite=False)
