@@ -80,7 +80,7 @@ class DMPCAnalysis:
     ...               control_horizon=1, form="u", q=np.ones(1), r=np.ones(2),
     ...               output_owner=(0,), neighbourhoods=((0,), (1,)))
     >>> res = analyse_dmpc(d, iterations=2)
-    >>> res.converges, round(res.rho_d0, 4)
+    >>> res.converges, round(res.rho_d0, 4)  # coach 1 never reacts: D0 is nilpotent
     (True, 0.0)
     >>> {k: round(v, 4) for k, v in res.radii().items()}
     {'nash': 0.5, 'iterations': 0.5, 'centralised': 0.3333}
