@@ -62,6 +62,19 @@ def sigma_plot(
     -------
     matplotlib.axes.Axes
         Log-log axes labelled ``frequency ω [rad/s]`` and ``ylabel``.
+
+    Examples
+    --------
+    Two singular values at three frequencies: σ_max carries the label, the
+    other is a thin line of the same colour:
+
+    >>> ax = sigma_plot([0.1, 1.0, 10.0], [[2.0, 1.0, 0.5], [1.0, 0.5, 0.1]], label="T")
+    >>> ax.get_xscale(), ax.get_yscale()
+    ('log', 'log')
+    >>> [(line.get_label(), line.get_ydata().tolist()) for line in ax.lines][0]
+    ('T', [2.0, 1.0, 0.5])
+    >>> ax.lines[1].get_color() == ax.lines[0].get_color()
+    True
     """
     ax = new_axes(ax)
     w = np.asarray(omega, dtype=float)

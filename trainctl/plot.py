@@ -82,6 +82,29 @@ def velocity_plot(result: SimulationResult, *, ax: Axes | None = None) -> Axes:
     -------
     matplotlib.axes.Axes
         The axes, labelled ``time [s]`` and ``speed [m/s]``.
+
+    Examples
+    --------
+    Two vehicles over two 1 s samples; one line per vehicle (each with its
+    sample marks) and the dashed reference:
+
+    >>> from trainctl.sim import SimulationResult
+    >>> result = SimulationResult(
+    ...     time=np.array([0.0, 1.0, 2.0]),
+    ...     states=np.array([[10.0, 10.5, 10.2], [10.0, 10.4, 10.1],
+    ...                      [0.0, 0.001, -0.0005], [0.0, 10.2, 20.5]]),
+    ...     velocities=np.array([[10.0, 10.5, 10.2], [10.0, 10.4, 10.1]]),
+    ...     coupler_forces=np.array([[0.0, 2000.0, -1000.0]]),
+    ...     inputs=np.array([[500.0, -300.0], [400.0, -200.0]]),
+    ...     reference_speed=np.full(3, 10.0), reference_acceleration=np.zeros(3),
+    ...     statuses=("optimal", "max_iterations"), iterations=np.array([3, 10]),
+    ...     residuals=((1.0, 0.1), (2.0, 0.5)), solve_times=np.array([1e-3, 2e-3]),
+    ...     fallbacks=("", ""), controller_name="demo", seed=0, dt=1.0)
+    >>> ax = velocity_plot(result)
+    >>> [line.get_label() for line in ax.lines if not line.get_label().startswith("_")]
+    ['vehicle 1', 'vehicle 2', 'reference']
+    >>> ax.lines[-1].get_ydata().tolist()  # reference [m/s]
+    [10.0, 10.0, 10.0]
     """
     ax = new_axes(ax)
     n = result.n_vehicles
@@ -135,6 +158,29 @@ def speed_error_plot(
     -------
     matplotlib.axes.Axes
         The axes, labelled ``time [s]`` and ``speed error [m/s]``.
+
+    Examples
+    --------
+    The second vehicle (index 1) runs at 10, 10.4 and 10.1 m/s against a
+    10 m/s reference, so its error is 0, 0.4 and 0.1 m/s:
+
+    >>> from trainctl.sim import SimulationResult
+    >>> result = SimulationResult(
+    ...     time=np.array([0.0, 1.0, 2.0]),
+    ...     states=np.array([[10.0, 10.5, 10.2], [10.0, 10.4, 10.1],
+    ...                      [0.0, 0.001, -0.0005], [0.0, 10.2, 20.5]]),
+    ...     velocities=np.array([[10.0, 10.5, 10.2], [10.0, 10.4, 10.1]]),
+    ...     coupler_forces=np.array([[0.0, 2000.0, -1000.0]]),
+    ...     inputs=np.array([[500.0, -300.0], [400.0, -200.0]]),
+    ...     reference_speed=np.full(3, 10.0), reference_acceleration=np.zeros(3),
+    ...     statuses=("optimal", "max_iterations"), iterations=np.array([3, 10]),
+    ...     residuals=((1.0, 0.1), (2.0, 0.5)), solve_times=np.array([1e-3, 2e-3]),
+    ...     fallbacks=("", ""), controller_name="demo", seed=0, dt=1.0)
+    >>> ax = speed_error_plot(result, vehicle=1, settle_time=1.0)
+    >>> ax.lines[0].get_label(), np.round(ax.lines[0].get_ydata(), 3).tolist()  # m/s
+    ('vehicle 2', [0.0, 0.4, 0.1])
+    >>> ax.lines[-1].get_label()
+    'settle time'
     """
     ax = new_axes(ax)
     t, speeds, dense = trace(result, "velocities")
@@ -195,6 +241,26 @@ def coupler_force_plot(
     -------
     matplotlib.axes.Axes
         The axes, labelled ``time [s]`` and ``coupler force [kN]``.
+
+    Examples
+    --------
+    One coupler at 0, 2000 and −1000 N (tension positive), drawn in kN:
+
+    >>> from trainctl.sim import SimulationResult
+    >>> result = SimulationResult(
+    ...     time=np.array([0.0, 1.0, 2.0]),
+    ...     states=np.array([[10.0, 10.5, 10.2], [10.0, 10.4, 10.1],
+    ...                      [0.0, 0.001, -0.0005], [0.0, 10.2, 20.5]]),
+    ...     velocities=np.array([[10.0, 10.5, 10.2], [10.0, 10.4, 10.1]]),
+    ...     coupler_forces=np.array([[0.0, 2000.0, -1000.0]]),
+    ...     inputs=np.array([[500.0, -300.0], [400.0, -200.0]]),
+    ...     reference_speed=np.full(3, 10.0), reference_acceleration=np.zeros(3),
+    ...     statuses=("optimal", "max_iterations"), iterations=np.array([3, 10]),
+    ...     residuals=((1.0, 0.1), (2.0, 0.5)), solve_times=np.array([1e-3, 2e-3]),
+    ...     fallbacks=("", ""), controller_name="demo", seed=0, dt=1.0)
+    >>> ax = coupler_force_plot(result)
+    >>> ax.lines[0].get_label(), np.round(ax.lines[0].get_ydata(), 3).tolist()  # kN
+    ('coupler 1–2', [0.0, 2.0, -1.0])
     """
     ax = new_axes(ax)
     t, forces, dense = trace(result, "coupler_forces")
@@ -249,6 +315,27 @@ def input_plot(
     -------
     matplotlib.axes.Axes
         The axes, labelled ``time [s]`` and ``force [kN]``.
+
+    Examples
+    --------
+    Vehicle 1 pulls 500 N, then brakes with 300 N; the last value is held
+    to the end of the run:
+
+    >>> from trainctl.sim import SimulationResult
+    >>> result = SimulationResult(
+    ...     time=np.array([0.0, 1.0, 2.0]),
+    ...     states=np.array([[10.0, 10.5, 10.2], [10.0, 10.4, 10.1],
+    ...                      [0.0, 0.001, -0.0005], [0.0, 10.2, 20.5]]),
+    ...     velocities=np.array([[10.0, 10.5, 10.2], [10.0, 10.4, 10.1]]),
+    ...     coupler_forces=np.array([[0.0, 2000.0, -1000.0]]),
+    ...     inputs=np.array([[500.0, -300.0], [400.0, -200.0]]),
+    ...     reference_speed=np.full(3, 10.0), reference_acceleration=np.zeros(3),
+    ...     statuses=("optimal", "max_iterations"), iterations=np.array([3, 10]),
+    ...     residuals=((1.0, 0.1), (2.0, 0.5)), solve_times=np.array([1e-3, 2e-3]),
+    ...     fallbacks=("", ""), controller_name="demo", seed=0, dt=1.0)
+    >>> ax = input_plot(result, vehicle=0)
+    >>> ax.lines[0].get_label(), np.round(ax.lines[0].get_ydata(), 3).tolist()  # kN
+    ('vehicle 1', [0.5, -0.3, -0.3])
     """
     ax = new_axes(ax)
     shown = picked(result.n_vehicles, vehicle)
@@ -288,6 +375,30 @@ def iterations_plot(result: SimulationResult, *, ax: Axes | None = None) -> Axes
     matplotlib.axes.Axes
         The iterations axes, labelled ``time [s]`` and ``iterations [-]``
         (the residual axes is its twin).
+
+    Examples
+    --------
+    Two samples of 3 and 10 iterations; the second did not end optimal, so
+    it is crossed, and the last residual of each sample goes on the twin axis:
+
+    >>> from trainctl.sim import SimulationResult
+    >>> result = SimulationResult(
+    ...     time=np.array([0.0, 1.0, 2.0]),
+    ...     states=np.array([[10.0, 10.5, 10.2], [10.0, 10.4, 10.1],
+    ...                      [0.0, 0.001, -0.0005], [0.0, 10.2, 20.5]]),
+    ...     velocities=np.array([[10.0, 10.5, 10.2], [10.0, 10.4, 10.1]]),
+    ...     coupler_forces=np.array([[0.0, 2000.0, -1000.0]]),
+    ...     inputs=np.array([[500.0, -300.0], [400.0, -200.0]]),
+    ...     reference_speed=np.full(3, 10.0), reference_acceleration=np.zeros(3),
+    ...     statuses=("optimal", "max_iterations"), iterations=np.array([3, 10]),
+    ...     residuals=((1.0, 0.1), (2.0, 0.5)), solve_times=np.array([1e-3, 2e-3]),
+    ...     fallbacks=("", ""), controller_name="demo", seed=0, dt=1.0)
+    >>> ax = iterations_plot(result)
+    >>> [(line.get_label(), line.get_ydata().tolist()) for line in ax.lines]
+    [('iterations', [3, 10]), ('not optimal', [10])]
+    >>> twin = ax.figure.axes[1]
+    >>> twin.get_ylabel(), twin.lines[0].get_ydata().tolist()  # kN
+    ('residual [kN]', [0.1, 0.5])
     """
     ax = new_axes(ax)
     t = result.time[:-1]

@@ -59,6 +59,12 @@ class Violation:
     where : bool
         False when ``text`` is the whole message, without the key path in
         front (``{name}`` references are still rendered).
+
+    Examples
+    --------
+    >>> v = Violation("must be a number > 0", got=-3.0, hint="Use a positive mass.")
+    >>> v.text, v.got, v.value
+    ('must be a number > 0', -3.0, True)
     """
 
     text: str
@@ -84,6 +90,14 @@ def fail(violation: Violation) -> PydanticCustomError:
     -------
     pydantic_core.PydanticCustomError
         An error of type ``"trainctl"`` with the violation in its context.
+
+    Examples
+    --------
+    >>> error = fail(Violation("must be a number > 0", got=-3.0))
+    >>> error.type, error.message()
+    ('trainctl', 'must be a number > 0')
+    >>> error.context["violation"].got
+    -3.0
     """
     context = {"text": violation.text, "violation": violation}
     return PydanticCustomError(ERROR_TYPE, "{text}", context)
@@ -105,6 +119,15 @@ def raise_at(loc: Sequence[str | int], violation: Violation, value: Any = None) 
     ------
     pydantic.ValidationError
         Always.
+
+    Examples
+    --------
+    >>> try:
+    ...     raise_at(("vehicles", 1, "mass"), Violation("must be a number > 0"), -3.0)
+    ... except ValidationError as error:
+    ...     detail = error.errors()[0]
+    >>> detail["type"], detail["loc"], detail["input"]
+    ('trainctl', ('vehicles', 1, 'mass'), -3.0)
     """
     detail = InitErrorDetails(type=fail(violation), loc=tuple(loc), input=value)
     raise ValidationError.from_exception_data(ERROR_TYPE, [detail])
@@ -124,6 +147,13 @@ def suggest(word: object, choices: Iterable[str]) -> str:
     -------
     str
         The sentence naming the closest choice, or "" when none is close.
+
+    Examples
+    --------
+    >>> suggest("zho", ("zoh", "tustin"))
+    " Did you mean 'zoh'?"
+    >>> suggest("euler", ("zoh", "tustin"))  # nothing close: no sentence
+    ''
     """
     if not isinstance(word, str):
         return ""

@@ -87,6 +87,21 @@ def check_report_output(path: str | Path | OutputTarget, *,
     OutputError
         For a path that cannot take the page (see
         :func:`~trainctl.report.output.output_target`).
+
+    Examples
+    --------
+    A directory takes the report's default name; without one it is refused
+    before anything runs:
+
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     target = check_report_output(tmp + "/", default_name="crh2-dmpc.html")
+    ...     try:
+    ...         check_report_output(tmp)
+    ...     except OutputError as error:
+    ...         refused = type(error).__name__
+    >>> target.path.name, target.kind, refused
+    ('crh2-dmpc.html', 'file', 'OutputError')
     """
     return output_target(path, default_name=default_name)
 
@@ -121,6 +136,28 @@ def render_saved_run(data: ReportData, source: str, target: Path | OutputTarget,
     ------
     ScenarioError
         If the page cannot be built from the saved data.
+
+    Examples
+    --------
+    Data whose results lost a key, as from an edited saved run, is named
+    as such rather than shown as a traceback:
+
+    >>> import dataclasses
+    >>> import tempfile
+    >>> import trainctl
+    >>> from trainctl.run import run_scenario
+    >>> from trainctl.scenario import read_scenario_text
+    >>> text, _ = read_scenario_text("crh2-dmpc")
+    >>> from trainctl.report import collect_report_data
+    >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
+    >>> data = collect_report_data(run, scenario_text=text)
+    >>> damaged = dataclasses.replace(data, results={})
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     try:
+    ...         render_saved_run(damaged, "saved-run", Path(tmp) / "r.html")
+    ...     except trainctl.ScenarioError as error:
+    ...         print(str(error).split(". ")[0])
+    saved-run: the saved run's data does not fit the report (key 'equilibrium' is missing)
     """
     from ..exceptions import ScenarioError
     from .runfile import RUN_HINT
@@ -146,6 +183,22 @@ def progress_total(jobs: Sequence[ReportJob]) -> int:
     -------
     int
         ``simulations + 2·jobs`` (plus 1 for the gallery when there are several).
+
+    Examples
+    --------
+    One strategy: 1 simulation + 2 = 3 steps; the same job twice:
+    2 + 4 + 1 (the gallery) = 7:
+
+    >>> from trainctl.report import ReportJob
+    >>> from trainctl.scenario import parse_scenario, read_scenario_text
+    >>> text, label = read_scenario_text("crh2-dmpc")
+    >>> scenario = (parse_scenario(text, source=label)
+    ...             .replace("simulation.settle_time", 60.0)
+    ...             .replace("simulation.duration", 120.0)
+    ...             .replace("simulation.strategies", ["decentralised"]))
+    >>> job = ReportJob(scenario, text, "trainctl report crh2-dmpc")
+    >>> progress_total([job]), progress_total([job, job])
+    (3, 7)
     """
     sims = sum(len(j.scenario.simulation.strategies) if j.scenario.simulation else 0
                for j in jobs)
@@ -164,6 +217,18 @@ def summary_line(data: ReportData) -> str:
     -------
     str
         ``"12 checks: 7 pass, 3 warn, 2 fail; 3 controllers simulated"``.
+
+    Examples
+    --------
+    >>> import trainctl
+    >>> from trainctl.run import run_scenario
+    >>> from trainctl.scenario import read_scenario_text
+    >>> text, _ = read_scenario_text("crh2-dmpc")
+    >>> from trainctl.report import collect_report_data
+    >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
+    >>> data = collect_report_data(run, scenario_text=text)
+    >>> summary_line(data)
+    '19 checks: 13 pass, 3 warn, 3 fail'
     """
     checks = data.results.get("checks", [])
     counts = {s: sum(1 for c in checks if c["status"] == s) for s in ("pass", "warn", "fail")}
@@ -192,6 +257,25 @@ def report_scenario(job: ReportJob, path: Path | OutputTarget, *, workers: int =
     -------
     ReportData
         The data that was rendered.
+
+    Examples
+    --------
+    The CRH2 scenario cut to 120 s with one strategy, run and reported:
+
+    >>> import tempfile
+    >>> from trainctl.report import ReportJob
+    >>> from trainctl.scenario import parse_scenario, read_scenario_text
+    >>> text, label = read_scenario_text("crh2-dmpc")
+    >>> scenario = (parse_scenario(text, source=label)
+    ...             .replace("simulation.settle_time", 60.0)
+    ...             .replace("simulation.duration", 120.0)
+    ...             .replace("simulation.strategies", ["decentralised"]))
+    >>> job = ReportJob(scenario, text, "trainctl report crh2-dmpc")
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     data = report_scenario(job, Path(tmp) / "crh2.html", deterministic=True)
+    ...     written = sorted(p.name for p in Path(tmp).iterdir())
+    >>> written, summary_line(data)
+    (['crh2.html'], '19 checks: 13 pass, 3 warn, 3 fail; 1 controllers simulated')
     """
     from .._progress import Progress
 
@@ -231,6 +315,29 @@ def report_all(jobs: Sequence[ReportJob], outdir: Path, *, workers: int = 0,
     ------
     OutputError
         If ``outdir`` exists and is not a directory.
+
+    Examples
+    --------
+    An existing file as the output directory is refused before any
+    scenario runs:
+
+    >>> import tempfile
+    >>> from trainctl.report import ReportJob
+    >>> from trainctl.scenario import parse_scenario, read_scenario_text
+    >>> text, label = read_scenario_text("crh2-dmpc")
+    >>> scenario = (parse_scenario(text, source=label)
+    ...             .replace("simulation.settle_time", 60.0)
+    ...             .replace("simulation.duration", 120.0)
+    ...             .replace("simulation.strategies", ["decentralised"]))
+    >>> job = ReportJob(scenario, text, "trainctl report crh2-dmpc")
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     taken = Path(tmp) / "reports"
+    ...     _ = taken.write_text("not a directory")
+    ...     try:
+    ...         report_all([job], taken)
+    ...     except OutputError as error:
+    ...         print(str(error).split(": ")[1])
+    is not a directory; with --all, -o names the output directory
     """
     from .._progress import Progress
 

@@ -43,7 +43,16 @@ __all__ = [
 
 
 class TimestampError(TrainctlError, ValueError):
-    """An injected report timestamp that cannot be read."""
+    """An injected report timestamp that cannot be read.
+
+    Examples
+    --------
+    >>> try:
+    ...     normalise_timestamp("yesterday")
+    ... except TimestampError as error:
+    ...     print(str(error).split(" is ")[0])
+    timestamp 'yesterday'
+    """
 
 
 @dataclass(frozen=True)
@@ -58,6 +67,20 @@ class ReportJob:
         Its TOML text.
     command : str
         The command line to print in the report (machine-specific paths removed).
+
+    Examples
+    --------
+    The CRH2 scenario cut to 120 s with one strategy (a light job):
+
+    >>> from trainctl.scenario import parse_scenario, read_scenario_text
+    >>> text, label = read_scenario_text("crh2-dmpc")
+    >>> scenario = (parse_scenario(text, source=label)
+    ...             .replace("simulation.settle_time", 60.0)
+    ...             .replace("simulation.duration", 120.0)
+    ...             .replace("simulation.strategies", ["decentralised"]))
+    >>> job = ReportJob(scenario, text, "trainctl report crh2-dmpc")
+    >>> job.scenario.simulation.strategies, job.command
+    (('decentralised',), 'trainctl report crh2-dmpc')
     """
 
     scenario: Scenario
@@ -180,6 +203,21 @@ def run_report_data(
     ------
     ReportData
         With stage timings.
+
+    Examples
+    --------
+    >>> from trainctl.scenario import parse_scenario, read_scenario_text
+    >>> text, label = read_scenario_text("crh2-dmpc")
+    >>> scenario = (parse_scenario(text, source=label)
+    ...             .replace("simulation.settle_time", 60.0)
+    ...             .replace("simulation.duration", 120.0)
+    ...             .replace("simulation.strategies", ["decentralised"]))
+    >>> job = ReportJob(scenario, text, "trainctl report crh2-dmpc")
+    >>> [data] = list(run_report_data([job]))
+    >>> list(data.simulations), sorted(data.timings)
+    (['decentralised'], ['analysis and simulations', 'report data'])
+    >>> data.simulations["decentralised"].time[-1]  # s
+    np.float64(120.0)
     """
     from ..design import build_design
     from ..parallel import worker_pool
@@ -278,6 +316,24 @@ def write_report_file(
     -------
     pathlib.Path
         The written file.
+
+    Examples
+    --------
+    The page of the CRH2 design review (no simulation), without wall-clock
+    values; the page names its scenario:
+
+    >>> import tempfile
+    >>> import trainctl
+    >>> from trainctl.run import run_scenario
+    >>> from trainctl.scenario import read_scenario_text
+    >>> text, _ = read_scenario_text("crh2-dmpc")
+    >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
+    >>> data = collect_report_data(run, scenario_text=text)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     page = write_report_file(data, Path(tmp) / "crh2.html", deterministic=True)
+    ...     html = page.read_text(encoding="utf-8")
+    >>> page.name, html.startswith("<!DOCTYPE html>"), "CRH2 half train" in html
+    ('crh2.html', True, True)
     """
     start = time.perf_counter()
     context = build_report_context(data, generated_at=generated_at, deterministic=deterministic)
@@ -311,6 +367,25 @@ def write_gallery(
     -------
     pathlib.Path
         The written file.
+
+    Examples
+    --------
+    A gallery linking one report in a subdirectory (the report itself need
+    not exist for the link):
+
+    >>> import tempfile
+    >>> import trainctl
+    >>> from trainctl.run import run_scenario
+    >>> from trainctl.scenario import read_scenario_text
+    >>> text, _ = read_scenario_text("crh2-dmpc")
+    >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
+    >>> data = collect_report_data(run, scenario_text=text)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     index = write_gallery([(data, Path(tmp) / "reports" / "crh2-dmpc.html")],
+    ...                           Path(tmp) / "index.html", deterministic=True)
+    ...     html = index.read_text(encoding="utf-8")
+    >>> index.name, 'href="reports/crh2-dmpc.html"' in html
+    ('index.html', True)
     """
     target = Path(path)
     rows = []

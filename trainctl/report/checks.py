@@ -30,6 +30,27 @@ def checks_context(data: ReportData) -> dict[str, Any]:
     -------
     dict
         ``rows``, ``counts`` by status, ``total`` and ``unexpected``.
+
+    Examples
+    --------
+    One force check (value 12 000 N against a 500 000 N threshold, shown as
+    12 and 500 kN) that warns where the scenario expects a pass; its
+    message's 0-based ``f[0]`` is shown as coupler 1 (``f₁``). A stand-in
+    carries the three fields read:
+
+    >>> from types import SimpleNamespace
+    >>> check = {"name": "coupler_force_conflict", "status": "warn", "value": 12000.0,
+    ...          "threshold": 500000.0, "unit": "N", "message": "f[0] near its limit",
+    ...          "hint": None}
+    >>> data = SimpleNamespace(results={"checks": [check]},
+    ...                        expected={"coupler_force_conflict": "pass"},
+    ...                        unexpected={"coupler_force_conflict": ["pass", "warn"]})
+    >>> context = checks_context(data)
+    >>> row = context["rows"][0]
+    >>> row["value"], row["threshold"], row["unit"], row["message"], row["unexpected"]
+    ('12', '500', 'kN', 'f₁ near its limit', True)
+    >>> context["counts"], context["unexpected"][0]["found"]
+    ({'pass': 0, 'warn': 1, 'fail': 0}, 'warn')
     """
     rows = []
     counts = {"pass": 0, "warn": 0, "fail": 0}

@@ -57,6 +57,24 @@ def controllers_context(data: ReportData, *, deterministic: bool) -> dict[str, A
     dict
         ``tables``: list of ``{"key", "caption", "columns", "rows"}`` (columns
         ``{"key", "title", "unit"}``; rows ``{"ok", "cells"}``), and ``note``.
+
+    Examples
+    --------
+    Without simulations only the table of the linear closed loops is left,
+    one row per loop:
+
+    >>> import trainctl
+    >>> from trainctl.run import run_scenario
+    >>> from trainctl.scenario import read_scenario_text
+    >>> text, _ = read_scenario_text("crh2-dmpc")
+    >>> from trainctl.report import collect_report_data
+    >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
+    >>> data = collect_report_data(run, scenario_text=text)
+    >>> context = controllers_context(data, deterministic=True)
+    >>> [t["key"] for t in context["tables"]], context["simulated"]
+    (['loops'], False)
+    >>> context["tables"][0]["rows"][0]["cells"][0]
+    'centralised'
     """
     sims = data.results.get("simulations", {})
     tables = []

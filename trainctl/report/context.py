@@ -78,6 +78,23 @@ def build_report_context(
     -------
     dict
         Template variables (see ``templates/report.html.j2``).
+
+    Examples
+    --------
+    The CRH2 design review without simulations, without a timestamp:
+
+    >>> import trainctl
+    >>> from trainctl.report import collect_report_data
+    >>> from trainctl.run import run_scenario
+    >>> from trainctl.scenario import read_scenario_text
+    >>> text, _ = read_scenario_text("crh2-dmpc")
+    >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
+    >>> data = collect_report_data(run, scenario_text=text)
+    >>> context = build_report_context(data, deterministic=True)
+    >>> context["checks"]["counts"], context["generated_at"]
+    ({'pass': 13, 'warn': 3, 'fail': 3}, '')
+    >>> context["headline"]
+    '19 checks: 13 pass, 3 warn, 3 fail · ρ(D0) = 0.306 · no closed-loop simulation'
     """
     if generated_at is None and not deterministic:
         generated_at = utc_now()
@@ -463,6 +480,16 @@ def build_index_context(
     -------
     dict
         Template variables of ``templates/index.html.j2``.
+
+    Examples
+    --------
+    >>> entry = {"name": "CRH2", "href": "crh2-dmpc.html", "description": "half train",
+    ...          "headline": "19 checks", "source": "builtin:crh2-dmpc"}
+    >>> context = build_index_context([entry], generated_at="2026-11-22T10:00:00Z")
+    >>> context["entries"][0]["href"], context["generated_at"]
+    ('crh2-dmpc.html', '2026-11-22T10:00:00Z')
+    >>> build_index_context([], deterministic=True)["generated_at"]  # no time at all
+    ''
     """
     if generated_at is None and not deterministic:
         generated_at = utc_now()

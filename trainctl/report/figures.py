@@ -114,6 +114,14 @@ class ReportFigure:
         (:func:`family_section`), where the figure follows the family's
         partial; a family section that is not on the page (a family without
         a partial) leaves the figure to the Figures section.
+
+    Examples
+    --------
+    >>> fig = Figure(figsize=(2, 1))
+    >>> _ = fig.add_subplot().plot([0, 1], [1, 0])
+    >>> f = ReportFigure("demo", "A line", "y = 1 − x [-].", figure_svg(fig, prefix="fig-demo"))
+    >>> f.key, f.section, f.svg.startswith("<svg")
+    ('demo', 'figures', True)
     """
 
     key: str
@@ -194,6 +202,24 @@ def report_figures(data: ReportData) -> list[ReportFigure]:
         each controller family's figures (MPC: the ρ(D0)-against-R curve, in
         the Figures section; potential and flocking: the communication graph,
         in their own sections, :mod:`trainctl.report.figures_graph`).
+
+    Examples
+    --------
+    The CRH2 design review without simulations: no closed-loop figures,
+    the eigenvalue map first, then the linear closed loops' figures:
+
+    >>> import trainctl
+    >>> from trainctl.run import run_scenario
+    >>> from trainctl.scenario import read_scenario_text
+    >>> text, _ = read_scenario_text("crh2-dmpc")
+    >>> from trainctl.report import collect_report_data
+    >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
+    >>> data = collect_report_data(run, scenario_text=text)
+    >>> keys = [f.key for f in report_figures(data)]
+    >>> keys[:3]
+    ['eigenvalues', 'sigma-speed', 'sigma-force']
+    >>> "speed" in keys  # no simulation, no speed-tracking figure
+    False
     """
     return list(_figures(data))
 
@@ -217,6 +243,14 @@ def encode(key: str, title: str, caption: str, figure: Figure, *,
     -------
     ReportFigure
         The figure for the page.
+
+    Examples
+    --------
+    >>> fig = Figure(figsize=(2, 1))
+    >>> _ = fig.add_subplot().plot([0, 1], [1, 0])
+    >>> f = encode("demo", "A line", "y = 1 − x [-].", fig)
+    >>> f.key, f.section, 'id="fig-demo-' in f.svg
+    ('demo', 'figures', True)
     """
     return ReportFigure(key, title, caption, figure_svg(figure, prefix=f"fig-{key}"),
                         section=section)
@@ -257,6 +291,16 @@ def eigenvalue_figure(spectra: Mapping[str, NDArray[np.complex128]],
     -------
     ReportFigure
         The figure.
+
+    Examples
+    --------
+    The legend gives the spectral radius ρ: |0.5 ± 0.5j| = 0.707 < 0.9,
+    so ρ = 0.9. A ``make`` that returns the drawing shows it:
+
+    >>> spectra = {"open loop": np.array([0.9, 0.5 + 0.5j, 0.5 - 0.5j])}
+    >>> fig = eigenvalue_figure(spectra, make=lambda key, title, caption, figure: figure)
+    >>> [t.get_text() for t in fig.legends[0].get_texts()]
+    ['unit circle', 'open loop (design model) (ρ = 0.9)']
     """
     # A fixed layout: constrained layout misplaces an equal-aspect box beside a legend.
     figure = Figure(figsize=(7.5, 4.4))

@@ -43,6 +43,21 @@ def performance_figure(data: ReportData,
     Returns
     -------
     ReportFigure or None
+
+    Examples
+    --------
+    The CRH2 scenario has no hinf family, so no case-(d) figure:
+
+    >>> import trainctl
+    >>> from trainctl.run import run_scenario
+    >>> from trainctl.scenario import read_scenario_text
+    >>> text, _ = read_scenario_text("crh2-dmpc")
+    >>> from trainctl.report import collect_report_data
+    >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
+    >>> data = collect_report_data(run, scenario_text=text)
+    >>> from trainctl.report.figures import encode
+    >>> performance_figure(data, encode) is None
+    True
     """
     from ..claims import family_strategy, performance_energies
 

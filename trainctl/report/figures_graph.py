@@ -63,6 +63,15 @@ def graph_report_data(graph: CommunicationGraph) -> dict[str, Any]:
         reference): the fields :class:`~trainctl.graphs.CommunicationGraph`
         is built from. The vehicles are drawn and named by their number
         (1 = head), so no labels are stored.
+
+    Examples
+    --------
+    A bidirectional graph of two vehicles, both hearing the reference:
+
+    >>> from trainctl.graphs import make_graph
+    >>> data = graph_report_data(make_graph("bidirectional", 2, pinned="all"))
+    >>> data["adjacency"], data["pinning"]
+    ([[0.0, 1.0], [1.0, 0.0]], [1.0, 1.0])
     """
     return {"topology": graph.topology,
             "adjacency": [[float(x) for x in row] for row in graph.adjacency],
@@ -82,6 +91,16 @@ def graph_from_data(data: Mapping[str, Any]) -> CommunicationGraph:
     CommunicationGraph
         The graph (validated again: a damaged saved run raises
         :class:`~trainctl.exceptions.ModelError`).
+
+    Examples
+    --------
+    Vehicle 2 hears vehicle 1 and vehicle 1 the reference (3 vehicles):
+
+    >>> data = {"topology": "predecessor", "pinning": [1.0, 0.0, 0.0],
+    ...         "adjacency": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]}
+    >>> graph = graph_from_data(data)
+    >>> graph.topology, graph.reference_reaches_all()
+    ('predecessor', True)
     """
     return CommunicationGraph(np.asarray(data["adjacency"], dtype=float),
                               np.asarray(data["pinning"], dtype=float),
@@ -100,6 +119,11 @@ def graph_figure_key(family: str) -> str:
     -------
     str
         The figure's key.
+
+    Examples
+    --------
+    >>> graph_figure_key("flocking")
+    'graph-flocking'
     """
     return f"graph-{family}"
 
@@ -126,6 +150,20 @@ def graph_figure(data: Mapping[str, Any], *, family: str, usage: str = "",
     -------
     ReportFigure
         Key :func:`graph_figure_key`, section ``family-<family>``.
+
+    Examples
+    --------
+    A predecessor graph of three vehicles pinned at the head: two one-way
+    links, and λ₂ = 0.5 of the symmetrised path (1 − 2 − 3, Laplacian
+    eigenvalues 0, 1 and 3, halved by the symmetrisation's weight 1/2):
+
+    >>> from trainctl.graphs import make_graph
+    >>> data = graph_report_data(make_graph("predecessor", 3, pinned="head"))
+    >>> f = graph_figure(data, family="potential")
+    >>> f.key, f.section
+    ('graph-potential', 'family-potential')
+    >>> "2 one-way links among 3 vehicles" in f.caption, "λ₂ = 0.5 [-]" in f.caption
+    (True, True)
     """
     graph = graph_from_data(data)
     figure = Figure(figsize=GRAPH_FIGSIZE)

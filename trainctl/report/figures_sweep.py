@@ -102,6 +102,15 @@ class Panel:
     marks : dict
         ``(x index, y index) -> True/False/None`` for a certificate map: the
         simulated outcome (ok, not ok, mixed over seeds).
+
+    Examples
+    --------
+    The N-DMPC check over two weights R (x) and one sample time (y): it
+    fails at R = 1 and passes at R = 10:
+
+    >>> panel = Panel("ndmpc", {(0, 0): "fail", (1, 0): "pass"})
+    >>> panel.cells[(1, 0)], panel.notes, panel.marks
+    ('pass', {}, {})
     """
 
     title: str
@@ -221,6 +230,17 @@ def numeric_map_figure(grid: Grid, panels: Sequence[Panel], *, label: str) -> Fi
     Returns
     -------
     matplotlib.figure.Figure
+
+    Examples
+    --------
+    ρ(D0) over two weights and two sample times: one panel and its colour
+    bar, the x axis labelled with the first parameter:
+
+    >>> grid = Grid("R [1/kN²]", "T [s]", ("1", "10"), ("10", "20"), (1.0, 10.0), (10.0, 20.0))
+    >>> panel = Panel("ndmpc", {(0, 0): 1.58, (1, 0): 0.31, (0, 1): 1.2, (1, 1): 0.2})
+    >>> fig = numeric_map_figure(grid, [panel], label="ρ(D0) [-]")
+    >>> len(fig.axes), fig.axes[0].get_xlabel(), fig.axes[0].get_title()
+    (2, 'R [1/kN²]', 'ndmpc')
     """
     values = [v for p in panels for v in p.cells.values() if math.isfinite(v)]
     log = is_log(values)
@@ -288,6 +308,20 @@ def category_figure(grid: Grid, panels: Sequence[Panel], *, categories: Sequence
     Returns
     -------
     matplotlib.figure.Figure
+
+    Examples
+    --------
+    A check's status in four cells: the legend lists the categories in
+    order, and with so few cells each is also written in words:
+
+    >>> grid = Grid("R [1/kN²]", "T [s]", ("1", "10"), ("10", "20"), (1.0, 10.0), (10.0, 20.0))
+    >>> panel = Panel("", {(0, 0): "fail", (1, 0): "pass", (0, 1): "warn", (1, 1): "pass"})
+    >>> fig = category_figure(grid, [panel], categories=("pass", "warn", "fail"),
+    ...                       legend_title="status")
+    >>> [t.get_text() for t in fig.legends[0].get_texts()]
+    ['pass', 'warn', 'fail']
+    >>> sorted(t.get_text() for t in fig.axes[0].texts)
+    ['fail', 'pass', 'pass', 'warn']
     """
     colours = [CATEGORY_COLOURS.get(c, CATEGORY_COLOURS["other"]) for c in categories]
     index = {c: k for k, c in enumerate(categories)}
@@ -347,6 +381,22 @@ def certificate_figure(grid: Grid, panels: Sequence[Panel], *, categories: Seque
     Returns
     -------
     matplotlib.figure.Figure
+
+    Examples
+    --------
+    The certificate's status as fill, the simulation's outcome as marks;
+    the cell mixed over seeds shows its note:
+
+    >>> grid = Grid("R [1/kN²]", "T [s]", ("1", "10"), ("10", "20"), (1.0, 10.0), (10.0, 20.0))
+    >>> panel = Panel("", {(0, 0): "fail", (1, 0): "pass", (0, 1): "warn", (1, 1): "pass"},
+    ...               notes={(0, 1): "2/3"},
+    ...               marks={(0, 0): False, (1, 0): True, (0, 1): None, (1, 1): True})
+    >>> fig = certificate_figure(grid, [panel], categories=("pass", "warn", "fail"),
+    ...                          outcome="converged", outcome_not="did not converge")
+    >>> [t.get_text() for t in fig.legends[0].get_texts()][-2:]
+    ['simulated: converged', 'simulated: did not converge']
+    >>> [t.get_text() for t in fig.axes[0].texts]
+    ['2/3']
     """
     colours = [CATEGORY_COLOURS.get(c, CATEGORY_COLOURS["other"]) for c in categories]
     index = {c: k for k, c in enumerate(categories)}
@@ -429,6 +479,20 @@ def line_figure(lines: Sequence[Line], *, x_label: str, y_label: str,
     Returns
     -------
     matplotlib.figure.Figure
+
+    Examples
+    --------
+    R from 1 to 100 spans two decades, so the x axis is logarithmic; the
+    band is one shaded area:
+
+    >>> line = Line("ndmpc", (1.0, 10.0, 100.0), (1.58, 0.31, 0.05), (1.5, 0.3, 0.04),
+    ...             (1.6, 0.32, 0.06))
+    >>> fig = line_figure([line], x_label="R [1/kN²]", y_label="ρ(D0) [-]", band=True)
+    >>> ax = fig.axes[0]
+    >>> ax.get_xscale(), ax.lines[0].get_label(), ax.lines[0].get_ydata().tolist()
+    ('log', 'ndmpc (median)', [1.58, 0.31, 0.05])
+    >>> len(ax.collections)
+    1
     """
     figure = Figure(figsize=(7.5, 3.4), layout="constrained")
     ax = figure.add_subplot()

@@ -83,6 +83,23 @@ def vehicle_limits(scenario: Scenario, result: SimulationResult,
     (ndarray, ndarray)
         Lower and upper limit at each instant, shape (N + 1,); a trailer's
         traction limit is 0.
+
+    Examples
+    --------
+    CRH2's motor car (index 1) has 80 kN traction, 40 kN braking and
+    1.2 MW either way: at 20 m/s the power allows 60 kN, so traction is
+    60 kN and braking 40 kN; at 60 m/s both are 1.2 MW / 60 m/s = 20 kN.
+    The trailer (index 0) brakes with 40 kN and has no traction. Only the
+    reference speed of the run is read (a stand-in here):
+
+    >>> from types import SimpleNamespace
+    >>> import trainctl
+    >>> scenario = trainctl.load_scenario("crh2-dmpc")
+    >>> run = SimpleNamespace(reference_speed=np.array([20.0, 60.0]))  # m/s
+    >>> [x.tolist() for x in vehicle_limits(scenario, run, 1)]  # N
+    [[-40000.0, -20000.0], [60000.0, 20000.0]]
+    >>> [x.tolist() for x in vehicle_limits(scenario, run, 0)]  # N
+    [[-40000.0, -40000.0], [0.0, 0.0]]
     """
     veh = scenario.train.vehicles[vehicle]
     speed = np.asarray(result.reference_speed, dtype=float)
@@ -110,6 +127,22 @@ def time_figures(scenario: Scenario, sims: Mapping[str, SimulationResult],
     ReportFigure
         Speed tracking, coupler forces (with couplers), inputs, and the
         iterations of the iterating strategies (when any iterated).
+
+    Examples
+    --------
+    Two strategies over 120 s of the CRH2 scenario; the N-DMPC iterates,
+    so the iterations figure is there. A ``make`` that keeps only the keys:
+
+    >>> import trainctl
+    >>> from trainctl.run import simulate_strategy
+    >>> scenario = (trainctl.load_scenario("crh2-dmpc")
+    ...             .replace("simulation.settle_time", 60.0)
+    ...             .replace("simulation.duration", 120.0))
+    >>> sims = {name: simulate_strategy(scenario, name) for name in ("decentralised", "ndmpc")}
+    >>> def key_only(key, title, caption, figure):  # keep the key, drop the drawing
+    ...     return key
+    >>> list(time_figures(scenario, sims, key_only))
+    ['speed', 'coupler-force', 'input', 'iterations']
     """
     yield _speed(scenario, sims, make)
     first = next(iter(sims.values()))

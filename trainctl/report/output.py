@@ -51,7 +51,20 @@ _ACCEPTED = ("regular files, directories, character devices such as /dev/null, p
 
 
 class OutputError(TrainctlError, ValueError):
-    """An output path that cannot be written as asked (a socket, a directory for a file, ...)."""
+    """An output path that cannot be written as asked (a socket, a directory for a file, ...).
+
+    Examples
+    --------
+    A directory where a file is needed:
+
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     try:
+    ...         output_target(tmp)
+    ...     except OutputError as error:
+    ...         print(type(error).__name__, str(error).endswith("give a file path with -o"))
+    OutputError True
+    """
 
 
 @dataclass(frozen=True)
@@ -71,6 +84,14 @@ class OutputTarget:
         The descriptor of an ``"fd"`` target (-1 otherwise).
     exists : bool
         True when a ``"file"`` target already exists.
+
+    Examples
+    --------
+    ``-`` is standard output, written through its descriptor:
+
+    >>> target = output_target("-")
+    >>> target.kind, target.fd, target.is_stdout, str(target), target.path.as_posix()
+    ('fd', 1, True, '-', '/dev/stdout')
     """
 
     path: Path
@@ -116,6 +137,18 @@ def output_target(path: str | os.PathLike[str] | OutputTarget, *,
         For a directory without ``default_name``, a path ending in ``/``
         that is not a directory, a broken symbolic link, a block device, a
         socket or another kind of node.
+
+    Examples
+    --------
+    A directory takes the default name; a new file is a ``"file"`` target
+    that does not exist yet:
+
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     inside = output_target(tmp + "/", default_name="crh2-dmpc.html")
+    ...     new = output_target(Path(tmp) / "r.html")
+    >>> inside.path.name, inside.kind, new.kind, new.exists
+    ('crh2-dmpc.html', 'file', 'file', False)
     """
     if isinstance(path, OutputTarget):
         return path

@@ -116,6 +116,23 @@ def render_report(context: Mapping[str, Any]) -> str:
     -------
     str
         A complete, self-contained HTML5 document.
+
+    Examples
+    --------
+    The CRH2 design review (no simulation), rendered; the page loads
+    nothing from elsewhere:
+
+    >>> import trainctl
+    >>> from trainctl.report import build_report_context, collect_report_data
+    >>> from trainctl.run import run_scenario
+    >>> from trainctl.scenario import read_scenario_text
+    >>> text, _ = read_scenario_text("crh2-dmpc")
+    >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
+    >>> context = build_report_context(collect_report_data(run, scenario_text=text),
+    ...                                deterministic=True)
+    >>> html = render_report(context)
+    >>> html.startswith("<!DOCTYPE html>"), "<script" in html, 'src="http' in html
+    (True, False, False)
     """
     template = make_environment().get_template(REPORT_TEMPLATE)
     return template.render(**context, css=Markup(_stylesheet()))
@@ -133,6 +150,15 @@ def render_index(context: Mapping[str, Any]) -> str:
     -------
     str
         A complete, self-contained HTML5 document.
+
+    Examples
+    --------
+    >>> from trainctl.report import build_index_context
+    >>> entry = {"name": "CRH2", "href": "crh2-dmpc.html", "description": "half train",
+    ...          "headline": "19 checks", "source": "builtin:crh2-dmpc"}
+    >>> html = render_index(build_index_context([entry], deterministic=True))
+    >>> html.startswith("<!DOCTYPE html>"), 'href="crh2-dmpc.html"' in html
+    (True, True)
     """
     template = make_environment().get_template(INDEX_TEMPLATE)
     return template.render(**context, css=Markup(_stylesheet()))
@@ -160,5 +186,14 @@ def write_report(html: str, path: str | os.PathLike[str] | OutputTarget) -> Path
     OutputError
         For a target that is neither a regular file, a new path, a character
         device, a pipe nor standard output.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = write_report("<!DOCTYPE html><title>t</title>", Path(tmp) / "r.html")
+    ...     text = path.read_text(encoding="utf-8")
+    >>> path.name, text
+    ('r.html', '<!DOCTYPE html><title>t</title>')
     """
     return write_output(html, path)

@@ -174,6 +174,23 @@ class RunFile(_Closed):
         The command that saved the run.
     timings : dict
         Wall times of the run's parts [s].
+
+    Examples
+    --------
+    The validated manifest of a saved run (:func:`read_saved_run`):
+
+    >>> import tempfile
+    >>> import trainctl
+    >>> from trainctl.report import collect_report_data
+    >>> from trainctl.run import run_scenario
+    >>> from trainctl.scenario import read_scenario_text
+    >>> text, _ = read_scenario_text("crh2-dmpc")
+    >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     saved = collect_report_data(run, scenario_text=text).save(tmp + "/run")
+    ...     doc = read_saved_run(saved)["document"]
+    >>> isinstance(doc, RunFile), doc.strategies, doc.scenario_sha256 == text_digest(text)
+    (True, [], True)
     """
 
     format: StrictStr
@@ -236,6 +253,27 @@ def read_saved_run(directory: str | Path) -> dict[str, Any]:
         key missing, unknown or of the wrong type, a scenario text that is
         not the one saved, strategies that do not match the results, or a
         simulation result that is damaged or belongs elsewhere.
+
+    Examples
+    --------
+    A run saved without simulations, read back; a directory without the
+    manifest is refused:
+
+    >>> import tempfile
+    >>> import trainctl
+    >>> from trainctl.report import collect_report_data
+    >>> from trainctl.run import run_scenario
+    >>> from trainctl.scenario import read_scenario_text
+    >>> text, _ = read_scenario_text("crh2-dmpc")
+    >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     parts = read_saved_run(collect_report_data(run, scenario_text=text).save(tmp + "/run"))
+    ...     try:
+    ...         read_saved_run(tmp)
+    ...     except ScenarioError as error:
+    ...         refused = "not a complete saved run" in str(error)
+    >>> sorted(parts), parts["text"] == text, parts["simulations"], refused
+    (['document', 'raw', 'scenario', 'simulations', 'text'], True, {}, True)
     """
     from ..scenario import parse_scenario
 

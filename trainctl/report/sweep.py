@@ -111,6 +111,12 @@ class Outcome:
         What "fine" means, for the page (``"converged"``).
     says_not : str
         What "not fine" means (``"did not converge"``).
+
+    Examples
+    --------
+    >>> outcome = Outcome("diverged", False, "did not diverge", "diverged")
+    >>> outcome.column, outcome.ok_when
+    ('metric.diverged', False)
     """
 
     metric: str
@@ -141,6 +147,14 @@ class Certificate:
         back to the next).
     promise : str
         What the check promises, for the page.
+
+    Examples
+    --------
+    The N-DMPC certificate: its check, and the metric columns tried in turn:
+
+    >>> cert = CERTIFICATES[0]
+    >>> cert.check, [o.column for o in cert.outcomes]
+    ('ndmpc_convergence', ['metric.converged', 'metric.tracking_ok', 'metric.diverged'])
     """
 
     check: str
@@ -188,6 +202,21 @@ class SweepReportData:
         ``check name -> unit`` (from the first point's summary; may be empty).
     check_thresholds : dict
         ``check name -> threshold`` where constant (from the first point).
+
+    Examples
+    --------
+    A design-review sweep of two input weights (no simulation): one
+    parameter drawn, no strategy, no seeds:
+
+    >>> import tempfile
+    >>> from trainctl.sweep import sweep_scenario
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> _ = sweep_scenario("crh2-dmpc", tmp.name, axes=["controller.r_per_kn2=1,10"],
+    ...                    simulate=False)
+    >>> data = load_sweep_report_data(tmp.name)
+    >>> data.parameters, data.strategies, data.seeded, data.table.shape[0]
+    (['controller.r_per_kn2'], [], False, 2)
+    >>> tmp.cleanup()
     """
 
     name: str
@@ -262,6 +291,28 @@ def load_sweep_report_data(path: str | os.PathLike[str]) -> SweepReportData:
     ScenarioError
         Not a store, a damaged manifest, an unfinished sweep (no table), or
         a table that does not fit the manifest.
+
+    Examples
+    --------
+    The store of a two-point sweep; the N-DMPC check's threshold is
+    ρ(D0) = 1:
+
+    >>> import tempfile
+    >>> from trainctl.sweep import sweep_scenario
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> _ = sweep_scenario("crh2-dmpc", tmp.name, axes=["controller.r_per_kn2=1,10"],
+    ...                    simulate=False)
+    >>> data = load_sweep_report_data(tmp.name)
+    >>> data.swept, data.check_thresholds["ndmpc_convergence"]
+    (['controller.r_per_kn2'], 1.0)
+    >>> data.table["check.ndmpc_convergence.status"].tolist()
+    ['fail', 'pass']
+    >>> try:
+    ...     load_sweep_report_data(tmp.name + "/points")
+    ... except ScenarioError as error:
+    ...     print("not a sweep store" in str(error))
+    True
+    >>> tmp.cleanup()
     """
     from ..sweep.store import SweepStore
 
@@ -902,6 +953,23 @@ def build_sweep_context(data: SweepReportData, *, generated_at: str | None = Non
     -------
     dict
         Template variables of ``templates/sweep.html.j2``.
+
+    Examples
+    --------
+    Without simulations there are no metric figures and no certificates;
+    each varying check gets a status and a value figure:
+
+    >>> import tempfile
+    >>> from trainctl.sweep import sweep_scenario
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> _ = sweep_scenario("crh2-dmpc", tmp.name, axes=["controller.r_per_kn2=1,10"],
+    ...                    simulate=False)
+    >>> context = build_sweep_context(load_sweep_report_data(tmp.name), deterministic=True)
+    >>> context["show_metrics"], context["certificates"], context["sweep"]["points"]
+    (False, [], 2)
+    >>> [f.key for f in context["check_figures"]][:2]
+    ['check-ndmpc-convergence-status', 'check-ndmpc-convergence-value']
+    >>> tmp.cleanup()
     """
     from ..sim.results import environment
     from .context import utc_now
@@ -1056,6 +1124,19 @@ def render_sweep_report(context: Mapping[str, Any]) -> str:
     -------
     str
         A complete, self-contained HTML5 document.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from trainctl.sweep import sweep_scenario
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> _ = sweep_scenario("crh2-dmpc", tmp.name, axes=["controller.r_per_kn2=1,10"],
+    ...                    simulate=False)
+    >>> context = build_sweep_context(load_sweep_report_data(tmp.name), deterministic=True)
+    >>> html = render_sweep_report(context)
+    >>> html.startswith("<!DOCTYPE html>"), "<script" in html
+    (True, False)
+    >>> tmp.cleanup()
     """
     from .render import _stylesheet, make_environment
 
@@ -1087,6 +1168,27 @@ def write_sweep_report(source: str | os.PathLike[str],
     ------
     ScenarioError
         The store is not finished, damaged, or its table does not fit the page.
+
+    Examples
+    --------
+    A store whose table is missing (an interrupted sweep) is refused and
+    nothing is written:
+
+    >>> import os
+    >>> import tempfile
+    >>> from trainctl.sweep import sweep_scenario
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> _ = sweep_scenario("crh2-dmpc", tmp.name, axes=["controller.r_per_kn2=1,10"],
+    ...                    simulate=False)
+    >>> os.remove(os.path.join(tmp.name, "rows.parquet"))
+    >>> try:
+    ...     write_sweep_report(tmp.name, os.path.join(tmp.name, "report.html"))
+    ... except ScenarioError as error:
+    ...     print("the sweep has not finished" in str(error))
+    True
+    >>> os.path.exists(os.path.join(tmp.name, "report.html"))
+    False
+    >>> tmp.cleanup()
     """
     from .render import write_report
 

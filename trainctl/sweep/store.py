@@ -84,6 +84,18 @@ def is_sweep_store(path: str | os.PathLike[str]) -> bool:
     -------
     bool
         Whether it is a sweep store.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from trainctl.sweep import sweep_scenario
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     before = is_sweep_store(tmp)  # an empty directory
+    ...     _ = sweep_scenario("crh2-dmpc", tmp, axes=["controller.r_per_kn2=1,10"],
+    ...                        simulate=False)
+    ...     after = is_sweep_store(tmp)
+    >>> before, after
+    (False, True)
     """
     return (Path(path) / MANIFEST).is_file()
 
@@ -112,6 +124,24 @@ def sweep_fingerprint(points: Sequence[SweepPoint], keys: Sequence[str], simulat
     -------
     str
         64 hexadecimal digits.
+
+    Examples
+    --------
+    The same points give the same fingerprint; running their simulations
+    too makes another sweep:
+
+    >>> from trainctl.scenario import parse_scenario, read_scenario_text
+    >>> from trainctl.sweep import SweepDefinition, parse_set, point_key
+    >>> text, label = read_scenario_text("crh2-dmpc")
+    >>> base = parse_scenario(text, source=label)
+    >>> sweep = SweepDefinition.of(base, [parse_set("controller.r_per_kn2=1,10")])
+    >>> points, scenarios = sweep.points(base_seed=base.seed), sweep.validate(base)
+    >>> keys = [point_key(s) for s in scenarios]
+    >>> a = sweep_fingerprint(points, keys, False, "0.1.0")
+    >>> len(a), a == sweep_fingerprint(points, keys, False, "0.1.0")
+    (64, True)
+    >>> a == sweep_fingerprint(points, keys, True, "0.1.0")
+    False
     """
     document = {"points": [[dict(p), k] for p, k in zip(points, keys, strict=True)],
                 "simulate": bool(simulate), "trainctl": version}
@@ -129,6 +159,27 @@ class SweepStore:
         The store's directory.
     manifest : dict
         The content of ``sweep.json``.
+
+    Examples
+    --------
+    A new store of a two-point sweep lists both points as missing until
+    they have run:
+
+    >>> import tempfile
+    >>> from trainctl.scenario import parse_scenario, read_scenario_text
+    >>> from trainctl.sweep import SweepDefinition, parse_set, point_key
+    >>> text, label = read_scenario_text("crh2-dmpc")
+    >>> base = parse_scenario(text, source=label)
+    >>> sweep = SweepDefinition.of(base, [parse_set("controller.r_per_kn2=1,10")])
+    >>> points, scenarios = sweep.points(base_seed=base.seed), sweep.validate(base)
+    >>> keys = [point_key(s) for s in scenarios]
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     store = SweepStore.open(tmp, label=label, scenario_text=text, points=points,
+    ...                             keys=keys, swept=sweep.keys, simulate=False,
+    ...                             arrays="none")
+    ...     missing = store.missing() == keys
+    >>> missing, store.manifest["swept"], store.manifest["simulate"]
+    (True, ['controller.r_per_kn2'], False)
     """
 
     path: Path
