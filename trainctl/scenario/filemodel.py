@@ -102,7 +102,7 @@ class FileTable(BaseModel):
         if doc and section and "\nParameters\n" not in doc:
             # Before an Examples section, where numpydoc wants Parameters.
             head, sep, examples = inspect.cleandoc(doc).partition("\n\nExamples\n--------\n")
-            tail = f"\nExamples\n--------\n{examples}" if sep else ""
+            tail = f"\nExamples\n--------\n{examples}\n" if sep else ""
             cls.__doc__ = f"{head}\n\n{section}{tail}"
 
     @classmethod
