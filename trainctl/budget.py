@@ -99,7 +99,25 @@ _SDP_DELAY = 3.0            # a Lyapunov–Krasovskii SDP against a delay-free o
 
 
 class BudgetError(TrainctlError, ValueError):
-    """A run whose estimate exceeds the time budget or the machine's memory."""
+    """A run whose estimate exceeds the time budget or the machine's memory.
+
+    Examples
+    --------
+    ``crh2-dmpc`` is estimated at several seconds, so a one-second budget
+    refuses it:
+
+    >>> from trainctl.scenario import load_scenario
+    >>> estimate = estimate_run(load_scenario("crh2-dmpc"))
+    >>> estimate.seconds > 1.0
+    True
+    >>> try:
+    ...     check_budget(estimate, max_time=1.0)
+    ... except BudgetError as exc:
+    ...     print(str(exc).split(", over")[0].split(": ", 1)[1])
+    the run is estimated at about 9.6 s
+    >>> issubclass(BudgetError, ValueError)
+    True
+    """
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -130,6 +148,17 @@ class RunEstimate:
         Estimated peak memory of the largest stage [bytes].
     dominant : str
         What costs most, in words (for messages).
+
+    Examples
+    --------
+    >>> estimate = RunEstimate(
+    ...     label="toy", vehicles=2, horizon=1, samples=100, strategies=1,
+    ...     controller_steps=100, work=200, design_seconds=0.5, simulation_seconds=1.5,
+    ...     memory_bytes=2e6, dominant="the simulations")
+    >>> estimate.seconds  # 0.5 s + 1.5 s
+    2.0
+    >>> estimate.describe()
+    '100 samples × 1 strategies = 100 controller steps (2 vehicles): about 2 s, 2 MB'
     """
 
     label: str
@@ -191,6 +220,23 @@ def estimate_run(scenario: Scenario, *, simulate: bool = True) -> RunEstimate:
     -------
     RunEstimate
         The estimate.
+
+    Examples
+    --------
+    ``crh2-dmpc``: 1200 s / 20 s = 60 samples for each of 3 strategies, with
+    4 vehicles and P = 4, so work = 180 × 4 × 4 = 2880; its result arrays take
+    60 samples × 4 vehicles × 48 bytes × 3 strategies = 34560 bytes:
+
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> est = estimate_run(scenario)
+    >>> est.samples, est.strategies, est.controller_steps, est.work, est.memory_bytes
+    (60, 3, 180, 2880, 34560.0)
+    >>> review = estimate_run(scenario, simulate=False)  # the design review only
+    >>> review.controller_steps, review.simulation_seconds
+    (0, 0.0)
+    >>> review.design_seconds == est.design_seconds
+    True
     """
     n = scenario.train.n_vehicles
     horizon, moves = _horizons(scenario)
@@ -230,6 +276,21 @@ def total_estimate(estimates: Iterable[RunEstimate]) -> RunEstimate:
     RunEstimate
         Sums of steps, work and times; the largest sizes and memory; the
         dominant part of the most expensive run.
+
+    Examples
+    --------
+    The full ``crh2-dmpc`` run (60 samples × 3 strategies) and a half-length
+    one (30 × 3) total 180 + 90 = 270 controller steps:
+
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> full, half = (estimate_run(scenario),
+    ...               estimate_run(scenario.replace("simulation.duration", 600.0)))
+    >>> total = total_estimate([full, half])
+    >>> total.controller_steps, total.strategies, total.samples
+    (270, 6, 60)
+    >>> bool(abs(total.seconds - (full.seconds + half.seconds)) < 1e-9)
+    True
     """
     items = list(estimates)
     if not items:
@@ -290,6 +351,17 @@ def physical_memory() -> float | None:
     -------
     float or None
         The machine's physical memory [bytes]; None where the system does not say.
+
+    Examples
+    --------
+    On Linux it is the page size times the number of physical pages:
+
+    >>> import os
+    >>> memory = physical_memory()
+    >>> memory == os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    True
+    >>> format_bytes(memory).split()[-1] in ("MB", "GB", "TB")
+    True
     """
     try:
         return float(os.sysconf("SC_PAGE_SIZE")) * float(os.sysconf("SC_PHYS_PAGES"))

@@ -102,6 +102,16 @@ def build_parser() -> argparse.ArgumentParser:
     -------
     argparse.ArgumentParser
         Parser whose namespaces carry the handler in ``func``.
+
+    Examples
+    --------
+    Parsing only, nothing runs; ``--max-time`` defaults to one hour [s]:
+
+    >>> args = build_parser().parse_args(["analyse", "crh2-dmpc", "--jobs", "2"])
+    >>> args.command, args.scenario, args.jobs, args.strict, args.max_time
+    ('analyse', 'crh2-dmpc', 2, False, 3600.0)
+    >>> args.func.__name__
+    '_cmd_analyse'
     """
     parser = argparse.ArgumentParser(
         prog=PROG,
@@ -334,6 +344,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     int
         Exit status: 0 ran, 1 ``--strict`` found a failure, 2 user error
         (argparse exits with 2 by itself on a usage error, 0 for ``--help``).
+
+    Examples
+    --------
+    ``list`` prints one line per built-in scenario and returns 0; an unknown
+    scenario is a user error: a one-line message on stderr and status 2:
+
+    >>> import contextlib, io
+    >>> out, err = io.StringIO(), io.StringIO()
+    >>> with contextlib.redirect_stdout(out):
+    ...     status = main(["list"])
+    >>> status, out.getvalue().split()[0]
+    (0, 'crh2-dmpc')
+    >>> with contextlib.redirect_stderr(err):
+    ...     status = main(["export", "no-such-scenario"])
+    >>> status
+    2
+    >>> err.getvalue().split(": no built-in")[0]
+    'trainctl: error: builtin:no-such-scenario'
     """
     parser = build_parser()
     args = parser.parse_args(list(argv) if argv is not None else None)

@@ -68,6 +68,19 @@ class Alt:
         Other fields this choice fixes (e.g. the unit the user chose).
     si_text : str
         The conversion in words for the documentation ("" = derived).
+
+    Examples
+    --------
+    A simulation's reference speeds may be given in km/h or in m/s; the
+    km/h alternative converts 72 km/h to 72 / 3.6 = 20 m/s:
+
+    >>> from trainctl.scenario.settings import SimulationSettings
+    >>> fields = {f.name: f for f in declared_fields(SimulationSettings)}
+    >>> alts = fields["reference_speeds"].key.one_of
+    >>> [(alt.key, alt.unit) for alt in alts]
+    [('reference.speeds_kmh', 'km/h'), ('reference.speeds', 'm/s')]
+    >>> alts[0].to_si(72.0), alts[1].to_si is None
+    (20.0, True)
     """
 
     key: str
@@ -106,6 +119,16 @@ class Key:
     vector : bool
         ``to_si`` takes the whole array (e.g. three Davis coefficients) rather
         than each item.
+
+    Examples
+    --------
+    >>> from trainctl.units import kmh_to_ms
+    >>> key = Key("Speed limit", file="limit_kmh", unit="km/h", to_si=kmh_to_ms,
+    ...           si_unit="m/s", omitted="no limit")
+    >>> key.describe()
+    'Speed limit [km/h]; omit for no limit.'
+    >>> key.to_si(90.0)  # 90 / 3.6 = 25 m/s
+    25.0
     """
 
     doc: str
@@ -169,6 +192,19 @@ def declared_fields(cls: type) -> Iterator[DeclaredField]:
     ------
     DeclaredField
         In declaration order.
+
+    Examples
+    --------
+    The cruise speed of :class:`~trainctl.scenario.ModelSettings` is
+    required and read from the file key ``speed_kmh``; the linearisation
+    has a default:
+
+    >>> from trainctl.scenario import ModelSettings
+    >>> speed, linearisation = list(declared_fields(ModelSettings))[:2]
+    >>> speed.name, speed.required, speed.key.file, speed.key.unit
+    ('speed', True, 'speed_kmh', 'km/h')
+    >>> linearisation.name, linearisation.required, linearisation.default
+    ('linearisation', False, 'jacobian')
     """
     fields: dict[str, FieldInfo] = getattr(cls, "__pydantic_fields__", None) or {}
     for name, info in fields.items():
@@ -195,6 +231,32 @@ def settings(cls: type[_T]) -> type[_T]:
     -------
     type
         The settings class.
+
+    Examples
+    --------
+    :class:`~trainctl.scenario.ModelSettings` is made by ``@settings``: its
+    fields are converted (the int 25 becomes 25.0 m/s), keyword-only and
+    frozen, and a bad value is a ``ModelError``:
+
+    >>> from trainctl.scenario import ModelSettings
+    >>> model = ModelSettings(speed=25, sample_time=0.5)
+    >>> model.speed, model.sample_time  # [m/s], [s]
+    (25.0, 0.5)
+    >>> ModelSettings(25, 0.5)
+    Traceback (most recent call last):
+        ...
+    TypeError: ModelSettings: missing required argument 'speed'.
+    >>> try:
+    ...     ModelSettings(speed=-25.0, sample_time=0.5)
+    ... except ModelError as exc:
+    ...     print(exc)
+    ModelSettings: 'speed' must be a finite number > 0 (got -25.0).
+    >>> import dataclasses
+    >>> try:
+    ...     model.speed = 30.0
+    ... except dataclasses.FrozenInstanceError:
+    ...     print("frozen")
+    frozen
     """
     made = pydantic.dataclasses.dataclass(
         frozen=True, kw_only=True, config=ConfigDict(extra="forbid")
@@ -224,6 +286,20 @@ def first_error(exc: ValidationError) -> ErrorDetails:
     -------
     pydantic_core.ErrorDetails
         One of them.
+
+    Examples
+    --------
+    The unknown key is reported even though the bad number comes first:
+
+    >>> from pydantic import BaseModel, ConfigDict
+    >>> class Doc(BaseModel):
+    ...     model_config = ConfigDict(extra="forbid")
+    ...     dt: float
+    >>> try:
+    ...     Doc.model_validate({"dt": "fast", "x": 1})
+    ... except ValidationError as exc:
+    ...     print([e["type"] for e in exc.errors()], first_error(exc)["loc"])
+    ['float_parsing', 'extra_forbidden'] ('x',)
     """
     errors = exc.errors()
     return next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
@@ -290,6 +366,18 @@ def python_error(owner: str, exc: ValidationError,
     Exception
         :class:`~trainctl.exceptions.ModelError` for a wrong value,
         :class:`TypeError` for a wrong or missing argument name.
+
+    Examples
+    --------
+    A value checked alone gets its field name from ``prefix``:
+
+    >>> from trainctl.constraints import POSITIVE
+    >>> try:
+    ...     TypeAdapter(Annotated[float, POSITIVE]).validate_python(-2.0)
+    ... except ValidationError as exc:
+    ...     error = python_error("Car", exc, prefix=("mass",))
+    >>> type(error).__name__, str(error)
+    ('ModelError', "Car: 'mass' must be a finite number > 0 (got -2.0).")
     """
     error = first_error(exc)
     loc = (*prefix, *error["loc"])

@@ -108,6 +108,23 @@ def model_error(exc: ValidationError) -> str:
     str
         ``"missing required key 'results.equilibrium'"``, ``"unknown key 'x'"``
         or ``"dt must be a valid number (got 'fast', a string)"``.
+
+    Examples
+    --------
+    >>> from pydantic import BaseModel, ConfigDict, ValidationError
+    >>> class Doc(BaseModel):
+    ...     model_config = ConfigDict(extra="forbid")
+    ...     format: str
+    ...     dt: FiniteFloat
+    >>> for document in ({"format": "x"}, {"format": "x", "dt": 0.1, "x": 1},
+    ...                  {"format": "x", "dt": float("nan")}):
+    ...     try:
+    ...         Doc.model_validate(document)
+    ...     except ValidationError as exc:
+    ...         print(model_error(exc))
+    missing required key 'dt'
+    unknown key 'x'
+    dt must be a finite number (got nan)
     """
     errors = exc.errors()
     error = next((e for e in errors if e["type"] == "missing"), None) or first_error(exc)
@@ -158,6 +175,23 @@ def read_json(path: Path, *, hint: str = "", error: type[TrainctlError] = Scenar
     ------
     TrainctlError
         Of class ``error``, naming the file.
+
+    Examples
+    --------
+    Python's ``json`` module writes ``NaN`` for a non-finite float, which is
+    not JSON; it is refused unless ``finite=False``:
+
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = Path(tmp) / "run.json"
+    ...     _ = path.write_text('{"dt": 0.5, "cost": NaN}')
+    ...     print(read_json(path, finite=False))
+    ...     try:
+    ...         read_json(path)
+    ...     except ScenarioError as exc:
+    ...         print(str(exc).split(": ", 1)[1])
+    {'dt': 0.5, 'cost': nan}
+    not a valid trainctl file (the non-finite number NaN (JSON has no NaN or Infinity)).
     """
     try:
         text = path.read_text(encoding="utf-8")
@@ -200,6 +234,25 @@ def load_json(path: Path, model: type[_M], *, hint: str = "",
     ------
     TrainctlError
         Of class ``error``: ``"FILE: KEY must ... (got ...).hint"``.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pydantic import BaseModel
+    >>> class Doc(BaseModel):
+    ...     format: str
+    ...     dt: FiniteFloat
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     path = Path(tmp) / "doc.json"
+    ...     _ = path.write_text('{"format": "run", "dt": 0.5}')
+    ...     doc = load_json(path, Doc)
+    ...     try:
+    ...         load_json(Path(tmp) / "missing.json", Doc, hint=" Save the run again.")
+    ...     except ScenarioError as exc:
+    ...         print(str(exc).split(": ", 1)[1])
+    file not found. Save the run again.
+    >>> doc.format, doc.dt  # dt [s]
+    ('run', 0.5)
     """
     return validate_json(read_json(path, hint=hint, error=error), model, path, hint=hint,
                          error=error)
@@ -231,6 +284,21 @@ def validate_json(document: Any, model: type[_M], path: Path, *, hint: str = "",
     ------
     TrainctlError
         Of class ``error``, naming the file and the key.
+
+    Examples
+    --------
+    The path only labels the message; nothing is read:
+
+    >>> from pydantic import BaseModel
+    >>> class Doc(BaseModel):
+    ...     format: str
+    ...     dt: FiniteFloat
+    >>> validate_json({"format": "run", "dt": 0.5}, Doc, Path("run.json")).dt
+    0.5
+    >>> validate_json({"format": "run"}, Doc, Path("run.json"), hint=" Save the run again.")
+    Traceback (most recent call last):
+        ...
+    trainctl.exceptions.ScenarioError: run.json: missing required key 'dt'. Save the run again.
     """
     try:
         return model.model_validate(document)

@@ -56,6 +56,16 @@ def available_cpus() -> int:
     -------
     int
         The number of usable CPUs, at least 1.
+
+    Examples
+    --------
+    The count depends on the machine, but it is at least one and never more
+    than the CPUs the operating system reports:
+
+    >>> import os
+    >>> n = available_cpus()
+    >>> 1 <= n <= (os.cpu_count() or 1)
+    True
     """
     try:
         return max(1, len(os.sched_getaffinity(0)))
@@ -75,6 +85,20 @@ def estimated_steps(scenario: Scenario) -> int:
     -------
     int
         ``n_steps × number of runs`` (:func:`simulation_runs`).
+
+    Examples
+    --------
+    ``crh2-dmpc`` simulates 1200 s at a 20 s sample time, 60 steps, for each
+    of its 3 strategies: 60 × 3 = 180 steps.
+
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> scenario.simulation.duration, scenario.model.sample_time, scenario.simulation.strategies
+    (1200.0, 20.0, ('centralised', 'decentralised', 'ndmpc'))
+    >>> estimated_steps(scenario)
+    180
+    >>> estimated_steps(scenario.replace("simulation.duration", 600.0))  # 30 steps × 3
+    90
     """
     sim = scenario.simulation
     if sim is None:
@@ -109,6 +133,25 @@ def want_pool(scenarios: Iterable[Scenario], jobs: int | None) -> int:
     int
         0 to simulate in the main process, else the pool size (never more
         than the number of simulations).
+
+    Examples
+    --------
+    ``crh2-dmpc`` has 3 simulations of 60 steps each (180 steps, far below
+    :data:`PARALLEL_MIN_STEPS`), so by default it runs in the main process;
+    an explicit request is capped at the number of simulations:
+
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> want_pool([scenario], None), want_pool([scenario], 1), want_pool([scenario], 4)
+    (0, 0, 3)
+    >>> want_pool([scenario, scenario], 8)  # 2 × 3 simulations
+    6
+
+    Thirty copies total 30 × 180 = 5400 >= 5000 steps, so the default uses
+    every available CPU (at most the 90 simulations):
+
+    >>> want_pool([scenario] * 30, None) == min(available_cpus(), 90)
+    True
     """
     scenarios = list(scenarios)
     tasks = sum(simulation_runs(s) for s in scenarios)
@@ -197,6 +240,15 @@ def worker_pool(workers: int) -> Iterator[Executor | None]:
     ------
     concurrent.futures.Executor or None
         The pool.
+
+    Examples
+    --------
+    Zero workers starts no process and yields None, the caller's cue to
+    simulate in the main process:
+
+    >>> with worker_pool(0) as pool:
+    ...     print(pool)
+    None
     """
     if workers <= 0:
         yield None
@@ -231,6 +283,17 @@ def _terminate(pool: Executor) -> None:
 
 
 def terminate_workers() -> None:
-    """Terminate the workers of every running :func:`worker_pool` (a process about to end)."""
+    """Terminate the workers of every running :func:`worker_pool` (a process about to end).
+
+    Examples
+    --------
+    With no pool running (``worker_pool(0)`` starts none) there is nothing
+    to terminate, and the call returns at once:
+
+    >>> with worker_pool(0) as pool:
+    ...     terminate_workers()
+    >>> pool is None
+    True
+    """
     for pool in list(_LIVE):
         _terminate(pool)

@@ -52,6 +52,17 @@ def model_check_names() -> tuple[str, ...]:
     -------
     tuple of str
         Their names, in the review's order.
+
+    Examples
+    --------
+    The sampling check is a model check, the N-DMPC convergence check is not
+    (it belongs to the MPC family):
+
+    >>> names = model_check_names()
+    >>> names[:3]
+    ('open_loop_stability', 'controllability', 'observability')
+    >>> "sampling" in names, "ndmpc_convergence" in names
+    (True, False)
     """
     from ..analysis.review import MODEL_CHECK_NAMES
 
@@ -65,6 +76,11 @@ def check_statuses() -> tuple[str, ...]:
     -------
     tuple of str
         The statuses, best first.
+
+    Examples
+    --------
+    >>> check_statuses()
+    ('pass', 'warn', 'fail')
     """
     from ..analysis.review import STATUSES
 
@@ -149,6 +165,17 @@ def family_of(settings: object) -> str:
     ------
     ModelError
         If no known family has settings of this type.
+
+    Examples
+    --------
+    >>> from trainctl.scenario import load_scenario
+    >>> family_of(load_scenario("crh2-dmpc").controller)
+    'mpc'
+    >>> family_of(3.0)
+    Traceback (most recent call last):
+        ...
+    trainctl.exceptions.ModelError: Scenario: 'controller' must be the settings of a \
+controller family (got float).
     """
     name = getattr(type(settings), "family", None)
     if isinstance(name, str):
@@ -176,6 +203,19 @@ def expectation_violation(check: str, families: Sequence[str]) -> Violation | No
     -------
     Violation or None
         For a controller check whose family is absent.
+
+    Examples
+    --------
+    A model check may always be expected; an MPC check needs the MPC family:
+
+    >>> expectation_violation("sampling", []) is None
+    True
+    >>> expectation_violation("ndmpc_convergence", ["mpc"]) is None
+    True
+    >>> expectation_violation("ndmpc_convergence", ["lqr"]).text
+    "needs a controller of family 'mpc'"
+    >>> expectation_violation("ndmpc_convergence", []).text
+    'needs a [controller] section'
     """
     from ..analysis.review import LOOP_CHECK_NAMES
 

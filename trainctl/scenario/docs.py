@@ -131,6 +131,20 @@ def table(model: type[BaseModel], dotted: str = "", *, extra: Sequence[str] = ()
     -------
     str
         Header and one row per key, in declaration order.
+
+    Examples
+    --------
+    The ``[[train.couplers]]`` keys; the stiffness is given in kN/m and
+    stored in N/m, hence the factor 1000:
+
+    >>> lines = table(CouplerTable).splitlines()
+    >>> lines[0]
+    '| Key | Type | Unit | Default | Meaning |'
+    >>> [line.split(" | ")[0] for line in lines[2:]]
+    ['| `stiffness_kn_per_m`', '| `damping_kn_s_per_m`', '| `virtual`', '| `gap`', \
+'| `max_force_kn`']
+    >>> lines[2].split(" | ")[2]
+    'kN/m → N/m (× 1000)'
     """
     groups = getattr(model, "one_of_keys", ())
     rows = list(extra)
@@ -157,6 +171,14 @@ def markdown_tables() -> dict[str, str]:
         ``"section"``, ``"model"``, ``"controller-<family>"`` for each
         built-in family, ``"communication"``, ``"network"``, ``"interruption"``,
         ``"simulation"``, ``"reference"``, ``"sweep"`` and ``"sweep-axis"``.
+
+    Examples
+    --------
+    >>> tables = markdown_tables()
+    >>> len(tables), "controller-mpc" in tables
+    (20, True)
+    >>> tables["vehicle"].splitlines()[0]
+    '| Key | Type | Unit | Default | Meaning |'
     """
     from ..controllers.registry import DEFAULT_FAMILY, FAMILY_MODULES, get_family
 
@@ -192,6 +214,15 @@ def markdown_text() -> str:
     -------
     str
         The Markdown text of all tables.
+
+    Examples
+    --------
+    Each of the 20 tables sits between its two markers, the top-level keys
+    first:
+
+    >>> text = markdown_text()
+    >>> text.splitlines()[0], text.count("<!-- schema:"), text.count("<!-- /schema:")
+    ('<!-- schema:top -->', 20, 20)
     """
     return "".join(f"<!-- schema:{name} -->\n{markdown}\n<!-- /schema:{name} -->\n\n"
                    for name, markdown in markdown_tables().items())
@@ -214,6 +245,19 @@ def update_readme(text: str) -> str:
     ------
     KeyError
         If a marker names no generated table.
+
+    Examples
+    --------
+    Only the text between the markers changes:
+
+    >>> readme = "Couplers:\\n<!-- schema:coupler -->\\nstale\\n<!-- /schema:coupler -->\\nEnd.\\n"
+    >>> new = update_readme(readme)
+    >>> "stale" in new, new.startswith("Couplers:\\n<!-- schema:coupler -->\\n| Key |")
+    (False, True)
+    >>> new.endswith("<!-- /schema:coupler -->\\nEnd.\\n")
+    True
+    >>> update_readme(new) == new  # up to date: nothing to do
+    True
     """
     tables = markdown_tables()
     return _MARKER.sub(lambda m: f"{m.group(1)}{tables[m.group('name')]}\n{m.group(3)}", text)
@@ -231,6 +275,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     -------
     int
         Exit status.
+
+    Examples
+    --------
+    ``--write`` brings a README's tables up to date in place:
+
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     readme = Path(tmp) / "README.md"
+    ...     _ = readme.write_text("<!-- schema:sweep -->\\n<!-- /schema:sweep -->\\n")
+    ...     status = main(["--write", str(readme)])
+    ...     lines = readme.read_text().splitlines()
+    >>> status, lines[1] == table(SweepTable, "sweep").splitlines()[0]
+    (0, True)
     """
     parser = argparse.ArgumentParser(prog="python -m trainctl.scenario.docs",
                                      description="Print or rewrite the schema tables.")

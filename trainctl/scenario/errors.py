@@ -165,6 +165,20 @@ def describe(violation: Violation, table: _Table, loc: tuple[Any, ...]) -> str:
     -------
     str
         The message, naming the key.
+
+    Examples
+    --------
+    A ``{field}`` reference in the rule's text becomes the file key of that
+    field, here in the ``[model]`` table:
+
+    >>> from trainctl.constraints import Violation
+    >>> from trainctl.scenario.filemodel import file_model
+    >>> from trainctl.scenario.settings import ModelSettings
+    >>> doc = {"model": {"speed_kmh": 300.0, "sample_time": 20.0}}
+    >>> table = _Table(doc, ("model",), file_model(ModelSettings), ModelSettings)
+    >>> violation = Violation(text="must be below {sample_time}", got=30.0, hint=" Shorten it.")
+    >>> describe(violation, table, ("speed_kmh",))
+    '[model].speed_kmh must be below [model].sample_time (got 30.0). Shorten it.'
     """
     parent = table.table_loc(loc)
     text = render_refs(violation.text, lambda name: table.ref(parent, name))
@@ -245,6 +259,24 @@ def scenario_error(
     -------
     ScenarioError
         ``FILE: KEY PATH must ... (got ...). hint``.
+
+    Examples
+    --------
+    Validating a ``[model]`` table with a negative speed, then with a
+    misspelt key:
+
+    >>> from trainctl.scenario.filemodel import file_model
+    >>> from trainctl.scenario.settings import ModelSettings
+    >>> model = file_model(ModelSettings)
+    >>> for raw in ({"speed_kmh": -1, "sample_time": 0.5},
+    ...             {"speed_kmh": 300, "sample_time": 0.5, "sped": 1}):
+    ...     try:
+    ...         model.model_validate(raw)
+    ...     except ValidationError as exc:
+    ...         print(scenario_error("demo.toml", exc, doc={"model": raw}, prefix=("model",),
+    ...                              model=model, settings=ModelSettings))
+    demo.toml: [model].speed_kmh must be a number > 0 (got -1).
+    demo.toml: unknown key [model].sped. Did you mean 'speed_kmh'?
     """
     error = first_error(exc)
     loc = tuple(error["loc"])

@@ -64,6 +64,25 @@ class FileTable(BaseModel):
     so each key is described once, for the schema, the Markdown tables and
     the API reference alike. A table's JSON Schema description stays the
     first paragraph of its docstring.
+
+    Examples
+    --------
+    :class:`~trainctl.scenario.tables.CouplerTable` is a file table: a
+    misspelt key is refused, and its docstring lists its keys:
+
+    >>> from pydantic import ValidationError
+    >>> from trainctl.scenario.tables import CouplerTable
+    >>> issubclass(CouplerTable, FileTable)
+    True
+    >>> CouplerTable.model_validate({"stiffness_kn_per_m": 1e4}).stiffness_kn_per_m  # [kN/m]
+    10000.0
+    >>> try:
+    ...     CouplerTable.model_validate({"stiffnes_kn_per_m": 1e4})
+    ... except ValidationError as exc:
+    ...     print(exc.errors()[0]["type"], exc.errors()[0]["loc"])
+    extra_forbidden ('stiffnes_kn_per_m',)
+    >>> CouplerTable.__doc__.splitlines()[2:5]
+    ['Parameters', '----------', 'stiffness_kn_per_m : float | None, optional']
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -81,7 +100,10 @@ class FileTable(BaseModel):
         doc = cls.__dict__.get("__doc__")
         section = parameters_section(cls)
         if doc and section and "\nParameters\n" not in doc:
-            cls.__doc__ = f"{inspect.cleandoc(doc)}\n\n{section}"
+            # Before an Examples section, where numpydoc wants Parameters.
+            head, sep, examples = inspect.cleandoc(doc).partition("\n\nExamples\n--------\n")
+            tail = f"\nExamples\n--------\n{examples}\n" if sep else ""
+            cls.__doc__ = f"{head}\n\n{section}{tail}"
 
     @classmethod
     def __get_pydantic_json_schema__(cls, core_schema: Any, handler: Any) -> Any:
@@ -155,6 +177,16 @@ class Target:
         The SI field of the settings class.
     sets : mapping
         How the file value becomes the SI value (converter and alternatives).
+
+    Examples
+    --------
+    The file key ``[simulation.reference].speeds_kmh`` sets the SI field
+    ``reference_speeds`` [m/s]:
+
+    >>> from trainctl.scenario.settings import SimulationSettings
+    >>> f = field_at(file_model(SimulationSettings), ("reference", "speeds_kmh"))
+    >>> next(m for m in f.info.metadata if isinstance(m, Target))
+    Target(field='reference_speeds', sets={})
     """
 
     field: str
@@ -171,6 +203,17 @@ class Section:
         The sub-table's model (None: checked by the section's own settings).
     array : bool
         An array of tables rather than one.
+
+    Examples
+    --------
+    ``[simulation.reference]`` is a sub-table of the generated
+    ``[simulation]`` model, so its field carries a ``Section``:
+
+    >>> from trainctl.scenario.settings import SimulationSettings
+    >>> f = field_at(file_model(SimulationSettings), ("reference",))
+    >>> section = next(m for m in f.info.metadata if isinstance(m, Section))
+    >>> section.model.__name__, section.array
+    ('SimulationSettings_reference', False)
     """
 
     model: type[BaseModel] | None
@@ -189,6 +232,13 @@ def is_declared(cls: type) -> bool:
     -------
     bool
         Whether it is a declared settings class (not itself a file table).
+
+    Examples
+    --------
+    >>> from trainctl.scenario.settings import ModelSettings
+    >>> from trainctl.scenario.tables import CouplerTable
+    >>> is_declared(ModelSettings), is_declared(CouplerTable), is_declared(int)
+    (True, False, False)
     """
     return any(f.key is not None for f in declared_fields(cls)) and not issubclass_safe(
         cls, BaseModel
@@ -212,6 +262,18 @@ def rule_of(f: DeclaredField) -> Rule | None:
     -------
     Rule or None
         Its rule, or None without one.
+
+    Examples
+    --------
+    The per-vehicle speed errors are optional (``... | None``), so their
+    rule sits inside the annotation rather than on the field:
+
+    >>> from trainctl.declare import declared_fields
+    >>> from trainctl.scenario.settings import SimulationSettings
+    >>> f = next(f for f in declared_fields(SimulationSettings)
+    ...          if f.name == "initial_speed_errors")
+    >>> f.rule is None, type(rule_of(f)).__name__
+    (True, 'Array')
     """
     return f.rule or _rule_in(f.info.annotation)
 
@@ -267,6 +329,18 @@ def file_model(cls: type) -> type[BaseModel]:
     -------
     type of pydantic.BaseModel
         Fields named by file key; sub-tables as nested models.
+
+    Examples
+    --------
+    The SI field ``speed`` [m/s] of :class:`~trainctl.scenario.ModelSettings`
+    is the file key ``speed_kmh``; a file table is returned as it is:
+
+    >>> from trainctl.scenario.settings import ModelSettings
+    >>> from trainctl.scenario.tables import CouplerTable
+    >>> list(file_model(ModelSettings).model_fields)[:2]
+    ['speed_kmh', 'linearisation']
+    >>> file_model(CouplerTable) is CouplerTable
+    True
     """
     if not is_declared(cls):
         return cls
@@ -320,6 +394,13 @@ def one_of_schema(*groups: tuple[str, ...]) -> dict[str, Any]:
     -------
     dict
         The keywords to merge into a table's schema.
+
+    Examples
+    --------
+    >>> one_of_schema(("speeds_kmh", "speeds"))
+    {'oneOf': [{'required': ['speeds_kmh']}, {'required': ['speeds']}]}
+    >>> list(one_of_schema(("a", "b"), ("c", "d")))  # several groups must all hold
+    ['allOf']
     """
     options = [{"oneOf": [{"required": [k]} for k in keys]} for keys in groups]
     return options[0] if len(options) == 1 else {"allOf": options}
@@ -369,6 +450,23 @@ def exactly_one(table: BaseModel, keys: tuple[str, ...], hint: str) -> str:
     ------
     pydantic.ValidationError
         At the table when none or several of ``keys`` are given.
+
+    Examples
+    --------
+    A reference profile gives its speeds in km/h or in m/s, not both:
+
+    >>> from pydantic import ValidationError
+    >>> from trainctl.scenario.settings import SimulationSettings
+    >>> reference = field_at(file_model(SimulationSettings), ("reference",))
+    >>> model = sub_model(reference)
+    >>> table = model.model_validate({"times": [0, 10], "speeds_kmh": [72, 90]})
+    >>> exactly_one(table, ("speeds_kmh", "speeds"), "")
+    'speeds_kmh'
+    >>> try:
+    ...     model.model_validate({"times": [0, 10], "speeds_kmh": [72, 90], "speeds": [20, 25]})
+    ... except ValidationError as exc:
+    ...     print(exc.errors()[0]["msg"])
+    needs exactly one of speeds_kmh, speeds
     """
     given = [k for k in keys if k in table.model_fields_set]
     if len(given) != 1:
@@ -423,6 +521,15 @@ def load_settings(cls: type, table: Mapping[str, Any], context: dict[str, Any]) 
     pydantic.ValidationError
         With locations in file keys (file model) or in SI field names (the
         settings class's own validators; see :func:`file_loc`).
+
+    Examples
+    --------
+    The file gives 72 km/h; the settings hold 72 / 3.6 = 20 m/s:
+
+    >>> from trainctl.scenario.settings import ModelSettings
+    >>> model = load_settings(ModelSettings, {"speed_kmh": 72.0, "sample_time": 0.5}, {})
+    >>> model.speed, model.sample_time  # [m/s], [s]
+    (20.0, 0.5)
     """
     model = file_model(cls)
     if model is cls:
@@ -465,6 +572,19 @@ def file_loc(cls: type, loc: tuple[Any, ...], table: Mapping[str, Any]) -> tuple
     -------
     tuple
         The location of the file key.
+
+    Examples
+    --------
+    The second reference speed is reported under whichever key the file
+    used (the first alternative when it used neither):
+
+    >>> from trainctl.scenario.settings import ModelSettings, SimulationSettings
+    >>> file_loc(SimulationSettings, ("reference_speeds", 1), {"reference": {"speeds": [0, 20]}})
+    ('reference', 'speeds', 1)
+    >>> file_loc(SimulationSettings, ("reference_speeds", 1), {})
+    ('reference', 'speeds_kmh', 1)
+    >>> file_loc(ModelSettings, ("speed",), {})
+    ('speed_kmh',)
     """
     if not loc or not is_declared(cls):
         return loc
@@ -502,6 +622,16 @@ def table_kind(f: DeclaredField) -> str:
     -------
     str
         What the field holds in the file.
+
+    Examples
+    --------
+    In ``[train]``, vehicles are an array of tables; the couplers may be one
+    table for every link or an array of them:
+
+    >>> from trainctl.declare import declared_fields
+    >>> from trainctl.scenario.tables import TrainTable
+    >>> {f.name: table_kind(f) for f in declared_fields(TrainTable)}
+    {'preset': 'value', 'preset_options': 'table', 'vehicle': 'tables', 'coupler': 'either'}
     """
     section = next((m for m in f.info.metadata if isinstance(m, Section)), None)
     if section is not None:
@@ -548,6 +678,17 @@ def field_at(model: type[BaseModel] | None, loc: tuple[Any, ...]) -> DeclaredFie
     -------
     DeclaredField or None
         The field, or None where ``loc`` leads to no declared field.
+
+    Examples
+    --------
+    Array indices are skipped on the way down:
+
+    >>> from trainctl.scenario.tables import TopLevel
+    >>> f = field_at(TopLevel, ("train", "coupler", 0, "stiffness_kn_per_m"))
+    >>> f.name, f.key.unit
+    ('stiffness_kn_per_m', 'kN/m')
+    >>> field_at(TopLevel, ("train", "couplers")) is None  # no such key
+    True
     """
     found = None
     for part in loc:

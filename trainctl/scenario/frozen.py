@@ -18,6 +18,22 @@ class FrozenMapping(Mapping[str, _V], Generic[_V]):
     ----------
     items : mapping or iterable of (str, value) pairs
         The content, copied.
+
+    Examples
+    --------
+    >>> import pickle
+    >>> m = FrozenMapping({"sampling": "pass", "feasibility": "warn"})
+    >>> m["sampling"], list(m), len(m)
+    ('pass', ['sampling', 'feasibility'], 2)
+    >>> try:
+    ...     m["sampling"] = "fail"
+    ... except TypeError:
+    ...     print("read-only")
+    read-only
+    >>> hash(m) == hash(FrozenMapping([("feasibility", "warn"), ("sampling", "pass")]))
+    True
+    >>> pickle.loads(pickle.dumps(m)) == m
+    True
     """
 
     __slots__ = ("_data",)

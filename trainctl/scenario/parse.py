@@ -108,6 +108,23 @@ def check_size(size: int, source: str) -> None:
         The text's size [bytes].
     source : str
         Where the text comes from, for the message.
+
+    Raises
+    ------
+    ScenarioError
+        If ``size`` exceeds :data:`MAX_TEXT_BYTES`.
+
+    Examples
+    --------
+    A few kilobytes pass silently; one byte over the 4 MiB = 4194304 bytes
+    limit is refused:
+
+    >>> check_size(4096, "demo.toml")
+    >>> check_size(4 * 2**20 + 1, "demo.toml")
+    Traceback (most recent call last):
+        ...
+    trainctl.exceptions.ScenarioError: demo.toml: is too large for a scenario file (more than \
+4194304 bytes, 4 MiB). Scenario files describe a train in kilobytes; give the right file.
     """
     if size > MAX_TEXT_BYTES:
         raise ScenarioError(

@@ -79,7 +79,20 @@ _DAVIS_HINT = (" davis_n_per_kn_kmh is N/kN with V in km/h; davis_si is [a0 m/sÂ
 
 
 class TableRule(Rule):
-    """A TOML table (its keys checked elsewhere)."""
+    """A TOML table (its keys checked elsewhere).
+
+    Examples
+    --------
+    >>> from pydantic import TypeAdapter, ValidationError
+    >>> adapter = TypeAdapter(Annotated[Any, TableRule()])
+    >>> adapter.validate_python({"speed_kmh": 300})
+    {'speed_kmh': 300}
+    >>> try:
+    ...     adapter.validate_python([300])
+    ... except ValidationError as exc:
+    ...     print(exc.errors()[0]["msg"])
+    must be a table
+    """
 
     is_table = True
 
@@ -135,7 +148,25 @@ class TableOrTables(Rule):
 
 
 class VehicleTable(FileTable):
-    """A group of identical vehicles (``[[train.vehicle]]``)."""
+    """A group of identical vehicles (``[[train.vehicle]]``).
+
+    Examples
+    --------
+    Two CRH2 trailers of 42.8 t with their unit resistance in N/kN; exactly
+    one of the three Davis keys must be given:
+
+    >>> from pydantic import ValidationError
+    >>> group = VehicleTable.model_validate(
+    ...     {"name": "T", "count": 2, "mass_t": 42.8,
+    ...      "davis_n_per_kn_kmh": [0.8806, 0.007444, 0.0001143]})
+    >>> group.name, group.count, group.mass_t, group.length  # length [m]
+    ('T', 2, 42.8, 25.0)
+    >>> try:
+    ...     VehicleTable.model_validate({"mass_t": 42.8})
+    ... except ValidationError as exc:
+    ...     print(exc.errors()[0]["msg"])
+    needs exactly one of davis_n_per_kn_kmh, davis_si, davis_book_literal
+    """
 
     model_config = ConfigDict(**FileTable.model_config, json_schema_extra=one_of_schema(DAVIS_KEYS))
     one_of_keys: ClassVar[tuple[tuple[str, ...], ...]] = (DAVIS_KEYS,)
@@ -182,7 +213,21 @@ class VehicleTable(FileTable):
 
 
 class CouplerTable(FileTable):
-    """A coupler or virtual link (``[train.coupler]`` or ``[[train.coupler]]``)."""
+    """A coupler or virtual link (``[train.coupler]`` or ``[[train.coupler]]``).
+
+    Examples
+    --------
+    A virtual link needs no stiffness and may not have a force limit:
+
+    >>> from pydantic import ValidationError
+    >>> CouplerTable.model_validate({"virtual": True}).stiffness_kn_per_m is None
+    True
+    >>> try:
+    ...     CouplerTable.model_validate({"virtual": True, "max_force_kn": 100.0})
+    ... except ValidationError as exc:
+    ...     print(exc.errors()[0]["loc"], exc.errors()[0]["msg"])
+    ('max_force_kn',) must be omitted on a virtual link: it transmits no force
+    """
 
     model_config = ConfigDict(**FileTable.model_config, json_schema_extra={
         "if": {"properties": {"virtual": {"const": True}}, "required": ["virtual"]},
@@ -231,7 +276,16 @@ class CouplerTable(FileTable):
 
 
 class SectionTable(FileTable):
-    """A stretch of constant grade and curvature (``[[track.section]]``)."""
+    """A stretch of constant grade and curvature (``[[track.section]]``).
+
+    Examples
+    --------
+    A 5 â€° climb from 1 km on; without a radius the section is straight:
+
+    >>> section = SectionTable.model_validate({"start": 1000.0, "grade_permille": 5.0})
+    >>> section.start, section.grade_permille, section.curve_radius
+    (1000.0, 5.0, None)
+    """
 
     start: Annotated[float, SECTION_RULES["start"], Key(
         "Where the section starts; it runs to the next section's start", unit="m")]
@@ -242,7 +296,21 @@ class SectionTable(FileTable):
 
 
 class TrackTable(FileTable):
-    """Grade and curvature along the line (``[track]``)."""
+    """Grade and curvature along the line (``[track]``).
+
+    Examples
+    --------
+    >>> from pydantic import ValidationError
+    >>> track = TrackTable.model_validate(
+    ...     {"section": [{"start": 0.0}, {"start": 500.0, "curve_radius": 2000.0}]})
+    >>> len(track.section), track.formula, track.wheelbase  # wheelbase [m]
+    (2, 'tbt', 1.83)
+    >>> try:
+    ...     TrackTable.model_validate({"section": [{"start": 0.0}, {"start": 0.0}]})
+    ... except ValidationError as exc:
+    ...     print(exc.errors()[0]["loc"], exc.errors()[0]["msg"])
+    ('section', 1, 'start') must be greater than the previous section's start 0.0
+    """
 
     formula: Annotated[str, TRACK_RULES["formula"], Key(
         "Line-resistance formula: TB/T unit resistances, or Ning et al. (2016) as printed"
@@ -264,7 +332,27 @@ class TrackTable(FileTable):
 
 
 class TrainTable(FileTable):
-    """The train (``[train]``): a preset, or vehicle groups and couplers."""
+    """The train (``[train]``): a preset, or vehicle groups and couplers.
+
+    Examples
+    --------
+    A single coupler table applies to every link; an array must have one
+    entry per link, n - 1 = 2 for three vehicles:
+
+    >>> from pydantic import ValidationError
+    >>> TrainTable.model_validate({"preset": "crh2_half"}).preset
+    'crh2_half'
+    >>> cars = [{"mass_t": 40.0, "davis_si": [0.01, 0.0, 0.0], "count": 3}]
+    >>> train = TrainTable.model_validate(
+    ...     {"vehicle": cars, "coupler": {"stiffness_kn_per_m": 1e4}})
+    >>> type(train.coupler).__name__
+    'CouplerTable'
+    >>> try:
+    ...     TrainTable.model_validate({"vehicle": cars, "coupler": [{"stiffness_kn_per_m": 1e4}]})
+    ... except ValidationError as exc:
+    ...     print(exc.errors()[0]["msg"])
+    [{coupler}] must have exactly 2 entries, one per link between 3 vehicles
+    """
 
     model_config = ConfigDict(**FileTable.model_config, json_schema_extra={"oneOf": [
         {"required": ["preset"], "not": {"anyOf": [{"required": ["vehicle"]},
@@ -340,7 +428,25 @@ _SWEEP_KINDS = {"values": ("values",), "grid": ("start", "stop", "num", "scale")
 
 
 class SweepAxisTable(FileTable):
-    """One axis of a sweep (``[[sweep.axis]]``): a list, a grid or random samples."""
+    """One axis of a sweep (``[[sweep.axis]]``): a list, a grid or random samples.
+
+    Examples
+    --------
+    A logarithmic grid of three input weights, then an axis that mixes a
+    list with a grid:
+
+    >>> from pydantic import ValidationError
+    >>> axis = SweepAxisTable.model_validate(
+    ...     {"key": "controller.r_per_kn2", "start": 0.1, "stop": 10.0, "num": 3,
+    ...      "scale": "log"})
+    >>> axis.num, axis.scale, axis.values
+    (3, 'log', None)
+    >>> try:
+    ...     SweepAxisTable.model_validate({"key": "seed", "values": [1, 2], "start": 0.0})
+    ... except ValidationError as exc:
+    ...     print(exc.errors()[0]["msg"].split(":")[0])
+    must be exactly one kind of axis
+    """
 
     key: Annotated[str, Text(nonblank=True), Key(
         "File key path to vary, e.g. 'controller.r_per_kn2' or 'train.vehicle[1].mass_t'")]
@@ -390,7 +496,16 @@ class SweepAxisTable(FileTable):
 
 
 class SweepTable(FileTable):
-    """A parameter sweep over the scenario (``[sweep]``)."""
+    """A parameter sweep over the scenario (``[sweep]``).
+
+    Examples
+    --------
+    Only repeating the scenario with four seeds (0 to 3), no axes:
+
+    >>> sweep = SweepTable.model_validate({"seeds": 4})
+    >>> sweep.seed, sweep.samples, sweep.seeds, sweep.axis
+    (0, 1, 4, None)
+    """
 
     seed: Annotated[int, Integer(ge=0), Key(
         "Seed of the random axes' draws (one stream per axis key)")] = 0
@@ -408,7 +523,25 @@ _SECTION = TableRule()
 
 
 class TopLevel(FileTable):
-    """The top level of a scenario file."""
+    """The top level of a scenario file.
+
+    Examples
+    --------
+    Sections are validated by their own tables later; here only the keys
+    and the schema version are checked:
+
+    >>> from pydantic import ValidationError
+    >>> doc = {"schema_version": SCHEMA_VERSION, "name": "demo", "description": "A demo",
+    ...        "train": {"preset": "crh2_half"}, "model": {"speed_kmh": 300}}
+    >>> top = TopLevel.model_validate(doc)
+    >>> top.name, top.seed, top.simulation
+    ('demo', 0, None)
+    >>> try:
+    ...     TopLevel.model_validate({**doc, "schema_version": SCHEMA_VERSION + 1})
+    ... except ValidationError as exc:
+    ...     print(exc.errors()[0]["loc"], exc.errors()[0]["msg"] == f"must be {SCHEMA_VERSION}")
+    ('schema_version',) True
+    """
 
     schema_version: Annotated[int, Integer(ge=1), Key(f"Must be {SCHEMA_VERSION}")]
     name: Annotated[str, Text(nonblank=True), Key(
@@ -476,6 +609,22 @@ def expected_table(checks: Mapping[str, str], statuses: tuple[str, ...]) -> type
     -------
     type
         The table's model (made once per set of checks).
+
+    Examples
+    --------
+    >>> from pydantic import ValidationError
+    >>> Expected = expected_table({"sampling": "Sampling rate", "feasibility": "Feasible"},
+    ...                           ("pass", "warn", "fail"))
+    >>> Expected.model_validate({"sampling": "pass"})
+    Expected(sampling='pass', feasibility=None)
+    >>> try:
+    ...     Expected.model_validate({"sampling": "ok"})
+    ... except ValidationError as exc:
+    ...     print(exc.errors()[0]["msg"])
+    must be one of 'pass', 'warn', 'fail'
+    >>> Expected is expected_table({"sampling": "Sampling rate", "feasibility": "Feasible"},
+    ...                            ("pass", "warn", "fail"))
+    True
     """
     return _expected_table(tuple(checks.items()), tuple(statuses))
 
