@@ -208,6 +208,13 @@ def process_pool(workers: int) -> Executor:
     -------
     concurrent.futures.ProcessPoolExecutor
         Use it as a context manager.
+
+    Examples
+    --------
+    >>> from trainctl.parallel import process_pool
+    >>> with process_pool(2) as pool:
+    ...     print(list(pool.map(abs, [-3, 4, -5])))
+    [3, 4, 5]
     """
     context: BaseContext
     try:
