@@ -342,6 +342,22 @@ class TestOneDeclaration:
         with pytest.raises(TypeError, match="unexpected argument 'q_velocty'"):
             LQRSettings(input_weight=1.0, q_velocty=1.0)  # type: ignore[call-arg]
 
+    def test_misspelt_required_argument_is_named_as_unknown(self) -> None:
+        """A misspelt required argument is reported as unknown, with the right name as a hint.
+
+        pydantic reports it twice (the misspelt name unexpected, the right one
+        missing); the misspelling is the user's mistake to show.
+        """
+        from trainctl.scenario import ModelSettings
+
+        with pytest.raises(TypeError) as caught:
+            ModelSettings(speed=25.0, sample_tim=0.5)  # type: ignore[call-arg]
+        assert str(caught.value) == ("ModelSettings: unexpected argument 'sample_tim'. "
+                                     "Did you mean 'sample_time'?")
+        with pytest.raises(TypeError) as caught:
+            ModelSettings(speed=25.0, step=0.5)  # type: ignore[call-arg]
+        assert str(caught.value) == "ModelSettings: unexpected argument 'step'."
+
     def test_vocabularies_come_from_where_they_live(self) -> None:
         """The scenario package re-exports, never copies, the vocabularies."""
         import trainctl.scenario as scenario

@@ -22,6 +22,7 @@ trainctl.exceptions.ModelError: ModelSettings: 'speed' must be a finite number >
 
 from __future__ import annotations
 
+import difflib
 import functools
 import re
 import typing
@@ -49,6 +50,9 @@ _SIGNATURE_ERRORS = {
     "unexpected_positional_argument": "takes keyword arguments only; unexpected",
     "extra_forbidden": "unexpected argument",
 }
+_UNKNOWN = frozenset({"extra_forbidden", "unexpected_keyword_argument"})
+"""Error types of an unknown name: reported first (a misspelt name also shows
+up as a missing one)."""
 _REF = re.compile(r"\{(\w+)\}")
 
 
@@ -251,6 +255,10 @@ def settings(cls: type[_T]) -> type[_T]:
     ... except ModelError as exc:
     ...     print(exc)
     ModelSettings: 'speed' must be a finite number > 0 (got -25.0).
+    >>> ModelSettings(speed=25, sample_tim=0.5)
+    Traceback (most recent call last):
+        ...
+    TypeError: ModelSettings: unexpected argument 'sample_tim'. Did you mean 'sample_time'?
     >>> import dataclasses
     >>> try:
     ...     model.speed = 30.0
@@ -275,7 +283,10 @@ def settings(cls: type[_T]) -> type[_T]:
 
 
 def first_error(exc: ValidationError) -> ErrorDetails:
-    """The error to report: the first one, preferring unknown keys.
+    """The error to report: the first one, preferring unknown keys and arguments.
+
+    A misspelt argument is both unknown and, under its right name, missing:
+    the unknown name is the one to report.
 
     Parameters
     ----------
@@ -302,7 +313,7 @@ def first_error(exc: ValidationError) -> ErrorDetails:
     ['float_parsing', 'extra_forbidden'] ('x',)
     """
     errors = exc.errors()
-    return next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
+    return next((e for e in errors if e["type"] in _UNKNOWN), errors[0])
 
 
 def render_refs(text: str, name: Callable[[str], str | None]) -> str:
@@ -382,7 +393,14 @@ def python_error(owner: str, exc: ValidationError,
     error = first_error(exc)
     loc = (*prefix, *error["loc"])
     if error["type"] in _SIGNATURE_ERRORS:
-        return TypeError(f"{owner}: {_SIGNATURE_ERRORS[error['type']]} {python_path(loc)}.")
+        hint = ""
+        if error["type"] in _UNKNOWN and error["loc"]:
+            missing = [str(e["loc"][-1]) for e in exc.errors()
+                       if e["type"] in ("missing", "missing_keyword_only_argument") and e["loc"]]
+            close = difflib.get_close_matches(str(error["loc"][-1]), missing, n=1)
+            hint = f" Did you mean {close[0]!r}?" if close else ""
+        return TypeError(f"{owner}: {_SIGNATURE_ERRORS[error['type']]} "
+                         f"{python_path(loc)}.{hint}")
     v = violation_of(error)
     text = render_refs(v.python_text or v.text, repr)
     got = "" if v.got is NOTHING and not v.got_text else f" (got {v.got_text or repr(v.got)})"
