@@ -25,7 +25,7 @@ from ..exceptions import ScenarioError
 from .core import RESERVED_SECTIONS
 from .filemodel import field_at, field_names, file_loc, rule_of, sub_model, table_kind
 
-__all__ = ["describe", "got", "scenario_error"]
+__all__ = ["DocumentTable", "describe", "got", "scenario_error"]
 
 _TABLE_TYPES = ("model_type", "model_attributes_type", "dict_type", "dataclass_type")
 _ARRAY_TYPES = ("list_type", "too_short", "tuple_type")
@@ -80,8 +80,39 @@ def _lookup(doc: Any, loc: Sequence[Any]) -> Any:
     return node
 
 
-class _Table:
-    """A validated table of the document: where it is and what declares it."""
+class DocumentTable:
+    """A validated table of a scenario document: where it is and what declares it.
+
+    Error messages name keys as the file writes them (``[model].speed_kmh``,
+    ``[[train.vehicle]][1].mass_t``); this is what knows the way there.
+
+    Parameters
+    ----------
+    doc : mapping
+        The whole parsed document (TOML tables as dicts).
+    prefix : tuple
+        Location of this table in ``doc`` (keys and array indices); ``()``
+        for the top level.
+    model : type of pydantic.BaseModel or None
+        The file model declaring the table's keys
+        (:func:`~trainctl.scenario.filemodel.file_model`), None if unknown.
+    settings : type or None
+        The settings class the table becomes, whose field names a rule's
+        ``{field}`` reference may use; None if there is none.
+
+    Examples
+    --------
+    The ``[model]`` table of a document, and the file path of a key in it:
+
+    >>> from trainctl.scenario.filemodel import file_model
+    >>> from trainctl.scenario.settings import ModelSettings
+    >>> doc = {"model": {"speed_kmh": 300.0, "sample_time": 20.0}}
+    >>> table = DocumentTable(doc, ("model",), file_model(ModelSettings), ModelSettings)
+    >>> table.path(("speed_kmh",))
+    '[model].speed_kmh'
+    >>> table.ref((), "speed")  # the field 'speed' is written as speed_kmh
+    '[model].speed_kmh'
+    """
 
     def __init__(
         self,
@@ -149,14 +180,14 @@ def _model_at(model: type[BaseModel] | None, loc: tuple[Any, ...]) -> type[BaseM
     return sub_model(f) if f is not None else None
 
 
-def describe(violation: Violation, table: _Table, loc: tuple[Any, ...]) -> str:
+def describe(violation: Violation, table: DocumentTable, loc: tuple[Any, ...]) -> str:
     """The message of a rule violation at ``loc`` of ``table`` (without the file).
 
     Parameters
     ----------
     violation : Violation
         What is wrong with the value.
-    table : mapping
+    table : DocumentTable
         The file table holding the value.
     loc : tuple
         The value's location in the table (keys and indices).
@@ -175,7 +206,7 @@ def describe(violation: Violation, table: _Table, loc: tuple[Any, ...]) -> str:
     >>> from trainctl.scenario.filemodel import file_model
     >>> from trainctl.scenario.settings import ModelSettings
     >>> doc = {"model": {"speed_kmh": 300.0, "sample_time": 20.0}}
-    >>> table = _Table(doc, ("model",), file_model(ModelSettings), ModelSettings)
+    >>> table = DocumentTable(doc, ("model",), file_model(ModelSettings), ModelSettings)
     >>> violation = Violation(text="must be below {sample_time}", got=30.0, hint=" Shorten it.")
     >>> describe(violation, table, ("speed_kmh",))
     '[model].speed_kmh must be below [model].sample_time (got 30.0). Shorten it.'
@@ -196,7 +227,7 @@ def describe(violation: Violation, table: _Table, loc: tuple[Any, ...]) -> str:
     return f"{where}{text}{shown}.{hint}"
 
 
-def _unknown(table: _Table, loc: tuple[Any, ...], extra: Sequence[str]) -> str:
+def _unknown(table: DocumentTable, loc: tuple[Any, ...], extra: Sequence[str]) -> str:
     name = loc[-1]
     if not table.prefix and len(loc) == 1 and name in RESERVED_SECTIONS:
         return (f"section [{name}] is reserved for a later trainctl release and is not "
@@ -213,7 +244,7 @@ def _unknown(table: _Table, loc: tuple[Any, ...], extra: Sequence[str]) -> str:
     return f"unknown {'section' if section else 'key'} {table.path(loc)}.{hint}"
 
 
-def _missing(table: _Table, loc: tuple[Any, ...]) -> str:
+def _missing(table: DocumentTable, loc: tuple[Any, ...]) -> str:
     f = field_at(table.model, loc)
     kind = table_kind(f) if f is not None else "value"
     if kind in ("table", "either"):
@@ -280,7 +311,7 @@ def scenario_error(
     """
     error = first_error(exc)
     loc = tuple(error["loc"])
-    table = _Table(doc, prefix, model, settings)
+    table = DocumentTable(doc, prefix, model, settings)
     kind = error["type"]
     value = error.get("input", NOTHING)
     if kind == "extra_forbidden":

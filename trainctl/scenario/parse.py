@@ -39,7 +39,7 @@ from .core import (
     expectation_violation,
     strategy_names,
 )
-from .errors import _Table, describe, got, scenario_error
+from .errors import DocumentTable, describe, got, scenario_error
 from .filemodel import FileTable, convert, field_at, file_model, load_settings
 from .settings import ModelSettings, SimulationSettings
 from .tables import (
@@ -273,7 +273,7 @@ class _Parser:
     def fail(self, violation: Violation, prefix: tuple[Any, ...], loc: tuple[Any, ...] = (),
              model: type[BaseModel] | None = None) -> ScenarioError:
         """The ScenarioError of a violation found by the parser itself."""
-        table = _Table(self.doc, prefix, model, None)
+        table = DocumentTable(self.doc, prefix, model, None)
         return ScenarioError(f"{self.file}: {describe(violation, table, loc)}")
 
     def build(self, loc: tuple[Any, ...], make: Callable[[], _T],
@@ -284,7 +284,7 @@ class _Parser:
         except ScenarioError:
             raise
         except catch as exc:
-            where = _Table(self.doc, loc, None, None).path(())
+            where = DocumentTable(self.doc, loc, None, None).path(())
             raise ScenarioError(f"{self.file}: {where}: {exc}" if where
                                 else f"{self.file}: {exc}") from exc
 
