@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+from trainctl.exceptions import InaccurateSolutionWarning
 from trainctl.models import Plant
 from trainctl.run import run_scenario
 from trainctl.scenario import load_scenario
@@ -98,7 +99,8 @@ def test_infeasible_scenario_records_statuses_falls_back_and_completes():
                         "speeds_kmh = [72, 244.8, 244.8]")
     scenario = parse_scenario(text)
     assert scenario.simulation.reference_times == (0.0, 60.0, 1200.0)
-    result = simulate_strategy(scenario, "ndmpc")
+    with pytest.warns(InaccurateSolutionWarning, match="infeasible"):
+        result = simulate_strategy(scenario, "ndmpc")
     assert len(result.statuses) == 60 and np.all(np.isfinite(result.inputs))
     assert result.statuses[0] == "infeasible" and result.fallbacks[0] == "shifted plan"
     assert "fallback" not in result.statuses

@@ -15,7 +15,7 @@ from trainctl.controllers.base import STATUSES, Measurement, ReferencePreview, S
 from trainctl.controllers.mpc import MPCConstraints, make_linear_mpc, make_mpc
 from trainctl.controllers.qp import ParametricQP
 from trainctl.design import build_design
-from trainctl.exceptions import ScenarioError
+from trainctl.exceptions import InaccurateSolutionWarning, ScenarioError
 from trainctl.models import Plant, crh2_half, equilibrium
 from trainctl.run import make_controller, run_scenario, simulate_strategy
 from trainctl.scenario import builtin_scenario_text, parse_scenario
@@ -69,7 +69,10 @@ def faulty(request):
     ctl = NaNAt(make_controller(scenario, "ndmpc", design), {3})
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(run_module, "make_controller", lambda *args: ctl)
-        result = simulate_strategy(scenario, "ndmpc", design)
+        with pytest.warns(InaccurateSolutionWarning,
+                          match=r"1 of 60 samples of 'ndmpc' were not solved to optimality "
+                                r"\(error 1\); 1 applied a fallback"):
+            result = simulate_strategy(scenario, "ndmpc", design)
     return scenario, result, ctl
 
 
@@ -126,7 +129,8 @@ class TestReset:
                             preview_steps=ctl.P)
 
         used = make_controller(scenario, "ndmpc", design)
-        run(NaNAt(used, {2, 5}))
+        with pytest.warns(InaccurateSolutionWarning, match=r"\(error 2\)"):
+            run(NaNAt(used, {2, 5}))
         again = run(used)
         clean = run(make_controller(scenario, "ndmpc", design))
         np.testing.assert_array_equal(again.inputs, clean.inputs)
@@ -159,9 +163,12 @@ class TestInfeasible:
     def test_infeasible_steps_record_the_solver_outcome_and_the_fallback(self, ramp):
         scenario = replace(ramp, simulation=replace(
             ramp.simulation, reference_speeds=(20.0, 68.0, 68.0)))
-        result = simulate_strategy(scenario, "ndmpc")
+        with pytest.warns(InaccurateSolutionWarning) as caught:
+            result = simulate_strategy(scenario, "ndmpc")
         infeasible = [k for k, s in enumerate(result.statuses) if s == "infeasible"]
         assert infeasible and all(result.fallbacks[k] == "shifted plan" for k in infeasible)
+        (warning,) = caught  # once per run, however many samples
+        assert f"(infeasible {len(infeasible)})" in str(warning.message)
         assert "fallback" not in result.statuses and "fallback" not in STATUSES
         assert compute_metrics(result).fallback_counts == {"shifted plan": len(infeasible)}
 
@@ -170,7 +177,8 @@ class TestInfeasible:
         """The shifted Δu plan was applied unclipped (15 kN on 0 kN trailers); no more."""
         scenario = replace(ramp, simulation=replace(
             ramp.simulation, reference_speeds=(20.0, 68.0, 68.0)))
-        result = simulate_strategy(scenario, strategy)
+        with pytest.warns(InaccurateSolutionWarning, match="infeasible"):
+            result = simulate_strategy(scenario, strategy)
         train = scenario.train
         for k in range(result.n_samples):
             v = result.reference_speed[k]

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import json
+import warnings
 
 import numpy as np
 import pytest
 
-from trainctl.run import make_controller, simulate_strategy
+from trainctl.exceptions import ConvergenceWarning
+from trainctl.run import make_controller, run_scenario, simulate_strategy
 from trainctl.scenario import load_scenario
 from trainctl.sim import SimulationResult, compute_metrics
 from trainctl.sweep import SweepPoint, point_rows
@@ -78,5 +80,31 @@ class TestController:
         m = compute_metrics(run)
         assert m.iteration_limit_steps == 0 and m.iterations_converged is True
         assert all(r[-1] <= 1e-3 and len(r) <= 30 for r in run.residuals)
-        tight = simulate_strategy(scenario.replace("controller.max_iterations", 2), "ndmpc")
+        with pytest.warns(ConvergenceWarning) as caught:
+            tight = simulate_strategy(scenario.replace("controller.max_iterations", 2), "ndmpc")
         assert compute_metrics(tight).iteration_limit_steps == tight.n_samples
+        (warning,) = caught
+        assert str(warning.message).startswith(
+            f"simulate: {tight.n_samples} of {tight.n_samples} steps of 'ndmpc' stopped at the "
+            "iteration limit 2 with a change above the tolerance 0.001;")
+        assert warning.filename == __file__  # stacklevel: the caller's line, not trainctl's
+
+    def test_converged_run_does_not_warn(self) -> None:
+        """A run whose every step converged warns nothing (warnings are errors here)."""
+        scenario = load_scenario("crh2-dmpc-convergence-sweep")
+        run = simulate_strategy(scenario.replace("simulation.duration", 60.0), "ndmpc")
+        assert compute_metrics(run).iterations_converged is True
+
+    def test_run_scenario_records_instead_of_warning(self) -> None:
+        """run_scenario (the CLI's, the report's and the sweep's path) records the trouble in
+        the metrics and does not warn; the warnings filter is left as it was."""
+        scenario = (load_scenario("crh2-dmpc-convergence-sweep")
+                    .replace("controller.max_iterations", 2)
+                    .replace("simulation.duration", 60.0))
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            run = run_scenario(scenario)
+            with pytest.raises(ConvergenceWarning):  # the filter is back afterwards
+                warnings.warn("after", ConvergenceWarning, stacklevel=1)
+        m = run.metrics["ndmpc"]
+        assert m.iteration_limit_steps == run.simulations["ndmpc"].n_samples > 0

@@ -15,7 +15,12 @@ import pytest
 from matplotlib.axes import Axes
 
 from trainctl.controllers.base import Controller, Measurement, ReferencePreview, StepRecord
-from trainctl.exceptions import DimensionError, MissingDependencyError, ModelError
+from trainctl.exceptions import (
+    DimensionError,
+    InaccurateSolutionWarning,
+    MissingDependencyError,
+    ModelError,
+)
 from trainctl.models import (
     Track,
     TrackSection,
@@ -292,10 +297,12 @@ def crh2_run() -> tuple[SimulationResult, ProportionalFeedforward]:
     eq = equilibrium(train, 40.0)
     # The stand-in asks the trailers for traction they do not have: these tests are about
     # the loop's bookkeeping, so the plant applies the requests as asked.
-    result = simulate(Plant(train=train, track=grade_track()), ctrl,
-                      ramp_profile(40.0, 50.0, 5.0, 25.0), duration=30.0,
-                      initial_state=eq.state(position=0.0), preview_steps=3,
-                      measurement_noise=0.01, seed=7, saturation=False)
+    with pytest.warns(InaccurateSolutionWarning) as caught:
+        result = simulate(Plant(train=train, track=grade_track()), ctrl,
+                          ramp_profile(40.0, 50.0, 5.0, 25.0), duration=30.0,
+                          initial_state=eq.state(position=0.0), preview_steps=3,
+                          measurement_noise=0.01, seed=7, saturation=False)
+    ctrl.warnings = [(w.category, str(w.message), w.filename) for w in caught]
     return result, ctrl
 
 
@@ -335,6 +342,18 @@ def test_non_finite_input_is_replaced_by_the_previous_one(crh2_run) -> None:
     assert np.array_equal(result.inputs[:, 5], result.inputs[:, 4])
     assert result.statuses.count("error") == 1
     assert set(result.statuses) - {"error"} == {"optimal"}
+
+
+def test_solver_trouble_is_warned_once_per_run(crh2_run) -> None:
+    """The one "error" sample (a NaN input held) is warned once, at the caller's line;
+    its status and fallback are what the result records."""
+    result, ctrl = crh2_run
+    assert ctrl.warnings == [(
+        InaccurateSolutionWarning,
+        "simulate: 1 of 30 samples of 'p+ff' were not solved to optimality (error 1); "
+        "1 applied a fallback (result.fallbacks). See result.status_counts().",
+        __file__)]
+    assert result.status_counts()["error"] == 1
 
 
 def test_measurement_noise_is_reproducible() -> None:

@@ -289,7 +289,7 @@ def run_repetition(scenario: Scenario, strategy: str, design: Design | None,
     >>> bool(np.all(rep.deviation.rms_error < 1.0))  # m/s, four vehicles
     True
     """
-    from .run import simulate_strategy
+    from .run import _simulate_recorded
 
     sim = scenario.simulation
     assert sim is not None
@@ -299,7 +299,7 @@ def run_repetition(scenario: Scenario, strategy: str, design: Design | None,
     else:
         seed = int(scenario.seed) + int(index)
         run_scenario = replace(scenario, seed=seed)
-    result = simulate_strategy(run_scenario, strategy, design)
+    result = _simulate_recorded(run_scenario, strategy, design)  # recorded in its metrics
     return summarise(result, scenario, strategy, index, seed)
 
 

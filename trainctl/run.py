@@ -3,9 +3,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import pickle
 import threading
-from collections.abc import Callable, Mapping
+import warnings
+from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import Executor, Future
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -16,6 +18,7 @@ import numpy as np
 from ._validation import numerical_errors
 from .analysis.review import DesignReview, review_design, with_simulations
 from .analysis.summary import ModelSummary, model_summary
+from .exceptions import ConvergenceWarning, InaccurateSolutionWarning
 
 if TYPE_CHECKING:
     from .analysis.loops import ClosedLoopResponse
@@ -31,7 +34,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "NETWORK_STREAM", "AnalysisRun", "make_controller", "run_scenario", "simulate_strategy",
-    "submit_simulations",
+    "solver_trouble_recorded", "submit_simulations",
 ]
 
 NETWORK_STREAM = 1
@@ -564,8 +567,43 @@ def submit_simulations(
     """
     if scenario.simulation is None:
         return {}
-    return {strategy: executor.submit(simulate_strategy, scenario, strategy, design)
+    return {strategy: executor.submit(_simulate_recorded, scenario, strategy, design)
             for strategy in scenario.simulation.strategies}
+
+
+@contextlib.contextmanager
+def solver_trouble_recorded() -> Iterator[None]:
+    """Silence :func:`~trainctl.sim.simulate`'s solver-trouble warnings inside the block.
+
+    For callers that record the trouble instead: the metrics'
+    ``status_counts`` and ``iteration_limit_steps``, the report's tables,
+    the sweep's rows. :func:`run_scenario`, :func:`submit_simulations` and
+    the repetitions run their simulations inside it; a direct
+    :func:`simulate_strategy` or :func:`~trainctl.sim.simulate` call warns.
+
+    Yields
+    ------
+    None
+        Inside the block :class:`~trainctl.exceptions.InaccurateSolutionWarning`
+        and :class:`~trainctl.exceptions.ConvergenceWarning` are ignored.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> with solver_trouble_recorded():
+    ...     warnings.warn("simulate: 3 of 60 samples ...", InaccurateSolutionWarning)
+    """
+    with warnings.catch_warnings():
+        for category in (InaccurateSolutionWarning, ConvergenceWarning):
+            warnings.filterwarnings("ignore", category=category)
+        yield
+
+
+def _simulate_recorded(scenario: Scenario, strategy: str,
+                       design: Design | None) -> SimulationResult:
+    """:func:`simulate_strategy` inside :func:`solver_trouble_recorded` (a pool's task)."""
+    with solver_trouble_recorded():
+        return simulate_strategy(scenario, strategy, design)
 
 
 def run_scenario(
@@ -608,6 +646,14 @@ def run_scenario(
     AnalysisRun
         Summary, review, simulation results and metrics.
 
+    Notes
+    -----
+    Solver trouble in the simulations (samples not solved to optimality,
+    iterations stopped unconverged) is recorded in each run's metrics
+    (``status_counts``, ``iteration_limit_steps``) and from there in the
+    report and the sweep's rows; it is not also warned
+    (:func:`solver_trouble_recorded`).
+
     Examples
     --------
     >>> from trainctl.scenario import load_scenario
@@ -638,7 +684,7 @@ def run_scenario(
             if pending is not None:
                 sims[strategy] = pending[strategy].result()
             else:
-                sims[strategy] = simulate_strategy(scenario, strategy, design)
+                sims[strategy] = _simulate_recorded(scenario, strategy, design)
             metrics[strategy] = compute_metrics(
                 sims[strategy], settle_time=sim.settle_time,
                 regen_efficiency=sim.regen_efficiency,

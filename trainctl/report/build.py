@@ -230,10 +230,10 @@ def run_report_data(
             tasks = [(k, strategy) for k, job in enumerate(jobs) if job.scenario.simulation
                      for strategy in job.scenario.simulation.strategies]
             tasks.sort(key=lambda t: -_cost(designs[t[0]], t[1]))
-            from ..run import simulate_strategy
+            from ..run import _simulate_recorded
 
             for k, strategy in tasks:
-                future = pool.submit(simulate_strategy, jobs[k].scenario, strategy, designs[k])
+                future = pool.submit(_simulate_recorded, jobs[k].scenario, strategy, designs[k])
                 if progress is not None:
                     future.add_done_callback(_advance(progress, f"simulated {strategy}"))
                 pending.setdefault(k, {})[strategy] = future

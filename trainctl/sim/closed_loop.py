@@ -33,7 +33,11 @@ sample, the time, the signal, its value and the bound.
 from __future__ import annotations
 
 import math
+import os
+import sys
 import time as _time
+import warnings
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -41,7 +45,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from .._validation import check_nonnegative, check_positive
 from ..controllers.base import Controller, Measurement
-from ..exceptions import DimensionError, ModelError
+from ..exceptions import (
+    ConvergenceWarning,
+    DimensionError,
+    InaccurateSolutionWarning,
+    ModelError,
+)
 from ..models.actuator import SATURATION_TOLERANCE, ActuatorLimits
 from ..models.dynamics import vehicle_positions
 from ..models.plant import Plant
@@ -134,6 +143,15 @@ def simulate(
     DimensionError
         When the initial state or a controller's inputs have the wrong shape.
 
+    Warns
+    -----
+    InaccurateSolutionWarning
+        Once per run when some samples' QPs were not solved to optimality
+        (statuses other than ``"optimal"``; the result's ``status_counts()``).
+    ConvergenceWarning
+        Once per run when some steps of an iterating strategy stopped at its
+        iteration limit unconverged (see Notes).
+
     Notes
     -----
     A controller whose strategy iterates within a step (N-DMPC) may say how
@@ -219,8 +237,57 @@ def simulate(
     arrays = log.result_arrays(plant, reference)
     if history is not None:
         arrays["held_noise_square"] = history.held_noise_square(np.asarray(arrays["time"])[:-1])
-    return SimulationResult(**arrays, controller_name=str(controller.name), seed=int(seed),
-                            dt=dt, meta=meta)
+    result = SimulationResult(**arrays, controller_name=str(controller.name), seed=int(seed),
+                              dt=dt, meta=meta)
+    _warn_solver_trouble(result)
+    return result
+
+
+def _outside_level() -> int:
+    """The ``stacklevel`` of a warning issued by this function's caller that names the first
+    frame outside the trainctl package (the user's line, through simulate_strategy or
+    not); Python 3.12's ``skip_file_prefixes`` does this, 3.11 has to count."""
+    package = str(Path(__file__).parents[1]) + os.sep
+    frame, level = sys._getframe(1), 1
+    while frame.f_back is not None and frame.f_code.co_filename.startswith(package):
+        frame, level = frame.f_back, level + 1
+    return level
+
+
+def _warn_solver_trouble(result: SimulationResult) -> None:
+    """One warning per kind of trouble of a finished run: steps whose iteration stopped
+    at its limit unconverged (:class:`~trainctl.exceptions.ConvergenceWarning`) and
+    samples whose QP was not solved to optimality otherwise
+    (:class:`~trainctl.exceptions.InaccurateSolutionWarning`; an unconverged step's
+    ``"max_iterations"`` status is the first kind, warned once). The result records
+    both (``status_counts()``, ``residuals``); the warnings make them seen."""
+    samples = len(result.statuses)
+    name = result.controller_name
+    level = _outside_level()
+    limit, tolerance = result.meta["iteration_limit"], result.meta["iteration_tolerance"]
+    unconverged = [limit is not None and tolerance is not None and len(r) >= limit
+                   and r[-1] > tolerance for r in result.residuals]
+    if any(unconverged):
+        warnings.warn(
+            f"simulate: {sum(unconverged)} of {samples} steps of {name!r} stopped at the "
+            f"iteration limit {limit} with a change above the tolerance {tolerance:g}; "
+            "raise the limit or check the convergence condition (the design review's "
+            "DMPC checks). See result.residuals.",
+            ConvergenceWarning, stacklevel=level)
+    counts: dict[str, int] = {}
+    fallbacks = 0
+    for status, stopped, fallback in zip(result.statuses, unconverged, result.fallbacks,
+                                         strict=True):
+        if status != "optimal" and not (stopped and status == "max_iterations"):
+            counts[status] = counts.get(status, 0) + 1
+            fallbacks += bool(fallback)
+    if counts:
+        listed = ", ".join(f"{status} {count}" for status, count in counts.items())
+        applied = f"; {fallbacks} applied a fallback (result.fallbacks)" if fallbacks else ""
+        warnings.warn(
+            f"simulate: {sum(counts.values())} of {samples} samples of {name!r} were not "
+            f"solved to optimality ({listed}){applied}. See result.status_counts().",
+            InaccurateSolutionWarning, stacklevel=level)
 
 
 def _iteration_limit(controller: Controller) -> dict[str, Any]:
