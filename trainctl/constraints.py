@@ -91,28 +91,100 @@ class Rule:
     """
 
     def want(self, *, python: bool = False) -> str:
-        """What a valid value is, e.g. ``"a number > 0"``."""
+        """What a valid value is, e.g. ``"a number > 0"``.
+
+        Parameters
+        ----------
+        python : bool
+            Word it for a Python caller rather than for a scenario file (e.g.
+            ``True or False`` instead of ``true or false``).
+
+        Returns
+        -------
+        str
+            A noun phrase with its article that completes "must be ...".
+
+        Raises
+        ------
+        NotImplementedError
+            Always: each subclass gives its own phrase.
+        """
         raise NotImplementedError
 
     def plural(self) -> str:
-        """The items of an array of such values, e.g. ``"numbers >= 0"``."""
+        """The items of an array of such values, e.g. ``"numbers >= 0"``.
+
+        Returns
+        -------
+        str
+            The phrase that completes "an array of 3 ..."; here :meth:`want`
+            unchanged, subclasses give a plural.
+        """
         return self.want()
 
     def doc_type(self) -> str:
-        """The type column of the documentation, e.g. ``"number > 0"`` (Markdown)."""
+        """The type column of the documentation, e.g. ``"number > 0"`` (Markdown).
+
+        Returns
+        -------
+        str
+            :meth:`want` without its leading article "a" or "an".
+        """
         want = self.want()
         return want.split(" ", 1)[1] if want.startswith(("a ", "an ")) else want
 
     def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
-        """The pydantic core schema that performs the check."""
+        """The pydantic core schema that performs the check.
+
+        Parameters
+        ----------
+        handler : pydantic.GetCoreSchemaHandler
+            The handler pydantic passes to ``__get_pydantic_core_schema__``; a
+            rule made of other rules (:class:`Array`) builds their schemas with it.
+
+        Returns
+        -------
+        pydantic_core.CoreSchema
+            The schema that checks the type, the bounds and finiteness; its
+            failures are worded by :meth:`explain`.
+
+        Raises
+        ------
+        NotImplementedError
+            Always: each subclass gives its own schema.
+        """
         raise NotImplementedError
 
     def for_file(self) -> Rule:
-        """The rule for a scenario file (TOML values; no inf, no shortcuts)."""
+        """The rule for a scenario file (TOML values; no inf, no shortcuts).
+
+        Returns
+        -------
+        Rule
+            This rule itself; subclasses return a stricter copy where files
+            allow less than Python callers.
+        """
         return self
 
     def explain(self, error_type: str, value: Any) -> Violation:
-        """The violation for a failed check of pydantic type ``error_type``."""
+        """The violation for a failed check of pydantic type ``error_type``.
+
+        Parameters
+        ----------
+        error_type : str
+            The pydantic error type of the failed core check, e.g.
+            ``"greater_than"`` or ``"float_type"``; one ending in ``_type``
+            means a value of the wrong type.
+        value : object
+            The value given.
+
+        Returns
+        -------
+        Violation
+            ``"must be "`` followed by :meth:`want` (worded for files and for
+            Python callers), with ``value`` as the value got; its ``value`` flag
+            is False for a wrong type.
+        """
         return Violation(
             text=f"must be {self.want()}",
             python_text=f"must be {self.want(python=True)}",
@@ -121,7 +193,21 @@ class Rule:
         )
 
     def check(self, value: Any, info: core_schema.ValidationInfo | None) -> Any:
-        """Checks pydantic cannot express, after :meth:`schema` passed."""
+        """Checks pydantic cannot express, after :meth:`schema` passed.
+
+        Parameters
+        ----------
+        value : object
+            The value as :meth:`schema` returned it (converted, e.g. to a tuple).
+        info : pydantic_core.core_schema.ValidationInfo or None
+            pydantic's validation info; its ``context`` is the validation
+            context (None: no info).
+
+        Returns
+        -------
+        object
+            The value to keep; here ``value`` unchanged.
+        """
         return value
 
     def __get_pydantic_core_schema__(
@@ -148,7 +234,13 @@ class Rule:
         return {**handler(schema), **self.json_extra()}
 
     def json_extra(self) -> dict[str, Any]:
-        """JSON Schema keywords the core schema does not give."""
+        """JSON Schema keywords the core schema does not give.
+
+        Returns
+        -------
+        dict of str to object
+            Keywords added to the JSON Schema of the core schema; empty here.
+        """
         return {}
 
 
@@ -217,24 +309,65 @@ class Number(Rule):
         return f" <= {_fmt(self.le)}" if self.le is not None else ""
 
     def want(self, *, python: bool = False, finite: bool = False) -> str:
-        """What a valid value is; ``finite`` (or a Python caller) says "finite"."""
+        """What a valid value is; ``finite`` (or a Python caller) says "finite".
+
+        Parameters
+        ----------
+        python : bool
+            Word it for a Python caller: "a finite number ...".
+        finite : bool
+            Say "finite" for a scenario file too (the value given was inf or
+            nan).
+
+        Returns
+        -------
+        str
+            E.g. ``"a finite number > 0"``; with ``allow_inf``, the range
+            followed by ``", or inf for "`` and :attr:`inf`, never "finite".
+        """
         if self.allow_inf:
             return f"a number{self._range()}, or inf for {self.inf}"
         return f"a {'finite ' if finite or python else ''}number{self._range()}"
 
     def plural(self) -> str:
-        """Items of an array, e.g. ``"numbers >= 0"``."""
+        """Items of an array, e.g. ``"numbers >= 0"``.
+
+        Returns
+        -------
+        str
+            ``"numbers"`` followed by the range of the bounds.
+        """
         return f"numbers{self._range()}"
 
     def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
-        """Strict float with bounds; ints widen, nan and inf fail unless allowed."""
+        """Strict float with bounds; ints widen, nan and inf fail unless allowed.
+
+        Parameters
+        ----------
+        handler : pydantic.GetCoreSchemaHandler
+            The handler pydantic passes to ``__get_pydantic_core_schema__``;
+            unused here (the check needs no other type's schema).
+
+        Returns
+        -------
+        pydantic_core.CoreSchema
+            A strict float schema with ``gt``, ``ge`` and ``le``, refusing nan
+            and inf unless ``allow_inf``, behind a conversion of integers (not
+            bools) to floats (too large ones to +-inf).
+        """
         number = core_schema.float_schema(
             gt=self.gt, ge=self.ge, le=self.le, allow_inf_nan=self.allow_inf, strict=True
         )
         return core_schema.no_info_before_validator_function(_real, number)
 
     def for_file(self) -> Number:
-        """Files give finite numbers only (an omitted limit means no limit)."""
+        """Files give finite numbers only (an omitted limit means no limit).
+
+        Returns
+        -------
+        Number
+            A copy of this rule with ``allow_inf`` False.
+        """
         return replace(self, allow_inf=False)
 
     def _side(self, error_type: str) -> Number:
@@ -254,7 +387,26 @@ class Number(Rule):
         return (self.gt, self.ge) not in ((0, None), (None, 0), (None, None))
 
     def explain(self, error_type: str, value: Any) -> Violation:
-        """Type, finiteness or bound; a quoted number gets a hint, a bound its reason."""
+        """Type, finiteness or bound; a quoted number gets a hint, a bound its reason.
+
+        Parameters
+        ----------
+        error_type : str
+            The pydantic error type of the failed core check, e.g.
+            ``"float_type"``, ``"finite_number"`` or ``"less_than_equal"``.
+        value : object
+            The value given.
+
+        Returns
+        -------
+        Violation
+            ``"must be "`` and what is wanted: with ``why`` set, only the bound
+            that failed (for a wrong type or a value that is not finite, the
+            lower bound if there is one), else the whole range; "finite" for
+            inf or nan (got as a float). ``why`` is the hint for a value outside a bound it
+            explains; a string gets the file hint to write numbers without
+            quotes.
+        """
         finite = error_type == "finite_number" or (
             isinstance(_real(value), float) and not math.isfinite(_real(value))
         )
@@ -300,20 +452,66 @@ class Integer(Rule):
         return f" >= {self.ge}" if self.le is None else f" from {self.ge} to {self.le}"
 
     def want(self, *, python: bool = False) -> str:
-        """``"an integer >= ge"`` or ``"an integer from ge to le"``."""
+        """``"an integer >= ge"`` or ``"an integer from ge to le"``.
+
+        Parameters
+        ----------
+        python : bool
+            Word it for a Python caller; the wording is the same.
+
+        Returns
+        -------
+        str
+            ``"an integer"`` followed by the range of the bounds.
+        """
         return f"an integer{self._range()}"
 
     def plural(self) -> str:
-        """``"integers >= ge"``."""
+        """``"integers >= ge"``.
+
+        Returns
+        -------
+        str
+            ``"integers"`` followed by the range of the bounds.
+        """
         return f"integers{self._range()}"
 
     def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
-        """Strict int; NumPy integers are accepted."""
+        """Strict int; NumPy integers are accepted.
+
+        Parameters
+        ----------
+        handler : pydantic.GetCoreSchemaHandler
+            The handler pydantic passes to ``__get_pydantic_core_schema__``;
+            unused here (the check needs no other type's schema).
+
+        Returns
+        -------
+        pydantic_core.CoreSchema
+            A strict int schema with ``ge`` and ``le``, behind a conversion of
+            NumPy integers to int (bools and floats fail).
+        """
         integer = core_schema.int_schema(ge=self.ge, le=self.le, strict=True)
         return core_schema.no_info_before_validator_function(_integral, integer)
 
     def explain(self, error_type: str, value: Any) -> Violation:
-        """Type or bound (the one that failed, with its reason)."""
+        """Type or bound (the one that failed, with its reason).
+
+        Parameters
+        ----------
+        error_type : str
+            The pydantic error type of the failed core check, e.g.
+            ``"int_type"``, ``"greater_than_equal"`` or ``"less_than_equal"``.
+        value : object
+            The value given.
+
+        Returns
+        -------
+        Violation
+            ``"must be an integer <= le"`` for a value above ``le``, else
+            ``"must be an integer >= ge"``; a wrong value (not a wrong type)
+            gets ``why`` as its hint.
+        """
         side = replace(self, le=None) if error_type != "less_than_equal" else self
         violation = super(Integer, side).explain(error_type, value)
         if error_type == "less_than_equal":
@@ -347,15 +545,44 @@ class Flag(Rule):
     """
 
     def want(self, *, python: bool = False) -> str:
-        """``"true or false"``."""
+        """``"true or false"``.
+
+        Parameters
+        ----------
+        python : bool
+            Word it for a Python caller: ``"True or False"``.
+
+        Returns
+        -------
+        str
+            ``"true or false"``, or ``"True or False"`` for Python.
+        """
         return "True or False" if python else "true or false"
 
     def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
-        """Strict bool."""
+        """Strict bool.
+
+        Parameters
+        ----------
+        handler : pydantic.GetCoreSchemaHandler
+            The handler pydantic passes to ``__get_pydantic_core_schema__``;
+            unused here (the check needs no other type's schema).
+
+        Returns
+        -------
+        pydantic_core.CoreSchema
+            A strict bool schema (1 and ``"true"`` fail).
+        """
         return core_schema.bool_schema(strict=True)
 
     def doc_type(self) -> str:
-        """``"boolean"``."""
+        """``"boolean"``.
+
+        Returns
+        -------
+        str
+            ``"boolean"``.
+        """
         return "boolean"
 
 
@@ -389,16 +616,56 @@ class Text(Rule):
     single_line: bool = False
 
     def want(self, *, python: bool = False) -> str:
-        """``"a string"``."""
+        """``"a string"``.
+
+        Parameters
+        ----------
+        python : bool
+            Word it for a Python caller; the wording is the same.
+
+        Returns
+        -------
+        str
+            ``"a string"``.
+        """
         return "a string"
 
     def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
-        """Strict str with the pattern of the options."""
+        """Strict str with the pattern of the options.
+
+        Parameters
+        ----------
+        handler : pydantic.GetCoreSchemaHandler
+            The handler pydantic passes to ``__get_pydantic_core_schema__``;
+            unused here (the check needs no other type's schema).
+
+        Returns
+        -------
+        pydantic_core.CoreSchema
+            A strict str schema; with ``nonblank`` its pattern asks for a
+            character that is not white space, else with ``single_line`` it
+            refuses line breaks.
+        """
         pattern = r"\S" if self.nonblank else r"^[^\r\n]*$" if self.single_line else None
         return core_schema.str_schema(strict=True, pattern=pattern)
 
     def explain(self, error_type: str, value: Any) -> Violation:
-        """A wrong type, a blank string or a line break."""
+        """A wrong type, a blank string or a line break.
+
+        Parameters
+        ----------
+        error_type : str
+            The pydantic error type of the failed core check;
+            ``"string_pattern_mismatch"`` for a blank string or a line break.
+        value : object
+            The value given.
+
+        Returns
+        -------
+        Violation
+            ``"must be a string"`` for a wrong type, else ``"must be a
+            non-empty string"`` (``nonblank``) or ``"must be a single line"``.
+        """
         if error_type != "string_pattern_mismatch":
             return super().explain(error_type, value)
         text = "must be a non-empty string" if self.nonblank else "must be a single line"
@@ -426,21 +693,67 @@ class Choice(Rule):
     hint: str = ""
 
     def want(self, *, python: bool = False) -> str:
-        """``"one of 'a', 'b'"``."""
+        """``"one of 'a', 'b'"``.
+
+        Parameters
+        ----------
+        python : bool
+            Word it for a Python caller: the options as a tuple,
+            ``"one of ('a', 'b')"``.
+
+        Returns
+        -------
+        str
+            ``"one of "`` followed by the quoted options.
+        """
         if python:
             return f"one of {self.options!r}"
         return "one of " + ", ".join(repr(o) for o in self.options)
 
     def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
-        """A literal of the options (a string never equals a bool or number)."""
+        """A literal of the options (a string never equals a bool or number).
+
+        Parameters
+        ----------
+        handler : pydantic.GetCoreSchemaHandler
+            The handler pydantic passes to ``__get_pydantic_core_schema__``;
+            unused here (the check needs no other type's schema).
+
+        Returns
+        -------
+        pydantic_core.CoreSchema
+            A literal schema of ``options``.
+        """
         return core_schema.literal_schema(list(self.options))
 
     def doc_type(self) -> str:
-        """The options as TOML strings quoted for Markdown, joined by commas and "or"."""
+        """The options as TOML strings quoted for Markdown, joined by commas and "or".
+
+        Returns
+        -------
+        str
+            E.g. ``'`"u"` or `"du"`'``.
+        """
         return _or([f'`"{o}"`' for o in self.options])
 
     def explain(self, error_type: str, value: Any) -> Violation:
-        """Lists the options and suggests the closest."""
+        """Lists the options and suggests the closest.
+
+        Parameters
+        ----------
+        error_type : str
+            The pydantic error type of the failed core check (e.g.
+            ``"literal_error"``).
+        value : object
+            The value given.
+
+        Returns
+        -------
+        Violation
+            ``"must be one of ..."`` with a "Did you mean" suggestion for a near
+            miss followed by ``hint``; its ``value`` flag is True for a string
+            only (anything else is a wrong type).
+        """
         return replace(
             super().explain(error_type, value),
             hint=suggest(value, self.options) + self.hint,
@@ -491,16 +804,56 @@ class NameList(Rule):
     single: bool = True
 
     def names(self, context: dict[str, Any] | None = None) -> tuple[str, ...]:
-        """The vocabulary (for ``context``)."""
+        """The vocabulary (for ``context``).
+
+        Parameters
+        ----------
+        context : dict of str to object or None
+            The validation context, passed to ``options`` when it is a callable
+            (None: no context, e.g. for the documentation).
+
+        Returns
+        -------
+        tuple of str
+            The allowed names.
+        """
         return self.options if isinstance(self.options, tuple) else self.options(context)
 
     def want(self, *, python: bool = False, context: dict[str, Any] | None = None) -> str:
-        """``"a non-empty array of distinct names from 'a', 'b'"``."""
+        """``"a non-empty array of distinct names from 'a', 'b'"``.
+
+        Parameters
+        ----------
+        python : bool
+            Word it for a Python caller; the wording is the same.
+        context : dict of str to object or None
+            The validation context the vocabulary is read from (see
+            :meth:`names`).
+
+        Returns
+        -------
+        str
+            The phrase, listing the allowed names quoted.
+        """
         names = ", ".join(repr(o) for o in self.names(context))
         return f"a non-empty array of distinct names from {names}"
 
     def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
-        """A non-empty tuple (lists accepted); a bare string from Python."""
+        """A non-empty tuple (lists accepted); a bare string from Python.
+
+        Parameters
+        ----------
+        handler : pydantic.GetCoreSchemaHandler
+            The handler pydantic passes to ``__get_pydantic_core_schema__``;
+            unused here (the check needs no other type's schema).
+
+        Returns
+        -------
+        pydantic_core.CoreSchema
+            A tuple schema of at least one item of any type; with ``single``, a
+            bare string becomes a one-item tuple first. The items are checked
+            by :meth:`check`.
+        """
         items = core_schema.tuple_schema([core_schema.any_schema()], variadic_item_index=0,
                                          min_length=1)
         if not self.single:
@@ -510,11 +863,37 @@ class NameList(Rule):
         )
 
     def for_file(self) -> NameList:
-        """Files must write an array."""
+        """Files must write an array.
+
+        Returns
+        -------
+        NameList
+            A copy of this rule with ``single`` False.
+        """
         return replace(self, single=False)
 
     def check(self, value: Any, info: core_schema.ValidationInfo | None) -> Any:
-        """Each item is a known name, listed once."""
+        """Each item is a known name, listed once.
+
+        Parameters
+        ----------
+        value : tuple of object
+            The non-empty tuple :meth:`schema` returned.
+        info : pydantic_core.core_schema.ValidationInfo or None
+            pydantic's validation info; its ``context`` gives the vocabulary
+            (None: no context).
+
+        Returns
+        -------
+        tuple of str
+            ``value`` unchanged.
+
+        Raises
+        ------
+        pydantic.ValidationError
+            At the index of the first item that is not a known name (with a
+            suggestion and ``hint``) or that repeats an earlier one.
+        """
         context = info.context if info is not None else None
         names = self.names(context)
         for i, item in enumerate(value):
@@ -528,18 +907,47 @@ class NameList(Rule):
         return value
 
     def explain(self, error_type: str, value: Any) -> Violation:
-        """Not an array, or an empty one."""
+        """Not an array, or an empty one.
+
+        Parameters
+        ----------
+        error_type : str
+            The pydantic error type of the failed core check; every failure is
+            worded the same.
+        value : object
+            The value given.
+
+        Returns
+        -------
+        Violation
+            ``"must be "`` followed by :meth:`want` (without context), with
+            ``value`` as the value got.
+        """
         return Violation(text=f"must be {self.want()}", got=value)
 
     def doc_type(self) -> str:
-        """The type column of an array of names: the allowed names quoted for Markdown."""
+        """The type column of an array of names: the allowed names quoted for Markdown.
+
+        Returns
+        -------
+        str
+            ``"non-empty array of distinct "`` followed by the names (at most
+            six) joined by commas and "or", or by ``noun`` and ``"names"``.
+        """
         names = self.names()
         return "non-empty array of distinct " + (
             _or([f'`"{o}"`' for o in names]) if len(names) <= 6 else f"{self.noun} names"
         )
 
     def json_extra(self) -> dict[str, Any]:
-        """Items from the vocabulary, unique."""
+        """Items from the vocabulary, unique.
+
+        Returns
+        -------
+        dict of str to object
+            ``items`` as an ``enum`` of the names (read without context) and
+            ``uniqueItems`` True.
+        """
         return {"items": {"enum": list(self.names())}, "uniqueItems": True}
 
 
@@ -567,24 +975,62 @@ class Array(Rule):
     extra: dict[str, Any] = field(default_factory=dict, compare=False)
 
     def want(self, *, python: bool = False) -> str:
-        """``"an array of 3 numbers >= 0"`` or ``"a non-empty array of ..."``."""
+        """``"an array of 3 numbers >= 0"`` or ``"a non-empty array of ..."``.
+
+        Parameters
+        ----------
+        python : bool
+            Word it for a Python caller; the wording is the same (the item's
+            :meth:`Rule.plural`).
+
+        Returns
+        -------
+        str
+            The phrase, with the number of items when ``length`` is set.
+        """
         if self.length is not None:
             return f"an array of {self.length} {self.item.plural()}"
         return f"a non-empty array of {self.item.plural()}"
 
     def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
-        """A tuple (lists accepted) of the item rule, of the given length."""
+        """A tuple (lists accepted) of the item rule, of the given length.
+
+        Parameters
+        ----------
+        handler : pydantic.GetCoreSchemaHandler
+            The handler pydantic passes to ``__get_pydantic_core_schema__``,
+            used to build the schema of the item rule.
+
+        Returns
+        -------
+        pydantic_core.CoreSchema
+            A tuple schema whose items follow ``item``, with exactly ``length``
+            items, or at least one when ``length`` is None.
+        """
         item = self.item.__get_pydantic_core_schema__(Any, handler)
         return core_schema.tuple_schema(
             [item], variadic_item_index=0, min_length=self.length or 1, max_length=self.length
         )
 
     def for_file(self) -> Array:
-        """The item rule for files."""
+        """The item rule for files.
+
+        Returns
+        -------
+        Array
+            A copy of this rule whose ``item`` is the item rule's
+            :meth:`Rule.for_file`.
+        """
         return replace(self, item=self.item.for_file())
 
     def json_extra(self) -> dict[str, Any]:
-        """Extra keywords declared with the array."""
+        """Extra keywords declared with the array.
+
+        Returns
+        -------
+        dict of str to object
+            A copy of ``extra``.
+        """
         return dict(self.extra)
 
 
