@@ -120,7 +120,14 @@ class Claim:
     note: str
 
     def to_dict(self) -> dict[str, str]:
-        """JSON-safe."""
+        """JSON-safe.
+
+        Returns
+        -------
+        dict of str to str
+            Every field by name: ``key``, ``case``, ``claim``, ``paper``,
+            ``trainctl``, ``kind``, ``verdict`` and ``note``.
+        """
         return {"key": self.key, "case": self.case, "claim": self.claim, "paper": self.paper,
                 "trainctl": self.trainctl, "kind": self.kind, "verdict": self.verdict,
                 "note": self.note}

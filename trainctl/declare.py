@@ -147,7 +147,14 @@ class Key:
     vector: bool = False
 
     def describe(self) -> str:
-        """The documentation line with the unit and what omitting the key means."""
+        """The documentation line with the unit and what omitting the key means.
+
+        Returns
+        -------
+        str
+            ``doc``, then the file unit in brackets (if any), then ``"; omit
+            for "`` and ``omitted`` (if set), ending with a full stop.
+        """
         unit = f" [{self.unit}]" if self.unit else ""
         omitted = f"; omit for {self.omitted}" if self.omitted else ""
         return f"{self.doc}{unit}{omitted}."

@@ -131,7 +131,16 @@ class Deviation:
     diverged: bool
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-safe (inf as None)."""
+        """JSON-safe (inf as None).
+
+        Returns
+        -------
+        dict of str to object
+            Every field by name, arrays as lists of float: ``rms_error`` and
+            ``max_error`` [m/s] per vehicle, ``settling_time`` [s] per vehicle
+            (None where infinite), ``max_coupler_force`` [N], ``since`` [s] and
+            ``diverged``.
+        """
         return {"rms_error": self.rms_error.tolist(), "max_error": self.max_error.tolist(),
                 "settling_time": [x if math.isfinite(x) else None
                                   for x in self.settling_time.tolist()],
@@ -237,7 +246,17 @@ class Repetition:
     deviation: Deviation
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-safe: strategy, index, seed, the deviation measures and the tracking metrics."""
+        """JSON-safe: strategy, index, seed, the deviation measures and the tracking metrics.
+
+        Returns
+        -------
+        dict of str to object
+            ``strategy``, ``index`` and ``seed``; ``deviation``, the
+            :meth:`Deviation.to_dict` of the whole-run measures; and
+            ``rms_error_settled`` and ``max_error_settled``, the metrics' RMS and
+            largest speed errors per vehicle after ``settle_time`` [m/s], as
+            lists.
+        """
         m = self.metrics
         return {"strategy": self.strategy, "index": self.index, "seed": self.seed,
                 "deviation": self.deviation.to_dict(),

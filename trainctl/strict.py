@@ -61,7 +61,13 @@ class StrictFailure:
     detail: str
 
     def to_dict(self) -> dict[str, str]:
-        """JSON-safe dict."""
+        """JSON-safe dict.
+
+        Returns
+        -------
+        dict of str to str
+            ``kind``, ``name`` and ``detail``.
+        """
         return {"kind": self.kind, "name": self.name, "detail": self.detail}
 
 

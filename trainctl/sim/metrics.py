@@ -250,7 +250,17 @@ class Metrics:
         }
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict (arrays as lists, non-finite numbers as None)."""
+        """JSON-safe dict (arrays as lists, non-finite numbers as None).
+
+        Returns
+        -------
+        dict of str to object
+            Every field by name, in the field's unit, except that the energies
+            are keyed ``energy_kwh``, ``motoring_energy_kwh`` and
+            ``braking_energy_kwh`` [kWh]; plus ``diverged`` (bool),
+            ``coupler_verdict`` (:meth:`coupler_verdict`) and
+            ``iterations_converged``. Mappings become dicts.
+        """
 
         def num(x: float) -> float | None:
             return float(x) if math.isfinite(x) else None

@@ -49,15 +49,53 @@ class Reference(Protocol):
     """
 
     def speed(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Reference speed [m/s] at times ``t`` [s]."""
+        """Reference speed [m/s] at times ``t`` [s].
+
+        Parameters
+        ----------
+        t : array_like
+            Times [s].
+
+        Returns
+        -------
+        ndarray
+            Speeds [m/s], same shape as ``t``.
+        """
         ...
 
     def acceleration(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Reference acceleration [m/s²] at times ``t`` [s]."""
+        """Reference acceleration [m/s²] at times ``t`` [s].
+
+        Parameters
+        ----------
+        t : array_like
+            Times [s].
+
+        Returns
+        -------
+        ndarray
+            Accelerations [m/s²], same shape as ``t``.
+        """
         ...
 
     def preview(self, t: float, dt: float, steps: int) -> ReferencePreview:
-        """The reference at t, t + dt, ..., t + steps·dt."""
+        """The reference at t, t + dt, ..., t + steps·dt.
+
+        Parameters
+        ----------
+        t : float
+            First sample time [s].
+        dt : float
+            Sample time [s], > 0.
+        steps : int
+            Number of steps P >= 0 of the horizon.
+
+        Returns
+        -------
+        ReferencePreview
+            Times [s], speeds [m/s] and accelerations [m/s²] at the
+            ``steps + 1`` samples, each of shape (steps + 1,).
+        """
         ...
 
 
@@ -189,7 +227,13 @@ class SpeedProfile:
         )
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict of the breakpoints."""
+        """JSON-safe dict of the breakpoints.
+
+        Returns
+        -------
+        dict of str to object
+            ``times`` [s] and ``speeds`` [m/s], each a list of float.
+        """
         return {"times": [float(t) for t in self.times], "speeds": [float(v) for v in self.speeds]}
 
 
