@@ -154,11 +154,23 @@ class CommunicationGraph:
         return np.diag(self.adjacency.sum(axis=1)) - self.adjacency
 
     def pinning_matrix(self) -> Array:
-        """P = diag(p) [-]: the weights with which the vehicles hear the reference."""
+        """P = diag(p) [-]: the weights with which the vehicles hear the reference.
+
+        Returns
+        -------
+        ndarray
+            (n, n), the pinning weights on the diagonal.
+        """
         return np.diag(self.pinning)
 
     def is_undirected(self) -> bool:
-        """True when every link is heard both ways with the same weight (A = Aᵀ)."""
+        """True when every link is heard both ways with the same weight (A = Aᵀ).
+
+        Returns
+        -------
+        bool
+            Whether the adjacency matrix is symmetric.
+        """
         return bool(np.array_equal(self.adjacency, self.adjacency.T))
 
     def reference_reaches_all(self) -> bool:
@@ -167,20 +179,39 @@ class CommunicationGraph:
         Every vehicle then receives the reference, directly or relayed, which
         leader-following consensus needs (L + P is then nonsingular, with
         eigenvalues in the open right half plane).
+
+        Returns
+        -------
+        bool
+            Whether every vehicle is reachable from the reference along links.
         """
         import networkx as nx
 
         return len(nx.descendants(self._graph, REFERENCE)) == self.n
 
     def unreached(self) -> tuple[int, ...]:
-        """The vehicles (0-based) the reference does not reach, head first."""
+        """The vehicles (0-based) the reference does not reach, head first.
+
+        Returns
+        -------
+        tuple of int
+            Their indices in ``range(n)``; empty when
+            :meth:`reference_reaches_all`.
+        """
         import networkx as nx
 
         reached = nx.descendants(self._graph, REFERENCE)
         return tuple(i for i in range(self.n) if i not in reached)
 
     def is_connected(self) -> bool:
-        """True when the vehicles form one weakly connected graph (ignoring the reference)."""
+        """True when the vehicles form one weakly connected graph (ignoring the reference).
+
+        Returns
+        -------
+        bool
+            Whether the vehicle graph, with link directions ignored, is
+            connected; True for one vehicle.
+        """
         import networkx as nx
 
         vehicles = self._graph.subgraph(range(self.n))
@@ -207,15 +238,42 @@ class CommunicationGraph:
         """min Re λ(L + P) [-]: how fast leader-following consensus converges per unit gain.
 
         Positive exactly when the reference reaches every vehicle.
+
+        Returns
+        -------
+        float
+            The smallest real part of the eigenvalues of L + P [-].
         """
         return float(np.min(np.linalg.eigvals(self.laplacian() + self.pinning_matrix()).real))
 
     def neighbours(self, i: int) -> tuple[int, ...]:
-        """The vehicles (0-based) whose data vehicle ``i`` receives, in order."""
+        """The vehicles (0-based) whose data vehicle ``i`` receives, in order.
+
+        Parameters
+        ----------
+        i : int
+            The receiving vehicle, 0-based: 0 <= i < n.
+
+        Returns
+        -------
+        tuple of int
+            The 0-based indices j with ``adjacency[i, j] > 0``, ascending; the
+            reference is not included (see :attr:`pinning`).
+        """
         return tuple(int(j) for j in np.flatnonzero(self.adjacency[i]))
 
     def summary(self) -> dict[str, Any]:
-        """The graph's properties as JSON-safe numbers (for ``analyse --json`` and reports)."""
+        """The graph's properties as JSON-safe numbers (for ``analyse --json`` and reports).
+
+        Returns
+        -------
+        dict of str to object
+            ``topology``; ``n``; ``links``, the number of received links;
+            ``undirected`` and ``connected`` (bool); ``pinned``, the 1-based
+            vehicles that hear the reference; ``reference_reaches_all`` (bool);
+            ``unreached``, the 1-based vehicles it does not reach;
+            ``algebraic_connectivity`` and ``pinned_rate`` [-].
+        """
         return {
             "topology": self.topology, "n": self.n, "links": int(np.count_nonzero(self.adjacency)),
             "undirected": self.is_undirected(), "connected": self.is_connected(),

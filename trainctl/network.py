@@ -296,7 +296,20 @@ class Interruption:
         return self
 
     def blocks(self, link: Link) -> bool:
-        """True when the window cuts ``link`` = ``(receiver, sender)``."""
+        """True when the window cuts ``link`` = ``(receiver, sender)``.
+
+        Parameters
+        ----------
+        link : tuple of (int, int or str)
+            ``(receiver, sender)``: the receiving vehicle (0-based) and the
+            sending vehicle (0-based) or ``"reference"``.
+
+        Returns
+        -------
+        bool
+            True when :attr:`links` is ``"all"`` or lists ``link``; the times of
+            the window are not considered.
+        """
         return self.links == "all" or link in self.links
 
 
@@ -417,14 +430,33 @@ lo <= hi (got [2.0, 1.0]).
         return self
 
     def delay_bounds(self) -> tuple[float, float]:
-        """The delay range ``(lo, hi)`` [s]: equal bounds for a constant delay."""
+        """The delay range ``(lo, hi)`` [s]: equal bounds for a constant delay.
+
+        Returns
+        -------
+        tuple of float
+            ``delay_range_s`` when given; else ``(delay_s, delay_s)``, or
+            ``(0.0, 0.0)`` without a delay [s].
+        """
         if self.delay_range_s is not None:
             return float(self.delay_range_s[0]), float(self.delay_range_s[1])
         delay = 0.0 if self.delay_s is None else float(self.delay_s)
         return delay, delay
 
     def noise_std(self, sender: Sender) -> float:
-        """The noise standard deviation on ``sender``'s messages [value's unit]."""
+        """The noise standard deviation on ``sender``'s messages [value's unit].
+
+        Parameters
+        ----------
+        sender : int or str
+            A vehicle index (0-based) or ``"reference"``.
+
+        Returns
+        -------
+        float
+            ``reference_noise_std`` for the reference when it is given, else
+            ``communication_noise_std`` [value's unit, m/s for speeds].
+        """
         if sender == REFERENCE and self.reference_noise_std is not None:
             return float(self.reference_noise_std)
         return float(self.communication_noise_std)
@@ -721,7 +753,24 @@ class Network:
         return tuple((i, s) for i in range(self.n) for s in self._senders[i])
 
     def senders(self, receiver: int) -> tuple[Sender, ...]:
-        """The senders ``receiver`` hears: the reference first (when pinned), then vehicles."""
+        """The senders ``receiver`` hears: the reference first (when pinned), then vehicles.
+
+        Parameters
+        ----------
+        receiver : int
+            The receiving vehicle, 0-based: 0 <= receiver < n.
+
+        Returns
+        -------
+        tuple of int or str
+            ``"reference"`` when the receiver is pinned, then the 0-based
+            indices of the vehicles it hears, ascending.
+
+        Raises
+        ------
+        ModelError
+            If ``receiver`` is not a vehicle index from 0 to n-1.
+        """
         return self._senders[self._check_receiver(receiver)]
 
     def reset(self) -> None:

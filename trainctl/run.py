@@ -94,7 +94,21 @@ class AnalysisRun:
     baseline: Mapping[str, tuple[Repetition, ...]] = field(default_factory=dict)
 
     def tracking_ok(self, strategy: str) -> bool:
-        """True when the strategy's max speed error after settling is within tolerance."""
+        """True when the strategy's max speed error after settling is within tolerance.
+
+        Parameters
+        ----------
+        strategy : str
+            A strategy name as ``[simulation] strategies`` writes it.
+
+        Returns
+        -------
+        bool
+            True when the largest speed error of any vehicle after
+            ``settle_time`` (:attr:`~trainctl.sim.metrics.Metrics.max_error`)
+            is <= ``[simulation] tracking_tolerance`` [m/s]; False when the
+            strategy was not simulated or the scenario has no ``[simulation]``.
+        """
         sim = self.scenario.simulation
         if sim is None or strategy not in self.metrics:
             return False
@@ -176,7 +190,20 @@ class AnalysisRun:
         return strict_failures(self)
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict: the summary, the review, ``[expected]`` and the strict verdict."""
+        """JSON-safe dict: the summary, the review, ``[expected]`` and the strict verdict.
+
+        Returns
+        -------
+        dict of str to object
+            The model summary's entries
+            (:meth:`~trainctl.analysis.summary.ModelSummary.to_dict`), then
+            ``checks``, ``failed_checks``, ``expected``,
+            ``unexpected_checks`` and ``unsimulated_checks``; when simulated,
+            ``simulations`` (each strategy's metrics with ``tracking_ok`` and
+            ``plant_saturation``); ``repetitions``, ``baseline_network`` and
+            ``claims`` when there are any; ``strict_failures`` and
+            ``frequency`` (:func:`frequency_dict`).
+        """
         out = self.summary.to_dict()
         out["checks"] = self.review.to_dict()["checks"]
         out["failed_checks"] = list(self.failed_checks)
@@ -204,7 +231,15 @@ class AnalysisRun:
         return out
 
     def format_text(self) -> str:
-        """The text ``trainctl analyse`` prints."""
+        """The text ``trainctl analyse`` prints.
+
+        Returns
+        -------
+        str
+            The model summary and the design review, then (when present) the
+            ``[expected]`` comparison, the metrics table, the repetitions
+            table and the published claims, and last the strict verdict.
+        """
         from .strict import format_strict
 
         text = self.summary.format_text() + "\n\n" + self.review.format_text()
