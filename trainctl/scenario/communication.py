@@ -70,6 +70,13 @@ class CommunicationSettings:
     def check_vehicles(self, n: int) -> None:
         """Check an explicit adjacency against the formation's ``n`` vehicles.
 
+        Does nothing without an explicit ``adjacency``.
+
+        Parameters
+        ----------
+        n : int
+            Vehicles (or unit trains) in the formation [-], >= 1.
+
         Raises
         ------
         ModelError

@@ -124,7 +124,21 @@ class DocumentTable:
         self.doc, self.prefix, self.model, self.settings = doc, prefix, model, settings
 
     def is_table(self, loc: tuple[Any, ...], value: Any) -> bool:
-        """True if the part at ``loc`` (relative) is a sub-table or array of them."""
+        """True if the part at ``loc`` (relative) is a sub-table or array of them.
+
+        Parameters
+        ----------
+        loc : tuple
+            Location of the part below this table (keys and array indices).
+        value : object
+            The value the document holds there (None or anything when absent).
+
+        Returns
+        -------
+        bool
+            True when ``value`` is a dict or a non-empty list of dicts, or when
+            the file model declares a table or an array of tables at ``loc``.
+        """
         if isinstance(value, dict) or (
             isinstance(value, list) and value and all(isinstance(v, dict) for v in value)
         ):
@@ -133,7 +147,25 @@ class DocumentTable:
         return f is not None and table_kind(f) != "value"
 
     def path(self, loc: tuple[Any, ...], *, last_as_key: bool = False) -> str:
-        """The display key path of ``loc`` (relative to this table)."""
+        """The display key path of ``loc`` (relative to this table).
+
+        Parameters
+        ----------
+        loc : tuple
+            Keys and array indices below this table; ``()`` for the table
+            itself.
+        last_as_key : bool
+            Write the last part as a key even when it names a table
+            (``[train].vehicle`` rather than ``[train.vehicle]``), e.g. for a
+            missing table.
+
+        Returns
+        -------
+        str
+            The path as the file writes it: the TOML table name in brackets,
+            then array indices and dotted keys, e.g. ``"[model].speed_kmh"`` or
+            ``"[train.vehicle][1].mass_t"``.
+        """
         full = self.prefix + loc
         text = ""
         dotted: str | None = ""  # the TOML table name; None inside an array element
@@ -151,7 +183,19 @@ class DocumentTable:
         return text
 
     def table_loc(self, loc: tuple[Any, ...]) -> tuple[Any, ...]:
-        """``loc`` if it names a table, else the table that holds the key or item."""
+        """``loc`` if it names a table, else the table that holds the key or item.
+
+        Parameters
+        ----------
+        loc : tuple
+            Keys and array indices below this table.
+
+        Returns
+        -------
+        tuple
+            The longest leading part of ``loc`` that the file model declares as
+            a table or an array element of tables; ``()`` for this table.
+        """
         while loc:
             *head, last = loc
             f = field_at(self.model, tuple(head) if isinstance(last, int) else loc)
@@ -161,7 +205,23 @@ class DocumentTable:
         return loc
 
     def ref(self, table: tuple[Any, ...], name: str) -> str | None:
-        """The key path of field ``name`` of the table at ``table`` or of one around it."""
+        """The key path of field ``name`` of the table at ``table`` or of one around it.
+
+        Parameters
+        ----------
+        table : tuple
+            Location of the table the reference is made from, below this table.
+        name : str
+            A field name: a file key of that table or of one that holds it
+            (innermost first), or a field of :attr:`settings` that a file key
+            stands for (``speed`` written as ``speed_kmh``).
+
+        Returns
+        -------
+        str or None
+            The display key path (:meth:`path`); None when no table declares
+            ``name``.
+        """
         for depth in range(len(table), -1, -1):
             here = table[:depth]
             model = self.model if not here else _model_at(self.model, here)

@@ -97,15 +97,44 @@ class TableRule(Rule):
     is_table = True
 
     def want(self, *, python: bool = False) -> str:
-        """``"a table"``."""
+        """``"a table"``.
+
+        Parameters
+        ----------
+        python : bool
+            Word it for a Python caller; the wording is the same.
+
+        Returns
+        -------
+        str
+            ``"a table"``.
+        """
         return "a table"
 
     def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
-        """A dict."""
+        """A dict.
+
+        Parameters
+        ----------
+        handler : pydantic.GetCoreSchemaHandler
+            The handler pydantic passes to ``__get_pydantic_core_schema__``;
+            unused here.
+
+        Returns
+        -------
+        pydantic_core.CoreSchema
+            A strict dict schema (its keys are checked by the file model).
+        """
         return core_schema.dict_schema(strict=True)
 
     def json_extra(self) -> dict[str, Any]:
-        """An object."""
+        """An object.
+
+        Returns
+        -------
+        dict of str to object
+            ``{"type": "object"}``.
+        """
         return {"type": "object"}
 
 
