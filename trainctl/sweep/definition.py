@@ -166,7 +166,14 @@ non-empty array (got []). Give at least one value.
         return False
 
     def grid_values(self) -> tuple[Any, ...]:
-        """The values, in order."""
+        """The values, in order.
+
+        Returns
+        -------
+        tuple
+            The axis's values as given (file unit; numpy values as Python
+            values).
+        """
         return tuple(self.values)
 
 
@@ -225,7 +232,15 @@ class GridAxis:
         return False
 
     def grid_values(self) -> tuple[Any, ...]:
-        """The ``num`` values (Python floats, or ints for a whole-number linear grid)."""
+        """The ``num`` values (Python floats, or ints for a whole-number linear grid).
+
+        Returns
+        -------
+        tuple of float or tuple of int
+            From ``start`` to ``stop`` (both exactly), evenly spaced or evenly
+            spaced in log10, in the key's file unit; ``(start,)`` unchanged for
+            ``num = 1``.
+        """
         if self.num == 1:
             return (self.start,)
         if self.scale == "log":
@@ -305,12 +320,38 @@ class RandomAxis:
         return True
 
     def rng(self, seed: int) -> np.random.Generator:
-        """This axis's generator: ``SeedSequence(seed, spawn_key=(h,))``, ``h`` from the key."""
+        """This axis's generator: ``SeedSequence(seed, spawn_key=(h,))``, ``h`` from the key.
+
+        Parameters
+        ----------
+        seed : int
+            The sweep's seed, >= 0.
+
+        Returns
+        -------
+        numpy.random.Generator
+            A new generator, ``h`` being the first 8 bytes (big-endian) of the
+            SHA-256 of the key path: the same seed and key give the same stream.
+        """
         h = int.from_bytes(hashlib.sha256(self.key.encode("utf-8")).digest()[:8], "big")
         return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(h,)))
 
     def draw(self, seed: int, samples: int) -> tuple[float, ...]:
-        """The ``samples`` values of this axis for the sweep seed ``seed`` (Python floats)."""
+        """The ``samples`` values of this axis for the sweep seed ``seed`` (Python floats).
+
+        Parameters
+        ----------
+        seed : int
+            The sweep's seed, >= 0 (see :meth:`rng`).
+        samples : int
+            Number of values to draw, >= 1.
+
+        Returns
+        -------
+        tuple of float
+            The draws from the distribution, in the key's file unit, in draw
+            order.
+        """
         rng = self.rng(seed)
         low, high = float(self.low or 0.0), float(self.high or 0.0)
         if self.distribution == "uniform":
@@ -363,7 +404,14 @@ class SweepPoint(Mapping[str, Any]):
         return len(self.changes)
 
     def label(self) -> str:
-        """``"key = value, ..."`` (TOML spelling of the values)."""
+        """``"key = value, ..."`` (TOML spelling of the values).
+
+        Returns
+        -------
+        str
+            Each key path with its value as a TOML file writes it, in the
+            point's key order, joined by commas.
+        """
         return ", ".join(f"{k} = {toml_text(v)}" for k, v in self.changes.items())
 
 

@@ -311,7 +311,27 @@ class SweepStore:
 
     def describe_difference(self, points: Sequence[SweepPoint], keys: Sequence[str],
                             simulate: bool, version: str) -> str:
-        """What differs between this store and a sweep (for the refusal message)."""
+        """What differs between this store and a sweep (for the refusal message).
+
+        Parameters
+        ----------
+        points : sequence of SweepPoint
+            The sweep's points, in order (not compared themselves: only their
+            keys are).
+        keys : sequence of str
+            Their point keys, in the same order.
+        simulate : bool
+            Whether the sweep's simulations run.
+        version : str
+            The trainctl version running the sweep.
+
+        Returns
+        -------
+        str
+            The first difference found, in words: the trainctl version, the
+            ``simulate`` choice, the number of points, how many points are
+            other scenarios, or else "other swept values".
+        """
         old = self.manifest
         if old.get("trainctl") != version:
             return f"made by trainctl {old.get('trainctl')}, this is {version}"
@@ -339,7 +359,14 @@ class SweepStore:
         return [p["key"] for p in self.manifest["points"]]
 
     def done(self) -> set[str]:
-        """Keys of the points whose results are stored."""
+        """Keys of the points whose results are stored.
+
+        Returns
+        -------
+        set of str
+            The point keys of the manifest that have a complete point directory
+            (with its ``summary.json``); empty without ``points/``.
+        """
         if not self.points_dir.is_dir():
             return set()
         wanted = set(self.keys)
@@ -347,7 +374,13 @@ class SweepStore:
                 if p.name in wanted and (p / "summary.json").is_file()}
 
     def missing(self) -> list[str]:
-        """Keys still to run, each once, in point order."""
+        """Keys still to run, each once, in point order.
+
+        Returns
+        -------
+        list of str
+            The manifest's point keys not in :meth:`done`, without repeats.
+        """
         done = self.done()
         out: list[str] = []
         for key in self.keys:
@@ -397,6 +430,17 @@ class SweepStore:
     def summary(self, key: str) -> dict[str, Any]:
         """A stored point's summary.
 
+        Parameters
+        ----------
+        key : str
+            The point's key (:func:`~trainctl.sweep.point_key`).
+
+        Returns
+        -------
+        dict of str to object
+            The point's ``summary.json``: its run's summary
+            (:func:`~trainctl.sweep.run_point`).
+
         Raises
         ------
         ScenarioError
@@ -427,6 +471,12 @@ class SweepStore:
     def rows(self) -> list[dict[str, Any]]:
         """Every point's rows (:func:`~trainctl.sweep.point_rows`), in point order.
 
+        Returns
+        -------
+        list of dict of str to object
+            One row per point and simulated strategy (one row with
+            ``strategy = ""`` for a point without simulations).
+
         Raises
         ------
         ScenarioError
@@ -442,7 +492,20 @@ class SweepStore:
         return rows
 
     def table(self) -> pd.DataFrame:
-        """The tidy table of every point (:func:`rows_frame` of :meth:`rows`)."""
+        """The tidy table of every point (:func:`rows_frame` of :meth:`rows`).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per point and strategy; columns ``point``, ``point_key``,
+            the swept keys, ``strategy``, then the check and metric columns,
+            one dtype per column.
+
+        Raises
+        ------
+        ScenarioError
+            A point has not run yet.
+        """
         return rows_frame(self.rows(), self.manifest["swept"])
 
     def write_table(self, csv: bool = False) -> Path:
@@ -468,6 +531,11 @@ class SweepStore:
 
     def read_table(self) -> pd.DataFrame:
         """``rows.parquet`` as written by :meth:`write_table`.
+
+        Returns
+        -------
+        pandas.DataFrame
+            The table of :meth:`table` as stored when the sweep finished.
 
         Raises
         ------
