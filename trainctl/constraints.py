@@ -352,8 +352,9 @@ class Number(Rule):
         -------
         pydantic_core.CoreSchema
             A strict float schema with ``gt``, ``ge`` and ``le``, refusing nan
-            and inf unless ``allow_inf``, behind a conversion of integers (not
-            bools) to floats (too large ones to +-inf).
+            and inf unless ``allow_inf`` (then nan still fails any bound),
+            behind a conversion of integers (not bools) to floats (too large
+            ones to +-inf).
         """
         number = core_schema.float_schema(
             gt=self.gt, ge=self.ge, le=self.le, allow_inf_nan=self.allow_inf, strict=True
@@ -643,7 +644,8 @@ class Text(Rule):
         -------
         pydantic_core.CoreSchema
             A strict str schema; with ``nonblank`` its pattern asks for a
-            character that is not white space, else with ``single_line`` it
+            character that is not white space (line breaks are then
+            accepted, even with ``single_line``), else with ``single_line`` it
             refuses line breaks.
         """
         pattern = r"\S" if self.nonblank else r"^[^\r\n]*$" if self.single_line else None

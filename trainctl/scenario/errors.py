@@ -131,7 +131,9 @@ class DocumentTable:
         loc : tuple
             Location of the part below this table (keys and array indices).
         value : object
-            The value the document holds there (None or anything when absent).
+            The value the document holds there;
+            :data:`~trainctl.constraints.NOTHING` when absent (the file model
+            alone decides then).
 
         Returns
         -------
