@@ -84,7 +84,7 @@ class DocumentTable:
     """A validated table of a scenario document: where it is and what declares it.
 
     Error messages name keys as the file writes them (``[model].speed_kmh``,
-    ``[[train.vehicle]][1].mass_t``); this is what knows the way there.
+    ``[train.vehicle][1].mass_t``); this is what knows the way there.
 
     Parameters
     ----------
