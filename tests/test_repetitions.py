@@ -210,3 +210,30 @@ def test_outage_windows_merged_and_clipped() -> None:
     w = [SimpleNamespace(start=10.0, end=30.0), SimpleNamespace(start=20.0, end=40.0),
          SimpleNamespace(start=90.0, end=200.0), SimpleNamespace(start=300.0, end=310.0)]
     assert _windows_union(w, 100.0) == [(10.0, 40.0), (90.0, 100.0)]
+
+
+def test_summaries_are_strict_json_when_a_measure_is_not_finite() -> None:
+    """A run that stopped early has nan errors and infinite settling times: its summary is
+    still strict JSON (the sweep store writes with allow_nan=False), None in their place."""
+    import dataclasses
+    import json
+
+    from trainctl.repetitions import Deviation
+    from trainctl.scenario import load_scenario
+
+    scenario = (load_scenario("crh2-dmpc").replace("simulation.settle_time", 60.0)
+                .replace("simulation.duration", 120.0))
+    rep = run_repetition(scenario, "decentralised", None, 1)
+    nan4 = np.full(4, math.nan)
+    bad = dataclasses.replace(
+        rep, metrics=dataclasses.replace(rep.metrics, rms_error=nan4, max_error=nan4),
+        deviation=Deviation(rms_error=nan4, max_error=np.array([1.0, math.inf, 0.5, 0.2]),
+                            settling_time=np.full(4, math.inf), max_coupler_force=math.nan,
+                            since=0.0, diverged=True))
+    d = json.loads(json.dumps(bad.to_dict(), allow_nan=False))
+    assert d["rms_error_settled"] == d["max_error_settled"] == [None] * 4
+    assert d["deviation"]["max_error"] == [1.0, None, 0.5, 0.2]
+    assert d["deviation"]["settling_time"] == [None] * 4
+    assert d["deviation"]["max_coupler_force"] is None and d["deviation"]["diverged"] is True
+    good = json.loads(json.dumps(rep.to_dict(), allow_nan=False))
+    assert good["rms_error_settled"] == rep.metrics.rms_error.tolist()

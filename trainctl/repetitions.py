@@ -131,7 +131,7 @@ class Deviation:
     diverged: bool
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-safe (inf as None).
+        """JSON-safe (inf and nan as None).
 
         Returns
         -------
@@ -141,11 +141,11 @@ class Deviation:
             (None where infinite), ``max_coupler_force`` [N], ``since`` [s] and
             ``diverged``.
         """
-        return {"rms_error": self.rms_error.tolist(), "max_error": self.max_error.tolist(),
-                "settling_time": [x if math.isfinite(x) else None
-                                  for x in self.settling_time.tolist()],
-                "max_coupler_force": self.max_coupler_force, "since": self.since,
-                "diverged": self.diverged}
+        return {"rms_error": _json_list(self.rms_error), "max_error": _json_list(self.max_error),
+                "settling_time": _json_list(self.settling_time),
+                "max_coupler_force": (self.max_coupler_force
+                                      if math.isfinite(self.max_coupler_force) else None),
+                "since": self.since, "diverged": self.diverged}
 
 
 def deviation(result: SimulationResult, since: float, band: float = SETTLING_BAND) -> Deviation:
@@ -260,8 +260,14 @@ class Repetition:
         m = self.metrics
         return {"strategy": self.strategy, "index": self.index, "seed": self.seed,
                 "deviation": self.deviation.to_dict(),
-                "rms_error_settled": m.rms_error.tolist(),
-                "max_error_settled": m.max_error.tolist()}
+                "rms_error_settled": _json_list(m.rms_error),
+                "max_error_settled": _json_list(m.max_error)}
+
+
+def _json_list(values: Array) -> list[float | None]:
+    """``values`` as a list with None for every non-finite item (strict JSON has no nan or
+    inf; a run that stopped before its settle time has no errors to measure)."""
+    return [x if math.isfinite(x) else None for x in np.asarray(values, dtype=float).tolist()]
 
 
 def last_breakpoint(scenario: Scenario) -> float:
