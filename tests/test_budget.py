@@ -222,3 +222,23 @@ def test_runtime_budget_stops_the_run(tmp_path: Path) -> None:
     assert "stopped after 2 s: the run outlived its time budget" in proc.stderr
     assert "Traceback" not in proc.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+def test_repeated_runs_are_counted_in_the_steps() -> None:
+    """heavy-haul-hinf-delay runs each of its 2 strategies 20 times and again over the
+    delay-free baseline: 1800 s / 0.1 s = 18 000 samples × 2 strategies × 40 runs."""
+    scenario = load_scenario("heavy-haul-hinf-delay")
+    est = estimate_run(scenario)
+    assert (est.samples, est.strategies, est.runs) == (18_000, 2, 40)
+    assert est.controller_steps == 18_000 * 2 * 40
+    assert est.work == est.controller_steps * 4 * est.horizon
+    assert est.describe().startswith(
+        "18000 samples × 2 strategies × 40 runs = 1440000 controller steps")
+    single = estimate_run(scenario.replace("simulation.repetitions", 1))
+    assert single.runs == 2 and single.controller_steps == 18_000 * 2 * 2
+    # A total's counts are sums and maxima, so it names the sum, not a false product.
+    crh2 = estimate_run(load_scenario("crh2-dmpc"))
+    total = total_estimate([est, crh2])
+    assert total.controller_steps == est.controller_steps + 180
+    assert total.describe().startswith(f"{est.controller_steps + 180} controller steps of "
+                                       "5 strategies")

@@ -137,7 +137,7 @@ class RunEstimate:
     strategies : int
         Simulated strategies.
     controller_steps : int
-        ``samples × strategies``, summed over scenarios.
+        ``samples × strategies × runs``, summed over scenarios.
     work : int
         ``controller_steps × vehicles × horizon``, summed over scenarios.
     design_seconds : float
@@ -148,6 +148,10 @@ class RunEstimate:
         Estimated peak memory of the largest stage [bytes].
     dominant : str
         What costs most, in words (for messages).
+    runs : int
+        Runs of each strategy: the ``[simulation]`` repetitions, twice as many
+        with a baseline network (:mod:`trainctl.repetitions`); the largest
+        over scenarios for a total.
 
     Examples
     --------
@@ -172,6 +176,7 @@ class RunEstimate:
     simulation_seconds: float
     memory_bytes: float
     dominant: str
+    runs: int = 1
 
     @property
     def seconds(self) -> float:
@@ -184,8 +189,10 @@ class RunEstimate:
         Returns
         -------
         str
-            The controller steps (``samples × strategies``, or "design review
-            only" without simulations), the vehicles and horizon P (when > 1),
+            The controller steps (``samples × strategies × runs`` where that
+            product is the count, as for one scenario; else the count and the
+            strategies; "design review only" without simulations), the
+            vehicles and horizon P (when > 1),
             the estimated total time and the peak memory, e.g. ``"... (4
             vehicles, P = 4): about 9.6 s, 0.1 MB"``.
 
@@ -195,9 +202,14 @@ class RunEstimate:
         >>> estimate_run(load_scenario("crh2-dmpc")).describe().split(":")[0]
         '60 samples × 3 strategies = 180 controller steps (4 vehicles, P = 4)'
         """
-        if self.strategies:
-            steps = (f"{self.samples} samples × {self.strategies} strategies = "
+        runs = f" × {self.runs} runs" if self.runs > 1 else ""
+        if self.strategies and self.samples * self.strategies * self.runs \
+                == self.controller_steps:
+            steps = (f"{self.samples} samples × {self.strategies} strategies{runs} = "
                      f"{self.controller_steps} controller steps")
+        elif self.strategies:
+            steps = (f"{self.controller_steps} controller steps of {self.strategies} "
+                     "strategies")
         else:
             steps = "design review only"
         size = f"{self.vehicles} vehicles" + (f", P = {self.horizon}" if self.horizon > 1 else "")
@@ -218,7 +230,8 @@ class RunEstimate:
                 "controller_steps": self.controller_steps, "work": self.work,
                 "design_seconds": self.design_seconds,
                 "simulation_seconds": self.simulation_seconds, "seconds": self.seconds,
-                "memory_bytes": self.memory_bytes, "dominant": self.dominant}
+                "memory_bytes": self.memory_bytes, "dominant": self.dominant,
+                "runs": self.runs}
 
 
 def estimate_run(scenario: Scenario, *, simulate: bool = True) -> RunEstimate:
@@ -273,9 +286,9 @@ def estimate_run(scenario: Scenario, *, simulate: bool = True) -> RunEstimate:
                     + (", × runs of each)" if runs > 1 else ")"))
     return RunEstimate(
         label=str(scenario.source), vehicles=n, horizon=horizon, samples=samples,
-        strategies=len(strategies), controller_steps=samples * len(strategies),
-        work=samples * len(strategies) * n * horizon, design_seconds=design,
-        simulation_seconds=seconds, memory_bytes=memory, dominant=dominant)
+        strategies=len(strategies), controller_steps=samples * len(strategies) * runs,
+        work=samples * len(strategies) * runs * n * horizon, design_seconds=design,
+        simulation_seconds=seconds, memory_bytes=memory, dominant=dominant, runs=runs)
 
 
 def total_estimate(estimates: Iterable[RunEstimate]) -> RunEstimate:
@@ -320,7 +333,7 @@ def total_estimate(estimates: Iterable[RunEstimate]) -> RunEstimate:
         work=sum(e.work for e in items),
         design_seconds=sum(e.design_seconds for e in items),
         simulation_seconds=sum(e.simulation_seconds for e in items),
-        memory_bytes=max(e.memory_bytes for e in items))
+        memory_bytes=max(e.memory_bytes for e in items), runs=max(e.runs for e in items))
 
 
 def check_budget(estimate: RunEstimate, max_time: float) -> None:
