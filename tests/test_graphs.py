@@ -48,6 +48,18 @@ def test_laplacian_rows_act_as_consensus_errors():
     assert np.allclose(g.laplacian() @ x, by_hand)
 
 
+def test_neighbours_are_the_senders_a_vehicle_hears():
+    """Row i of the adjacency, by hand for a weighted digraph; a bad index is refused, a
+    negative one too (numpy would count it from the end)."""
+    a = np.array([[0.0, 2.0, 0.0], [0.5, 0.0, 1.0e-3], [1.0, 3.0, 0.0]])
+    g = CommunicationGraph(a, [1.0, 0.0, 0.0])
+    assert [g.neighbours(i) for i in range(3)] == [(1,), (0, 2), (0, 1)]
+    assert make_graph("bidirectional", 4).neighbours(np.int64(2)) == (1, 3)
+    for bad in (-1, 3, 1.0, True):
+        with pytest.raises(ModelError, match=r"'i' must be a vehicle index from 0 to 2"):
+            g.neighbours(bad)
+
+
 def test_leader_pinned_chain_has_a_spanning_tree_and_a_cut_chain_has_none():
     """Reference → head → … → tail reaches all; cutting the middle link strands the rear."""
     for topology in ("predecessor", "bidirectional"):

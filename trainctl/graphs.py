@@ -259,7 +259,16 @@ class CommunicationGraph:
         tuple of int
             The 0-based indices j with ``adjacency[i, j] > 0``, ascending; the
             reference is not included (see :attr:`pinning`).
+
+        Raises
+        ------
+        ModelError
+            When ``i`` is not a vehicle index (a negative one included: it
+            would silently count from the end).
         """
+        if isinstance(i, bool) or not isinstance(i, int | np.integer) or not 0 <= i < self.n:
+            raise ModelError(f"CommunicationGraph.neighbours: 'i' must be a vehicle index from "
+                             f"0 to {self.n - 1} (got {i!r}).")
         return tuple(int(j) for j in np.flatnonzero(self.adjacency[i]))
 
     def summary(self) -> dict[str, Any]:
