@@ -609,6 +609,9 @@ class Text(Rule):
     ...         return exc.errors()[0]["ctx"]["violation"].text
     >>> problem(Text(nonblank=True), "  "), problem(Text(single_line=True), "a\\nb")
     ('must be a non-empty string', 'must be a single line')
+    >>> both = Text(nonblank=True, single_line=True)
+    >>> problem(both, "a\\nb"), problem(both, " "), problem(both, " \\n "), problem(both, "a b")
+    ('must be a single line', 'must be a non-empty string', 'must be a non-empty string', None)
     >>> problem(Text(), 3), problem(Text(nonblank=True), "CRH2") is None
     ('must be a string', True)
     """
@@ -644,11 +647,13 @@ class Text(Rule):
         -------
         pydantic_core.CoreSchema
             A strict str schema; with ``nonblank`` its pattern asks for a
-            character that is not white space (line breaks are then
-            accepted, even with ``single_line``), else with ``single_line`` it
-            refuses line breaks.
+            character that is not white space, with ``single_line`` it refuses
+            line breaks, with both it asks for both.
         """
-        pattern = r"\S" if self.nonblank else r"^[^\r\n]*$" if self.single_line else None
+        if self.nonblank and self.single_line:
+            pattern: str | None = r"^[^\r\n]*\S[^\r\n]*$"
+        else:
+            pattern = r"\S" if self.nonblank else r"^[^\r\n]*$" if self.single_line else None
         return core_schema.str_schema(strict=True, pattern=pattern)
 
     def explain(self, error_type: str, value: Any) -> Violation:
@@ -666,11 +671,14 @@ class Text(Rule):
         -------
         Violation
             ``"must be a string"`` for a wrong type, else ``"must be a
-            non-empty string"`` (``nonblank``) or ``"must be a single line"``.
+            non-empty string"`` (``nonblank``, a blank value) or ``"must be a
+            single line"``.
         """
         if error_type != "string_pattern_mismatch":
             return super().explain(error_type, value)
-        text = "must be a non-empty string" if self.nonblank else "must be a single line"
+        blank = not isinstance(value, str) or not value.strip()
+        text = ("must be a non-empty string" if self.nonblank and (blank or not self.single_line)
+                else "must be a single line")
         return Violation(text=text, got=value)
 
 
