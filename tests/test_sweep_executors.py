@@ -170,6 +170,8 @@ class TestUnreachableScheduler:
         assert code == 2
         assert captured.err.startswith("trainctl: error: --scheduler ")
         assert address in captured.err and "no Dask scheduler answered" in captured.err
+        # refused at once by the TCP probe, not after the client's 10 s of retries
+        assert "Connection refused" in captured.err
         assert "Traceback" not in captured.err and captured.out == ""
         assert not output.exists()
         assert list(tmp_path.iterdir()) == []

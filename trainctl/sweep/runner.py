@@ -24,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import itertools
 import os
+import socket
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from typing import TYPE_CHECKING, Any
@@ -308,6 +309,23 @@ def scheduler_address(given: str | None) -> str | None:
     return os.environ.get(SCHEDULER_ENV) or None
 
 
+def _probe(address: str, timeout: float) -> None:
+    """Open and close a TCP connection to a ``tcp://`` scheduler address: a refused one
+    fails at once (OSError), where ``distributed.Client`` retries until its timeout.
+    Other protocols, and addresses ``distributed`` cannot parse, are left to the client."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        scheme, location = parse_address(address)
+        host, port = parse_host_port(location)
+    except ValueError:
+        return
+    if scheme != "tcp" or port is None:
+        return
+    with socket.create_connection((host, int(port)), timeout=timeout):
+        pass
+
+
 @contextlib.contextmanager
 def dask_executor(address: str, timeout: float = 10.0) -> Iterator[Executor]:
     """An executor on a running Dask cluster (``distributed.Client(address).get_executor``).
@@ -331,7 +349,7 @@ def dask_executor(address: str, timeout: float = 10.0) -> Iterator[Executor]:
 
     Examples
     --------
-    Nothing listens on port 1, so the connection fails after the timeout:
+    Nothing listens on port 1, so the connection is refused at once:
 
     >>> try:
     ...     with dask_executor("tcp://127.0.0.1:1", timeout=0.5) as executor:
@@ -347,6 +365,7 @@ def dask_executor(address: str, timeout: float = 10.0) -> Iterator[Executor]:
                             "installed: pip install 'trainctl[dask]' (the workers need it "
                             "and trainctl too).") from None
     try:
+        _probe(address, timeout)
         client = Client(address, timeout=timeout, set_as_default=False)
     except (OSError, TimeoutError) as exc:
         raise ScenarioError(f"--scheduler {address}: no Dask scheduler answered ({exc}). "
