@@ -177,7 +177,24 @@ class Controller(Protocol):
         ...
 
     def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
-        """Compute the inputs to hold over [t, t + dt)."""
+        """Compute the inputs to hold over [t, t + dt).
+
+        Parameters
+        ----------
+        t : float
+            Time of the sample [s].
+        measurement : Measurement
+            What the controller can measure at ``t`` (state, outputs,
+            neighbour messages, positions).
+        reference : ReferencePreview
+            The reference over the controller's horizon, starting at ``t``.
+
+        Returns
+        -------
+        StepRecord
+            The force per vehicle to hold until the next sample [N], with the
+            step's status, iterations and solve time.
+        """
         ...
 
 

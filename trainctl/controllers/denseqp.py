@@ -391,6 +391,19 @@ class FastDAQP:
         outside its bounds) give ``"infeasible"`` without a solve; DAQP finds
         the other infeasible cases. A failed solve restarts the working set
         cold.
+
+        Parameters
+        ----------
+        data : ndarray
+            OSQP's stacked data [q; b; h] (:meth:`FastOSQP.compose`).
+
+        Returns
+        -------
+        QPSolution
+            The decision variable z (NaN when there is no solution), the
+            soft-constraint slacks s >= 0 (the soft rows' violations when the
+            slacks were removed), the step status, DAQP's iterations and the
+            wall time [s].
         """
         start = time.perf_counter()
         # One sum finds a NaN or an infinity (the data are clipped to ±1e20); then look closer.

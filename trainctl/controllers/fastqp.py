@@ -101,7 +101,19 @@ class SolverOutput:
         self.dropped = 0
 
     def write(self, text: str) -> int:
-        """Drop ``text``; return its length."""
+        """Drop ``text``; return its length.
+
+        Parameters
+        ----------
+        text : str
+            What the solver printed.
+
+        Returns
+        -------
+        int
+            ``len(text)``, as ``io.TextIOBase.write`` returns (it is added to
+            :attr:`dropped`).
+        """
         self.dropped += len(text)
         return len(text)
 
@@ -398,6 +410,17 @@ class FastOSQP:
         """OSQP's (q, l, u) from the stacked data [q; b; h]: l = [b; -inf], u = [b; h].
 
         l and u are new arrays; q is a view of ``vec``.
+
+        Parameters
+        ----------
+        vec : ndarray
+            OSQP's stacked data [q; b; h], as :meth:`compose` gives it.
+
+        Returns
+        -------
+        (ndarray, ndarray, ndarray)
+            The linear cost q and the constraint bounds l and u (entries at
+            ±1e19 and beyond turned into ±inf).
         """
         q, upper = self._qu(vec)
         lower = self._lower.copy()
@@ -430,13 +453,36 @@ class FastOSQP:
         return out
 
     def compose(self, values: Mapping[str, Array]) -> Array:
-        """OSQP's stacked data [q; b; h] for the parameter values (clipped to ±1e20)."""
+        """OSQP's stacked data [q; b; h] for the parameter values (clipped to ±1e20).
+
+        Parameters
+        ----------
+        values : mapping of str to ndarray
+            A value for every non-empty parameter, keyed as ``params``, each
+            of the parameter's size (flattened in C order).
+
+        Returns
+        -------
+        ndarray
+            ``offset + jac @ p``, p the stacked parameter values.
+        """
         flat = np.concatenate([np.clip(np.asarray(values[key], dtype=float).ravel(), -1e20, 1e20)
                                for key, p in self._all.items() if p.size])
         return self.offset + self.jac @ flat
 
     def solve(self, values: Mapping[str, Array]) -> QPSolution:
-        """Solve for the parameter values (keys of ``params``; clipped to ±1e20)."""
+        """Solve for the parameter values (keys of ``params``; clipped to ±1e20).
+
+        Parameters
+        ----------
+        values : mapping of str to ndarray
+            A value for every non-empty parameter, keyed as ``params``.
+
+        Returns
+        -------
+        QPSolution
+            As :meth:`solve_vector` returns it for :meth:`compose`'s data.
+        """
         return self.solve_vector(self.compose(values))
 
     def solve_vector(self, data: Array) -> QPSolution:
@@ -446,6 +492,23 @@ class FastOSQP:
         solution is then NaN with status ``"error"``. A solve that leaves no
         finite solution with status ``"error"`` restarts the workspace cold,
         so that no later solve warm-starts from it.
+
+        Parameters
+        ----------
+        data : ndarray
+            OSQP's stacked data [q; b; h] (:meth:`compose`).
+
+        Returns
+        -------
+        QPSolution
+            The decision variable z and slack s from OSQP's solution (NaN when
+            there is none), the step status, OSQP's iterations and the wall
+            time [s].
+
+        Raises
+        ------
+        KeyboardInterrupt
+            When OSQP caught a Ctrl-C during the solve (:func:`pass_on_interrupt`).
         """
         start = time.perf_counter()
         if np.isnan(data).any() or not np.isfinite(data[:self._n]).all():

@@ -137,14 +137,36 @@ class KalmanObserver:
         return np.asarray(np.linalg.solve(C @ P @ C.T + RN, C @ P).T, dtype=float)
 
     def reset(self, state: Array | None = None) -> None:
-        """Restart from ``state`` ([v, delta, s]; None: wait for the first measurement)."""
+        """Restart from ``state`` ([v, delta, s]; None: wait for the first measurement).
+
+        Parameters
+        ----------
+        state : ndarray, shape (2n,) or None
+            Initial state ``[v (n) [m/s], delta (n-1) [m], s [m]]``, used as
+            the prediction of the first sample; None starts from the first
+            measured speeds instead (couplers at rest). The disturbance
+            estimate restarts at 0.
+        """
         self.predicted: Array = (np.zeros(2 * self.train.n_vehicles) if state is None
                                  else np.asarray(state, dtype=float).copy())
         self.disturbance = 0.0
         self._started = state is not None
 
     def correct(self, speeds: Array) -> tuple[Array, float]:
-        """Measurement update with the measured speeds [m/s]; returns (state, r̂)."""
+        """Measurement update with the measured speeds [m/s]; returns (state, r̂).
+
+        Parameters
+        ----------
+        speeds : ndarray, shape (n,)
+            Measured speed of each vehicle [m/s].
+
+        Returns
+        -------
+        (ndarray, float)
+            The state estimate ``[v (n) [m/s], delta (n-1) [m], s [m]]``,
+            shape (2n,) (the position is the prediction's), and the
+            disturbance estimate r̂ [m/s²].
+        """
         n = self.train.n_vehicles
         y = np.asarray(speeds, dtype=float)
         if not self._started:  # first sample: speeds measured, couplers assumed at rest
@@ -167,7 +189,15 @@ class KalmanObserver:
             self.estimate = self.predicted.copy()
 
     def predict(self, inputs: Array) -> None:
-        """Time update with the forces applied over the next sample [N]."""
+        """Time update with the forces applied over the next sample [N].
+
+        Parameters
+        ----------
+        inputs : ndarray, shape (n,)
+            Force applied to each vehicle until the next sample [N]; the
+            prediction subtracts m·r̂ from it. Nothing happens before the
+            first measurement.
+        """
         if not self._started:
             return
         effective = np.asarray(inputs, dtype=float) - self.train.mass * self.disturbance

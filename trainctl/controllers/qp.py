@@ -227,7 +227,25 @@ class ParametricQP:
         return self._fast.offset, self._fast.blocks
 
     def solve_data(self, data: Array) -> QPSolution:
-        """Fast path with the data vector already composed (see :meth:`data_map`)."""
+        """Fast path with the data vector already composed (see :meth:`data_map`).
+
+        Parameters
+        ----------
+        data : ndarray
+            OSQP's stacked data [q; b; h]: ``offset`` plus the map's blocks
+            times the parameter vectors (:meth:`data_map`).
+
+        Returns
+        -------
+        QPSolution
+            Decision, slacks, status, iterations and time, from the fast
+            path's solver (DAQP when :attr:`solver` is ``"daqp"``, else OSQP).
+
+        Raises
+        ------
+        SolverError
+            If the QP was built without the fast path (``fast=False``).
+        """
         if self._solve_vector is None:
             raise SolverError(f"{self.name}: built without the fast path (fast=False).")
         return self._solve_vector(data)

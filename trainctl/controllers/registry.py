@@ -133,27 +133,108 @@ class ControllerFamily(Protocol):
     report_partial: str
 
     def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> Any:
-        """The family's design (built once per run)."""
+        """The family's design (built once per run).
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The validated scenario of the run.
+        model : DesignModel
+            The shared design model (linearised platoon, sample time, bounds).
+        settings : object
+            The family's validated ``[controller]`` settings (an instance of
+            :attr:`settings`, SI units).
+
+        Returns
+        -------
+        object
+            The family's design, passed to :meth:`make`, :meth:`checks`,
+            :meth:`closed_loop` and :meth:`report_data`.
+        """
         ...
 
     def make(self, design: Any, strategy: str) -> Controller:
-        """A controller for one strategy, ready to ``step``."""
+        """A controller for one strategy, ready to ``step``.
+
+        Parameters
+        ----------
+        design : object
+            The family's design, from :meth:`design`.
+        strategy : str
+            One of :attr:`strategies`.
+
+        Returns
+        -------
+        Controller
+            A fresh controller following the
+            :class:`~trainctl.controllers.base.Controller` protocol.
+        """
         ...
 
     def checks(self, design: Any) -> list[Check]:
-        """The family's design checks."""
+        """The family's design checks.
+
+        Parameters
+        ----------
+        design : object
+            The family's design, from :meth:`design`.
+
+        Returns
+        -------
+        list of Check
+            One check per name in :attr:`check_names`.
+        """
         ...
 
     def closed_loop(self, design: Any, strategy: str) -> ct.StateSpace | None:
-        """The linear closed loop of a strategy (discrete or continuous), or None."""
+        """The linear closed loop of a strategy (discrete or continuous), or None.
+
+        Parameters
+        ----------
+        design : object
+            The family's design, from :meth:`design`.
+        strategy : str
+            One of :attr:`strategies`.
+
+        Returns
+        -------
+        control.StateSpace or None
+            The linear closed loop of the strategy (inputs and outputs as the
+            family labels them, e.g. disturbances ``w[i]`` to speed, coupler-force
+            and spacing deviations), discrete (``dt`` the sample time [s]) or
+            continuous; None where the loop is not linear.
+        """
         ...
 
     def report_data(self, design: Any) -> dict[str, Any]:
-        """JSON-safe data for the family's report section and figures."""
+        """JSON-safe data for the family's report section and figures.
+
+        Parameters
+        ----------
+        design : object
+            The family's design, from :meth:`design`.
+
+        Returns
+        -------
+        dict of str to object
+            JSON-safe data, the ``data`` context of :attr:`report_partial` and
+            the input of :meth:`report_figures`.
+        """
         ...
 
     def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
-        """The family's figures, drawn from ``data`` (placed by their ``section``)."""
+        """The family's figures, drawn from ``data`` (placed by their ``section``).
+
+        Parameters
+        ----------
+        data : mapping of str to object
+            The family's :meth:`report_data` (possibly read back from JSON).
+
+        Returns
+        -------
+        sequence of ReportFigure
+            The figures, each placed by its ``section``; may be empty.
+        """
         ...
 
 

@@ -82,7 +82,29 @@ class LQRController:
         """Nothing to forget: the law is static."""
 
     def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
-        """Feedforward minus K times the deviation, clipped to the envelope."""
+        """Feedforward minus K times the deviation, clipped to the envelope.
+
+        Parameters
+        ----------
+        t : float
+            Time of the sample [s] (the law is static: unused).
+        measurement : Measurement
+            Must hold the full state ``[v (n) [m/s], delta (n-1) [m], s [m]]``.
+        reference : ReferencePreview
+            The reference; only its first speed [m/s] and acceleration
+            [m/s²] are used.
+
+        Returns
+        -------
+        StepRecord
+            Force per vehicle [N], status ``"optimal"``, and in ``info``
+            ``"saturated"``, how many forces the envelope cut.
+
+        Raises
+        ------
+        ModelError
+            If the measurement has no state.
+        """
         start = time.perf_counter()
         if measurement.state is None:
             raise ModelError(f"{self.name}: needs full-state measurement (got state=None).")

@@ -116,7 +116,19 @@ class LQRDesign:
     gains: Mapping[str, Array]
 
     def closed_loop_matrix(self, strategy: str) -> Array:
-        """A - B K of a strategy."""
+        """A - B K of a strategy.
+
+        Parameters
+        ----------
+        strategy : str
+            ``"centralised"`` or ``"decentralised"``.
+
+        Returns
+        -------
+        ndarray, shape (2n-1, 2n-1)
+            The discrete closed-loop state matrix on the design state
+            (speeds [m/s], elongations [m]).
+        """
         return np.asarray(self.A - self.B @ self.gains[strategy], dtype=float)
 
 
@@ -227,11 +239,40 @@ class LQRFamily:
         return LQRSettings
 
     def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> LQRDesign:
-        """See :func:`design_lqr`."""
+        """See :func:`design_lqr`.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+        model : DesignModel
+            Its design model.
+        settings : LQRSettings
+            The family's ``[controller]`` settings (outputs, weights, saturation).
+
+        Returns
+        -------
+        LQRDesign
+            The discrete model, weights and the gain of both strategies.
+        """
         return design_lqr(scenario, model, settings)
 
     def make(self, design: LQRDesign, strategy: str) -> LQRController:
-        """The controller of one strategy: feedforward, gain, saturation."""
+        """The controller of one strategy: feedforward, gain, saturation.
+
+        Parameters
+        ----------
+        design : LQRDesign
+            The family's design.
+        strategy : str
+            ``"centralised"`` or ``"decentralised"``.
+
+        Returns
+        -------
+        LQRController
+            With the strategy's gain, the model's sample time [s] and the
+            settings' ``input_bounds``, named after the strategy.
+        """
         from .controller import LQRController
 
         return LQRController(design.scenario.train, design.gains[strategy],
@@ -239,7 +280,18 @@ class LQRFamily:
                              input_bounds=design.settings.input_bounds, name=strategy)
 
     def checks(self, design: LQRDesign) -> list[Check]:
-        """Spectral radius of each strategy's closed loop on the coupled model."""
+        """Spectral radius of each strategy's closed loop on the coupled model.
+
+        Parameters
+        ----------
+        design : LQRDesign
+            The family's design.
+
+        Returns
+        -------
+        list of Check
+            ``lqr_closed_loop`` (centralised) and ``lqr_decentralised_closed_loop``.
+        """
         from ...analysis.review import radius_check
 
         labels = design.scenario.train.state_labels()
@@ -257,6 +309,19 @@ class LQRFamily:
 
         Speed deviations, coupler-force deviations and spacing deviations
         (:meth:`~trainctl.design.DesignModel.loop_outputs`).
+
+        Parameters
+        ----------
+        design : LQRDesign
+            The family's design.
+        strategy : str
+            ``"centralised"`` or ``"decentralised"``.
+
+        Returns
+        -------
+        control.StateSpace
+            Discrete, ``dt`` the sample time [s]; inputs the disturbances
+            ``w[i]`` of the design model's disturbance matrix.
         """
         import control as ct
 
@@ -269,7 +334,21 @@ class LQRFamily:
                      name=f"lqr_{strategy}")
 
     def report_data(self, design: LQRDesign) -> dict[str, Any]:
-        """Closed-loop spectra and gain sizes, JSON-safe."""
+        """Closed-loop spectra and gain sizes, JSON-safe.
+
+        Parameters
+        ----------
+        design : LQRDesign
+            The family's design.
+
+        Returns
+        -------
+        dict of str to object
+            ``spectra`` (closed-loop eigenvalues as [re, im] pairs per
+            strategy), ``rows`` (spectral radius [-] and largest gain [kN per
+            unit state] per strategy, as text), ``outputs``, ``r_text``,
+            ``unit`` and ``input_bounds``.
+        """
         spectra, rows = {}, []
         for strategy in STRATEGIES:
             lam = np.linalg.eigvals(design.closed_loop_matrix(strategy)).astype(complex)
@@ -283,7 +362,18 @@ class LQRFamily:
                 "input_bounds": bool(settings.input_bounds)}
 
     def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
-        """No figures of its own: its spectra join the eigenvalue map."""
+        """No figures of its own: its spectra join the eigenvalue map.
+
+        Parameters
+        ----------
+        data : mapping of str to object
+            The family's :meth:`report_data` (unused).
+
+        Returns
+        -------
+        sequence of ReportFigure
+            Always empty.
+        """
         return []
 
 

@@ -283,7 +283,26 @@ class QPBlock:
     scale: Array | None              # ... and its factor (0 for constant data)
 
     def solve(self, prep: BlockParameters, U: Array | None, path: str) -> QPSolution:
-        """Solve the block's QP with the other blocks' moves U (None: zero)."""
+        """Solve the block's QP with the other blocks' moves U (None: zero).
+
+        Parameters
+        ----------
+        prep : BlockParameters
+            The block's parameters of this step at U = 0 (:func:`block_parameters`).
+        U : ndarray or None
+            The whole plan (decision vector); the block's own columns do not
+            enter (Ko, Fo have them zeroed). None: zero, as for a single
+            optimiser.
+        path : {"fast", "cvxpy"}
+            Solve path of :meth:`ParametricQP.solve` when ``prep`` holds the
+            vectors; unused when it holds the composed data.
+
+        Returns
+        -------
+        QPSolution
+            The block's decisions (its columns of U), slacks, status,
+            iterations and solve time [s].
+        """
         if prep.data is not None:
             if U is None:
                 return self.qp.solve_data(prep.data)

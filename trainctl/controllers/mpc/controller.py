@@ -263,7 +263,34 @@ class MPCController:
         return self.observer is None
 
     def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
-        """One MPC step: feedforward + optimised deviation, first move applied."""
+        """One MPC step: feedforward + optimised deviation, first move applied.
+
+        Parameters
+        ----------
+        t : float
+            Time of the sample [s] (unused: the preview carries the times).
+        measurement : Measurement
+            The full state ``[v (n) [m/s], delta (n-1) [m], s [m]]``, or with an
+            observer the measured speeds (``outputs``) [m/s].
+        reference : ReferencePreview
+            The reference over at least P+1 samples (speed [m/s],
+            acceleration [m/s²]).
+
+        Returns
+        -------
+        StepRecord
+            Force per vehicle [N] (the first move of the plan), the strategy's
+            status, iterations, residuals [kN] and fallback; ``info`` holds
+            the estimated disturbance [m/s²] with an observer. A non-finite
+            measurement or preview gives status ``"error"``, the fallback
+            ``"hold correction"`` and the ``"reason"`` in ``info``.
+
+        Raises
+        ------
+        ModelError
+            If the measurement lacks what the controller uses (the state, or
+            the outputs with an observer).
+        """
         start = time.perf_counter()
         reason = self._fault(measurement, reference)
         if reason:

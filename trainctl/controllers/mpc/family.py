@@ -126,12 +126,26 @@ class MPCFamilyDesign:
         return analyse_local_dmpc(self.mpc, self.local, iterations=self.settings.iterations)
 
     def cooperative_weights(self) -> np.ndarray | None:
-        """Convex weights of cooperative DMPC (None: uniform)."""
+        """Convex weights of cooperative DMPC (None: uniform).
+
+        Returns
+        -------
+        ndarray or None
+            The settings' ``cooperative_weights`` as an array [-], or None
+            when they are ``"uniform"``.
+        """
         weights = self.settings.cooperative_weights
         return None if weights == "uniform" else np.asarray(weights, dtype=float)
 
     def closed_loop_labels(self) -> list[str]:
-        """State names of the closed loops: the design states, then u_prev in the Δu-form."""
+        """State names of the closed loops: the design states, then u_prev in the Δu-form.
+
+        Returns
+        -------
+        list of str
+            The train's state labels, followed by ``u_prev[i]`` per input
+            when the design's form is ``"du"``.
+        """
         labels = self.scenario.train.state_labels()
         if self.mpc.form == "du":
             labels += [f"u_prev[{i}]" for i in range(self.mpc.n_inputs)]
@@ -303,31 +317,110 @@ class MPCFamily:
         return PARTIAL
 
     def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> MPCFamilyDesign:
-        """See :func:`design_mpc`."""
+        """See :func:`design_mpc`.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+        model : DesignModel
+            Its design model.
+        settings : ControllerSettings
+            The family's ``[controller]`` settings (horizons, form, weights,
+            neighbourhoods).
+
+        Returns
+        -------
+        MPCFamilyDesign
+            The unconstrained MPC design on the discrete model (its analysis
+            is computed on first use).
+        """
         return design_mpc(scenario, model, settings)
 
     def make(self, design: MPCFamilyDesign, strategy: str) -> MPCController:
-        """See :func:`make_mpc_controller`."""
+        """See :func:`make_mpc_controller`.
+
+        Parameters
+        ----------
+        design : MPCFamilyDesign
+            The family's design.
+        strategy : str
+            One of :data:`~trainctl.controllers.mpc.STRATEGIES`.
+
+        Returns
+        -------
+        MPCController
+            The strategy's controller, its QPs built, ready to ``step``.
+        """
         return make_mpc_controller(design, strategy)
 
     def checks(self, design: MPCFamilyDesign) -> list[Check]:
-        """See :func:`trainctl.controllers.mpc.checks.mpc_checks`."""
+        """See :func:`trainctl.controllers.mpc.checks.mpc_checks`.
+
+        Parameters
+        ----------
+        design : MPCFamilyDesign
+            The family's design.
+
+        Returns
+        -------
+        list of Check
+            One check per name of :data:`CHECK_NAMES`, in that order.
+        """
         from .checks import mpc_checks
 
         return mpc_checks(design)
 
     def closed_loop(self, design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:
-        """See :func:`mpc_closed_loop`."""
+        """See :func:`mpc_closed_loop`.
+
+        Parameters
+        ----------
+        design : MPCFamilyDesign
+            The family's design.
+        strategy : str
+            One of :data:`~trainctl.controllers.mpc.STRATEGIES`.
+
+        Returns
+        -------
+        control.StateSpace
+            The unconstrained closed loop, discrete (``dt`` the sample time
+            [s]), from the disturbances ``w[i]`` [m/s²] to the speed [m/s],
+            coupler-force [kN] and spacing [m] deviations.
+        """
         return mpc_closed_loop(design, strategy)
 
     def report_data(self, design: MPCFamilyDesign) -> dict[str, Any]:
-        """See :func:`trainctl.controllers.mpc.report.mpc_report_data`."""
+        """See :func:`trainctl.controllers.mpc.report.mpc_report_data`.
+
+        Parameters
+        ----------
+        design : MPCFamilyDesign
+            The family's design.
+
+        Returns
+        -------
+        dict of str to object
+            JSON-safe: closed-loop ``spectra``, the ``weight_sweep`` of ρ(D0)
+            against R, and display values for the section.
+        """
         from .report import mpc_report_data
 
         return mpc_report_data(design)
 
     def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
-        """See :func:`trainctl.controllers.mpc.report.mpc_report_figures`."""
+        """See :func:`trainctl.controllers.mpc.report.mpc_report_figures`.
+
+        Parameters
+        ----------
+        data : mapping of str to object
+            The family's :meth:`report_data`.
+
+        Returns
+        -------
+        sequence of ReportFigure
+            The convergence figure (ρ(D0) against R, R* marked).
+        """
         from .report import mpc_report_figures
 
         return mpc_report_figures(data)

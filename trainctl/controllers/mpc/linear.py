@@ -109,7 +109,15 @@ class MPCSolution:
         return self.inputs[0]
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict (arrays as nested lists)."""
+        """JSON-safe dict (arrays as nested lists).
+
+        Returns
+        -------
+        dict of str to object
+            The fields ``inputs``, ``states``, ``outputs``, ``plan``,
+            ``status``, ``cost``, ``slack``, ``iterations`` and ``solve_time``
+            [s], arrays as nested lists (NaN kept as float NaN).
+        """
         return {"inputs": self.inputs.tolist(), "states": self.states.tolist(),
                 "outputs": self.outputs.tolist(), "plan": self.plan.tolist(),
                 "status": self.status, "cost": self.cost, "slack": self.slack.tolist(),
@@ -397,7 +405,33 @@ class LinearMPCController:
 
     def step(self, t: float, measurement: Measurement,
              reference: ReferencePreview | None = None) -> StepRecord:
-        """Solve at the measured state and return the first move."""
+        """Solve at the measured state and return the first move.
+
+        Parameters
+        ----------
+        t : float
+            Time of the sample [s] (unused).
+        measurement : Measurement
+            Must hold the state x(k) (``measurement.state``), length nx, in
+            the model's units.
+        reference : ReferencePreview or None
+            Ignored: the output reference is fixed when the controller is built.
+
+        Returns
+        -------
+        StepRecord
+            The input u(k) in the model's input units (the first move, or a
+            fallback), the solve's status and iterations, the wall time [s]
+            and ``info["cost"]``, the objective at the solution; a non-finite
+            state gives status ``"error"`` and the previous input held.
+
+        Raises
+        ------
+        ModelError
+            If ``measurement.state`` is None.
+        DimensionError
+            If the state does not have length nx.
+        """
         start = time.perf_counter()
         if measurement.state is None:
             raise ModelError(f"{self.name}: needs the state in measurement.state (got None).")

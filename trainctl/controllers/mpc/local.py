@@ -214,6 +214,17 @@ class LocalTrainProblem(TrainProblem):
 
         The layout is that of :class:`TrainProblem`, then per coach g, hl and
         hu.
+
+        Parameters
+        ----------
+        ctx : StepContext
+            This step's deviation state, feedforward [kN] and input bounds [kN].
+
+        Returns
+        -------
+        ndarray
+            The source vector (the problem's buffer, not a copy): bounds [kN],
+            each coach's g and its soft-row bounds [kN].
         """
         fill_move_sources(self, ctx)
         x, up = ctx.x, ctx.u_dev_prev
@@ -239,7 +250,19 @@ class LocalTrainProblem(TrainProblem):
         return src
 
     def parameters(self, ctx: StepContext) -> list[BlockParameters]:
-        """Per-sample parameters of every coach's QP (at zero exchange)."""
+        """Per-sample parameters of every coach's QP (at zero exchange).
+
+        Parameters
+        ----------
+        ctx : StepContext
+            This step's deviation state, feedforward [kN] and input bounds [kN].
+
+        Returns
+        -------
+        list of BlockParameters
+            One per coach: OSQP's composed data on the fast path, else the
+            vectors g, lb, ub, hl, hu.
+        """
         return block_parameters(self.blocks, self.sources(ctx), self.fast)
 
     def reset(self) -> None:
@@ -252,6 +275,12 @@ class LocalTrainProblem(TrainProblem):
 
         The last ones shifted by one sample (the last sample repeated), or the
         measured state held at the first step.
+
+        Returns
+        -------
+        ndarray, shape (P·N·nx,)
+            The deviation state x̃ (speeds [m/s], elongations [m]) at each of
+            the P·N substeps of the horizon, stacked substep by substep.
         """
         nx, fine, N = self.nx, self.P * self.N, self.N
         if self._X is None:
@@ -264,6 +293,31 @@ class LocalTrainProblem(TrainProblem):
         """Relaxed Jacobi iterations on [plans; trajectories] from the shifted previous ones.
 
         Stops when the largest change of any plan is at most ``tolerance`` [kN].
+
+        Parameters
+        ----------
+        params : sequence of BlockParameters
+            This step's parameters of each coach's QP (:meth:`parameters`).
+        plan0 : ndarray, shape (M·n,)
+            The starting plan (the shifted previous plan, pinned coaches'
+            moves set) [kN].
+        fallback : callable
+            ``fallback(block) -> z``: a coach's moves [kN] when its solve
+            gives no usable solution.
+        max_iterations : int
+            Largest number of Jacobi iterations, >= 1.
+        tolerance : float
+            Convergence tolerance on the largest change of the plan [kN], >= 0.
+        relaxation : float
+            Relaxation factor ω in (0, 1].
+
+        Returns
+        -------
+        PlanResult
+            The last plan [kN], the worst coach status (``"max_iterations"``
+            when it did not converge), the iterations, the largest change of
+            each [kN] and the fallback applied. The last trajectories are kept
+            for the next step's :meth:`initial_trajectories`.
         """
         U, X = plan0.copy(), self.initial_trajectories()
         residuals: list[float] = []
@@ -341,12 +395,49 @@ class LocalNDMPC(_PerCoach):
     name = "ndmpc-local"
 
     def members(self, inputs: tuple[int, ...], design: MPCDesign) -> tuple[int, ...]:
-        """The coach's neighbourhood."""
+        """The coach's neighbourhood.
+
+        Parameters
+        ----------
+        inputs : tuple of int
+            The inputs (coaches, 0-based) the block decides for: one coach.
+        design : MPCDesign
+            The design (its neighbourhoods).
+
+        Returns
+        -------
+        tuple of int
+            ``design.neighbourhoods[inputs[0]]``.
+        """
         return design.neighbourhoods[inputs[0]]
 
     def plan(self, problem: object, params: Sequence[BlockParameters], plan0: Array,
              fallback: FallbackPlan) -> PlanResult:
-        """Relaxed Jacobi iterations on the local problem's plans and trajectories."""
+        """Relaxed Jacobi iterations on the local problem's plans and trajectories.
+
+        Parameters
+        ----------
+        problem : LocalTrainProblem
+            The local problem.
+        params : sequence of BlockParameters
+            This step's parameters of each coach's QP.
+        plan0 : ndarray, shape (M·n,)
+            The starting plan (the shifted previous plan) [kN].
+        fallback : callable
+            ``fallback(block) -> z``: a coach's moves [kN] when its solve
+            gives no usable solution.
+
+        Returns
+        -------
+        PlanResult
+            As :meth:`LocalTrainProblem.iterate` returns it, with this
+            strategy's iteration settings.
+
+        Raises
+        ------
+        TypeError
+            If ``problem`` is not a :class:`LocalTrainProblem`.
+        """
         if not isinstance(problem, LocalTrainProblem):
             raise TypeError("ndmpc-local plans on a LocalTrainProblem.")
         return problem.iterate(params, plan0, fallback, max_iterations=self.max_iterations,

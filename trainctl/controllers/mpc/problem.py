@@ -281,6 +281,17 @@ class TrainProblem:
         move m is (u_ff(m) - u_ff(m-1)) + (ũ(m) - ũ(m-1)), with the applied
         u(k-1) before move 0. L and the difference matrix are block diagonal
         by coach, so the other coaches' moves do not enter a block's bounds.
+
+        Parameters
+        ----------
+        ctx : StepContext
+            This step's deviation state, feedforward [kN] and input bounds [kN].
+
+        Returns
+        -------
+        ndarray
+            The source vector (the problem's buffer, not a copy): bounds [kN],
+            soft-row bounds [kN] and each block's g.
         """
         # In the u-form ũ(k-1) = 0 and S_u = 0: their terms are left out.
         pred = self.pred
@@ -299,7 +310,19 @@ class TrainProblem:
         return self._src
 
     def parameters(self, ctx: StepContext) -> list[BlockParameters]:
-        """Per-sample parameters of every block's QP (independent of the other plans)."""
+        """Per-sample parameters of every block's QP (independent of the other plans).
+
+        Parameters
+        ----------
+        ctx : StepContext
+            This step's deviation state, feedforward [kN] and input bounds [kN].
+
+        Returns
+        -------
+        list of BlockParameters
+            One per block of :attr:`blocks`: OSQP's composed data on the fast
+            path, else the vectors g, lb, ub, hl, hu.
+        """
         return block_parameters(self.blocks, self.sources(ctx), self.fast)
 
     def reset(self) -> None:
@@ -308,7 +331,22 @@ class TrainProblem:
             block.qp.reset()
 
     def fallback(self, block: QPBlock, ctx: StepContext, plan0: Array) -> Array:
-        """The block's part of the shifted previous plan, made safe (:meth:`safe_plan`)."""
+        """The block's part of the shifted previous plan, made safe (:meth:`safe_plan`).
+
+        Parameters
+        ----------
+        block : QPBlock
+            The block whose solve failed.
+        ctx : StepContext
+            This step's deviation state, feedforward [kN] and input bounds [kN].
+        plan0 : ndarray, shape (M·n,)
+            The shifted previous plan [kN].
+
+        Returns
+        -------
+        ndarray
+            The safe plan's entries in the block's columns [kN].
+        """
         return self.safe_plan(ctx, plan0)[block.cols]
 
     def safe_plan(self, ctx: StepContext, plan: Array) -> Array:
@@ -321,6 +359,19 @@ class TrainProblem:
         further than the rate limit allows — the envelope wins: the force
         stays within what the vehicle can apply. Works in the u- and the
         Δu-form (the plan is converted to moves and back).
+
+        Parameters
+        ----------
+        ctx : StepContext
+            This step's deviation state, feedforward [kN] and input bounds [kN].
+        plan : ndarray, shape (M·n,)
+            A plan U in the design's form (moves or their increments) [kN].
+
+        Returns
+        -------
+        ndarray, shape (M·n,)
+            The clipped plan in the same form [kN] (a copy of ``plan`` when
+            neither input bounds nor a rate limit are set).
         """
         bounds, rate = self.constraints.input_bounds, self.constraints.rate_limit / KN
         if not bounds and not math.isfinite(rate):

@@ -65,7 +65,21 @@ class ConstraintRows:
         return int(self.rows.shape[0])
 
     def bounds(self, x: Array, u_prev: Array) -> tuple[Array, Array]:
-        """The QP bounds of the rows at state ``x`` and previous input ``u_prev``."""
+        """The QP bounds of the rows at state ``x`` and previous input ``u_prev``.
+
+        Parameters
+        ----------
+        x : ndarray, shape (nx,)
+            The state x(k), in the model's units.
+        u_prev : ndarray, shape (nu,)
+            The input applied at the previous sample u(k-1), in the model's units.
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            ``lower - (Ox x + Ou u_prev)`` and ``upper - (Ox x + Ou u_prev)``,
+            shape (size,) each (±inf kept).
+        """
         offset = self.Ox @ x + self.Ou @ u_prev
         return self.lower - offset, self.upper - offset
 

@@ -65,22 +65,78 @@ class NeighbourhoodRule(Rule):
     """
 
     def want(self, *, python: bool = False, n: int | None = None) -> str:
-        """The named kinds or an array of ``n`` arrays of coach indices."""
+        """The named kinds or an array of ``n`` arrays of coach indices.
+
+        Parameters
+        ----------
+        python : bool
+            Phrase for a Python caller rather than a scenario file (the
+            phrase is the same for both).
+        n : int or None
+            The number of coaches, when known (it is then named).
+
+        Returns
+        -------
+        str
+            E.g. ``"one of 'adjacent', 'all', 'self' or an array of 4 arrays of
+            coach indices, one per coach"``.
+        """
         arrays = f"an array of {n} arrays" if n else "an array of arrays"
         names = ", ".join(repr(k) for k in NEIGHBOURHOODS)
         return f"one of {names} or {arrays} of coach indices, one per coach"
 
     def doc_type(self) -> str:
-        """The named kinds or the explicit form, as TOML."""
+        """The named kinds or the explicit form, as TOML.
+
+        Returns
+        -------
+        str
+            The type column of the documentation (Markdown).
+        """
         return ('`"adjacent"`, `"all"`, `"self"` or an array of n arrays of distinct coach '
                 "indices (entry i contains i)")
 
     def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
-        """Anything; :meth:`check` decides."""
+        """Anything; :meth:`check` decides.
+
+        Parameters
+        ----------
+        handler : pydantic.GetCoreSchemaHandler
+            Pydantic's handler of the annotated type (unused).
+
+        Returns
+        -------
+        pydantic_core.CoreSchema
+            A schema accepting any value.
+        """
         return core_schema.any_schema()
 
     def check(self, value: Any, info: ValidationInfo | None) -> Any:
-        """Kind, length (one entry per coach), indices, entry i containing i."""
+        """Kind, length (one entry per coach), indices, entry i containing i.
+
+        Parameters
+        ----------
+        value : object
+            The value given: a name of :data:`NEIGHBOURHOODS`, or one array of
+            coach indices (0-based) per coach.
+        info : pydantic.ValidationInfo or None
+            The validation info; its context's ``n_coaches``, when given,
+            fixes the number of entries and the largest index.
+
+        Returns
+        -------
+        str or tuple of tuple of int
+            The name, or the coach indices of each entry.
+
+        Raises
+        ------
+        pydantic_core.PydanticCustomError
+            If the value is neither a name nor a non-empty array (of one entry
+            per coach, when their number is known).
+        pydantic.ValidationError
+            If an entry is not an array of distinct coach indices containing
+            its own index.
+        """
         n = coaches(info)
         if isinstance(value, str) and value in NEIGHBOURHOODS:
             return value
@@ -114,7 +170,13 @@ class NeighbourhoodRule(Rule):
         return tuple(int(j) for j in members)
 
     def json_extra(self) -> dict[str, Any]:
-        """A named kind or an array of arrays of indices."""
+        """A named kind or an array of arrays of indices.
+
+        Returns
+        -------
+        dict of str to object
+            The JSON Schema ``anyOf`` of the names and the explicit form.
+        """
         entry = {"type": "array", "items": {"type": "integer", "minimum": 0},
                  "uniqueItems": True}
         return {"anyOf": [{"enum": list(NEIGHBOURHOODS)},
@@ -142,20 +204,74 @@ class CooperativeWeightsRule(Rule):
     """
 
     def want(self, *, python: bool = False, n: int | None = None) -> str:
-        """``'uniform'`` or an array of ``n`` numbers > 0 summing to 1."""
+        """``'uniform'`` or an array of ``n`` numbers > 0 summing to 1.
+
+        Parameters
+        ----------
+        python : bool
+            Phrase for a Python caller rather than a scenario file (the
+            phrase is the same for both).
+        n : int or None
+            The number of coaches, when known (it is then named).
+
+        Returns
+        -------
+        str
+            E.g. ``"'uniform' or an array of 4 numbers > 0 summing to 1, one
+            per coach"``.
+        """
         count = f"{n} " if n else ""
         return f"'uniform' or an array of {count}numbers > 0 summing to 1, one per coach"
 
     def doc_type(self) -> str:
-        """The name or the explicit form, as TOML."""
+        """The name or the explicit form, as TOML.
+
+        Returns
+        -------
+        str
+            The type column of the documentation (Markdown).
+        """
         return '`"uniform"` or an array of n numbers > 0 summing to 1 (±1e-9)'
 
     def schema(self, handler: GetCoreSchemaHandler) -> CoreSchema:
-        """Anything; :meth:`check` decides."""
+        """Anything; :meth:`check` decides.
+
+        Parameters
+        ----------
+        handler : pydantic.GetCoreSchemaHandler
+            Pydantic's handler of the annotated type (unused).
+
+        Returns
+        -------
+        pydantic_core.CoreSchema
+            A schema accepting any value.
+        """
         return core_schema.any_schema()
 
     def check(self, value: Any, info: ValidationInfo | None) -> Any:
-        """The name, or positive weights of the right count summing to 1."""
+        """The name, or positive weights of the right count summing to 1.
+
+        Parameters
+        ----------
+        value : object
+            The value given: ``"uniform"`` or one weight [-] per coach.
+        info : pydantic.ValidationInfo or None
+            The validation info; its context's ``n_coaches``, when given,
+            fixes the number of weights.
+
+        Returns
+        -------
+        str or tuple of float
+            ``"uniform"``, or the weights [-], each > 0, summing to 1 within 1e-9.
+
+        Raises
+        ------
+        pydantic_core.PydanticCustomError
+            If the value is neither ``"uniform"`` nor a non-empty array of the
+            right count, or if the weights do not sum to 1.
+        pydantic.ValidationError
+            If a weight is not a number > 0.
+        """
         n = coaches(info)
         if value == "uniform":
             return value
@@ -172,7 +288,13 @@ class CooperativeWeightsRule(Rule):
         return weights
 
     def json_extra(self) -> dict[str, Any]:
-        """The name or an array of positive numbers."""
+        """The name or an array of positive numbers.
+
+        Returns
+        -------
+        dict of str to object
+            The JSON Schema ``anyOf`` of ``"uniform"`` and the array of weights.
+        """
         weights = {"type": "array", "items": {"type": "number", "exclusiveMinimum": 0},
                    "minItems": 1}
         return {"anyOf": [{"const": "uniform"}, weights]}

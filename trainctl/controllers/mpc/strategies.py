@@ -108,20 +108,76 @@ class Strategy(Protocol):
     name: str
 
     def block_inputs(self, n: int) -> list[tuple[int, ...]]:
-        """The inputs each block decides for."""
+        """The inputs each block decides for.
+
+        Parameters
+        ----------
+        n : int
+            Number of inputs (coaches), >= 1.
+
+        Returns
+        -------
+        list of tuple of int
+            The input indices of each block, one tuple per block.
+        """
         ...
 
     def members(self, inputs: tuple[int, ...], design: MPCDesign) -> tuple[int, ...]:
-        """The coaches whose outputs a block's cost counts."""
+        """The coaches whose outputs a block's cost counts.
+
+        Parameters
+        ----------
+        inputs : tuple of int
+            The inputs (coaches, 0-based) the block decides for.
+        design : MPCDesign
+            The design (its number of inputs and its neighbourhoods).
+
+        Returns
+        -------
+        tuple of int
+            The coaches (0-based) whose outputs enter the block's cost.
+        """
         ...
 
     def couplers(self, inputs: tuple[int, ...], n_couplers: int) -> list[int]:
-        """The couplers whose force rows a block bounds."""
+        """The couplers whose force rows a block bounds.
+
+        Parameters
+        ----------
+        inputs : tuple of int
+            The inputs (coaches, 0-based) the block decides for.
+        n_couplers : int
+            Number of couplers of the train; coupler c joins coaches c and c+1.
+
+        Returns
+        -------
+        list of int
+            The coupler indices (0-based) whose force the block's soft rows bound.
+        """
         ...
 
     def plan(self, problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
              fallback: FallbackPlan) -> PlanResult:
-        """Solve the blocks and combine their solutions into the plan."""
+        """Solve the blocks and combine their solutions into the plan.
+
+        Parameters
+        ----------
+        problem : Blocks
+            The problem: its QP blocks, solve path and residual columns.
+        params : sequence of BlockParameters
+            This step's parameters of each block, in the order of ``problem.blocks``.
+        plan0 : ndarray, shape (M·n,)
+            The starting plan (the shifted previous plan) [kN].
+        fallback : callable
+            ``fallback(block) -> z``: the block's moves [kN] when its solve
+            gives no usable solution.
+
+        Returns
+        -------
+        PlanResult
+            The plan U [kN], the step status, the iterations, the residuals and the fallback
+            applied.
+        """
         ...
 
 
@@ -166,20 +222,76 @@ class Centralised:
     name = "centralised"
 
     def block_inputs(self, n: int) -> list[tuple[int, ...]]:
-        """One block deciding for every input."""
+        """One block deciding for every input.
+
+        Parameters
+        ----------
+        n : int
+            Number of inputs (coaches), >= 1.
+
+        Returns
+        -------
+        list of tuple of int
+            ``[(0, 1, ..., n-1)]``.
+        """
         return [tuple(range(n))]
 
     def members(self, inputs: tuple[int, ...], design: MPCDesign) -> tuple[int, ...]:
-        """Every coach: the block's cost is the whole train's."""
+        """Every coach: the block's cost is the whole train's.
+
+        Parameters
+        ----------
+        inputs : tuple of int
+            The inputs (coaches, 0-based) the block decides for.
+        design : MPCDesign
+            The design (its number of inputs n).
+
+        Returns
+        -------
+        tuple of int
+            ``(0, 1, ..., n-1)``.
+        """
         return tuple(range(design.n_inputs))
 
     def couplers(self, inputs: tuple[int, ...], n_couplers: int) -> list[int]:
-        """Every coupler."""
+        """Every coupler.
+
+        Parameters
+        ----------
+        inputs : tuple of int
+            The inputs (coaches, 0-based) the block decides for.
+        n_couplers : int
+            Number of couplers of the train; coupler c joins coaches c and c+1.
+
+        Returns
+        -------
+        list of int
+            ``[0, 1, ..., n_couplers-1]``.
+        """
         return list(range(n_couplers))
 
     def plan(self, problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
              fallback: FallbackPlan) -> PlanResult:
-        """One solve of the single block gives the plan."""
+        """One solve of the single block gives the plan.
+
+        Parameters
+        ----------
+        problem : Blocks
+            The problem: its QP blocks, solve path and residual columns.
+        params : sequence of BlockParameters
+            This step's parameters of each block, in the order of ``problem.blocks``.
+        plan0 : ndarray, shape (M·n,)
+            The starting plan (the shifted previous plan) [kN]; only its shape is used.
+        fallback : callable
+            ``fallback(block) -> z``: the block's moves [kN] when its solve
+            gives no usable solution.
+
+        Returns
+        -------
+        PlanResult
+            The block's solution as the plan [kN] (its fallback where the solve failed), one
+            iteration, no residuals.
+        """
         return solve_once(problem, params, plan0, fallback)
 
 
@@ -200,12 +312,44 @@ class Decentralised(_PerCoach):
     name = "decentralised"
 
     def members(self, inputs: tuple[int, ...], design: MPCDesign) -> tuple[int, ...]:
-        """The block's own coach only."""
+        """The block's own coach only.
+
+        Parameters
+        ----------
+        inputs : tuple of int
+            The inputs (coaches, 0-based) the block decides for.
+        design : MPCDesign
+            The design (unused).
+
+        Returns
+        -------
+        tuple of int
+            ``inputs`` itself.
+        """
         return inputs
 
     def plan(self, problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
              fallback: FallbackPlan) -> PlanResult:
-        """One solve per block, the others' moves at their feedforward."""
+        """One solve per block, the others' moves at their feedforward.
+
+        Parameters
+        ----------
+        problem : Blocks
+            The problem: its QP blocks, solve path and residual columns.
+        params : sequence of BlockParameters
+            This step's parameters of each block, in the order of ``problem.blocks``.
+        plan0 : ndarray, shape (M·n,)
+            The starting plan (the shifted previous plan) [kN]; only its shape is used.
+        fallback : callable
+            ``fallback(block) -> z``: the block's moves [kN] when its solve
+            gives no usable solution.
+
+        Returns
+        -------
+        PlanResult
+            Each block's solution in its columns of the plan [kN] (its fallback where the solve
+            failed), one iteration, no residuals.
+        """
         return solve_once(problem, params, plan0, fallback)
 
 
@@ -239,12 +383,45 @@ class NDMPC(_PerCoach):
     name = "ndmpc"
 
     def members(self, inputs: tuple[int, ...], design: MPCDesign) -> tuple[int, ...]:
-        """The coach's neighbourhood."""
+        """The coach's neighbourhood.
+
+        Parameters
+        ----------
+        inputs : tuple of int
+            The inputs (coaches, 0-based) the block decides for.
+        design : MPCDesign
+            The design (its neighbourhoods).
+
+        Returns
+        -------
+        tuple of int
+            ``design.neighbourhoods[inputs[0]]``.
+        """
         return design.neighbourhoods[inputs[0]]
 
     def plan(self, problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
              fallback: FallbackPlan) -> PlanResult:
-        """Relaxed Jacobi iterations over the blocks until the plans settle."""
+        """Relaxed Jacobi iterations over the blocks until the plans settle.
+
+        Parameters
+        ----------
+        problem : Blocks
+            The problem: its QP blocks, solve path and residual columns.
+        params : sequence of BlockParameters
+            This step's parameters of each block, in the order of ``problem.blocks``.
+        plan0 : ndarray, shape (M·n,)
+            The starting plan of the iterations (the shifted previous plan) [kN].
+        fallback : callable
+            ``fallback(block) -> z``: the block's moves [kN] when its solve
+            gives no usable solution.
+
+        Returns
+        -------
+        PlanResult
+            The last iterate [kN], the worst block status (``"max_iterations"`` when the plans did
+            not settle within :attr:`max_iterations`), the iterations and the largest
+            change of each [kN].
+        """
         weights = [self.relaxation] * len(problem.blocks)
         return jacobi(problem, params, plan0, fallback, weights=weights,
                       max_iterations=self.max_iterations, tolerance=self.tolerance)
@@ -277,12 +454,45 @@ class Cooperative(_PerCoach):
     name = "cooperative"
 
     def members(self, inputs: tuple[int, ...], design: MPCDesign) -> tuple[int, ...]:
-        """Every coach: each block weighs the whole-train cost."""
+        """Every coach: each block weighs the whole-train cost.
+
+        Parameters
+        ----------
+        inputs : tuple of int
+            The inputs (coaches, 0-based) the block decides for.
+        design : MPCDesign
+            The design (its number of inputs n).
+
+        Returns
+        -------
+        tuple of int
+            ``(0, 1, ..., n-1)``.
+        """
         return tuple(range(design.n_inputs))
 
     def plan(self, problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
              fallback: FallbackPlan) -> PlanResult:
-        """Jacobi iterations combining the blocks' plans with the weights w."""
+        """Jacobi iterations combining the blocks' plans with the weights w.
+
+        Parameters
+        ----------
+        problem : Blocks
+            The problem: its QP blocks, solve path and residual columns.
+        params : sequence of BlockParameters
+            This step's parameters of each block, in the order of ``problem.blocks``.
+        plan0 : ndarray, shape (M·n,)
+            The starting plan of the iterations (the shifted previous plan) [kN].
+        fallback : callable
+            ``fallback(block) -> z``: the block's moves [kN] when its solve
+            gives no usable solution.
+
+        Returns
+        -------
+        PlanResult
+            The last iterate [kN], the worst block status (``"max_iterations"`` when the plans did
+            not settle within :attr:`max_iterations`), the iterations and the largest
+            change of each [kN].
+        """
         weights = [self.weights[block.inputs[0]] for block in problem.blocks]
         return jacobi(problem, params, plan0, fallback, weights=weights,
                       max_iterations=self.max_iterations, tolerance=self.tolerance)
