@@ -155,7 +155,7 @@ class SynchronousController:
         ------
         ModelError
             If the measurement holds neither n speeds nor a state, or its
-            positions are not n.
+            positions are not n (with the line fed forward).
         """
         start = time.perf_counter()
         speeds = self._speeds(measurement)
