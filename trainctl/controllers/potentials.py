@@ -1082,7 +1082,8 @@ class SigmaNormPotential:
         -------
         float or numpy.ndarray
             The gradient dU/dz [m/s²], elementwise (:meth:`FlockingPotential.acceleration`
-            at gap d + z): positive for z > 0, 0 at z = 0 and beyond the range.
+            at gap d + z): positive for z > 0 and negative for z < 0 inside the
+            range; 0 at z = 0, at gap 0 and beyond the range.
 
         Raises
         ------
