@@ -737,19 +737,60 @@ class PairPotential(Protocol):
     """
 
     def energy(self, z: ArrayLike) -> Floats:
-        """U(z) [m²/s²]."""
+        """U(z) [m²/s²].
+
+        Parameters
+        ----------
+        z : array_like
+            Spacing deviations z [m] (positive: elongation).
+
+        Returns
+        -------
+        float or numpy.ndarray
+            The potential per unit mass U(z) [m²/s²], elementwise.
+        """
         ...
 
     def gradient(self, z: ArrayLike) -> Floats:
-        """dU/dz [m/s²]."""
+        """dU/dz [m/s²].
+
+        Parameters
+        ----------
+        z : array_like
+            Spacing deviations z [m] (positive: elongation).
+
+        Returns
+        -------
+        float or numpy.ndarray
+            The gradient dU/dz [m/s²], elementwise: the rear car's specific
+            force (the front car's is its opposite).
+        """
         ...
 
     def curvature(self) -> float:
-        """d²U/dz² at z = 0 [1/s²]: the linearisation's stiffness."""
+        """d²U/dz² at z = 0 [1/s²]: the linearisation's stiffness.
+
+        Returns
+        -------
+        float
+            The stiffness d²U/dz² at z = 0 [1/s²], > 0.
+        """
         ...
 
     def bound(self, energy_budget: float) -> float:
-        """Largest |z| [m] reachable with ``energy_budget`` [m²/s²] of potential energy."""
+        """Largest |z| [m] reachable with ``energy_budget`` [m²/s²] of potential energy.
+
+        Parameters
+        ----------
+        energy_budget : float
+            Energy per unit mass available to the potential [m²/s²], >= 0.
+
+        Returns
+        -------
+        float
+            The largest spacing deviation |z| [m] with U(z) <= energy_budget,
+            >= 0 (inf if unbounded).
+        """
         ...
 
 
@@ -783,21 +824,66 @@ class QuadraticPotential:
                            _positive("QuadraticPotential", "kappa", self.kappa, " 1/s²"))
 
     def energy(self, z: ArrayLike) -> Floats:
-        """U(z) = kappa z² / 2 [m²/s²] for spacing deviations z [m]."""
+        """U(z) = kappa z² / 2 [m²/s²] for spacing deviations z [m].
+
+        Parameters
+        ----------
+        z : array_like
+            Spacing deviations z [m] (positive: elongation).
+
+        Returns
+        -------
+        float or numpy.ndarray
+            The potential per unit mass U(z) [m²/s²], >= 0, elementwise.
+        """
         arr, scalar = _array(z)
         return _out(0.5 * self.kappa * arr * arr, scalar)
 
     def gradient(self, z: ArrayLike) -> Floats:
-        """dU/dz = kappa z [m/s²] for spacing deviations z [m]."""
+        """dU/dz = kappa z [m/s²] for spacing deviations z [m].
+
+        Parameters
+        ----------
+        z : array_like
+            Spacing deviations z [m] (positive: elongation).
+
+        Returns
+        -------
+        float or numpy.ndarray
+            The gradient kappa z [m/s²], elementwise: the rear car's specific
+            force (the front car's is its opposite).
+        """
         arr, scalar = _array(z)
         return _out(self.kappa * arr, scalar)
 
     def curvature(self) -> float:
-        """kappa [1/s²]."""
+        """kappa [1/s²].
+
+        Returns
+        -------
+        float
+            The stiffness kappa [1/s²], > 0 (the curvature is the same for every z).
+        """
         return self.kappa
 
     def bound(self, energy_budget: float) -> float:
-        """sqrt(2 E / kappa) [m] for a budget E [m²/s²]."""
+        """sqrt(2 E / kappa) [m] for a budget E [m²/s²].
+
+        Parameters
+        ----------
+        energy_budget : float
+            Energy per unit mass E available to the spring [m²/s²], >= 0.
+
+        Returns
+        -------
+        float
+            The largest spacing deviation |z| = sqrt(2 E / kappa) [m], >= 0.
+
+        Raises
+        ------
+        ModelError
+            If energy_budget is negative or not finite.
+        """
         return math.sqrt(2.0 * _budget("QuadraticPotential.bound", energy_budget) / self.kappa)
 
 
@@ -868,23 +954,69 @@ class BarrierPotential:
         return np.where(inside, arr, 0.0) / self.delta, inside, scalar
 
     def energy(self, z: ArrayLike) -> Floats:
-        """U(z) [m²/s²] for deviations z [m]; +inf where |z| >= delta."""
+        """U(z) [m²/s²] for deviations z [m]; +inf where |z| >= delta.
+
+        Parameters
+        ----------
+        z : array_like
+            Spacing deviations z [m] (positive: elongation).
+
+        Returns
+        -------
+        float or numpy.ndarray
+            The potential per unit mass U(z) [m²/s²], >= 0, elementwise; +inf
+            where |z| >= delta.
+        """
         u, inside, scalar = self._split(z)
         value = -0.5 * self.kappa * np.log1p(-u * u)
         return _out(np.where(inside, value, np.inf), scalar)
 
     def gradient(self, z: ArrayLike) -> Floats:
-        """dU/dz = kappa z / (delta² - z²) [m/s²] for z [m]; NaN where |z| >= delta."""
+        """dU/dz = kappa z / (delta² - z²) [m/s²] for z [m]; NaN where |z| >= delta.
+
+        Parameters
+        ----------
+        z : array_like
+            Spacing deviations z [m] (positive: elongation).
+
+        Returns
+        -------
+        float or numpy.ndarray
+            The gradient dU/dz [m/s²], elementwise: the rear car's specific
+            force (the front car's is its opposite); NaN where |z| >= delta.
+        """
         u, inside, scalar = self._split(z)
         value = self.kappa * u / (self.delta * (1.0 - u * u))
         return _out(np.where(inside, value, np.nan), scalar)
 
     def curvature(self) -> float:
-        """kappa / delta² [1/s²]."""
+        """kappa / delta² [1/s²].
+
+        Returns
+        -------
+        float
+            The stiffness d²U/dz² at z = 0, kappa / delta² [1/s²], > 0.
+        """
         return self.kappa / self.delta**2
 
     def bound(self, energy_budget: float) -> float:
-        """``delta sqrt(1 - exp(-2E/kappa))`` [m] for a budget E [m²/s²]: always < delta."""
+        """``delta sqrt(1 - exp(-2E/kappa))`` [m] for a budget E [m²/s²]: always < delta.
+
+        Parameters
+        ----------
+        energy_budget : float
+            Energy per unit mass E available to the barrier [m²/s²], >= 0.
+
+        Returns
+        -------
+        float
+            The largest spacing deviation |z| [m], in [0, delta).
+
+        Raises
+        ------
+        ModelError
+            If energy_budget is negative or not finite.
+        """
         e = _budget("BarrierPotential.bound", energy_budget)
         return self.delta * math.sqrt(-math.expm1(-2.0 * e / self.kappa))
 
@@ -917,18 +1049,59 @@ class SigmaNormPotential:
     flocking: FlockingPotential
 
     def energy(self, z: ArrayLike) -> Floats:
-        """U(z) [m²/s²] for deviations z [m] >= -desired_gap."""
+        """U(z) [m²/s²] for deviations z [m] >= -desired_gap.
+
+        Parameters
+        ----------
+        z : array_like
+            Deviations z = gap - desired_gap [m], >= -desired_gap.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            The flocking energy at gap d + z [m²/s²], >= 0, elementwise: 0 at
+            z = 0, constant beyond the range.
+
+        Raises
+        ------
+        ModelError
+            If a deviation is below -desired_gap (a negative gap) or not finite.
+        """
         arr, scalar = _array(z)
         return _out(np.asarray(self.flocking.energy(self.flocking.desired_gap + arr)), scalar)
 
     def gradient(self, z: ArrayLike) -> Floats:
-        """dU/dz [m/s²] = the flocking acceleration of the rear train at gap d + z."""
+        """dU/dz [m/s²] = the flocking acceleration of the rear train at gap d + z.
+
+        Parameters
+        ----------
+        z : array_like
+            Deviations z = gap - desired_gap [m], >= -desired_gap.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            The gradient dU/dz [m/s²], elementwise (:meth:`FlockingPotential.acceleration`
+            at gap d + z): positive for z > 0 and negative for z < 0 inside the
+            range; 0 at z = 0, at gap 0 and beyond the range.
+
+        Raises
+        ------
+        ModelError
+            If a deviation is below -desired_gap (a negative gap) or not finite.
+        """
         arr, scalar = _array(z)
         accel = self.flocking.acceleration(self.flocking.desired_gap + arr)
         return _out(np.asarray(accel), scalar)
 
     def curvature(self) -> float:
-        """The lattice stiffness k_eff [1/s²] (:meth:`FlockingPotential.stiffness`)."""
+        """The lattice stiffness k_eff [1/s²] (:meth:`FlockingPotential.stiffness`).
+
+        Returns
+        -------
+        float
+            The stiffness d²U/dz² at z = 0 [1/s²], > 0.
+        """
         return self.flocking.stiffness()
 
     def bound(self, energy_budget: float) -> float:
@@ -936,6 +1109,24 @@ class SigmaNormPotential:
 
         inf when the budget reaches the energy at the range (the pair can
         separate); ``desired_gap`` when it reaches the collision barrier.
+
+        Parameters
+        ----------
+        energy_budget : float
+            Energy per unit mass E available to the potential [m²/s²], >= 0.
+
+        Returns
+        -------
+        float
+            The largest deviation |z| [m] with U(z) <= E, >= 0: 0 for E = 0,
+            inf when E reaches the energy at the range; at least desired_gap
+            (the larger of it and the attraction-side deviation) when E
+            reaches the collision barrier.
+
+        Raises
+        ------
+        ModelError
+            If energy_budget is negative or not finite.
         """
         e = _budget("SigmaNormPotential.bound", energy_budget)
         d, r = self.flocking.desired_gap, self.flocking.r

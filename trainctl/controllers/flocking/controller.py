@@ -84,7 +84,36 @@ class FlockingController:
         self._reference.reset()
 
     def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
-        """Feedforward plus the law, clipped to the envelope."""
+        """Feedforward plus the law, clipped to the envelope.
+
+        Parameters
+        ----------
+        t : float
+            Simulation time [s]: the virtual leader's position x̄_0(t) is
+            integrated up to it.
+        measurement : Measurement
+            The full plant state ``[v (n) [m/s], z (n-1) [m], s [m]]``
+            (``measurement.state``, z the gap deviations of the virtual links;
+            outputs and messages are not used).
+        reference : ReferencePreview
+            The reference; only its first sample (speed v_r [m/s] and
+            acceleration [m/s²]) is used.
+
+        Returns
+        -------
+        StepRecord
+            The forces [N] per train to hold over [t, t + dt), clipped to the
+            envelope at the measured speeds, status ``"optimal"``, with
+            ``info["saturated"]`` and ``info["min_gap"]`` (the smallest gap
+            [m]); or, when two trains overlap (a gap < 0) or the state is not
+            finite, the cruise feedforward [N] with status ``"error"`` and
+            fallback ``"feedforward"``.
+
+        Raises
+        ------
+        ModelError
+            If the measurement has no full state (``state`` is None).
+        """
         start = time.perf_counter()
         if measurement.state is None:
             raise ModelError(f"{self.name}: needs full-state measurement (got state=None).")

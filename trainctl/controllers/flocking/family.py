@@ -214,31 +214,103 @@ class FlockingFamily:
         return FlockingSettings
 
     def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> FlockingDesign:
-        """See :func:`design_flocking`."""
+        """See :func:`design_flocking`.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario (formation, ``[communication]`` graph, ``[simulation]``).
+        model : DesignModel
+            Its design model.
+        settings : FlockingSettings
+            The family's settings.
+
+        Returns
+        -------
+        FlockingDesign
+            The law (SI gains, pair potential on the gap), the control
+            interval and the linear closed loop.
+        """
         return design_flocking(scenario, model, settings)
 
     def make(self, design: FlockingDesign, strategy: str) -> FlockingController:
-        """The controller: the law sampled every ``control_interval``."""
+        """The controller: the law sampled every ``control_interval``.
+
+        Parameters
+        ----------
+        design : FlockingDesign
+            The family's design.
+        strategy : str
+            The strategy, ``"flocking"``; it names the controller.
+
+        Returns
+        -------
+        FlockingController
+            The law about the cruise feedforward, dt = ``control_interval``
+            [s], clipped to the envelope if the settings' ``input_bounds``.
+        """
         from .controller import FlockingController
 
         return FlockingController(design.scenario.train, design.law, dt=design.control_interval,
                                   input_bounds=design.settings.input_bounds, name=strategy)
 
     def checks(self, design: FlockingDesign) -> list[Check]:
-        """The six checks of :mod:`trainctl.controllers.flocking.checks`."""
+        """The six checks of :mod:`trainctl.controllers.flocking.checks`.
+
+        Parameters
+        ----------
+        design : FlockingDesign
+            The family's design.
+
+        Returns
+        -------
+        list of Check
+            In :data:`CHECK_NAMES` order.
+        """
         from .checks import flocking_checks
 
         return flocking_checks(design)
 
     def trajectory_checks(self, design: FlockingDesign, strategy: str,
                           result: SimulationResult) -> list[Check]:
-        """``flocking_collision`` and ``flocking_connectivity`` on the simulated gaps."""
+        """``flocking_collision`` and ``flocking_connectivity`` on the simulated gaps.
+
+        Parameters
+        ----------
+        design : FlockingDesign
+            The family's design.
+        strategy : str
+            The simulated strategy's name.
+        result : SimulationResult
+            Its simulation on the nonlinear plant.
+
+        Returns
+        -------
+        list of Check
+            The two checks, replacing the design review's checks of the same
+            names.
+        """
         from .checks import trajectory_checks
 
         return trajectory_checks(design, strategy, result)
 
     def closed_loop(self, design: FlockingDesign, strategy: str) -> ct.StateSpace:
-        """ξ̇ = A_cl ξ + B_w w (continuous); outputs v [m/s] and d [m] (no f: virtual links)."""
+        """ξ̇ = A_cl ξ + B_w w (continuous); outputs v [m/s] and d [m] (no f: virtual links).
+
+        Parameters
+        ----------
+        design : FlockingDesign
+            The family's design.
+        strategy : str
+            The strategy, ``"flocking"``; it names the system.
+
+        Returns
+        -------
+        control.StateSpace
+            The continuous linear closed loop on ξ = [v̂, z, p], inputs the
+            specific-force disturbances ``w[i]`` [m/s²], outputs ``v[i]``
+            [m/s] and ``d[i]`` [m].
+        """
         import control as ct
 
         n = design.law.n
@@ -256,6 +328,20 @@ class FlockingFamily:
 
         The ``[communication]`` graph is stored under ``graph``
         (:func:`trainctl.report.figures_graph.graph_report_data`).
+
+        Parameters
+        ----------
+        design : FlockingDesign
+            The family's design.
+
+        Returns
+        -------
+        dict
+            JSON-safe: ``spectra`` (the closed-loop eigenvalues mapped to z =
+            exp(λ T_s) with the model's sample time, as [re, im] pairs),
+            ``rows`` (name/value rows of the potential and gains table, with
+            the collision barrier), ``control_interval`` [s] (as text),
+            ``input_bounds`` and ``graph``.
         """
         from ...report.figures_graph import graph_report_data
 
@@ -284,6 +370,16 @@ class FlockingFamily:
 
         Drawn from ``data["graph"]``
         (:func:`trainctl.report.figures_graph.graph_figure`).
+
+        Parameters
+        ----------
+        data : mapping
+            The family's :meth:`report_data`.
+
+        Returns
+        -------
+        list of ReportFigure
+            One figure, the communication graph.
         """
         from ...report.figures_graph import graph_figure
 

@@ -115,7 +115,19 @@ class FlockingLaw:
         return int(self.mass.size)
 
     def gaps(self, z: Array) -> Array:
-        """Gaps s_k = d + z_k [m] of the links, from their deviations z [m]."""
+        """Gaps s_k = d + z_k [m] of the links, from their deviations z [m].
+
+        Parameters
+        ----------
+        z : ndarray
+            Gap deviations z_k [m] of the links, shape (n-1,).
+
+        Returns
+        -------
+        ndarray
+            The gaps s_k [m], shape (n-1,) (negative when two trains overlap;
+            not checked here).
+        """
         return self.potential.desired_gap + np.asarray(z, dtype=float)
 
     def pair_gaps(self, gaps: Array) -> Array:
@@ -141,7 +153,28 @@ class FlockingLaw:
         return out
 
     def consensus_weights(self, gaps: Array) -> Array:
-        """a_ij(s) = c · g_ij · ρ_h(gap_ij) [1/s], shape (n, n), zero diagonal."""
+        """a_ij(s) = c · g_ij · ρ_h(gap_ij) [1/s], shape (n, n), zero diagonal.
+
+        Parameters
+        ----------
+        gaps : ndarray
+            Link gaps s_k [m], shape (n-1,), >= 0 (not checked: :meth:`pair_gaps`
+            takes the distance |tail - head|, so an overlap counts as a gap of
+            its length).
+
+        Returns
+        -------
+        ndarray, shape (n, n)
+            The consensus weights a_ij [1/s]: the consensus gain times the
+            communication adjacency times the bump adjacency of the gap
+            between trains i and j (:meth:`pair_gaps`); symmetric, zero
+            diagonal.
+
+        Raises
+        ------
+        ModelError
+            If a gap is not finite.
+        """
         bump = np.asarray(self.potential.adjacency(self.pair_gaps(gaps)), dtype=float)
         weights = self.consensus_gain * self.graph * bump
         np.fill_diagonal(weights, 0.0)
@@ -178,7 +211,27 @@ class FlockingLaw:
                 - self.speed_gain * v)
 
     def force(self, v_err: Array, z: Array, x_err: Array) -> Array:
-        """m_i times :meth:`acceleration` [N], shape (n,)."""
+        """m_i times :meth:`acceleration` [N], shape (n,).
+
+        Parameters
+        ----------
+        v_err : ndarray
+            v̂ [m/s], shape (n,).
+        z : ndarray
+            Gap deviations [m], shape (n-1,); every gap d + z must be >= 0.
+        x_err : ndarray
+            Position errors x̂ [m], shape (n,).
+
+        Returns
+        -------
+        ndarray
+            The forces û [N], shape (n,), about the feedforward (no saturation).
+
+        Raises
+        ------
+        ModelError
+            If a gap is negative (the trains overlap).
+        """
         return self.mass * self.acceleration(v_err, z, x_err)
 
     def energy(self, v_err: Array, z: Array, x_err: Array) -> float:
@@ -199,12 +252,29 @@ class FlockingLaw:
         return float(0.5 * v @ v + pair.sum() + 0.5 * self.position_gain * x @ x)
 
     def laplacian(self) -> Array:
-        """L_a [1/s] of the weights at the desired gaps, (n, n)."""
+        """L_a [1/s] of the weights at the desired gaps, (n, n).
+
+        Returns
+        -------
+        ndarray, shape (n, n)
+            The Laplacian diag(Σ_j a_ij) − a [1/s] of the consensus weights
+            at the desired gaps (z = 0); its rows sum to 0.
+        """
         W = self.consensus_weights(self.gaps(np.zeros(self.n - 1)))
         return np.diag(W.sum(axis=1)) - W
 
     def feedback(self) -> Array:
-        """F [N per unit of ξ], (n, 2n): û = F ξ on ξ = [v̂, z, p] (module docstring)."""
+        """F [N per unit of ξ], (n, 2n): û = F ξ on ξ = [v̂, z, p] (module docstring).
+
+        The law linearised at the desired gaps: the potential enters through
+        its stiffness k_eff (:meth:`FlockingPotential.stiffness`).
+
+        Returns
+        -------
+        ndarray, shape (n, 2n)
+            The gain [F_v, F_z, F_p]: columns 0..n-1 act on v̂ [N/(m/s)],
+            n..2n-2 on z [N/m] and the last on p [N/m].
+        """
         n, m = self.n, self.mass[:, None]
         k_eff, c1 = self.potential.stiffness(), self.position_gain
         Fv = -m * (self.speed_gain * np.eye(n) + self.laplacian())

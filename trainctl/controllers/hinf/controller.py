@@ -108,7 +108,39 @@ class HinfController:
         self._times, self._speeds = [], []
 
     def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
-        """Each vehicle's command from what it holds; its force, clipped to its envelope."""
+        """Each vehicle's command from what it holds; its force, clipped to its envelope.
+
+        Parameters
+        ----------
+        t : float
+            Simulation time [s], >= the previous step's since :meth:`reset`
+            (each vehicle's measured speed is recorded at t).
+        measurement : Measurement
+            The measured speeds [m/s] (``outputs``, else the state's speeds),
+            the ``messages`` received over the network (None: an ideal
+            network, the measured speeds and the reference now) and, for the
+            line feedforward, the vehicle ``positions`` [m].
+        reference : ReferencePreview
+            The reference; its first sample's acceleration v̇_d [m/s²] is
+            used, and its speed [m/s] only when there are no messages.
+
+        Returns
+        -------
+        StepRecord
+            The forces [N] per vehicle to hold over [t, t + dt), clipped to
+            the envelope at the measured speeds, status ``"optimal"``, with
+            ``info`` holding ``saturated``, ``missing_terms`` (pinning and
+            consensus terms left out for want of data) and
+            ``oldest_data_age`` [s]; or, when a measured speed is not finite,
+            NaN forces with status ``"error"`` (no fallback).
+
+        Raises
+        ------
+        ModelError
+            If the measurement holds neither n speeds nor a state, its
+            positions are not n (with the line fed forward), or ``t`` is
+            earlier than the previous step's.
+        """
         start = time.perf_counter()
         speeds = self._speeds_of(measurement)
         n = self.law.n

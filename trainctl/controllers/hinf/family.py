@@ -246,6 +246,13 @@ class HinfDesign:
 def design_hinf(scenario: Scenario, model: DesignModel, settings: Any) -> HinfDesign:
     """The law's gains, its graph and its linear loops.
 
+    With ``synthesise = true`` the gains come from one run of
+    :func:`~trainctl.analysis.consensus_hinf.synthesise_gains` on the
+    family's consensus loop (the settings' bounds, grid, refinement,
+    scaling, performance output and ``delay_certificate_s``); when it
+    certifies nothing the law keeps the given gains and the reason is
+    recorded (``synthesis_error``, reported by ``hinf_gamma``).
+
     Parameters
     ----------
     scenario : Scenario
@@ -259,13 +266,6 @@ def design_hinf(scenario: Scenario, model: DesignModel, settings: Any) -> HinfDe
     -------
     HinfDesign
         The design.
-
-    With ``synthesise = true`` the gains come from one run of
-    :func:`~trainctl.analysis.consensus_hinf.synthesise_gains` on the
-    family's consensus loop (the settings' bounds, grid, refinement,
-    scaling, performance output and ``delay_certificate_s``); when it
-    certifies nothing the law keeps the given gains and the reason is
-    recorded (``synthesis_error``, reported by ``hinf_gamma``).
 
     Raises
     ------
@@ -417,24 +417,81 @@ class HinfFamily:
         return HinfSettings
 
     def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> HinfDesign:
-        """See :func:`design_hinf`."""
+        """See :func:`design_hinf`.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario (train, ``[communication]``, ``[network]``, ``[simulation]``).
+        model : DesignModel
+            Its design model.
+        settings : HinfSettings
+            The family's settings.
+
+        Returns
+        -------
+        HinfDesign
+            The law (given or synthesised gains), the control interval, the
+            ``[network]``, the graph, the linear loops and the consensus loop
+            of the H∞ analysis.
+        """
         return design_hinf(scenario, model, settings)
 
     def make(self, design: HinfDesign, strategy: str) -> HinfController:
-        """The controller: the law sampled every ``control_interval``, on the network's data."""
+        """The controller: the law sampled every ``control_interval``, on the network's data.
+
+        Parameters
+        ----------
+        design : HinfDesign
+            The family's design.
+        strategy : str
+            The strategy, ``"distributed"``; it names the controller.
+
+        Returns
+        -------
+        HinfController
+            The law with the design's gains, dt = ``control_interval`` [s],
+            clipped to the envelope if the settings' ``input_bounds``.
+        """
         from .controller import HinfController
 
         return HinfController(design.scenario.train, design.law, dt=design.control_interval,
                               input_bounds=design.settings.input_bounds, name=strategy)
 
     def checks(self, design: HinfDesign) -> list[Check]:
-        """The five checks of :mod:`trainctl.controllers.hinf.checks`."""
+        """The five checks of :mod:`trainctl.controllers.hinf.checks`.
+
+        Parameters
+        ----------
+        design : HinfDesign
+            The family's design.
+
+        Returns
+        -------
+        list of Check
+            In :data:`CHECK_NAMES` order.
+        """
         from .checks import hinf_checks
 
         return hinf_checks(design)
 
     def closed_loop(self, design: HinfDesign, strategy: str) -> ct.StateSpace:
-        """x̂' = A_cl x̂ + B_w w (continuous, no delay); outputs v [m/s], f [kN], d [m]."""
+        """x̂' = A_cl x̂ + B_w w (continuous, no delay); outputs v [m/s], f [kN], d [m].
+
+        Parameters
+        ----------
+        design : HinfDesign
+            The family's design.
+        strategy : str
+            The strategy, ``"distributed"``; it names the system.
+
+        Returns
+        -------
+        control.StateSpace
+            The continuous delay-free closed loop on x̂ = [v̂, δ̂], inputs the
+            specific-force disturbances ``w[i]`` [m/s²], outputs ``v[i]``
+            [m/s], ``f[i]`` [kN] and ``d[i]`` [m].
+        """
         import control as ct
 
         n = design.law.n
@@ -451,6 +508,22 @@ class HinfFamily:
         joins the eigenvalue map (``spectra``); the ``[communication]`` graph
         is stored under ``graph``
         (:func:`trainctl.report.figures_graph.graph_report_data`), JSON-safe.
+
+        Parameters
+        ----------
+        design : HinfDesign
+            The family's design.
+
+        Returns
+        -------
+        dict
+            JSON-safe: ``spectra`` (the delay-free loop's eigenvalues mapped
+            to z = exp(λ T_s), as [re, im] pairs), ``rows`` (name/value rows
+            of the table), ``gains_source``, ``gamma_sentence``, ``gamma``
+            (the certified γ), ``synthesis_error``, ``own_speed``,
+            ``control_interval`` [s] (as text), ``input_bounds``, ``delay``
+            (the delay margin), ``consensus_bound`` [s] (None for a directed
+            graph), ``connectivity`` (per window) and ``graph``.
         """
         from ...report.figures_graph import graph_report_data
 
@@ -488,6 +561,16 @@ class HinfFamily:
 
         Drawn from ``data["graph"]``
         (:func:`trainctl.report.figures_graph.graph_figure`).
+
+        Parameters
+        ----------
+        data : mapping
+            The family's :meth:`report_data`.
+
+        Returns
+        -------
+        list of ReportFigure
+            One figure, the communication graph.
         """
         from ...report.figures_graph import graph_figure
 

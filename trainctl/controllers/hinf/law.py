@@ -153,7 +153,14 @@ class HinfLaw:
         return int(self.mass.size)
 
     def pinned_laplacian(self) -> Array:
-        """κ_p P + κ_c L [1/s], (n, n): the speed feedback of the delay-free law per unit mass."""
+        """κ_p P + κ_c L [1/s], (n, n): the speed feedback of the delay-free law per unit mass.
+
+        Returns
+        -------
+        ndarray, shape (n, n)
+            The matrix κ_p diag(b_i) + κ_c (diag(Σ_j a_ij) − a) [1/s]: P the
+            pinning weights, L the graph Laplacian.
+        """
         laplacian = np.diag(self.adjacency.sum(axis=1)) - self.adjacency
         return np.asarray(self.kappa_p * np.diag(self.pinning) + self.kappa_c * laplacian,
                           dtype=float)
@@ -252,6 +259,12 @@ class HinfLaw:
         ----------
         speed : float
             The linearisation speed v_r [m/s].
+
+        Returns
+        -------
+        ndarray, shape (n, 2n−1)
+            The gain m_i c_i on (i, v̂_i) [N/(m/s)], zeros elsewhere (δ̂
+            columns included).
         """
         return self._speed_columns(
             np.diag(self.mass * resistance_damping_per_vehicle(self.davis, speed)))
@@ -263,6 +276,12 @@ class HinfLaw:
         ----------
         speed : float
             The linearisation speed v_r [m/s].
+
+        Returns
+        -------
+        ndarray, shape (n, 2n−1)
+            [diag(m_i c_i) − diag(m_i)(κ_p P + κ_c L), 0]: the gain on v̂
+            [N/(m/s)], zero on δ̂.
         """
         return self.resistance_feedback(speed) - self._speed_columns(
             np.diag(self.mass) @ self.pinned_laplacian())
@@ -274,6 +293,13 @@ class HinfLaw:
         ----------
         speed : float
             The linearisation speed v_r [m/s].
+
+        Returns
+        -------
+        ndarray, shape (n, 2n−1)
+            :meth:`feedback` minus :meth:`delayed_feedback` [N/(m/s)] on v̂,
+            zero on δ̂: the feedforward's slope, and with ``own_speed =
+            "current"`` the own-speed parts −diag(m)(κ_p P + κ_c D).
         """
         return self.feedback(speed) - self.delayed_feedback()
 
@@ -281,6 +307,12 @@ class HinfLaw:
         """K [N per unit of x̂], (n, 2n−1): the part of F that acts on the received speeds.
 
         ``"delayed"``: −diag(m)(κ_p P + κ_c L); ``"current"``: κ_c diag(m) 𝒜.
+
+        Returns
+        -------
+        ndarray, shape (n, 2n−1)
+            The gain K on v̂ [N/(m/s)] that acts τ late under a uniform
+            message delay τ, zero on δ̂.
         """
         if self.own_speed == "delayed":
             return self._speed_columns(-np.diag(self.mass) @ self.pinned_laplacian())

@@ -228,6 +228,13 @@ class HinfSettings:
     def scaling(self) -> dict[str, float]:
         """The unit of each disturbance group: force [m/s²], reference and link noise [m/s].
 
+        Returns
+        -------
+        dict of str to float
+            ``"force"``: ``force_scale`` [m/s²]; ``"reference"`` and
+            ``"link"``: ``noise_scale`` [m/s] (the ``scaling`` of
+            :func:`~trainctl.analysis.consensus_hinf.consensus_loop`).
+
         Examples
         --------
         >>> HinfSettings(noise_scale=0.5).scaling()

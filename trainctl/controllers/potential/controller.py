@@ -84,7 +84,34 @@ class PotentialController:
         self._reference.reset()
 
     def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
-        """Feedforward plus the four terms, clipped to the envelope."""
+        """Feedforward plus the four terms, clipped to the envelope.
+
+        Parameters
+        ----------
+        t : float
+            Simulation time [s]: the reference position x̄_0(t) is integrated
+            up to it.
+        measurement : Measurement
+            The full plant state ``[v (n) [m/s], delta (n-1) [m], s [m]]``
+            (``measurement.state``; outputs and messages are not used).
+        reference : ReferencePreview
+            The reference; only its first sample (speed v_r [m/s] and
+            acceleration [m/s²]) is used.
+
+        Returns
+        -------
+        StepRecord
+            The forces [N] per car to hold over [t, t + dt), clipped to the
+            envelope at the measured speeds (``info["saturated"]``), status
+            ``"optimal"``; or, when a spacing deviation left the potential's
+            domain (a non-finite force), the cruise feedforward [N] with status
+            ``"error"`` and fallback ``"feedforward"``.
+
+        Raises
+        ------
+        ModelError
+            If the measurement has no full state (``state`` is None).
+        """
         start = time.perf_counter()
         if measurement.state is None:
             raise ModelError(f"{self.name}: needs full-state measurement (got state=None).")

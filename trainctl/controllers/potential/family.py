@@ -229,11 +229,41 @@ class PotentialFamily:
         return PotentialSettings
 
     def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> PotentialDesign:
-        """See :func:`design_potential`."""
+        """See :func:`design_potential`.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario (train, ``[communication]`` graph, ``[simulation]``).
+        model : DesignModel
+            Its design model.
+        settings : PotentialSettings
+            The family's settings.
+
+        Returns
+        -------
+        PotentialDesign
+            The law's SI gains, pair potential, control interval and linear
+            closed loop.
+        """
         return design_potential(scenario, model, settings)
 
     def make(self, design: PotentialDesign, strategy: str) -> PotentialController:
-        """The controller: the law sampled every ``control_interval``."""
+        """The controller: the law sampled every ``control_interval``.
+
+        Parameters
+        ----------
+        design : PotentialDesign
+            The family's design.
+        strategy : str
+            The strategy, ``"consensus"``; it names the controller.
+
+        Returns
+        -------
+        PotentialController
+            The law about the cruise feedforward, dt = ``control_interval``
+            [s], clipped to the envelope if the settings' ``input_bounds``.
+        """
         from .controller import PotentialController
 
         return PotentialController(design.scenario.train, design.law,
@@ -241,20 +271,62 @@ class PotentialFamily:
                                    input_bounds=design.settings.input_bounds, name=strategy)
 
     def checks(self, design: PotentialDesign) -> list[Check]:
-        """The six checks of :mod:`trainctl.controllers.potential.checks`."""
+        """The six checks of :mod:`trainctl.controllers.potential.checks`.
+
+        Parameters
+        ----------
+        design : PotentialDesign
+            The family's design.
+
+        Returns
+        -------
+        list of Check
+            In :data:`CHECK_NAMES` order.
+        """
         from .checks import potential_checks
 
         return potential_checks(design)
 
     def trajectory_checks(self, design: PotentialDesign, strategy: str,
                           result: SimulationResult) -> list[Check]:
-        """``potential_linearisation`` judged on the simulated trajectory."""
+        """``potential_linearisation`` judged on the simulated trajectory.
+
+        Parameters
+        ----------
+        design : PotentialDesign
+            The family's design.
+        strategy : str
+            The simulated strategy's name.
+        result : SimulationResult
+            Its simulation on the nonlinear plant.
+
+        Returns
+        -------
+        list of Check
+            The ``potential_linearisation`` check, replacing the design
+            review's check of that name.
+        """
         from .checks import trajectory_checks
 
         return trajectory_checks(design, strategy, result)
 
     def closed_loop(self, design: PotentialDesign, strategy: str) -> ct.StateSpace:
-        """ξ̇ = A_cl ξ + B_w w (continuous); outputs v [m/s], f [kN], d [m]."""
+        """ξ̇ = A_cl ξ + B_w w (continuous); outputs v [m/s], f [kN], d [m].
+
+        Parameters
+        ----------
+        design : PotentialDesign
+            The family's design.
+        strategy : str
+            The strategy, ``"consensus"``; it names the system.
+
+        Returns
+        -------
+        control.StateSpace
+            The continuous linear closed loop on ξ = [v̂, z, p], inputs the
+            specific-force disturbances ``w[i]`` [m/s²], outputs ``v[i]``
+            [m/s], ``f[i]`` [kN] and ``d[i]`` [m].
+        """
         import control as ct
 
         n = design.law.n
@@ -270,6 +342,19 @@ class PotentialFamily:
 
         The ``[communication]`` graph is stored under ``graph``
         (:func:`trainctl.report.figures_graph.graph_report_data`), JSON-safe.
+
+        Parameters
+        ----------
+        design : PotentialDesign
+            The family's design.
+
+        Returns
+        -------
+        dict
+            JSON-safe: ``spectra`` (the closed-loop eigenvalues mapped to z =
+            exp(λ T_s) with the model's sample time, as [re, im] pairs),
+            ``rows`` (name/value rows of the gains table), ``potential``,
+            ``control_interval`` [s] (as text), ``input_bounds`` and ``graph``.
         """
         from ...report.figures_graph import graph_report_data
 
@@ -293,6 +378,16 @@ class PotentialFamily:
 
         Drawn from ``data["graph"]``
         (:func:`trainctl.report.figures_graph.graph_figure`).
+
+        Parameters
+        ----------
+        data : mapping
+            The family's :meth:`report_data`.
+
+        Returns
+        -------
+        list of ReportFigure
+            One figure, the communication graph.
         """
         from ...report.figures_graph import graph_figure
 

@@ -144,11 +144,28 @@ class PotentialLaw:
         return int(self.mass.size)
 
     def consensus_laplacian(self) -> Array:
-        """c·L_a [1/s], (n, n): ``L @ v`` is Σ_j c a_ij (v_i − v_j)."""
+        """c·L_a [1/s], (n, n): ``L @ v`` is Σ_j c a_ij (v_i − v_j).
+
+        Returns
+        -------
+        ndarray, shape (n, n)
+            The weighted Laplacian diag(Σ_j c a_ij) − c a [1/s] of the
+            consensus graph; its rows sum to 0.
+        """
         return np.diag(self.consensus.sum(axis=1)) - self.consensus
 
     def feedback(self) -> Array:
-        """F [N per unit of ξ], (n, 2n): û = F ξ for ξ = [v̂, z, p] (module docstring)."""
+        """F [N per unit of ξ], (n, 2n): û = F ξ for ξ = [v̂, z, p] (module docstring).
+
+        The potential enters through its curvature κ at z = 0 (the law
+        linearised about the nominal spacing).
+
+        Returns
+        -------
+        ndarray, shape (n, 2n)
+            The gain [F_v, F_z, F_p]: columns 0..n-1 act on v̂ [N/(m/s)],
+            n..2n-2 on z [N/m] and the last on p [N/m].
+        """
         n, m = self.n, self.mass
         E, S = incidence(n), cumulative(n)
         Fv = -m[:, None] * (self.speed_gain * np.eye(n) + self.consensus_laplacian())

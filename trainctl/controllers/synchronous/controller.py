@@ -126,7 +126,37 @@ class SynchronousController:
             self.relay.reseed(np.random.SeedSequence([int(seed), RELAY_STREAM]))
 
     def step(self, t: float, measurement: Measurement, reference: ReferencePreview) -> StepRecord:
-        """The lead's command, relayed; each vehicle's force, clipped to its envelope."""
+        """The lead's command, relayed; each vehicle's force, clipped to its envelope.
+
+        Parameters
+        ----------
+        t : float
+            Simulation time [s], >= the previous step's: the lead sends its
+            command over the relay at t.
+        measurement : Measurement
+            The measured speeds [m/s] (``outputs``, else the state's speeds)
+            and, for the line feedforward, the vehicle positions [m]
+            (``positions``; without them the line resistance is taken as 0).
+        reference : ReferencePreview
+            The reference; only its first sample (speed v_d [m/s] and
+            acceleration v̇_d [m/s²]) is used.
+
+        Returns
+        -------
+        StepRecord
+            The forces [N] per vehicle to hold over [t, t + dt), clipped to
+            the envelope at the measured speeds, status ``"optimal"``, with
+            ``info`` holding ``saturated``, the lead's ``command`` [m/s²], the
+            number of remotes still ``waiting`` for a first command and
+            ``oldest_command_age`` [s]; or, when a measured speed is not
+            finite, NaN forces with status ``"error"`` (no fallback).
+
+        Raises
+        ------
+        ModelError
+            If the measurement holds neither n speeds nor a state, or its
+            positions are not n (with the line fed forward).
+        """
         start = time.perf_counter()
         speeds = self._speeds(measurement)
         n = self.law.n

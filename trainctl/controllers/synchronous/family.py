@@ -172,6 +172,13 @@ class SynchronousDesign:
             scenario's ``[network]``; None: an instantaneous relay.
         seed : int or None
             The run's seed; None: the design scenario's.
+
+        Returns
+        -------
+        CommandRelay
+            The relay from the law's lead to its remotes, with the network's
+            delays, losses and outages and the settings' command noise
+            [m/s²].
         """
         from .relay import RELAY_STREAM, CommandRelay, relay_settings
 
@@ -265,11 +272,43 @@ class SynchronousFamily:
 
     def design(self, scenario: Scenario, model: DesignModel,
                settings: Any) -> SynchronousDesign:
-        """See :func:`design_synchronous`."""
+        """See :func:`design_synchronous`.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario (train, ``[network]``, ``[simulation]``).
+        model : DesignModel
+            Its design model.
+        settings : SynchronousSettings
+            The family's settings.
+
+        Returns
+        -------
+        SynchronousDesign
+            The law's SI gains, the control interval, the ``[network]`` and
+            the linear loops (undelayed, relayed and delay-free).
+        """
         return design_synchronous(scenario, model, settings)
 
     def make(self, design: SynchronousDesign, strategy: str) -> SynchronousController:
-        """The controller: the law sampled every ``control_interval``, with its own relay."""
+        """The controller: the law sampled every ``control_interval``, with its own relay.
+
+        Parameters
+        ----------
+        design : SynchronousDesign
+            The family's design.
+        strategy : str
+            The strategy, ``"synchronous"``; it names the controller.
+
+        Returns
+        -------
+        SynchronousController
+            The law with a relay over the design's ``[network]``
+            (:meth:`SynchronousDesign.make_relay`, also its relay factory for
+            each run), dt = ``control_interval`` [s], clipped to the envelope
+            if the settings' ``input_bounds``.
+        """
         from .controller import SynchronousController
 
         return SynchronousController(design.scenario.train, design.law, design.make_relay(),
@@ -278,13 +317,39 @@ class SynchronousFamily:
                                      relay_factory=design.make_relay)
 
     def checks(self, design: SynchronousDesign) -> list[Check]:
-        """The three checks of :mod:`trainctl.controllers.synchronous.checks`."""
+        """The three checks of :mod:`trainctl.controllers.synchronous.checks`.
+
+        Parameters
+        ----------
+        design : SynchronousDesign
+            The family's design.
+
+        Returns
+        -------
+        list of Check
+            In :data:`CHECK_NAMES` order.
+        """
         from .checks import synchronous_checks
 
         return synchronous_checks(design)
 
     def closed_loop(self, design: SynchronousDesign, strategy: str) -> ct.StateSpace:
-        """x̂' = A_cl x̂ + B_w w (continuous, instantaneous relay); outputs v [m/s], f [kN], d [m]."""
+        """x̂' = A_cl x̂ + B_w w (continuous, instantaneous relay); outputs v [m/s], f [kN], d [m].
+
+        Parameters
+        ----------
+        design : SynchronousDesign
+            The family's design.
+        strategy : str
+            The strategy, ``"synchronous"``; it names the system.
+
+        Returns
+        -------
+        control.StateSpace
+            The continuous delay-free closed loop on x̂ = [v̂, δ̂], inputs the
+            specific-force disturbances ``w[i]`` [m/s²], outputs ``v[i]``
+            [m/s], ``f[i]`` [kN] and ``d[i]`` [m].
+        """
         import control as ct
 
         n = design.law.n
@@ -299,6 +364,20 @@ class SynchronousFamily:
 
         The delay-free loop's spectrum, sampled at the model's sample time,
         joins the eigenvalue map (``spectra``).
+
+        Parameters
+        ----------
+        design : SynchronousDesign
+            The family's design.
+
+        Returns
+        -------
+        dict
+            JSON-safe: ``spectra`` (the delay-free loop's eigenvalues mapped
+            to z = exp(λ T_s), as [re, im] pairs), ``rows`` (name/value rows
+            of the table), ``lead_number`` (1-based), ``control_interval``
+            [s] (as text), ``input_bounds`` and ``delay`` (the delay margin,
+            :meth:`~trainctl.analysis.delay.DelayMargin.to_dict`).
         """
         lam = np.linalg.eigvals(design.loops.A_cl).astype(complex)
         z = np.exp(lam * design.model.settings.sample_time)
@@ -317,7 +396,18 @@ class SynchronousFamily:
                 "input_bounds": bool(s.input_bounds), "delay": res.to_dict()}
 
     def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
-        """None: the family's numbers are in its table, its spectrum in the eigenvalue map."""
+        """None: the family's numbers are in its table, its spectrum in the eigenvalue map.
+
+        Parameters
+        ----------
+        data : mapping
+            The family's :meth:`report_data` (not used).
+
+        Returns
+        -------
+        list of ReportFigure
+            An empty list.
+        """
         return []
 
 

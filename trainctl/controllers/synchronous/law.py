@@ -153,6 +153,24 @@ class SynchronousLaw:
         """r(p_i) [m/s²], shape (n,): the line resistance per unit mass at each position.
 
         See :func:`line_resistance`.
+
+        Parameters
+        ----------
+        positions : array_like or None
+            Each vehicle's position along the line [m], shape (n,); None: not
+            measured.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            The grade and curve resistance per unit mass [m/s²] at each
+            position, negative on down-grades; zeros when the law has no
+            ``line`` or ``positions`` is None.
+
+        Raises
+        ------
+        ModelError
+            If ``positions`` does not have shape (n,).
         """
         return line_resistance(self.line, positions, self.n)
 
@@ -196,6 +214,13 @@ class SynchronousLaw:
         ----------
         speed : float
             The linearisation speed v_r [m/s].
+
+        Returns
+        -------
+        ndarray, shape (n, 2n−1)
+            F₀ on x̂ = [v̂, δ̂]: m_i c_i on (i, v̂_i) [N/(m/s)] (c_i the slope
+            of the Davis resistance per unit mass at v_r), minus κ m_ℓ on the
+            lead's (ℓ, v̂_ℓ); zero on δ̂.
         """
         n = self.n
         F = np.zeros((n, 2 * n - 1))
@@ -205,13 +230,33 @@ class SynchronousLaw:
         return F
 
     def relayed_feedback(self) -> Array:
-        """K_r [N per unit of x̂], (n−1, 2n−1): row r is remote ``remotes[r]``, −κ m_i on v̂_ℓ."""
+        """K_r [N per unit of x̂], (n−1, 2n−1): row r is remote ``remotes[r]``, −κ m_i on v̂_ℓ.
+
+        Returns
+        -------
+        ndarray, shape (n−1, 2n−1)
+            The remotes' feedback on the lead's speed deviation [N/(m/s)]:
+            −κ m_i in column ℓ of remote i's row, zeros elsewhere.
+        """
         K = np.zeros((self.n - 1, 2 * self.n - 1))
         K[:, self.lead] = -self.speed_gain * self.mass[list(self.remotes)]
         return K
 
     def feedback(self, speed: float) -> Array:
-        """F = F₀ + the remotes' rows [N per unit of x̂], (n, 2n−1): the delay-free law."""
+        """F = F₀ + the remotes' rows [N per unit of x̂], (n, 2n−1): the delay-free law.
+
+        Parameters
+        ----------
+        speed : float
+            The linearisation speed v_r [m/s].
+
+        Returns
+        -------
+        ndarray, shape (n, 2n−1)
+            :meth:`local_feedback` with :meth:`relayed_feedback` added on the
+            remotes' rows [N per unit of x̂]: the law with an instantaneous
+            relay.
+        """
         F = self.local_feedback(speed)
         F[list(self.remotes)] += self.relayed_feedback()
         return F
