@@ -370,9 +370,10 @@ class ConsensusLoop:
         Returns
         -------
         control.StateSpace
-            Continuous, N + n·q states, named ``"consensus_loop_delayed"``:
-            inputs the channels (entering the plant states), outputs the
-            performance outputs (read from the plant states).
+            Continuous, N + n·q states (N when τ = 0), named
+            ``"consensus_loop_delayed"``: inputs the channels (entering the
+            plant states), outputs the performance outputs (read from the
+            plant states).
         """
         from .delay import pade_loop
 

@@ -301,7 +301,8 @@ class KrasovskiiProblem:
         -------
         DelayCertificate
             Certified or not, with the solver's status and time; P, Q, R
-            (on the original state) only when certified.
+            (on the original state) only when certified (Q None for
+            ``"varying"``).
 
         Raises
         ------

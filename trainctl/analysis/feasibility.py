@@ -131,8 +131,8 @@ class RouteForces:
         -------
         ndarray of bool, shape (k, n)
             Per point and vehicle: :meth:`excess` above a tolerance of 1e-9
-            times the limit on the force's side (traction or braking) plus
-            1e-6 N.
+            times the limit on the force's side (traction or braking; 0 when
+            that limit is infinite) plus 1e-6 N.
         """
         limit = np.where(self.inputs >= 0, self.traction_limit, self.braking_limit)
         tol = 1e-9 * np.where(np.isfinite(limit), limit, 0.0) + 1e-6
