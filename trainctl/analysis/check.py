@@ -60,7 +60,15 @@ class Check:
     details: Mapping[str, object] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict (non-finite numbers as None)."""
+        """JSON-safe dict (non-finite numbers as None).
+
+        Returns
+        -------
+        dict
+            The fields by name: ``name``, ``status``, ``value`` and
+            ``threshold`` (None when missing or not finite), ``unit``,
+            ``message``, ``hint`` and ``details`` (a copy).
+        """
         return {"name": self.name, "status": self.status, "value": finite_or_none(self.value),
                 "threshold": finite_or_none(self.threshold), "unit": self.unit,
                 "message": self.message, "hint": self.hint, "details": dict(self.details)}
@@ -131,12 +139,28 @@ Did you mean 'sampling'? Checks: sampling.
             f"{suggest(name, self.names)} Checks: {', '.join(self.names) or '(none)'}.")
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict."""
+        """JSON-safe dict.
+
+        Returns
+        -------
+        dict
+            ``scenario`` (the display name), ``checks`` (each check's
+            :meth:`Check.to_dict`, in order) and ``failed_checks`` (the names
+            of the failed checks).
+        """
         return {"scenario": self.scenario_name, "checks": [c.to_dict() for c in self.checks],
                 "failed_checks": list(self.failed_checks)}
 
     def format_text(self) -> str:
-        """The review as a plain-text table with hints."""
+        """The review as a plain-text table with hints.
+
+        Returns
+        -------
+        str
+            A "Design checks:" header, then one row per check (name, status,
+            value, threshold, unit) followed by its message and, when it has
+            one, its hint; lines joined by newlines.
+        """
         w = max([24] + [len(c.name) + 2 for c in self.checks])
         lines = ["Design checks:",
                  f"  {'check':<{w}}{'status':<8}{'value':>12}{'threshold':>12}  unit"]

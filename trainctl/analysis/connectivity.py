@@ -257,7 +257,15 @@ class WindowConnectivity:
     recovery_time: float | None
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-safe, vehicles 1-based as in messages (``cut_off_vehicles``)."""
+        """JSON-safe, vehicles 1-based as in messages (``cut_off_vehicles``).
+
+        Returns
+        -------
+        dict
+            ``window``, ``start`` and ``end`` [s], ``cut_off_vehicles`` (list
+            of int, 1-based), ``recovered`` and ``recovery_time`` [s] (None
+            when not recovered).
+        """
         return {"window": self.window, "start": self.start, "end": self.end,
                 "cut_off_vehicles": [i + 1 for i in self.cut_off], "recovered": self.recovered,
                 "recovery_time": self.recovery_time}

@@ -228,30 +228,99 @@ class ConsensusLoop:
         return int(self.A0.shape[0])
 
     def units(self) -> tuple[str, ...]:
-        """Each channel's unit, e.g. ``"1 m/s²"`` (its scaling and group unit)."""
+        """Each channel's unit, e.g. ``"1 m/s²"`` (its scaling and group unit).
+
+        Returns
+        -------
+        tuple of str
+            One text per channel, in the order of :attr:`channels`: the
+            channel's scaling c_j and its group's unit (m/s² or m/s).
+        """
         return tuple(f"{c:g} {UNITS[g]}" for c, g in zip(self.scaling, self.groups, strict=True))
 
     def columns(self, group: str) -> Array:
-        """Indices of the channels of one group (:data:`CHANNEL_GROUPS`)."""
+        """Indices of the channels of one group (:data:`CHANNEL_GROUPS`).
+
+        Parameters
+        ----------
+        group : {"force", "reference", "link"}
+            The group.
+
+        Returns
+        -------
+        ndarray of int
+            The 0-based columns of B_w (positions in :attr:`channels`) of
+            the group's channels, in order; empty when the loop has none.
+
+        Raises
+        ------
+        ModelError
+            If ``group`` is not in :data:`CHANNEL_GROUPS`.
+        """
         if group not in CHANNEL_GROUPS:
             raise ModelError(f"ConsensusLoop.columns: 'group' must be one of {CHANNEL_GROUPS} "
                              f"(got {group!r}).")
         return np.array([j for j, g in enumerate(self.groups) if g == group], dtype=int)
 
     def matrices(self, kp: float, kc: float) -> tuple[Array, Array, Array, Array]:
-        """(A, B_w, C, D) at the gains κ_p, κ_c [1/s], scaled channels."""
+        """(A, B_w, C, D) at the gains κ_p, κ_c [1/s], scaled channels.
+
+        Parameters
+        ----------
+        kp : float
+            κ_p, the gain on the reference-speed error [1/s].
+        kc : float
+            κ_c, the gain on the neighbours' speed differences [1/s].
+
+        Returns
+        -------
+        A : ndarray
+            (N, N) the delay-free closed loop A₀ + κ_p A_p + κ_c A_c [1/s].
+        B_w : ndarray
+            (N, nw) the input of the scaled disturbances w̃,
+            B_f + κ_p B_p + κ_c B_c.
+        C : ndarray
+            (ns, N) the scaled performance output s̃ (:attr:`C`).
+        D : ndarray
+            (ns, nw) zeros.
+        """
         A = self.A0 + kp * self.Ap + kc * self.Ac
         Bw = self.Bf + kp * self.Bp + kc * self.Bc
         return A, Bw, self.C, np.zeros((self.C.shape[0], Bw.shape[1]))
 
     def system(self, kp: float, kc: float) -> ct.StateSpace:
-        """T_w̃s̃ at κ_p, κ_c as a continuous ``control.StateSpace`` with named signals."""
+        """T_w̃s̃ at κ_p, κ_c as a continuous ``control.StateSpace`` with named signals.
+
+        Parameters
+        ----------
+        kp : float
+            κ_p, the gain on the reference-speed error [1/s].
+        kc : float
+            κ_c, the gain on the neighbours' speed differences [1/s].
+
+        Returns
+        -------
+        control.StateSpace
+            The delay-free loop of :meth:`matrices`, named
+            ``"consensus_loop"``: inputs the channels, outputs the
+            performance outputs (``e[i]`` or ``d[i]``).
+        """
         A, Bw, C, D = self.matrices(kp, kc)
         return ct.ss(A, Bw, C, D, inputs=list(self.channels), outputs=list(self.outputs),
                      name="consensus_loop")
 
     def delayed_terms(self) -> tuple[Array, Array]:
-        """(A_p, A_c) parts on delayed data, E K_p and E K_c, per unit gain [1/s per 1/s]."""
+        """(A_p, A_c) parts on delayed data, E K_p and E K_c, per unit gain [1/s per 1/s].
+
+        Returns
+        -------
+        Apd : ndarray
+            (N, N) E K_p: the part of A_p acting on delayed data (zero
+            with ``own_speed = "current"``).
+        Acd : ndarray
+            (N, N) E K_c: the part of A_c acting on delayed data (the
+            neighbours' speeds only with ``own_speed = "current"``).
+        """
         return self.E @ self.Kp_delayed, self.E @ self.Kc_delayed
 
     def delay_matrices(self, kp: float, kc: float) -> tuple[Array, Array]:
@@ -259,6 +328,20 @@ class ConsensusLoop:
 
         ``own_speed = "delayed"``: A = A₀, A_d = κ_pA_p + κ_cA_c (the whole
         law delayed); ``"current"``: only the neighbours' speeds delayed.
+
+        Parameters
+        ----------
+        kp : float
+            κ_p, the gain on the reference-speed error [1/s].
+        kc : float
+            κ_c, the gain on the neighbours' speed differences [1/s].
+
+        Returns
+        -------
+        A : ndarray
+            (N, N) the part of the loop on current data [1/s].
+        A_d : ndarray
+            (N, N) the part on data delayed by τ, κ_p E K_p + κ_c E K_c [1/s].
         """
         Apd, Acd = self.delayed_terms()
         Ad = kp * Apd + kc * Acd
@@ -272,6 +355,25 @@ class ConsensusLoop:
         the disturbances enter the plant undelayed. A common delay on the
         noise channels multiplies their columns by e^{−jωτ}, a unitary
         factor, so it would not change any norm reported here.
+
+        Parameters
+        ----------
+        kp : float
+            κ_p, the gain on the reference-speed error [1/s].
+        kc : float
+            κ_c, the gain on the neighbours' speed differences [1/s].
+        tau : float
+            The delay τ [s], >= 0 (0: no Padé states).
+        order : int
+            Padé order q, >= 1.
+
+        Returns
+        -------
+        control.StateSpace
+            Continuous, N + n·q states (N when τ = 0), named
+            ``"consensus_loop_delayed"``: inputs the channels (entering the
+            plant states), outputs the performance outputs (read from the
+            plant states).
         """
         from .delay import pade_loop
 
@@ -542,7 +644,21 @@ class GainSynthesis:
         return True
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe summary (per channel: certified γ, independent norm, unit)."""
+        """JSON-safe summary (per channel: certified γ, independent norm, unit).
+
+        Returns
+        -------
+        dict
+            The gains ``kp``, ``kc`` [1/s], the certified ``gamma`` [-],
+            the ``certificate`` and ``norm`` as dicts, ``channels`` (per
+            channel: name, unit, certified γ, independent norm), ``groups``
+            (each group's certificate as a dict), the search's
+            ``evaluations``, ``trouble``, ``bounds`` [1/s] and
+            ``search_time`` [s], ``output``, ``output_scale`` [m/s],
+            ``tau_max`` [s], ``delay``, ``pade_norms`` (pairs of delay [s]
+            and norm dict), ``consistent`` and ``notes``; non-finite γ and
+            norms as None.
+        """
         def f(x: float) -> float | None:
             return float(x) if math.isfinite(x) else None
         per = []

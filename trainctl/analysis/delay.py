@@ -214,7 +214,15 @@ class DelayMargin:
         return abs(a - b) <= AGREEMENT * max(abs(a), abs(b), 1e-300)
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe (inf as None)."""
+        """JSON-safe (inf as None).
+
+        Returns
+        -------
+        dict
+            ``margin`` [s], ``orders``, ``margins`` [s], ``tau_max`` [s],
+            ``crossing_frequency`` [rad/s] and ``agree``; non-finite
+            numbers (an infinite margin, a NaN frequency) as None.
+        """
         def f(x: float) -> float | None:
             return float(x) if math.isfinite(x) else None
         return {"margin": f(self.margin), "orders": list(self.orders),
@@ -432,6 +440,12 @@ class DataAge:
         ----------
         q : float
             Probability, in (0, 1].
+
+        Returns
+        -------
+        float
+            The age [s], a multiple of :attr:`interval`; inf when the
+            probabilities held never reach ``q``.
         """
         cdf = np.cumsum(self.pmf)
         reached = np.flatnonzero(cdf >= q - 1e-12)

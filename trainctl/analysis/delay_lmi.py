@@ -261,7 +261,26 @@ class KrasovskiiProblem:
         return self._problem
 
     def xi(self, h: float, P: Array, Q: Array | None, R: Array) -> Array:
-        """Ξ(h) on the balanced data for given (balanced) P, Q, R."""
+        """Ξ(h) on the balanced data for given (balanced) P, Q, R.
+
+        Parameters
+        ----------
+        h : float
+            The delay bound τ_max [s], >= 0.
+        P : ndarray
+            (n, n) symmetric, on the balanced state.
+        Q : ndarray or None
+            (n, n) symmetric, on the balanced state; None: zero (the
+            ``"varying"`` functional has no Q).
+        R : ndarray
+            (n, n) symmetric, on the balanced state.
+
+        Returns
+        -------
+        ndarray
+            (3n, 3n) the LK block matrix Ξ(h) (module docstring); the
+            certificate needs it negative definite.
+        """
         n = self.n
         A_, Ad = self._A, self._Ad
         Qe = Q if Q is not None else np.zeros((n, n))
@@ -271,7 +290,25 @@ class KrasovskiiProblem:
             [h * R @ A_, h * R @ Ad, -R]]), dtype=float)
 
     def certify(self, tau_max: float) -> DelayCertificate:
-        """Solve at h = ``tau_max`` [s] and check the solution in floating point."""
+        """Solve at h = ``tau_max`` [s] and check the solution in floating point.
+
+        Parameters
+        ----------
+        tau_max : float
+            h [s], >= 0: the delays certified are [0, h].
+
+        Returns
+        -------
+        DelayCertificate
+            Certified or not, with the solver's status and time; P, Q, R
+            (on the original state) only when certified (Q None for
+            ``"varying"``).
+
+        Raises
+        ------
+        ModelError
+            If ``tau_max`` is not a finite number >= 0.
+        """
 
         h = _tau(tau_max, "tau_max", "KrasovskiiProblem.certify", positive=False)
         self.h.value = h
@@ -391,7 +428,16 @@ class MaxCertifiedDelay:
     trouble: tuple[str, ...] = field(default=())
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe."""
+        """JSON-safe.
+
+        Returns
+        -------
+        dict
+            ``tau`` and ``tau_failed`` [s] (None when infinite),
+            ``delay``, ``solves``, ``first_solve_time`` and
+            ``resolve_time`` [s], and ``trouble``; the certificate is left
+            out.
+        """
         def f(x: float) -> float | None:
             return float(x) if math.isfinite(x) else None
         return {"tau": f(self.tau), "tau_failed": f(self.tau_failed), "delay": self.delay,
@@ -548,7 +594,16 @@ class DelayHinf:
         return math.isfinite(self.gamma)
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe."""
+        """JSON-safe.
+
+        Returns
+        -------
+        dict
+            ``gamma`` and ``gamma_solver`` [-] (None when not finite),
+            ``tau_max`` [s], ``delay``, ``status``, ``solver``,
+            ``solve_time`` [s], ``parameters`` (a copy), ``certified`` and
+            ``message``.
+        """
         def f(x: float) -> float | None:
             return float(x) if math.isfinite(x) else None
         return {"gamma": f(self.gamma), "gamma_solver": f(self.gamma_solver),
@@ -709,7 +764,27 @@ class DelayHinfProblem:
         return out
 
     def solve(self, **values: float) -> DelayHinf:
-        """Solve at the given parameter values; γ certified in floating point."""
+        """Solve at the given parameter values; γ certified in floating point.
+
+        Parameters
+        ----------
+        **values : float
+            One finite value θ_k per parameter name of the problem (its
+            ``names``), no other; none when it has no parameters.
+
+        Returns
+        -------
+        DelayHinf
+            The certified γ for delays in [0, tau_max] (inf when the
+            solver found nothing or its solution does not verify), with the
+            solver's status and time and the values given.
+
+        Raises
+        ------
+        ModelError
+            If a parameter is missing or unknown, or a value is not a
+            finite number.
+        """
         theta = self._values(values)
         for k, v in theta.items():
             self.parameters[k].value = v

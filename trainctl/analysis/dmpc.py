@@ -105,7 +105,16 @@ class DMPCAnalysis:
         return self.rho_d0 < 1
 
     def radii(self) -> dict[str, float]:
-        """Closed-loop spectral radii: nash, iterations, centralised."""
+        """Closed-loop spectral radii: nash, iterations, centralised.
+
+        Returns
+        -------
+        dict of str to float
+            ``"nash"``, ``"iterations"`` and ``"centralised"``: the
+            spectral radius [-] of :attr:`closed_loop_nash`,
+            :attr:`closed_loop_iterations` and
+            :attr:`closed_loop_centralised` (a new dict each call).
+        """
         return dict(self._radii)
 
     @cached_property
@@ -114,7 +123,17 @@ class DMPCAnalysis:
                 for name in ("nash", "iterations", "centralised")}
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict."""
+        """JSON-safe dict.
+
+        Returns
+        -------
+        dict
+            ``rho_d0``, ``d0_eigenvalues`` (pairs of real and imaginary
+            part), ``threshold_weight`` (None when infinite),
+            ``relaxation`` as a dict, ``closed_loop_radius`` (the
+            :meth:`radii`), ``iterations``, ``cost_gap`` and
+            ``rho_cooperative``.
+        """
         r_star = self.threshold_weight
         return {"rho_d0": self.rho_d0,
                 "d0_eigenvalues": [[float(z.real), float(z.imag)] for z in self.d0_eigenvalues],
@@ -267,7 +286,17 @@ class LocalDMPCAnalysis:
         return spectral_radius(self.closed_loop_iterations)
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict."""
+        """JSON-safe dict.
+
+        Returns
+        -------
+        dict
+            ``rho_d0``, ``relaxation`` as a dict, ``closed_loop_radius``,
+            ``closed_loop_iterations_radius``, ``iterations``,
+            ``prediction_error`` (one relative error per coach),
+            ``threshold_weight`` (None when not computed or infinite),
+            ``hold``, ``boundary`` and ``substeps``.
+        """
         r_star = self.threshold_weight
         return {"rho_d0": self.rho_d0, "relaxation": self.relaxation.to_dict(),
                 "closed_loop_radius": self.closed_loop_radius,

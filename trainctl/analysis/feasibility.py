@@ -113,17 +113,42 @@ class RouteForces:
     braking_limit: Array
 
     def excess(self) -> Array:
-        """How far each vehicle's force is outside its envelope [N] (<= 0 inside), (k, n)."""
+        """How far each vehicle's force is outside its envelope [N] (<= 0 inside), (k, n).
+
+        Returns
+        -------
+        ndarray, shape (k, n)
+            Per point and vehicle, the larger of the force above the
+            traction limit and the braking force beyond the braking limit
+            [N]: positive outside the envelope, <= 0 inside.
+        """
         return np.maximum(self.inputs - self.traction_limit, -self.braking_limit - self.inputs)
 
     def infeasible(self) -> NDArray[np.bool_]:
-        """True where a vehicle's force is outside its envelope (relative 1e-9 + 1e-6 N)."""
+        """True where a vehicle's force is outside its envelope (relative 1e-9 + 1e-6 N).
+
+        Returns
+        -------
+        ndarray of bool, shape (k, n)
+            Per point and vehicle: :meth:`excess` above a tolerance of 1e-9
+            times the limit on the force's side (traction or braking; 0 when
+            that limit is infinite) plus 1e-6 N.
+        """
         limit = np.where(self.inputs >= 0, self.traction_limit, self.braking_limit)
         tol = 1e-9 * np.where(np.isfinite(limit), limit, 0.0) + 1e-6
         return self.excess() > tol
 
     def utilisation(self) -> Array:
-        """Required over available force [-], per point and vehicle (inf: none available)."""
+        """Required over available force [-], per point and vehicle (inf: none available).
+
+        Returns
+        -------
+        ndarray, shape (k, n)
+            The force's magnitude over the traction limit (traction) or the
+            braking limit (braking) [-]: > 1 outside the envelope, 0 where the force
+            is at most 1e-6 N, inf where a force is needed and the limit is
+            zero.
+        """
         need = np.abs(self.inputs)
         available = np.where(self.inputs >= 0, self.traction_limit, self.braking_limit)
         with np.errstate(divide="ignore", invalid="ignore"):

@@ -67,7 +67,13 @@ class Peak:
     frequency: float
 
     def to_dict(self) -> dict[str, float | None]:
-        """JSON-safe dict (non-finite values as None)."""
+        """JSON-safe dict (non-finite values as None).
+
+        Returns
+        -------
+        dict of str to float or None
+            ``gain`` (in the transfer's unit) and ``frequency`` [rad/s].
+        """
         return {"gain": _finite(self.gain), "frequency": _finite(self.frequency)}
 
 
@@ -144,7 +150,19 @@ class FrequencyResult:
         return "infinite DC gain: a closed-loop pole at z = 1"
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-safe numbers: peaks (gain, frequency [rad/s]) and the bandwidth."""
+        """JSON-safe numbers: peaks (gain, frequency [rad/s]) and the bandwidth.
+
+        Returns
+        -------
+        dict
+            ``sample_time`` [s], ``omega_range`` (first and last frequency
+            [rad/s]), the peaks ``speed_error_peak``,
+            ``coupler_force_peak``, ``sensitivity_peak`` and
+            ``complementary_sensitivity_peak`` (each :meth:`Peak.to_dict`,
+            None when absent), ``bandwidth`` [rad/s] (None when not
+            finite), ``bandwidth_note`` and ``units`` (the unit of each
+            entry).
+        """
         def peak(p: Peak | None) -> dict[str, float | None] | None:
             return None if p is None else p.to_dict()
 
@@ -163,7 +181,18 @@ class FrequencyResult:
         }
 
     def curves(self) -> dict[str, Any]:
-        """JSON-safe arrays for plotting: ``omega`` and the singular values of each transfer."""
+        """JSON-safe arrays for plotting: ``omega`` and the singular values of each transfer.
+
+        Returns
+        -------
+        dict
+            ``omega`` [rad/s]; ``speed`` [(m/s) per (m/s²)], ``force``
+            [kN per (m/s²)], ``sensitivity`` and ``complementary`` [-]: the
+            singular values, one list per singular value over ``omega``
+            (None for S and T when absent); ``nyquist`` and ``bandwidth``
+            [rad/s] (None when not finite). Values rounded to 6 significant
+            digits.
+        """
         def rows(a: Array | None) -> list[list[float]] | None:
             return None if a is None else [_short(row) for row in a]
 

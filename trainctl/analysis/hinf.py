@@ -613,7 +613,16 @@ class HinfNorm:
         return text + ("" if self.agree else f" — routes DISAGREE beyond {AGREEMENT:g}")
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe (inf and NaN as None)."""
+        """JSON-safe (inf and NaN as None).
+
+        Returns
+        -------
+        dict
+            ``norm``, ``control`` and ``hamiltonian`` [output unit per
+            input unit] with their frequencies [rad/s], ``stable``,
+            ``abscissa``, ``dt`` [s], ``iterations``, ``agree``, ``error``
+            and the one-line ``message``.
+        """
         def f(x: float) -> float | None:
             return float(x) if math.isfinite(x) else None
         return {"norm": f(self.norm), "frequency": f(self.frequency),
@@ -724,7 +733,17 @@ class ChannelNorms:
         return True
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe (inf as None)."""
+        """JSON-safe (inf as None).
+
+        Returns
+        -------
+        dict
+            ``inputs`` and ``outputs`` (labels), ``gamma`` and
+            ``gamma_hamiltonian`` (nested lists, one row per output)
+            [output unit per input unit], ``frequency`` (nested lists)
+            [rad/s], ``per_input`` and ``per_input_hamiltonian`` (one value
+            per input), and ``agree``.
+        """
         def f(M: Array) -> list[Any]:
             return [None if not math.isfinite(x) else float(x) for x in np.ravel(M)] \
                 if M.ndim == 1 else [f(row) for row in M]
@@ -877,7 +896,15 @@ class BoundedRealResult:
         return math.isfinite(self.gamma)
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe, without P."""
+        """JSON-safe, without P.
+
+        Returns
+        -------
+        dict
+            ``gamma`` and ``gamma_solver`` [output unit per input unit]
+            (None when not finite), ``status``, ``solver``, ``solve_time``
+            [s], ``parameters`` (a copy), ``certified`` and ``message``.
+        """
         def f(x: float) -> float | None:
             return float(x) if math.isfinite(x) else None
         return {"gamma": f(self.gamma), "gamma_solver": f(self.gamma_solver),
@@ -1124,7 +1151,31 @@ class BoundedRealProblem:
         return self._problem
 
     def matrices(self, **values: float) -> tuple[Array, Array, Array, Array]:
-        """(A(θ), B(θ), C, D) on the original coordinates."""
+        """(A(θ), B(θ), C, D) on the original coordinates.
+
+        Parameters
+        ----------
+        **values : float
+            One finite value θ_k per parameter name of the problem (its
+            ``names``), no other; none when it has no parameters.
+
+        Returns
+        -------
+        A : ndarray
+            (n, n) A₀ + Σ_k θ_k A_k [1/s].
+        B : ndarray
+            (n, m) B₀ + Σ_k θ_k B_k.
+        C : ndarray
+            (p, n), unscaled.
+        D : ndarray
+            (p, m), unscaled.
+
+        Raises
+        ------
+        ModelError
+            If a parameter is missing or unknown, or a value is not a
+            finite number.
+        """
         theta = self._values(values)
         A = self._A0 + sum((theta[k] * M for k, M in self._At.items()), np.zeros_like(self._A0))
         B = self._B0 + sum((theta[k] * M for k, M in self._Bt.items()), np.zeros_like(self._B0))
@@ -1150,12 +1201,24 @@ class BoundedRealProblem:
     def solve(self, **values: float) -> BoundedRealResult:
         """Solve at the given parameter values and certify γ in floating point.
 
+        Parameters
+        ----------
+        **values : float
+            One finite value θ_k per parameter name of the problem (its
+            ``names``), no other; none when it has no parameters.
+
         Returns
         -------
         BoundedRealResult
             The level; γ = inf with the reason when the solver finds no certificate (an
             unstable A(θ) makes the SDP infeasible) or the check fails;
             a non-optimal status is reported in ``status`` and ``message``.
+
+        Raises
+        ------
+        ModelError
+            If a parameter is missing or unknown, or a value is not a
+            finite number.
         """
         import cvxpy as cp
 

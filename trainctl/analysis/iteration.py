@@ -446,7 +446,14 @@ class RelaxationResult:
     rate: float
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict."""
+        """JSON-safe dict.
+
+        Returns
+        -------
+        dict
+            ``exists``, ``omega_max``, ``omega_best`` and ``rate`` [-]
+            (None where NaN: no convergent ω).
+        """
         def clean(x: float) -> float | None:
             return None if math.isnan(x) else x
         return {"exists": self.exists, "omega_max": clean(self.omega_max),

@@ -71,13 +71,29 @@ class ClosedLoopResponse:
     string: StringStabilityResult | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-safe numbers: frequency peaks, bandwidth, ``grade_step``, ``string_stability``."""
+        """JSON-safe numbers: frequency peaks, bandwidth, ``grade_step``, ``string_stability``.
+
+        Returns
+        -------
+        dict
+            The entries of :meth:`FrequencyResult.to_dict
+            <trainctl.analysis.frequency.FrequencyResult.to_dict>`, plus
+            ``grade_step`` (the step responses' numbers) and
+            ``string_stability`` (None with a single vehicle).
+        """
         string = None if self.string is None else self.string.to_dict()
         return {**self.frequency.to_dict(), "grade_step": self.steps.to_dict(),
                 "string_stability": string}
 
     def curves(self) -> dict[str, Any]:
-        """JSON-safe curves for the report: ``frequency``, ``steps`` and ``string``."""
+        """JSON-safe curves for the report: ``frequency``, ``steps`` and ``string``.
+
+        Returns
+        -------
+        dict
+            ``frequency``, ``steps`` and ``string``: each result's
+            ``curves()`` (``string`` None with a single vehicle).
+        """
         string = None if self.string is None else self.string.curves()
         return {"frequency": self.frequency.curves(), "steps": self.steps.curves(),
                 "string": string}

@@ -81,7 +81,16 @@ class Mode:
         return 2 * math.pi / im if im > 0 else math.inf
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict (complex as [re, im], NaN/inf as None)."""
+        """JSON-safe dict (complex as [re, im], NaN/inf as None).
+
+        Returns
+        -------
+        dict
+            ``kind``, ``eigenvalue`` ([re, im] [1/s]),
+            ``natural_frequency`` [rad/s], ``damping_ratio`` [-] (None for
+            a zero eigenvalue), ``period`` [s] (None for a real mode) and
+            ``multiplicity``.
+        """
         return {
             "kind": self.kind,
             "eigenvalue": [self.eigenvalue.real, self.eigenvalue.imag],

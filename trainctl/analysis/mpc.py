@@ -120,14 +120,48 @@ class MPCDesign:
         return self.B.shape[1]
 
     def with_r(self, r: float | Array) -> MPCDesign:
-        """A copy with input weights ``r`` (scalar: the same for every input)."""
+        """A copy with input weights ``r`` (scalar: the same for every input).
+
+        Parameters
+        ----------
+        r : float or ndarray
+            Input weight(s) [per design unit²], >= 0: one number, or one per
+            input, shape (nu,).
+
+        Returns
+        -------
+        MPCDesign
+            The same design with ``r`` as its input weights.
+
+        Raises
+        ------
+        ModelError
+            If a weight is negative.
+        """
         rr = np.broadcast_to(np.asarray(r, dtype=float), (self.n_inputs,)).copy()
         return MPCDesign(A=self.A, B=self.B, C=self.C, prediction_horizon=self.prediction_horizon,
                          control_horizon=self.control_horizon, form=self.form, q=self.q, r=rr,
                          output_owner=self.output_owner, neighbourhoods=self.neighbourhoods)
 
     def with_neighbourhoods(self, neighbourhoods: Sequence[Sequence[int]]) -> MPCDesign:
-        """A copy with other neighbourhoods."""
+        """A copy with other neighbourhoods.
+
+        Parameters
+        ----------
+        neighbourhoods : sequence of sequence of int
+            N_i^out for each coach, one per input (coach i's must contain
+            i), coaches 0-based.
+
+        Returns
+        -------
+        MPCDesign
+            The same design with these neighbourhoods (as tuples of int).
+
+        Raises
+        ------
+        ModelError
+            If there is not one neighbourhood per input.
+        """
         return MPCDesign(A=self.A, B=self.B, C=self.C, prediction_horizon=self.prediction_horizon,
                          control_horizon=self.control_horizon, form=self.form, q=self.q, r=self.r,
                          output_owner=self.output_owner,
@@ -181,15 +215,41 @@ class Prediction:
     first_move: Array
 
     def hessian(self) -> Array:
-        """Centralised Hessian H = GᵀQG + R."""
+        """Centralised Hessian H = GᵀQG + R.
+
+        Returns
+        -------
+        ndarray, shape (M·nu, M·nu)
+            H, symmetric, in design units (per design unit² of the decision).
+        """
         return self.G.T @ self.Qbar @ self.G + self.Rbar
 
     def centralised_gain(self) -> Array:
-        """K_c with U* = K_c e, K_c = H⁻¹ GᵀQ."""
+        """K_c with U* = K_c e, K_c = H⁻¹ GᵀQ.
+
+        Returns
+        -------
+        ndarray, shape (M·nu, P·ny)
+            The gain from the error e = Y_r − free response to the
+            centralised optimal decision U*.
+        """
         return np.asarray(np.linalg.solve(self.hessian(), self.G.T @ self.Qbar), dtype=np.float64)
 
     def cost(self, U: Array, e: Array) -> float:
-        """Cost ‖G U - e‖²_Q + ‖U‖²_R of decision U for error e = Y_r - free response."""
+        """Cost ‖G U - e‖²_Q + ‖U‖²_R of decision U for error e = Y_r - free response.
+
+        Parameters
+        ----------
+        U : ndarray, shape (M·nu,)
+            The decision vector, move by move (design units).
+        e : ndarray, shape (P·ny,)
+            The error Y_r − free response over the horizon (design units).
+
+        Returns
+        -------
+        float
+            The cost [-], >= 0.
+        """
         res = self.G @ U - e
         return float(res @ self.Qbar @ res + U @ self.Rbar @ U)
 

@@ -77,11 +77,28 @@ class Range:
     unit: str
 
     def holds(self, value: float) -> bool:
-        """True when ``value`` lies within the range."""
+        """True when ``value`` lies within the range.
+
+        Parameters
+        ----------
+        value : float
+            The quantity, in the range's :attr:`unit`.
+
+        Returns
+        -------
+        bool
+            ``low <= value <= high`` (False for NaN).
+        """
         return self.low <= value <= self.high
 
     def text(self) -> str:
-        """``"0.3–15 t/m"``."""
+        """``"0.3–15 t/m"``.
+
+        Returns
+        -------
+        str
+            The bounds (``%g``) joined by an en dash, then the unit.
+        """
         return f"{self.low:g}–{self.high:g} {self.unit}"
 
 

@@ -51,7 +51,14 @@ class UncontrollableMode:
     direction: dict[str, float]
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict."""
+        """JSON-safe dict.
+
+        Returns
+        -------
+        dict
+            ``eigenvalue`` as [re, im], ``pbh_margin`` [-] and
+            ``direction`` (a copy: eigenvector components by state name).
+        """
         return {"eigenvalue": [self.eigenvalue.real, self.eigenvalue.imag],
                 "pbh_margin": self.pbh_margin, "direction": dict(self.direction)}
 
@@ -156,7 +163,16 @@ class ControllabilityResult(_RankTest):
         return self.uncontrollable
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict."""
+        """JSON-safe dict.
+
+        Returns
+        -------
+        dict
+            ``kind``, ``n_states``, ``rank``, ``tol``, ``full_rank``,
+            ``condition_number`` (None when infinite), ``singular_values``,
+            ``gramian_horizon`` ([s] or steps), ``gramian_eigenvalues``,
+            and ``uncontrollable`` (each mode's dict).
+        """
         return {"kind": self.kind, **self._numbers(),
                 "uncontrollable": [m.to_dict() for m in self.uncontrollable]}
 
@@ -210,7 +226,16 @@ class ObservabilityResult(_RankTest):
         return self.unobservable
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict."""
+        """JSON-safe dict.
+
+        Returns
+        -------
+        dict
+            ``kind``, ``n_states``, ``rank``, ``tol``, ``full_rank``,
+            ``condition_number`` (None when infinite), ``singular_values``,
+            ``gramian_horizon`` ([s] or steps), ``gramian_eigenvalues``,
+            and ``unobservable`` (each mode's dict).
+        """
         return {"kind": self.kind, **self._numbers(),
                 "unobservable": [m.to_dict() for m in self.unobservable]}
 

@@ -74,7 +74,15 @@ class SamplingResult:
         return self.omega_t < math.pi
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict."""
+        """JSON-safe dict.
+
+        Returns
+        -------
+        dict
+            ``sample_time`` [s], ``omega_max`` [rad/s], ``omega_t`` [rad],
+            ``nyquist_sample_time`` [s] (None without couplers),
+            ``resolves_couplers`` and ``input_collapse`` [-].
+        """
         nyq = None if math.isinf(self.nyquist_sample_time) else self.nyquist_sample_time
         return {"sample_time": self.sample_time, "omega_max": self.omega_max,
                 "omega_t": self.omega_t, "nyquist_sample_time": nyq,

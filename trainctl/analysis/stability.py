@@ -82,7 +82,16 @@ class ModeStability:
     direction: dict[str, float]
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict (complex as [re, im], NaN as None)."""
+        """JSON-safe dict (complex as [re, im], NaN as None).
+
+        Returns
+        -------
+        dict
+            ``eigenvalue`` as [re, im] ([1/s] or [-]), ``status``, the two
+            multiplicities, ``natural_frequency`` [rad/s],
+            ``damping_ratio`` [-] (None when s = 0), ``name`` and
+            ``direction`` (a copy).
+        """
         return {
             "eigenvalue": [self.eigenvalue.real, self.eigenvalue.imag],
             "status": self.status,
@@ -141,11 +150,30 @@ class StabilityResult:
         return max(values, default=-math.inf)
 
     def count(self, status: str) -> int:
-        """Number of eigenvalues with this status."""
+        """Number of eigenvalues with this status.
+
+        Parameters
+        ----------
+        status : str
+            One of ``CLASSES`` (another string counts nothing).
+
+        Returns
+        -------
+        int
+            How many of :attr:`modes` have it, >= 0.
+        """
         return sum(1 for m in self.modes if m.status == status)
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict."""
+        """JSON-safe dict.
+
+        Returns
+        -------
+        dict
+            ``discrete``, ``dt`` [s], ``tol``, the worst ``status``,
+            ``spectral_abscissa`` ([1/s] continuous, [-] discrete) and
+            ``modes`` (each mode's dict).
+        """
         return {
             "discrete": self.discrete,
             "dt": self.dt,

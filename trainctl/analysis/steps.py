@@ -108,7 +108,18 @@ class StepResult:
         return float(np.max(np.abs(self.forces))) if self.forces.size else 0.0
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-safe peaks (vehicles numbered from 1, as in the report)."""
+        """JSON-safe peaks (vehicles numbered from 1, as in the report).
+
+        Returns
+        -------
+        dict
+            ``grade_permille`` (the step, 1 ‰), ``duration`` [s], for the
+            step on every vehicle ``peak_speed`` [m/s], ``peak_force`` [kN]
+            and ``final_speed`` (the largest absolute deviation at the last
+            sample [m/s]), ``one_vehicle`` (``worst_vehicle`` 1-based, its
+            ``peak_speed`` and ``peak_force``) and ``units``; non-finite
+            numbers as None.
+        """
         return {"grade_permille": 1.0, "duration": float(self.time[-1]),
                 "peak_speed": _finite(self.peak_speed), "peak_force": _finite(self.peak_force),
                 "final_speed": _finite(float(np.max(np.abs(self.speeds[:, -1])))),
@@ -118,7 +129,15 @@ class StepResult:
                 "units": {"speed": "m/s", "force": "kN", "duration": "s"}}
 
     def curves(self) -> dict[str, Any]:
-        """JSON-safe time series, at most :data:`SHOWN_POINTS` samples (every k-th)."""
+        """JSON-safe time series, at most :data:`SHOWN_POINTS` samples (every k-th).
+
+        Returns
+        -------
+        dict
+            ``time`` [s]; ``speeds`` and ``head_speeds`` [m/s] (one list
+            per vehicle), ``forces`` and ``head_forces`` [kN] (one list per
+            coupler); values to 6 significant digits.
+        """
         stride = max(1, math.ceil(self.time.size / SHOWN_POINTS))
 
         def rows(a: Array) -> list[list[float]]:

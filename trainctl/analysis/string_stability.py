@@ -151,7 +151,17 @@ class ChainPeaks:
         return float(math.exp(slope))
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-safe: peaks and frequencies per channel, ratios, verdict, growth rate."""
+        """JSON-safe: peaks and frequencies per channel, ratios, verdict, growth rate.
+
+        Returns
+        -------
+        dict
+            ``quantity`` (what the family is) and ``unit`` (of its gains,
+            from :data:`QUANTITIES`), ``labels``, ``peak_gains`` and
+            ``peak_frequencies`` [rad/s] per channel, the consecutive
+            ``ratios`` and ``max_ratio`` [-], ``non_increasing`` and
+            ``growth_rate_per_vehicle`` [-]; non-finite numbers as None.
+        """
         return {"quantity": QUANTITIES[self.quantity][0], "unit": QUANTITIES[self.quantity][1],
                 "labels": list(self.labels), "peak_gains": _json(self.gains),
                 "peak_frequencies": _json(self.frequencies), "ratios": _json(self.ratios),
@@ -219,14 +229,32 @@ class StringStabilityResult:
         return max(r) if r else math.nan
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-safe numbers: per family the peaks [unit, rad/s], ratios and growth rate."""
+        """JSON-safe numbers: per family the peaks [unit, rad/s], ratios and growth rate.
+
+        Returns
+        -------
+        dict
+            ``input``, ``sample_time`` [s] (None when continuous),
+            ``string_stable``, ``finite``, ``max_ratio`` [-] (None when
+            none is defined), ``relative_tolerance`` and ``chains`` (each
+            family's :meth:`ChainPeaks.to_dict`, by label prefix).
+        """
         return {"input": self.input, "sample_time": self.dt,
                 "string_stable": self.string_stable, "finite": self.finite,
                 "max_ratio": _finite(self.max_ratio), "relative_tolerance": RELATIVE_TOL,
                 "chains": {q: c.to_dict() for q, c in self.chains.items()}}
 
     def curves(self) -> dict[str, Any]:
-        """JSON-safe arrays for plotting: ``omega`` and |G_i| per family and channel."""
+        """JSON-safe arrays for plotting: ``omega`` and |G_i| per family and channel.
+
+        Returns
+        -------
+        dict
+            ``omega`` [rad/s], ``nyquist`` (π/T [rad/s], None when
+            continuous) and ``chains``: per family that carries a signal,
+            its ``labels`` and ``gains`` (one list over ``omega`` per
+            channel, in the family's unit); values to 6 significant digits.
+        """
         return {"omega": _short(self.omega), "nyquist": None if self.dt is None
                 else math.pi / self.dt,
                 "chains": {q: {"labels": list(c.labels), "gains": [_short(r) for r in c.curves]}

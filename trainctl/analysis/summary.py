@@ -86,7 +86,22 @@ class ModelSummary:
         return self.sample_time < self.nyquist_sample_time
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-safe dict of the summary (SI units, inf as None)."""
+        """JSON-safe dict of the summary (SI units, inf as None).
+
+        Returns
+        -------
+        dict
+            ``scenario``, ``train``, the counts and copies of ``vehicles``,
+            ``states``, ``inputs`` and ``outputs``, ``speed`` [m/s] and
+            ``speed_kmh`` [km/h], ``linearisation``, ``equilibrium``
+            (``inputs`` and ``coupler_forces`` [N], ``elongations`` [m],
+            ``traction_limit`` and ``braking_limit`` [N], ``feasible``),
+            ``modes`` (each :meth:`Mode.to_dict
+            <trainctl.analysis.modes.Mode.to_dict>`), ``sampling``
+            (``sample_time`` and ``nyquist_sample_time`` [s],
+            ``resolves_couplers``, ``omega_max_times_T`` [rad],
+            ``discrete_spectral_radius`` [-]) and ``failed_checks``.
+        """
         eq = self.equilibrium
         nyq = None if math.isinf(self.nyquist_sample_time) else self.nyquist_sample_time
         return {
@@ -127,7 +142,16 @@ class ModelSummary:
         }
 
     def format_text(self) -> str:
-        """Human-readable multi-line summary (what ``trainctl analyse`` prints)."""
+        """Human-readable multi-line summary (what ``trainctl analyse`` prints).
+
+        Returns
+        -------
+        str
+            Scenario, train and model lines, a vehicle table (masses [t],
+            equilibrium inputs [kN]; a long train shortened), the static
+            coupler forces [kN], the cruise feasibility, the continuous
+            modes and the sampling; lines joined by newlines.
+        """
         return "\n".join(_text_lines(self))
 
 

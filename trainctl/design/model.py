@@ -179,7 +179,16 @@ class DesignModel:
                      inputs=sys.input_labels, outputs=sys.output_labels[:n], name=sys.name)
 
     def force_rows(self) -> Array:
-        """Coupler forces [N] as rows on the design state (no dummy), shape (n-1, 2n-1)."""
+        """Coupler forces [N] as rows on the design state (no dummy), shape (n-1, 2n-1).
+
+        Returns
+        -------
+        ndarray, shape (n-1, 2n-1)
+            Row i gives coupler i's force deviation [N] from the design
+            state ``[v, delta]`` (the coupler rows of ``linear``'s C, the
+            dummy column left out): [N per m/s] on the speeds, [N/m] on
+            the elongations.
+        """
         n, nx = self.n_vehicles, self.n_states
         return np.asarray(self.linear.C[n:, :nx], dtype=float)
 
@@ -189,6 +198,11 @@ class DesignModel:
         Row i picks the elongation state ``delta[i]``: the deviation of the
         spacing between vehicles i and i+1 from its equilibrium (the coupler
         elongation for a physical coupler, the gap for a virtual link).
+
+        Returns
+        -------
+        ndarray, shape (n-1, 2n-1)
+            Zeros with a 1 [-] at (i, n + i): the selector of ``delta[i]``.
         """
         n, nx = self.n_vehicles, self.n_states
         return np.eye(n - 1, nx, k=n)

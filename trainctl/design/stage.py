@@ -109,7 +109,25 @@ class Design:
         return get_family(family).closed_loop(self.family(family), name)
 
     def resolve(self, strategy: str) -> tuple[str, str]:
-        """The (family, strategy) a simulation strategy name stands for (:func:`split_strategy`)."""
+        """The (family, strategy) a simulation strategy name stands for (:func:`split_strategy`).
+
+        Parameters
+        ----------
+        strategy : str
+            A name from ``[simulation] strategies``: a bare strategy of the
+            primary family, or ``"family.strategy"``.
+
+        Returns
+        -------
+        (str, str)
+            Family name and the family's strategy name.
+
+        Raises
+        ------
+        ScenarioError
+            If the scenario has no controller, no such family or the family
+            no such strategy.
+        """
         return split_strategy(self.scenario, strategy)
 
 

@@ -71,7 +71,22 @@ class EnvelopeBounds:
                               stack("adhesion", "adhesion"), train.mass.copy())
 
     def pair(self, speeds: Array) -> Array:
-        """Bounds [lb; ub] at ``speeds``, shape (2, moves·n), move by move."""
+        """Bounds [lb; ub] at ``speeds``, shape (2, moves·n), move by move.
+
+        Parameters
+        ----------
+        speeds : ndarray, shape (moves,)
+            The previewed speed of each move [m/s], >= 0, the same for
+            every vehicle.
+
+        Returns
+        -------
+        ndarray, shape (2, moves·n)
+            Row 0 the lower bounds (minus each vehicle's braking limit),
+            row 1 the upper bounds (its traction limit) [kN], move by move
+            (all vehicles of move 0, then move 1, ...); -inf and inf when
+            the bounds are not enabled.
+        """
         v = np.asarray(speeds, dtype=float)
         if not self.enabled:
             pair = np.empty((2, v.size * self.n))

@@ -84,7 +84,21 @@ class CoachSubsystems:
         return len(self.B)
 
     def block(self, i: int, j: int) -> NDArray[np.float64]:
-        """Block A_ij (zeros when coach j does not act on coach i)."""
+        """Block A_ij (zeros when coach j does not act on coach i).
+
+        Parameters
+        ----------
+        i : int
+            The coach acted on (0-based row block), 0 <= i < n_coaches.
+        j : int
+            The coach acting (0-based column block), 0 <= j < n_coaches.
+
+        Returns
+        -------
+        ndarray, shape (nz_i, nz_j)
+            ``A[i, j]``: how z_j enters ż_i (i = j: the local dynamics);
+            zeros when the coaches do not touch.
+        """
         if (i, j) in self.A:
             return self.A[i, j]
         return np.zeros((self.B[i].shape[0], self.B[j].shape[0]))
@@ -92,7 +106,17 @@ class CoachSubsystems:
     def global_matrices(
         self,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """Assemble (A, B, C) in the interleaved order [z_0; z_1; ...]."""
+        """Assemble (A, B, C) in the interleaved order [z_0; z_1; ...].
+
+        Returns
+        -------
+        A : ndarray
+            (N, N) the blocks A_ij, N the total number of subsystem states.
+        B : ndarray
+            (N, n) block-diagonal, the B_i [1/kg] (inputs u_i in N).
+        C : ndarray
+            (n, N) block-diagonal, the C_i (each coach's speed [m/s]).
+        """
         n = self.n_coaches
         A = np.block([[self.block(i, j) for j in range(n)] for i in range(n)])
         B = block_diag(*self.B)
@@ -104,6 +128,18 @@ class CoachSubsystems:
 
         The outputs are its own states (named as the states, e.g. ``v[1]``,
         ``delta[1]``) so that :meth:`interconnection` can wire coaches by name.
+
+        Parameters
+        ----------
+        i : int
+            The coach, 0-based, 0 <= i < n_coaches.
+
+        Returns
+        -------
+        control.StateSpace
+            Continuous, named ``coach<i>``: inputs ``u[i]`` [N] then the
+            states of the coaches acting on it (front, then rear); states and
+            outputs z_i.
         """
         neighbours = [j for j in (i - 1, i + 1) if (i, j) in self.A]
         inputs = [f"u[{i}]"] + [lab for j in neighbours for lab in self.state_labels[j]]
@@ -117,6 +153,11 @@ class CoachSubsystems:
 
     def interconnection(self, *, name: str = "train") -> ct.StateSpace:
         """All coaches joined with ``control.interconnect`` by signal name.
+
+        Parameters
+        ----------
+        name : str
+            Name of the system returned.
 
         Returns
         -------

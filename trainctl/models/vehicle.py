@@ -229,7 +229,19 @@ class Vehicle:
         return self.a0 + self.a1 * v + self.a2 * v * v
 
     def resistance(self, speed: ArrayLike) -> NDArray[np.float64]:
-        """Davis running resistance force [N] at ``speed`` [m/s]."""
+        """Davis running resistance force [N] at ``speed`` [m/s].
+
+        Parameters
+        ----------
+        speed : array_like
+            Speed [m/s], assumed >= 0 (forward running).
+
+        Returns
+        -------
+        ndarray
+            Resistance force m (a0 + a1 v + a2 v²) [N], the shape of
+            ``speed``.
+        """
         return self.mass * self.resistance_per_mass(speed)
 
 
