@@ -360,3 +360,13 @@ class TestModelSummaryText:
         assert float(table[-1].split()[2]) == pytest.approx(summary.modes[-1].eigenvalue.imag,
                                                             abs=1e-4)
         assert len(summary.to_dict()["modes"]) == 205
+
+
+def test_stability_of_a_system_without_states_is_strict_json() -> None:
+    """No modes: stable, spectral abscissa -inf, written as null (strict JSON has no inf)."""
+    import json
+
+    result = analyse_stability(np.zeros((0, 0)))
+    assert result.status == "stable" and result.spectral_abscissa == -np.inf
+    d = json.loads(json.dumps(result.to_dict(), allow_nan=False))
+    assert d["spectral_abscissa"] is None and d["modes"] == []

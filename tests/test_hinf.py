@@ -404,6 +404,17 @@ def test_lk_certificate_verifies_independently() -> None:
     assert min(np.linalg.eigvalsh(P).min(), np.linalg.eigvalsh(R).min()) > 0
 
 
+def test_lk_result_is_strict_json_after_one_solve() -> None:
+    """ẋ = −2x − x(t − τ) is stable for every delay: certified at the upper end at once,
+    one solve, no re-solve time (nan in the result, None in its JSON)."""
+    import json
+
+    res = max_certified_delay([[-2.0]], [[-1.0]], tau_upper=0.5)
+    assert res.solves == 1 and res.tau == 0.5 and math.isnan(res.resolve_time)
+    d = json.loads(json.dumps(res.to_dict(), allow_nan=False))
+    assert d["resolve_time"] is None and d["tau"] == 0.5 and d["tau_failed"] is None
+
+
 def test_heavy_haul_lk_delay_is_below_the_pade_margin(loop) -> None:
     """κ_p = κ_c = 0.1 1/s: LK 0.43 s against the Padé margin 0.57 s (test_delay)."""
     A, Ad = loop.delay_matrices(0.1, 0.1)

@@ -401,11 +401,12 @@ class MaxCertifiedDelay:
     first_solve_time : float
         Wall time of the first solve, including cvxpy's compilation [s].
     resolve_time : float
-        Mean wall time of the later re-solves [s].
+        Mean wall time of the later re-solves [s] (nan after a single solve).
     trouble : tuple of str
-        Every solve whose status was neither ``optimal`` nor ``infeasible``
-        (the bisection's two regular answers), e.g. a solver failure at the
-        boundary, which counts as not certified.
+        Every solve whose status was not ``optimal`` (the problem is built
+        feasible, so the bisection reads its answer from the certificate's
+        value), e.g. a solver failure at the boundary, which counts as not
+        certified.
 
     Examples
     --------
@@ -435,14 +436,14 @@ class MaxCertifiedDelay:
         dict
             ``tau`` and ``tau_failed`` [s] (None when infinite),
             ``delay``, ``solves``, ``first_solve_time`` and
-            ``resolve_time`` [s], and ``trouble``; the certificate is left
-            out.
+            ``resolve_time`` [s] (None after a single solve), and ``trouble``;
+            the certificate is left out.
         """
         def f(x: float) -> float | None:
             return float(x) if math.isfinite(x) else None
         return {"tau": f(self.tau), "tau_failed": f(self.tau_failed), "delay": self.delay,
                 "solves": self.solves, "first_solve_time": self.first_solve_time,
-                "resolve_time": self.resolve_time, "trouble": list(self.trouble)}
+                "resolve_time": f(self.resolve_time), "trouble": list(self.trouble)}
 
 
 def max_certified_delay(A: ArrayLike, A_d: ArrayLike, *, delay: str = "constant",

@@ -171,7 +171,8 @@ class StabilityResult:
         -------
         dict
             ``discrete``, ``dt`` [s], ``tol``, the worst ``status``,
-            ``spectral_abscissa`` ([1/s] continuous, [-] discrete) and
+            ``spectral_abscissa`` ([1/s] continuous, [-] discrete; None
+            without modes) and
             ``modes`` (each mode's dict).
         """
         return {
@@ -179,7 +180,9 @@ class StabilityResult:
             "dt": self.dt,
             "tol": self.tol,
             "status": self.status,
-            "spectral_abscissa": self.spectral_abscissa,
+            # -inf for a system without modes: strict JSON has no infinity
+            "spectral_abscissa": (self.spectral_abscissa
+                                  if math.isfinite(self.spectral_abscissa) else None),
             "modes": [m.to_dict() for m in self.modes],
         }
 

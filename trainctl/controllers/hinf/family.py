@@ -523,7 +523,7 @@ class HinfFamily:
             (the certified γ), ``synthesis_error``, ``own_speed``,
             ``control_interval`` [s] (as text), ``input_bounds``, ``delay``
             (the delay margin), ``consensus_bound`` [s] (None for a directed
-            graph), ``connectivity`` (per window) and ``graph``.
+            graph or no bound), ``connectivity`` (per window) and ``graph``.
         """
         from ...report.figures_graph import graph_report_data
 
@@ -552,7 +552,9 @@ class HinfFamily:
                 "own_speed": s.own_speed,
                 "control_interval": f"{design.control_interval:g}",
                 "input_bounds": bool(s.input_bounds), "delay": res.to_dict(),
-                "consensus_bound": design.consensus_bound,
+                "consensus_bound": (design.consensus_bound
+                                    if design.consensus_bound is not None
+                                    and math.isfinite(design.consensus_bound) else None),
                 "connectivity": [w.to_dict() for w in design.connectivity],
                 "graph": graph_report_data(design.graph)}
 
