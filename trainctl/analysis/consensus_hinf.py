@@ -148,8 +148,8 @@ class ConsensusLoop:
     Parameters
     ----------
     A0, Ap, Ac : ndarray
-        (N, N) [1/s]: plant, and the parts multiplied by κ_p and κ_c [s]
-        (A_p, A_c per unit gain).
+        (N, N): the plant [1/s], and the parts multiplied by κ_p and κ_c
+        [-] (A_p, A_c per unit gain, the gains in [1/s]).
     Bf, Bp, Bc : ndarray
         (N, nw): the disturbance input at zero gains and its parts
         multiplied by κ_p and κ_c, on the scaled channels w̃.

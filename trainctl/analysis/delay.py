@@ -96,7 +96,9 @@ def pade_loop(A0: ArrayLike, B: ArrayLike, K: ArrayLike, tau: float,
     Parameters
     ----------
     A0 : array_like
-        Delay-free loop [1/s], (N, N).
+        The part of the loop acting on current data [1/s], (N, N): the whole
+        loop less its delayed part ``B K`` (for a wholly delayed law, the
+        open-loop plant).
     B : array_like
         Input matrix of the delayed feedback, (N, m).
     K : array_like

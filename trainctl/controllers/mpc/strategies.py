@@ -8,8 +8,9 @@ blocks' solutions become one plan:
 ``Centralised``
     One block over every coach's moves and the whole-train cost.
 ``Decentralised``
-    One block per coach over its own outputs, the other coaches' inputs at
-    their feedforward (one solve each, no exchange).
+    One block per coach over its own outputs, the other coaches' plans at
+    zero (their feedforward in the u form, their previous input in the Δu
+    form; one solve each, no exchange).
 ``NDMPC``
     One block per coach over its neighbourhood's cost, the others' plans
     fixed at the previous iterate; relaxed Jacobi iterations from the shifted
@@ -296,7 +297,7 @@ class Centralised:
 
 
 class Decentralised(_PerCoach):
-    """Each coach over its own outputs; the others' inputs at their feedforward.
+    """Each coach over its own outputs; the others' plans at zero (feedforward in u form).
 
     Examples
     --------
@@ -330,7 +331,7 @@ class Decentralised(_PerCoach):
 
     def plan(self, problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
              fallback: FallbackPlan) -> PlanResult:
-        """One solve per block, the others' moves at their feedforward.
+        """One solve per block, the others' plans at zero (u: feedforward; Δu: held).
 
         Parameters
         ----------
@@ -544,7 +545,8 @@ def make_strategy(name: str, *, max_iterations: int, tolerance: float, relaxatio
 
 def solve_once(problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
                fallback: FallbackPlan) -> PlanResult:
-    """Solve every block once with the other blocks' moves at zero (their feedforward)."""
+    """Solve every block once with the other blocks' plans at zero (u form: their
+    feedforward; Δu form: their previous input held)."""
     U = np.zeros(plan0.shape)
     statuses, applied = [], ""
     for block, prep in zip(problem.blocks, params, strict=True):
