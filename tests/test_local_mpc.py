@@ -118,6 +118,14 @@ def test_identical_coaches_share_one_qp_and_qp_size_is_independent_of_length():
     assert max(s[0] for s in sizes[12]) == 2          # M own moves, whatever the length
 
 
+def test_trajectories_before_any_state_are_refused_clearly():
+    """The held start needs a measured state: asking before the first sources() says so."""
+    train, d, model = chain_design(4)
+    ctl = make_mpc(train, d, dt=0.05, strategy="ndmpc-local", local_model=model)
+    with pytest.raises(RuntimeError, match=r"no state yet; call sources\(\) or parameters"):
+        ctl.problem.initial_trajectories()
+
+
 def test_long_train_unconstrained_equals_the_closed_form():
     n = 12
     train, d, model = chain_design(n, r=2.0)

@@ -281,10 +281,21 @@ class LocalTrainProblem(TrainProblem):
         ndarray, shape (P·N·nx,)
             The deviation state x̃ (speeds [m/s], elongations [m]) at each of
             the P·N substeps of the horizon, stacked substep by substep.
+
+        Raises
+        ------
+        RuntimeError
+            Before the first :meth:`sources` (or :meth:`parameters`) since
+            the problem was built: there is no measured state to hold.
         """
         nx, fine, N = self.nx, self.P * self.N, self.N
         if self._X is None:
-            return np.tile(self._x, fine)
+            x = getattr(self, "_x", None)
+            if x is None:
+                raise RuntimeError("LocalTrainProblem.initial_trajectories: no state yet; "
+                                   "call sources() or parameters() with this step's context "
+                                   "first.")
+            return np.tile(x, fine)
         X = self._X.reshape(fine, nx)
         return np.vstack([X[N:], np.repeat(X[-1:], N, axis=0)]).ravel()
 
