@@ -13,6 +13,7 @@ from trainctl.analysis.delay import (
     delay_abscissa,
     delay_margin,
     discrete_delay_loop,
+    held_data_age,
     pade_loop,
 )
 from trainctl.design import build_model
@@ -140,3 +141,8 @@ def test_bad_arguments_are_refused() -> None:
         delay_margin([[0.0]], [[1.0]], [[-1.0]], tau_max=0.0)
     with pytest.raises(ModelError, match="'delay_steps'"):
         discrete_delay_loop([[1.0]], [[1.0]], [[0.0]], [[-1.0]], -1, 1.0)
+    age = held_data_age(0.2, (0.0, 2.0))
+    assert age.quantile(1.0) <= 2.2
+    for q in (0.0, 1.5, -0.1, math.nan, True):
+        with pytest.raises(ModelError, match=r"DataAge.quantile: 'q' must be a probability"):
+            age.quantile(q)

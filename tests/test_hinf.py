@@ -291,8 +291,10 @@ def test_parametric_problem_is_dpp_and_matches_fresh_solves(loop) -> None:
         fresh = bounded_real_gamma(*loop.matrices(kp, kc))
         assert again.gamma == pytest.approx(fresh.gamma, rel=1e-6)
         assert np.allclose(prob.matrices(kp=kp, kc=kc)[0], loop.matrices(kp, kc)[0])
-    with pytest.raises(ModelError, match="missing"):
+    with pytest.raises(ModelError, match=r"^BoundedRealProblem\.solve: .*missing \['kc'\]"):
         prob.solve(kp=0.1)
+    with pytest.raises(ModelError, match=r"^BoundedRealProblem\.matrices: parameter 'kc'"):
+        prob.matrices(kp=0.1, kc=math.nan)
 
 
 # --------------------------------------------------------------------------------------------

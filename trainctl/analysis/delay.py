@@ -448,7 +448,16 @@ class DataAge:
         float
             The age [s], a multiple of :attr:`interval`; inf when the
             probabilities held never reach ``q``.
+
+        Raises
+        ------
+        ModelError
+            If ``q`` is not a number in (0, 1].
         """
+        if isinstance(q, bool) or not isinstance(q, int | float | np.floating) \
+                or not 0.0 < q <= 1.0:
+            raise ModelError(f"DataAge.quantile: 'q' must be a probability in (0, 1] "
+                             f"(got {q!r}).")
         cdf = np.cumsum(self.pmf)
         reached = np.flatnonzero(cdf >= q - 1e-12)
         return float(self.ages[reached[0]]) if reached.size else math.inf

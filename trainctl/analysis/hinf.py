@@ -1176,24 +1176,24 @@ class BoundedRealProblem:
             If a parameter is missing or unknown, or a value is not a
             finite number.
         """
-        theta = self._values(values)
+        theta = self._values(values, "matrices")
         A = self._A0 + sum((theta[k] * M for k, M in self._At.items()), np.zeros_like(self._A0))
         B = self._B0 + sum((theta[k] * M for k, M in self._Bt.items()), np.zeros_like(self._B0))
         T, Ti = self._T, self._Ti
         return (T @ A @ Ti, T @ B, self._C @ Ti * self.output_scale,
                 self._D * self.output_scale)
 
-    def _values(self, values: Mapping[str, float]) -> dict[str, float]:
+    def _values(self, values: Mapping[str, float], method: str = "solve") -> dict[str, float]:
         unknown = set(values) - set(self.names)
         missing = set(self.names) - set(values)
         if unknown or missing:
-            raise ModelError(f"BoundedRealProblem.solve: give exactly the parameters "
+            raise ModelError(f"BoundedRealProblem.{method}: give exactly the parameters "
                              f"{list(self.names)} (unknown {sorted(unknown)}, missing "
                              f"{sorted(missing)}).")
         out: dict[str, float] = {}
         for k, v in values.items():
             if not (isinstance(v, int | float | np.floating) and math.isfinite(v)):
-                raise ModelError(f"BoundedRealProblem.solve: parameter {k!r} must be a finite "
+                raise ModelError(f"BoundedRealProblem.{method}: parameter {k!r} must be a finite "
                                  f"number (got {v!r}).")
             out[k] = float(v)
         return out

@@ -396,7 +396,7 @@ class SynchronousFamily:
                 "input_bounds": bool(s.input_bounds), "delay": res.to_dict()}
 
     def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
-        """None: the family's numbers are in its table, its spectrum in the eigenvalue map.
+        """No figures of its own: its numbers are in its table, its spectrum in the eigenvalue map.
 
         Parameters
         ----------
