@@ -169,7 +169,7 @@ def part_speedup(scratch: Path, count: int, duration: float) -> dict[str, Any]:
     seconds["-j 2"] = time.perf_counter() - start  # the pool's start and stop included
     start = time.perf_counter()
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  host="127.0.0.1", dashboard_address=None,
+                                  host="127.0.0.1", dashboard_address=":0",
                                   silence_logs=40) as cluster:
         cluster_start = time.perf_counter() - start
         with distributed.Client(cluster.scheduler_address, set_as_default=False) as client:

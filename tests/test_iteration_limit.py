@@ -108,3 +108,23 @@ class TestController:
                 warnings.warn("after", ConvergenceWarning, stacklevel=1)
         m = run.metrics["ndmpc"]
         assert m.iteration_limit_steps == run.simulations["ndmpc"].n_samples > 0
+
+    def test_threads_record_without_warning(self) -> None:
+        """Runs in threads side by side (a Dask worker's threads, a thread pool) record and do
+        not warn: the switch is an argument, not the process-wide warnings filter."""
+        from concurrent.futures import ThreadPoolExecutor
+
+        from trainctl.run import submit_simulations
+
+        scenario = (load_scenario("crh2-dmpc-convergence-sweep")
+                    .replace("controller.max_iterations", 2)
+                    .replace("simulation.duration", 60.0))
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with ThreadPoolExecutor(max_workers=2) as pool:
+                futures = [submit_simulations(scenario, pool) for _ in range(3)]
+                results = [f.result() for batch in futures for f in batch.values()]
+            quiet = simulate_strategy(scenario, "ndmpc", warn=False)
+        assert all(compute_metrics(r).iteration_limit_steps == r.n_samples
+                   for r in results if r.controller_name == "ndmpc")
+        assert compute_metrics(quiet).iteration_limit_steps == quiet.n_samples

@@ -36,9 +36,13 @@ WALL_CLOCK = {"solve_times"}
 
 @pytest.fixture(scope="module")
 def cluster() -> Iterator[Any]:
-    """A Dask LocalCluster: a scheduler and two single-threaded worker processes on loopback."""
+    """A Dask LocalCluster: a scheduler and two single-threaded worker processes on loopback.
+
+    Its web server takes any free port (":0"): with None it takes 8787 and warns (an error
+    here) when another test's cluster, e.g. tutorial 7's on the other xdist worker, has it.
+    """
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  host="127.0.0.1", dashboard_address=None) as local:
+                                  host="127.0.0.1", dashboard_address=":0") as local:
         yield local
 
 

@@ -3,11 +3,9 @@
 
 from __future__ import annotations
 
-import contextlib
 import pickle
 import threading
-import warnings
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from concurrent.futures import Executor, Future
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -18,7 +16,6 @@ import numpy as np
 from ._validation import numerical_errors
 from .analysis.review import DesignReview, review_design, with_simulations
 from .analysis.summary import ModelSummary, model_summary
-from .exceptions import ConvergenceWarning, InaccurateSolutionWarning
 
 if TYPE_CHECKING:
     from .analysis.loops import ClosedLoopResponse
@@ -34,7 +31,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "NETWORK_STREAM", "AnalysisRun", "make_controller", "run_scenario", "simulate_strategy",
-    "solver_trouble_recorded", "submit_simulations",
+    "submit_simulations",
 ]
 
 NETWORK_STREAM = 1
@@ -450,7 +447,7 @@ def make_controller(scenario: Scenario, strategy: str, design: Design | None = N
 
 
 def simulate_strategy(
-    scenario: Scenario, strategy: str, design: Design | None = None
+    scenario: Scenario, strategy: str, design: Design | None = None, *, warn: bool = True
 ) -> SimulationResult:
     """Simulate one strategy of the scenario's ``[simulation]`` on the nonlinear plant.
 
@@ -476,6 +473,9 @@ def simulate_strategy(
         A name from ``[simulation] strategies``.
     design : Design or None
         The run's design; built here when None.
+    warn : bool
+        Warn once about solver trouble (:func:`trainctl.sim.simulate`'s
+        Warns); False records it in the result only.
 
     Returns
     -------
@@ -532,7 +532,8 @@ def simulate_strategy(
                         measurement_noise=sim.measurement_noise, seed=scenario.seed,
                         full_state=getattr(controller, "needs_full_state", True),
                         saturation=sim.plant_saturation, output_interval=sim.output_interval,
-                        divergence_speed_error=sim.divergence_speed_error, network=network)
+                        divergence_speed_error=sim.divergence_speed_error, network=network,
+                        warn=warn)
 
 
 _PLANTS = threading.local()
@@ -606,39 +607,12 @@ def submit_simulations(
             for strategy in scenario.simulation.strategies}
 
 
-@contextlib.contextmanager
-def solver_trouble_recorded() -> Iterator[None]:
-    """Silence :func:`~trainctl.sim.simulate`'s solver-trouble warnings inside the block.
-
-    For callers that record the trouble instead: the metrics'
-    ``status_counts`` and ``iteration_limit_steps``, the report's tables,
-    the sweep's rows. :func:`run_scenario`, :func:`submit_simulations` and
-    the repetitions run their simulations inside it; a direct
-    :func:`simulate_strategy` or :func:`~trainctl.sim.simulate` call warns.
-
-    Yields
-    ------
-    None
-        Inside the block :class:`~trainctl.exceptions.InaccurateSolutionWarning`
-        and :class:`~trainctl.exceptions.ConvergenceWarning` are ignored.
-
-    Examples
-    --------
-    >>> import warnings
-    >>> with solver_trouble_recorded():
-    ...     warnings.warn("simulate: 3 of 60 samples ...", InaccurateSolutionWarning)
-    """
-    with warnings.catch_warnings():
-        for category in (InaccurateSolutionWarning, ConvergenceWarning):
-            warnings.filterwarnings("ignore", category=category)
-        yield
-
-
 def _simulate_recorded(scenario: Scenario, strategy: str,
                        design: Design | None) -> SimulationResult:
-    """:func:`simulate_strategy` inside :func:`solver_trouble_recorded` (a pool's task)."""
-    with solver_trouble_recorded():
-        return simulate_strategy(scenario, strategy, design)
+    """:func:`simulate_strategy` recording its solver trouble without warning (a pool's
+    task; the caller's metrics carry it). An argument, not a warnings filter: filters are
+    process-wide, and threads of a Dask worker run several simulations at once."""
+    return simulate_strategy(scenario, strategy, design, warn=False)
 
 
 def run_scenario(
@@ -687,7 +661,7 @@ def run_scenario(
     iterations stopped unconverged) is recorded in each run's metrics
     (``status_counts``, ``iteration_limit_steps``) and from there in the
     report and the sweep's rows; it is not also warned
-    (:func:`solver_trouble_recorded`).
+    (``simulate_strategy(..., warn=False)``).
 
     Examples
     --------

@@ -106,8 +106,10 @@ if __name__ == "__main__":
 if __name__ == "__main__":
     import distributed  # optional dependency: pip install 'trainctl[dask]'
 
+    # ":0": the scheduler's web server on any free port (None would take 8787, and warn
+    # when another cluster on this machine has it)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster:
+                                  dashboard_address=":0") as cluster:
         with dask_executor(cluster.scheduler_address) as executor:
             remote = sweep_scenario(NAME, workdir / "dask", axes=AXES, executor=executor)
     same = remote[columns].reset_index(drop=True).equals(local[columns].reset_index(drop=True))

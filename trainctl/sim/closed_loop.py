@@ -80,6 +80,7 @@ def simulate(
     output_interval: float | None = None,
     divergence_speed_error: float = DIVERGENCE_SPEED_ERROR,
     network: Network | None = None,
+    warn: bool = True,
 ) -> SimulationResult:
     """Run ``controller`` in closed loop with ``plant`` for ``duration`` seconds.
 
@@ -129,6 +130,10 @@ def simulate(
         holds ``noise_square_sum``, Σ n² over the delivered messages' noise;
         the result's ``held_noise_square`` is, per sample, Σ n² of the values
         the controller held.
+    warn : bool
+        Warn once per run about solver trouble (see Warns); False for a
+        caller that records it from the result instead (the CLI, reports,
+        sweeps and repetitions do).
 
     Returns
     -------
@@ -147,10 +152,11 @@ def simulate(
     -----
     InaccurateSolutionWarning
         Once per run when some samples' QPs were not solved to optimality
-        (statuses other than ``"optimal"``; the result's ``status_counts()``).
+        (statuses other than ``"optimal"``; the result's ``status_counts()``);
+        not with ``warn=False``.
     ConvergenceWarning
         Once per run when some steps of an iterating strategy stopped at its
-        iteration limit unconverged (see Notes).
+        iteration limit unconverged (see Notes); not with ``warn=False``.
 
     Notes
     -----
@@ -239,7 +245,8 @@ def simulate(
         arrays["held_noise_square"] = history.held_noise_square(np.asarray(arrays["time"])[:-1])
     result = SimulationResult(**arrays, controller_name=str(controller.name), seed=int(seed),
                               dt=dt, meta=meta)
-    _warn_solver_trouble(result)
+    if warn:
+        _warn_solver_trouble(result)
     return result
 
 
