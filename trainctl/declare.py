@@ -22,7 +22,6 @@ trainctl.exceptions.ModelError: ModelSettings: 'speed' must be a finite number >
 
 from __future__ import annotations
 
-import difflib
 import functools
 import re
 import typing
@@ -38,6 +37,7 @@ from pydantic_core import CoreSchema, ErrorDetails
 
 from .constraints import ERROR_TYPE, NOTHING, Rule, Violation
 from .exceptions import ModelError
+from .violations import suggest
 
 __all__ = ["Alt", "Key", "check_fields", "declared_fields", "first_error", "python_error",
            "render_refs", "settings"]
@@ -404,8 +404,7 @@ def python_error(owner: str, exc: ValidationError,
         if error["type"] in _UNKNOWN and error["loc"]:
             missing = [str(e["loc"][-1]) for e in exc.errors()
                        if e["type"] in ("missing", "missing_keyword_only_argument") and e["loc"]]
-            close = difflib.get_close_matches(str(error["loc"][-1]), missing, n=1)
-            hint = f" Did you mean {close[0]!r}?" if close else ""
+            hint = suggest(str(error["loc"][-1]), missing)
         return TypeError(f"{owner}: {_SIGNATURE_ERRORS[error['type']]} "
                          f"{python_path(loc)}.{hint}")
     v = violation_of(error)

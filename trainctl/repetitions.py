@@ -49,6 +49,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .analysis.check import finite_or_none
+
 if TYPE_CHECKING:
     from .design import Design
     from .scenario import Scenario
@@ -143,8 +145,7 @@ class Deviation:
         """
         return {"rms_error": _json_list(self.rms_error), "max_error": _json_list(self.max_error),
                 "settling_time": _json_list(self.settling_time),
-                "max_coupler_force": (self.max_coupler_force
-                                      if math.isfinite(self.max_coupler_force) else None),
+                "max_coupler_force": finite_or_none(self.max_coupler_force),
                 "since": self.since, "diverged": self.diverged}
 
 
@@ -267,7 +268,7 @@ class Repetition:
 def _json_list(values: Array) -> list[float | None]:
     """``values`` as a list with None for every non-finite item (strict JSON has no nan or
     inf; a run that stopped before its settle time has no errors to measure)."""
-    return [x if math.isfinite(x) else None for x in np.asarray(values, dtype=float).tolist()]
+    return [finite_or_none(x) for x in np.asarray(values, dtype=float).tolist()]
 
 
 def last_breakpoint(scenario: Scenario) -> float:

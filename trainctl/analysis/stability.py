@@ -28,6 +28,7 @@ import control as ct
 import numpy as np
 from numpy.typing import ArrayLike
 
+from .check import finite_or_none
 from .modes import ZERO_TOL, classify_mode
 
 __all__ = ["ModeStability", "StabilityResult", "analyse_stability", "mode_direction"]
@@ -181,8 +182,7 @@ class StabilityResult:
             "tol": self.tol,
             "status": self.status,
             # -inf for a system without modes: strict JSON has no infinity
-            "spectral_abscissa": (self.spectral_abscissa
-                                  if math.isfinite(self.spectral_abscissa) else None),
+            "spectral_abscissa": finite_or_none(self.spectral_abscissa),
             "modes": [m.to_dict() for m in self.modes],
         }
 

@@ -56,6 +56,7 @@ from ..models.dynamics import vehicle_positions
 from ..models.plant import Plant
 from ..network import FATES, Network
 from ._log import HOLD_FALLBACK, Log, dense_grid
+from .metrics import unconverged_steps
 from .reference import Reference
 from .results import SimulationResult, environment
 
@@ -272,8 +273,7 @@ def _warn_solver_trouble(result: SimulationResult) -> None:
     name = result.controller_name
     level = _outside_level()
     limit, tolerance = result.meta["iteration_limit"], result.meta["iteration_tolerance"]
-    unconverged = [limit is not None and tolerance is not None and len(r) >= limit
-                   and r[-1] > tolerance for r in result.residuals]
+    unconverged = unconverged_steps(result)
     if any(unconverged):
         warnings.warn(
             f"simulate: {sum(unconverged)} of {samples} steps of {name!r} stopped at the "

@@ -431,11 +431,19 @@ def _iteration_limit(result: SimulationResult) -> tuple[int | None, int | None]:
     """The iteration limit of the run's controller and the steps that stopped at it
     unconverged (:class:`Metrics`), from ``meta`` (None, None when it does not iterate)."""
     limit = result.meta.get("iteration_limit")
+    if limit is None or result.meta.get("iteration_tolerance") is None:
+        return None, None
+    return int(limit), sum(unconverged_steps(result))
+
+
+def unconverged_steps(result: SimulationResult) -> list[bool]:
+    """Per step, whether it stopped at the iteration limit with its last change still above
+    the tolerance (all False when the run's controller does not iterate)."""
+    limit = result.meta.get("iteration_limit")
     tolerance = result.meta.get("iteration_tolerance")
     if limit is None or tolerance is None:
-        return None, None
-    stopped = sum(1 for r in result.residuals if len(r) >= limit and r[-1] > tolerance)
-    return int(limit), stopped
+        return [False] * len(result.residuals)
+    return [len(r) >= limit and r[-1] > tolerance for r in result.residuals]
 
 
 def _max_jerk(t: NDArray[np.float64], v: NDArray[np.float64]) -> float:

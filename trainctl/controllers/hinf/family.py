@@ -525,6 +525,7 @@ class HinfFamily:
             (the delay margin), ``consensus_bound`` [s] (None for a directed
             graph or no bound), ``connectivity`` (per window) and ``graph``.
         """
+        from ...analysis.check import finite_or_none
         from ...report.figures_graph import graph_report_data
 
         lam = np.linalg.eigvals(design.loops.A_cl).astype(complex)
@@ -552,9 +553,7 @@ class HinfFamily:
                 "own_speed": s.own_speed,
                 "control_interval": f"{design.control_interval:g}",
                 "input_bounds": bool(s.input_bounds), "delay": res.to_dict(),
-                "consensus_bound": (design.consensus_bound
-                                    if design.consensus_bound is not None
-                                    and math.isfinite(design.consensus_bound) else None),
+                "consensus_bound": finite_or_none(design.consensus_bound),
                 "connectivity": [w.to_dict() for w in design.connectivity],
                 "graph": graph_report_data(design.graph)}
 
