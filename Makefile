@@ -13,12 +13,13 @@ STAMP_TEST := $(VENV)/.trainctl-install-test.stamp
 STAMP_DOCS := $(VENV)/.trainctl-install-docs.stamp
 INSTALL_DEPS := pyproject.toml trainctl/__init__.py
 
-.PHONY: help report test docs install install-test install-docs lint clean
+.PHONY: help report test docs dist install install-test install-docs lint clean
 
 help:
 	@echo "make report   write reports/crh2-dmpc.html (creates .venv when missing)"
 	@echo "make test     run the whole test suite, doctests included"
 	@echo "make docs     build the documentation into docs/_build/html (warnings are errors)"
+	@echo "make dist     build the wheel (distribution trainctl-toolbox) into dist/"
 	@echo "make lint     ruff check and mypy"
 	@echo "make clean    remove build artefacts and caches (keeps .venv)"
 
@@ -53,6 +54,13 @@ test: $(STAMP_TEST)
 
 docs: $(STAMP_DOCS)
 	$(BIN)/python -m sphinx -W --keep-going -b html docs docs/_build/html
+
+# The wheel a course installs (docs/assignment): trainctl-toolbox, import name
+# trainctl. DIST=DIR writes it elsewhere. Built in pip's isolated build
+# environment, so it needs only the venv's pip.
+DIST ?= dist
+dist: | $(BIN)/python
+	$(PIP) wheel --quiet --no-deps --wheel-dir $(DIST) .
 
 lint: $(STAMP_TEST)
 	$(BIN)/ruff check .

@@ -100,3 +100,59 @@ def test_ci_workflow() -> None:
     assert COMMAND in runs
     assert "python student.py --short" in runs
     assert any("pip install" in r for r in runs)
+
+
+@pytest.mark.slow
+def test_ci_workflow_installs_the_built_wheel_and_passes(tmp_path: Path) -> None:
+    """The workflow's steps, run verbatim in a fresh venv, install trainctl-toolbox from a
+    wheel that ``make dist`` just built and pass: ``--strict`` exits 0, the script runs."""
+    import shutil
+
+    import yaml
+
+    import trainctl
+
+    doc = yaml.safe_load((ASSIGNMENT / "ci.yml").read_text(encoding="utf-8"))
+    target = doc["env"]["TRAINCTL"]
+    assert target == f"wheels/trainctl_toolbox-{trainctl.__version__}-py3-none-any.whl"
+
+    dist = tmp_path / "dist"
+    built = subprocess.run(["make", "-s", "-C", str(REPO), "dist", f"DIST={dist}"],
+                           capture_output=True, text=True, timeout=600, check=False)
+    assert built.returncode == 0, built.stdout + built.stderr
+    wheels = list(dist.glob("*.whl"))
+    assert [w.name for w in wheels] == [Path(target).name]
+
+    course = tmp_path / "course"
+    (course / "wheels").mkdir(parents=True)
+    for name in ("scenario.toml", "student.py"):
+        shutil.copy(ASSIGNMENT / name, course / name)
+    shutil.copy(wheels[0], course / target)
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, timeout=300)
+    env = {k: v for k, v in os.environ.items()
+           if not k.startswith(("PYTHON", "VIRTUAL_ENV"))}
+    env.update(PATH=f"{venv / 'bin'}{os.pathsep}{env.get('PATH', '')}", MPLBACKEND="Agg",
+               **{str(k): str(v) for k, v in doc["env"].items()})
+    steps = [step for job in doc["jobs"].values() for step in job["steps"] if "run" in step]
+    assert len(steps) == 3
+    for step in steps:
+        result = subprocess.run(["bash", "-eo", "pipefail", "-c", str(step["run"])], cwd=course,
+                                env={**env, **{str(k): str(v) for k, v in
+                                               step.get("env", {}).items()}},
+                                capture_output=True, text=True, timeout=600, check=False)
+        assert result.returncode == 0, (step["name"], result.stdout[-3000:],
+                                        result.stderr[-3000:])
+        if step["run"] == COMMAND:
+            assert "--strict exits 0" in result.stdout
+
+    probe = ("import importlib.metadata as m, trainctl; print(m.version('trainctl-toolbox'));"
+             " print(trainctl.__file__)\n"
+             "try:\n    m.distribution('trainctl')\nexcept m.PackageNotFoundError:\n"
+             "    print('no trainctl distribution')")
+    out = subprocess.run([str(venv / "bin" / "python"), "-c", probe], cwd=course, env=env,
+                         capture_output=True, text=True, timeout=120, check=True).stdout
+    version, location, other = out.splitlines()
+    assert version == trainctl.__version__
+    assert Path(location).is_relative_to(venv), location
+    assert other == "no trainctl distribution"

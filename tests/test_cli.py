@@ -116,10 +116,11 @@ class TestVersionAndHelp:
         assert capsys.readouterr().out == f"trainctl {trainctl.__version__}\n"
 
     def test_version_matches_metadata(self) -> None:
-        """The package version is the one in the installed metadata."""
+        """The version is the one in the installed metadata of the distribution's own name."""
         from importlib.metadata import version
 
-        assert version("trainctl") == trainctl.__version__ == "0.1.0"
+        assert trainctl.DISTRIBUTION == "trainctl-toolbox"
+        assert version(trainctl.DISTRIBUTION) == trainctl.__version__ == "0.1.0"
 
     @pytest.mark.slow
     def test_help_via_python_m(self) -> None:

@@ -41,7 +41,7 @@ def wheel(tmp_path_factory: pytest.TempPathFactory) -> Path:
         cwd=REPO,
     )  # fmt: skip
     assert result.returncode == 0, result.stdout + result.stderr
-    wheels = sorted(out.glob("trainctl-*.whl"))
+    wheels = sorted(out.glob("trainctl_toolbox-*.whl"))
     assert len(wheels) == 1, wheels
     return wheels[0]
 
@@ -102,6 +102,7 @@ class TestWheelContents:
             )
             metadata = archive.read(f"{dist_info}/METADATA").decode()
             entry_points = archive.read(f"{dist_info}/entry_points.txt").decode()
+        assert "Name: trainctl-toolbox\n" in metadata  # the index's "trainctl" is another project
         assert "Version: 0.1.0" in metadata
         assert "Requires-Python: >=3.11" in metadata
         assert "Requires-Dist: control>=0.10.2" in metadata

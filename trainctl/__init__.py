@@ -33,7 +33,12 @@ if TYPE_CHECKING:
 
 __version__ = "0.1.0"
 
+DISTRIBUTION = "trainctl-toolbox"
+"""The name trainctl is installed under (``pip install trainctl-toolbox``); the
+import name is ``trainctl``. The index's ``trainctl`` is another project."""
+
 __all__ = [
+    "DISTRIBUTION",
     "ConvergenceWarning",
     "DimensionError",
     "InaccurateSolutionWarning",

@@ -262,7 +262,7 @@ def _add_sweep(sub: Any) -> None:
         "--scheduler", metavar="ADDRESS",
         help="run the points on a Dask cluster, e.g. tcp://HOST:8786 (default: the "
         "TRAINCTL_DASK_SCHEDULER environment variable; without either, locally); needs "
-        "trainctl[dask]",
+        "trainctl-toolbox[dask]",
     )
     p_sweep.add_argument(
         "-o", "--output", metavar="DIR",

@@ -137,7 +137,7 @@ class MissingDependencyError(TrainctlError, ImportError):
     Traceback (most recent call last):
         ...
     trainctl.exceptions.MissingDependencyError: SimulationResult.to_pandas: pandas must be \
-installed (got ImportError). pip install 'trainctl[pandas]'
+installed (got ImportError). pip install 'trainctl-toolbox[pandas]'
     >>> issubclass(MissingDependencyError, ImportError)
     True
     """

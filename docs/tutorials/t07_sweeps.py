@@ -104,7 +104,7 @@ if __name__ == "__main__":
 # table: ``Dask table equals local table: True``.
 
 if __name__ == "__main__":
-    import distributed  # optional dependency: pip install 'trainctl[dask]'
+    import distributed  # optional dependency: pip install 'trainctl-toolbox[dask]'
 
     # ":0": the scheduler's web server on any free port (None would take 8787, and warn
     # when another cluster on this machine has it)

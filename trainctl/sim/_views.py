@@ -89,11 +89,11 @@ class ResultViews:
             When pandas is not installed.
         """
         try:
-            pd = importlib.import_module("pandas")  # optional: trainctl[pandas]
+            pd = importlib.import_module("pandas")  # optional: trainctl-toolbox[pandas]
         except ImportError:
             raise MissingDependencyError(
                 "SimulationResult.to_pandas: pandas must be installed (got ImportError). "
-                "pip install 'trainctl[pandas]'"
+                "pip install 'trainctl-toolbox[pandas]'"
             ) from None
         labels = self.labels()
         n = self.n_vehicles

@@ -80,8 +80,12 @@ def environment() -> dict[str, object]:
     >>> sorted(env), "trainctl" in env["versions"]
     (['platform', 'python', 'versions'], True)
     """
-    versions: dict[str, str | None] = {}
-    for package in ("trainctl", *_DEPENDENCIES):
+    from .. import __version__
+
+    # trainctl's own version is the one imported: the index's "trainctl" is
+    # another project, and a source checkout may have no metadata at all.
+    versions: dict[str, str | None] = {"trainctl": __version__}
+    for package in _DEPENDENCIES:
         try:
             versions[package] = metadata.version(package)
         except metadata.PackageNotFoundError:

@@ -362,7 +362,7 @@ def dask_executor(address: str, timeout: float = 10.0) -> Iterator[Executor]:
         from distributed import Client
     except ImportError:
         raise ScenarioError("--scheduler needs Dask's distributed package, which is not "
-                            "installed: pip install 'trainctl[dask]' (the workers need it "
+                            "installed: pip install 'trainctl-toolbox[dask]' (the workers need it "
                             "and trainctl too).") from None
     try:
         _probe(address, timeout)
