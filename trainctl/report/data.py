@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .._files import node_kind, read_regular_text
 from .._validation import numerical_errors
 from ..exceptions import ScenarioError
 from .runfile import FORMAT as FORMAT
@@ -401,11 +402,13 @@ def _foreign_simulations(path: Path, strategies: set[str]) -> list[str]:
 def _manifest_strategies(path: Path) -> tuple[set[str] | None, str]:
     """The strategies a manifest trainctl wrote lists, or None and why it is not trainctl's."""
     if not _is_regular(path):
+        with contextlib.suppress(OSError):
+            return None, f"{node_kind(os.lstat(path).st_mode)}, not a file trainctl wrote"
         return None, f"no {MANIFEST}"
     try:
         if os.lstat(path).st_size > _MAX_MANIFEST_BYTES:
             return None, "too large for a manifest trainctl writes"
-        document = json.loads(path.read_text(encoding="utf-8"))
+        document = json.loads(read_regular_text(path))
     except (OSError, UnicodeDecodeError, ValueError, RecursionError):
         return None, "not JSON, so not a manifest trainctl wrote"
     family = FORMAT.rsplit("/", 1)[0] + "/"
@@ -422,13 +425,9 @@ def _describe(path: Path, shown: str) -> str:
         mode = os.lstat(path).st_mode
     except OSError:
         return shown
-    if stat.S_ISLNK(mode):
-        return f"{shown} (a symbolic link)"
     if stat.S_ISDIR(mode):
         return f"{shown}/"
-    if not stat.S_ISREG(mode):
-        return f"{shown} (a special file)"
-    return shown
+    return shown if stat.S_ISREG(mode) else f"{shown} ({node_kind(mode)})"
 
 
 def _is_regular(path: Path) -> bool:
