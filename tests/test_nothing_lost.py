@@ -237,7 +237,7 @@ class TestSaveDirectory:
         st = os.stat(target)
         assert (st.st_ino, st.st_uid, st.st_gid, stat.S_IMODE(st.st_mode)) == (
             inode, OTHER_UID, OTHER_UID, 0o750)
-        assert sorted(p.name for p in target.iterdir()) == [MANIFEST, "scenario.toml"]
+        assert sorted(p.name for p in target.iterdir()) == sorted([MANIFEST, "scenario.toml"])
         assert assert_valid_save(target).scenario.source == "builtin:heavy-haul-hinf"
 
     @pytest.mark.parametrize("damage", [
@@ -375,7 +375,7 @@ class TestSaveDirectory:
             hinf.save(target)
         monkeypatch.setattr(os, "rename", real_rename)
         assert sent and signal.getsignal(signal.SIGINT) is signal.default_int_handler
-        assert sorted(p.name for p in target.iterdir()) == [MANIFEST, "scenario.toml"]
+        assert sorted(p.name for p in target.iterdir()) == sorted([MANIFEST, "scenario.toml"])
         assert assert_valid_save(target).scenario.source == "builtin:heavy-haul-hinf"
         assert temporary_entries(tmp_path) == []
 
@@ -551,14 +551,19 @@ class TestInputs:
         assert temporary_entries(tmp_path) == []
 
     def test_fifo_inside_a_sweep_store(self, tmp_path: Path) -> None:
-        """report STORE where a point's summary.json is a pipe: exit 2, no wait."""
-        from trainctl.sweep import sweep_scenario
+        """A store's table or a point's summary as a pipe: refused or skipped, never waited on."""
+        from trainctl.sweep import SweepStore, sweep_scenario
 
         store = tmp_path / "store"
         sweep_scenario("crh2-dmpc", store, axes=["controller.r_per_kn2=1,10"], simulate=False)
         summary = next((store / "points").glob("*/summary.json"))
         summary.unlink()
         os.mkfifo(summary)
+        with pytest.raises(TrainctlError, match="named pipe") as info:
+            SweepStore.load(store).summary(summary.parent.name)
+        assert str(summary) in str(info.value)
+        (store / "rows.parquet").unlink()
+        os.mkfifo(store / "rows.parquet")
         result = cli("report", "store", "-o", "r.html", cwd=tmp_path, timeout=120)
         assert_refused(result, "store")
         assert stat.S_ISFIFO(os.lstat(summary).st_mode)

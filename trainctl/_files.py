@@ -71,7 +71,11 @@ def read_regular(path: str | os.PathLike[str], limit: int | None = None) -> byte
     (``FileNotFoundError``, ``PermissionError``).
     """
     flags = os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0)
-    fd = os.open(path, flags)
+    try:
+        fd = os.open(path, flags)
+    except OSError:
+        require_regular(path)  # a socket cannot be opened at all (ENXIO): say what it is
+        raise
     try:
         mode = os.fstat(fd).st_mode
         if not stat.S_ISREG(mode):
