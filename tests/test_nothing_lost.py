@@ -36,6 +36,21 @@ OTHER_UID = 1234
 """The "other user" of the ownership cases (the tests run as root in CI containers)."""
 
 
+_PAUSE_IN_SAVE = """
+import sys, time
+import trainctl.report.data as data
+_document = data.ReportData._document
+def _announced(self):
+    sys.stderr.write("STAGING\\n"); sys.stderr.flush()
+    time.sleep(60)
+    return _document(self)
+data.ReportData._document = _announced
+from trainctl.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+"""The CLI, pausing inside ReportData.save once its staging directory holds scenario.toml."""
+
+
 # --------------------------------------------------------------------------- helpers
 
 
@@ -209,6 +224,43 @@ class TestSaveCommand:
         assert snapshot(tmp_path) == before
 
 
+    @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL],
+                             ids=["SIGINT", "SIGTERM", "SIGKILL"])
+    def test_signal_while_staging(self, tmp_path: Path, earlier_save: Path, hinf: ReportData,
+                                  signum: int) -> None:
+        """Signalled mid-save: the earlier save is whole; only SIGKILL leaves its staging,
+        which the next save removes."""
+        before = snapshot(tmp_path)
+        env = dict(os.environ, PYTHONPATH=str(REPO))
+        process = subprocess.Popen(
+            [sys.executable, "-c", _PAUSE_IN_SAVE, "analyse", "crh2-dmpc", "--no-simulate",
+             "--save", "runs"], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE, text=True)
+        try:
+            assert process.stderr is not None
+            for line in process.stderr:
+                if line.strip() == "STAGING":
+                    break
+            else:
+                pytest.fail("the save never started")
+            assert [p.name for p in earlier_save.iterdir() if p.name.startswith(".")]
+            process.send_signal(signum)
+            _, err = process.communicate(timeout=60)
+        finally:
+            process.kill()
+        after = snapshot(tmp_path)
+        if signum == signal.SIGKILL:
+            assert process.returncode == -signal.SIGKILL
+            staged = {k for k in after if k.startswith("runs/.trainctl-save-")}
+            assert staged and {k: v for k, v in after.items() if k not in staged} == before
+            hinf.save(earlier_save)
+            assert temporary_entries(tmp_path) == []
+        else:
+            assert process.returncode in (130, 143), err
+            assert "interrupted" in err and "Traceback" not in err
+            assert after == before
+
+
 # --------------------------------------------------------------------------- --save, API
 
 
@@ -317,8 +369,13 @@ class TestSaveDirectory:
                 raise _failure
 
             monkeypatch.setattr(SimulationResult, "save", fail)
-            with pytest.raises(type(failure)):
+            expected = KeyboardInterrupt if isinstance(failure, KeyboardInterrupt) else OutputError
+            with pytest.raises(expected) as info:
                 simulated.save(earlier_save)
+            if expected is OutputError:
+                assert str(earlier_save) in str(info.value)
+                assert "No space left on device" in str(info.value)
+                assert "the earlier save is unchanged" in str(info.value)
             assert snapshot(tmp_path) == before
 
     def test_first_save_interrupted_leaves_nothing(self, tmp_path: Path, simulated: ReportData,
@@ -349,7 +406,7 @@ class TestSaveDirectory:
             real_rename(source, destination)
 
         monkeypatch.setattr(os, "rename", flaky)
-        with pytest.raises(OSError, match="Input/output"):
+        with pytest.raises(OutputError, match="Input/output error.*the earlier save is unchanged"):
             hinf.save(target)
         monkeypatch.setattr(os, "rename", real_rename)
         assert len(calls) > 4  # the undo renamed entries back

@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 from .._files import node_kind, read_regular_text
 from .._validation import numerical_errors
 from ..exceptions import ScenarioError
+from .output import OutputError
 from .runfile import FORMAT as FORMAT
 from .runfile import MANIFEST as MANIFEST
 from .runfile import text_digest
@@ -161,6 +162,9 @@ class ReportData:
         ScenarioError
             If ``directory`` is a file or a broken link, or holds anything
             a save does not write (nothing is written or removed).
+        OutputError
+            If writing fails (a full disk, no permission): the message names
+            the directory; the earlier save, if any, is unchanged.
         """
         given = Path(directory)
         target = _save_directory(given)
@@ -176,11 +180,14 @@ class ReportData:
             _refuse_foreign(given, target)  # checked again: it may have changed meanwhile
             with _signals_deferred():
                 _move_into_place(staging, target)
+        except OSError as exc:  # a full disk, a permission: name the directory
+            _clean_up(staging, created)
+            kept = ("the earlier save is unchanged" if _is_regular(target / MANIFEST)
+                    else "nothing was written")
+            raise OutputError(f"{given}: cannot write the saved results ({exc.strerror or exc}"
+                              f"{_where(exc)}); {kept}.") from None
         except BaseException:
-            shutil.rmtree(staging, ignore_errors=True)
-            for made in reversed(created):
-                with contextlib.suppress(OSError):
-                    made.rmdir()  # only if still empty: an interrupted first save leaves nothing
+            _clean_up(staging, created)
             raise
         return given
 
@@ -445,6 +452,18 @@ def _is_directory(path: Path) -> bool:
 def _is_staging(path: Path) -> bool:
     """A staging entry of a save (left by a killed process when found by another)."""
     return _STAGING.fullmatch(path.name) is not None and _is_directory(path)
+
+
+def _clean_up(staging: Path, created: list[Path]) -> None:
+    """Remove the staging entry, and the directories a failed first save created."""
+    shutil.rmtree(staging, ignore_errors=True)
+    for made in reversed(created):
+        with contextlib.suppress(OSError):
+            made.rmdir()  # only if still empty: an interrupted first save leaves nothing
+
+
+def _where(exc: OSError) -> str:
+    return f": {os.fsdecode(exc.filename)}" if exc.filename else ""
 
 
 def _make_directories(target: Path) -> list[Path]:
