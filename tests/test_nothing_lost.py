@@ -565,6 +565,18 @@ class TestOutputTargets:
         assert_refused(result, "scenario.toml", "No space left on device")
         assert list(tmp_path.iterdir()) == []
 
+    def test_full_standard_output(self, tmp_path: Path) -> None:
+        """-o - with standard output on a full device: exit 2, standard output named."""
+        if not Path("/dev/full").exists():
+            pytest.skip("no /dev/full")
+        env = dict(os.environ, PYTHONPATH=str(REPO))
+        with open("/dev/full", "w") as full:
+            result = subprocess.run([sys.executable, "-m", "trainctl", "export", "crh2-dmpc",
+                                     "-o", "-"], stdout=full, stderr=subprocess.PIPE,
+                                    text=True, env=env, cwd=tmp_path, timeout=120, check=False)
+        assert_refused(result, "standard output", "No space left on device")
+        assert list(tmp_path.iterdir()) == []
+
 
 # --------------------------------------------------------------------------- inputs
 

@@ -268,7 +268,12 @@ def write_output(text: str, target: str | os.PathLike[str] | OutputTarget) -> Pa
     """
     target = output_target(target)
     if target.kind == "fd":
-        _write_fd(text, target.fd)
+        try:
+            _write_fd(text, target.fd)
+        except OSError as exc:  # a full disk or a closed pipe behind the descriptor
+            where = "standard output" if target.is_stdout else f"descriptor {target.fd}"
+            raise OutputError(f"{target}: cannot write to {where} ({exc.strerror or exc}); the "
+                              "output is incomplete.") from None
     elif target.kind == "stream":
         _write_stream(text, target)
     else:
