@@ -138,6 +138,7 @@ def earlier_save(tmp_path: Path, hinf: ReportData) -> Path:
 # --------------------------------------------------------------------------- --save, CLI
 
 
+@pytest.mark.slow
 class TestSaveCommand:
     """``trainctl analyse ... --save DIR`` refuses what is not a save, before running."""
 
@@ -459,6 +460,7 @@ class TestOutputTargets:
         st = os.stat(theirs)
         assert (st.st_uid, st.st_gid, stat.S_IMODE(st.st_mode)) == (OTHER_UID, OTHER_UID, 0o640)
 
+    @pytest.mark.slow
     def test_export_through_a_link_keeps_owner_and_mode(self, tmp_path: Path) -> None:
         """export -o LINK --force replaces the file it points to; owner, group, mode stay."""
         theirs, link = self._foreign_file(tmp_path)
@@ -470,6 +472,7 @@ class TestOutputTargets:
         assert temporary_entries(tmp_path) == []
         assert sorted(p.name for p in theirs.parent.iterdir()) == ["theirs.html"]
 
+    @pytest.mark.slow
     def test_report_through_a_link_keeps_owner_and_mode(self, tmp_path: Path) -> None:
         """The issue's case: report -o out.html, a link to another user's file elsewhere."""
         theirs, link = self._foreign_file(tmp_path)
@@ -500,6 +503,7 @@ class TestOutputTargets:
         st = os.stat(path)
         assert (st.st_uid, stat.S_IMODE(st.st_mode)) == (OTHER_UID, 0o2664)
 
+    @pytest.mark.slow
     def test_fifo_without_reader_refused(self, tmp_path: Path) -> None:
         """-o FIFO with nobody reading: exit 2 at once, the pipe stays a pipe."""
         fifo = tmp_path / "pipe"
@@ -509,6 +513,7 @@ class TestOutputTargets:
         assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
         assert sorted(p.name for p in tmp_path.iterdir()) == ["pipe"]
 
+    @pytest.mark.slow
     def test_dev_full_refused(self, tmp_path: Path) -> None:
         """/dev/full is a character device other than /dev/null: refused before any work."""
         if not Path("/dev/full").exists():
@@ -553,6 +558,7 @@ class TestOutputTargets:
             write_output("x", tmp_path / "new.html")
         assert sorted(p.name for p in tmp_path.iterdir()) == ["page.html"]
 
+    @pytest.mark.slow
     def test_full_disk_from_the_command(self, tmp_path: Path) -> None:
         """export -o FILE on a full disk (injected ENOSPC): exit 2, the file named, no temp."""
         code = ("import errno, os, sys\n"
@@ -565,6 +571,7 @@ class TestOutputTargets:
         assert_refused(result, "scenario.toml", "No space left on device")
         assert list(tmp_path.iterdir()) == []
 
+    @pytest.mark.slow
     def test_full_standard_output(self, tmp_path: Path) -> None:
         """-o - with standard output on a full device: exit 2, standard output named."""
         if not Path("/dev/full").exists():
@@ -584,6 +591,7 @@ class TestOutputTargets:
 class TestInputs:
     """A pipe, socket or device given as an input file is refused without blocking."""
 
+    @pytest.mark.slow
     def test_fifo_as_the_scenario_file(self, tmp_path: Path) -> None:
         """analyse FIFO: exit 2 at once, naming the path (no writer needed)."""
         os.mkfifo(tmp_path / "s.toml")
@@ -591,6 +599,17 @@ class TestInputs:
                         ["sweep", "./s.toml", "--dry-run"]):
             result = cli(*command, cwd=tmp_path, timeout=60)
             assert_refused(result, "./s.toml", "a named pipe, not a regular file")
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
+
+    def test_fifo_through_the_api(self, tmp_path: Path) -> None:
+        """load_scenario, ReportData.load and write_output on pipes: refused, not waited on."""
+        fifo = tmp_path / "s.toml"
+        os.mkfifo(fifo)
+        with pytest.raises(TrainctlError, match="a named pipe, not a regular file") as info:
+            load_scenario(fifo)
+        assert str(fifo) in str(info.value)
+        with pytest.raises(OutputError, match="no process is reading"):
+            write_output("x", fifo)
         assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
 
     def test_socket_as_the_scenario_file(self, tmp_path: Path) -> None:
@@ -603,6 +622,7 @@ class TestInputs:
         finally:
             sock.close()
 
+    @pytest.mark.slow
     @pytest.mark.parametrize("member", [
         "scenario.toml", MANIFEST, "simulations/decentralised/result.json",
         "simulations/decentralised/arrays.npz"])
@@ -619,6 +639,7 @@ class TestInputs:
         assert not (tmp_path / "r.html").exists()
         assert temporary_entries(tmp_path) == []
 
+    @pytest.mark.slow
     def test_fifo_inside_a_sweep_store(self, tmp_path: Path) -> None:
         """A store's table or a point's summary as a pipe: refused or skipped, never waited on."""
         from trainctl.sweep import SweepStore, sweep_scenario
