@@ -14,6 +14,11 @@ Directory layout (format :data:`FORMAT`, declared and checked on loading by
     DIR/trainctl-run.json          everything except the time series
     DIR/scenario.toml              the scenario text as read
     DIR/simulations/<strategy>/    one SimulationResult.save directory each
+
+A save never deletes what it did not write (:func:`check_save_target`): DIR
+is new, empty, or an earlier save holding nothing else; a re-save stages its
+files in a hidden ``DIR/.trainctl-save-<hex>.tmp`` and renames them over the
+earlier save's, the manifest last.
 """
 
 from __future__ import annotations
