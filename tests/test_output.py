@@ -90,14 +90,21 @@ class TestTargets:
         assert_is_device(char_device)
 
     def test_fifo_written_through(self, tmp_path: Path) -> None:
-        """A named pipe is opened and written, not replaced."""
+        """A named pipe that a process reads is opened and written, not replaced."""
         fifo = tmp_path / "pipe"
         os.mkfifo(fifo)
+        reader = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)  # the reader is there first
         got: list[bytes] = []
-        reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()))
-        reader.start()
+
+        def read_all() -> None:
+            os.set_blocking(reader, True)
+            with os.fdopen(reader, "rb") as handle:
+                got.append(handle.read())
+
         write_output("through the pipe", fifo)
-        reader.join(timeout=10)
+        thread = threading.Thread(target=read_all)
+        thread.start()
+        thread.join(timeout=10)
         assert got == [b"through the pipe"]
         assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
 

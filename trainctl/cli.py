@@ -31,10 +31,11 @@ Subcommands
     For a sweep store (``trainctl sweep -o DIR``) the sweep report
     (:mod:`trainctl.report.sweep`), by default ``DIR/report.html``.
 
-Output paths (``-o``): a regular file is replaced atomically; ``-``, a
-character device (``/dev/null``) or a pipe is written through, never
-replaced; a path ending in ``/`` is a directory that receives the default
-file name; anything else is refused before any work
+Output paths (``-o``): a regular file is replaced atomically, keeping its
+owner and permissions; ``-``, ``/dev/null`` or a pipe that another process
+reads is written through, never replaced; a path ending in ``/`` is a
+directory that receives the default file name; anything else is refused before
+any work
 (:mod:`trainctl.report.output`). ``analyse`` and ``report`` estimate the run
 first (:mod:`trainctl.budget`): a long one prints its estimate on stderr, one
 over ``--max-time`` (default one hour) is refused, and a run that outlives

@@ -35,6 +35,7 @@ from typing import Annotated, Any, TypeVar
 
 from pydantic import AfterValidator, BaseModel, StrictFloat, ValidationError
 
+from ._files import read_regular_text
 from .declare import first_error, violation_of
 from .exceptions import ScenarioError, TrainctlError
 from .violations import ERROR_TYPE, NOTHING
@@ -194,7 +195,7 @@ def read_json(path: Path, *, hint: str = "", error: type[TrainctlError] = Scenar
     not a valid trainctl file (the non-finite number NaN (JSON has no NaN or Infinity)).
     """
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_regular_text(path)  # a pipe or device is refused, never waited on
     except FileNotFoundError:
         raise error(f"{path}: file not found.{hint}") from None
     except UnicodeDecodeError as exc:

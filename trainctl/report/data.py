@@ -14,15 +14,25 @@ Directory layout (format :data:`FORMAT`, declared and checked on loading by
     DIR/trainctl-run.json          everything except the time series
     DIR/scenario.toml              the scenario text as read
     DIR/simulations/<strategy>/    one SimulationResult.save directory each
+
+A save never deletes what it did not write (:func:`check_save_target`): DIR
+is new, empty, or an earlier save holding nothing else; a re-save stages its
+files in a hidden ``DIR/.trainctl-save-<hex>.tmp`` and renames them over the
+earlier save's, the manifest last.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import re
 import secrets
 import shutil
-from collections.abc import Mapping
+import signal
+import stat
+import threading
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -30,8 +40,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .._files import node_kind, read_regular_text
 from .._validation import numerical_errors
 from ..exceptions import ScenarioError
+from .output import OutputError
 from .runfile import FORMAT as FORMAT
 from .runfile import MANIFEST as MANIFEST
 from .runfile import text_digest
@@ -126,51 +138,63 @@ class ReportData:
 
     # ----------------------------------------------------------------- files
     def save(self, directory: str | os.PathLike[str]) -> Path:
-        """Write the data to ``directory``, atomically.
+        """Write the data to ``directory``, replacing only what an earlier save wrote.
 
-        Everything goes to a temporary sibling directory first, which then
-        replaces ``directory``; an interrupted save leaves the previous
-        contents (or nothing). An existing ``directory`` must be empty or a
-        previous save (it holds :data:`MANIFEST`).
+        ``directory`` must be new, empty, or hold a previous save and nothing
+        else (:func:`check_save_target`). The files are written to a hidden
+        staging directory inside it first and then moved into place, the
+        manifest last; only the files of the previous save are replaced, and
+        the directory itself (its owner, permissions, a symbolic link
+        pointing to it) stays. An error or an interrupt before the move
+        leaves the previous save as it was; SIGINT, SIGTERM and SIGHUP
+        arriving during the move (a few renames) take effect once it is
+        done. No staging entry survives; one left by a killed process
+        (``.trainctl-save-*``) is removed by the next save.
 
         Parameters
         ----------
         directory : str or os.PathLike
-            Target directory (parents are created).
+            Target directory (it and its parents are created). A symbolic
+            link to a directory is followed.
 
         Returns
         -------
         pathlib.Path
-            The directory.
+            The directory, as given.
 
         Raises
         ------
         ScenarioError
-            If ``directory`` is a file, or a non-empty directory that is not a
-            saved run (nothing is written).
+            If ``directory`` is a file or a broken link, or holds anything
+            a save does not write (nothing is written or removed).
+        OutputError
+            If writing fails (a full disk, no permission): the message names
+            the directory; the earlier save, if any, is unchanged.
         """
-        target = Path(directory)
-        check_save_target(target)
-        target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = target.with_name(f".{target.name}.{secrets.token_hex(6)}.tmp")
+        given = Path(directory)
+        target = _save_directory(given)
+        created = _make_directories(target)
+        staging = target / f"{_STAGING_PREFIX}{secrets.token_hex(6)}.tmp"
         try:
-            tmp.mkdir()
-            (tmp / "scenario.toml").write_text(self.scenario_text, encoding="utf-8")
+            staging.mkdir()
+            (staging / "scenario.toml").write_text(self.scenario_text, encoding="utf-8")
             for strategy, result in self.simulations.items():
-                result.save(tmp / "simulations" / strategy)
-            (tmp / MANIFEST).write_text(json.dumps(self._document(), indent=1) + "\n",
-                                        encoding="utf-8")
-            old = None
-            if target.exists():
-                old = target.with_name(f".{target.name}.{secrets.token_hex(6)}.old")
-                target.rename(old)
-            tmp.rename(target)
-            if old is not None:
-                shutil.rmtree(old, ignore_errors=True)
+                result.save(staging / "simulations" / strategy)
+            (staging / MANIFEST).write_text(json.dumps(self._document(), indent=1) + "\n",
+                                            encoding="utf-8")
+            _refuse_foreign(given, target)  # checked again: it may have changed meanwhile
+            with _signals_deferred():
+                _move_into_place(staging, target)
+        except OSError as exc:  # a full disk, a permission: name the directory
+            _clean_up(staging, created)
+            kept = ("the earlier save is unchanged" if _is_regular(target / MANIFEST)
+                    else "nothing was written")
+            raise OutputError(f"{given}: cannot write the saved results ({exc.strerror or exc}"
+                              f"{_where(exc)}); {kept}.") from None
         except BaseException:
-            shutil.rmtree(tmp, ignore_errors=True)
+            _clean_up(staging, created)
             raise
-        return target
+        return given
 
     def _document(self) -> dict[str, Any]:
         return {
@@ -227,7 +251,17 @@ class ReportData:
 
 
 def check_save_target(path: str | os.PathLike[str]) -> None:
-    """Refuse a directory that :meth:`ReportData.save` must not replace (checked before a run).
+    """Refuse a directory that :meth:`ReportData.save` must not write into (checked before a run).
+
+    Accepted: a path that does not exist yet, an empty directory, or a
+    directory holding a previous save and nothing else: the files a save
+    writes (:data:`MANIFEST`, ``scenario.toml``, ``simulations/<strategy>/``
+    with ``result.json`` and ``arrays.npz``, the strategies its manifest
+    lists), whose manifest is trainctl's (a JSON object of format
+    :data:`FORMAT`'s family). Anything else in it (a user's file, a
+    symbolic link, an unlisted strategy, a fake manifest) is named and
+    refused. A symbolic link to a directory is followed and its target
+    judged by the same rule.
 
     Parameters
     ----------
@@ -237,7 +271,8 @@ def check_save_target(path: str | os.PathLike[str]) -> None:
     Raises
     ------
     ScenarioError
-        If ``path`` is a file, or a non-empty directory that is not a saved run.
+        If ``path`` is a file or a broken symbolic link, or a directory
+        holding entries a save did not write (the message names them).
 
     Examples
     --------
@@ -250,16 +285,10 @@ def check_save_target(path: str | os.PathLike[str]) -> None:
     ...     try:
     ...         check_save_target(tmp)
     ...     except ScenarioError as error:
-    ...         print(type(error).__name__, "non-empty directory" in str(error))
+    ...         print(type(error).__name__, "notes.txt" in str(error))
     ScenarioError True
     """
-    target = Path(path)
-    if target.exists() and not target.is_dir():
-        raise ScenarioError(f"{target}: exists and is not a directory; give a directory for "
-                            "the saved results.")
-    if target.is_dir() and any(target.iterdir()) and not (target / MANIFEST).is_file():
-        raise ScenarioError(f"{target}: is a non-empty directory without {MANIFEST}; refusing "
-                            "to overwrite it. Give a new or empty directory.")
+    _save_directory(Path(path))
 
 
 def is_saved_run(path: str | os.PathLike[str]) -> bool:
@@ -290,6 +319,225 @@ def is_saved_run(path: str | os.PathLike[str]) -> bool:
     False True
     """
     return (Path(path) / MANIFEST).is_file()
+
+
+# --------------------------------------------------------------------------- the save directory
+
+_STAGING_PREFIX = ".trainctl-save-"
+"""Prefix of the hidden entries a save stages in (``.trainctl-save-<hex>.tmp`` / ``.old``)."""
+
+_STAGING = re.compile(r"\.trainctl-save-[0-9a-f]{12}\.(?:tmp|old)")
+
+_TOP_FILES = (MANIFEST, "scenario.toml")
+"""The regular files a save writes at the top of its directory."""
+
+_SIMULATIONS = "simulations"
+"""The directory of the simulation results (``simulations/<strategy>/``)."""
+
+_RESULT_FILES = frozenset({"arrays.npz", "result.json"})
+"""What :meth:`SimulationResult.save` writes into a strategy's directory."""
+
+_MAX_MANIFEST_BYTES = 256 * 2**20
+"""A manifest larger than this is not one trainctl wrote (so not replaced)."""
+
+_SHOWN = 5
+"""Foreign entries named in a refusal (the rest are counted)."""
+
+
+def _save_directory(given: Path) -> Path:
+    """The directory a save writes (a link followed), refused when it is not a save's."""
+    if os.path.islink(given) and not os.path.exists(given):
+        raise ScenarioError(f"{given}: is a broken symbolic link; give a new directory for the "
+                            "saved results, or make the link point to one.")
+    target = Path(os.path.realpath(given)) if os.path.lexists(given) else Path(
+        os.path.abspath(given))
+    if os.path.exists(target) and not os.path.isdir(target):
+        raise ScenarioError(f"{given}: exists and is not a directory; give a directory for "
+                            "the saved results.")
+    _refuse_foreign(given, target)
+    return target
+
+
+def _refuse_foreign(given: Path, target: Path) -> None:
+    if not os.path.isdir(target):
+        return
+    foreign = _foreign_entries(target)
+    if foreign:
+        shown = ", ".join(foreign[:_SHOWN])
+        if len(foreign) > _SHOWN:
+            shown += f" and {len(foreign) - _SHOWN} more"
+        linked = os.path.abspath(given) != os.fspath(target)
+        where = f" (resolved: {target})" if linked else ""
+        raise ScenarioError(
+            f"{given}{where}: holds what a trainctl save does not write: {shown}; refusing to "
+            "overwrite the directory (nothing was changed). A save goes into a new or empty "
+            f"directory, or replaces an earlier save ({MANIFEST}, scenario.toml, "
+            "simulations/) holding nothing else: give another directory, or move those "
+            "entries away.")
+
+
+def _foreign_entries(directory: Path) -> list[str]:
+    """Entries of ``directory`` that a save did not write, each named (empty: a save's own)."""
+    names = sorted(n for n in os.listdir(directory) if not _is_staging(directory / n))
+    if not names:
+        return []
+    strategies, why = _manifest_strategies(directory / MANIFEST)
+    if strategies is None:
+        return [f"{n} ({why})" if n == MANIFEST else _describe(directory / n, n) for n in names]
+    foreign = []
+    for name in names:
+        path = directory / name
+        if name in _TOP_FILES:
+            if not _is_regular(path):
+                foreign.append(_describe(path, name))
+        elif name == _SIMULATIONS and _is_directory(path):
+            foreign += _foreign_simulations(path, strategies)
+        else:
+            foreign.append(_describe(path, name))
+    return foreign
+
+
+def _foreign_simulations(path: Path, strategies: set[str]) -> list[str]:
+    foreign = []
+    for strategy in sorted(os.listdir(path)):
+        sub = path / strategy
+        shown = f"{_SIMULATIONS}/{strategy}"
+        if strategy not in strategies or not _is_directory(sub):
+            foreign.append(_describe(sub, shown) if strategy in strategies
+                           else f"{shown} (a strategy its {MANIFEST} does not list)")
+            continue
+        foreign += [_describe(sub / n, f"{shown}/{n}") for n in sorted(os.listdir(sub))
+                    if n not in _RESULT_FILES or not _is_regular(sub / n)]
+    return foreign
+
+
+def _manifest_strategies(path: Path) -> tuple[set[str] | None, str]:
+    """The strategies a manifest trainctl wrote lists, or None and why it is not trainctl's."""
+    if not _is_regular(path):
+        with contextlib.suppress(OSError):
+            return None, f"{node_kind(os.lstat(path).st_mode)}, not a file trainctl wrote"
+        return None, f"no {MANIFEST}"
+    try:
+        if os.lstat(path).st_size > _MAX_MANIFEST_BYTES:
+            return None, "too large for a manifest trainctl writes"
+        document = json.loads(read_regular_text(path))
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError):
+        return None, "not JSON, so not a manifest trainctl wrote"
+    family = FORMAT.rsplit("/", 1)[0] + "/"
+    if not (isinstance(document, dict) and isinstance(document.get("format"), str)
+            and document["format"].startswith(family)):
+        return None, f"not a manifest trainctl wrote (no format {family}N)"
+    listed = document.get("strategies")
+    strategies = {s for s in listed if isinstance(s, str)} if isinstance(listed, list) else set()
+    return strategies, ""
+
+
+def _describe(path: Path, shown: str) -> str:
+    try:
+        mode = os.lstat(path).st_mode
+    except OSError:
+        return shown
+    if stat.S_ISDIR(mode):
+        return f"{shown}/"
+    return shown if stat.S_ISREG(mode) else f"{shown} ({node_kind(mode)})"
+
+
+def _is_regular(path: Path) -> bool:
+    with contextlib.suppress(OSError):
+        return stat.S_ISREG(os.lstat(path).st_mode)
+    return False
+
+
+def _is_directory(path: Path) -> bool:
+    with contextlib.suppress(OSError):
+        return stat.S_ISDIR(os.lstat(path).st_mode)
+    return False
+
+
+def _is_staging(path: Path) -> bool:
+    """A staging entry of a save (left by a killed process when found by another)."""
+    return _STAGING.fullmatch(path.name) is not None and _is_directory(path)
+
+
+def _clean_up(staging: Path, created: list[Path]) -> None:
+    """Remove the staging entry, and the directories a failed first save created."""
+    shutil.rmtree(staging, ignore_errors=True)
+    for made in reversed(created):
+        with contextlib.suppress(OSError):
+            made.rmdir()  # only if still empty: an interrupted first save leaves nothing
+
+
+def _where(exc: OSError) -> str:
+    return f": {os.fsdecode(exc.filename)}" if exc.filename else ""
+
+
+def _make_directories(target: Path) -> list[Path]:
+    """Create ``target`` and its missing parents; the ones created, outermost first."""
+    missing = []
+    for parent in (target, *target.parents):
+        if os.path.lexists(parent):
+            break
+        missing.append(parent)
+    target.mkdir(parents=True, exist_ok=True)
+    return missing[::-1]
+
+
+def _move_into_place(staging: Path, target: Path) -> None:
+    """Swap a previous save's entries for the staged ones (renames, manifest out first, in last).
+
+    A rename that fails undoes the ones made, so the previous save stays; the
+    previous save's entries and any staging left by a killed save are removed
+    afterwards.
+    """
+    trash = target / f"{_STAGING_PREFIX}{secrets.token_hex(6)}.old"
+    leftovers = [target / n for n in os.listdir(target)
+                 if _is_staging(target / n) and target / n != staging]
+    trash.mkdir()
+    done: list[tuple[Path, Path]] = []
+    try:
+        for name in (MANIFEST, "scenario.toml", _SIMULATIONS):
+            if os.path.lexists(target / name):
+                os.rename(target / name, trash / name)
+                done.append((target / name, trash / name))
+        for name in (_SIMULATIONS, "scenario.toml", MANIFEST):
+            if os.path.lexists(staging / name):
+                os.rename(staging / name, target / name)
+                done.append((staging / name, target / name))
+    except BaseException:
+        for source, moved in reversed(done):
+            with contextlib.suppress(OSError):
+                os.rename(moved, source)
+        raise
+    finally:
+        shutil.rmtree(trash, ignore_errors=True)
+    staging.rmdir()
+    for leftover in leftovers:
+        shutil.rmtree(leftover, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def _signals_deferred() -> Iterator[None]:
+    """Hold SIGINT, SIGTERM and SIGHUP for the block; one that came is re-raised after it."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+
+    def hold(signum: int, frame: Any) -> None:
+        caught.append(signum)
+
+    previous: dict[int, Any] = {}
+    try:
+        for name in ("SIGINT", "SIGTERM", "SIGHUP"):
+            signum = getattr(signal, name, None)
+            if signum is not None and signal.getsignal(signum) is not None:
+                previous[signum] = signal.signal(signum, hold)
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        if caught:
+            signal.raise_signal(caught[0])
 
 
 # --------------------------------------------------------------------------- collection

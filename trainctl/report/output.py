@@ -7,10 +7,14 @@ A target is one of:
     A regular file (or a path that does not exist yet): written to a
     temporary file beside it and renamed over it (:func:`write_text_atomic`),
     so a reader never sees a partial file. A symbolic link to a regular file
-    keeps the link; the file it points to is replaced (with its permissions).
+    keeps the link; the file it points to is replaced, keeping its
+    permissions, owner and group (a file whose owner cannot be kept, one
+    owned by another user when trainctl does not run as root, is refused).
+    A failed write (a full disk) names the file and leaves it as it was.
 ``"stream"``
-    A character device (``/dev/null``, a terminal) or a named pipe: opened
-    and written through, never replaced or created.
+    The null device (``/dev/null``), or a named pipe that another process
+    reads: opened without blocking and written through, never replaced or
+    created. A pipe nobody reads is refused (exit 2), never waited on.
 ``"fd"``
     ``-`` or an alias of an open descriptor (``/dev/stdout``,
     ``/dev/fd/N``, ``/proc/self/fd/N``): written to that descriptor
@@ -18,8 +22,9 @@ A target is one of:
 
 A path ending in ``/`` (or an existing directory) names a directory: the
 file is written inside it under the command's default name. Anything else
-(a block device, a socket, a directory where a file is needed) is refused
-with :class:`OutputError` before the command does any work.
+(another character device such as ``/dev/full`` or a terminal, a block
+device, a socket, a directory where a file is needed) is refused with
+:class:`OutputError` before the command does any work.
 
 Examples
 --------
@@ -32,6 +37,7 @@ Examples
 
 from __future__ import annotations
 
+import errno
 import os
 import re
 import secrets
@@ -46,7 +52,7 @@ __all__ = ["OutputError", "OutputTarget", "output_target", "write_output", "writ
 
 _FD_ALIAS = re.compile(r"^/(?:dev|proc/self|proc/(?P<pid>\d+))/fd/(?P<fd>\d+)$")
 _STD_ALIAS = {"/dev/stdin": 0, "/dev/stdout": 1, "/dev/stderr": 2}
-_ACCEPTED = ("regular files, directories, character devices such as /dev/null, pipes, or '-' "
+_ACCEPTED = ("regular files, directories, /dev/null, pipes read by another process, or '-' "
              "for standard output")
 
 
@@ -180,8 +186,10 @@ def _classify(target: Path, text: str) -> OutputTarget:
     except NotADirectoryError:
         raise OutputError(f"{text}: a parent of this path is not a directory") from None
     if stat.S_ISREG(mode):
-        return OutputTarget(Path(os.path.realpath(target)), "file", text, exists=True)
-    if stat.S_ISCHR(mode) or stat.S_ISFIFO(mode):
+        real = Path(os.path.realpath(target))
+        _check_owner(real, text)
+        return OutputTarget(real, "file", text, exists=True)
+    if stat.S_ISFIFO(mode) or _is_null_device(target):
         return OutputTarget(target, "stream", text)
     if stat.S_ISDIR(mode):
         raise OutputError(f"{text}: is a directory; give a file path with -o")
@@ -189,11 +197,33 @@ def _classify(target: Path, text: str) -> OutputTarget:
 
 
 def _node_kind(mode: int) -> str:
+    if stat.S_ISCHR(mode):
+        return "character device"
     if stat.S_ISBLK(mode):
         return "block device"
     if stat.S_ISSOCK(mode):
         return "socket"
     return "special file"
+
+
+def _is_null_device(path: Path) -> bool:
+    """The null device (``/dev/null`` or a node of its device number)."""
+    try:
+        st, null = os.stat(path), os.stat(os.devnull)
+    except OSError:
+        return False
+    return stat.S_ISCHR(st.st_mode) and stat.S_ISCHR(null.st_mode) and st.st_rdev == null.st_rdev
+
+
+def _check_owner(real: Path, text: str) -> None:
+    """Refuse a file whose owner a replacement could not keep (not ours, not root)."""
+    euid = os.geteuid() if hasattr(os, "geteuid") else 0
+    owner = os.stat(real).st_uid
+    if euid != 0 and owner != euid:
+        shown = text if os.fspath(real) == os.path.abspath(text) else f"{text} (-> {real})"
+        raise OutputError(f"{shown}: belongs to another user (uid {owner}); replacing it would "
+                          "make it yours, so trainctl refuses. Write to another path, or ask "
+                          "its owner to remove it first.")
 
 
 def _fd_alias(path: Path) -> int | None:
@@ -238,14 +268,44 @@ def write_output(text: str, target: str | os.PathLike[str] | OutputTarget) -> Pa
     """
     target = output_target(target)
     if target.kind == "fd":
-        _write_fd(text, target.fd)
+        try:
+            _write_fd(text, target.fd)
+        except OSError as exc:  # a full disk or a closed pipe behind the descriptor
+            where = "standard output" if target.is_stdout else f"descriptor {target.fd}"
+            raise OutputError(f"{target}: cannot write to {where} ({exc.strerror or exc}); the "
+                              "output is incomplete.") from None
     elif target.kind == "stream":
-        fd = os.open(target.path, os.O_WRONLY | getattr(os, "O_NOCTTY", 0))
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(text.encode("utf-8"))
+        _write_stream(text, target)
     else:
         write_text_atomic(text, target.path)
     return target.path
+
+
+def _write_stream(text: str, target: OutputTarget) -> None:
+    """Write through a pipe or the null device; opening never blocks (O_NONBLOCK)."""
+    flags = os.O_WRONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0)
+    try:
+        fd = os.open(target.path, flags)
+    except OSError as exc:
+        if exc.errno == errno.ENXIO:
+            raise OutputError(f"{target}: is a named pipe that no process is reading; nothing "
+                              "was written. Start its reader first, or give a file.") from None
+        raise OutputError(f"{target}: cannot open it for writing ({exc.strerror or exc}); "
+                          "nothing was written.") from None
+    try:
+        mode = os.fstat(fd).st_mode
+        if not (stat.S_ISFIFO(mode) or _is_null_device(target.path)):
+            raise OutputError(f"{target}: changed into a {_node_kind(mode)} before it was "
+                              f"written; trainctl writes only to {_ACCEPTED}")
+        os.set_blocking(fd, True)  # the reader is there: wait for it like any pipe writer
+        data = memoryview(text.encode("utf-8"))
+        while data:
+            data = data[os.write(fd, data):]
+    except OSError as exc:
+        raise OutputError(f"{target}: cannot write to it ({exc.strerror or exc}); the output "
+                          "is incomplete.") from None
+    finally:
+        os.close(fd)
 
 
 def _write_fd(text: str, fd: int) -> None:
@@ -264,9 +324,10 @@ def write_text_atomic(text: str, path: str | os.PathLike[str]) -> Path:
 
     The text goes to a temporary file in the destination directory, which is
     then renamed over ``path`` with :func:`os.replace`; readers never see a
-    partial file, and on error nothing is left behind. Missing parent
-    directories are created. A symbolic link is followed (the link stays, its
-    regular file is replaced); an existing file keeps its permissions.
+    partial file, and on error (a full disk, an interrupt) nothing is left
+    behind and an existing file is unchanged. Missing parent directories are
+    created. A symbolic link is followed (the link stays, its regular file is
+    replaced); an existing file keeps its permissions, owner and group.
 
     Parameters
     ----------
@@ -284,7 +345,9 @@ def write_text_atomic(text: str, path: str | os.PathLike[str]) -> Path:
     ------
     OutputError
         If ``path`` exists and is not a regular file (a device, a pipe, a
-        directory): those are never replaced (see :func:`write_output`).
+        directory): those are never replaced (see :func:`write_output`); if
+        the file's owner cannot be kept; if the write fails (the message
+        names the file and the reason, e.g. no space left on the device).
 
     Examples
     --------
@@ -296,28 +359,46 @@ def write_text_atomic(text: str, path: str | os.PathLike[str]) -> Path:
     """
     given = Path(path)
     target = Path(os.path.realpath(given)) if os.path.lexists(given) else given
-    mode = None
+    old = None
     if target.exists():
-        st = os.stat(target)
-        if not stat.S_ISREG(st.st_mode):
+        old = os.stat(target)
+        if not stat.S_ISREG(old.st_mode):
             raise OutputError(f"{given}: is not a regular file; it is never replaced (write "
                               "through devices and pipes with write_output)")
-        mode = stat.S_IMODE(st.st_mode)
+        _check_owner(target, os.fspath(given))
     target.parent.mkdir(parents=True, exist_ok=True)
     data = text.encode("utf-8")
     tmp = target.with_name(f".{target.name}.{secrets.token_hex(6)}.tmp")
-    # os.open honours the umask (unlike mkstemp's 0600), so a new file gets the
-    # permissions a plain open() would give it.
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    try:
+        # os.open honours the umask (unlike mkstemp's 0600), so a new file gets the
+        # permissions a plain open() would give it.
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    except OSError as exc:
+        raise OutputError(f"{given}: cannot write the file ({exc.strerror or exc} in "
+                          f"{target.parent}); nothing was written.") from None
     try:
         with os.fdopen(fd, "wb") as handle:
             handle.write(data)
             handle.flush()
             os.fsync(handle.fileno())
-        if mode is not None:
-            os.chmod(tmp, mode)
+        if old is not None:
+            _keep_owner_and_mode(tmp, old)
         os.replace(tmp, target)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        kept = "it is unchanged" if old is not None else "nothing was written"
+        raise OutputError(f"{given}: cannot write the file ({exc.strerror or exc}); "
+                          f"{kept}.") from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
     return given
+
+
+def _keep_owner_and_mode(tmp: Path, old: os.stat_result) -> None:
+    """Give the new file the replaced one's owner, group and permissions (chown first:
+    it clears the set-id bits that chmod then restores)."""
+    new = os.stat(tmp)
+    if (new.st_uid, new.st_gid) != (old.st_uid, old.st_gid):
+        os.chown(tmp, old.st_uid, old.st_gid)
+    os.chmod(tmp, stat.S_IMODE(old.st_mode))

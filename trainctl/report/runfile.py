@@ -21,6 +21,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictFloat, StrictInt, StrictStr
 
+from .._files import read_regular_text
 from ..exceptions import DimensionError, ModelError, ScenarioError
 from ..jsonfile import FiniteFloat, read_json, validate_json
 
@@ -306,12 +307,13 @@ def _check_format(manifest: Path, raw: Any) -> None:
 def _scenario_text(path: Path, doc: RunFile) -> str:
     toml = path / "scenario.toml"
     try:
-        text = toml.read_text(encoding="utf-8")
+        text = read_regular_text(toml)  # as written (CRLF kept: the checksum is of that)
     except FileNotFoundError:
         raise ScenarioError(f"{path}: not a complete saved run (scenario.toml is missing)."
                             f"{RUN_HINT}") from None
     except (OSError, UnicodeDecodeError) as exc:
-        raise ScenarioError(f"{toml}: cannot read the scenario ({exc}).{RUN_HINT}") from None
+        why = getattr(exc, "strerror", None) or exc
+        raise ScenarioError(f"{toml}: cannot read the scenario ({why}).{RUN_HINT}") from None
     if text_digest(text) != doc.scenario_sha256:
         name = _name_in(text)
         what = (f"holds another scenario ({name!r}, not {doc.results.scenario!r})"

@@ -9,6 +9,7 @@ import unicodedata
 from importlib import resources
 from pathlib import Path
 
+from .._files import read_regular
 from ..constraints import suggest
 from ..exceptions import ScenarioError
 from .core import BuiltinScenario, Scenario
@@ -184,9 +185,8 @@ def read_scenario_text(source: str | os.PathLike[str]) -> tuple[str, str]:
     if isinstance(source, str) and _is_bare_name(source):
         return builtin_scenario_text(source), f"builtin:{source}"
     label = os.fspath(source)
-    try:
-        with Path(label).open("rb") as handle:  # bounded: /dev/zero is a file too
-            raw = handle.read(MAX_TEXT_BYTES + 1)
+    try:  # bounded, and a pipe or device is refused without blocking
+        raw = read_regular(label, MAX_TEXT_BYTES)
     except FileNotFoundError:
         raise ScenarioError(
             f"{label}: file not found. Give an existing path, or a built-in name "

@@ -28,6 +28,7 @@ from pydantic import (
     field_validator,
 )
 
+from .._files import require_regular
 from ..exceptions import ModelError
 from ..jsonfile import FiniteFloat, read_json, validate_json
 from .results import ARRAY_NAMES, FORMAT, OPTIONAL_ARRAY_NAMES
@@ -149,6 +150,10 @@ def read_result(directory: str | Path) -> dict[str, Any]:
 
 
 def _read_arrays(path: Path) -> dict[str, np.ndarray]:
+    try:
+        require_regular(path)  # numpy.load would block on a named pipe
+    except OSError as exc:
+        raise ModelError(f"{path}: {exc.strerror}.{RESULT_HINT}") from None
     if path.is_file() and not zipfile.is_zipfile(path):
         raise ModelError(f"{path}: not a NumPy .npz archive (no zip structure).{RESULT_HINT}")
     try:

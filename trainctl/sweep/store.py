@@ -42,6 +42,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from .._files import read_regular_text
 from ..exceptions import ScenarioError
 
 if TYPE_CHECKING:
@@ -292,7 +293,7 @@ class SweepStore:
             raise ScenarioError(f"{root}: not a sweep store ({MANIFEST} is missing). Run "
                                 "'trainctl sweep SCENARIO --output DIR' to make one.")
         try:
-            manifest = json.loads((root / MANIFEST).read_text(encoding="utf-8"))
+            manifest = json.loads(read_regular_text(root / MANIFEST))
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
             raise ScenarioError(f"{root / MANIFEST}: not readable as JSON ({exc}). The store "
                                 "was edited or damaged; run the sweep again into a new "
@@ -448,7 +449,7 @@ class SweepStore:
         """
         path = self.points_dir / key / "summary.json"
         try:
-            data = json.loads(path.read_text(encoding="utf-8"))
+            data = json.loads(read_regular_text(path))
         except FileNotFoundError:
             raise ScenarioError(f"{self.path}: point {key[:12]} has not run yet; run the "
                                 "sweep's command again to finish it.") from None
