@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated, Any, TypeVar
@@ -39,7 +40,13 @@ from .declare import first_error, violation_of
 from .exceptions import ScenarioError, TrainctlError
 from .violations import ERROR_TYPE, NOTHING
 
-__all__ = ["FiniteFloat", "json_path", "load_json", "model_error", "read_json", "validate_json"]
+__all__ = ["MAX_JSON_BYTES", "FiniteFloat", "json_path", "load_json", "model_error", "read_json",
+           "validate_json"]
+
+MAX_JSON_BYTES = 256 * 2**20
+"""Largest JSON file trainctl reads back [bytes] (256 MiB): the manifest of a saved run of
+the longest train is a few megabytes; parsing takes about twice a file's size in memory, so a
+larger (or sparse) file is refused before it is read."""
 
 _M = TypeVar("_M", bound=BaseModel)
 
@@ -84,7 +91,8 @@ def _got(value: Any) -> str:
     if isinstance(value, bool):
         return f" (got {str(value).lower()}, a boolean)"
     if isinstance(value, int | float):
-        return f" (got {value!r})"
+        text = repr(value)
+        return f" (got {text if len(text) <= 40 else f'a number of {len(text)} digits'})"
     if isinstance(value, str):
         short = value if len(value) <= 40 else value[:37] + "..."
         return f" (got {short!r}, a string)"
@@ -150,7 +158,7 @@ def _no_constant(name: str) -> float:
 
 
 def read_json(path: Path, *, hint: str = "", error: type[TrainctlError] = ScenarioError,
-              finite: bool = True) -> Any:
+              finite: bool = True, max_bytes: int = MAX_JSON_BYTES) -> Any:
     """Parse a JSON file; a missing, unreadable or non-JSON file is a trainctl error.
 
     Parameters
@@ -165,6 +173,9 @@ def read_json(path: Path, *, hint: str = "", error: type[TrainctlError] = Scenar
         Refuse the ``NaN`` and ``Infinity`` tokens (Python's JSON writes
         them for non-finite floats); False leaves them to the model, whose
         :data:`FiniteFloat` fields refuse them where a number must be finite.
+    max_bytes : int
+        Largest size accepted [bytes]; a larger file is refused from its
+        size, before it is read (:data:`MAX_JSON_BYTES`).
 
     Returns
     -------
@@ -194,7 +205,18 @@ def read_json(path: Path, *, hint: str = "", error: type[TrainctlError] = Scenar
     not a valid trainctl file (the non-finite number NaN (JSON has no NaN or Infinity)).
     """
     try:
-        text = path.read_text(encoding="utf-8")
+        with path.open("rb") as handle:
+            size = os.fstat(handle.fileno()).st_size
+            if size > max_bytes:
+                raise error(f"{path}: is {size} bytes, more than the {max_bytes} bytes "
+                            f"({max_bytes / 2**20:g} MiB) a trainctl file may have; it is not "
+                            f"one trainctl wrote.{hint}")
+            raw = handle.read(max_bytes + 1)  # bounded whatever the file is
+        if len(raw) > max_bytes:
+            raise error(f"{path}: holds more than the {max_bytes} bytes "
+                        f"({max_bytes / 2**20:g} MiB) a trainctl file may have; it is not one "
+                        f"trainctl wrote.{hint}")
+        text = raw.decode("utf-8")
     except FileNotFoundError:
         raise error(f"{path}: file not found.{hint}") from None
     except UnicodeDecodeError as exc:
