@@ -322,6 +322,10 @@ def load_sweep_report_data(path: str | os.PathLike[str]) -> SweepReportData:
     manifest = store.manifest
     swept = [str(k) for k in manifest["swept"]]
     hint = " The store was edited or damaged; run the sweep again into a new directory."
+    store.verify()  # every point stored whole: its files have their checksums
+    if not table.equals(store.table()):
+        raise ScenarioError(f"{root / 'rows.parquet'}: is not the table of the store's points "
+                            f"(it was edited, or a point's summary was).{hint}")
     missing = [c for c in ("point", "point_key", "strategy", *swept) if c not in table.columns]
     if missing:
         raise ScenarioError(f"{root}: rows.parquet lacks the column(s) "
