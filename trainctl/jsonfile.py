@@ -81,6 +81,9 @@ def json_path(loc: Sequence[str | int]) -> str:
     """
     text = ""
     for part in loc:
+        if part == "[key]":  # pydantic's marker: the key itself of the mapping is at fault
+            text += " key"
+            continue
         text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
     return text or "the document"
 
@@ -148,6 +151,9 @@ def model_error(exc: ValidationError) -> str:
     message = str(error["msg"])
     message = message.removeprefix("Value error, ").removeprefix("Input ")
     message = message.replace("should be", "must be", 1)
+    for noun in ("String", "List", "Dictionary", "Tuple", "Value"):  # "List should have ..."
+        if message.startswith(f"{noun} should "):
+            message = "must " + message.removeprefix(f"{noun} should ")
     if not message.startswith("must"):
         message = f"is invalid: {message}"
     return f"{path} {message}{_got(error.get('input', NOTHING))}"

@@ -42,7 +42,8 @@ from ..constraints import Choice, Integer, Violation, raise_at
 from ..controllers.base import STATUSES as STEP_STATUSES
 from ..exceptions import DimensionError, ModelError, ScenarioError
 from ..jsonfile import FiniteFloat, read_json, validate_json
-from ..limits import ITERATIONS, MAX_VEHICLES
+from ..limits import MAX_SAMPLES, MAX_VEHICLES, SAMPLE_TIME, SPEED, in_unit
+from ..units import KMH_PER_MS
 
 __all__ = ["FORMAT", "MANIFEST", "RUN_HINT", "RunFile", "read_saved_run", "text_digest"]
 
@@ -68,7 +69,7 @@ Found = Annotated[str, Choice((*CHECK_STATUSES, "missing"))]  # a check's status
 StepStatus = Annotated[str, Choice(STEP_STATUSES)]
 Vehicles = Annotated[int, Integer(ge=1, le=MAX_VEHICLES)]
 Count = Annotated[int, Integer(ge=0, le=4 * MAX_VEHICLES)]  # states, inputs, outputs
-Steps = Annotated[int, Integer(ge=0)]
+Steps = Annotated[int, Integer(ge=0, le=MAX_SAMPLES)]  # samples of one run
 
 
 class _Open(BaseModel):
@@ -105,7 +106,7 @@ class Equilibrium(_Open):
 class Sampling(_Open):
     """``results.sampling``."""
 
-    sample_time: Number
+    sample_time: Annotated[float, SAMPLE_TIME]
     nyquist_sample_time: Number
     omega_max_times_T: Number
     discrete_spectral_radius: Number
@@ -131,7 +132,7 @@ class Metrics(_Open):
     energy_kwh: Number
     max_jerk: Number
     iterations_mean: Number
-    iterations_max: Annotated[int, Integer(ge=0, le=ITERATIONS.le or 0)]
+    iterations_max: Annotated[int, Integer(ge=0, le=2**31 - 1)]  # a solver's or a scheme's
     solve_time_median: Number
     solve_time_p95: Number
     status_counts: dict[StepStatus, Steps]
@@ -156,8 +157,8 @@ class Results(_Open):
     states: list[StrictStr]
     inputs: list[StrictStr]
     outputs: list[StrictStr]
-    speed: FiniteFloat = Field(gt=0)
-    speed_kmh: FiniteFloat = Field(gt=0)
+    speed: Annotated[float, SPEED]
+    speed_kmh: Annotated[float, in_unit(SPEED, lambda kmh: kmh / KMH_PER_MS)]
     linearisation: StrictStr
     sampling: Sampling
     equilibrium: Equilibrium
@@ -414,9 +415,14 @@ def _check_format(manifest: Path, raw: Any) -> None:
 
 
 def _scenario_text(path: Path, doc: RunFile) -> str:
+    from ..scenario.parse import MAX_TEXT_BYTES, check_size
+
     toml = path / "scenario.toml"
     try:
-        text = toml.read_text(encoding="utf-8")
+        with toml.open("rb") as handle:
+            raw = handle.read(MAX_TEXT_BYTES + 1)  # bounded: a scenario is kilobytes
+        check_size(len(raw), str(toml))
+        text = raw.decode("utf-8")
     except FileNotFoundError:
         raise ScenarioError(f"{path}: not a complete saved run (scenario.toml is missing)."
                             f"{RUN_HINT}") from None

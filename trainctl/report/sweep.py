@@ -322,10 +322,6 @@ def load_sweep_report_data(path: str | os.PathLike[str]) -> SweepReportData:
     manifest = store.manifest
     swept = [str(k) for k in manifest["swept"]]
     hint = " The store was edited or damaged; run the sweep again into a new directory."
-    store.verify()  # every point stored whole: its files have their checksums
-    if not table.equals(store.table()):
-        raise ScenarioError(f"{root / 'rows.parquet'}: is not the table of the store's points "
-                            f"(it was edited, or a point's summary was).{hint}")
     missing = [c for c in ("point", "point_key", "strategy", *swept) if c not in table.columns]
     if missing:
         raise ScenarioError(f"{root}: rows.parquet lacks the column(s) "
@@ -335,6 +331,10 @@ def load_sweep_report_data(path: str | os.PathLike[str]) -> SweepReportData:
     if not listed or found != listed:
         raise ScenarioError(f"{root}: rows.parquet holds {len(found)} points, the manifest "
                             f"lists {len(listed)}.{hint}")
+    store.verify()  # every point stored whole: its files have their checksums
+    if not table.equals(store.table()):
+        raise ScenarioError(f"{root / 'rows.parquet'}: is not the table of the store's points "
+                            f"(it was edited, or a point's summary was).{hint}")
     units: dict[str, str] = {}
     thresholds: dict[str, Any] = {}
     scenario_name = str(manifest.get("scenario", root.name))
