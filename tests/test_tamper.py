@@ -244,6 +244,12 @@ for loc in [(), ("subsystems", 0), ("subsystems", 0, "blocks", 0)]:
     case(f"manifest {key}: unknown key", "plain", set_json(MANIFEST, (*loc, "bogus_key"), 1),
          f"unknown key '{key}'")
 
+case("check value of 401 digits", "plain",
+     set_json(MANIFEST, ("results", "checks", 0, "value"), 10**400),
+     "results.checks[0].value must be a number (integers within ±2**63)")
+case("check threshold a list", "plain",
+     set_json(MANIFEST, ("results", "checks", 0, "threshold"), [1, 2]),
+     "results.checks[0].threshold must be a number")
 case("manifest NaN where finite", "plain",
      set_json(MANIFEST, ("results", "speed"), float("nan")),
      "results.speed must be a finite number > 0 (got nan)")
@@ -810,8 +816,9 @@ def test_second_writer_refused_while_the_first_runs(serial: Path, tmp_path: Path
         _, first_err = first.communicate(timeout=300)
         assert first.returncode == 0, first_err
     finally:
-        first.kill()
-        first.wait()
+        if first.poll() is None:
+            first.kill()
+            first.communicate()
     _same_store(out, serial)
     assert main(["report", str(out), "-o", str(tmp_path / "r.html")]) == 0
 
@@ -828,7 +835,7 @@ def test_kill_9_mid_sweep_then_resume(serial: Path, tmp_path: Path) -> None:
         first.wait(timeout=30)
     finally:
         first.kill()
-        first.wait()
+        first.communicate()
     assert first.returncode == -signal.SIGKILL
     assert not (out / "rows.parquet").exists()
     again = _cli(out, slow=False)

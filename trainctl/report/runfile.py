@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import (
+    AfterValidator,
     BaseModel,
     ConfigDict,
     Field,
@@ -57,7 +58,17 @@ RUN_HINT = (" The saved run was edited or damaged; re-create it with 'trainctl a
             "--save DIR'.")
 """The sentence every message about a saved run ends with."""
 
-Scalar = StrictBool | StrictInt | StrictFloat | StrictStr | None
+
+
+def _scalar(value: Any) -> Any:
+    if value is None or isinstance(value, bool | float | str):
+        return value
+    if isinstance(value, int) and -2**63 <= value < 2**63:  # an integer as numpy holds it
+        return value
+    raise ValueError("must be a number (integers within ±2**63), a string, a boolean or null")
+
+
+Scalar = Annotated[Any, AfterValidator(_scalar)]  # a check's value or threshold
 Number = StrictFloat | None  # a number (the page shows inf and nan as such), or null
 
 CHECK_STATUSES = ("pass", "warn", "fail")
