@@ -245,7 +245,8 @@ def _check_values(path: Path, doc: ResultFile, arrays: dict[str, np.ndarray]) ->
     for name in ("iterations", "solve_times"):
         value = arrays[name]
         if value.size and value.min() < 0:
-            raise ModelError(f"{where}: array {name!r} must be >= 0 (got {value.min()}).{RESULT_HINT}")
+            raise ModelError(f"{where}: array {name!r} must be >= 0 (got {value.min()})."
+                             f"{RESULT_HINT}")
     time = arrays["time"]
     if time.ndim == 1 and time.size > 1:
         steps = np.diff(time)
