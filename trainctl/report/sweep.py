@@ -289,8 +289,10 @@ def load_sweep_report_data(path: str | os.PathLike[str]) -> SweepReportData:
     Raises
     ------
     ScenarioError
-        Not a store, a damaged manifest, an unfinished sweep (no table), or
-        a table that does not fit the manifest.
+        Not a store, a damaged manifest (or one another trainctl version
+        wrote), an unfinished sweep (no table), a point whose files do not
+        have their recorded checksums (naming the file), or a table that
+        does not fit the manifest or is not the table of the stored points.
 
     Examples
     --------

@@ -326,7 +326,8 @@ class SweepStore:
         ScenarioError
             The directory is a file, holds something that is not a sweep
             store, or a store of another sweep (other points, ``simulate``
-            or trainctl version): nothing is written.
+            or trainctl version): nothing is written. Or another process
+            holds the store's lock: "store in use by PID ...".
         """
         from .. import __version__
 
