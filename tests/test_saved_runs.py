@@ -79,7 +79,7 @@ TAMPERS: dict[str, tuple[Callable[[Path], object], str]] = {
         "missing required key 'results.equilibrium.inputs'"),
     "wrong manifest type": (
         lambda d: edit_json(d / MANIFEST, lambda x: x["results"]["checks"][0].update(status=3)),
-        "results.checks[0].status must be a valid string (got 3)"),
+        "results.checks[0].status must be one of 'pass', 'warn', 'fail' (got 3)"),
     "unknown manifest key": (
         lambda d: edit_json(d / MANIFEST, lambda x: x.update(extra=1)),
         "unknown key 'extra'"),
@@ -91,7 +91,7 @@ TAMPERS: dict[str, tuple[Callable[[Path], object], str]] = {
         "must be the strategies of results.simulations"),
     "non-finite manifest number": (
         lambda d: replace_text(d / MANIFEST, '"speed": ', '"speed": NaN, "was": '),
-        "results.speed must be a finite number (got nan)"),
+        "results.speed must be a finite number > 0 (got nan)"),
     "missing result.json key": (
         lambda d: edit_json(d / RESULT, lambda x: x.pop("dt")),
         f"{RESULT}: missing required key 'dt'"),

@@ -194,7 +194,7 @@ class TestValidate:
         with pytest.raises(ScenarioError) as info:
             sweep.validate(book)
         message = str(info.value)
-        assert message.startswith("sweep point 1 (controller.r_per_kn2 = 1.0, "
+        assert message.startswith(f"{book.source}: sweep point 1 (controller.r_per_kn2 = 1.0, "
                                   "model.sample_time = -1): ")
         assert "[model].sample_time must be a number >= " in message and "(got -1)" in message
 
@@ -331,7 +331,8 @@ class TestCli:
         assert lines[3].split()[:4] == ["1", "1", "10.0", "1"]
 
     @pytest.mark.parametrize("argv, message", [
-        (["--set", "model.sample_time=20.0,-1"], "sweep point 1 (model.sample_time = -1)"),
+        (["--set", "model.sample_time=20.0,-1"],
+         "builtin:crh2-dmpc: sweep point 1 (model.sample_time = -1)"),
         (["--set", "model.smaple_time=1.0"], "unknown key [model].smaple_time"),
         (["--set", "controller.r_per_kn2="], "no values after '='"),
         ([], "no sweep to run"),

@@ -367,8 +367,8 @@ def _table_without_column(d: Path) -> None:
 
 BAD = {
     "unfinished": (_no_table, "the sweep has not finished"),
-    "damaged manifest": (_bad_manifest, "not readable as JSON"),
-    "manifest and table differ": (_wrong_manifest, "the manifest lists 7"),
+    "damaged manifest": (_bad_manifest, "sweep.json: not valid JSON"),
+    "manifest and table differ": (_wrong_manifest, "fingerprint must be the SHA-256"),
     "damaged table": (_bad_table, "not a readable Parquet table"),
     "column missing": (_table_without_column, "lacks the column(s) model.sample_time"),
 }

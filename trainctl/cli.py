@@ -465,6 +465,10 @@ def _run_sweep(args: argparse.Namespace, label: str, text: str, scenario: Any, s
             store = SweepStore.open(output, label=label, scenario_text=text, points=points,
                                     keys=keys, swept=sweep.keys, simulate=simulate,
                                     arrays=args.arrays)
+            stack.callback(store.close)
+            for key, problem in store.damaged().items():
+                print(f"{label}: {problem}: point {keys.index(key)} ({key[:12]}) is damaged; "
+                      "recomputing it", file=sys.stderr)
             todo = store.missing()
             by_key = dict(zip(keys, scenarios, strict=True))
             if todo and len(todo) < len(set(keys)):

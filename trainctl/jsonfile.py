@@ -35,12 +35,18 @@ from typing import Annotated, Any, TypeVar
 
 from pydantic import AfterValidator, BaseModel, StrictFloat, ValidationError
 
-from ._files import read_regular_text
+from ._files import read_regular
 from .declare import first_error, violation_of
 from .exceptions import ScenarioError, TrainctlError
 from .violations import ERROR_TYPE, NOTHING
 
-__all__ = ["FiniteFloat", "json_path", "load_json", "model_error", "read_json", "validate_json"]
+__all__ = ["MAX_JSON_BYTES", "FiniteFloat", "json_path", "load_json", "model_error", "read_json",
+           "validate_json"]
+
+MAX_JSON_BYTES = 256 * 2**20
+"""Largest JSON file trainctl reads back [bytes] (256 MiB): the manifest of a saved run of
+the longest train is a few megabytes; parsing takes about twice a file's size in memory, so a
+larger (or sparse) file is refused before it is read."""
 
 _M = TypeVar("_M", bound=BaseModel)
 
@@ -75,6 +81,9 @@ def json_path(loc: Sequence[str | int]) -> str:
     """
     text = ""
     for part in loc:
+        if part == "[key]":  # pydantic's marker: the key itself of the mapping is at fault
+            text += " key"
+            continue
         text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
     return text or "the document"
 
@@ -85,7 +94,8 @@ def _got(value: Any) -> str:
     if isinstance(value, bool):
         return f" (got {str(value).lower()}, a boolean)"
     if isinstance(value, int | float):
-        return f" (got {value!r})"
+        text = repr(value)
+        return f" (got {text if len(text) <= 40 else f'a number of {len(text)} digits'})"
     if isinstance(value, str):
         short = value if len(value) <= 40 else value[:37] + "..."
         return f" (got {short!r}, a string)"
@@ -141,6 +151,9 @@ def model_error(exc: ValidationError) -> str:
     message = str(error["msg"])
     message = message.removeprefix("Value error, ").removeprefix("Input ")
     message = message.replace("should be", "must be", 1)
+    for noun in ("String", "List", "Dictionary", "Tuple", "Value"):  # "List should have ..."
+        if message.startswith(f"{noun} should "):
+            message = "must " + message.removeprefix(f"{noun} should ")
     if not message.startswith("must"):
         message = f"is invalid: {message}"
     return f"{path} {message}{_got(error.get('input', NOTHING))}"
@@ -151,7 +164,7 @@ def _no_constant(name: str) -> float:
 
 
 def read_json(path: Path, *, hint: str = "", error: type[TrainctlError] = ScenarioError,
-              finite: bool = True) -> Any:
+              finite: bool = True, max_bytes: int = MAX_JSON_BYTES) -> Any:
     """Parse a JSON file; a missing, unreadable or non-JSON file is a trainctl error.
 
     Parameters
@@ -166,6 +179,9 @@ def read_json(path: Path, *, hint: str = "", error: type[TrainctlError] = Scenar
         Refuse the ``NaN`` and ``Infinity`` tokens (Python's JSON writes
         them for non-finite floats); False leaves them to the model, whose
         :data:`FiniteFloat` fields refuse them where a number must be finite.
+    max_bytes : int
+        Largest size accepted [bytes]; a larger file is refused from its
+        size, before it is read (:data:`MAX_JSON_BYTES`).
 
     Returns
     -------
@@ -195,7 +211,18 @@ def read_json(path: Path, *, hint: str = "", error: type[TrainctlError] = Scenar
     not a valid trainctl file (the non-finite number NaN (JSON has no NaN or Infinity)).
     """
     try:
-        text = read_regular_text(path)  # a pipe or device is refused, never waited on
+        size = path.stat().st_size
+        if size > max_bytes:
+            raise error(f"{path}: is {size} bytes, more than the {max_bytes} bytes "
+                        f"({max_bytes / 2**20:g} MiB) a trainctl file may have; it is not "
+                        f"one trainctl wrote.{hint}")
+        # a pipe or device is refused, never waited on; bounded whatever the file is
+        raw = read_regular(path, max_bytes)
+        if len(raw) > max_bytes:
+            raise error(f"{path}: holds more than the {max_bytes} bytes "
+                        f"({max_bytes / 2**20:g} MiB) a trainctl file may have; it is not one "
+                        f"trainctl wrote.{hint}")
+        text = raw.decode("utf-8")
     except FileNotFoundError:
         raise error(f"{path}: file not found.{hint}") from None
     except UnicodeDecodeError as exc:

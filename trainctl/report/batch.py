@@ -165,7 +165,9 @@ def render_saved_run(data: ReportData, source: str, target: Path | OutputTarget,
     try:
         return write_report_file(data, target, generated_at=generated_at,
                                  deterministic=deterministic)
-    except (KeyError, IndexError, TypeError, AttributeError) as exc:
+    except (KeyError, IndexError, TypeError, AttributeError, ValueError, ArithmeticError) as exc:
+        if isinstance(exc, ScenarioError):
+            raise
         what = f"key {exc.args[0]!r} is missing" if isinstance(exc, KeyError) else str(exc)
         raise ScenarioError(f"{source}: the saved run's data does not fit the report ({what})."
                             f"{RUN_HINT}") from None

@@ -10,6 +10,14 @@ scenario's TOML, or an edited one, is named as such), the strategies listed
 are the ones simulated and saved, and every simulation result
 (:mod:`trainctl.sim.resultfile`) belongs to its strategy and to the scenario's
 train and sample time.
+
+Nothing of the file is trusted: counts are integers within
+:mod:`trainctl.limits`, statuses and verdicts come from their vocabularies,
+per-vehicle lists have one entry per vehicle, ``failed_checks`` and
+``unexpected`` follow from the checks, and the scenario text (re-validated)
+must be the one the results describe: its name, train, speed, sample time,
+``[expected]`` table and strategies. Each simulation's status counts and
+largest iteration count must be those of its saved arrays.
 """
 
 from __future__ import annotations
@@ -17,13 +25,26 @@ from __future__ import annotations
 import hashlib
 import math
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictFloat, StrictInt, StrictStr
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    StrictBool,
+    StrictFloat,
+    StrictStr,
+    model_validator,
+)
 
-from .._files import read_regular_text
+from .._files import read_regular
+from ..constraints import Choice, Integer, Violation, raise_at
+from ..controllers.base import STATUSES as STEP_STATUSES
 from ..exceptions import DimensionError, ModelError, ScenarioError
 from ..jsonfile import FiniteFloat, read_json, validate_json
+from ..limits import MAX_SAMPLES, MAX_VEHICLES, SAMPLE_TIME, SPEED, in_unit
+from ..units import KMH_PER_MS
 
 __all__ = ["FORMAT", "MANIFEST", "RUN_HINT", "RunFile", "read_saved_run", "text_digest"]
 
@@ -37,8 +58,29 @@ RUN_HINT = (" The saved run was edited or damaged; re-create it with 'trainctl a
             "--save DIR'.")
 """The sentence every message about a saved run ends with."""
 
-Scalar = StrictBool | StrictInt | StrictFloat | StrictStr | None
+
+
+def _scalar(value: Any) -> Any:
+    if value is None or isinstance(value, bool | float | str):
+        return value
+    if isinstance(value, int) and -2**63 <= value < 2**63:  # an integer as numpy holds it
+        return value
+    raise ValueError("must be a number (integers within ±2**63), a string, a boolean or null")
+
+
+Scalar = Annotated[Any, AfterValidator(_scalar)]  # a check's value or threshold
 Number = StrictFloat | None  # a number (the page shows inf and nan as such), or null
+
+CHECK_STATUSES = ("pass", "warn", "fail")
+"""A check's verdicts (:data:`trainctl.analysis.check.STATUSES`, not imported: the analysis
+package is slow to import and reading a run needs none of it)."""
+
+Verdict = Annotated[str, Choice(CHECK_STATUSES)]
+Found = Annotated[str, Choice((*CHECK_STATUSES, "missing"))]  # a check's status, or none
+StepStatus = Annotated[str, Choice(STEP_STATUSES)]
+Vehicles = Annotated[int, Integer(ge=1, le=MAX_VEHICLES)]
+Count = Annotated[int, Integer(ge=0, le=4 * MAX_VEHICLES)]  # states, inputs, outputs
+Steps = Annotated[int, Integer(ge=0, le=MAX_SAMPLES)]  # samples of one run
 
 
 class _Open(BaseModel):
@@ -53,7 +95,7 @@ class Check(_Open):
     """One design check of ``results.checks``."""
 
     name: StrictStr
-    status: StrictStr
+    status: Verdict
     value: Scalar = None
     threshold: Scalar = None
     unit: StrictStr | None = None
@@ -69,12 +111,13 @@ class Equilibrium(_Open):
     traction_limit: list[Number]
     coupler_forces: list[Number]
     elongations: list[Number]
+    braking_limit: list[Number] | None = None
 
 
 class Sampling(_Open):
     """``results.sampling``."""
 
-    sample_time: Number
+    sample_time: Annotated[float, SAMPLE_TIME]
     nyquist_sample_time: Number
     omega_max_times_T: Number
     discrete_spectral_radius: Number
@@ -88,7 +131,7 @@ class Mode(_Open):
     natural_frequency: Number
     damping_ratio: Number
     period: Number
-    multiplicity: StrictInt
+    multiplicity: Annotated[int, Integer(ge=1, le=4 * MAX_VEHICLES)]
 
 
 class Metrics(_Open):
@@ -100,36 +143,90 @@ class Metrics(_Open):
     energy_kwh: Number
     max_jerk: Number
     iterations_mean: Number
-    iterations_max: StrictInt
+    iterations_max: Annotated[int, Integer(ge=0, le=2**31 - 1)]  # a solver's or a scheme's
     solve_time_median: Number
     solve_time_p95: Number
-    status_counts: dict[str, StrictInt]
+    status_counts: dict[StepStatus, Steps]
     tracking_ok: StrictBool
+    saturation_time: list[Number] | None = None
+    braking_saturation_time: list[Number] | None = None
+    coupler_peak_force: list[Number] | None = None
+    coupler_peak_time: list[Number] | None = None
+    coupler_over_time: list[Number] | None = None
 
 
 class Results(_Open):
     """``results``: the run's summary (``AnalysisRun.to_dict()``), as far as the report reads it."""
 
     scenario: StrictStr
-    n_states: StrictInt
-    n_inputs: StrictInt
+    train: StrictStr
+    n_vehicles: Vehicles
+    vehicles: list[dict[str, Any]]
+    n_states: Count
+    n_inputs: Count
+    n_outputs: Count
+    states: list[StrictStr]
+    inputs: list[StrictStr]
     outputs: list[StrictStr]
-    speed: FiniteFloat
-    speed_kmh: FiniteFloat
+    speed: Annotated[float, SPEED]
+    speed_kmh: Annotated[float, in_unit(SPEED, lambda kmh: kmh / KMH_PER_MS)]
     linearisation: StrictStr
     sampling: Sampling
     equilibrium: Equilibrium
     modes: list[Mode]
     checks: list[Check]
     failed_checks: list[StrictStr]
+    expected: dict[str, Verdict] = Field(default_factory=dict)
+    unexpected_checks: dict[str, Any] = Field(default_factory=dict)
+    unsimulated_checks: list[StrictStr] = Field(default_factory=list)
     simulations: dict[str, Metrics] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _relations(self) -> Results:
+        n = self.n_vehicles
+        for name, count in (("states", self.n_states), ("inputs", self.n_inputs),
+                            ("outputs", self.n_outputs)):
+            if len(getattr(self, name)) != count:
+                _relation((name,), f"must list n_{name} = {count} names", getattr(self, name))
+        _length(("vehicles",), self.vehicles, n, "one entry per vehicle")
+        for key in ("inputs", "traction_limit", "braking_limit"):
+            _length(("equilibrium", key), getattr(self.equilibrium, key), self.n_inputs,
+                    "one entry per input (n_inputs)")
+        for key in ("coupler_forces", "elongations"):
+            _length(("equilibrium", key), getattr(self.equilibrium, key), n - 1,
+                    "one entry per coupler (n_vehicles - 1)")
+        names = [c.name for c in self.checks]
+        for i, name in enumerate(names):
+            if name in names[:i]:
+                _relation(("checks", i, "name"), "must not repeat a check's name", name)
+        failed = [c.name for c in self.checks if c.status == "fail"]
+        if self.failed_checks != failed:
+            _relation(("failed_checks",), f"must list the checks whose status is 'fail' "
+                      f"({failed})", self.failed_checks)
+        for strategy, metrics in self.simulations.items():
+            for key in ("rms_error", "max_error", "saturation_time", "braking_saturation_time"):
+                _length(("simulations", strategy, key), getattr(metrics, key), n,
+                        "one entry per vehicle (n_vehicles)")
+            for key in ("coupler_peak_force", "coupler_peak_time", "coupler_over_time"):
+                _length(("simulations", strategy, key), getattr(metrics, key), n - 1,
+                        "one entry per coupler (n_vehicles - 1)")
+        return self
+
+
+def _relation(loc: tuple[str | int, ...], text: str, value: Any) -> None:
+    raise_at(loc, Violation(text, got=value), value)
+
+
+def _length(loc: tuple[str | int, ...], values: list[Any] | None, count: int, what: str) -> None:
+    if values is not None and len(values) != count:
+        _relation(loc, f"must have {count} items, {what}", values)
 
 
 class Block(_Closed):
     """One matrix of a coach's subsystem."""
 
     kind: Literal["A", "B", "C"]
-    source: StrictInt = Field(alias="from")
+    source: Annotated[int, Integer(ge=0, le=MAX_VEHICLES)] = Field(alias="from")
     matrix: list[list[FiniteFloat]]
     columns: list[StrictStr] | None = None
 
@@ -137,7 +234,7 @@ class Block(_Closed):
 class Coach(_Closed):
     """One coach's subsystem matrices (``subsystems[i]``)."""
 
-    index: StrictInt
+    index: Annotated[int, Integer(ge=0, le=MAX_VEHICLES)]
     states: list[StrictStr]
     blocks: list[Block]
 
@@ -203,11 +300,29 @@ class RunFile(_Closed):
     spectra: dict[str, list[tuple[FiniteFloat, FiniteFloat]]]
     families: dict[str, dict[str, Any]]
     frequency: dict[str, dict[str, Any]]
-    expected: dict[str, StrictStr]
-    unexpected: dict[str, tuple[StrictStr, StrictStr]]
+    expected: dict[str, Verdict]
+    unexpected: dict[str, tuple[Verdict, Found]]
     environment: dict[str, Any]
     command: StrictStr
-    timings: dict[str, FiniteFloat]
+    timings: dict[str, Annotated[FiniteFloat, Field(ge=0)]]
+
+    @model_validator(mode="after")
+    def _relations(self) -> RunFile:
+        if self.expected != self.results.expected:
+            _relation(("expected",), "must be results.expected", self.expected)
+        for i, coach in enumerate(self.subsystems):
+            if coach.index != i:
+                _relation(("subsystems", i, "index"), f"must be {i} (coaches in order)",
+                          coach.index)
+        status = {c.name: c.status for c in self.results.checks}
+        skip = set(self.results.unsimulated_checks)
+        differ = {name: (want, status.get(name, "missing"))
+                  for name, want in self.expected.items()
+                  if name not in skip and status.get(name) != want}
+        if self.unexpected != differ:
+            _relation(("unexpected",), "must be the checks whose status differs from "
+                      f"expected, as (expected, got) ({differ})", self.unexpected)
+        return self
 
 
 def text_digest(text: str) -> str:
@@ -287,9 +402,15 @@ def read_saved_run(directory: str | Path) -> dict[str, Any]:
     _check_format(manifest, raw)
     doc = validate_json(raw, RunFile, manifest, hint=RUN_HINT)
     text = _scenario_text(path, doc)
-    scenario = parse_scenario(text, source=doc.source)
+    try:
+        scenario = parse_scenario(text, source=doc.source)
+    except ScenarioError as exc:
+        raise ScenarioError(f"{path / 'scenario.toml'}: not a valid scenario: {exc}"
+                            f"{RUN_HINT}") from None
     _check_strategies(manifest, doc)
-    sims = {name: _simulation(path, name, scenario) for name in doc.strategies}
+    _check_scenario(manifest, doc, scenario)
+    sims = {name: _simulation(path, name, scenario, doc.results.simulations[name])
+            for name in doc.strategies}
     return {"document": doc, "raw": raw, "text": text, "scenario": scenario,
             "simulations": sims}
 
@@ -305,9 +426,14 @@ def _check_format(manifest: Path, raw: Any) -> None:
 
 
 def _scenario_text(path: Path, doc: RunFile) -> str:
+    from ..scenario.parse import MAX_TEXT_BYTES, check_size
+
     toml = path / "scenario.toml"
     try:
-        text = read_regular_text(toml)  # as written (CRLF kept: the checksum is of that)
+        # as written (CRLF kept: the checksum is of that); bounded: a scenario is kilobytes
+        raw = read_regular(toml, MAX_TEXT_BYTES)
+        check_size(len(raw), str(toml))
+        text = raw.decode("utf-8")
     except FileNotFoundError:
         raise ScenarioError(f"{path}: not a complete saved run (scenario.toml is missing)."
                             f"{RUN_HINT}") from None
@@ -342,7 +468,45 @@ def _check_strategies(manifest: Path, doc: RunFile) -> None:
                             f"results.simulations {simulated}.{RUN_HINT}")
 
 
-def _simulation(path: Path, strategy: str, scenario: Any) -> Any:
+def _check_scenario(manifest: Path, doc: RunFile, scenario: Any) -> None:
+    """The results must describe the saved scenario (its text may be edited, checksum and all)."""
+    results, train = doc.results, scenario.train
+    simulated = tuple(scenario.simulation.strategies) if scenario.simulation else ()
+    wanted: list[tuple[str, Any, Any]] = [
+        ("results.scenario", scenario.name, results.scenario),
+        ("results.train", train.name, results.train),
+        ("results.n_vehicles", train.n_vehicles, results.n_vehicles),
+        ("results.speed", scenario.model.speed, results.speed),
+        ("results.sampling.sample_time", scenario.model.sample_time,
+         results.sampling.sample_time),
+        ("expected", dict(scenario.expected), doc.expected),
+    ]
+    if results.n_vehicles == train.n_vehicles:
+        for i, (vehicle, saved) in enumerate(zip(train.vehicles, results.vehicles, strict=True)):
+            for key in ("name", "mass", "length", "traction_share"):
+                wanted.append((f"results.vehicles[{i}].{key}", getattr(vehicle, key),
+                               saved.get(key)))
+    for key, want, got in wanted:
+        same = (math.isclose(want, got, rel_tol=1e-12)
+                if isinstance(want, float) and isinstance(got, float) else want == got)
+        if not same:
+            shown = "a different table" if isinstance(want, dict) else repr(want)
+            raise ScenarioError(f"{manifest}: {key} must be the saved scenario's ({shown}, from "
+                                f"scenario.toml) (got {_short(got)}): the results are not "
+                                f"those of that scenario.{RUN_HINT}")
+    extra = [name for name in doc.strategies if name not in simulated]
+    if extra:
+        raise ScenarioError(f"{manifest}: strategies must be among the saved scenario's "
+                            f"[simulation] strategies {list(simulated)} (got {extra[0]!r})."
+                            f"{RUN_HINT}")
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _simulation(path: Path, strategy: str, scenario: Any, metrics: Metrics) -> Any:
     from ..design import strategy_interval
     from ..sim.results import SimulationResult
 
@@ -366,4 +530,16 @@ def _simulation(path: Path, strategy: str, scenario: Any) -> Any:
                    f"(got {result.n_vehicles})")
     if problem is not None:
         raise ScenarioError(f"{where / 'result.json'}: {problem}.{RUN_HINT}")
+    counts = result.status_counts()
+    top = int(result.iterations.max()) if result.iterations.size else 0
+    key = f"results.simulations.{strategy}"
+    if {k: v for k, v in metrics.status_counts.items() if v} != {k: v for k, v in counts.items()
+                                                                 if v}:
+        problem = (f"{key}.status_counts must count the saved result's statuses ({counts}) "
+                   f"(got {metrics.status_counts})")
+    elif metrics.iterations_max != top:
+        problem = (f"{key}.iterations_max must be the largest of the saved result's iteration "
+                   f"counts ({top}) (got {metrics.iterations_max})")
+    if problem is not None:
+        raise ScenarioError(f"{path / MANIFEST}: {problem}.{RUN_HINT}")
     return result

@@ -289,8 +289,10 @@ def load_sweep_report_data(path: str | os.PathLike[str]) -> SweepReportData:
     Raises
     ------
     ScenarioError
-        Not a store, a damaged manifest, an unfinished sweep (no table), or
-        a table that does not fit the manifest.
+        Not a store, a damaged manifest (or one another trainctl version
+        wrote), an unfinished sweep (no table), a point whose files do not
+        have their recorded checksums (naming the file), or a table that
+        does not fit the manifest or is not the table of the stored points.
 
     Examples
     --------
@@ -331,6 +333,10 @@ def load_sweep_report_data(path: str | os.PathLike[str]) -> SweepReportData:
     if not listed or found != listed:
         raise ScenarioError(f"{root}: rows.parquet holds {len(found)} points, the manifest "
                             f"lists {len(listed)}.{hint}")
+    store.verify()  # every point stored whole: its files have their checksums
+    if not table.equals(store.table()):
+        raise ScenarioError(f"{root / 'rows.parquet'}: is not the table of the store's points "
+                            f"(it was edited, or a point's summary was).{hint}")
     units: dict[str, str] = {}
     thresholds: dict[str, Any] = {}
     scenario_name = str(manifest.get("scenario", root.name))

@@ -5,7 +5,12 @@
 :data:`~trainctl.sim.results.FORMAT`); ``arrays.npz`` must hold the result's
 arrays (:data:`~trainctl.sim.results.ARRAY_NAMES`, and optionally
 :data:`~trainctl.sim.results.OPTIONAL_ARRAY_NAMES`, nothing else), numeric and
-finite, loadable without pickles. Problems are
+finite, loadable without pickles. Every member's header (``numpy.lib.format``) is
+read and checked first — its dtype, its shape against its uncompressed size
+in the zip archive and the archive against :data:`MAX_ARRAY_BYTES` — so that
+no array is read whose header lies. Then the values: statuses from
+:data:`~trainctl.controllers.base.STATUSES`, iteration counts integral and
+non-negative, time strictly increasing in steps of ``dt``. Problems are
 :class:`~trainctl.exceptions.ModelError` s naming the file and the key or
 array; the shapes are then checked by :class:`SimulationResult` itself, whose
 message gets the file name in front.
@@ -13,9 +18,10 @@ message gets the file name in front.
 
 from __future__ import annotations
 
+import math
 import zipfile
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
 from pydantic import (
@@ -29,11 +35,21 @@ from pydantic import (
 )
 
 from .._files import require_regular
+from ..constraints import Choice
+from ..controllers.base import STATUSES
 from ..exceptions import ModelError
 from ..jsonfile import FiniteFloat, read_json, validate_json
 from .results import ARRAY_NAMES, FORMAT, OPTIONAL_ARRAY_NAMES
 
-__all__ = ["RESULT_HINT", "ResultFile", "read_result"]
+__all__ = ["MAX_ARRAY_BYTES", "RESULT_HINT", "ResultFile", "read_result"]
+
+MAX_ARRAY_BYTES = 4 * 2**30
+"""Largest total size of a saved result's arrays, uncompressed [bytes] (4 GiB): the
+longest run allowed (:data:`~trainctl.limits.MAX_SAMPLES`) of a long train is far
+below it at the controller's samples; an archive declaring more is refused unread."""
+
+_INTEGER_ARRAYS = {"iterations": "iu", "saturation": "biu"}
+"""Arrays of counts or flags: their dtype must be integral (a count of 0.5 is refused)."""
 
 RESULT_HINT = (" The saved result was edited or damaged; write it again with "
                "SimulationResult.save (or 'trainctl analyse SCENARIO --save DIR').")
@@ -82,7 +98,7 @@ class ResultFile(BaseModel):
     controller_name: StrictStr
     seed: StrictInt
     dt: FiniteFloat = Field(gt=0)
-    statuses: list[StrictStr]
+    statuses: list[Annotated[str, Choice(STATUSES)]]
     fallbacks: list[StrictStr]
     residuals: list[list[StrictFloat]]
     meta: dict[str, Any]
@@ -143,6 +159,7 @@ def read_result(directory: str | Path) -> dict[str, Any]:
     doc = validate_json(raw, ResultFile, path / "result.json", hint=RESULT_HINT,
                         error=ModelError)
     arrays = _read_arrays(path / "arrays.npz")
+    _check_values(path, doc, arrays)
     return {**arrays, "statuses": tuple(doc.statuses), "fallbacks": tuple(doc.fallbacks),
             "residuals": tuple(tuple(r) for r in doc.residuals),
             "controller_name": doc.controller_name, "seed": doc.seed, "dt": doc.dt,
@@ -151,35 +168,104 @@ def read_result(directory: str | Path) -> dict[str, Any]:
 
 def _read_arrays(path: Path) -> dict[str, np.ndarray]:
     try:
-        require_regular(path)  # numpy.load would block on a named pipe
+        require_regular(path)  # a zip reader would block on a named pipe
     except OSError as exc:
         raise ModelError(f"{path}: {exc.strerror}.{RESULT_HINT}") from None
-    if path.is_file() and not zipfile.is_zipfile(path):
-        raise ModelError(f"{path}: not a NumPy .npz archive (no zip structure).{RESULT_HINT}")
     try:
-        with np.load(path, allow_pickle=False) as data:
-            names = set(data.files)
-            missing = [name for name in ARRAY_NAMES if name not in names]
-            if missing:
-                raise ModelError(f"{path}: missing array {missing[0]!r} (it must hold "
-                                 f"{', '.join(ARRAY_NAMES)}).{RESULT_HINT}")
-            unknown = sorted(names - set(ARRAY_NAMES) - set(OPTIONAL_ARRAY_NAMES))
-            if unknown:
-                raise ModelError(f"{path}: unknown array {unknown[0]!r}.{RESULT_HINT}")
-            arrays = {name: data[name] for name in (*ARRAY_NAMES, *OPTIONAL_ARRAY_NAMES)
-                      if name in names}
+        if not path.is_file():
+            raise FileNotFoundError(path)
+        with zipfile.ZipFile(path) as archive:
+            headers = _headers(path, archive)
+            arrays = {}
+            for name, info in headers.items():
+                with archive.open(info) as member:
+                    arrays[name] = np.lib.format.read_array(member, allow_pickle=False)
     except FileNotFoundError:
         raise ModelError(f"{path}: file not found.{RESULT_HINT}") from None
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-        if isinstance(exc, ModelError):
-            raise
+    except zipfile.BadZipFile as exc:
+        raise ModelError(f"{path}: not a NumPy .npz archive ({exc}).{RESULT_HINT}") from None
+    except ModelError:
+        raise
+    except (OSError, ValueError, EOFError, RuntimeError, NotImplementedError) as exc:
         raise ModelError(f"{path}: not a readable NumPy archive ({exc}).{RESULT_HINT}") from None
     for name, value in arrays.items():
-        if value.dtype.kind not in "iuf":
-            raise ModelError(f"{path}: array {name!r} must hold numbers (got dtype "
-                             f"{value.dtype}).{RESULT_HINT}")
         if value.dtype.kind == "f" and not np.all(np.isfinite(value)):
             index = [int(i) for i in np.argwhere(~np.isfinite(value))[0]]
             raise ModelError(f"{path}: array {name!r} must be finite (got "
                              f"{value[tuple(index)]} at {index}).{RESULT_HINT}")
     return arrays
+
+
+def _headers(path: Path, archive: zipfile.ZipFile) -> dict[str, zipfile.ZipInfo]:
+    """Each member's .npy header checked against its size, before any array is read."""
+    members: dict[str, zipfile.ZipInfo] = {}
+    for info in archive.infolist():
+        name = info.filename.removesuffix(".npy")
+        if name in members or not info.filename.endswith(".npy"):
+            what = "twice" if name in members else "(not an .npy array)"
+            raise ModelError(f"{path}: holds member {info.filename!r} {what}.{RESULT_HINT}")
+        members[name] = info
+    missing = [name for name in ARRAY_NAMES if name not in members]
+    if missing:
+        raise ModelError(f"{path}: missing array {missing[0]!r} (it must hold "
+                         f"{', '.join(ARRAY_NAMES)}).{RESULT_HINT}")
+    unknown = sorted(set(members) - set(ARRAY_NAMES) - set(OPTIONAL_ARRAY_NAMES))
+    if unknown:
+        raise ModelError(f"{path}: unknown array {unknown[0]!r}.{RESULT_HINT}")
+    total = sum(info.file_size for info in members.values())
+    if total > MAX_ARRAY_BYTES:
+        raise ModelError(f"{path}: its arrays declare {total} bytes uncompressed, more than the "
+                         f"{MAX_ARRAY_BYTES} bytes ({MAX_ARRAY_BYTES / 2**30:g} GiB) a saved "
+                         f"result may hold.{RESULT_HINT}")
+    for name, info in members.items():
+        with archive.open(info) as member:
+            version = np.lib.format.read_magic(member)
+            if version == (1, 0):
+                shape, fortran, dtype = np.lib.format.read_array_header_1_0(member)
+            elif version == (2, 0):
+                shape, fortran, dtype = np.lib.format.read_array_header_2_0(member)
+            else:
+                raise ModelError(f"{path}: array {name!r} has .npy format version {version}; "
+                                 f"it must be 1.0 or 2.0.{RESULT_HINT}")
+            offset = member.tell()
+        kinds = _INTEGER_ARRAYS.get(name, "iuf")
+        if dtype.hasobject or dtype.kind not in kinds or dtype.subdtype is not None \
+                or dtype.names is not None:
+            want = "integers" if name in _INTEGER_ARRAYS else "numbers"
+            raise ModelError(f"{path}: array {name!r} must hold {want} (got dtype "
+                             f"{dtype}).{RESULT_HINT}")
+        if not all(isinstance(n, int) and n >= 0 for n in shape):
+            raise ModelError(f"{path}: array {name!r} has an invalid shape {shape}.{RESULT_HINT}")
+        size = math.prod(shape) * dtype.itemsize
+        if offset + size != info.file_size:
+            raise ModelError(f"{path}: array {name!r} declares shape {shape} of {dtype} "
+                             f"({size} bytes) but its member holds {info.file_size - offset} "
+                             f"bytes of data.{RESULT_HINT}")
+    return members
+
+
+def _check_values(path: Path, doc: ResultFile, arrays: dict[str, np.ndarray]) -> None:
+    """Relations between the values: counts, time, the vehicle count of ``meta``."""
+    where = path / "arrays.npz"
+    for name in ("iterations", "solve_times"):
+        value = arrays[name]
+        if value.size and value.min() < 0:
+            raise ModelError(f"{where}: array {name!r} must be >= 0 (got {value.min()})."
+                             f"{RESULT_HINT}")
+    time = arrays["time"]
+    if time.ndim == 1 and time.size > 1:
+        steps = np.diff(time)
+        if np.any(steps <= 0):
+            i = int(np.argmax(steps <= 0))
+            raise ModelError(f"{where}: array 'time' must increase strictly (got {time[i]!r} then "
+                             f"{time[i + 1]!r} at [{i + 1}]).{RESULT_HINT}")
+        if not np.allclose(steps, doc.dt, rtol=1e-9, atol=1e-9 * abs(doc.dt)):
+            i = int(np.argmax(~np.isclose(steps, doc.dt, rtol=1e-9, atol=1e-9 * abs(doc.dt))))
+            raise ModelError(f"{where}: array 'time' must advance by dt = {doc.dt!r} s per sample "
+                             f"(result.json) (got a step of {steps[i]!r} s at [{i + 1}])."
+                             f"{RESULT_HINT}")
+    n_meta = doc.meta.get("n_vehicles")
+    velocities = arrays["velocities"]
+    if n_meta is not None and velocities.ndim == 2 and n_meta != velocities.shape[0]:
+        raise ModelError(f"{path / 'result.json'}: meta.n_vehicles must be the arrays' vehicle "
+                         f"count {velocities.shape[0]} (got {n_meta!r}).{RESULT_HINT}")

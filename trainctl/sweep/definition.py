@@ -609,8 +609,9 @@ class SweepDefinition:
         Raises
         ------
         ScenarioError
-            At the first point a value of which breaks a rule: ``sweep point
-            I (key = value, ...): <what must hold>``.
+            At the first point a value of which breaks a rule: ``SOURCE: sweep
+            point I (key = value, ...): <what must hold>`` (``SOURCE`` the
+            scenario file's path or built-in name).
         """
         base = _without_sweep(scenario)
         cache: dict[tuple[tuple[str, str], ...], Scenario] = {}
@@ -624,18 +625,19 @@ class SweepDefinition:
                     try:
                         cache[prefix] = current.replace(key, value)
                     except ScenarioError as exc:
-                        raise _point_error(point, key, value, exc) from None
+                        raise _point_error(scenario.source, point, key, value, exc) from None
                 current = cache[prefix]
             found.append(current)
             cache = {k: v for k, v in cache.items() if len(k) < len(point)}
         return found
 
 
-def _point_error(point: SweepPoint, key: str, value: Any, exc: ScenarioError) -> ScenarioError:
+def _point_error(source: str, point: SweepPoint, key: str, value: Any,
+                 exc: ScenarioError) -> ScenarioError:
     message = str(exc)
     marker = f"({key} = {value!r}): "
     detail = message.split(marker, 1)[1] if marker in message else message
-    return ScenarioError(f"sweep point {point.index} ({point.label()}): {detail}")
+    return ScenarioError(f"{source}: sweep point {point.index} ({point.label()}): {detail}")
 
 
 def _without_sweep(scenario: Scenario) -> Scenario:

@@ -175,8 +175,11 @@ def sweep_scenario(scenario: str | os.PathLike[str], directory: str | os.PathLik
     keys = [point_key(s) for s in scenarios]
     store = SweepStore.open(directory, label=label, scenario_text=text, points=points,
                             keys=keys, swept=sweep.keys, simulate=simulate, arrays=arrays)
-    return run_sweep(store, dict(zip(keys, scenarios, strict=True)), simulate=simulate,
-                     executor=executor, csv=csv)
+    try:
+        return run_sweep(store, dict(zip(keys, scenarios, strict=True)), simulate=simulate,
+                         executor=executor, csv=csv)
+    finally:
+        store.close()
 
 
 def run_sweep(store: SweepStore, scenarios: Mapping[str, Scenario], *, simulate: bool = True,

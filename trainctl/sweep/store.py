@@ -5,9 +5,11 @@ A store is a directory::
 
     sweep.json                  manifest (format, versions, the points and their keys)
     scenario.toml               the base scenario as read (its [sweep] included)
+    .trainctl-sweep.lock        the writer's lock (fcntl.flock), holding its PID
     points/<key>/summary.json   a finished point's run, summarised (run_point)
     points/<key>/runs/<strategy>/result.json, arrays.npz
                                 its simulations' time series (SimulationResult.save)
+    points/<key>/checksums.json SHA-256 of each of the point's files, written last
     rows.parquet                one row per point and strategy (point_rows), all points
     rows.csv                    the same table, on request
 
@@ -18,10 +20,27 @@ complete, so a point is either done or absent, even after Ctrl-C or a
 killed process; an interrupted sweep run again with the same command finds
 its finished points and runs only the rest (:meth:`SweepStore.done`).
 
+Nothing of a store is trusted when it is read back. The manifest is
+validated (:class:`SweepManifest`) and its fingerprint recomputed from its
+points, so a value edited in ``sweep.json`` is named. A point counts as done
+only when every file its ``checksums.json`` lists has that checksum: on
+resume a damaged point (a file edited, truncated or deleted) is recomputed
+(:meth:`SweepStore.damaged` names it, and ``trainctl sweep`` says so on
+stderr); ``trainctl report STORE`` refuses a store with a damaged point,
+naming the file, and one whose table is not the table of its points.
+
+One writer at a time: :meth:`SweepStore.open` takes an exclusive
+:func:`fcntl.flock` on ``.trainctl-sweep.lock`` (released when the store is
+closed or the process ends, however it ends) and writes its PID there; a
+second writer is refused at once with "store in use by PID …" (it does not
+wait), so no point is lost or written twice.
+
 A store belongs to one sweep: :meth:`SweepStore.open` refuses a directory
 whose manifest lists other points (a changed scenario or sweep), another
 ``simulate`` choice or another trainctl version, so results of different
-scenarios are never mixed in one table.
+scenarios are never mixed in one table; a store another trainctl version made
+is refused by the same rule whether it is resumed or reported
+(:meth:`SweepStore.load`).
 
 The table is built from the stored summaries in point order
 (:meth:`SweepStore.table`), never from results in memory, so it is the same
@@ -32,6 +51,7 @@ finished.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import hashlib
 import json
 import math
@@ -40,10 +60,14 @@ import shutil
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Annotated, Any
+
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictStr, model_validator
 
 from .._files import read_regular_text
+from ..constraints import Choice, Integer, Violation, raise_at
 from ..exceptions import ScenarioError
+from ..jsonfile import read_json, validate_json
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -51,10 +75,22 @@ if TYPE_CHECKING:
     from ..sim.results import SimulationResult
     from .definition import SweepPoint
 
-__all__ = ["ARRAYS", "FORMAT", "MANIFEST", "SweepStore", "is_sweep_store", "sweep_fingerprint"]
+__all__ = ["ARRAYS", "FORMAT", "LOCK", "MANIFEST", "SweepManifest", "SweepStore", "is_sweep_store",
+           "sweep_fingerprint"]
 
-FORMAT = "trainctl-sweep/1"
-"""Format of ``sweep.json``."""
+FORMAT = "trainctl-sweep/2"
+"""Format of ``sweep.json`` (2: each point's files carry their checksums)."""
+
+LOCK = ".trainctl-sweep.lock"
+"""The lock file of a store's writer (its PID inside)."""
+
+CHECKSUMS = "checksums.json"
+"""A point's record of its files' SHA-256, written last into the point's directory."""
+
+_HINT = " The store was edited or damaged; run the sweep again into a new directory."
+
+_HELD: dict[Path, int] = {}
+"""Stores this process holds the lock of: resolved directory -> the lock file's descriptor."""
 
 MANIFEST = "sweep.json"
 """The manifest's file name; a directory holding it is a sweep store."""
@@ -68,6 +104,75 @@ CSV_TABLE = "rows.csv"
 ARRAYS = ("none", "sampled", "dense")
 """What a store keeps of each run's time series: nothing, the arrays at the controller's
 samples, or those and the between-sample (dense) ones."""
+
+_Digest = Annotated[str, Field(pattern=r"^[0-9a-f]{64}$")]
+
+
+class _Point(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    index: Annotated[int, Integer(ge=0)]
+    values: dict[str, Any]
+    key: _Digest
+
+
+class SweepManifest(BaseModel):
+    """``sweep.json``, declared: what reading or resuming a store relies on.
+
+    Parameters
+    ----------
+    format : str
+        :data:`FORMAT`.
+    trainctl : str
+        The version that made the store.
+    environment : dict
+        Versions of Python and the dependencies.
+    scenario : str
+        The base scenario's name or path.
+    simulate : bool
+        Whether the points' simulations run.
+    arrays : {"none", "sampled", "dense"}
+        What is kept of each simulation (:data:`ARRAYS`).
+    swept : list of str
+        The swept keys, in order: every point's values have exactly these.
+    fingerprint : str
+        :func:`sweep_fingerprint` of the points: recomputed on reading, so an
+        edited value or key is named.
+    points : list
+        Per point: ``index`` (0, 1, ... in order), ``values``, ``key``.
+
+    Examples
+    --------
+    >>> doc = {"format": FORMAT, "trainctl": "0.1.0", "environment": {}, "scenario": "x",
+    ...        "simulate": False, "arrays": "none", "swept": ["a"], "fingerprint": "0" * 64,
+    ...        "points": [{"index": 0, "values": {"a": 1}, "key": "f" * 64}]}
+    >>> SweepManifest.model_validate(doc).points[0].values
+    {'a': 1}
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    format: StrictStr
+    trainctl: StrictStr
+    environment: dict[str, Any]
+    scenario: StrictStr
+    simulate: StrictBool
+    arrays: Annotated[str, Choice(ARRAYS)]
+    swept: list[StrictStr]
+    fingerprint: _Digest
+    points: list[_Point] = Field(min_length=1)
+
+    @model_validator(mode="after")
+    def _relations(self) -> SweepManifest:
+        for i, point in enumerate(self.points):
+            if point.index != i:
+                raise_at(("points", i, "index"), Violation(f"must be {i} (points in order)",
+                                                           got=point.index), point.index)
+            if list(point.values) != list(self.swept):
+                raise_at(("points", i, "values"), Violation(
+                    f"must have the swept keys {self.swept}, in order", got=point.values),
+                    point.values)
+        return self
 
 _PARTIAL = ".partial-"
 """Infix of a point directory being written (``points/.<key>.partial-<pid>``)."""
@@ -222,7 +327,8 @@ class SweepStore:
         ScenarioError
             The directory is a file, holds something that is not a sweep
             store, or a store of another sweep (other points, ``simulate``
-            or trainctl version): nothing is written.
+            or trainctl version): nothing is written. Or another process
+            holds the store's lock: "store in use by PID ...".
         """
         from .. import __version__
 
@@ -234,6 +340,27 @@ class SweepStore:
         if root.exists() and not root.is_dir():
             raise ScenarioError(f"{root}: the sweep's output must be a directory; a file of "
                                 "that name exists. Give another --output.")
+        if not is_sweep_store(root) and root.is_dir() and any(
+                p.name != LOCK for p in root.iterdir()):
+            raise ScenarioError(f"{root}: not empty and not a sweep store ({MANIFEST} is "
+                                "missing); refusing to write into it. Give an empty or new "
+                                "--output directory.")
+        root.mkdir(parents=True, exist_ok=True)
+        _lock(root)
+        try:
+            return cls._open_locked(root, label=label, scenario_text=scenario_text,
+                                    points=points, keys=keys, swept=swept, simulate=simulate,
+                                    arrays=arrays, fingerprint=fingerprint)
+        except BaseException:
+            _unlock(root)
+            raise
+
+    @classmethod
+    def _open_locked(cls, root: Path, *, label: str, scenario_text: str,
+                     points: Sequence[SweepPoint], keys: Sequence[str], swept: Sequence[str],
+                     simulate: bool, arrays: str, fingerprint: str) -> SweepStore:
+        from .. import __version__
+
         if is_sweep_store(root):
             store = cls.load(root)
             old = store.manifest
@@ -247,7 +374,7 @@ class SweepStore:
                     f"{root} to start this sweep afresh.")
             store._clean_partials()
             return store
-        if root.is_dir() and any(root.iterdir()):
+        if any(p.name != LOCK for p in root.iterdir()):
             raise ScenarioError(f"{root}: not empty and not a sweep store ({MANIFEST} is "
                                 "missing); refusing to write into it. Give an empty or new "
                                 "--output directory.")
@@ -288,26 +415,32 @@ class SweepStore:
         ScenarioError
             Not a sweep store, or its manifest is damaged.
         """
+        from .. import __version__
+        from .definition import SweepPoint
+
         root = Path(path)
         if not is_sweep_store(root):
             raise ScenarioError(f"{root}: not a sweep store ({MANIFEST} is missing). Run "
                                 "'trainctl sweep SCENARIO --output DIR' to make one.")
-        try:
-            manifest = json.loads(read_regular_text(root / MANIFEST))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise ScenarioError(f"{root / MANIFEST}: not readable as JSON ({exc}). The store "
-                                "was edited or damaged; run the sweep again into a new "
-                                "directory.") from None
-        points = manifest.get("points") if isinstance(manifest, dict) else None
-        if (not isinstance(manifest, dict) or manifest.get("format") != FORMAT
-                or not isinstance(points, list)
-                or not all(isinstance(p, dict) and isinstance(p.get("key"), str)
-                           and isinstance(p.get("index"), int)
-                           and isinstance(p.get("values"), dict) for p in points)
-                or not isinstance(manifest.get("swept"), list)):
-            raise ScenarioError(f"{root / MANIFEST}: not a {FORMAT!r} manifest with its "
-                                "points (index, values, key) and swept keys. The store was "
-                                "edited or damaged; run the sweep again into a new directory.")
+        where = root / MANIFEST
+        manifest = read_json(where, hint=_HINT)
+        found = manifest.get("format") if isinstance(manifest, dict) else None
+        if found != FORMAT:
+            raise ScenarioError(f"{where}: not a {FORMAT!r} manifest with its points (index, "
+                                f"values, key) and swept keys (got format {found!r}).{_HINT}")
+        if manifest.get("trainctl") != __version__:
+            raise ScenarioError(
+                f"{where}: holds the results of another sweep (made by trainctl "
+                f"{manifest.get('trainctl')}, this is {__version__}); a store is resumed and "
+                "reported only by the version that made it. Run the sweep again into a new "
+                "directory with this version.")
+        doc = validate_json(manifest, SweepManifest, where, hint=_HINT)
+        expected = sweep_fingerprint([SweepPoint(p.index, p.values) for p in doc.points],
+                                     [p.key for p in doc.points], doc.simulate, doc.trainctl)
+        if doc.fingerprint != expected:
+            raise ScenarioError(f"{where}: fingerprint must be the SHA-256 of its points, keys, "
+                                "simulate and version (a point's values or key, or simulate, "
+                                f"was edited).{_HINT}")
         return cls(root, manifest)
 
     def describe_difference(self, points: Sequence[SweepPoint], keys: Sequence[str],
@@ -348,6 +481,23 @@ class SweepStore:
                     "or the sweep changed")
         return "other swept values"
 
+    def close(self) -> None:
+        """Release the writer's lock taken by :meth:`open` (the process's end releases it too).
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> from trainctl.sweep import SweepPoint
+        >>> with tempfile.TemporaryDirectory() as tmp:
+        ...     store = SweepStore.open(tmp, label="x", scenario_text="", keys=["0" * 64],
+        ...                             points=[SweepPoint(0, {"a": 1})], swept=["a"],
+        ...                             simulate=False, arrays="none")
+        ...     store.close()
+        ...     print((Path(tmp) / LOCK).read_text().strip() == str(os.getpid()))
+        True
+        """
+        _unlock(self.path)
+
     # ------------------------------------------------------------------ points
     @property
     def points_dir(self) -> Path:
@@ -368,11 +518,44 @@ class SweepStore:
             The point keys of the manifest that have a complete point directory
             (with its ``summary.json``); empty without ``points/``.
         """
-        if not self.points_dir.is_dir():
-            return set()
-        wanted = set(self.keys)
-        return {p.name for p in self.points_dir.iterdir()
-                if p.name in wanted and (p / "summary.json").is_file()}
+        return set(self.keys) - set(self.damaged()) - set(self._absent())
+
+    def _absent(self) -> list[str]:
+        return [k for k in dict.fromkeys(self.keys) if not (self.points_dir / k).is_dir()]
+
+    def damaged(self) -> dict[str, str]:
+        """Points whose directory exists but whose files are not the ones stored.
+
+        Returns
+        -------
+        dict of str to str
+            Point key -> what is wrong, naming the file: its
+            :data:`CHECKSUMS` missing or unreadable, a file it lists missing
+            or with another SHA-256 (edited or truncated).
+        """
+        out: dict[str, str] = {}
+        for key in dict.fromkeys(self.keys):
+            folder = self.points_dir / key
+            if folder.is_dir():
+                problem = _point_problem(folder)
+                if problem is not None:
+                    out[key] = problem
+        return out
+
+    def verify(self) -> None:
+        """Refuse a store with a point that is not stored whole (for reading it).
+
+        Raises
+        ------
+        ScenarioError
+            Naming the first damaged point's file (:meth:`damaged`).
+        """
+        damaged = self.damaged()
+        if damaged:
+            key, problem = next(iter(damaged.items()))
+            raise ScenarioError(f"{problem}: point {self.keys.index(key)} ({key[:12]}) of the "
+                                f"store is damaged ({len(damaged)} damaged points); run the "
+                                "sweep's command again to recompute them.")
 
     def missing(self) -> list[str]:
         """Keys still to run, each once, in point order.
@@ -409,7 +592,7 @@ class SweepStore:
             The point's directory.
         """
         final = self.points_dir / key
-        if (final / "summary.json").is_file():
+        if final.is_dir() and _point_problem(final) is None:
             return final
         partial = self.points_dir / f".{key}{_PARTIAL}{os.getpid()}"
         shutil.rmtree(partial, ignore_errors=True)
@@ -422,6 +605,15 @@ class SweepStore:
                                 compressed=True)
             text = json.dumps(summary, indent=1, sort_keys=True, allow_nan=False)
             (partial / "summary.json").write_text(text + "\n", encoding="utf-8")
+            sums = {f.relative_to(partial).as_posix(): _sha256(f)
+                    for f in sorted(partial.rglob("*")) if f.is_file()}
+            (partial / CHECKSUMS).write_text(json.dumps(sums, indent=1) + "\n",
+                                             encoding="utf-8")
+            if final.exists():  # a damaged point (this store's own), recomputed
+                old = self.points_dir / f".{key}{_PARTIAL}{os.getpid()}-old"
+                shutil.rmtree(old, ignore_errors=True)
+                os.replace(final, old)
+                shutil.rmtree(old, ignore_errors=True)
             os.replace(partial, final)
         except BaseException:
             shutil.rmtree(partial, ignore_errors=True)
@@ -626,3 +818,63 @@ def _atomic(target: Path, write: Any) -> None:
     finally:
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _point_problem(folder: Path) -> str | None:
+    """What is wrong with a stored point's files (a message naming the file), or None."""
+    record = folder / CHECKSUMS
+    try:
+        sums = json.loads(record.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return f"{record}: missing"
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        return f"{record}: not readable ({exc})"
+    if (not isinstance(sums, dict) or "summary.json" not in sums
+            or not all(isinstance(k, str) and isinstance(v, str) for k, v in sums.items())):
+        return f"{record}: not a record of the point's files with summary.json"
+    for name, digest in sums.items():
+        target = folder / name
+        if ".." in Path(name).parts or Path(name).is_absolute():
+            return f"{record}: lists {name!r}, outside the point"
+        if not target.is_file():
+            return f"{target}: missing"
+        if _sha256(target) != digest:
+            return f"{target}: its SHA-256 is not the one in {CHECKSUMS} (edited or truncated)"
+    return None
+
+
+def _lock(root: Path) -> None:
+    """Take the store's writer lock (exclusive, non-blocking), or refuse naming its owner."""
+    key = root.resolve()
+    if key in _HELD:
+        return
+    try:
+        fd = os.open(root / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError as exc:
+        raise ScenarioError(f"{root / LOCK}: cannot create the store's lock file "
+                            f"({exc.strerror or exc}).") from None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        owner = os.pread(fd, 64, 0).decode("ascii", "replace").strip() or "unknown"
+        os.close(fd)
+        raise ScenarioError(f"{root}: store in use by PID {owner} (another 'trainctl sweep' "
+                            "is writing it); wait for it to finish, or give another "
+                            "--output.") from None
+    os.ftruncate(fd, 0)
+    os.pwrite(fd, f"{os.getpid()}\n".encode("ascii"), 0)
+    _HELD[key] = fd
+
+
+def _unlock(root: Path) -> None:
+    fd = _HELD.pop(root.resolve(), None)
+    if fd is not None:
+        os.close(fd)  # releases the flock
