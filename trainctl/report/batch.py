@@ -116,12 +116,6 @@ GENERATOR_MARK = b'<meta name="generator" content="trainctl">'
 _MARK_WINDOW = 4096
 """Bytes read from an existing page to find :data:`GENERATOR_MARK` (it is on line 7)."""
 
-GALLERY_RULE = ("DIR may be missing or empty, or hold an earlier gallery: a file of a name the "
-                "gallery writes (index.html, NAME.html) is replaced only if it is a page "
-                "trainctl wrote (a symbolic link is followed to one, as for -o); other files "
-                "are left alone")
-"""What ``report --all -o DIR`` accepts, for messages and the command's help."""
-
 
 def _written_by_trainctl(path: Path) -> bool:
     """True for a regular file whose first KiB carry :data:`GENERATOR_MARK` (never blocks)."""
