@@ -480,8 +480,9 @@ def report_all(jobs: Sequence[ReportJob], outdir: Path, *, workers: int = 0,
             path = outdir / default_report_path(job.scenario).name
             _still_ours(outdir, path.name, written)
             bar.set_label(f"rendering {path.name}")
-            written.append((data, write_report_file(data, path, generated_at=generated_at,
-                                                    deterministic=deterministic)))
+            write_report_file(data, path, generated_at=generated_at,
+                              deterministic=deterministic)
+            written.append((data, path))  # the page's name in outdir, even through a link
             bar.advance(f"wrote {path.name}")
         _still_ours(outdir, "index.html", written)
         index = write_gallery(written, outdir / "index.html", generated_at=generated_at,
