@@ -585,6 +585,146 @@ class TestOutputTargets:
         assert list(tmp_path.iterdir()) == []
 
 
+# --------------------------------------------------------------------------- report --all
+
+
+MARKED = '<!DOCTYPE html>\n<meta name="generator" content="trainctl">\n<p>an earlier page</p>\n'
+"""The head of a page trainctl wrote (an earlier gallery's output, shortened)."""
+
+
+class TestGallery:
+    """report --all -o DIR replaces only the pages trainctl wrote; anything else is refused."""
+
+    @pytest.fixture
+    def one_builtin(self, monkeypatch: pytest.MonkeyPatch) -> str:
+        """The gallery reduced to heavy-haul-hinf (a design review, no simulation)."""
+        import trainctl.scenario as scenario_module
+
+        chosen = [b for b in scenario_module.builtin_scenarios() if b.name == "heavy-haul-hinf"]
+        assert len(chosen) == 1
+        monkeypatch.setattr(scenario_module, "builtin_scenarios", lambda: chosen)
+        return "heavy-haul-hinf"
+
+    def _no_run(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        """Make any scenario run fail the test: a refusal must come before the work."""
+        import trainctl.report.batch as batch
+
+        def ran(*args: object, **kwargs: object) -> None:
+            raise AssertionError("a scenario ran before the refusal")
+
+        monkeypatch.setattr(batch, "run_report_data", ran)
+
+    def test_users_index_refused_before_any_run(
+        self, tmp_path: Path, one_builtin: str, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]
+    ) -> None:
+        """The issue's case: a user's index.html (and a page of a built-in's name) in DIR."""
+        from trainctl.cli import main
+
+        self._no_run(monkeypatch)
+        out = tmp_path / "gallery"
+        out.mkdir()
+        (out / "index.html").write_text("<h1>my own index</h1>\n", encoding="utf-8")
+        (out / f"{one_builtin}.html").write_text("my notes on the H-infinity design\n",
+                                                 encoding="utf-8")
+        (out / "notes.txt").write_text("keep me", encoding="utf-8")
+        before = snapshot(tmp_path)
+        assert main(["report", "--all", "-o", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("trainctl: error: ") and "Traceback" not in err
+        assert str(out) in err and "index.html" in err and f"{one_builtin}.html" in err
+        assert "-o" in err and "move" in err
+        assert "notes.txt" not in err  # a name the gallery does not write is no concern
+        assert snapshot(tmp_path) == before
+
+    def test_links_and_special_entries_refused(
+        self, tmp_path: Path, one_builtin: str, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]
+    ) -> None:
+        """A link to a user's unmarked file, a broken link, a directory or a pipe of a page's
+        name: refused (the output rules of -o), the link's target unchanged, no wait."""
+        from trainctl.cli import main
+
+        self._no_run(monkeypatch)
+        elsewhere = tmp_path / "elsewhere"
+        elsewhere.mkdir()
+        (elsewhere / "mine.html").write_text("<p>mine</p>", encoding="utf-8")
+        cases = {
+            "link to an unmarked file": lambda p: p.symlink_to(elsewhere / "mine.html"),
+            "broken link": lambda p: p.symlink_to(tmp_path / "nowhere"),
+            "directory": lambda p: p.mkdir(),
+            "pipe": lambda p: os.mkfifo(p),
+        }
+        for case, make in cases.items():
+            out = tmp_path / case.replace(" ", "-")
+            out.mkdir()
+            make(out / "index.html")
+            (out / f"{one_builtin}.html").write_text(MARKED, encoding="utf-8")
+            before = snapshot(tmp_path)
+            assert main(["report", "--all", "-o", str(out)]) == 2, case
+            err = capsys.readouterr().err
+            assert err.startswith("trainctl: error: ") and "Traceback" not in err, (case, err)
+            assert "index.html" in err and f"{one_builtin}.html" not in err, (case, err)
+            assert snapshot(tmp_path) == before, case
+
+    def test_earlier_gallery_replaced(
+        self, tmp_path: Path, one_builtin: str, capsys: pytest.CaptureFixture[str]
+    ) -> None:
+        """An earlier gallery's pages (one through a link) are replaced; other files stay."""
+        from trainctl.cli import main
+
+        out, elsewhere = tmp_path / "gallery", tmp_path / "elsewhere"
+        out.mkdir()
+        elsewhere.mkdir()
+        (out / "index.html").write_text(MARKED, encoding="utf-8")
+        (elsewhere / "page.html").write_text(MARKED, encoding="utf-8")
+        (out / f"{one_builtin}.html").symlink_to(elsewhere / "page.html")
+        (out / "notes.txt").write_text("keep me", encoding="utf-8")
+        (out / "crh2-dmpc.html").write_text("not in this gallery", encoding="utf-8")
+        stale = out / ".index.html.0123456789ab.tmp"  # left by a killed gallery: empty
+        stale.write_bytes(b"")
+        theirs = out / ".index.html.abcdefabcdef.tmp"  # same pattern, a user's content
+        theirs.write_text("user data", encoding="utf-8")
+        assert main(["report", "--all", "-o", str(out)]) == 0
+        assert "Traceback" not in capsys.readouterr().err
+        index = (out / "index.html").read_text(encoding="utf-8")
+        assert index != MARKED and f'href="{one_builtin}.html"' in index
+        assert (out / f"{one_builtin}.html").is_symlink()
+        page = (elsewhere / "page.html").read_text(encoding="utf-8")
+        assert page != MARKED and 'content="trainctl"' in page
+        assert (out / "notes.txt").read_text(encoding="utf-8") == "keep me"
+        assert (out / "crh2-dmpc.html").read_text(encoding="utf-8") == "not in this gallery"
+        assert not stale.exists()
+        assert theirs.read_text(encoding="utf-8") == "user data"
+        assert sorted(p.name for p in elsewhere.iterdir()) == ["page.html"]
+        leftover = [n for n in temporary_entries(tmp_path) if n != f"gallery/{theirs.name}"]
+        assert leftover == []
+
+    def test_file_appearing_during_the_runs_is_kept(
+        self, tmp_path: Path, one_builtin: str, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]
+    ) -> None:
+        """An index.html a user writes while the scenarios run is checked again: kept, exit 2."""
+        import trainctl.report.batch as batch
+        from trainctl.cli import main
+
+        out = tmp_path / "gallery"
+        out.mkdir()
+        real = batch.run_report_data
+
+        def run_then_write(*args: object, **kwargs: object) -> object:
+            for data in real(*args, **kwargs):  # type: ignore[arg-type]
+                (out / "index.html").write_text("written meanwhile", encoding="utf-8")
+                yield data
+
+        monkeypatch.setattr(batch, "run_report_data", run_then_write)
+        assert main(["report", "--all", "-o", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("trainctl: error: ") and "index.html" in err
+        assert (out / "index.html").read_text(encoding="utf-8") == "written meanwhile"
+        assert temporary_entries(tmp_path) == []
+
+
 # --------------------------------------------------------------------------- inputs
 
 

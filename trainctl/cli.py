@@ -27,7 +27,9 @@ Subcommands
     Run a scenario (or read a directory saved by ``analyse --save``) and
     write its self-contained HTML design report (default
     ``reports/<name>.html``, see :func:`trainctl.report.batch.default_report_path`);
-    ``--all`` writes every built-in's report and an ``index.html`` gallery.
+    ``--all`` writes every built-in's report and an ``index.html`` gallery
+    into ``-o DIR``; a file there of a name the gallery writes is replaced
+    only if trainctl wrote it (:func:`trainctl.report.batch.check_gallery_output`).
     For a sweep store (``trainctl sweep -o DIR``) the sweep report
     (:mod:`trainctl.report.sweep`), by default ``DIR/report.html``.
 
@@ -306,7 +308,11 @@ def _add_report(sub: Any) -> None:
         help=(
             "output HTML file, DIR/, a device or '-' for standard output (default: "
             "reports/NAME.html for a built-in, reports/<slug of the scenario name>.html "
-            "otherwise); with --all, the output directory (default: reports)"
+            "otherwise); with --all, the output directory (default: reports), which may "
+            "be missing or empty or hold an earlier gallery: a file there of a name the "
+            "gallery writes (index.html, NAME.html) is replaced only if trainctl wrote it "
+            "(its page carries <meta name=\"generator\" content=\"trainctl\">), otherwise "
+            "the command refuses before any run (exit 2); other files are left alone"
         ),
     )
     p_report.add_argument(
@@ -604,6 +610,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     from .parallel import want_pool
     from .report import ReportData, is_saved_run, normalise_timestamp, portable_command
     from .report.batch import (
+        check_gallery_output,
         check_report_output,
         default_report_path,
         render_saved_run,
@@ -622,6 +629,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
         jobs = [_report_job(item.name, args) for item in builtin_scenarios()]
         outdir = Path(args.output) if args.output else Path("reports")
+        check_gallery_output(outdir, [default_report_path(j.scenario).name for j in jobs]
+                             + ["index.html"])
         check_cost([j.scenario for j in jobs], args.max_time)
         index, written = report_all(jobs, outdir, generated_at=generated_at,
                                     deterministic=args.deterministic,

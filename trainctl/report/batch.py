@@ -9,10 +9,13 @@ at the end (:func:`summary_line`).
 
 from __future__ import annotations
 
+import os
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from .._files import read_regular
 from .build import ReportJob, run_report_data, write_gallery, write_report_file
 from .data import ReportData
 from .output import OutputError as OutputError
@@ -23,6 +26,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "OutputError",
+    "check_gallery_output",
     "check_report_output",
     "render_saved_run",
     "default_report_path",
@@ -104,6 +108,129 @@ def check_report_output(path: str | Path | OutputTarget, *,
     ('crh2-dmpc.html', 'file', 'OutputError')
     """
     return output_target(path, default_name=default_name)
+
+
+GENERATOR_MARK = b'<meta name="generator" content="trainctl">'
+"""The mark every page trainctl writes carries in its head (``_layout.html.j2``)."""
+
+_MARK_WINDOW = 4096
+"""Bytes read from an existing page to find :data:`GENERATOR_MARK` (it is on line 7)."""
+
+
+def _written_by_trainctl(path: Path) -> bool:
+    """True for a regular file whose first KiB carry :data:`GENERATOR_MARK` (never blocks)."""
+    try:
+        head = read_regular(path, limit=_MARK_WINDOW)
+    except OSError:
+        return False
+    return GENERATOR_MARK in head[:_MARK_WINDOW]
+
+
+def _gallery_refusals(outdir: Path, names: Sequence[str]) -> list[str]:
+    """``"name: why"`` for each page name whose existing entry the gallery may not replace."""
+    refused = []
+    for name in names:
+        path = outdir / name
+        if not os.path.lexists(path):
+            continue
+        try:
+            target = output_target(path)
+        except OutputError as exc:  # a broken link, another user's file, a directory, ...
+            why = str(exc).removeprefix(f"{path}: ")
+            refused.append(f"{name}: {why}")
+            continue
+        if target.kind != "file":
+            refused.append(f"{name}: is not a regular file (the gallery writes only files)")
+        elif not _written_by_trainctl(target.path):
+            refused.append(f"{name}: is not a page trainctl wrote (no <meta name=\"generator\" "
+                           "content=\"trainctl\"> in its head)")
+    return refused
+
+
+def _remove_stale_temporaries(outdir: Path, names: Sequence[str]) -> None:
+    """Remove the temporary files a killed gallery left (``.NAME.<hex>.tmp``, empty or ours)."""
+    try:
+        entries = list(os.scandir(outdir))
+    except OSError:
+        return
+    pattern = re.compile("|".join(rf"\.{re.escape(n)}\.[0-9a-f]{{12}}\.tmp" for n in names))
+    for entry in entries:
+        if not pattern.fullmatch(entry.name) or not entry.is_file(follow_symlinks=False):
+            continue
+        path = Path(entry.path)
+        try:
+            empty = entry.stat(follow_symlinks=False).st_size == 0
+            if empty or _written_by_trainctl(path):
+                path.unlink()
+        except OSError:
+            pass
+
+
+def check_gallery_output(outdir: str | os.PathLike[str], names: Sequence[str]) -> Path:
+    """Check, before anything runs, that the gallery may write its pages into ``outdir``.
+
+    ``outdir`` may be missing or empty, or hold an earlier gallery: an
+    existing entry of a name the gallery writes is replaced only if it is a
+    regular file that carries :data:`GENERATOR_MARK` in its first 4 KiB
+    (a page trainctl wrote). A symbolic link follows the output rules of
+    :func:`~trainctl.report.output.output_target` (its regular file is
+    replaced, the link kept; a broken link or another user's file is
+    refused). Files of other names are left alone. Temporary files a killed
+    gallery left beside its pages are removed.
+
+    Parameters
+    ----------
+    outdir : str or os.PathLike
+        The ``-o`` directory of ``report --all``.
+    names : sequence of str
+        The file names the gallery writes (its pages and ``index.html``).
+
+    Returns
+    -------
+    pathlib.Path
+        ``outdir``.
+
+    Raises
+    ------
+    OutputError
+        If ``outdir`` is not a directory, or holds an entry of one of
+        ``names`` that trainctl did not write (all such entries are named;
+        nothing is written or removed).
+
+    Examples
+    --------
+    A user's own ``index.html`` is refused; a page trainctl wrote is not:
+
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     _ = (Path(tmp) / "index.html").write_text("<p>my notes</p>")
+    ...     try:
+    ...         check_gallery_output(tmp, ["index.html"])
+    ...     except OutputError as error:
+    ...         print(str(error).splitlines()[1].split(" (")[0])
+    ...     mark = '<meta name="generator" content="trainctl">'
+    ...     _ = (Path(tmp) / "index.html").write_text(mark)
+    ...     check_gallery_output(tmp, ["index.html"]) == Path(tmp)
+      index.html: is not a page trainctl wrote
+    True
+    """
+    directory = Path(outdir)
+    if os.path.lexists(directory) and not directory.exists():
+        raise OutputError(f"{directory}: is a broken symbolic link; with --all, -o names the "
+                          "output directory")
+    if directory.exists() and not directory.is_dir():
+        raise OutputError(f"{directory}: is not a directory; with --all, -o names the output "
+                          "directory")
+    if not directory.exists():
+        return directory
+    refused = _gallery_refusals(directory, names)
+    if refused:
+        lines = "\n".join(f"  {line}" for line in refused)
+        raise OutputError(f"{directory}: holds files the gallery would replace but trainctl did "
+                          f"not write:\n{lines}\nNothing was written. Give another directory "
+                          f"with -o, or move those files out of {directory}.")
+    _remove_stale_temporaries(directory, names)
+    return directory
 
 
 def render_saved_run(data: ReportData, source: str, target: Path | OutputTarget, *,
@@ -316,7 +443,10 @@ def report_all(jobs: Sequence[ReportJob], outdir: Path, *, workers: int = 0,
     Raises
     ------
     OutputError
-        If ``outdir`` exists and is not a directory.
+        Before any scenario runs, if ``outdir`` is not a directory or holds
+        a file of a name the gallery writes that trainctl did not write
+        (:func:`check_gallery_output`); if such a file appears while the
+        scenarios run, when its page is due (the pages written so far stay).
 
     Examples
     --------
@@ -343,20 +473,31 @@ def report_all(jobs: Sequence[ReportJob], outdir: Path, *, workers: int = 0,
     """
     from .._progress import Progress
 
-    if outdir.exists() and not outdir.is_dir():
-        raise OutputError(f"{outdir}: is not a directory; with --all, -o names the output "
-                          "directory")
+    names = [default_report_path(job.scenario).name for job in jobs] + ["index.html"]
+    check_gallery_output(outdir, names)
     written: list[tuple[ReportData, Path]] = []
     with Progress(progress_total(jobs)) as bar:
         for job, data in zip(jobs, run_report_data(jobs, workers=workers, progress=bar),
                              strict=True):
             path = outdir / default_report_path(job.scenario).name
+            _still_ours(outdir, path.name, written)
             bar.set_label(f"rendering {path.name}")
-            written.append((data, write_report_file(data, path, generated_at=generated_at,
-                                                    deterministic=deterministic)))
+            write_report_file(data, path, generated_at=generated_at,
+                              deterministic=deterministic)
+            written.append((data, path))  # the page's name in outdir, even through a link
             bar.advance(f"wrote {path.name}")
+        _still_ours(outdir, "index.html", written)
         index = write_gallery(written, outdir / "index.html", generated_at=generated_at,
                               deterministic=deterministic)
         bar.advance("wrote index.html")
     return index, written
 
+
+def _still_ours(outdir: Path, name: str, written: Sequence[tuple[ReportData, Path]]) -> None:
+    """Check one page again just before it is written: a file may appear during the runs."""
+    refused = _gallery_refusals(outdir, [name])
+    if refused:
+        done = (f"the {len(written)} pages written before it stay" if written
+                else "nothing was written")
+        raise OutputError(f"{outdir}: {refused[0]}; it appeared while the scenarios ran and is "
+                          f"left alone ({done}). Give another directory with -o, or move it.")

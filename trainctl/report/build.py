@@ -390,7 +390,8 @@ def write_gallery(
     target = Path(path)
     rows = []
     for data, report in entries:
-        href = os.path.relpath(Path(report).resolve(), target.parent.resolve())
+        # abspath, not resolve: a page that is a symbolic link is linked by its own name
+        href = os.path.relpath(os.path.abspath(report), os.path.abspath(target.parent))
         rows.append({"name": data.scenario.name, "href": Path(href).as_posix(),
                      "description": data.scenario.description, "headline": headline(data),
                      "source": data.scenario.source})
