@@ -246,10 +246,9 @@ class TestSolverExceptions:
     def test_a_cvxpy_solver_error_is_an_error_step_with_the_fallback(self, monkeypatch, path):
         import cvxpy as cp
 
+        from trainctl.controllers.mpc import MPCConstraints, make_mpc
         from trainctl.controllers.qp import ParametricQP
         from trainctl.sim import compute_metrics
-
-        from trainctl.controllers.mpc import MPCConstraints, make_mpc
 
         scenario, design = family_setup("mpc")
         ctl = make_mpc(scenario.train, design.family("mpc").mpc, dt=scenario.model.sample_time,
