@@ -366,3 +366,24 @@ class TestSolverExceptions:
         assert bad.info["reason"] == "the solver raised ValueError: injected"
         # at the equilibrium the law's feedforward is the law's own answer
         np.testing.assert_allclose(bad.inputs, good.inputs, rtol=1e-9)
+
+    def test_the_linear_mpc_core_applies_its_plan_when_the_solver_raises(self, monkeypatch):
+        import control as ct
+
+        from trainctl.controllers.mpc import make_linear_mpc
+        from trainctl.controllers.mpc.condensed import QPBlock
+
+        sysd = ct.ss([[1, 1], [0, 1]], [[1], [0.5]], np.eye(2), 0, dt=1)
+        ctl = make_linear_mpc(sysd, Q=np.eye(2), R=1, prediction_horizon=4, control_horizon=3,
+                              u_min=-1, u_max=1).controller()
+        first = ctl.step(0.0, Measurement(state=np.array([4.0, 0.0])), None)
+        planned = ctl._planned[0].copy()
+
+        def broken(self, *args):
+            raise RuntimeError("injected")
+
+        monkeypatch.setattr(QPBlock, "solve", broken)
+        bad = ctl.step(1.0, Measurement(state=np.array([3.0, 0.0])), None)
+        assert first.status == "optimal"
+        assert (bad.status, bad.fallback) == ("error", "shifted plan")
+        np.testing.assert_array_equal(bad.inputs, planned)
