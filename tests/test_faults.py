@@ -261,6 +261,7 @@ def test_no_applied_input_leaves_the_envelope_or_the_rate_limit(name, strategy, 
     # the actuators' envelope at the (constant) measured speeds [kN]
     low, high = (b / 1e3 for b in EnvelopeBounds(train, enabled=True).at(x[:4]))
     prev = applied = None
+    measured = False  # a finite measurement was seen
     times = T * np.arange(d.prediction_horizon + 1)
     for k, (v, a) in enumerate(steps):
         ref = ReferencePreview(times=times, speed=np.maximum(v + a * times, 0.0),
@@ -274,11 +275,12 @@ def test_no_applied_input_leaves_the_envelope_or_the_rate_limit(name, strategy, 
             assert not rec.fallback
         SEEN.add((rec.status, rec.fallback))
         u = rec.inputs / 1e3
-        if rec.fallback:  # the actuators' envelope, the rate window about the applied input
-            within(u, low, high, applied, 2.0)
-        else:  # the QP's own bounds: the envelope at the reference speed, the rate window
-            lb, ub = ctl._bounds(ref.speed[:1])  # about the previous request
-            within(u, lb, ub, prev, 2.0)
+        lb, ub = ctl._bounds(ref.speed[:1])  # the envelope at the reference speed
+        measured = measured or k not in faults
+        if rec.fallback and measured:  # the actuators' envelope at the speed measured, the
+            within(u, low, high, applied, 2.0)  # rate window about the applied input
+        else:  # the QP's own bounds, the rate window about the previous request (or a hold
+            within(u, lb, ub, prev, 2.0)  # before any speed was measured: the reference's)
         prev, applied = u, np.clip(u, low, high)
 
 

@@ -53,9 +53,10 @@ Every fallback is clipped to the envelope at the reference speed, then to
 within the rate limit of the input applied at the previous sample (the
 request cut to the envelope at the speeds measured then), then to the
 actuators' envelope at the measured speeds (the last finite ones for a
-non-finite measurement): where the planning envelope and the rate limit
-conflict the rate limit wins, and only the actuators' own envelope can
-overrule it (:meth:`TrainProblem.safe_plan`).
+non-finite measurement; before any, the envelope at the reference speed):
+where the planning envelope and the rate limit conflict the rate limit
+wins, and only the actuators' own envelope can overrule it
+(:meth:`TrainProblem.safe_plan`).
 :meth:`MPCController.reset` also restarts every QP workspace cold.
 """
 
@@ -383,14 +384,14 @@ class MPCController:
             u = ff.copy()
             if self._u_prev is not None and self._ff_prev is not None:
                 u += self._u_prev - self._ff_prev
+            low, high = (np.full(self.n, -np.inf), np.full(self.n, np.inf))
             if self.constraints.input_bounds:
                 lb, ub = self._bounds(speed)
                 np.clip(u, lb, ub, out=u)
-            # within the rate limit of the applied input; the actuators' envelope at the
-            # last measured speeds (this sample's are not known)
-            low, high = (np.full(self.n, -np.inf), np.full(self.n, np.inf))
-            if self.constraints.input_bounds and self._speeds_prev is not None:
-                low, high = (b / KN for b in self._input_bounds.at(self._speeds_prev))
+                # the actuators' envelope at the last measured speeds (this sample's are not
+                # known), or, before any, the one at the reference speed
+                low, high = ((lb, ub) if self._speeds_prev is None else
+                             (b / KN for b in self._input_bounds.at(self._speeds_prev)))
             u = safe_inputs(u, self._applied(), self.constraints.rate_limit / KN, low, high)
             self._ff_prev = ff
         else:  # no reference to follow: the previous input as it was (or none)
