@@ -16,7 +16,8 @@ from trainctl.controllers.mpc import MPCConstraints, make_linear_mpc, make_mpc
 from trainctl.controllers.qp import ParametricQP
 from trainctl.design import build_design
 from trainctl.exceptions import InaccurateSolutionWarning, ScenarioError
-from trainctl.models import Plant, crh2_half, equilibrium
+from trainctl.models import ActuatorLimits, Plant, crh2_half, equilibrium
+from trainctl.models.envelope import EnvelopeBounds
 from trainctl.run import make_controller, run_scenario, simulate_strategy
 from trainctl.scenario import builtin_scenario_text, parse_scenario
 from trainctl.sim import compute_metrics, ramp_profile, simulate
@@ -174,18 +175,38 @@ class TestInfeasible:
 
     @pytest.mark.parametrize("strategy", ["ndmpc", "centralised"])
     def test_du_form_fallbacks_stay_in_the_envelope(self, ramp, strategy):
-        """The shifted Δu plan was applied unclipped (15 kN on 0 kN trailers); no more."""
+        """The shifted Δu plan was applied unclipped (15 kN on 0 kN trailers); no more. The
+        request lies in each vehicle's envelope at its own speed (what its actuators give)."""
         scenario = replace(ramp, simulation=replace(
             ramp.simulation, reference_speeds=(20.0, 68.0, 68.0)))
         with pytest.warns(InaccurateSolutionWarning, match="infeasible"):
             result = simulate_strategy(scenario, strategy)
         train = scenario.train
+        assert "shifted plan" in result.fallbacks
         for k in range(result.n_samples):
-            v = result.reference_speed[k]
             for i, veh in enumerate(train.vehicles):
+                v = result.velocities[i, k]
                 up = float(veh.envelope.traction_limit(v, mass=veh.mass))
                 down = float(veh.envelope.braking_limit(v, mass=veh.mass))
                 assert -down - 1e-3 <= result.requested_inputs[i, k] <= up + 1e-3, (k, i)
+
+    @pytest.mark.parametrize("strategy", ["centralised", "decentralised", "ndmpc", "cooperative"])
+    def test_fallbacks_move_no_faster_than_the_rate_limit(self, ramp, strategy):
+        """The reference runs ahead of the train: the envelope at the reference speed falls
+        faster than 1 kN a sample and the QPs are infeasible. The fallback moved 5.43 kN in
+        one sample (to the envelope at the reference speed); now every applied input is within
+        1 kN of the one before wherever the vehicle's own envelope allows, and otherwise on
+        that envelope (the train at full power, its force falling with its speed)."""
+        scenario = replace(ramp, simulation=replace(
+            ramp.simulation, reference_speeds=(20.0, 68.0, 68.0)))
+        with pytest.warns(InaccurateSolutionWarning, match="infeasible"):
+            result = simulate_strategy(scenario, strategy)
+        assert result.statuses.count("infeasible") >= 3
+        limits = ActuatorLimits(scenario.train)
+        for k in range(1, result.n_samples):
+            lb, ub = limits.limits(result.velocities[:, k])
+            within(result.inputs[:, k] / 1e3, lb / 1e3, ub / 1e3, result.inputs[:, k - 1] / 1e3,
+                   1.0)
 
 
 _CONTROLLERS: dict[tuple[str, str], object] = {}
@@ -230,13 +251,17 @@ SEEN: set[tuple[str, str]] = set()
 def test_no_applied_input_leaves_the_envelope_or_the_rate_limit(name, strategy, steps, faults,
                                                                 dv):
     """Reference jumps in speed and acceleration (rate limit against a falling envelope:
-    infeasible) and NaN measurements: every input lies in the envelope at the reference speed
-    and, where the envelope allows, within 2 kN of the previous one."""
+    infeasible) and NaN measurements: every solved input lies in the envelope at the reference
+    speed and within 2 kN of the previous one; every fallback in the actuators' envelope at
+    the measured speed and, where that envelope allows, within 2 kN of the input applied."""
     ctl = bounded(name, strategy)
     d, train, T = ctl.design, ctl.train, ctl.dt
     x = equilibrium(train, steps[0][0]).state(position=0.0)
     x[:4] += dv
-    prev = None
+    # the actuators' envelope at the (constant) measured speeds [kN]
+    low, high = (b / 1e3 for b in EnvelopeBounds(train, enabled=True).at(x[:4]))
+    prev = applied = None
+    measured = False  # a finite measurement was seen
     times = T * np.arange(d.prediction_horizon + 1)
     for k, (v, a) in enumerate(steps):
         ref = ReferencePreview(times=times, speed=np.maximum(v + a * times, 0.0),
@@ -249,9 +274,14 @@ def test_no_applied_input_leaves_the_envelope_or_the_rate_limit(name, strategy, 
         if rec.status == "optimal":
             assert not rec.fallback
         SEEN.add((rec.status, rec.fallback))
-        lb, ub = ctl._bounds(ref.speed[:1])
-        within(rec.inputs / 1e3, lb, ub, prev, 2.0)
-        prev = rec.inputs / 1e3
+        u = rec.inputs / 1e3
+        lb, ub = ctl._bounds(ref.speed[:1])  # the envelope at the reference speed
+        measured = measured or k not in faults
+        if rec.fallback and measured:  # the actuators' envelope at the speed measured, the
+            within(u, low, high, applied, 2.0)  # rate window about the applied input
+        else:  # the QP's own bounds, the rate window about the previous request (or a hold
+            within(u, lb, ub, prev, 2.0)  # before any speed was measured: the reference's)
+        prev, applied = u, np.clip(u, low, high)
 
 
 def test_the_property_test_met_infeasible_steps():

@@ -38,7 +38,8 @@ STATUSES = ("optimal", "optimal_inaccurate", "max_iterations", "infeasible", "er
 A step that applied a fallback input keeps the solver's outcome as its status
 (``"infeasible"``, ``"max_iterations"``, ``"error"``) and names the fallback in
 :attr:`StepRecord.fallback`; a step whose measurement or inputs were not
-finite is ``"error"`` with the reason in :attr:`StepRecord.info`."""
+finite, or whose solver raised, is ``"error"`` with the reason in
+:attr:`StepRecord.info` (one rule for every family: :mod:`trainctl.controllers.faults`)."""
 
 
 @dataclass(frozen=True, kw_only=True)

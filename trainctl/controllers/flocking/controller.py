@@ -9,6 +9,12 @@ first step after :meth:`~FlockingController.reset` and follows the
 reference speed (trapezoid between steps; exact on each linear piece of the
 reference). Train i's slot is x̄_0 minus the nominal centre distances
 ahead of it, so x̂_i = x̂_0 − Σ_{k<i} z_k.
+
+Faults (:mod:`trainctl.controllers.faults`): a state that is not finite, two
+trains that overlap, a law that raises or a force that is not finite gives
+the status ``"error"`` with the reason in ``info["reason"]`` and the cruise
+feedforward (fallback ``"feedforward"``), clipped to the envelope at the
+measured speeds (at the reference speed when they are not finite).
 """
 
 from __future__ import annotations
@@ -23,6 +29,7 @@ from ...models.envelope import EnvelopeBounds
 from ...models.feedforward import ForceSplit
 from ...models.train import Train
 from ..base import Measurement, ReferencePreview, StepRecord
+from ..faults import call_solver, fault_record, non_finite_reason
 from ..reference import ReferencePosition, position_errors
 from .law import FlockingLaw
 
@@ -105,9 +112,10 @@ class FlockingController:
             The forces [N] per train to hold over [t, t + dt), clipped to the
             envelope at the measured speeds, status ``"optimal"``, with
             ``info["saturated"]`` and ``info["min_gap"]`` (the smallest gap
-            [m]); or, when two trains overlap (a gap < 0) or the state is not
-            finite, the cruise feedforward [N] with status ``"error"`` and
-            fallback ``"feedforward"``.
+            [m]); or, on a fault (module docstring: a non-finite state, two
+            trains overlapping, a law that raised or gave a non-finite
+            force), the cruise feedforward [N] within the envelope, status
+            ``"error"``, fallback ``"feedforward"`` and ``info["reason"]``.
 
         Raises
         ------
@@ -121,17 +129,28 @@ class FlockingController:
         speed, accel = float(reference.speed[0]), float(reference.acceleration[0])
         ff = self._split([max(speed, 0.1)], [accel])
         x = np.asarray(measurement.state, dtype=float)
+        reason = non_finite_reason("state", x)
+        if reason:
+            return self._fallback(ff.inputs[0], np.full(n, speed), reason, start)
         z = x[n:2 * n - 1]
         head = x[2 * n - 1] - self._reference(t, speed, float(x[2 * n - 1]))
         x_err = position_errors(head, z)
         gaps = self.law.gaps(z)
-        if not np.all(np.isfinite(x)) or np.any(gaps < 0.0):
-            return StepRecord(inputs=np.asarray(ff.inputs[0], dtype=float), status="error",
-                              solve_time=time.perf_counter() - start, fallback="feedforward",
-                              info={"reason": "two trains overlap or the state is not finite "
-                                    f"(smallest gap {float(np.min(gaps)):.4g} m)"})
-        inputs = ff.inputs[0] + self.law.force(x[:n] - speed, z, x_err)
+        if np.any(gaps < 0.0):
+            return self._fallback(ff.inputs[0], x[:n], "two trains overlap (smallest gap "
+                                  f"{float(np.min(gaps)):.4g} m)", start)
+        force, reason = call_solver(self.law.force, x[:n] - speed, z, x_err)
+        if force is None or not np.all(np.isfinite(force)):
+            return self._fallback(ff.inputs[0], x[:n], reason or "the law's force is not finite",
+                                  start)
+        inputs = ff.inputs[0] + force
         inputs, saturated = self._envelope.clip(inputs, x[:n])
         return StepRecord(inputs=inputs, status="optimal", iterations=0,
                           solve_time=time.perf_counter() - start,
                           info={"saturated": saturated, "min_gap": float(np.min(gaps))})
+
+    def _fallback(self, feedforward: Array, speeds: Array, reason: str,
+                  start: float) -> StepRecord:
+        """The faulty step's record: the feedforward [N] within the envelope at ``speeds``."""
+        inputs, _ = self._envelope.clip(np.asarray(feedforward, dtype=float), speeds)
+        return fault_record(inputs, reason=reason, fallback="feedforward", start=start)

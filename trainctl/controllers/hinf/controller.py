@@ -25,6 +25,14 @@ given), the messages and, for the line feedforward, each vehicle's
 position (``Measurement.positions``); no coupler elongation.
 Without messages (None: no ``[network]``) it uses the measured speeds and
 the reference now, an ideal network.
+
+Faults (:mod:`trainctl.controllers.faults`): a measured speed that is not
+finite, a law that raises or forces that are not finite give the status
+``"error"`` with the reason in ``info["reason"]`` and the law's feedforward
+of the reference, each vehicle's mass times the reference acceleration plus
+its resistance at the reference speed (fallback ``"feedforward"``), clipped
+to the envelope at the measured speeds (at the reference speed when they are
+not finite).
 """
 
 from __future__ import annotations
@@ -43,6 +51,7 @@ from ...models.envelope import EnvelopeBounds
 from ...models.train import Train
 from ...network import ARRIVAL_TOLERANCE, REFERENCE
 from ..base import Measurement, ReferencePreview, StepRecord, measured_speeds
+from ..faults import call_solver, fault_record, non_finite_reason
 from .law import HinfLaw
 
 __all__ = ["HinfController"]
@@ -131,8 +140,9 @@ class HinfController:
             the envelope at the measured speeds, status ``"optimal"``, with
             ``info`` holding ``saturated``, ``missing_terms`` (pinning and
             consensus terms left out for want of data) and
-            ``oldest_data_age`` [s]; or, when a measured speed is not finite,
-            NaN forces with status ``"error"`` (no fallback).
+            ``oldest_data_age`` [s]; or, on a fault (module docstring), the
+            feedforward [N] within the envelope, status ``"error"``, fallback
+            ``"feedforward"`` and ``info["reason"]``.
 
         Raises
         ------
@@ -144,10 +154,10 @@ class HinfController:
         start = time.perf_counter()
         speeds = self._speeds_of(measurement)
         n = self.law.n
-        if not np.all(np.isfinite(speeds)):
-            return StepRecord(inputs=np.full(n, np.nan), status="error",
-                              solve_time=time.perf_counter() - start,
-                              info={"reason": "a measured speed is not finite"})
+        v_ref, a_ref = float(reference.speed[0]), float(reference.acceleration[0])
+        reason = non_finite_reason("outputs", speeds)
+        if reason:
+            return self._fallback(v_ref, a_ref, np.full(n, v_ref), reason, start)
         self._record(float(t), speeds)
         messages = measurement.messages
         if messages is None:
@@ -156,7 +166,10 @@ class HinfController:
             oldest = 0.0
         else:
             e0, e, oldest = self._errors(float(t), speeds, messages)
-        commands = self.law.commands(float(reference.acceleration[0]), e0, e)
+        commands, reason = call_solver(self.law.commands, a_ref, e0, e)
+        if commands is None or not np.all(np.isfinite(commands)):
+            return self._fallback(v_ref, a_ref, speeds, reason or "the commands are not finite",
+                                  start)
         inputs = self.law.forces(commands, speeds, measurement.positions)
         inputs, saturated = self._envelope.clip(inputs, speeds)
         missing = (int(np.count_nonzero((self.law.pinning > 0) & np.isnan(e0)))
@@ -165,6 +178,14 @@ class HinfController:
                           solve_time=time.perf_counter() - start,
                           info={"saturated": saturated, "missing_terms": missing,
                                 "oldest_data_age": oldest})
+
+    def _fallback(self, v_ref: float, a_ref: float, speeds: Array, reason: str,
+                  start: float) -> StepRecord:
+        """The faulty step's record: m a_ref + R(v_ref) [N] within the envelope at ``speeds``."""
+        n = self.law.n
+        feedforward = self.law.forces(np.full(n, a_ref), np.full(n, max(v_ref, 0.0)))
+        inputs, _ = self._envelope.clip(np.asarray(feedforward, dtype=float), speeds)
+        return fault_record(inputs, reason=reason, fallback="feedforward", start=start)
 
     def _errors(self, t: float, speeds: Array,
                 messages: Mapping[Any, Any]) -> tuple[Array, Array, float]:

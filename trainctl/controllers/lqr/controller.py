@@ -8,6 +8,12 @@ groups, as :func:`trainctl.models.equilibrium` and the MPC use); the
 gain K acts in design units (inputs in kN). With ``input_bounds`` each
 vehicle's force is clipped to its traction/braking envelope at its measured
 speed, so the controller never asks for more than the vehicle has.
+
+Faults (:mod:`trainctl.controllers.faults`): a state that is not finite, or
+a feedback evaluation that raises or is not finite, gives the status
+``"error"`` with the reason in ``info["reason"]`` and the feedforward of the
+reference (fallback ``"feedforward"``), clipped to the envelope at the
+measured speeds (at the reference speed when they are not finite).
 """
 
 from __future__ import annotations
@@ -22,8 +28,12 @@ from ...models.envelope import EnvelopeBounds
 from ...models.feedforward import ForceSplit
 from ...models.train import Train
 from ..base import Measurement, ReferencePreview, StepRecord
+from ..faults import call_solver, fault_record, non_finite_reason
 
-__all__ = ["LQRController"]
+__all__ = ["FEEDFORWARD", "LQRController"]
+
+FEEDFORWARD = "feedforward"
+"""Fallback of a faulty step: the feedforward of the reference, within the envelope."""
 
 Array = NDArray[np.float64]
 KN = 1e3
@@ -98,7 +108,9 @@ class LQRController:
         -------
         StepRecord
             Force per vehicle [N], status ``"optimal"``, and in ``info``
-            ``"saturated"``, how many forces the envelope cut.
+            ``"saturated"``, how many forces the envelope cut; on a fault
+            (module docstring) status ``"error"``, fallback ``"feedforward"``
+            and ``info["reason"]``.
 
         Raises
         ------
@@ -112,10 +124,27 @@ class LQRController:
         speed = float(reference.speed[0])
         ff = self._split([max(speed, 0.1)], [float(reference.acceleration[0])])
         x = np.asarray(measurement.state, dtype=float)
+        reason = non_finite_reason("state", x)
+        if reason:
+            return self._fallback(ff.inputs[0], np.full(n, speed), reason, start)
         deviation = np.concatenate([x[:n] - speed, x[n:2 * n - 1] - ff.elongations[0]])
-        inputs = ff.inputs[0] - KN * (self.gain @ deviation)
+        feedback, reason = call_solver(self._feedback, deviation)
+        if feedback is None or not np.all(np.isfinite(feedback)):
+            return self._fallback(ff.inputs[0], x[:n], reason or "the feedback is not finite",
+                                  start)
+        inputs = ff.inputs[0] - feedback
         inputs, saturated = self._envelope.clip(inputs, x[:n])
         return StepRecord(inputs=inputs, status="optimal", iterations=0,
                           solve_time=time.perf_counter() - start,
                           info={"saturated": saturated})
+
+    def _feedback(self, deviation: NDArray[np.float64]) -> NDArray[np.float64]:
+        """K x̃ [N]: the law's correction (the step's solver boundary)."""
+        return KN * (self.gain @ deviation)
+
+    def _fallback(self, feedforward: NDArray[np.float64], speeds: NDArray[np.float64],
+                  reason: str, start: float) -> StepRecord:
+        """The faulty step's record: the feedforward [N] within the envelope at ``speeds``."""
+        inputs, _ = self._envelope.clip(np.asarray(feedforward, dtype=float), speeds)
+        return fault_record(inputs, reason=reason, fallback=FEEDFORWARD, start=start)
 

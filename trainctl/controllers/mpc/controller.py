@@ -38,23 +38,32 @@ absolute coupler force including its static part (soft, with slack
 penalties). A local problem carries the bounds of its own inputs and the
 force rows of the couplers next to its coach (centralised: all).
 
-Faults: a solve that returns no usable solution keeps its outcome as the
-step status (``"infeasible"``, ``"max_iterations"``, ``"error"``) and is
-replaced by the shifted previous plan, or the feedforward when there is
-none, clipped to the rate limit and the envelope (fallback ``"shifted
+Faults (:mod:`trainctl.controllers.faults`): a solve that returns no usable
+solution keeps its outcome as the step status (``"infeasible"``,
+``"max_iterations"``, ``"error"``), and a solve that raises is ``"error"``
+with the exception in ``info["reason"]``; either is replaced by the shifted
+previous plan, or the feedforward when there is none (fallback ``"shifted
 plan"``). A measurement (or reference) that is not finite never reaches a
 solver or the observer: the step is ``"error"`` with the reason in
 ``info["reason"]`` and applies the feedforward of the reference plus the
-last correction u(k-1) - u_ff(k-1), clipped to the rate limit and then to the
-envelope at the reference speed (fallback ``"hold correction"``; the
+last correction u(k-1) - u_ff(k-1) (fallback ``"hold correction"``; the
 observer predicts without a correction); the next finite measurement is
 handled as usual. Without a finite reference the previous input is held.
+Every fallback is clipped to the envelope at the reference speed, then to
+within the rate limit of the input applied at the previous sample (the
+request cut to the envelope at the speeds measured then), then to the
+actuators' envelope at the measured speeds (the last finite ones for a
+non-finite measurement; before any, the envelope at the reference speed):
+where the planning envelope and the rate limit conflict the rate limit
+wins, and only the actuators' own envelope can overrule it
+(:meth:`TrainProblem.safe_plan`).
 :meth:`MPCController.reset` also restarts every QP workspace cold.
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -66,6 +75,7 @@ from ...models.envelope import EnvelopeBounds
 from ...models.feedforward import ForceSplit
 from ...models.train import Train
 from ..base import Measurement, ReferencePreview, StepRecord
+from ..faults import safe_inputs
 from ..observer import KalmanObserver, ObserverSettings
 from .condensed import QPBlock, shifted
 from .local import LocalTrainProblem
@@ -252,6 +262,7 @@ class MPCController:
         self._plan: Array | None = None         # decision vector of the last step
         self._u_prev: Array | None = None       # last applied absolute input [kN]
         self._ff_prev: Array | None = None      # feedforward at the last step [kN]
+        self._speeds_prev: Array | None = None  # speeds measured at the last finite step [m/s]
         self._disturbance = 0.0                 # estimated specific force [m/s²]
         if self.observer is not None:
             self.observer.reset()
@@ -302,17 +313,29 @@ class MPCController:
         pinned = self._fixed_cols
         if pinned.size:  # u-form: the moves of a pinned coach are its (equal) bounds
             plan0[pinned] = ctx.bounds[0, pinned]
+        speeds = np.array(state[:self.n], dtype=float)
+        safe: list[StepContext] = []  # the fallbacks' context, built on the first failure
+
+        def fault_context() -> StepContext:
+            if not safe:
+                safe.append(self._fault_context(ctx, speeds))
+            return safe[0]
+
         result = self._strategy.plan(problem, problem.parameters(ctx), plan0,
-                                     lambda block: problem.fallback(block, ctx, plan0))
+                                     lambda block: problem.fallback(block, fault_context(),
+                                                                    plan0))
         U = result.plan
         if pinned.size:
             U[pinned] = ctx.bounds[0, pinned]
         if result.fallback:  # the combined plan too: within the rate limit and the envelope
-            U = problem.safe_plan(ctx, U)
+            U = problem.safe_plan(fault_context(), U)
         moves = problem.maps.first @ U + ctx.u_dev_prev_tiled[: self.n]
         u_abs = ctx.u_ff[0] + moves
         self._plan, self._u_prev, self._ff_prev = U, u_abs, ctx.u_ff[0]
+        self._speeds_prev = speeds
         info: dict[str, object] = {}
+        if result.reason:
+            info["reason"] = result.reason
         if self.observer is not None:
             self.observer.predict(u_abs * KN)
             info["disturbance"] = self._disturbance
@@ -336,6 +359,22 @@ class MPCController:
                 return f"non-finite reference {name} in the preview"
         return ""
 
+    def _applied(self) -> Array | None:
+        """The input the actuators applied at the previous sample, as far as the controller
+        knows: its request cut to the envelope at the speeds it measured then [kN]."""
+        if self._u_prev is None or self._speeds_prev is None:
+            return self._u_prev
+        low, high = self._input_bounds.at(self._speeds_prev)
+        return np.clip(self._u_prev, low / KN, high / KN)
+
+    def _fault_context(self, ctx: StepContext, speeds: Array) -> StepContext:
+        """``ctx`` with what a fallback needs: the applied input and the actuators' envelope
+        at the measured ``speeds`` [m/s] (:meth:`TrainProblem.safe_plan`)."""
+        actuator = None
+        if self.constraints.input_bounds:
+            actuator = np.vstack(self._input_bounds.at(speeds)) / KN
+        return replace(ctx, applied=self._applied(), actuator=actuator)
+
     def _hold(self, reference: ReferencePreview, reason: str, start: float) -> StepRecord:
         """The step of a fault: the feedforward plus the last correction, made safe (error)."""
         speed = np.asarray(reference.speed[:1], dtype=float)
@@ -345,11 +384,15 @@ class MPCController:
             u = ff.copy()
             if self._u_prev is not None and self._ff_prev is not None:
                 u += self._u_prev - self._ff_prev
-                rate = self.constraints.rate_limit / KN
-                np.clip(u, self._u_prev - rate, self._u_prev + rate, out=u)
+            low, high = (np.full(self.n, -np.inf), np.full(self.n, np.inf))
             if self.constraints.input_bounds:
                 lb, ub = self._bounds(speed)
                 np.clip(u, lb, ub, out=u)
+                # the actuators' envelope at the last measured speeds (this sample's are not
+                # known), or, before any, the one at the reference speed
+                low, high = ((lb, ub) if self._speeds_prev is None else
+                             (b / KN for b in self._input_bounds.at(self._speeds_prev)))
+            u = safe_inputs(u, self._applied(), self.constraints.rate_limit / KN, low, high)
             self._ff_prev = ff
         else:  # no reference to follow: the previous input as it was (or none)
             u = np.zeros(self.n) if self._u_prev is None else self._u_prev.copy()

@@ -43,6 +43,7 @@ from ..status import is_usable
 from . import validate as check
 from .condensed import block_parameters, build_block, move_maps
 from .rows import constraint_rows
+from .strategies import solve_block
 
 __all__ = ["LinearMPC", "LinearMPCController", "MPCSolution", "make_linear_mpc"]
 
@@ -256,7 +257,7 @@ class LinearMPC:
         ref = self._reference(where, reference)
         src = self._sources(x0, u0, ref)
         prep = block_parameters([self.block], src, self.block.offset is not None)[0]
-        sol = self.block.solve(prep, None, self.path)
+        sol, _ = solve_block(self.block, prep, None, self.path)  # raised: status "error"
         return self._solution(x0, u0, ref, sol.z, sol.slack, sol.status, sol.iterations,
                               sol.solve_time)
 

@@ -52,7 +52,15 @@ from .condensed import (
 )
 from .problem import KN, StepContext, TrainProblem, fill_move_sources
 from .settings import MPCConstraints
-from .strategies import FALLBACK, FallbackPlan, PlanResult, Strategy, _PerCoach, worst_status
+from .strategies import (
+    FALLBACK,
+    FallbackPlan,
+    PlanResult,
+    Strategy,
+    _PerCoach,
+    solve_block,
+    worst_status,
+)
 
 __all__ = ["LocalNDMPC", "LocalTrainProblem"]
 
@@ -332,7 +340,7 @@ class LocalTrainProblem(TrainProblem):
         """
         U, X = plan0.copy(), self.initial_trajectories()
         residuals: list[float] = []
-        statuses, applied = [], ""
+        statuses, applied, reason = [], "", ""
         converged = False
         w = relaxation
         for _ in range(max_iterations):
@@ -343,7 +351,8 @@ class LocalTrainProblem(TrainProblem):
                 if c.pred.coach in self.fixed:  # pinned moves (set in plan0 by the controller)
                     newX[c.own_idx] = self._free_z[k] + c.Gz_xi @ xi + c.Gz_own @ U[cols]
                     continue
-                sol = c.block.solve(prep, xi, self.path)
+                sol, why = solve_block(c.block, prep, xi, self.path)
+                reason = reason or why
                 z, status = sol.z, sol.status
                 if not is_usable(status):
                     z, applied = fallback(c.block), FALLBACK
@@ -360,7 +369,7 @@ class LocalTrainProblem(TrainProblem):
         status = worst_status(statuses, applied)
         if not converged and status == "optimal":
             status = "max_iterations"
-        return PlanResult(U, status, len(residuals), residuals, applied)
+        return PlanResult(U, status, len(residuals), residuals, applied, reason)
 
 
 @dataclass(frozen=True)

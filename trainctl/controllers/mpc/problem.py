@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...analysis.mpc import MPCDesign, Prediction, prediction
+from ..faults import safe_inputs
 from ..qp import ParametricQP
 from .condensed import (
     BlockParameters,
@@ -69,6 +70,15 @@ class StepContext:
         ũ(k-1) repeated for every move, (M·n,) [kN].
     bounds : ndarray
         Lower and upper bounds of the input moves ũ, (2, M·n) [kN].
+    applied : ndarray or None
+        For a fallback (:meth:`TrainProblem.safe_plan`): the input the
+        actuators applied at the previous sample, as far as the controller
+        knows it (its request cut to the envelope at the speeds it measured
+        then) [kN]; None: ``u_prev``.
+    actuator : ndarray or None
+        For a fallback: each vehicle's envelope at its measured speed now,
+        [lower; upper], (2, n) [kN] (what the actuators can apply; ``bounds``
+        are at the reference speeds); None: ``bounds`` only.
 
     Examples
     --------
@@ -90,6 +100,8 @@ class StepContext:
     u_dev_prev: Array
     u_dev_prev_tiled: Array
     bounds: Array
+    applied: Array | None = None
+    actuator: Array | None = None
 
     @property
     def lb(self) -> Array:
@@ -350,15 +362,22 @@ class TrainProblem:
         return self.safe_plan(ctx, plan0)[block.cols]
 
     def safe_plan(self, ctx: StepContext, plan: Array) -> Array:
-        """``plan`` with its moves clipped to the rate limit, then to the envelope.
+        """``plan`` with its moves clipped to the envelope, then to the rate limit.
 
-        Move by move, each coach's absolute force u_ff + ũ is clipped to
-        within ``rate_limit`` of the force before it (the applied u(k-1) for
-        the first move), then to its envelope at the previewed speed (the
-        bounds of ``ctx``). Where the two conflict — the envelope moved
-        further than the rate limit allows — the envelope wins: the force
-        stays within what the vehicle can apply. Works in the u- and the
-        Δu-form (the plan is converted to moves and back).
+        Move by move, each coach's absolute force u_ff + ũ is clipped to its
+        envelope at the previewed speed (the bounds of ``ctx``), then to
+        within ``rate_limit`` of the force before it. Before the first move
+        that is the input applied at the previous sample (``ctx.applied``,
+        else ``ctx.u_prev``), and the first move, the one applied now, is
+        then clipped to the actuators' envelope at the measured speeds
+        (``ctx.actuator``, when given). The envelope at the reference speed
+        is a planning bound: where it and the rate window do not meet (the
+        reference ran ahead of the train) the rate limit wins; where the
+        actuators' own envelope and the window do not meet (the train's
+        speed moved the envelope further than the rate limit allows) the
+        actuators' envelope wins (:func:`~trainctl.controllers.faults.safe_inputs`):
+        the force is always one the vehicle can apply. Works in the u- and
+        the Δu-form (the plan is converted to moves and back).
 
         Parameters
         ----------
@@ -379,14 +398,16 @@ class TrainProblem:
         n, maps = self.n, self.maps
         ff = ctx.u_ff.ravel()
         force = maps.L @ plan + ctx.u_dev_prev_tiled + ff   # absolute forces [kN], move by move
-        before = ctx.u_prev
+        before = ctx.u_prev if ctx.applied is None else ctx.applied
         for m in range(self.M):
             now = force[m * n:(m + 1) * n]
-            if math.isfinite(rate):
-                np.clip(now, before - rate, before + rate, out=now)
             if bounds:
                 np.clip(now, ctx.lb[m * n:(m + 1) * n] + ff[m * n:(m + 1) * n],
                         ctx.ub[m * n:(m + 1) * n] + ff[m * n:(m + 1) * n], out=now)
+            if m == 0 and ctx.actuator is not None:
+                now[:] = safe_inputs(now, before, rate, ctx.actuator[0], ctx.actuator[1])
+            elif math.isfinite(rate):
+                np.clip(now, before - rate, before + rate, out=now)
             before = now
         moves = force - ff
         if not self._du:

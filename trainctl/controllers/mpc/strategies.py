@@ -26,7 +26,10 @@ A block whose solve gives no usable solution takes the fallback plan it is
 given (the shifted previous plan, clipped to the rate limit and the
 envelope); the step keeps the solver's own outcome as its status
 (``"infeasible"``, ``"max_iterations"``, ``"error"``) and names the fallback
-(``"shifted plan"``).
+(``"shifted plan"``). A solve that raises is such a solve: :func:`solve_block`
+calls every block's QP through :func:`~trainctl.controllers.faults.call_solver`,
+so the exception becomes the status ``"error"`` and its message the plan's
+``reason``.
 """
 
 from __future__ import annotations
@@ -39,11 +42,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...analysis.mpc import MPCDesign
+from ..fastqp import QPSolution
+from ..faults import call_solver
 from ..status import is_usable
 from .condensed import BlockParameters, QPBlock
 
 __all__ = ["Centralised", "Cooperative", "Decentralised", "NDMPC", "PlanResult", "Strategy",
-           "make_strategy"]
+           "make_strategy", "solve_block"]
 
 Array = NDArray[np.float64]
 FallbackPlan = Callable[[QPBlock], Array]
@@ -70,6 +75,8 @@ class PlanResult:
         Largest change of the plan per iteration [kN].
     fallback : str
         The fallback applied ("" when none).
+    reason : str
+        Why a solve failed when it raised (the first such solve's exception), else "".
 
     Examples
     --------
@@ -83,6 +90,7 @@ class PlanResult:
     iterations: int
     residuals: list[float]
     fallback: str
+    reason: str = ""
 
 
 class Blocks(Protocol):
@@ -548,15 +556,16 @@ def solve_once(problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
     """Solve every block once with the other blocks' plans at zero (u form: their
     feedforward; Δu form: their previous input held)."""
     U = np.zeros(plan0.shape)
-    statuses, applied = [], ""
+    statuses, applied, reason = [], "", ""
     for block, prep in zip(problem.blocks, params, strict=True):
-        sol = block.solve(prep, None, problem.path)
+        sol, why = solve_block(block, prep, None, problem.path)
+        reason = reason or why
         z, status = sol.z, sol.status
         if not is_usable(status):
             z, applied = fallback(block), FALLBACK
         U[block.cols] = z
         statuses.append(status)
-    return PlanResult(U, worst_status(statuses, applied), 1, [], applied)
+    return PlanResult(U, worst_status(statuses, applied), 1, [], applied, reason)
 
 
 def jacobi(problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
@@ -568,13 +577,14 @@ def jacobi(problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
     """
     U = plan0.copy()
     residuals: list[float] = []
-    statuses, applied = [], ""
+    statuses, applied, reason = [], "", ""
     converged = False
     cols = problem.residual_cols
     for _ in range(max_iterations):
         new = U.copy()
         for block, prep, w in zip(problem.blocks, params, weights, strict=True):
-            sol = block.solve(prep, U, problem.path)
+            sol, why = solve_block(block, prep, U, problem.path)
+            reason = reason or why
             z, status = sol.z, sol.status
             if not is_usable(status):
                 z, applied = fallback(block), FALLBACK
@@ -594,7 +604,49 @@ def jacobi(problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
     status = worst_status(statuses, applied)
     if not converged and status == "optimal":
         status = "max_iterations"
-    return PlanResult(U, status, len(residuals), residuals, applied)
+    return PlanResult(U, status, len(residuals), residuals, applied, reason)
+
+
+def solve_block(block: QPBlock, prep: BlockParameters, U: Array | None,
+                path: str) -> tuple[QPSolution, str]:
+    """One block's solve at the solver boundary: an exception becomes the status ``"error"``.
+
+    Every strategy solves its blocks through this function
+    (:func:`~trainctl.controllers.faults.call_solver` around
+    :meth:`QPBlock.solve`), so a solver that raises fails the step like an
+    infeasible QP: the strategy applies its fallback and the run goes on.
+
+    Parameters
+    ----------
+    block : QPBlock
+        The block.
+    prep : BlockParameters
+        Its parameters of this step.
+    U : ndarray or None
+        The whole plan the block's data depend on (None: zero).
+    path : {"fast", "cvxpy"}
+        Solve path.
+
+    Returns
+    -------
+    (QPSolution, str)
+        The solution and ""; or, when the solve raised, a solution of NaN
+        with status ``"error"`` and the reason.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> def broken(prep, U, path):
+    ...     raise RuntimeError("workspace lost")
+    >>> sol, reason = solve_block(SimpleNamespace(solve=broken, cols=np.arange(2)), None,
+    ...                           None, "fast")
+    >>> sol.status, sol.z.tolist(), reason
+    ('error', [nan, nan], 'the solver raised RuntimeError: workspace lost')
+    """
+    sol, reason = call_solver(block.solve, prep, U, path)
+    if sol is None:
+        return QPSolution(np.full(block.cols.size, np.nan), np.zeros(0), "error", 0, 0.0), reason
+    return sol, ""
 
 
 def worst_status(statuses: list[str], fallback: str) -> str:

@@ -9,6 +9,13 @@ The reference position x̄_0(t) starts at the head's measured position at the
 first step after :meth:`~PotentialController.reset` and follows the reference
 speed (:class:`~trainctl.controllers.reference.ReferencePosition`, with its
 accuracy at the reference's breakpoints).
+
+Faults (:mod:`trainctl.controllers.faults`): a state that is not finite, a
+law that raises, or a force that is not finite (a spacing deviation left the
+potential's domain) gives the status ``"error"`` with the reason in
+``info["reason"]`` and the cruise feedforward (fallback ``"feedforward"``),
+clipped to the envelope at the measured speeds (at the reference speed when
+they are not finite).
 """
 
 from __future__ import annotations
@@ -23,6 +30,7 @@ from ...models.envelope import EnvelopeBounds
 from ...models.feedforward import ForceSplit
 from ...models.train import Train
 from ..base import Measurement, ReferencePreview, StepRecord
+from ..faults import call_solver, fault_record, non_finite_reason
 from ..reference import ReferencePosition, position_errors
 from .law import PotentialLaw
 
@@ -103,9 +111,11 @@ class PotentialController:
         StepRecord
             The forces [N] per car to hold over [t, t + dt), clipped to the
             envelope at the measured speeds (``info["saturated"]``), status
-            ``"optimal"``; or, when a spacing deviation left the potential's
-            domain (a non-finite force), the cruise feedforward [N] with status
-            ``"error"`` and fallback ``"feedforward"``.
+            ``"optimal"``; or, on a fault (module docstring: a non-finite
+            state, a law that raised, a spacing deviation that left the
+            potential's domain), the cruise feedforward [N] within the
+            envelope, status ``"error"``, fallback ``"feedforward"`` and
+            ``info["reason"]``.
 
         Raises
         ------
@@ -119,17 +129,25 @@ class PotentialController:
         speed, accel = float(reference.speed[0]), float(reference.acceleration[0])
         ff = self._split([max(speed, 0.1)], [accel])
         x = np.asarray(measurement.state, dtype=float)
+        reason = non_finite_reason("state", x)
+        if reason:
+            return self._fallback(ff.inputs[0], np.full(n, speed), reason, start)
         z = x[n:2 * n - 1] - ff.elongations[0]
         head = x[2 * n - 1] - self._reference(t, speed, float(x[2 * n - 1]))
         x_err = position_errors(head, z)
-        inputs = ff.inputs[0] + self.law.force(x[:n] - speed, z, x_err)
-        if not np.all(np.isfinite(inputs)):
-            return StepRecord(inputs=np.asarray(ff.inputs[0], dtype=float), status="error",
-                              solve_time=time.perf_counter() - start,
-                              fallback="feedforward",
-                              info={"reason": "a spacing deviation left the potential's "
-                                    f"domain (max |z| = {float(np.max(np.abs(z))):.4g} m)"})
+        force, reason = call_solver(self.law.force, x[:n] - speed, z, x_err)
+        if force is None or not np.all(np.isfinite(force)):
+            reason = reason or ("a spacing deviation left the potential's domain "
+                                f"(max |z| = {float(np.max(np.abs(z))):.4g} m)")
+            return self._fallback(ff.inputs[0], x[:n], reason, start)
+        inputs = ff.inputs[0] + force
         inputs, saturated = self._envelope.clip(inputs, x[:n])
         return StepRecord(inputs=inputs, status="optimal", iterations=0,
                           solve_time=time.perf_counter() - start,
                           info={"saturated": saturated})
+
+    def _fallback(self, feedforward: Array, speeds: Array, reason: str,
+                  start: float) -> StepRecord:
+        """The faulty step's record: the feedforward [N] within the envelope at ``speeds``."""
+        inputs, _ = self._envelope.clip(np.asarray(feedforward, dtype=float), speeds)
+        return fault_record(inputs, reason=reason, fallback="feedforward", start=start)

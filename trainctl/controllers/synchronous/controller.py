@@ -12,6 +12,14 @@ applies its resistance only. The forces are held until the next sample.
 The law reads the measured speeds (``Measurement.outputs``, with the
 simulation's measurement noise; the true speeds when only the state is
 given), nothing else: no position, no coupler elongation.
+
+Faults (:mod:`trainctl.controllers.faults`): a measured speed that is not
+finite, a law that raises or forces that are not finite give the status
+``"error"`` with the reason in ``info["reason"]`` and the law's feedforward
+of the reference, each vehicle's mass times the reference acceleration plus
+its resistance at the reference speed (fallback ``"feedforward"``), clipped
+to the envelope at the measured speeds (at the reference speed when they are
+not finite).
 """
 
 from __future__ import annotations
@@ -27,6 +35,7 @@ from ...models.envelope import EnvelopeBounds
 from ...models.train import Train
 from ...network import NetworkSettings
 from ..base import Measurement, ReferencePreview, StepRecord, measured_speeds
+from ..faults import call_solver, fault_record, non_finite_reason
 from .law import SynchronousLaw
 from .relay import CommandRelay
 
@@ -148,8 +157,9 @@ class SynchronousController:
             the envelope at the measured speeds, status ``"optimal"``, with
             ``info`` holding ``saturated``, the lead's ``command`` [m/s²], the
             number of remotes still ``waiting`` for a first command and
-            ``oldest_command_age`` [s]; or, when a measured speed is not
-            finite, NaN forces with status ``"error"`` (no fallback).
+            ``oldest_command_age`` [s]; or, on a fault (module docstring), the
+            feedforward [N] within the envelope, status ``"error"``, fallback
+            ``"feedforward"`` and ``info["reason"]``.
 
         Raises
         ------
@@ -160,13 +170,16 @@ class SynchronousController:
         start = time.perf_counter()
         speeds = self._speeds(measurement)
         n = self.law.n
-        if not np.all(np.isfinite(speeds)):
-            return StepRecord(inputs=np.full(n, np.nan), status="error",
-                              solve_time=time.perf_counter() - start,
-                              info={"reason": "a measured speed is not finite"})
+        v_ref, a_ref = float(reference.speed[0]), float(reference.acceleration[0])
+        reason = non_finite_reason("outputs", speeds)
+        if reason:
+            return self._fallback(v_ref, a_ref, np.full(n, v_ref), reason, start)
         line = self.law.line_resistance(measurement.positions)
-        command = self.law.command(float(speeds[self.law.lead]), float(reference.speed[0]),
-                                   float(reference.acceleration[0]), float(line[self.law.lead]))
+        command, reason = call_solver(self.law.command, float(speeds[self.law.lead]), v_ref,
+                                      a_ref, float(line[self.law.lead]))
+        if command is None or not np.isfinite(command):
+            return self._fallback(v_ref, a_ref, speeds, reason or "the command is not finite",
+                                  start)
         commands, ages = self.relay.relay(t, command)
         waiting = np.isnan(commands)
         inputs = self.law.forces(np.where(waiting, 0.0, commands), speeds)
@@ -176,6 +189,14 @@ class SynchronousController:
                           info={"saturated": saturated, "command": command,
                                 "waiting": int(np.count_nonzero(waiting)),
                                 "oldest_command_age": float(np.nanmax(ages))})
+
+    def _fallback(self, v_ref: float, a_ref: float, speeds: Array, reason: str,
+                  start: float) -> StepRecord:
+        """The faulty step's record: m a_ref + R(v_ref) [N] within the envelope at ``speeds``."""
+        n = self.law.n
+        feedforward = self.law.forces(np.full(n, a_ref), np.full(n, max(v_ref, 0.0)))
+        inputs, _ = self._envelope.clip(np.asarray(feedforward, dtype=float), speeds)
+        return fault_record(inputs, reason=reason, fallback="feedforward", start=start)
 
     def _speeds(self, measurement: Measurement) -> Array:
         """The measured speeds [m/s]: the outputs, else the state's speeds."""
