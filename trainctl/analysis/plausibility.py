@@ -40,6 +40,9 @@ vehicle length         2 - 1e4 m              draisines about 2 m; a whole unit 
                                               train run, 7.35 km [recalled]
 train length           <= 1e4 m               the longest train ever run was 7.35 km
                                               (BHP iron ore, 2001) [recalled]
+coupler gap            <= 1e4 m               a virtual link keeps trains within a
+                                              braking distance, about 10 km at most
+                                              [recalled]
 =====================  =====================  =======================================
 
 A value outside its range is a warning (the ``plausibility`` check), not an
@@ -139,6 +142,9 @@ RANGES: dict[str, Range] = {
     # longest train ever run (BHP iron ore, 2001) was 7.35 km.
     "vehicle_length": Range(2.0, 1e4, "m"),
     "train_length": Range(0.0, 1e4, "m"),
+    # A coupler's extra gap: about 0 for a real coupler; a virtual link keeps trains within a
+    # braking distance, at most about 10 km (350 km/h, service braking).
+    "gap": Range(0.0, 1e4, "m"),
 }
 """Usual ranges of the physical values (module docstring)."""
 
@@ -279,7 +285,13 @@ def _envelope(vehicle: Vehicle) -> list[str]:
 
 def _coupler_findings(scenario: Scenario) -> list[tuple[str, int]]:
     found: list[tuple[str, int]] = []
+    vehicles = scenario.train.vehicles
     for i, coupler in enumerate(scenario.train.couplers, start=1):
+        # The gap beyond the half-lengths (spacings set in Python may be shorter: no finding).
+        gap = coupler.spacing - (vehicles[i - 1].length + vehicles[i].length) / 2.0
+        if gap > RANGES["gap"].high:
+            found.append((f"gap = {gap:g} m (usual {RANGES['gap'].text()}: trains within a "
+                          "braking distance)", -i))
         if coupler.virtual:
             continue
         values = [
