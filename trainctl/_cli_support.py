@@ -79,7 +79,7 @@ def printable_stdout(func: Callable[..., _R]) -> Callable[..., _R]:
     """
     def run(*args: Any, **kwargs: Any) -> _R:
         original = sys.stdout
-        sys.stdout = _PrintableStream(original)  # type: ignore[assignment]
+        sys.stdout = _PrintableStream(original)
         try:
             return func(*args, **kwargs)
         finally:

@@ -253,8 +253,10 @@ def _davis_within_limits(table: VehicleTable, key: str) -> None:
     si = convert(given, declared.key if declared is not None else None)
     for name, value in zip(("a0", "a1", "a2"), si, strict=True):
         rule = VEHICLE_RULES[name]
-        bound = rule.le if isinstance(rule, Number) else None
-        if bound is not None and not value <= bound:   # also catches an overflow to inf
+        if not isinstance(rule, Number) or rule.le is None:
+            continue
+        bound = rule.le
+        if not value <= bound:   # also catches an overflow to inf
             unit = {"a0": "m/s²", "a1": "1/s", "a2": "1/m"}[name]
             raise_at((key,), Violation(
                 text=f"must give a Davis {name} <= {bound:g} {unit} in SI",
