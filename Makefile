@@ -5,7 +5,8 @@
 # version) changes, or when .venv is deleted.
 
 PYTHON ?= python3
-VENV := .venv
+# Another environment: `make docs VENV=.venv-docs` (.ci/run builds the docs in a fresh one).
+VENV ?= .venv
 BIN := $(VENV)/bin
 PIP := $(BIN)/python -m pip --disable-pip-version-check
 STAMP_RUN := $(VENV)/.trainctl-install.stamp

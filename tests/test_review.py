@@ -310,6 +310,47 @@ class TestPlausibility:
         assert check.status == "warn" and "couplers 1–3: damping_kn_s_per_m" in check.message
         assert "did you mean N·s/m? (500000 N·s/m = 500 kN·s/m)" in check.message
 
+    @pytest.mark.parametrize(("key", "value", "expect"), [
+        ("train.vehicle[1].max_traction_kn", 1e300, ["max_traction_kn = 1e+300 for one vehicle",
+                                                     "usual 0–5000 kN"]),
+        ("train.vehicle[1].max_traction_kn", 6000.0, ["max_traction_kn = 6000 for one vehicle"]),
+        ("train.vehicle[1].adhesion", 5.0, ["adhesion = 5 ", "usual 0.01–0.5)"]),
+        ("train.vehicle[1].adhesion", 0.6, ["adhesion = 0.6 "]),
+        ("train.vehicle[0].length", 1e9, ["length = 1e+09 m for one vehicle"]),
+        ("train.vehicle[0].length", 25000.0, ["length = 25000 m", "did you mean mm?"]),
+        ("train.vehicle[0].length", 0.025, ["length = 0.025 m", "did you mean km?"]),
+    ])
+    def test_extremes_warn_once(self, key, value, expect):
+        """Values no railway has, without a unit slip: one finding each, naming the key."""
+        from trainctl.analysis.plausibility import plausibility_check
+
+        scenario = load_scenario("crh2-dmpc").replace("expected", None).replace(key, value)
+        check = plausibility_check(scenario)
+        assert check.status == "warn"
+        for text in expect:
+            assert text in check.message, check.message
+        assert check.value == 1.0, check.message
+
+    def test_train_longer_than_any_run(self):
+        """Vehicles of a usual length, but 2000 of them: a 50 km train warns once."""
+        from trainctl.analysis.plausibility import plausibility_check
+
+        scenario = load_scenario("crh2-dmpc").replace("expected", None).replace(
+            "train.vehicle[0].count", 1997)
+        check = plausibility_check(scenario)
+        assert check.status == "warn" and check.value == 1.0, check.message
+        assert check.message.startswith("the train is 50000 m long"), check.message
+
+    def test_usual_extremes_pass(self):
+        """Sanded rail (adhesion 0.5) and a 5 MN unit train are still plausible."""
+        from trainctl.analysis.plausibility import plausibility_check
+
+        scenario = load_scenario("heavy-haul-hinf").replace("expected", None)
+        scenario = scenario.replace("train.vehicle[0].adhesion", 0.5).replace(
+            "train.vehicle[0].max_traction_kn", 5000.0)
+        check = plausibility_check(scenario)
+        assert check.status == "pass", check.message
+
     def test_identical_vehicles_are_grouped(self):
         """Four unit trains with the same slip make one finding for vehicles 1–4."""
         scenario = load_scenario("heavy-haul-hinf").replace("train.vehicle[0].mass_t", 518400.0)

@@ -14,23 +14,78 @@ import argparse
 import math
 import os
 import sys
-from collections.abc import Iterable, Sequence
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Iterable, Sequence
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from .budget import DEFAULT_MAX_TIME, format_duration, parse_duration
 from .exceptions import TrainctlError
+from .naming import printable
 
 if TYPE_CHECKING:
     from .scenario import Scenario
 
 __all__ = ["WALL_CLOCK_KEYS", "add_budget_option", "check_cost", "describe_error", "positive_int",
-           "without_wall_clock"]
+           "printable_stdout", "without_wall_clock"]
 
 WALL_CLOCK_KEYS = frozenset({
     "solve_time_median", "solve_time_p95", "solve_time_max", "solve_time_total", "wall_time",
     "timings", "solve_time", "search_time",
 })
 """Keys of ``analyse --json`` whose values are wall-clock times (left out by --deterministic)."""
+
+_R = TypeVar("_R")
+
+
+class _PrintableStream:
+    """A text stream whose written text has its control characters escaped."""
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        self._stream.write(printable(text))
+        return len(text)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
+def printable_stdout(func: Callable[..., _R]) -> Callable[..., _R]:
+    """``func`` with ``sys.stdout`` escaping control characters while it runs.
+
+    Names, file names and values a command prints come from the user; a NUL,
+    a terminal escape sequence or a bidirectional override among them is
+    written as ``\\uXXXX`` (:func:`trainctl.naming.printable`), never sent to
+    the terminal as a command.
+
+    Parameters
+    ----------
+    func : callable
+        A command function.
+
+    Returns
+    -------
+    callable
+        ``func`` with the same arguments and result.
+
+    Examples
+    --------
+    >>> import contextlib, io
+    >>> out = io.StringIO()
+    >>> with contextlib.redirect_stdout(out):
+    ...     printable_stdout(print)("red \\x1b[31m")
+    >>> out.getvalue()
+    'red \\\\u001b[31m\\n'
+    """
+    def run(*args: Any, **kwargs: Any) -> _R:
+        original = sys.stdout
+        sys.stdout = _PrintableStream(original)
+        try:
+            return func(*args, **kwargs)
+        finally:
+            sys.stdout = original
+
+    return run
 
 
 def _duration(text: str) -> float:

@@ -76,10 +76,12 @@ from ._cli_support import (
     check_cost,
     describe_error,
     positive_int,
+    printable_stdout,
     without_wall_clock,
 )
 from ._runtime import BudgetExceeded, quiet_c_stdout, signal_guard
 from .exceptions import TrainctlError
+from .naming import printable
 
 __all__ = ["DEFAULT_SCENARIO", "build_parser", "main"]
 
@@ -372,7 +374,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     parser = build_parser()
     args = parser.parse_args(list(argv) if argv is not None else None)
-    func: Callable[[argparse.Namespace], int] = args.func
+    func: Callable[[argparse.Namespace], int] = printable_stdout(args.func)
     try:
         # SIGTERM unwinds like Ctrl-C (temporary files removed); a watchdog ends a process
         # stuck in C code; C libraries' prints stay off stdout.
@@ -394,7 +396,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _error(message: str) -> None:
-    print(f"{PROG}: error: {message}", file=sys.stderr)
+    print(f"{PROG}: error: {printable(message)}", file=sys.stderr)
 
 
 def _cmd_list(args: argparse.Namespace) -> int:

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -48,8 +49,9 @@ from .violations import fail as fail
 from .violations import raise_at as raise_at
 from .violations import suggest as suggest
 
-__all__ = ["FINITE", "NONNEGATIVE", "NOTHING", "POSITIVE", "Array", "Choice", "Flag", "Integer",
-           "NameList", "Number", "Rule", "Text", "Violation", "fail", "raise_at", "suggest"]
+__all__ = ["FINITE", "NONNEGATIVE", "NOTHING", "POSITIVE", "UNPRINTABLE", "Array", "Choice",
+           "Flag", "Integer", "NameList", "Number", "Rule", "Text", "Violation", "fail", "raise_at",
+           "suggest"]
 
 
 def _fmt(x: float) -> str:
@@ -587,9 +589,27 @@ class Flag(Rule):
         return "boolean"
 
 
+_UNPRINTABLE_CLASS = (r"\x00-\x08\x0b-\x1f\x7f-\x9f\u061C\u200E\u200F\u202A-\u202E"
+                      r"\u2066-\u2069")
+UNPRINTABLE = re.compile(f"[{_UNPRINTABLE_CLASS}]")
+"""Characters refused in text and escaped on output (:func:`trainctl.naming.printable`).
+
+The C0 controls but the tab and the line feed, DEL and the C1 controls, the
+Arabic letter mark, the left-to-right and right-to-left marks, embeddings,
+overrides and isolates: characters that a terminal obeys as commands or that
+reorder the text shown around them.
+"""
+
+
 @dataclass(frozen=True)
 class Text(Rule):
-    """A string; optionally with a non-space character, or on one line.
+    """A string without control characters; optionally with a non-space character, or on one line.
+
+    Control characters (C0 and C1, DEL; a line feed and a tab are text) and
+    the bidirectional-text controls (U+202A..U+202E, U+2066..U+2069, ...) are
+    refused: a name reaches HTML pages and terminals, where a NUL, an escape
+    sequence or a right-to-left override would corrupt or forge what is shown
+    (see :data:`UNPRINTABLE`).
 
     Parameters
     ----------
@@ -614,6 +634,10 @@ class Text(Rule):
     ('must be a single line', 'must be a non-empty string', 'must be a non-empty string', None)
     >>> problem(Text(), 3), problem(Text(nonblank=True), "CRH2") is None
     ('must be a string', True)
+    >>> problem(Text(), "red \\x1b[31m"), problem(both, "abc\\u202e")
+    ('must not contain control characters', 'must not contain control characters')
+    >>> problem(Text(), "two\\nlines\\tand a tab") is None
+    True
     """
 
     nonblank: bool = False
@@ -650,10 +674,9 @@ class Text(Rule):
             character that is not white space, with ``single_line`` it refuses
             line breaks, with both it asks for both.
         """
-        if self.nonblank and self.single_line:
-            pattern: str | None = r"^[^\r\n]*\S[^\r\n]*$"
-        else:
-            pattern = r"\S" if self.nonblank else r"^[^\r\n]*$" if self.single_line else None
+        other = _UNPRINTABLE_CLASS + (r"\n" if self.single_line else "")
+        mark = rf"[^\s{_UNPRINTABLE_CLASS}]" if self.nonblank else ""
+        pattern = rf"^[^{other}]*{mark}[^{other}]*$" if mark else rf"^[^{other}]*$"
         return core_schema.str_schema(strict=True, pattern=pattern)
 
     def explain(self, error_type: str, value: Any) -> Violation:
@@ -670,12 +693,18 @@ class Text(Rule):
         Returns
         -------
         Violation
-            ``"must be a string"`` for a wrong type, else ``"must be a
-            non-empty string"`` (``nonblank``, a blank value) or ``"must be a
-            single line"``.
+            ``"must be a string"`` for a wrong type, else ``"must not contain
+            control characters"``, ``"must be a non-empty string"``
+            (``nonblank``, a blank value) or ``"must be a single line"``.
         """
         if error_type != "string_pattern_mismatch":
             return super().explain(error_type, value)
+        bad = UNPRINTABLE.search(value) if isinstance(value, str) else None
+        if bad is not None:
+            return Violation(
+                text="must not contain control characters", got=value,
+                hint=f" Character {bad.start() + 1} is U+{ord(bad.group()):04X}; remove it (a TOML "
+                     "escape such as \\u001b stands for that character).")
         blank = not isinstance(value, str) or not value.strip()
         text = ("must be a non-empty string" if self.nonblank and (blank or not self.single_line)
                 else "must be a single line")

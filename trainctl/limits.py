@@ -37,7 +37,8 @@ from .constraints import Array, Integer, Number, Rule
 from .units import KMH_PER_MS
 
 __all__ = [
-    "COUPLER_DAMPING", "COUPLER_STIFFNESS", "CURVE_RADIUS", "DAVIS", "DURATION", "GRADE",
+    "COUPLER_DAMPING", "COUPLER_GAP", "COUPLER_SPACING", "COUPLER_STIFFNESS", "CURVE_RADIUS",
+    "DAVIS", "DURATION", "GRADE", "LENGTH",
     "HORIZON", "ITERATIONS", "MASS", "MAX_DURATION", "MAX_HORIZON", "MAX_SAMPLES", "MAX_SPEED",
     "MAX_SPEED_KMH", "MAX_VEHICLES", "SAMPLES_WHY", "SAMPLE_TIME", "SPEED", "SPEED_ERROR",
     "SPEED_NOISE", "SPEED_POINTS", "VEHICLES_WHY", "in_unit",
@@ -96,6 +97,27 @@ COUPLER_DAMPING = Number(ge=0, le=1e12, why=(
     "Above 1e9 kN·s/m (real draft gears: 10 to 1000 kN·s/m) the coupler modes decay faster "
     "than any sample time or integrator step can follow."))
 """A coupler damping [N·s/m]."""
+
+_POSITIONS_WHY = ("beyond 1e9 m (a million km) the vehicle positions along the track, summed in "
+                  "floating point, lose the micrometre resolution the simulation's track-section "
+                  "lookup relies on, and values such as 1e300 overflow.")
+
+LENGTH = Number(gt=0, le=1e9, why=(
+    "A vehicle (or a unit train modelled as one) is at most 1e9 m long here (the longest "
+    "train ever run was 7.35 km; the plausibility check warns above 10 km): "
+    + _POSITIONS_WHY))
+"""A vehicle length over couplers [m]: up to 1e9 m."""
+
+COUPLER_GAP = Number(ge=0, le=1e9, why=(
+    "A coupler's (or a virtual link's) extra gap is at most 1e9 m here (virtual coupling "
+    "keeps trains within a braking distance, about 10 km at 350 km/h at the most; the "
+    "plausibility check warns above 10 km): " + _POSITIONS_WHY))
+"""A coupler's extra centre spacing beyond the two half-lengths [m]: up to 1e9 m."""
+
+COUPLER_SPACING = Number(gt=0, le=2e9, why=(
+    "Two half-lengths of vehicles at most 1e9 m long plus a gap of at most 1e9 m: "
+    + _POSITIONS_WHY))
+"""A coupler's centre-to-centre spacing [m]: up to 2e9 m."""
 
 GRADE = Number(ge=-1000.0, le=1000.0, why=(
     "A grade beyond ±1000 ‰ (45°) is not a railway: adhesion lines stay below 130 ‰ and rack "

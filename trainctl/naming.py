@@ -13,11 +13,44 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 
-__all__ = ["describe_direction", "one_based"]
+from .constraints import UNPRINTABLE
+
+__all__ = ["describe_direction", "one_based", "printable"]
 
 _INDEXED = re.compile(r"\b([A-Za-z_]\w*)\[(\d+)\]")
 _SUBSCRIPTS = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")
 _SYMBOLS = {"delta": "δ"}
+
+
+def printable(text: str) -> str:
+    """Text safe to show in a terminal or a page: control characters written as escapes.
+
+    Every character of :data:`trainctl.constraints.UNPRINTABLE` (a NUL, an
+    escape that starts a terminal command, a right-to-left override, ...)
+    becomes the escape ``\\uXXXX`` that spells it (valid in Python, TOML and
+    JSON strings alike); tabs, line feeds and all other text stay. Scenario
+    files cannot hold such characters in their text fields; this is for
+    everything else a user gives: file names, values quoted in messages,
+    names set in Python or read from a saved run.
+
+    Parameters
+    ----------
+    text : str
+        Any text.
+
+    Returns
+    -------
+    str
+        ``text`` with each unprintable character escaped.
+
+    Examples
+    --------
+    >>> printable("red \\x1b[31m, NUL \\x00, \\u202eabc, tab\\tnewline\\n")
+    'red \\\\u001b[31m, NUL \\\\u0000, \\\\u202eabc, tab\\tnewline\\n'
+    """
+    if UNPRINTABLE.search(text) is None:
+        return text
+    return UNPRINTABLE.sub(lambda match: f"\\u{ord(match.group()):04x}", text)
 
 
 def one_based(text: str) -> str:

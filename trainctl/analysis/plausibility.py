@@ -28,7 +28,27 @@ traction/braking       <= 1 g per unit mass   adhesion rarely exceeds 0.4
 force                                         [recalled]
 traction/braking       <= 100 kW/t            300 km/h EMUs 20 - 25 kW/t
 power                                         [recalled]
+traction force of      <= 5000 kN             the strongest locomotives start with
+one vehicle                                   about 1.2 MN; four of them (a whole
+                                              distributed-power train as one vehicle)
+                                              about 5 MN [recalled]
+adhesion coefficient   0.01 - 0.5             steel wheel on steel rail: 0.05 on wet
+                                              leaves, 0.3 - 0.4 dry, about 0.5 with
+                                              sand; more is not physical [recalled]
+vehicle length         2 - 1e4 m              draisines about 2 m; a whole unit train
+                                              as one vehicle at most the longest
+                                              train run, 7.35 km [recalled]
+train length           <= 1e4 m               the longest train ever run was 7.35 km
+                                              (BHP iron ore, 2001) [recalled]
+coupler gap            <= 1e4 m               a virtual link keeps trains within a
+                                              braking distance, about 10 km at most
+                                              [recalled]
 =====================  =====================  =======================================
+
+A value outside its range is a warning (the ``plausibility`` check), not an
+error: the run is still computed, as for a real but unusual train. Values that
+break the computation itself are refused by the hard limits of
+:mod:`trainctl.limits`.
 """
 
 from __future__ import annotations
@@ -111,6 +131,20 @@ RANGES: dict[str, Range] = {
     "speed": Range(0.0, 600.0, "km/h"),
     "force_per_mass": Range(0.0, GRAVITY, "m/s²"),
     "power_per_mass": Range(0.0, 100.0, "kW/t"),
+    # One vehicle's traction force: about 1.2 MN starting effort for the strongest
+    # (multi-section) locomotives; 5 MN is four of them, a whole distributed-power train as
+    # one vehicle. Braking is judged per unit mass only (a unit train brakes on every wagon).
+    "traction": Range(0.0, 5e3, "kN"),
+    # Adhesion of steel on steel: about 0.05 on wet leaves, 0.3 - 0.4 dry, 0.5 with sand;
+    # a coefficient above 0.5 is not physical for a railway wheel, below 0.01 nothing moves.
+    "adhesion": Range(0.01, 0.5, ""),
+    # A vehicle from a 2 m draisine to a whole unit train modelled as one vehicle; the
+    # longest train ever run (BHP iron ore, 2001) was 7.35 km.
+    "vehicle_length": Range(2.0, 1e4, "m"),
+    "train_length": Range(0.0, 1e4, "m"),
+    # A coupler's extra gap: about 0 for a real coupler; a virtual link keeps trains within a
+    # braking distance, at most about 10 km (350 km/h, service braking).
+    "gap": Range(0.0, 1e4, "m"),
 }
 """Usual ranges of the physical values (module docstring)."""
 
@@ -135,8 +169,8 @@ def plausibility_check(scenario: Scenario) -> Check:
     >>> plausibility_check(load_scenario("crh2-dmpc")).status
     'pass'
     """
-    findings = _vehicle_findings(scenario) + _coupler_findings(scenario) + _speed_findings(
-        scenario)
+    findings = (_vehicle_findings(scenario) + _train_findings(scenario)
+                + _coupler_findings(scenario) + _speed_findings(scenario))
     grouped: dict[str, list[int]] = {}
     for text, vehicle in findings:
         grouped.setdefault(text, []).append(vehicle)
@@ -159,10 +193,31 @@ def _vehicle_findings(scenario: Scenario) -> list[tuple[str, int]]:
     # reported by itself, not again as a resistance slip).
     speed = min(scenario.model.speed, RANGES["speed"].high / 3.6)
     for i, vehicle in enumerate(scenario.train.vehicles, start=1):
-        for text in (_mass(vehicle), _resistance(vehicle, speed), *_envelope(vehicle)):
+        for text in (_length(vehicle) or _mass(vehicle), _resistance(vehicle, speed),
+                     *_envelope(vehicle)):
             if text:
                 found.append((text, i))
     return found
+
+
+def _length(vehicle: Vehicle) -> str:
+    """A length outside its range (then its mass per length is not judged)."""
+    usual = RANGES["vehicle_length"]
+    if usual.holds(vehicle.length):
+        return ""
+    slip = (" — did you mean mm?" if usual.holds(vehicle.length / 1e3)
+            else " — did you mean km?" if usual.holds(vehicle.length * 1e3) else "")
+    return f"length = {vehicle.length:g} m for one vehicle (usual {usual.text()}){slip}"
+
+
+def _train_findings(scenario: Scenario) -> list[tuple[str, int]]:
+    usual = RANGES["train_length"]
+    lengths = [vehicle.length for vehicle in scenario.train.vehicles]
+    total = sum(lengths)
+    if usual.holds(total) or not all(map(RANGES["vehicle_length"].holds, lengths)):
+        return []
+    return [(f"the train is {total:g} m long, longer than any train ever run (7.35 km; usual "
+             f"{usual.text()})", 0)]
 
 
 def _mass(vehicle: Vehicle) -> str:
@@ -200,12 +255,24 @@ def _at(coeffs: np.ndarray, speed: float) -> float:
 def _envelope(vehicle: Vehicle) -> list[str]:
     env, mass = vehicle.envelope, vehicle.mass
     out = []
+    traction = RANGES["traction"]
+    strong = math.isfinite(env.max_traction) and not traction.holds(env.max_traction / 1e3)
+    if strong:
+        slip = " — did you mean N?" if traction.holds(env.max_traction / 1e6) else ""
+        out.append(f"max_traction_kn = {env.max_traction / 1e3:g} for one vehicle (the "
+                   f"strongest locomotives about 1200 kN; usual {traction.text()}){slip}")
     for key, value in (("max_traction_kn", env.max_traction), ("max_braking_kn", env.max_braking)):
         per_mass = value / mass
+        if key == "max_traction_kn" and strong:
+            continue   # one finding per key
         if math.isfinite(value) and not RANGES["force_per_mass"].holds(per_mass):
             slip = " — did you mean N?" if per_mass / 1e3 <= GRAVITY else ""
             out.append(f"{key} = {value / 1e3:g}: {per_mass / GRAVITY:.3g} g for "
                        f"{mass / 1e3:g} t (adhesion allows about 0.4 g){slip}")
+    adhesion = RANGES["adhesion"]
+    if math.isfinite(env.adhesion) and not adhesion.holds(env.adhesion):
+        out.append(f"adhesion = {env.adhesion:g} (steel on steel: about 0.05 wet to 0.5 sanded; "
+                   f"usual {adhesion.text().strip()})")
     for key, value in (("max_power_kw", env.max_power),
                        ("max_braking_power_kw", env.max_braking_power)):
         per_t = value / mass   # W/kg = kW/t
@@ -218,7 +285,13 @@ def _envelope(vehicle: Vehicle) -> list[str]:
 
 def _coupler_findings(scenario: Scenario) -> list[tuple[str, int]]:
     found: list[tuple[str, int]] = []
+    vehicles = scenario.train.vehicles
     for i, coupler in enumerate(scenario.train.couplers, start=1):
+        # The gap beyond the half-lengths (spacings set in Python may be shorter: no finding).
+        gap = coupler.spacing - (vehicles[i - 1].length + vehicles[i].length) / 2.0
+        if gap > RANGES["gap"].high:
+            found.append((f"gap = {gap:g} m (usual {RANGES['gap'].text()}: trains within a "
+                          "braking distance)", -i))
         if coupler.virtual:
             continue
         values = [

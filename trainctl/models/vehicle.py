@@ -15,10 +15,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..constraints import NONNEGATIVE, POSITIVE, Number, Rule
+from ..constraints import NONNEGATIVE, Number, Rule
 from ..declare import check_fields
 from ..exceptions import ModelError
-from ..limits import COUPLER_DAMPING, COUPLER_STIFFNESS, DAVIS, MASS
+from ..limits import COUPLER_DAMPING, COUPLER_SPACING, COUPLER_STIFFNESS, DAVIS, LENGTH, MASS
 from ..units import GRAVITY
 
 __all__ = ["COUPLER_RULES", "ENVELOPE_RULES", "VEHICLE_RULES", "Coupler", "TractionEnvelope",
@@ -41,13 +41,14 @@ VEHICLE_RULES: dict[str, Rule] = {
     "a0": DAVIS["a0"],
     "a1": DAVIS["a1"],
     "a2": DAVIS["a2"],
-    "length": POSITIVE,
+    "length": LENGTH,
     "traction_share": NONNEGATIVE,
 }
 """The rule of each numeric :class:`Vehicle` field (also used by scenario files)."""
 
 COUPLER_RULES: dict[str, Rule] = {"stiffness": COUPLER_STIFFNESS, "damping": COUPLER_DAMPING,
-                                  "spacing": POSITIVE, "max_force": Number(gt=0, allow_inf=True)}
+                                  "spacing": COUPLER_SPACING,
+                                  "max_force": Number(gt=0, allow_inf=True)}
 """The rule of each :class:`Coupler` field; a physical coupler's stiffness is also > 0."""
 
 _MIN_SPEED = 0.1

@@ -21,6 +21,7 @@ from typing import Any
 import jinja2
 from markupsafe import Markup
 
+from ..naming import printable
 from .output import OutputTarget, write_output
 from .output import write_text_atomic as write_text_atomic
 
@@ -50,23 +51,37 @@ def make_environment() -> jinja2.Environment:
     jinja2.Environment
         Loads from the package's ``templates`` directory (and the report
         sections of controller families as ``families/<name>.html.j2``),
-        escapes every substituted value and fails on undefined names.
+        escapes every substituted value (HTML's special characters as
+        entities, control characters as ``\\uXXXX``: no NUL, terminal escape
+        or bidirectional override reaches a page) and fails on undefined names.
 
     Examples
     --------
     >>> env = make_environment()
     >>> env.from_string("{{ x }}").render(x="<b>")
     '&lt;b&gt;'
+    >>> env.from_string("{{ x }}").render(x="\\x1b[31m\\u202e")
+    '\\\\u001b[31m\\\\u202e'
     """
     return jinja2.Environment(
         loader=jinja2.ChoiceLoader([jinja2.PackageLoader("trainctl.report", "templates"),
                                     _FamilyLoader()]),
         autoescape=True,
+        finalize=_printable,
         undefined=jinja2.StrictUndefined,
         trim_blocks=True,
         lstrip_blocks=True,
         keep_trailing_newline=True,
     )
+
+
+def _printable(value: Any) -> Any:
+    """Every substituted string, markup too, with its control characters escaped."""
+    if value is None or isinstance(value, (bool, int, float)):
+        return value
+    if hasattr(value, "__html__"):
+        return Markup(printable(value.__html__()))
+    return printable(str(value))
 
 
 class _FamilyLoader(jinja2.BaseLoader):

@@ -40,7 +40,7 @@ from ..constraints import (
     raise_at,
 )
 from ..declare import Key
-from ..limits import MAX_VEHICLES, VEHICLES_WHY, in_unit
+from ..limits import COUPLER_GAP, MAX_VEHICLES, VEHICLES_WHY, in_unit
 from ..models.track import SECTION_RULES, TRACK_RULES
 from ..models.vehicle import COUPLER_RULES, ENVELOPE_RULES, VEHICLE_RULES
 from ..units import (
@@ -53,7 +53,7 @@ from ..units import (
     tonnes_to_kg,
 )
 from .core import SCHEMA_VERSION
-from .filemodel import FileTable, Section, exactly_one, one_of_schema
+from .filemodel import FileTable, Section, convert, exactly_one, field_at, one_of_schema
 
 __all__ = [
     "MAX_VEHICLES",
@@ -237,8 +237,31 @@ class VehicleTable(FileTable):
 
     @model_validator(mode="after")
     def _one_davis_key(self) -> VehicleTable:
-        exactly_one(self, DAVIS_KEYS, _DAVIS_HINT)
+        key = exactly_one(self, DAVIS_KEYS, _DAVIS_HINT)
+        _davis_within_limits(self, key)
         return self
+
+
+def _davis_within_limits(table: VehicleTable, key: str) -> None:
+    """The Davis key's coefficients, converted to SI, within the hard limits (at ``key``).
+
+    The limits hold in SI (:data:`trainctl.limits.DAVIS`); a key in another unit
+    is checked after its conversion, so that the message names the file key.
+    """
+    given = getattr(table, key)
+    declared = field_at(VehicleTable, (key,))
+    si = convert(given, declared.key if declared is not None else None)
+    for name, value in zip(("a0", "a1", "a2"), si, strict=True):
+        rule = VEHICLE_RULES[name]
+        if not isinstance(rule, Number) or rule.le is None:
+            continue
+        bound = rule.le
+        if not value <= bound:   # also catches an overflow to inf
+            unit = {"a0": "m/s²", "a1": "1/s", "a2": "1/m"}[name]
+            raise_at((key,), Violation(
+                text=f"must give a Davis {name} <= {bound:g} {unit} in SI",
+                got_text=f"{list(given)!r}, {name} = {value:.4g} {unit}",
+                hint=f" {rule.why}"), list(given))
 
 
 class CouplerTable(FileTable):
@@ -276,7 +299,7 @@ class CouplerTable(FileTable):
         si_unit="N·s/m")] = 0.0
     virtual: Annotated[bool, Flag(), Key(
         "A virtual (communication-only) link: no force, the gap is kept by control")] = False
-    gap: Annotated[float, Number(ge=0), Key(
+    gap: Annotated[float, COUPLER_GAP, Key(
         "Extra centre spacing beyond the two half-lengths", unit="m")] = 0.0
     max_force_kn: Annotated[float | None, in_unit(COUPLER_RULES["max_force"].for_file(), kn_to_n),
                             Key("Admissible coupler force |f|, judged on the simulated runs "

@@ -221,7 +221,7 @@ def _bound_text(design: HinfDesign, margin: float) -> str:
         return ("; the first-order consensus bound π/(2λ_max(κ_p P + κ_c L)) needs an "
                 "undirected graph")
     text = f"; first-order consensus bound π/(2λ_max(κ_p P + κ_c L)) = {bound:.4g} s"
-    if math.isfinite(margin) and margin < bound:
+    if math.isfinite(margin) and 0.0 < margin < bound:   # a zero margin has no ratio
         text += (f", {bound / margin:.3g}× the full margin: the coupler modes make the full "
                  "margin smaller")
     return text

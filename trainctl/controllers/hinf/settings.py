@@ -49,6 +49,24 @@ From 0 (every pinned vehicle tracks the reference alone) to the same 0.2 1/s
 as κ_p's upper bound, where the disagreement modes on the default chain
 decay at up to κ_p + 3.41 κ_c ≈ 0.9 1/s, still below the coupler modes."""
 
+_GAIN_WHY = (
+    "A gain above 1e4 1/s asks for a speed-error time constant shorter than 0.1 ms, the "
+    "shortest sample time trainctl accepts: no sampled law realises it (real designs: "
+    "0.01 to 1 1/s), and far beyond it the closed-loop matrices overflow.")
+_PINNING_GAIN = Number(ge=1e-6, le=1e4, why=_GAIN_WHY + (
+    " Below 1e-6 1/s the speed follows the reference with a time constant of more than "
+    "11 days: no timetable is tracked, and the rigid mode is singular for floating point."))
+_CONSENSUS_GAIN = Number(ge=0, le=1e4, why=_GAIN_WHY)
+
+_FORCE_SCALE = Number(ge=1e-6, le=1e3, why=(
+    "One unit of force disturbance from 1e-6 m/s² (a thousandth of a ‰ of grade) to "
+    "1000 m/s² (about 100 g; real ones: 0.001 to 0.1 m/s²); outside, the weighted channels' "
+    "numbers span more than the H∞ solvers resolve."))
+_SPEED_SCALE = Number(ge=1e-6, le=300.0, why=(
+    "One unit of speed noise or error from 1 µm/s to 300 m/s (above the fastest train's "
+    "speed; real ones: 0.01 to 1 m/s); outside, the weighted channels' numbers span more "
+    "than the H∞ solvers resolve."))
+
 DEFAULT_SYNTHESIS_GRID = 7
 """Grid points per gain of the synthesis (a 7 × 7 grid, 49 SDPs)."""
 
@@ -88,11 +106,11 @@ class HinfSettings:
     Parameters
     ----------
     kappa_p : float
-        κ_p [1/s], > 0 (file key ``kappa_p_per_s``): gain of the pinning term
+        κ_p [1/s], 1e-6 to 1e4 (file key ``kappa_p_per_s``): gain of the pinning term
         −κ_p b_i (v_i − v̂_d), b_i the ``[communication]`` pinning weight
         (:data:`DEFAULT_PINNING_GAIN`).
     kappa_c : float
-        κ_c [1/s], >= 0 (file key ``kappa_c_per_s``): gain of the consensus
+        κ_c [1/s], from 0 to 1e4 (file key ``kappa_c_per_s``): gain of the consensus
         term −κ_c Σ_j a_ij (v_i − v̂_j), a_ij the ``[communication]``
         adjacency (:data:`DEFAULT_CONSENSUS_GAIN`); 0: every vehicle tracks
         the reference alone.
@@ -120,7 +138,7 @@ class HinfSettings:
         design stage, and used by the law, the loops, the checks and the
         simulation).
     kappa_p_bounds, kappa_c_bounds : (float, float)
-        [lo, hi] [1/s] searched for κ_p (lo > 0) and κ_c (lo >= 0), lo <= hi
+        [lo, hi] [1/s] searched for κ_p (lo >= 1e-6) and κ_c (lo >= 0), hi <= 1e4, lo <= hi
         (file keys ``kappa_p_bounds_per_s``, ``kappa_c_bounds_per_s``;
         :data:`DEFAULT_PINNING_BOUNDS`, :data:`DEFAULT_CONSENSUS_BOUNDS`).
     performance : {"tracking", "disagreement"}
@@ -132,13 +150,13 @@ class HinfSettings:
         law acts on, by the Lyapunov–Krasovskii H∞ LMI; None: delay-free
         (the bounded-real lemma).
     force_scale : float
-        [m/s²], > 0 (file key ``force_scale_m_s2``): the force disturbance per
+        [m/s²], 1e-6 to 1e3 (file key ``force_scale_m_s2``): the force disturbance per
         unit mass taken as one unit of each force channel.
     noise_scale : float
-        [m/s], > 0 (file key ``noise_scale_m_s``): the speed noise taken as
+        [m/s], 1e-6 to 300 (file key ``noise_scale_m_s``): the speed noise taken as
         one unit of each reference and link channel.
     output_scale : float
-        [m/s], > 0 (file key ``output_scale_m_s``): the speed error taken as
+        [m/s], 1e-6 to 300 (file key ``output_scale_m_s``): the speed error taken as
         one unit of the performance output. γ = ‖T_w̃s̃‖∞ on the scaled
         channels; whether γ <= 1 depends entirely on these three.
     synthesis_grid : int
@@ -168,10 +186,10 @@ class HinfSettings:
 
     family: ClassVar[str] = "hinf"
 
-    kappa_p: Annotated[float, Number(gt=0), Key(
+    kappa_p: Annotated[float, _PINNING_GAIN, Key(
         "Pinning gain κ_p on the reference term −κ_p b_i (v_i − v̂_d)",
         file="kappa_p_per_s", unit="1/s")] = DEFAULT_PINNING_GAIN
-    kappa_c: Annotated[float, Number(ge=0), Key(
+    kappa_c: Annotated[float, _CONSENSUS_GAIN, Key(
         "Consensus gain κ_c on the neighbour term −κ_c Σ a_ij (v_i − v̂_j)",
         file="kappa_c_per_s", unit="1/s")] = DEFAULT_CONSENSUS_GAIN
     control_interval: Annotated[Annotated[float, Number(gt=0)] | None, Key(
@@ -188,10 +206,10 @@ class HinfSettings:
     synthesise: Annotated[bool, Flag(), Key(
         "Synthesise κ_p and κ_c within the bounds for the smallest certified H∞ gain γ "
         "(false: kappa_p_per_s and kappa_c_per_s)")] = False
-    kappa_p_bounds: Annotated[tuple[float, ...], Array(Number(gt=0), length=2), Key(
+    kappa_p_bounds: Annotated[tuple[float, ...], Array(_PINNING_GAIN, length=2), Key(
         "[lo, hi] searched for κ_p when synthesise = true, lo <= hi",
         file="kappa_p_bounds_per_s", unit="1/s")] = DEFAULT_PINNING_BOUNDS
-    kappa_c_bounds: Annotated[tuple[float, ...], Array(Number(ge=0), length=2), Key(
+    kappa_c_bounds: Annotated[tuple[float, ...], Array(_CONSENSUS_GAIN, length=2), Key(
         "[lo, hi] searched for κ_c when synthesise = true, lo <= hi",
         file="kappa_c_bounds_per_s", unit="1/s")] = DEFAULT_CONSENSUS_BOUNDS
     performance: Annotated[str, Choice(PERFORMANCES), Key(
@@ -201,13 +219,13 @@ class HinfSettings:
         "γ certified (and synthesised) for every constant delay in [0, τ_max] of the law's "
         "data (Lyapunov–Krasovskii LMI)", file="delay_certificate_s", unit="s",
         omitted="the delay-free γ (bounded-real lemma)")] = None
-    force_scale: Annotated[float, Number(gt=0), Key(
+    force_scale: Annotated[float, _FORCE_SCALE, Key(
         "Force disturbance per unit mass taken as one unit of each force channel of γ",
         file="force_scale_m_s2", unit="m/s²")] = 1.0
-    noise_scale: Annotated[float, Number(gt=0), Key(
+    noise_scale: Annotated[float, _SPEED_SCALE, Key(
         "Speed noise taken as one unit of each reference and link noise channel of γ",
         file="noise_scale_m_s", unit="m/s")] = 1.0
-    output_scale: Annotated[float, Number(gt=0), Key(
+    output_scale: Annotated[float, _SPEED_SCALE, Key(
         "Speed error taken as one unit of the performance output of γ",
         file="output_scale_m_s", unit="m/s")] = 1.0
     synthesis_grid: Annotated[int, Integer(ge=1), Key(
