@@ -44,7 +44,9 @@ Exit status: 0 the command ran; 1 ``--strict`` found a failure (a failing check,
 missed tracking tolerance, too long a saturation, a coupler above its admissible force,
 or an ``[expected]`` mismatch); 2 a
 usage, scenario or file error (``trainctl: error: <message>`` on stderr, no
-traceback, no file written). Any other exception is a bug and propagates.
+traceback, no file written); 128 + the signal when a signal stopped it (130 Ctrl-C,
+143 SIGTERM, 129 SIGHUP; no partial output, no worker left). Any other exception is a
+bug and propagates.
 
 Examples
 --------
@@ -75,7 +77,7 @@ from ._cli_support import (
     positive_int,
     without_wall_clock,
 )
-from ._runtime import BudgetExceeded, quiet_c_stdout, signal_guard
+from ._runtime import BudgetExceeded, exit_status, quiet_c_stdout, signal_guard
 from .exceptions import TrainctlError
 
 __all__ = ["DEFAULT_SCENARIO", "build_parser", "main"]
@@ -89,6 +91,7 @@ EXIT_OK = 0
 EXIT_CHECK_FAILED = 1
 EXIT_ERROR = 2
 EXIT_INTERRUPTED = 130
+"""Ctrl-C (SIGINT); SIGTERM exits 143, SIGHUP 129 (128 + the signal, :func:`exit_status`)."""
 
 
 class _UserError(TrainctlError):
@@ -203,7 +206,7 @@ def _add_analyse(sub: Any) -> None:
     p_analyse.add_argument(
         "-j", "--jobs", metavar="N", type=positive_int,
         help="worker processes for the simulations (default: all CPUs when the simulations "
-        "are long, else 1)",
+        "are long, else 1); at most the usable CPUs and the simulations to run",
     )
     p_analyse.add_argument(
         "--save", metavar="DIR",
@@ -256,7 +259,8 @@ def _add_sweep(sub: Any) -> None:
     )
     p_sweep.add_argument(
         "-j", "--jobs", metavar="N", type=positive_int, default=1,
-        help="worker processes for the points (default 1: one after the other)",
+        help="worker processes for the points (default 1: one after the other); at most "
+        "the usable CPUs and the points to run",
     )
     p_sweep.add_argument(
         "--scheduler", metavar="ADDRESS",
@@ -325,7 +329,7 @@ def _add_report(sub: Any) -> None:
     p_report.add_argument(
         "-j", "--jobs", metavar="N", type=positive_int,
         help="worker processes for the simulations (default: all CPUs when the simulations "
-        "are long, else 1)",
+        "are long, else 1); at most the usable CPUs and the simulations to run",
     )
     add_budget_option(p_report)
     p_report.set_defaults(func=_cmd_report)
@@ -381,9 +385,18 @@ def main(argv: Sequence[str] | None = None) -> int:
                "(--max-time); no partial output was written. Give a larger --max-time, or "
                "make the train, the horizon or the run shorter.")
         return EXIT_ERROR
-    except KeyboardInterrupt:
-        print(f"\n{PROG}: interrupted; no partial output was written", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    except KeyboardInterrupt as exc:
+        print(f"\n{PROG}: interrupted{_by_signal(exc)}; no partial output was written",
+              file=sys.stderr)
+        return exit_status(exc)
+
+
+def _by_signal(exc: BaseException) -> str:
+    """`` (SIGTERM)`` for a stop signal other than Ctrl-C, else nothing."""
+    import signal
+
+    signum = getattr(exc, "signum", None)
+    return "" if signum is None else f" ({signal.Signals(signum).name})"
 
 
 def _error(message: str) -> None:
@@ -418,6 +431,12 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     from .sweep import SweepDefinition, parse_set, point_key
     from .sweep.definition import toml_text
 
+    if not args.dry_run:  # a malformed scheduler address is refused before any work
+        from .sweep.runner import SCHEDULER_ENV, check_scheduler_address, scheduler_address
+
+        address = scheduler_address(args.scheduler)
+        if address:
+            check_scheduler_address(address, "--scheduler" if args.scheduler else SCHEDULER_ENV)
     axes = [parse_set(text) for text in args.sets]
     text, label = read_scenario_text(args.scenario)
     scenario = parse_scenario(text, source=label)
@@ -448,19 +467,21 @@ def _run_sweep(args: argparse.Namespace, label: str, text: str, scenario: Any, s
                points: Any, scenarios: Any) -> int:
     """Run the points of ``trainctl sweep`` into its store and print the rows."""
     from .sweep import point_key
-    from .sweep.runner import dask_executor, scheduler_address
+    from .sweep.runner import SCHEDULER_ENV, dask_executor, scheduler_address
     from .sweep.store import SweepStore
 
     keys = [point_key(s) for s in scenarios]
     simulate = not args.no_simulate
     output = Path(args.output) if args.output else default_sweep_dir(scenario)
     address = scheduler_address(args.scheduler)
+    option = "--scheduler" if args.scheduler else SCHEDULER_ENV
     store: SweepStore | None = None
     try:
         with contextlib.ExitStack() as stack:
             # the cluster is reached before the store is made: an unreachable
             # scheduler leaves nothing behind
-            cluster = stack.enter_context(dask_executor(address)) if address else None
+            cluster = (stack.enter_context(dask_executor(address, option=option))
+                       if address else None)
             store = SweepStore.open(output, label=label, scenario_text=text, points=points,
                                     keys=keys, swept=sweep.keys, simulate=simulate,
                                     arrays=args.arrays)
@@ -470,13 +491,14 @@ def _run_sweep(args: argparse.Namespace, label: str, text: str, scenario: Any, s
                 print(f"{label}: resuming {output}: {len(set(keys)) - len(todo)} points "
                       f"stored, {len(todo)} to run", file=sys.stderr)
             frame = _sweep_points(args, store, todo, by_key, cluster, simulate)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         if store is None:
             raise
         done = len(set(keys)) - len(store.missing())
-        print(f"\n{PROG}: interrupted: {done} of {len(set(keys))} points are stored in "
-              f"{output}; run the same command again to finish the others", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        print(f"\n{PROG}: interrupted{_by_signal(exc)}: {done} of {len(set(keys))} points are "
+              f"stored in {output}; run the same command again to finish the others",
+              file=sys.stderr)
+        return exit_status(exc)
     return _print_sweep(args, label, output, sweep, points, frame)
 
 
@@ -484,7 +506,7 @@ def _sweep_points(args: argparse.Namespace, store: Any, todo: list[str], by_key:
                   cluster: Executor | None, simulate: bool) -> Any:
     """Run the missing points on ``cluster`` (Dask) or locally, with a progress bar; the table."""
     from ._progress import Progress
-    from .parallel import worker_pool
+    from .parallel import pool_size, worker_pool
     from .sweep.runner import run_sweep
 
     with contextlib.ExitStack() as stack:
@@ -492,7 +514,7 @@ def _sweep_points(args: argparse.Namespace, store: Any, todo: list[str], by_key:
         if cluster is not None:
             executor = cluster
         else:
-            workers = min(int(args.jobs), len(todo)) if args.jobs > 1 else 0
+            workers = pool_size(args.jobs, len(todo))
             executor = stack.enter_context(worker_pool(workers))
         bar = stack.enter_context(Progress(len(todo)))
         return run_sweep(store, by_key, simulate=simulate, executor=executor,
