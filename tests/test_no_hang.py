@@ -441,3 +441,93 @@ def test_timeouts_are_stated() -> None:
     from trainctl.sweep.runner import CONNECT_TIMEOUT, HANDSHAKE_TIMEOUT
 
     assert 1.0 <= CONNECT_TIMEOUT <= 10.0 and 1.0 <= HANDSHAKE_TIMEOUT <= 10.0
+
+
+# --- huge sweeps -----------------------------------------------------------------------------
+
+def _grid_file(tmp_path: Path, first: int, second: int) -> Path:
+    """crh2-dmpc with a [sweep] of two grid axes of ``first`` × ``second`` values."""
+    from trainctl.scenario import builtin_scenario_text
+
+    text = builtin_scenario_text("crh2-dmpc").split("\n[expected]")[0]
+    text += (f'\n[sweep]\n\n[[sweep.axis]]\nkey = "controller.r_per_kn2"\nstart = 1.0\n'
+             f'stop = {float(first)}\nnum = {first}\n\n[[sweep.axis]]\n'
+             f'key = "controller.q_velocity"\nstart = 1.0\nstop = {float(second)}\n'
+             f'num = {second}\n')
+    path = tmp_path / "s.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize("output", [False, True], ids=["plain", "with-o"])
+def test_dry_run_of_the_largest_grid_answers_in_seconds(
+        output: bool, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A 1000 × 999 grid (just under MAX_POINTS): the dry run summarises it in seconds
+    (it ran for hours: every point was parsed), writes nothing, and says a run is refused."""
+    from trainctl.sweep.definition import MAX_POINTS, MAX_RUN_POINTS, SAMPLED_PER_AXIS
+
+    path = _grid_file(tmp_path, 1000, 999)
+    assert 1000 * 999 <= MAX_POINTS
+    argv = ["sweep", str(path), "--dry-run"] + (["-o", str(tmp_path / "store")] if output
+                                               else [])
+    start = time.monotonic()
+    assert main(argv) == 0
+    seconds = time.monotonic() - start
+    captured = capsys.readouterr()
+    assert seconds < 20.0, seconds  # about 1 s on a quiet machine
+    lines = captured.out.splitlines()
+    assert lines[0].startswith(f"{path}: 999000 sweep points (1000 × 999)")
+    assert "controller.r_per_kn2: 1000 values, 1.0 ... 1000.0" in captured.out
+    rows = [line.split() for line in lines if line.split() and line.split()[0].isdigit()]
+    assert 2 <= len(rows) <= 2 + 2 * SAMPLED_PER_AXIS
+    assert rows[0][:3] == ["0", "1.0", "1.0"]
+    assert rows[-1][:3] == ["998999", "1000.0", "999.0"]  # the last point, validated
+    assert f"refused: more than {MAX_RUN_POINTS} points" in captured.err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
+
+
+def test_run_of_a_huge_grid_is_refused_at_once(tmp_path: Path,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    """The real run refuses it before any work (it validated every point first, for hours)."""
+    path = _grid_file(tmp_path, 1000, 999)
+    start = time.monotonic()
+    assert main(["sweep", str(path), "-o", str(tmp_path / "store")]) == 2
+    seconds = time.monotonic() - start
+    err = capsys.readouterr().err
+    assert seconds < 20.0, seconds
+    assert err.startswith("trainctl: error: sweep: 999000 points (1000 × 999), more than the")
+    assert "Split the sweep" in err and "Traceback" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
+
+
+def test_summarised_dry_run_finds_a_bad_value(tmp_path: Path,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    """The sample validates the ends of every axis: an axis whose last value alone is bad
+    (999 values from 999 down to -1) is still an error, naming that point."""
+    path = _grid_file(tmp_path, 1000, 999)
+    text = path.read_text(encoding="utf-8")
+    assert text.count("start = 1.0\nstop = 999.0") == 1
+    path.write_text(text.replace("start = 1.0\nstop = 999.0", "start = 999.0\nstop = -1.0"),
+                    encoding="utf-8")
+    assert main(["sweep", str(path), "--dry-run"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("trainctl: error: sweep point 998 (")
+    assert "controller.q_velocity = -1.0" in err and ">= 0" in err
+    assert "Traceback" not in err
+
+
+def test_point_by_index_matches_the_list() -> None:
+    """SweepDefinition.point(i) is points()[i], for lists, grids, random axes and seeds."""
+    from trainctl.sweep.definition import GridAxis, ListAxis, RandomAxis, SweepDefinition
+
+    sweep = SweepDefinition([ListAxis("controller.r_per_kn2", [0.1, 1.0, 10.0]),
+                             RandomAxis("train.vehicle[0].mass_t", "uniform", low=40.0,
+                                        high=50.0),
+                             GridAxis("model.sample_time", 10.0, 30.0, 3)],
+                            seed=7, samples=4, seeds=2)
+    points = sweep.points(base_seed=5)
+    assert len(points) == sweep.n_points == 3 * 3 * 4 * 2
+    assert [sweep.point(i, base_seed=5) for i in range(len(points))] == points
+    assert set(sweep.sample_indices(per_axis=2)) <= set(range(len(points)))
+    with pytest.raises(IndexError):
+        sweep.point(len(points))

@@ -428,8 +428,8 @@ def _cmd_schema(args: argparse.Namespace) -> int:
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from .scenario import parse_scenario, read_scenario_text
-    from .sweep import SweepDefinition, parse_set, point_key
-    from .sweep.definition import toml_text
+    from .sweep import SweepDefinition, parse_set
+    from .sweep.definition import DRY_RUN_LISTED
 
     if not args.dry_run:  # a malformed scheduler address is refused before any work
         from .sweep.runner import SCHEDULER_ENV, check_scheduler_address, scheduler_address
@@ -441,18 +441,64 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     text, label = read_scenario_text(args.scenario)
     scenario = parse_scenario(text, source=label)
     sweep = SweepDefinition.of(scenario, axes, seeds=args.seeds)
-    points = sweep.points(base_seed=scenario.seed)
-    scenarios = sweep.validate(scenario)
     if not args.dry_run:
+        scenarios = sweep.validate(scenario)  # refuses a sweep too large to run at once
+        points = sweep.points(base_seed=scenario.seed)
         return _run_sweep(args, label, text, scenario, sweep, points, scenarios)
+    if sweep.n_points > DRY_RUN_LISTED:
+        return _summarise_sweep(label, scenario, sweep)
+    points = sweep.points(base_seed=scenario.seed)
+    pairs = list(zip(points, sweep.validate(scenario), strict=True))
+    print(f"{label}: {len(points)} valid sweep points")
+    _print_points(sweep, pairs)
+    return EXIT_OK
+
+
+def _print_points(sweep: Any, pairs: Any) -> None:
+    """The table of a dry run: index, the swept values and the start of each point's key."""
+    from .sweep import point_key
+    from .sweep.definition import toml_text
+
     header = ["point", *sweep.keys, "key"]
     rows = [[str(p.index), *(toml_text(v) for v in p.values()), point_key(s)[:12]]
-            for p, s in zip(points, scenarios, strict=True)]
+            for p, s in pairs]
     widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
-    print(f"{label}: {len(points)} valid sweep points")
     for row in [header, *rows]:
         print("  ".join(c.rjust(w) if i == 0 else c.ljust(w)
                         for i, (c, w) in enumerate(zip(row, widths, strict=True))).rstrip())
+
+
+def _summarise_sweep(label: str, scenario: Any, sweep: Any) -> int:
+    """The dry run of a sweep too large to list: its size, its axes and a validated sample.
+
+    Validating every point takes a few milliseconds each (hours for a million): the
+    first and last points and a spread of every axis's values are validated instead,
+    in time independent of the sweep's size.
+    """
+    from .sweep.definition import DRY_RUN_LISTED, MAX_RUN_POINTS, RandomAxis, toml_text
+
+    pairs = sweep.validate_sample(scenario)
+    sizes = " × ".join(str(n) for n in sweep.sizes())
+    print(f"{label}: {sweep.n_points} sweep points ({sizes}), more than {DRY_RUN_LISTED}: "
+          f"not listed; {len(pairs)} of them validated (the first, the last and a spread of "
+          "each axis's values)")
+    for axis in sweep.axes:
+        if isinstance(axis, RandomAxis):
+            print(f"  {axis.key}: {sweep.samples} draws, {axis.distribution}")
+        else:
+            values = axis.grid_values()
+            ends = (toml_text(values[0]) if len(values) == 1
+                    else f"{toml_text(values[0])} ... {toml_text(values[-1])}")
+            print(f"  {axis.key}: {len(values)} values, {ends}")
+    if sweep.seeds > 1:
+        print(f"  seed: {sweep.seeds} seeds, {scenario.seed} ... {scenario.seed + sweep.seeds - 1}")
+    _print_points(sweep, pairs)
+    if sweep.n_points > MAX_RUN_POINTS:
+        print(f"{label}: a run of this sweep is refused: more than {MAX_RUN_POINTS} points "
+              "(each is validated before any runs); split it into several sweeps",
+              file=sys.stderr)
+    else:
+        print(f"{label}: a run validates every point before any runs", file=sys.stderr)
     return EXIT_OK
 
 

@@ -172,8 +172,8 @@ def sweep_scenario(scenario: str | os.PathLike[str], directory: str | os.PathLik
     base = parse_scenario(text, source=label)
     sweep = SweepDefinition.of(base, [parse_set(a) if isinstance(a, str) else a for a in axes],
                                seeds=seeds)
+    scenarios = sweep.validate(base)  # first: refuses a sweep too large at once
     points = sweep.points(base_seed=base.seed)
-    scenarios = sweep.validate(base)
     keys = [point_key(s) for s in scenarios]
     store = SweepStore.open(directory, label=label, scenario_text=text, points=points,
                             keys=keys, swept=sweep.keys, simulate=simulate, arrays=arrays)
