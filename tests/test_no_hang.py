@@ -45,16 +45,20 @@ tests/test_runtime.py, far below the minutes a command that ignored the signal t
 GONE = 10.0
 """Seconds within which the processes of a killed command must have vanished."""
 
-# Announce, on stderr, the moment a command starts its real work (a scenario's run), so
-# that the signal lands in the middle of the work and not in the start-up.
+# Announce, on stderr, the moment a command starts its real work (a scenario's run in the
+# main process; for a sweep on a pool, whose workers run the points, the first point
+# stored), so that the signal lands in the middle of the work and not in the start-up.
 _HOOK = """
 import sys
 import trainctl.run as run
-real = run.run_scenario
-def announced(*args, **kwargs):
-    sys.stderr.write("WORKING\\n"); sys.stderr.flush()
-    return real(*args, **kwargs)
-run.run_scenario = announced
+import trainctl.sweep.store as store
+def announcing(real):
+    def announced(*args, **kwargs):
+        sys.stderr.write("WORKING\\n"); sys.stderr.flush()
+        return real(*args, **kwargs)
+    return announced
+run.run_scenario = announcing(run.run_scenario)
+store.SweepStore.write_point = announcing(store.SweepStore.write_point)
 from trainctl.cli import main
 sys.exit(main(sys.argv[1:]))
 """
@@ -169,8 +173,8 @@ COMMANDS = {
     "analyse": ["analyse", "crh2-dmpc-well-sampled", "--jobs", "2"],
     "report": ["report", "crh2-dmpc-well-sampled", "--jobs", "2", "-o", "out.html"],
     "report-all": ["report", "--all", "-o", "gallery"],
-    "sweep": ["sweep", "crh2-dmpc-well-sampled", "--set", "controller.r_per_kn2=1,2,3,4",
-              "-j", "2", "-o", "store"],
+    "sweep": ["sweep", "crh2-dmpc", "--set", "controller.r_per_kn2=1,2,3,4,5,6", "-j", "2",
+              "-o", "store"],
 }
 
 
@@ -259,7 +263,7 @@ def test_report_all_closes_its_pool_when_rendering_is_interrupted(
 def test_kill_9_of_a_sweep_leaves_no_process(tmp_path: Path) -> None:
     """``kill -9`` of ``trainctl sweep -j 2``: its workers, the forkserver and the resource
     tracker end within seconds (they lived on for 13 minutes, holding stdout)."""
-    argv = [sys.executable, "-m", "trainctl", "sweep", "crh2-dmpc-well-sampled", "--set",
+    argv = [sys.executable, "-m", "trainctl", "sweep", "crh2-dmpc", "--set",
             "controller.r_per_kn2=1,2,3,4,5,6", "-j", "2", "-o", "store"]
     with session(argv, tmp_path) as process:
         # the forkserver has forked both workers (the resource tracker is the other child)
@@ -268,7 +272,8 @@ def test_kill_9_of_a_sweep_leaves_no_process(tmp_path: Path) -> None:
                            Path(f"/proc/{pid}/cmdline").read_bytes()]
             return any(len(alive(children(pid))) >= 2 for pid in forkservers)
 
-        assert wait_until(two_workers, 180.0, step=0.2), descendants(process.pid)
+        assert wait_until(two_workers, 180.0, step=0.2), (process.poll(),
+                                                          descendants(process.pid))
         below = descendants(process.pid)
         assert len(below) >= 4  # resource tracker, forkserver, two workers
         os.kill(process.pid, signal.SIGKILL)
