@@ -577,8 +577,21 @@ class SweepDefinition:
         return tuple(a.key for a in self.axes) + ((SEED_KEY,) if self.seeds > 1 else ())
 
     def sizes(self) -> tuple[int, ...]:
-        """How many values each varying part has, slowest first: each list or grid axis,
-        then the random samples (when there is a random axis), then the seeds (> 1)."""
+        """How many values each varying part of the sweep has, slowest first.
+
+        Returns
+        -------
+        tuple of int
+            Each list or grid axis's values, then the random samples (when
+            there is a random axis), then the seeds (when more than 1); their
+            product is :attr:`n_points`.
+
+        Examples
+        --------
+        >>> SweepDefinition([ListAxis("controller.r_per_kn2", [0.1, 1.0, 10.0]),
+        ...                  ListAxis("model.sample_time", [10.0, 20.0])], seeds=4).sizes()
+        (3, 2, 4)
+        """
         sizes = [len(a.grid_values()) for a in self.axes if not isinstance(a, RandomAxis)]
         if any(a.random for a in self.axes):
             sizes.append(self.samples)
