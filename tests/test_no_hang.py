@@ -60,7 +60,7 @@ def announcing(real):
 run.run_scenario = announcing(run.run_scenario)
 store.SweepStore.write_point = announcing(store.SweepStore.write_point)
 from trainctl.cli import main
-sys.exit(main(sys.argv[1:]))
+sys.exit(main())  # as the installed command calls it (argv from sys.argv)
 """
 
 

@@ -373,8 +373,8 @@ def worker_pool(workers: int) -> Iterator[Executor | None]:
     _LIVE.add(pool)
     try:
         yield pool
-    except BaseException:
-        _terminate(pool)
+    except BaseException as exc:
+        _terminate(pool, ending=isinstance(exc, KeyboardInterrupt))
         raise
     else:
         pool.shutdown(wait=True)
@@ -382,8 +382,14 @@ def worker_pool(workers: int) -> Iterator[Executor | None]:
         _LIVE.discard(pool)
 
 
-def _terminate(pool: Executor) -> None:
-    """Cancel queued work and terminate the workers at once (SIGTERM, then SIGKILL)."""
+def _terminate(pool: Executor, *, ending: bool = False) -> None:
+    """Cancel queued work and terminate the workers at once (SIGTERM, then SIGKILL).
+
+    ``ending`` (an interrupt: the process is about to end) also ends the forkserver,
+    which may still be starting (importing trainctl) with workers to fork: they would
+    start after this process freed their queues (a FileNotFoundError traceback each)
+    and its exit would wait for them. The next pool starts a new forkserver.
+    """
     # ProcessPoolExecutor keeps its workers in _processes (no public handle).
     procs = list((getattr(pool, "_processes", None) or {}).values())
     # Workers first: a worker still starting (unpickling its queues) when shutdown frees
@@ -392,10 +398,23 @@ def _terminate(pool: Executor) -> None:
     for process in procs:
         process.terminate()
     pool.shutdown(wait=False, cancel_futures=True)
+    if ending:
+        _end_forkserver()
     for process in procs:
         process.join(timeout=0.3)
         if process.is_alive():
             process.kill()
+
+
+def _end_forkserver() -> None:
+    """Kill this process's forkserver, if it runs (``multiprocessing`` keeps its PID)."""
+    from multiprocessing import forkserver
+
+    server = getattr(forkserver, "_forkserver", None)
+    pid = getattr(server, "_forkserver_pid", None)
+    if pid:
+        with contextlib.suppress(OSError):
+            os.kill(pid, signal.SIGKILL)
 
 
 def terminate_workers() -> None:
@@ -412,4 +431,4 @@ def terminate_workers() -> None:
     True
     """
     for pool in list(_LIVE):
-        _terminate(pool)
+        _terminate(pool, ending=True)
