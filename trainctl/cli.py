@@ -18,7 +18,9 @@ Subcommands
     Validate every point of a parameter sweep (the scenario's ``[sweep]``,
     or the ``--set`` axes and ``--seeds``; :mod:`trainctl.sweep`); with
     ``--dry-run`` list the points: index, the swept values and the start of
-    each point's key. Otherwise every point runs (``--no-simulate``; serially,
+    each point's key (a sweep of more than 1000 points is summarised: its
+    size, its axes and a validated spread of each axis's values; a run takes
+    at most 10 000 points). Otherwise every point runs (``--no-simulate``; serially,
     on ``--jobs N`` processes or on the Dask cluster of ``--scheduler``) into
     the store ``DIR`` (:mod:`trainctl.sweep.store`: ``rows.parquet``, one row
     per point and strategy, and each run's arrays); an interrupted sweep run
@@ -247,7 +249,8 @@ def _add_sweep(sub: Any) -> None:
     )
     p_sweep.add_argument(
         "--dry-run", action="store_true",
-        help="validate every point and list them; run nothing, write nothing",
+        help="validate every point and list them (more than 1000 points: summarise the "
+        "sweep and validate a spread of each axis's values); run nothing, write nothing",
     )
     p_sweep.add_argument(
         "--no-simulate", action="store_true",
