@@ -225,12 +225,7 @@ def test_hangup_unwinds_like_ctrl_c() -> None:
 def test_report_all_closes_its_pool_when_rendering_is_interrupted(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Ctrl-C while a report renders (outside the simulations' generator) closes the
-    generator, and its worker pool, at once.
-
-    Before, the suspended generator kept the pool open until the interpreter's exit, whose
-    pool handler waited for every queued simulation: ``report --all`` took over 90 s to
-    answer Ctrl-C.
-    """
+    generator, and its worker pool, at once (explicitly: ``contextlib.closing``)."""
     import trainctl.report.batch as batch
     from trainctl.report import ReportJob
     from trainctl.scenario import parse_scenario, read_scenario_text

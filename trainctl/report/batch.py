@@ -347,8 +347,9 @@ def report_all(jobs: Sequence[ReportJob], outdir: Path, *, workers: int = 0,
                           "directory")
     written: list[tuple[ReportData, Path]] = []
     # closing(): an interrupt while a report renders (outside the generator) closes the
-    # generator at once, and with it its worker pool; left to the garbage collector, the
-    # pool's exit handler waited for every queued simulation (Ctrl-C took over 90 s).
+    # generator, and with it its worker pool, at once and explicitly, not whenever the
+    # last reference to it goes (a traceback or debugger holding one would keep the pool,
+    # whose exit handler waits for every queued simulation).
     with Progress(progress_total(jobs)) as bar, contextlib.closing(
             run_report_data(jobs, workers=workers, progress=bar)) as results:
         for job, data in zip(jobs, results, strict=True):
