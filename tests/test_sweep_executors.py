@@ -172,7 +172,8 @@ class TestUnreachableScheduler:
         code = main(argv)
         captured = capsys.readouterr()
         assert code == 2
-        assert captured.err.startswith("trainctl: error: --scheduler ")
+        named = "--scheduler" if how == "option" else SCHEDULER_ENV  # where it came from
+        assert captured.err.startswith(f"trainctl: error: {named} ")
         assert address in captured.err and "no Dask scheduler answered" in captured.err
         # refused at once by the TCP probe, not after the client's 10 s of retries
         assert "Connection refused" in captured.err

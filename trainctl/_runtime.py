@@ -2,8 +2,10 @@
 """Process-level guards of the ``trainctl`` command.
 
 :func:`signal_guard`
-    SIGTERM unwinds like Ctrl-C (``KeyboardInterrupt``, so temporary files
-    are removed and worker processes terminated); a time budget raises
+    SIGTERM and SIGHUP unwind like Ctrl-C (:class:`Interrupted`, a
+    ``KeyboardInterrupt``, so temporary files are removed and worker
+    processes terminated; the exit status is 128 + the signal,
+    :func:`exit_status`: 130 SIGINT, 143 SIGTERM, 129 SIGHUP); a time budget raises
     :class:`BudgetExceeded` (also a ``KeyboardInterrupt``, so library code
     that catches ``Exception`` cannot swallow it). A watchdog thread hears
     every signal through :func:`signal.set_wakeup_fd`, even while the main
@@ -34,12 +36,49 @@ import threading
 from collections.abc import Iterator
 from typing import Any
 
-__all__ = ["GRACE", "BudgetExceeded", "quiet_c_stdout", "signal_guard", "silence_c_stdout"]
+__all__ = ["GRACE", "BudgetExceeded", "Interrupted", "exit_status", "quiet_c_stdout",
+           "signal_guard", "silence_c_stdout"]
 
 GRACE = 0.7
 """Seconds the main thread gets to unwind after a signal before the watchdog ends the process."""
 
-_STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGALRM)
+_HANGUP = getattr(signal, "SIGHUP", None)
+_UNWIND_SIGNALS = tuple(s for s in (signal.SIGTERM, _HANGUP) if s is not None)
+"""Signals that unwind like Ctrl-C (:class:`Interrupted`), besides SIGINT itself."""
+_STOP_SIGNALS = (signal.SIGINT, *_UNWIND_SIGNALS, signal.SIGALRM)
+
+
+class Interrupted(KeyboardInterrupt):
+    """A stop signal other than SIGINT (SIGTERM, SIGHUP), raised like Ctrl-C.
+
+    A ``KeyboardInterrupt``, so every ``finally`` and cleanup that Ctrl-C
+    runs runs too; it carries the signal for the exit status
+    (:func:`exit_status`: 128 + the signal number, as a shell reports it).
+
+    Examples
+    --------
+    >>> import signal
+    >>> Interrupted(signal.SIGTERM).signum == signal.SIGTERM
+    True
+    """
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = int(signum)
+
+
+def exit_status(exc: BaseException) -> int:
+    """The exit status of a command ended by ``exc``: 128 + the signal (130 for Ctrl-C).
+
+    Examples
+    --------
+    >>> import signal
+    >>> exit_status(KeyboardInterrupt()), exit_status(Interrupted(signal.SIGTERM))
+    (130, 143)
+    >>> exit_status(Interrupted(signal.SIGHUP))
+    129
+    """
+    return 128 + int(getattr(exc, "signum", signal.SIGINT))
 
 
 class BudgetExceeded(KeyboardInterrupt):
@@ -51,12 +90,12 @@ class BudgetExceeded(KeyboardInterrupt):
 
 
 def _raise_interrupt(signum: int, frame: Any) -> None:
-    raise KeyboardInterrupt
+    raise Interrupted(signum)
 
 
 @contextlib.contextmanager
 def signal_guard(*, max_time: float = math.inf, on_force: str = "interrupted") -> Iterator[None]:
-    """SIGTERM as Ctrl-C, an optional wall-clock budget and a watchdog, for the block.
+    """SIGTERM and SIGHUP as Ctrl-C, an optional wall-clock budget and a watchdog, for the block.
 
     Parameters
     ----------
@@ -78,7 +117,7 @@ def signal_guard(*, max_time: float = math.inf, on_force: str = "interrupted") -
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = {signal.SIGTERM: signal.signal(signal.SIGTERM, _raise_interrupt)}
+    previous = {signum: signal.signal(signum, _raise_interrupt) for signum in _UNWIND_SIGNALS}
     if math.isfinite(max_time):
 
         def expired(signum: int, frame: Any) -> None:
@@ -130,7 +169,9 @@ class _Watchdog:
                  else f"{self.words} (the computation did not stop in time; ended it)")
         with contextlib.suppress(OSError):
             os.write(2, f"\ntrainctl: {words}\n".encode())
-        os._exit(2 if budget else 130)
+        # the first stop signal heard, in the order SIGINT, SIGTERM, SIGHUP
+        stop = next((s for s in _STOP_SIGNALS if s in heard and s != signal.SIGALRM), None)
+        os._exit(2 if stop is None else 128 + int(stop))
 
     def stop(self) -> None:
         self.stopped.set()

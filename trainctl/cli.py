@@ -18,7 +18,9 @@ Subcommands
     Validate every point of a parameter sweep (the scenario's ``[sweep]``,
     or the ``--set`` axes and ``--seeds``; :mod:`trainctl.sweep`); with
     ``--dry-run`` list the points: index, the swept values and the start of
-    each point's key. Otherwise every point runs (``--no-simulate``; serially,
+    each point's key (a sweep of more than 1000 points is summarised: its
+    size, its axes and a validated spread of each axis's values; a run takes
+    at most 10 000 points). Otherwise every point runs (``--no-simulate``; serially,
     on ``--jobs N`` processes or on the Dask cluster of ``--scheduler``) into
     the store ``DIR`` (:mod:`trainctl.sweep.store`: ``rows.parquet``, one row
     per point and strategy, and each run's arrays); an interrupted sweep run
@@ -47,7 +49,9 @@ Exit status: 0 the command ran; 1 ``--strict`` found a failure (a failing check,
 missed tracking tolerance, too long a saturation, a coupler above its admissible force,
 or an ``[expected]`` mismatch); 2 a
 usage, scenario or file error (``trainctl: error: <message>`` on stderr, no
-traceback, no file written). Any other exception is a bug and propagates.
+traceback, no file written); 128 + the signal when a signal stopped it (130 Ctrl-C,
+143 SIGTERM, 129 SIGHUP; no partial output, no worker left). Any other exception is a
+bug and propagates.
 
 Examples
 --------
@@ -79,7 +83,7 @@ from ._cli_support import (
     printable_stdout,
     without_wall_clock,
 )
-from ._runtime import BudgetExceeded, quiet_c_stdout, signal_guard
+from ._runtime import BudgetExceeded, exit_status, quiet_c_stdout, signal_guard
 from .exceptions import TrainctlError
 from .naming import printable
 
@@ -94,6 +98,7 @@ EXIT_OK = 0
 EXIT_CHECK_FAILED = 1
 EXIT_ERROR = 2
 EXIT_INTERRUPTED = 130
+"""Ctrl-C (SIGINT); SIGTERM exits 143, SIGHUP 129 (128 + the signal, :func:`exit_status`)."""
 
 
 class _UserError(TrainctlError):
@@ -208,7 +213,7 @@ def _add_analyse(sub: Any) -> None:
     p_analyse.add_argument(
         "-j", "--jobs", metavar="N", type=positive_int,
         help="worker processes for the simulations (default: all CPUs when the simulations "
-        "are long, else 1)",
+        "are long, else 1); at most the usable CPUs and the simulations to run",
     )
     p_analyse.add_argument(
         "--save", metavar="DIR",
@@ -249,7 +254,8 @@ def _add_sweep(sub: Any) -> None:
     )
     p_sweep.add_argument(
         "--dry-run", action="store_true",
-        help="validate every point and list them; run nothing, write nothing",
+        help="validate every point and list them (more than 1000 points: summarise the "
+        "sweep and validate a spread of each axis's values); run nothing, write nothing",
     )
     p_sweep.add_argument(
         "--no-simulate", action="store_true",
@@ -261,7 +267,8 @@ def _add_sweep(sub: Any) -> None:
     )
     p_sweep.add_argument(
         "-j", "--jobs", metavar="N", type=positive_int, default=1,
-        help="worker processes for the points (default 1: one after the other)",
+        help="worker processes for the points (default 1: one after the other); at most "
+        "the usable CPUs and the points to run",
     )
     p_sweep.add_argument(
         "--scheduler", metavar="ADDRESS",
@@ -334,7 +341,7 @@ def _add_report(sub: Any) -> None:
     p_report.add_argument(
         "-j", "--jobs", metavar="N", type=positive_int,
         help="worker processes for the simulations (default: all CPUs when the simulations "
-        "are long, else 1)",
+        "are long, else 1); at most the usable CPUs and the simulations to run",
     )
     add_budget_option(p_report)
     p_report.set_defaults(func=_cmd_report)
@@ -379,7 +386,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         # SIGTERM unwinds like Ctrl-C (temporary files removed); a watchdog ends a process
         # stuck in C code; C libraries' prints stay off stdout.
         with quiet_c_stdout(), signal_guard(max_time=getattr(args, "max_time", math.inf)):
-            return func(args)
+            status = func(args)
     except (TrainctlError, OSError) as exc:
         _error(describe_error(exc))
         return EXIT_ERROR
@@ -390,9 +397,42 @@ def main(argv: Sequence[str] | None = None) -> int:
                "(--max-time); no partial output was written. Give a larger --max-time, or "
                "make the train, the horizon or the run shorter.")
         return EXIT_ERROR
-    except KeyboardInterrupt:
-        print(f"\n{PROG}: interrupted; no partial output was written", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    except KeyboardInterrupt as exc:
+        print(f"\n{PROG}: interrupted{_by_signal(exc)}; no partial output was written",
+              file=sys.stderr)
+        status = exit_status(exc)
+    # An interrupted command (a sweep reports its own interrupt and returns 128 + signal)
+    # run as the program itself, not called from Python, ends without delay.
+    if status > 128 and argv is None:
+        _exit_now(status)
+    return status
+
+
+def _exit_now(status: int) -> None:
+    """End the process at once with ``status``, after the exit handlers but without the
+    interpreter's teardown.
+
+    Everything the command wrote is complete or removed by now (the unwinding ran every
+    cleanup); what remains of an interrupted run is freeing its objects, which took 5 to
+    15 s after a large design (seen: "Garbage-collecting" for 13 s on a loaded machine),
+    longer than a signalled command may take to end.
+    """
+    import atexit
+
+    with contextlib.suppress(Exception):
+        atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    os._exit(status)
+
+
+def _by_signal(exc: BaseException) -> str:
+    """`` (SIGTERM)`` for a stop signal other than Ctrl-C, else nothing."""
+    import signal
+
+    signum = getattr(exc, "signum", None)
+    return "" if signum is None else f" ({signal.Signals(signum).name})"
 
 
 def _error(message: str) -> None:
@@ -424,25 +464,77 @@ def _cmd_schema(args: argparse.Namespace) -> int:
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from .scenario import parse_scenario, read_scenario_text
-    from .sweep import SweepDefinition, parse_set, point_key
-    from .sweep.definition import toml_text
+    from .sweep import SweepDefinition, parse_set
+    from .sweep.definition import DRY_RUN_LISTED
 
+    if not args.dry_run:  # a malformed scheduler address is refused before any work
+        from .sweep.runner import SCHEDULER_ENV, check_scheduler_address, scheduler_address
+
+        address = scheduler_address(args.scheduler)
+        if address:
+            check_scheduler_address(address, "--scheduler" if args.scheduler else SCHEDULER_ENV)
     axes = [parse_set(text) for text in args.sets]
     text, label = read_scenario_text(args.scenario)
     scenario = parse_scenario(text, source=label)
     sweep = SweepDefinition.of(scenario, axes, seeds=args.seeds)
-    points = sweep.points(base_seed=scenario.seed)
-    scenarios = sweep.validate(scenario)
     if not args.dry_run:
+        scenarios = sweep.validate(scenario)  # refuses a sweep too large to run at once
+        points = sweep.points(base_seed=scenario.seed)
         return _run_sweep(args, label, text, scenario, sweep, points, scenarios)
+    if sweep.n_points > DRY_RUN_LISTED:
+        return _summarise_sweep(label, scenario, sweep)
+    points = sweep.points(base_seed=scenario.seed)
+    pairs = list(zip(points, sweep.validate(scenario), strict=True))
+    print(f"{label}: {len(points)} valid sweep points")
+    _print_points(sweep, pairs)
+    return EXIT_OK
+
+
+def _print_points(sweep: Any, pairs: Any) -> None:
+    """The table of a dry run: index, the swept values and the start of each point's key."""
+    from .sweep import point_key
+    from .sweep.definition import toml_text
+
     header = ["point", *sweep.keys, "key"]
     rows = [[str(p.index), *(toml_text(v) for v in p.values()), point_key(s)[:12]]
-            for p, s in zip(points, scenarios, strict=True)]
+            for p, s in pairs]
     widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
-    print(f"{label}: {len(points)} valid sweep points")
     for row in [header, *rows]:
         print("  ".join(c.rjust(w) if i == 0 else c.ljust(w)
                         for i, (c, w) in enumerate(zip(row, widths, strict=True))).rstrip())
+
+
+def _summarise_sweep(label: str, scenario: Any, sweep: Any) -> int:
+    """The dry run of a sweep too large to list: its size, its axes and a validated sample.
+
+    Validating every point takes a few milliseconds each (hours for a million): the
+    first and last points and a spread of every axis's values are validated instead,
+    in time independent of the sweep's size.
+    """
+    from .sweep.definition import DRY_RUN_LISTED, MAX_RUN_POINTS, RandomAxis, toml_text
+
+    pairs = sweep.validate_sample(scenario)
+    sizes = " × ".join(str(n) for n in sweep.sizes())
+    print(f"{label}: {sweep.n_points} sweep points ({sizes}), more than {DRY_RUN_LISTED}: "
+          f"not listed; {len(pairs)} of them validated (the first, the last and a spread of "
+          "each axis's values)")
+    for axis in sweep.axes:
+        if isinstance(axis, RandomAxis):
+            print(f"  {axis.key}: {sweep.samples} draws, {axis.distribution}")
+        else:
+            values = axis.grid_values()
+            ends = (toml_text(values[0]) if len(values) == 1
+                    else f"{toml_text(values[0])} ... {toml_text(values[-1])}")
+            print(f"  {axis.key}: {len(values)} values, {ends}")
+    if sweep.seeds > 1:
+        print(f"  seed: {sweep.seeds} seeds, {scenario.seed} ... {scenario.seed + sweep.seeds - 1}")
+    _print_points(sweep, pairs)
+    if sweep.n_points > MAX_RUN_POINTS:
+        print(f"{label}: a run of this sweep is refused: more than {MAX_RUN_POINTS} points "
+              "(each is validated before any runs); split it into several sweeps",
+              file=sys.stderr)
+    else:
+        print(f"{label}: a run validates every point before any runs", file=sys.stderr)
     return EXIT_OK
 
 
@@ -457,19 +549,21 @@ def _run_sweep(args: argparse.Namespace, label: str, text: str, scenario: Any, s
                points: Any, scenarios: Any) -> int:
     """Run the points of ``trainctl sweep`` into its store and print the rows."""
     from .sweep import point_key
-    from .sweep.runner import dask_executor, scheduler_address
+    from .sweep.runner import SCHEDULER_ENV, dask_executor, scheduler_address
     from .sweep.store import SweepStore
 
     keys = [point_key(s) for s in scenarios]
     simulate = not args.no_simulate
     output = Path(args.output) if args.output else default_sweep_dir(scenario)
     address = scheduler_address(args.scheduler)
+    option = "--scheduler" if args.scheduler else SCHEDULER_ENV
     store: SweepStore | None = None
     try:
         with contextlib.ExitStack() as stack:
             # the cluster is reached before the store is made: an unreachable
             # scheduler leaves nothing behind
-            cluster = stack.enter_context(dask_executor(address)) if address else None
+            cluster = (stack.enter_context(dask_executor(address, option=option))
+                       if address else None)
             store = SweepStore.open(output, label=label, scenario_text=text, points=points,
                                     keys=keys, swept=sweep.keys, simulate=simulate,
                                     arrays=args.arrays)
@@ -483,13 +577,14 @@ def _run_sweep(args: argparse.Namespace, label: str, text: str, scenario: Any, s
                 print(f"{label}: resuming {output}: {len(set(keys)) - len(todo)} points "
                       f"stored, {len(todo)} to run", file=sys.stderr)
             frame = _sweep_points(args, store, todo, by_key, cluster, simulate)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         if store is None:
             raise
         done = len(set(keys)) - len(store.missing())
-        print(f"\n{PROG}: interrupted: {done} of {len(set(keys))} points are stored in "
-              f"{output}; run the same command again to finish the others", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        print(f"\n{PROG}: interrupted{_by_signal(exc)}: {done} of {len(set(keys))} points are "
+              f"stored in {output}; run the same command again to finish the others",
+              file=sys.stderr)
+        return exit_status(exc)
     return _print_sweep(args, label, output, sweep, points, frame)
 
 
@@ -497,7 +592,7 @@ def _sweep_points(args: argparse.Namespace, store: Any, todo: list[str], by_key:
                   cluster: Executor | None, simulate: bool) -> Any:
     """Run the missing points on ``cluster`` (Dask) or locally, with a progress bar; the table."""
     from ._progress import Progress
-    from .parallel import worker_pool
+    from .parallel import pool_size, worker_pool
     from .sweep.runner import run_sweep
 
     with contextlib.ExitStack() as stack:
@@ -505,7 +600,7 @@ def _sweep_points(args: argparse.Namespace, store: Any, todo: list[str], by_key:
         if cluster is not None:
             executor = cluster
         else:
-            workers = min(int(args.jobs), len(todo)) if args.jobs > 1 else 0
+            workers = pool_size(args.jobs, len(todo))
             executor = stack.enter_context(worker_pool(workers))
         bar = stack.enter_context(Progress(len(todo)))
         return run_sweep(store, by_key, simulate=simulate, executor=executor,

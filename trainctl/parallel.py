@@ -22,11 +22,15 @@ Examples
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import multiprocessing
 import os
 import signal
+import sys
+import threading
 from collections.abc import Iterable, Iterator
 from concurrent.futures import Executor, ProcessPoolExecutor
+from multiprocessing.connection import Connection
 from multiprocessing.context import BaseContext
 from typing import TYPE_CHECKING
 
@@ -34,7 +38,7 @@ if TYPE_CHECKING:
     from .scenario import Scenario
 
 __all__ = [
-    "PARALLEL_MIN_STEPS", "available_cpus", "estimated_steps", "process_pool",
+    "PARALLEL_MIN_STEPS", "available_cpus", "estimated_steps", "pool_size", "process_pool",
     "terminate_workers", "want_pool", "worker_pool",
 ]
 
@@ -67,10 +71,47 @@ def available_cpus() -> int:
     >>> 1 <= n <= (os.cpu_count() or 1)
     True
     """
+    counter = getattr(os, "process_cpu_count", None)  # Python >= 3.13: affinity-aware
+    if counter is not None:
+        return max(1, counter() or 1)
     try:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # pragma: no cover - not on Linux
         return max(1, os.cpu_count() or 1)
+
+
+def pool_size(jobs: int, tasks: int) -> int:
+    """Worker processes for ``tasks`` independent tasks when ``jobs`` are asked for.
+
+    At most ``jobs``, the number of tasks and the usable CPUs
+    (:func:`available_cpus`): more workers than cores only compete for them,
+    and each costs a process and its memory. A single worker is no better
+    than the main process, so 1 becomes 0.
+
+    Parameters
+    ----------
+    jobs : int
+        Requested workers (``--jobs``).
+    tasks : int
+        Independent tasks to run.
+
+    Returns
+    -------
+    int
+        0 to run in the main process, else the pool size (>= 2).
+
+    Examples
+    --------
+    >>> cpus = available_cpus()
+    >>> pool_size(10_000, 3) == (min(3, cpus) if cpus > 1 else 0)
+    True
+    >>> pool_size(1, 100), pool_size(8, 1)
+    (0, 0)
+    >>> pool_size(10_000, 10_000) <= cpus
+    True
+    """
+    workers = min(int(jobs), int(tasks), available_cpus())
+    return workers if workers > 1 else 0
 
 
 def estimated_steps(scenario: Scenario) -> int:
@@ -132,25 +173,27 @@ def want_pool(scenarios: Iterable[Scenario], jobs: int | None) -> int:
     -------
     int
         0 to simulate in the main process, else the pool size (never more
-        than the number of simulations).
+        than the number of simulations nor the usable CPUs, :func:`pool_size`).
 
     Examples
     --------
     ``crh2-dmpc`` has 3 simulations of 60 steps each (180 steps, far below
     :data:`PARALLEL_MIN_STEPS`), so by default it runs in the main process;
-    an explicit request is capped at the number of simulations:
+    an explicit request is capped at the number of simulations and of CPUs:
 
     >>> from trainctl.scenario import load_scenario
     >>> scenario = load_scenario("crh2-dmpc")
-    >>> want_pool([scenario], None), want_pool([scenario], 1), want_pool([scenario], 4)
-    (0, 0, 3)
-    >>> want_pool([scenario, scenario], 8)  # 2 × 3 simulations
-    6
+    >>> want_pool([scenario], None), want_pool([scenario], 1)
+    (0, 0)
+    >>> want_pool([scenario], 4) == pool_size(4, 3)
+    True
+    >>> want_pool([scenario, scenario], 10_000) == pool_size(10_000, 6)  # 2 × 3 simulations
+    True
 
     Thirty copies total 30 × 180 = 5400 >= 5000 steps, so the default uses
     every available CPU (at most the 90 simulations):
 
-    >>> want_pool([scenario] * 30, None) == min(available_cpus(), 90)
+    >>> want_pool([scenario] * 30, None) == pool_size(available_cpus(), 90)
     True
     """
     scenarios = list(scenarios)
@@ -161,15 +204,57 @@ def want_pool(scenarios: Iterable[Scenario], jobs: int | None) -> int:
         if sum(estimated_steps(s) for s in scenarios) < PARALLEL_MIN_STEPS:
             return 0
         jobs = available_cpus()
-    return max(0, min(int(jobs), tasks)) if jobs > 1 else 0
+    return pool_size(jobs, tasks)
 
 
-def _init_worker() -> None:
-    """Workers ignore SIGINT (the main process cancels the pool) and print nothing to stdout."""
+def _init_worker(lifeline: Connection | None = None) -> None:
+    """Workers ignore SIGINT (the main process cancels the pool), print nothing to stdout
+    and die with the main process (:func:`_die_with_parent`)."""
     from ._runtime import silence_c_stdout
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     silence_c_stdout()
+    _die_with_parent(lifeline)
+
+
+_PR_SET_PDEATHSIG = 1
+"""``prctl`` option: the signal a process gets when its parent dies (Linux)."""
+
+
+def _die_with_parent(lifeline: Connection | None) -> None:
+    """End this worker when the process that made its pool dies, however it dies.
+
+    A worker's parent is the forkserver, not the main process, and it blocks
+    reading a task queue whose write end the workers hold too: after a
+    ``kill -9`` of the main process it waited forever, and kept the
+    forkserver (whose "alive" pipe every worker holds) and the resource
+    tracker alive with it, all holding the terminal's stdout. Two guards:
+
+    - the **lifeline**, the read end of a pipe whose write end only the main
+      process holds (:func:`process_pool`): a daemon thread reads it, and
+      end of file (the main process gone, by any signal, or its pool shut
+      down) ends the worker at once (``os._exit``), whatever its main thread
+      is doing (a long C call included). Any POSIX system.
+    - on Linux, ``prctl(PR_SET_PDEATHSIG, SIGKILL)``: the worker is killed
+      when its own parent (the forkserver) dies.
+
+    With the workers gone, the forkserver sees the end of its "alive" pipe
+    and exits, and the resource tracker with it.
+    """
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(OSError, AttributeError, TypeError):
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if lifeline is None:
+        return
+
+    def watch() -> None:
+        with contextlib.suppress(EOFError, OSError):
+            while True:
+                lifeline.recv_bytes()  # the parent never writes: only EOF comes
+        os._exit(1)
+
+    threading.Thread(target=watch, name="trainctl-lifeline", daemon=True).start()
 
 
 WORKER_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
@@ -227,8 +312,32 @@ def process_pool(workers: int) -> Executor:
         context = forkserver
     except ValueError:  # pragma: no cover - platforms without forkserver
         context = multiprocessing.get_context("spawn")
-    return ProcessPoolExecutor(max_workers=workers, mp_context=context,
-                               initializer=_init_worker)
+    # The lifeline: the workers get its read end, only this process holds the write end
+    # (non-inheritable, never passed to a child); it closes when the pool is shut down,
+    # or when this process dies in any way, and the workers then end (_die_with_parent).
+    reader, writer = context.Pipe(duplex=False)
+    pool = _LifelinePool(max_workers=workers, mp_context=context, initializer=_init_worker,
+                         initargs=(reader,))
+    pool._trainctl_lifeline = writer
+    pool._trainctl_lifeline_reader = reader
+    return pool
+
+
+class _LifelinePool(ProcessPoolExecutor):
+    """A process pool that holds the write end of its workers' lifeline (see
+    :func:`_die_with_parent`) and closes it once the workers are done."""
+
+    _trainctl_lifeline: Connection | None = None
+    _trainctl_lifeline_reader: Connection | None = None
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        super().shutdown(wait=wait, cancel_futures=cancel_futures)
+        reader, self._trainctl_lifeline_reader = self._trainctl_lifeline_reader, None
+        if reader is not None:
+            reader.close()  # this process's copy of the read end (the workers have theirs)
+        if wait and self._trainctl_lifeline is not None:
+            self._trainctl_lifeline.close()  # the workers have exited: nothing to end
+            self._trainctl_lifeline = None
 
 
 @contextlib.contextmanager
@@ -264,8 +373,8 @@ def worker_pool(workers: int) -> Iterator[Executor | None]:
     _LIVE.add(pool)
     try:
         yield pool
-    except BaseException:
-        _terminate(pool)
+    except BaseException as exc:
+        _terminate(pool, ending=isinstance(exc, KeyboardInterrupt))
         raise
     else:
         pool.shutdown(wait=True)
@@ -273,8 +382,14 @@ def worker_pool(workers: int) -> Iterator[Executor | None]:
         _LIVE.discard(pool)
 
 
-def _terminate(pool: Executor) -> None:
-    """Cancel queued work and terminate the workers at once (SIGTERM, then SIGKILL)."""
+def _terminate(pool: Executor, *, ending: bool = False) -> None:
+    """Cancel queued work and terminate the workers at once (SIGTERM, then SIGKILL).
+
+    ``ending`` (an interrupt: the process is about to end) also ends the forkserver,
+    which may still be starting (importing trainctl) with workers to fork: they would
+    start after this process freed their queues (a FileNotFoundError traceback each)
+    and its exit would wait for them. The next pool starts a new forkserver.
+    """
     # ProcessPoolExecutor keeps its workers in _processes (no public handle).
     procs = list((getattr(pool, "_processes", None) or {}).values())
     # Workers first: a worker still starting (unpickling its queues) when shutdown frees
@@ -283,10 +398,23 @@ def _terminate(pool: Executor) -> None:
     for process in procs:
         process.terminate()
     pool.shutdown(wait=False, cancel_futures=True)
+    if ending:
+        _end_forkserver()
     for process in procs:
         process.join(timeout=0.3)
         if process.is_alive():
             process.kill()
+
+
+def _end_forkserver() -> None:
+    """Kill this process's forkserver, if it runs (``multiprocessing`` keeps its PID)."""
+    from multiprocessing import forkserver
+
+    server = getattr(forkserver, "_forkserver", None)
+    pid = getattr(server, "_forkserver_pid", None)
+    if pid:
+        with contextlib.suppress(OSError):
+            os.kill(pid, signal.SIGKILL)
 
 
 def terminate_workers() -> None:
@@ -303,4 +431,4 @@ def terminate_workers() -> None:
     True
     """
     for pool in list(_LIVE):
-        _terminate(pool)
+        _terminate(pool, ending=True)

@@ -404,12 +404,15 @@ class _Own:
 def _own_norm(A: Array, B: Array, C: Array, D: Array, dt: float | None) -> _Own:
     n = A.shape[0]
     lam: CArray = np.asarray(np.linalg.eigvals(A) if n else np.zeros(0), dtype=complex)
+    # A mode on the boundary (a consensus mode at λ = 0, say) is computed at ±eps·‖A‖ from it;
+    # such a mode is marginal, not stable, whichever side rounding put it on.
+    marginal = 100.0 * max(n, 1) * np.finfo(float).eps * max(1.0, float(np.linalg.norm(A, 1)))
     if dt is None:
         abscissa = float(np.max(lam.real)) if n else -math.inf
-        stable = abscissa < 0.0
+        stable = abscissa < -marginal
     else:
         abscissa = float(np.max(np.abs(lam))) if n else 0.0
-        stable = abscissa < 1.0
+        stable = abscissa < 1.0 - marginal
     if not stable:
         return _Own(gamma=math.inf, frequency=math.nan, iterations=0, converged=True,
                     stable=False, abscissa=abscissa)

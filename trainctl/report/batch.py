@@ -9,6 +9,7 @@ at the end (:func:`summary_line`).
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 from collections.abc import Sequence
@@ -476,9 +477,13 @@ def report_all(jobs: Sequence[ReportJob], outdir: Path, *, workers: int = 0,
     names = [default_report_path(job.scenario).name for job in jobs] + ["index.html"]
     check_gallery_output(outdir, names)
     written: list[tuple[ReportData, Path]] = []
-    with Progress(progress_total(jobs)) as bar:
-        for job, data in zip(jobs, run_report_data(jobs, workers=workers, progress=bar),
-                             strict=True):
+    # closing(): an interrupt while a report renders (outside the generator) closes the
+    # generator, and with it its worker pool, at once and explicitly, not whenever the
+    # last reference to it goes (a traceback or debugger holding one would keep the pool,
+    # whose exit handler waits for every queued simulation).
+    with Progress(progress_total(jobs)) as bar, contextlib.closing(
+            run_report_data(jobs, workers=workers, progress=bar)) as results:
+        for job, data in zip(jobs, results, strict=True):
             path = outdir / default_report_path(job.scenario).name
             _still_ours(outdir, path.name, written)
             bar.set_label(f"rendering {path.name}")

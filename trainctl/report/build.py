@@ -13,7 +13,7 @@ from __future__ import annotations
 import datetime
 import os
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Generator, Sequence
 from concurrent.futures import Future
 from dataclasses import dataclass
 from pathlib import Path
@@ -185,7 +185,7 @@ def run_report_data(
     *,
     workers: int = 0,
     progress: Progress | None = None,
-) -> Iterator[ReportData]:
+) -> Generator[ReportData, None, None]:
     """Run each job's analysis and simulations; yield its report data, in order.
 
     Parameters

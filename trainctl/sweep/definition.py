@@ -64,7 +64,10 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DISTRIBUTIONS",
+    "DRY_RUN_LISTED",
     "MAX_POINTS",
+    "MAX_RUN_POINTS",
+    "SAMPLED_PER_AXIS",
     "SCALES",
     "Axis",
     "GridAxis",
@@ -83,7 +86,22 @@ DISTRIBUTIONS = ("uniform", "normal", "log-uniform")
 """Distributions of a :class:`RandomAxis`."""
 
 MAX_POINTS = 1_000_000
-"""Most points of one sweep (each is validated before anything runs)."""
+"""Most points of one sweep definition (a dry run summarises one this large in seconds)."""
+
+MAX_RUN_POINTS = 10_000
+"""Most points :meth:`SweepDefinition.validate` accepts, so most points a sweep runs.
+
+Every point is validated (a whole scenario parse, a few milliseconds) and kept before
+any runs, then every point runs (seconds to minutes each): 10 000 points take about a
+minute to validate and hours to run; a larger sweep is refused at once, before any work
+(split it into several sweeps, each into its own store)."""
+
+DRY_RUN_LISTED = 1000
+"""Most points a dry run validates and lists one by one; a larger sweep is summarised
+(:meth:`SweepDefinition.sample_indices`)."""
+
+SAMPLED_PER_AXIS = 25
+"""Values per axis a summarised dry run validates (all of a shorter axis)."""
 
 SEED_KEY = "seed"
 """The file key the ``seeds`` option varies (the scenario's top-level ``seed``)."""
@@ -558,6 +576,112 @@ class SweepDefinition:
         """The key paths of every point, in order (axis keys, then ``"seed"`` if seeds > 1)."""
         return tuple(a.key for a in self.axes) + ((SEED_KEY,) if self.seeds > 1 else ())
 
+    def sizes(self) -> tuple[int, ...]:
+        """How many values each varying part of the sweep has, slowest first.
+
+        Returns
+        -------
+        tuple of int
+            Each list or grid axis's values, then the random samples (when
+            there is a random axis), then the seeds (when more than 1); their
+            product is :attr:`n_points`.
+
+        Examples
+        --------
+        >>> SweepDefinition([ListAxis("controller.r_per_kn2", [0.1, 1.0, 10.0]),
+        ...                  ListAxis("model.sample_time", [10.0, 20.0])], seeds=4).sizes()
+        (3, 2, 4)
+        """
+        sizes = [len(a.grid_values()) for a in self.axes if not isinstance(a, RandomAxis)]
+        if any(a.random for a in self.axes):
+            sizes.append(self.samples)
+        if self.seeds > 1:
+            sizes.append(self.seeds)
+        return tuple(sizes)
+
+    def point(self, index: int, base_seed: int = 0) -> SweepPoint:
+        """Point ``index`` of :meth:`points`, without making the others.
+
+        Parameters
+        ----------
+        index : int
+            0 <= index < :attr:`n_points`.
+        base_seed : int
+            The scenario's seed, first of the ``seeds`` option's seeds.
+
+        Returns
+        -------
+        SweepPoint
+
+        Examples
+        --------
+        >>> sweep = SweepDefinition([ListAxis("controller.r_per_kn2", [0.1, 1.0, 10.0]),
+        ...                          ListAxis("model.sample_time", [10.0, 20.0])])
+        >>> all(sweep.point(i) == p for i, p in enumerate(sweep.points()))
+        True
+        >>> dict(SweepDefinition([GridAxis("controller.r_per_kn2", 1, 1000, 1000),
+        ...                       GridAxis("controller.q_velocity", 1, 999, 999)]
+        ...                      ).point(998_999))
+        {'controller.r_per_kn2': 1000, 'controller.q_velocity': 999}
+        """
+        if not 0 <= index < self.n_points:
+            raise IndexError(f"sweep point {index} of {self.n_points}")
+        digits = []
+        rest = index
+        for size in reversed(self.sizes()):
+            rest, digit = divmod(rest, size)
+            digits.append(digit)
+        digits.reverse()
+        grids = [a.grid_values() for a in self.axes if not isinstance(a, RandomAxis)]
+        position = iter(digits)
+        combo = [grid[next(position)] for grid in grids]
+        values: dict[str, Any] = {}
+        if any(a.random for a in self.axes):
+            sample = next(position)
+            randoms = iter(a.draw(self.seed, self.samples)[sample]
+                           for a in self.axes if isinstance(a, RandomAxis))
+        grid_it = iter(combo)
+        for axis in self.axes:
+            values[axis.key] = next(randoms) if axis.random else next(grid_it)
+        if self.seeds > 1:
+            values[SEED_KEY] = base_seed + next(position)
+        return SweepPoint(index, values)
+
+    def sample_indices(self, per_axis: int = SAMPLED_PER_AXIS) -> list[int]:
+        """Indices of the points a summarised dry run validates, in order.
+
+        The first and the last point, and for each varying part (axis,
+        samples, seeds) up to ``per_axis`` of its values evenly spread (its
+        first and last among them; all of them when it has fewer), the
+        other parts at their first value.
+
+        Parameters
+        ----------
+        per_axis : int
+            Values per part, >= 2.
+
+        Returns
+        -------
+        list of int
+            Sorted, distinct; at most ``2 + per_axis × parts``.
+
+        Examples
+        --------
+        >>> sweep = SweepDefinition([GridAxis("controller.r_per_kn2", 1, 1000, 1000),
+        ...                          GridAxis("controller.q_velocity", 1, 999, 999)])
+        >>> indices = sweep.sample_indices(per_axis=3)
+        >>> indices  # the first axis moves in steps of 999 points
+        [0, 499, 998, 499500, 998001, 998999]
+        """
+        sizes = self.sizes()
+        strides = [math.prod(sizes[k + 1:]) for k in range(len(sizes))]
+        chosen = {0, self.n_points - 1}
+        for size, stride in zip(sizes, strides, strict=True):
+            count = min(size, max(2, int(per_axis)))
+            chosen.update(round(j * (size - 1) / (count - 1)) * stride if count > 1 else 0
+                          for j in range(count))
+        return sorted(chosen)
+
     def points(self, base_seed: int = 0) -> list[SweepPoint]:
         """Every point, in the documented order.
 
@@ -611,25 +735,76 @@ class SweepDefinition:
         ScenarioError
             At the first point a value of which breaks a rule: ``SOURCE: sweep
             point I (key = value, ...): <what must hold>`` (``SOURCE`` the
-            scenario file's path or built-in name).
+            scenario file's path or built-in name); at once, before any
+            point is made, when the sweep has more than
+            :data:`MAX_RUN_POINTS` points.
         """
-        base = _without_sweep(scenario)
-        cache: dict[tuple[tuple[str, str], ...], Scenario] = {}
-        found = []
-        for point in self.points(base_seed=scenario.seed):
-            current: Scenario = base
-            prefix: tuple[tuple[str, str], ...] = ()
-            for key, value in point.items():
-                prefix = (*prefix, (key, toml_text(value)))
-                if prefix not in cache:
-                    try:
-                        cache[prefix] = current.replace(key, value)
-                    except ScenarioError as exc:
-                        raise _point_error(scenario.source, point, key, value, exc) from None
-                current = cache[prefix]
-            found.append(current)
-            cache = {k: v for k, v in cache.items() if len(k) < len(point)}
-        return found
+        if self.n_points > MAX_RUN_POINTS:
+            raise ScenarioError(
+                f"{scenario.source}: sweep: {self.n_points} points ({' × '.join(map(str, self.sizes()))}), more "
+                f"than the {MAX_RUN_POINTS} a sweep runs: every point is validated before any "
+                "runs (a few ms each) and then runs (seconds or more each). Split the sweep "
+                "into several with fewer values (each into its own store); --dry-run "
+                "summarises this one.")
+        return list(_validated(_without_sweep(scenario), self.points(base_seed=scenario.seed),
+                                scenario.source))
+
+    def validate_sample(self, scenario: Scenario, per_axis: int = SAMPLED_PER_AXIS,
+                        ) -> list[tuple[SweepPoint, Scenario]]:
+        """The points of :meth:`sample_indices`, each validated like :meth:`validate`.
+
+        What a dry run of a sweep too large to list checks, in time
+        independent of the number of points.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The base scenario.
+        per_axis : int
+            Values per varying part (:meth:`sample_indices`).
+
+        Returns
+        -------
+        list of (SweepPoint, Scenario)
+            In point order.
+
+        Raises
+        ------
+        ScenarioError
+            As :meth:`validate`, at the first sampled point that breaks a rule.
+
+        Examples
+        --------
+        >>> from trainctl.scenario import load_scenario
+        >>> sweep = SweepDefinition([GridAxis("controller.r_per_kn2", 1, 1000, 1000),
+        ...                          GridAxis("controller.q_velocity", 1, 999, 999)])
+        >>> found = sweep.validate_sample(load_scenario("crh2-dmpc"), per_axis=2)
+        >>> [p.index for p, _ in found], found[-1][1].controller.input_weight
+        ([0, 998, 998001, 998999], 1000.0)
+        """
+        points = [self.point(i, base_seed=scenario.seed)
+                  for i in self.sample_indices(per_axis)]
+        return list(zip(points, _validated(_without_sweep(scenario), points, scenario.source),
+                        strict=True))
+
+
+def _validated(base: Scenario, points: Sequence[SweepPoint], source: str) -> Iterator[Scenario]:
+    """Each point's scenario: ``base`` with the point's keys replaced, in the point's key order
+    (points sharing leading values share those steps)."""
+    cache: dict[tuple[tuple[str, str], ...], Scenario] = {}
+    for point in points:
+        current: Scenario = base
+        prefix: tuple[tuple[str, str], ...] = ()
+        for key, value in point.items():
+            prefix = (*prefix, (key, toml_text(value)))
+            if prefix not in cache:
+                try:
+                    cache[prefix] = current.replace(key, value)
+                except ScenarioError as exc:
+                    raise _point_error(source, point, key, value, exc) from None
+            current = cache[prefix]
+        yield current
+        cache = {k: v for k, v in cache.items() if len(k) < len(point)}
 
 
 def _point_error(source: str, point: SweepPoint, key: str, value: Any,

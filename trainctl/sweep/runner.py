@@ -24,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import itertools
 import os
+import re
 import socket
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
@@ -37,7 +38,8 @@ if TYPE_CHECKING:
     from .definition import Axis
     from .store import SweepStore
 
-__all__ = ["SCHEDULER_ENV", "dask_executor", "run_point_results", "run_sweep", "sweep_scenario",
+__all__ = ["CONNECT_TIMEOUT", "HANDSHAKE_TIMEOUT", "SCHEDULER_ENV", "check_scheduler_address",
+           "dask_executor", "run_point_results", "run_sweep", "sweep_scenario",
            "scheduler_address"]
 
 SCHEDULER_ENV = "TRAINCTL_DASK_SCHEDULER"
@@ -170,8 +172,8 @@ def sweep_scenario(scenario: str | os.PathLike[str], directory: str | os.PathLik
     base = parse_scenario(text, source=label)
     sweep = SweepDefinition.of(base, [parse_set(a) if isinstance(a, str) else a for a in axes],
                                seeds=seeds)
+    scenarios = sweep.validate(base)  # first: refuses a sweep too large at once
     points = sweep.points(base_seed=base.seed)
-    scenarios = sweep.validate(base)
     keys = [point_key(s) for s in scenarios]
     store = SweepStore.open(directory, label=label, scenario_text=text, points=points,
                             keys=keys, swept=sweep.keys, simulate=simulate, arrays=arrays)
@@ -312,33 +314,155 @@ def scheduler_address(given: str | None) -> str | None:
     return os.environ.get(SCHEDULER_ENV) or None
 
 
-def _probe(address: str, timeout: float) -> None:
-    """Open and close a TCP connection to a ``tcp://`` scheduler address: a refused one
-    fails at once (OSError), where ``distributed.Client`` retries until its timeout.
-    Other protocols, and addresses ``distributed`` cannot parse, are left to the client."""
-    from distributed.comm.addressing import parse_address, parse_host_port
+CONNECT_TIMEOUT = 5.0
+"""Seconds a scheduler's port gets to accept the connection [s]."""
+
+HANDSHAKE_TIMEOUT = 5.0
+"""Seconds a scheduler gets to answer Dask's handshake once connected [s]: a port that
+accepts and says nothing, or answers something else, is refused after at most this long."""
+
+_ADDRESS = re.compile(r"(?:(?P<scheme>[A-Za-z][A-Za-z0-9+.-]*)://)?"
+                      r"(?P<host>\[[^\]/]*\]|[^\[\]/:]*)(?::(?P<port>[^/]*))?")
+_HOSTNAME = re.compile(r"[A-Za-z0-9](?:[A-Za-z0-9-]{0,61}[A-Za-z0-9])?"
+                       r"(?:\.[A-Za-z0-9](?:[A-Za-z0-9-]{0,61}[A-Za-z0-9])?)*\.?")
+_OTHER_SCHEMES = {
+    "tls": "TLS needs a certificate and key, which trainctl sweep cannot pass; reach the "
+           "scheduler over tcp:// (e.g. through an SSH tunnel), or give a "
+           "distributed.Client's executor to trainctl.sweep.sweep_scenario",
+    "inproc": "an in-process address is reachable only inside the process that started "
+              "the cluster",
+    "ucx": "UCX is not supported",
+    "ws": "a websocket address is not supported",
+    "wss": "a websocket address is not supported",
+    "http": "that is a web address (the dashboard's?), not the scheduler's",
+    "https": "that is a web address (the dashboard's?), not the scheduler's",
+}
+
+
+def check_scheduler_address(address: str, option: str = "--scheduler") -> tuple[str, int]:
+    """Check a scheduler address's form: ``tcp://HOST:PORT`` (or ``HOST:PORT``).
+
+    Parameters
+    ----------
+    address : str
+        The address given.
+    option : str
+        Where it came from, named in the error (``--scheduler`` or
+        :data:`SCHEDULER_ENV`).
+
+    Returns
+    -------
+    (str, int)
+        Host (without an IPv6 address's brackets) and port.
+
+    Raises
+    ------
+    ScenarioError
+        The address is not of that form (another protocol, no port, a port
+        outside 1–65535, a malformed host), with what is accepted.
+
+    Examples
+    --------
+    >>> check_scheduler_address("tcp://10.0.0.5:8786"), check_scheduler_address("[::1]:8786")
+    (('10.0.0.5', 8786), ('::1', 8786))
+    >>> try:
+    ...     check_scheduler_address("inproc://x", SCHEDULER_ENV)
+    ... except ScenarioError as error:
+    ...     print(str(error).split(": ")[0:2])
+    ["TRAINCTL_DASK_SCHEDULER 'inproc://x'", 'not a usable Dask scheduler address']
+    """
+    import ipaddress
+
+    def refuse(reason: str) -> ScenarioError:
+        return ScenarioError(
+            f"{option} {address!r}: not a usable Dask scheduler address: {reason}. Give "
+            "tcp://HOST:PORT, HOST a host name, an IPv4 address or an [IPv6] address in "
+            "brackets, PORT the scheduler's port (1-65535; 8786 unless it was started with "
+            "another), e.g. tcp://10.0.0.5:8786.")
+
+    match = _ADDRESS.fullmatch(address.strip())
+    if match is None:
+        raise refuse("it is not of the form tcp://HOST:PORT")
+    scheme = (match.group("scheme") or "tcp").lower()
+    if scheme != "tcp":
+        raise refuse(_OTHER_SCHEMES.get(scheme, f"the protocol {scheme!r} is not supported "
+                                                "(only tcp)"))
+    host, port = match.group("host"), match.group("port")
+    if host.startswith("["):
+        try:
+            host = str(ipaddress.IPv6Address(host[1:-1]))
+        except ValueError:
+            raise refuse(f"{host} is not an IPv6 address") from None
+    elif not host or not _HOSTNAME.fullmatch(host):
+        raise refuse("no host" if not host else f"{host!r} is not a host name or an IP address")
+    if port is None or port == "":
+        raise refuse("no port")
+    if not port.isdigit() or not 1 <= int(port) <= 65535:
+        raise refuse(f"the port {port!r} is not a whole number from 1 to 65535")
+    return host, int(port)
+
+
+def _probe(address: str, host: str, port: int, option: str) -> None:
+    """Reach the scheduler within :data:`CONNECT_TIMEOUT` and :data:`HANDSHAKE_TIMEOUT`.
+
+    A TCP connection first, so that a refused port fails at once (where
+    ``distributed.Client`` retries until its timeout), then Dask's own
+    handshake (``distributed.comm.connect``) under a deadline: a port that
+    accepts and never answers, or answers something that is not Dask, is
+    refused after :data:`HANDSHAKE_TIMEOUT` seconds, where the client waited
+    (and then printed tracebacks while closing).
+    """
+    import asyncio
+
+    from distributed.comm import connect
+
+    hint = (f"Start one (dask scheduler; dask worker ADDRESS on each machine) or check the "
+            f"address (or {SCHEDULER_ENV}).")
+    try:
+        with socket.create_connection((host, port), timeout=CONNECT_TIMEOUT):
+            pass
+    except OSError as exc:
+        reason = f"timed out after {CONNECT_TIMEOUT:g} s" if isinstance(
+            exc, TimeoutError) else str(exc)
+        raise ScenarioError(f"{option} {address}: no Dask scheduler answered ({reason}). "
+                            f"{hint}") from None
+
+    async def handshake() -> None:
+        comm = await asyncio.wait_for(connect(f"tcp://{_bracketed(host)}:{port}",
+                                              timeout=HANDSHAKE_TIMEOUT), HANDSHAKE_TIMEOUT)
+        await comm.close()
 
     try:
-        scheme, location = parse_address(address)
-        host, port = parse_host_port(location)
-    except ValueError:
-        return
-    if scheme != "tcp" or port is None:
-        return
-    with socket.create_connection((host, int(port)), timeout=timeout):
-        pass
+        asyncio.run(handshake())
+    except Exception as exc:  # any failure of the handshake: not a Dask scheduler
+        reason = (f"no answer within {HANDSHAKE_TIMEOUT:g} s"
+                  if isinstance(exc, TimeoutError) else "its answer is not Dask's")
+        raise ScenarioError(f"{option} {address}: the port accepts connections but no Dask "
+                            f"scheduler answered there ({reason}). {hint}") from None
+
+
+def _bracketed(host: str) -> str:
+    return f"[{host}]" if ":" in host else host
 
 
 @contextlib.contextmanager
-def dask_executor(address: str, timeout: float = 10.0) -> Iterator[Executor]:
+def dask_executor(address: str, timeout: float = 10.0, *,
+                  option: str = "--scheduler") -> Iterator[Executor]:
     """An executor on a running Dask cluster (``distributed.Client(address).get_executor``).
+
+    The address is checked first (:func:`check_scheduler_address`), then
+    the scheduler reached within :data:`CONNECT_TIMEOUT` and its handshake
+    answered within :data:`HANDSHAKE_TIMEOUT`: nothing waits longer.
 
     Parameters
     ----------
     address : str
         The scheduler's address, e.g. ``"tcp://10.0.0.5:8786"``.
     timeout : float
-        Seconds to wait for the connection [s].
+        Seconds the client gets to connect, after the checks [s].
+    option : str
+        Where the address came from, named in errors (``--scheduler`` or
+        :data:`SCHEDULER_ENV`).
 
     Yields
     ------
@@ -348,7 +472,8 @@ def dask_executor(address: str, timeout: float = 10.0) -> Iterator[Executor]:
     Raises
     ------
     ScenarioError
-        ``distributed`` is not installed, or the scheduler does not answer.
+        The address is malformed, ``distributed`` is not installed, or the
+        scheduler does not answer.
 
     Examples
     --------
@@ -367,11 +492,13 @@ def dask_executor(address: str, timeout: float = 10.0) -> Iterator[Executor]:
         raise ScenarioError("--scheduler needs Dask's distributed package, which is not "
                             "installed: pip install 'trainctl-toolbox[dask]' (the workers need it "
                             "and trainctl too).") from None
+    host, port = check_scheduler_address(address, option)
+    _probe(address, host, port, option)
     try:
-        _probe(address, timeout)
-        client = Client(address, timeout=timeout, set_as_default=False)
+        client = Client(f"tcp://{_bracketed(host)}:{port}", timeout=timeout,
+                        set_as_default=False)
     except (OSError, TimeoutError) as exc:
-        raise ScenarioError(f"--scheduler {address}: no Dask scheduler answered ({exc}). "
+        raise ScenarioError(f"{option} {address}: no Dask scheduler answered ({exc}). "
                             "Start one (dask scheduler; dask worker ADDRESS on each machine) "
                             f"or check the address (or {SCHEDULER_ENV}).") from None
     try:
