@@ -8,8 +8,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.optimize
 import pytest
+import scipy.optimize
 
 from tests.test_cli import run_module
 from trainctl.controllers.base import Measurement, ReferencePreview
