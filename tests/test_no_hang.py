@@ -495,7 +495,8 @@ def test_run_of_a_huge_grid_is_refused_at_once(tmp_path: Path,
     seconds = time.monotonic() - start
     err = capsys.readouterr().err
     assert seconds < 20.0, seconds
-    assert err.startswith("trainctl: error: sweep: 999000 points (1000 × 999), more than the")
+    assert err.startswith(f"trainctl: error: {path}: sweep: 999000 points (1000 × 999), more "
+                          "than the")
     assert "Split the sweep" in err and "Traceback" not in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
 
@@ -511,7 +512,7 @@ def test_summarised_dry_run_finds_a_bad_value(tmp_path: Path,
                     encoding="utf-8")
     assert main(["sweep", str(path), "--dry-run"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("trainctl: error: sweep point 998 (")
+    assert err.startswith(f"trainctl: error: {path}: sweep point 998 (")
     assert "controller.q_velocity = -1.0" in err and ">= 0" in err
     assert "Traceback" not in err
 

@@ -549,7 +549,8 @@ class TestWriteReport:
             raise OSError("rename failed")
 
         monkeypatch.setattr("os.replace", fail)
-        with pytest.raises(OSError, match="rename failed"):
+        with pytest.raises(OutputError, match=r"new\.html: cannot write the file \(rename "
+                           r"failed\); nothing was written"):
             write_report("x", tmp_path / "new.html")
         assert [p.name for p in tmp_path.iterdir()] == ["r.html"]
 

@@ -467,7 +467,7 @@ def test_views_dict_pandas_time_response(crh2_run) -> None:
 def test_to_pandas_without_pandas(crh2_run, monkeypatch) -> None:
     result, _ = crh2_run
     monkeypatch.setitem(sys.modules, "pandas", None)
-    with pytest.raises(MissingDependencyError, match=r"pip install 'trainctl\[pandas\]'"):
+    with pytest.raises(MissingDependencyError, match=r"pip install 'trainctl-toolbox\[pandas\]'"):
         result.to_pandas()
 
 
@@ -591,5 +591,5 @@ def test_to_pandas_without_pandas_names_the_extra(monkeypatch):
 
     monkeypatch.setitem(sys.modules, "pandas", None)  # import pandas -> ImportError
     result = SimulationResult.__new__(SimulationResult)
-    with pytest.raises(MissingDependencyError, match=r"trainctl\[pandas\]"):
+    with pytest.raises(MissingDependencyError, match=r"trainctl-toolbox\[pandas\]"):
         result.to_pandas()

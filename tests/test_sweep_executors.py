@@ -8,6 +8,7 @@ two worker processes the module starts on the loopback interface, reached by
 
 from __future__ import annotations
 
+import math
 import os
 import socket
 from collections.abc import Iterator
@@ -95,6 +96,19 @@ class TestPoolWorkers:
         assert theirs == [expected, expected]
 
 
+def _same(a: Any, b: Any) -> bool:
+    """Equal, floats to 1e-9 relative. The workers' BLAS runs single-threaded, the serial
+    run's multi-threaded: on a loaded machine the check details' Gramian eigenvalues were
+    seen to differ at 1e-12 relative (the table and the arrays stay bit-identical)."""
+    if isinstance(a, float) and isinstance(b, float):
+        return a == b or math.isclose(a, b, rel_tol=1e-9, abs_tol=0.0)
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    return type(a) is type(b) and a == b
+
+
 @pytest.mark.slow
 class TestSameTable:
     def test_serial_pool_and_dask_identical(self, cluster: Any, tmp_path: Path,
@@ -133,7 +147,7 @@ class TestSameTable:
             assert summary["simulations"], "the points ran their simulations"
             arrays = stored_arrays(stores["serial"], key)
             for name in ("pool", "dask"):
-                assert stores[name].summary(key) == summary, (name, key)
+                assert _same(stores[name].summary(key), summary), (name, key)
                 other = stored_arrays(stores[name], key)
                 assert other.keys() == arrays.keys()
                 for strategy, data in arrays.items():

@@ -46,6 +46,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from .._files import node_kind
 from ..exceptions import TrainctlError
 
 __all__ = ["OutputError", "OutputTarget", "output_target", "write_output", "write_text_atomic"]
@@ -193,17 +194,7 @@ def _classify(target: Path, text: str) -> OutputTarget:
         return OutputTarget(target, "stream", text)
     if stat.S_ISDIR(mode):
         raise OutputError(f"{text}: is a directory; give a file path with -o")
-    raise OutputError(f"{text}: is a {_node_kind(mode)}; trainctl writes only to {_ACCEPTED}")
-
-
-def _node_kind(mode: int) -> str:
-    if stat.S_ISCHR(mode):
-        return "character device"
-    if stat.S_ISBLK(mode):
-        return "block device"
-    if stat.S_ISSOCK(mode):
-        return "socket"
-    return "special file"
+    raise OutputError(f"{text}: is {node_kind(mode)}; trainctl writes only to {_ACCEPTED}")
 
 
 def _is_null_device(path: Path) -> bool:
@@ -295,7 +286,7 @@ def _write_stream(text: str, target: OutputTarget) -> None:
     try:
         mode = os.fstat(fd).st_mode
         if not (stat.S_ISFIFO(mode) or _is_null_device(target.path)):
-            raise OutputError(f"{target}: changed into a {_node_kind(mode)} before it was "
+            raise OutputError(f"{target}: changed into {node_kind(mode)} before it was "
                               f"written; trainctl writes only to {_ACCEPTED}")
         os.set_blocking(fd, True)  # the reader is there: wait for it like any pipe writer
         data = memoryview(text.encode("utf-8"))

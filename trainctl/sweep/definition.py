@@ -743,9 +743,9 @@ class SweepDefinition:
             raise ScenarioError(
                 f"{scenario.source}: sweep: {self.n_points} points "
                 f"({' × '.join(map(str, self.sizes()))}), more than the {MAX_RUN_POINTS} a "
-                "sweep runs: every point is validated before any runs (a few ms each) and then runs (seconds or more each). Split the sweep "
-                "into several with fewer values (each into its own store); --dry-run "
-                "summarises this one.")
+                "sweep runs: every point is validated before any runs (a few ms each) and "
+                "then runs (seconds or more each). Split the sweep into several with fewer "
+                "values (each into its own store); --dry-run summarises this one.")
         return list(_validated(_without_sweep(scenario), self.points(base_seed=scenario.seed),
                                 scenario.source))
 

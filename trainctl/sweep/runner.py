@@ -452,7 +452,10 @@ def dask_executor(address: str, timeout: float = 10.0, *,
 
     The address is checked first (:func:`check_scheduler_address`), then
     the scheduler reached within :data:`CONNECT_TIMEOUT` and its handshake
-    answered within :data:`HANDSHAKE_TIMEOUT`: nothing waits longer.
+    answered within :data:`HANDSHAKE_TIMEOUT`: nothing waits longer. From
+    Python, the ``inproc://`` address of a cluster this process started
+    (``LocalCluster(processes=False)``) is taken as it is; the command line
+    refuses it, since no other process can reach it.
 
     Parameters
     ----------
@@ -492,11 +495,14 @@ def dask_executor(address: str, timeout: float = 10.0, *,
         raise ScenarioError("--scheduler needs Dask's distributed package, which is not "
                             "installed: pip install 'trainctl-toolbox[dask]' (the workers need it "
                             "and trainctl too).") from None
-    host, port = check_scheduler_address(address, option)
-    _probe(address, host, port, option)
+    if address.startswith("inproc://"):
+        target = address  # this process's own cluster: nothing to probe on a network
+    else:
+        host, port = check_scheduler_address(address, option)
+        _probe(address, host, port, option)
+        target = f"tcp://{_bracketed(host)}:{port}"
     try:
-        client = Client(f"tcp://{_bracketed(host)}:{port}", timeout=timeout,
-                        set_as_default=False)
+        client = Client(target, timeout=timeout, set_as_default=False)
     except (OSError, TimeoutError) as exc:
         raise ScenarioError(f"{option} {address}: no Dask scheduler answered ({exc}). "
                             "Start one (dask scheduler; dask worker ADDRESS on each machine) "
