@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 
+from tests.strategies import trains
 from trainctl.exceptions import DimensionError, ModelError
 from trainctl.models import (
     PRESETS,
@@ -23,8 +24,6 @@ from trainctl.models import (
     virtual_formation,
 )
 from trainctl.units import permille_to_accel
-
-from .strategies import trains
 
 
 def fd_jacobian_full(train, x0, u0, h_rel=1e-6):

@@ -11,6 +11,7 @@ import scipy.linalg
 from hypothesis import given, settings
 from scipy.integrate import solve_ivp
 
+from tests.strategies import trains
 from trainctl.exceptions import ModelError
 from trainctl.models import (
     PRESETS,
@@ -36,8 +37,6 @@ from trainctl.units import (
     kmh_to_ms,
     unit_resistance_to_accel,
 )
-
-from .strategies import trains
 
 V300 = 300 / 3.6
 MASS = np.array([42.8e3, 48e3, 46.5e3, 42e3])

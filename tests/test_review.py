@@ -9,6 +9,7 @@ import re
 import numpy as np
 import pytest
 
+from tests.test_analysis import crh2_design
 from trainctl.analysis.dmpc import analyse_dmpc
 from trainctl.analysis.iteration import iteration_matrices, spectral_radius, threshold_weight
 from trainctl.analysis.review import review_design
@@ -20,8 +21,6 @@ from trainctl.scenario import (
     load_scenario,
     parse_scenario,
 )
-
-from .test_analysis import crh2_design
 
 
 def book_text(controller_lines: dict[str, str]) -> str:

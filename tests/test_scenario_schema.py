@@ -16,6 +16,7 @@ import jsonschema
 import pytest
 from pydantic import BaseModel, ConfigDict
 
+from tests.test_scenario import BASE, CONTROLLER, SINGLE, edit, with_controller, with_simulation
 from trainctl.cli import main
 from trainctl.constraints import Number
 from trainctl.controllers.lqr.settings import LQRSettings
@@ -38,8 +39,6 @@ from trainctl.scenario import (
 )
 from trainctl.scenario.docs import markdown_tables, update_readme
 from trainctl.scenario.filemodel import file_model
-
-from .test_scenario import BASE, CONTROLLER, SINGLE, edit, with_controller, with_simulation
 
 ANALYSES = Path(__file__).resolve().parent.parent / "analyses"
 README = ANALYSES / "README.md"

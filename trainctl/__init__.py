@@ -18,18 +18,18 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from .exceptions import ConvergenceWarning as ConvergenceWarning
-from .exceptions import DimensionError as DimensionError
-from .exceptions import InaccurateSolutionWarning as InaccurateSolutionWarning
-from .exceptions import MissingDependencyError as MissingDependencyError
-from .exceptions import ModelError as ModelError
-from .exceptions import ScenarioError as ScenarioError
-from .exceptions import SolverError as SolverError
-from .exceptions import TrainctlError as TrainctlError
-from .exceptions import UnknownNameError as UnknownNameError
+from trainctl.exceptions import ConvergenceWarning as ConvergenceWarning
+from trainctl.exceptions import DimensionError as DimensionError
+from trainctl.exceptions import InaccurateSolutionWarning as InaccurateSolutionWarning
+from trainctl.exceptions import MissingDependencyError as MissingDependencyError
+from trainctl.exceptions import ModelError as ModelError
+from trainctl.exceptions import ScenarioError as ScenarioError
+from trainctl.exceptions import SolverError as SolverError
+from trainctl.exceptions import TrainctlError as TrainctlError
+from trainctl.exceptions import UnknownNameError as UnknownNameError
 
 if TYPE_CHECKING:
-    from .scenario import load_scenario as load_scenario
+    from trainctl.scenario import load_scenario as load_scenario
 
 __version__ = "0.1.0"
 

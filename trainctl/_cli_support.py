@@ -17,12 +17,12 @@ import sys
 from collections.abc import Callable, Iterable, Sequence
 from typing import TYPE_CHECKING, Any, TypeVar
 
-from .budget import DEFAULT_MAX_TIME, format_duration, parse_duration
-from .exceptions import TrainctlError
-from .naming import printable
+from trainctl.budget import DEFAULT_MAX_TIME, format_duration, parse_duration
+from trainctl.exceptions import TrainctlError
+from trainctl.naming import printable
 
 if TYPE_CHECKING:
-    from .scenario import Scenario
+    from trainctl.scenario import Scenario
 
 __all__ = ["WALL_CLOCK_KEYS", "add_budget_option", "check_cost", "describe_error", "positive_int",
            "printable_stdout", "without_wall_clock"]
@@ -130,7 +130,7 @@ def check_cost(scenarios: Sequence[Scenario], max_time: float, *, simulate: bool
     trainctl.budget.BudgetError
         When the estimate exceeds the budget or the machine's memory.
     """
-    from .budget import PRINT_ESTIMATE_FROM, check_budget, estimate_run, total_estimate
+    from trainctl.budget import PRINT_ESTIMATE_FROM, check_budget, estimate_run, total_estimate
 
     estimate = total_estimate(estimate_run(s, simulate=simulate) for s in scenarios)
     check_budget(estimate, max_time)

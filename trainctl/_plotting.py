@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 if TYPE_CHECKING:
     from matplotlib.artist import Artist
 
-    from .sim.results import SimulationResult
+    from trainctl.sim.results import SimulationResult
 
 __all__ = [
     "LEGEND_MAX", "MARK_MAX", "fixed_margins", "legend_outside", "limit_lines", "line_style",

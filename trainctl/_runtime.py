@@ -161,7 +161,7 @@ class _Watchdog:
                 self._force(heard)
 
     def _force(self, heard: set[int]) -> None:
-        from .parallel import terminate_workers
+        from trainctl.parallel import terminate_workers
 
         terminate_workers()
         budget = heard == {signal.SIGALRM}

@@ -13,7 +13,7 @@ from collections.abc import Iterator, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .exceptions import ModelError
+from trainctl.exceptions import ModelError
 
 __all__ = ["as_vector", "check_finite", "check_finite_arrays", "check_nonnegative",
            "check_positive", "numerical_errors"]

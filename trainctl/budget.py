@@ -48,10 +48,10 @@ from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
-from .exceptions import TrainctlError
+from trainctl.exceptions import TrainctlError
 
 if TYPE_CHECKING:
-    from .scenario import Scenario
+    from trainctl.scenario import Scenario
 
 __all__ = [
     "DEFAULT_MAX_TIME", "PRINT_ESTIMATE_FROM", "BudgetError", "RunEstimate", "check_budget",
@@ -551,7 +551,7 @@ def _sdp_seconds(n: int, scenario: Scenario) -> float:
 def _strategy_seconds(scenario: Scenario, strategy: str, samples: int, horizon: int,
                       moves: int) -> float:
     """Seconds to build and run one strategy for ``samples`` steps."""
-    from .sim.plant import Plant
+    from trainctl.sim.plant import Plant
 
     n = scenario.train.n_vehicles
     family, _, name = strategy.rpartition(".")

@@ -61,7 +61,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from .run import AnalysisRun
+    from trainctl.run import AnalysisRun
 
 __all__ = ["PAPER_DEVIATION_RATIO", "RATIO_FACTOR", "Claim", "family_strategy",
            "paper_claims", "performance_energies"]
@@ -171,7 +171,7 @@ def family_strategy(scenario: Any, simulated: Any, family: str) -> str | None:
     >>> family_strategy(scenario, ("decentralised", "ndmpc"), "hinf") is None
     True
     """
-    from .design.stage import split_strategy
+    from trainctl.design.stage import split_strategy
 
     sim = scenario.simulation
     if sim is None:
@@ -239,7 +239,7 @@ def paper_claims(run: AnalysisRun) -> list[Claim]:
 
 def _runs(run: AnalysisRun, strategy: str) -> list[Any]:
     """The strategy's repetitions (run 0 alone when there are none)."""
-    from .repetitions import summarise
+    from trainctl.repetitions import summarise
 
     reps = run.repetitions.get(strategy)
     if reps:
@@ -298,7 +298,7 @@ def _delay_deviation(run: AnalysisRun, hinf: str, sync: str | None) -> Claim:
 
 
 def _settling(run: AnalysisRun, hinf: str, sync: str) -> Claim:
-    from .repetitions import SETTLING_BAND
+    from trainctl.repetitions import SETTLING_BAND
 
     a = [float(r.deviation.settling_time[0]) for r in _runs(run, hinf)]
     b = [float(r.deviation.settling_time[0]) for r in _runs(run, sync)]
@@ -505,8 +505,8 @@ def performance_energies(result: Any, settings: Any) -> tuple[Any, Any] | None:
 
 
 def _gamma(run: AnalysisRun) -> Claim:
-    from .analysis.consensus_hinf import consensus_loop
-    from .analysis.hinf import hinf_norm
+    from trainctl.analysis.consensus_hinf import consensus_loop
+    from trainctl.analysis.hinf import hinf_norm
 
     design = run.design.family("hinf")
     s = design.settings

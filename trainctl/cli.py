@@ -74,8 +74,8 @@ from concurrent.futures import Executor
 from pathlib import Path
 from typing import Any
 
-from . import __version__
-from ._cli_support import (
+from trainctl import __version__
+from trainctl._cli_support import (
     add_budget_option,
     check_cost,
     describe_error,
@@ -83,9 +83,9 @@ from ._cli_support import (
     printable_stdout,
     without_wall_clock,
 )
-from ._runtime import BudgetExceeded, exit_status, quiet_c_stdout, signal_guard
-from .exceptions import TrainctlError
-from .naming import printable
+from trainctl._runtime import BudgetExceeded, exit_status, quiet_c_stdout, signal_guard
+from trainctl.exceptions import TrainctlError
+from trainctl.naming import printable
 
 __all__ = ["DEFAULT_SCENARIO", "build_parser", "main"]
 
@@ -391,7 +391,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         _error(describe_error(exc))
         return EXIT_ERROR
     except BudgetExceeded as exc:
-        from .budget import format_duration
+        from trainctl.budget import format_duration
 
         _error(f"stopped after {format_duration(exc.seconds)}: the run outlived its time budget "
                "(--max-time); no partial output was written. Give a larger --max-time, or "
@@ -440,7 +440,7 @@ def _error(message: str) -> None:
 
 
 def _cmd_list(args: argparse.Namespace) -> int:
-    from .scenario import builtin_scenarios
+    from trainctl.scenario import builtin_scenarios
 
     scenarios = builtin_scenarios()
     width = max((len(s.name) for s in scenarios), default=0)
@@ -452,23 +452,23 @@ def _cmd_list(args: argparse.Namespace) -> int:
 
 def _cmd_schema(args: argparse.Namespace) -> int:
     if args.markdown:
-        from .scenario.docs import markdown_text
+        from trainctl.scenario.docs import markdown_text
 
         print(markdown_text(), end="")
     else:
-        from .scenario import json_schema
+        from trainctl.scenario import json_schema
 
         print(json.dumps(json_schema(), indent=2, ensure_ascii=False))
     return EXIT_OK
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
-    from .scenario import parse_scenario, read_scenario_text
-    from .sweep import SweepDefinition, parse_set
-    from .sweep.definition import DRY_RUN_LISTED
+    from trainctl.scenario import parse_scenario, read_scenario_text
+    from trainctl.sweep import SweepDefinition, parse_set
+    from trainctl.sweep.definition import DRY_RUN_LISTED
 
     if not args.dry_run:  # a malformed scheduler address is refused before any work
-        from .sweep.runner import SCHEDULER_ENV, check_scheduler_address, scheduler_address
+        from trainctl.sweep.runner import SCHEDULER_ENV, check_scheduler_address, scheduler_address
 
         address = scheduler_address(args.scheduler)
         if address:
@@ -492,8 +492,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
 def _print_points(sweep: Any, pairs: Any) -> None:
     """The table of a dry run: index, the swept values and the start of each point's key."""
-    from .sweep import point_key
-    from .sweep.definition import toml_text
+    from trainctl.sweep import point_key
+    from trainctl.sweep.definition import toml_text
 
     header = ["point", *sweep.keys, "key"]
     rows = [[str(p.index), *(toml_text(v) for v in p.values()), point_key(s)[:12]]
@@ -511,7 +511,7 @@ def _summarise_sweep(label: str, scenario: Any, sweep: Any) -> int:
     first and last points and a spread of every axis's values are validated instead,
     in time independent of the sweep's size.
     """
-    from .sweep.definition import DRY_RUN_LISTED, MAX_RUN_POINTS, RandomAxis, toml_text
+    from trainctl.sweep.definition import DRY_RUN_LISTED, MAX_RUN_POINTS, RandomAxis, toml_text
 
     pairs = sweep.validate_sample(scenario)
     sizes = " × ".join(str(n) for n in sweep.sizes())
@@ -540,7 +540,7 @@ def _summarise_sweep(label: str, scenario: Any, sweep: Any) -> int:
 
 def default_sweep_dir(scenario: Any) -> Path:
     """``reports/sweeps/<stem>``, the stem of :func:`~trainctl.report.batch.default_report_path`."""
-    from .report.batch import default_report_path
+    from trainctl.report.batch import default_report_path
 
     return Path("reports") / "sweeps" / default_report_path(scenario).stem
 
@@ -548,9 +548,9 @@ def default_sweep_dir(scenario: Any) -> Path:
 def _run_sweep(args: argparse.Namespace, label: str, text: str, scenario: Any, sweep: Any,
                points: Any, scenarios: Any) -> int:
     """Run the points of ``trainctl sweep`` into its store and print the rows."""
-    from .sweep import point_key
-    from .sweep.runner import SCHEDULER_ENV, dask_executor, scheduler_address
-    from .sweep.store import SweepStore
+    from trainctl.sweep import point_key
+    from trainctl.sweep.runner import SCHEDULER_ENV, dask_executor, scheduler_address
+    from trainctl.sweep.store import SweepStore
 
     keys = [point_key(s) for s in scenarios]
     simulate = not args.no_simulate
@@ -591,9 +591,9 @@ def _run_sweep(args: argparse.Namespace, label: str, text: str, scenario: Any, s
 def _sweep_points(args: argparse.Namespace, store: Any, todo: list[str], by_key: Any,
                   cluster: Executor | None, simulate: bool) -> Any:
     """Run the missing points on ``cluster`` (Dask) or locally, with a progress bar; the table."""
-    from ._progress import Progress
-    from .parallel import pool_size, worker_pool
-    from .sweep.runner import run_sweep
+    from trainctl._progress import Progress
+    from trainctl.parallel import pool_size, worker_pool
+    from trainctl.sweep.runner import run_sweep
 
     with contextlib.ExitStack() as stack:
         executor: Executor | None
@@ -610,7 +610,7 @@ def _sweep_points(args: argparse.Namespace, store: Any, todo: list[str], by_key:
 def _print_sweep(args: argparse.Namespace, label: str, output: Path, sweep: Any, points: Any,
                  frame: Any) -> int:
     """Print a finished sweep's rows: a table, or JSON with ``--json``."""
-    from .sweep.definition import toml_text
+    from trainctl.sweep.definition import toml_text
 
     rows = json.loads(frame.to_json(orient="records"))
     if args.json:
@@ -636,8 +636,8 @@ def _print_sweep(args: argparse.Namespace, label: str, output: Path, sweep: Any,
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from .report.output import output_target, write_output
-    from .scenario import builtin_scenario_text
+    from trainctl.report.output import output_target, write_output
+    from trainctl.scenario import builtin_scenario_text
 
     text = builtin_scenario_text(args.name)
     target = output_target(args.output or f"{args.name}.toml", default_name=f"{args.name}.toml")
@@ -650,23 +650,23 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_analyse(args: argparse.Namespace) -> int:
-    from .run import run_scenario
-    from .scenario import parse_scenario, read_scenario_text
+    from trainctl.run import run_scenario
+    from trainctl.scenario import parse_scenario, read_scenario_text
 
     text, label = read_scenario_text(args.scenario)
     scenario = parse_scenario(text, source=label)
     if args.save:
-        from .report.data import check_save_target
+        from trainctl.report.data import check_save_target
 
         check_save_target(args.save)
     check_cost([scenario], args.max_time, simulate=not args.no_simulate)
-    from .parallel import want_pool, worker_pool
+    from trainctl.parallel import want_pool, worker_pool
 
     workers = 0 if args.no_simulate else want_pool([scenario], args.jobs)
     with worker_pool(workers) as pool:
         summary = run_scenario(scenario, simulate=not args.no_simulate, executor=pool)
     if args.save:
-        from .report import collect_report_data, portable_command
+        from trainctl.report import collect_report_data, portable_command
 
         command = portable_command(_rebuild_argv(args))
         data = collect_report_data(summary, scenario_text=text, command=command)
@@ -704,9 +704,9 @@ def _rebuild_argv(args: argparse.Namespace) -> list[str]:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from .parallel import want_pool
-    from .report import ReportData, is_saved_run, normalise_timestamp, portable_command
-    from .report.batch import (
+    from trainctl.parallel import want_pool
+    from trainctl.report import ReportData, is_saved_run, normalise_timestamp, portable_command
+    from trainctl.report.batch import (
         check_gallery_output,
         check_report_output,
         default_report_path,
@@ -722,7 +722,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     generated_at = normalise_timestamp(stamp) if stamp else None
     start = time.perf_counter()
     if args.all:
-        from .scenario import builtin_scenarios
+        from trainctl.scenario import builtin_scenarios
 
         jobs = [_report_job(item.name, args) for item in builtin_scenarios()]
         outdir = Path(args.output) if args.output else Path("reports")
@@ -737,11 +737,11 @@ def _cmd_report(args: argparse.Namespace) -> int:
               f"{time.perf_counter() - start:.1f} s)")
         return EXIT_OK
     source = args.scenario or DEFAULT_SCENARIO
-    from .sweep.store import is_sweep_store
+    from trainctl.sweep.store import is_sweep_store
 
     if is_sweep_store(source):
-        from .report.sweep import default_sweep_report_path, write_sweep_report
-        from .report.sweep import summary_line as sweep_line
+        from trainctl.report.sweep import default_sweep_report_path, write_sweep_report
+        from trainctl.report.sweep import summary_line as sweep_line
 
         default = default_sweep_report_path(source)
         path = check_report_output(args.output or default, default_name=default.name)
@@ -774,8 +774,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 
 def _report_job(source: str, args: argparse.Namespace) -> Any:
-    from .report import ReportJob, portable_command
-    from .scenario import parse_scenario, read_scenario_text
+    from trainctl.report import ReportJob, portable_command
+    from trainctl.scenario import parse_scenario, read_scenario_text
 
     text, label = read_scenario_text(source)
     scenario = parse_scenario(text, source=label)

@@ -42,12 +42,12 @@ from pydantic import GetCoreSchemaHandler, GetJsonSchemaHandler, ValidationError
 from pydantic.json_schema import JsonSchemaValue
 from pydantic_core import CoreSchema, core_schema
 
-from .violations import ERROR_TYPE as ERROR_TYPE
-from .violations import NOTHING as NOTHING
-from .violations import Violation as Violation
-from .violations import fail as fail
-from .violations import raise_at as raise_at
-from .violations import suggest as suggest
+from trainctl.violations import ERROR_TYPE as ERROR_TYPE
+from trainctl.violations import NOTHING as NOTHING
+from trainctl.violations import Violation as Violation
+from trainctl.violations import fail as fail
+from trainctl.violations import raise_at as raise_at
+from trainctl.violations import suggest as suggest
 
 __all__ = ["FINITE", "NONNEGATIVE", "NOTHING", "POSITIVE", "UNPRINTABLE", "Array", "Choice",
            "Flag", "Integer", "NameList", "Number", "Rule", "Text", "Violation", "fail", "raise_at",

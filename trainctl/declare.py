@@ -35,9 +35,9 @@ from pydantic.fields import FieldInfo
 from pydantic.json_schema import JsonSchemaValue
 from pydantic_core import CoreSchema, ErrorDetails
 
-from .constraints import ERROR_TYPE, NOTHING, Rule, Violation
-from .exceptions import ModelError
-from .violations import suggest
+from trainctl.constraints import ERROR_TYPE, NOTHING, Rule, Violation
+from trainctl.exceptions import ModelError
+from trainctl.violations import suggest
 
 __all__ = ["Alt", "Key", "check_fields", "declared_fields", "first_error", "python_error",
            "render_refs", "settings"]

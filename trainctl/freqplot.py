@@ -23,7 +23,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from numpy.typing import ArrayLike
 
-from ._plotting import new_axes, plain_log_labels
+from trainctl._plotting import new_axes, plain_log_labels
 
 __all__ = ["sigma_plot", "step_response_plot", "string_gain_plot"]
 

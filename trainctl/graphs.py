@@ -41,7 +41,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .exceptions import ModelError
+from trainctl.exceptions import ModelError
 
 if TYPE_CHECKING:
     import networkx as nx
@@ -306,7 +306,7 @@ class CommunicationGraph:
         matplotlib.axes.Axes
             The axes.
         """
-        from .plot import graph_plot
+        from trainctl.plot import graph_plot
 
         return graph_plot(self, ax=ax)
 

@@ -35,10 +35,10 @@ from typing import Annotated, Any, TypeVar
 
 from pydantic import AfterValidator, BaseModel, StrictFloat, ValidationError
 
-from ._files import read_regular
-from .declare import first_error, violation_of
-from .exceptions import ScenarioError, TrainctlError
-from .violations import ERROR_TYPE, NOTHING
+from trainctl._files import read_regular
+from trainctl.declare import first_error, violation_of
+from trainctl.exceptions import ScenarioError, TrainctlError
+from trainctl.violations import ERROR_TYPE, NOTHING
 
 __all__ = ["MAX_JSON_BYTES", "FiniteFloat", "json_path", "load_json", "model_error", "read_json",
            "validate_json"]

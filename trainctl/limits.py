@@ -33,8 +33,8 @@ import math
 from collections.abc import Callable
 from dataclasses import replace
 
-from .constraints import Array, Integer, Number, Rule
-from .units import KMH_PER_MS
+from trainctl.constraints import Array, Integer, Number, Rule
+from trainctl.units import KMH_PER_MS
 
 __all__ = [
     "COUPLER_DAMPING", "COUPLER_GAP", "COUPLER_SPACING", "COUPLER_STIFFNESS", "CURVE_RADIUS",

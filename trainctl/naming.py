@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 
-from .constraints import UNPRINTABLE
+from trainctl.constraints import UNPRINTABLE
 
 __all__ = ["describe_direction", "one_based", "printable"]
 

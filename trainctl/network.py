@@ -104,10 +104,10 @@ from numpy.typing import ArrayLike, NDArray
 from pydantic import TypeAdapter, ValidationError, ValidationInfo, model_validator
 from pydantic_core import CoreSchema, InitErrorDetails, core_schema
 
-from .constraints import Array, Number, Rule, Violation, fail, raise_at
-from .declare import Key, python_error, settings
-from .exceptions import DimensionError, ModelError
-from .graphs import REFERENCE, CommunicationGraph
+from trainctl.constraints import Array, Number, Rule, Violation, fail, raise_at
+from trainctl.declare import Key, python_error, settings
+from trainctl.exceptions import DimensionError, ModelError
+from trainctl.graphs import REFERENCE, CommunicationGraph
 
 __all__ = [
     "ARRIVAL_TOLERANCE",

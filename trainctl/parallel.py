@@ -35,7 +35,7 @@ from multiprocessing.context import BaseContext
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from .scenario import Scenario
+    from trainctl.scenario import Scenario
 
 __all__ = [
     "PARALLEL_MIN_STEPS", "available_cpus", "estimated_steps", "pool_size", "process_pool",
@@ -150,7 +150,7 @@ def estimated_steps(scenario: Scenario) -> int:
 def simulation_runs(scenario: Scenario) -> int:
     """Closed-loop runs of a scenario: its strategies, each ``repetitions`` times, plus
     the baseline-network runs (:mod:`trainctl.repetitions`); 0 without ``[simulation]``."""
-    from .repetitions import planned_runs
+    from trainctl.repetitions import planned_runs
 
     sim = scenario.simulation
     if sim is None:
@@ -210,7 +210,7 @@ def want_pool(scenarios: Iterable[Scenario], jobs: int | None) -> int:
 def _init_worker(lifeline: Connection | None = None) -> None:
     """Workers ignore SIGINT (the main process cancels the pool), print nothing to stdout
     and die with the main process (:func:`_die_with_parent`)."""
-    from ._runtime import silence_c_stdout
+    from trainctl._runtime import silence_c_stdout
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     silence_c_stdout()

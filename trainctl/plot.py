@@ -31,7 +31,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from numpy.typing import ArrayLike
 
-from ._plotting import (
+from trainctl._plotting import (
     LEGEND_MAX,
     legend_outside,
     limit_lines,
@@ -45,8 +45,8 @@ from ._plotting import (
 )
 
 if TYPE_CHECKING:
-    from .graphs import CommunicationGraph
-    from .sim.results import SimulationResult
+    from trainctl.graphs import CommunicationGraph
+    from trainctl.sim.results import SimulationResult
 
 __all__ = [
     "convergence_plot",

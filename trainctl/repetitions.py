@@ -49,13 +49,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .analysis.check import finite_or_none
+from trainctl.analysis.check import finite_or_none
 
 if TYPE_CHECKING:
-    from .design import Design
-    from .scenario import Scenario
-    from .sim.metrics import Metrics
-    from .sim.results import SimulationResult
+    from trainctl.design import Design
+    from trainctl.scenario import Scenario
+    from trainctl.sim.metrics import Metrics
+    from trainctl.sim.results import SimulationResult
 
 __all__ = ["BASELINE", "SETTLING_BAND", "Deviation", "Repetition", "baseline_index",
            "collect_repetitions", "deviation", "run_repetition", "spread", "submit_repetitions"]
@@ -315,7 +315,7 @@ def run_repetition(scenario: Scenario, strategy: str, design: Design | None,
     >>> bool(np.all(rep.deviation.rms_error < 1.0))  # m/s, four vehicles
     True
     """
-    from .run import _simulate_recorded
+    from trainctl.run import _simulate_recorded
 
     sim = scenario.simulation
     assert sim is not None
@@ -348,7 +348,7 @@ def baseline_scenario(scenario: Scenario) -> Scenario:
 def summarise(result: SimulationResult, scenario: Scenario, strategy: str, index: int,
               seed: int) -> Repetition:
     """A run's :class:`Repetition` (its metrics and whole-run measures)."""
-    from .sim.metrics import compute_metrics
+    from trainctl.sim.metrics import compute_metrics
 
     sim = scenario.simulation
     assert sim is not None

@@ -13,21 +13,21 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ._validation import numerical_errors
-from .analysis.review import DesignReview, review_design, with_simulations
-from .analysis.summary import ModelSummary, model_summary
+from trainctl._validation import numerical_errors
+from trainctl.analysis.review import DesignReview, review_design, with_simulations
+from trainctl.analysis.summary import ModelSummary, model_summary
 
 if TYPE_CHECKING:
-    from .analysis.loops import ClosedLoopResponse
-    from .claims import Claim
-    from .controllers.base import Controller
-    from .design import Design
-    from .models.plant import Plant
-    from .repetitions import Repetition
-    from .scenario import Scenario
-    from .sim.metrics import Metrics
-    from .sim.results import SimulationResult
-    from .strict import StrictFailure
+    from trainctl.analysis.loops import ClosedLoopResponse
+    from trainctl.claims import Claim
+    from trainctl.controllers.base import Controller
+    from trainctl.design import Design
+    from trainctl.models.plant import Plant
+    from trainctl.repetitions import Repetition
+    from trainctl.scenario import Scenario
+    from trainctl.sim.metrics import Metrics
+    from trainctl.sim.results import SimulationResult
+    from trainctl.strict import StrictFailure
 
 __all__ = [
     "NETWORK_STREAM", "AnalysisRun", "make_controller", "run_scenario", "simulate_strategy",
@@ -125,7 +125,7 @@ class AnalysisRun:
         it (``--no-simulate``) has only the design-time verdict, which is
         not compared.
         """
-        from .controllers.registry import get_family
+        from trainctl.controllers.registry import get_family
 
         if self.simulations or self.scenario.simulation is None or not self.scenario.expected:
             return ()
@@ -156,7 +156,7 @@ class AnalysisRun:
 
         Computed once, on first use (:func:`trainctl.analysis.analyse_closed_loops`).
         """
-        from .analysis.loops import analyse_closed_loops
+        from trainctl.analysis.loops import analyse_closed_loops
 
         return analyse_closed_loops(self.design)
 
@@ -166,7 +166,7 @@ class AnalysisRun:
 
         Empty unless the scenario has the ``hinf`` family; computed once.
         """
-        from .claims import paper_claims
+        from trainctl.claims import paper_claims
 
         with numerical_errors(self.scenario.source):
             return tuple(paper_claims(self))
@@ -182,7 +182,7 @@ class AnalysisRun:
             force, ``[expected]`` mismatches; empty
             when the run is strict-clean.
         """
-        from .strict import strict_failures
+        from trainctl.strict import strict_failures
 
         return strict_failures(self)
 
@@ -237,7 +237,7 @@ class AnalysisRun:
             ``[expected]`` comparison, the metrics table, the repetitions
             table and the published claims, and last the strict verdict.
         """
-        from .strict import format_strict
+        from trainctl.strict import format_strict
 
         text = self.summary.format_text() + "\n\n" + self.review.format_text()
         if self.scenario.expected:
@@ -319,7 +319,7 @@ def _metrics_table(run: AnalysisRun) -> str:
 def _repetitions_table(run: AnalysisRun) -> str:
     """Each strategy's whole-run measures over its repetitions (median [min, max]) and its
     baseline-network run."""
-    from .repetitions import SETTLING_BAND, spread
+    from trainctl.repetitions import SETTLING_BAND, spread
 
     sim = run.scenario.simulation
     assert sim is not None
@@ -435,8 +435,8 @@ def make_controller(scenario: Scenario, strategy: str, design: Design | None = N
     >>> type(ctl).__name__, ctl.name
     ('MPCController', 'ndmpc')
     """
-    from .controllers.registry import get_family
-    from .design import build_design
+    from trainctl.controllers.registry import get_family
+    from trainctl.design import build_design
 
     if design is None:
         design = build_design(scenario)
@@ -497,11 +497,11 @@ def simulate_strategy(
     >>> bool(abs(res.velocities[:, -1] - 34.0).max() < 1.0)
     True
     """
-    from .exceptions import ScenarioError
-    from .models.dynamics import equilibrium
-    from .sim.closed_loop import simulate
-    from .sim.plant import Plant
-    from .sim.reference import SpeedProfile
+    from trainctl.exceptions import ScenarioError
+    from trainctl.models.dynamics import equilibrium
+    from trainctl.sim.closed_loop import simulate
+    from trainctl.sim.plant import Plant
+    from trainctl.sim.reference import SpeedProfile
 
     sim = scenario.simulation
     if sim is None:
@@ -522,7 +522,7 @@ def simulate_strategy(
             prepare(scenario.network, int(scenario.seed))
         network = None
         if scenario.network is not None and getattr(controller, "uses_network", False):
-            from .network import Network
+            from trainctl.network import Network
 
             network = Network(scenario.network, scenario.graph(),
                               seed=np.random.SeedSequence([scenario.seed, NETWORK_STREAM]))
@@ -670,7 +670,7 @@ def run_scenario(
     >>> "sampling" in run.failed_checks, run.unexpected_checks()
     (True, {})
     """
-    from .design import build_design
+    from trainctl.design import build_design
 
     sims: dict[str, SimulationResult] = {}
     metrics: dict[str, Metrics] = {}
@@ -681,13 +681,13 @@ def run_scenario(
         if sim is not None and pending is None and executor is not None:
             pending = submit_simulations(scenario, executor, design)
         if sim is not None and pending_repetitions is None and executor is not None:
-            from .repetitions import submit_repetitions
+            from trainctl.repetitions import submit_repetitions
 
             pending_repetitions = submit_repetitions(scenario, executor, design)
         summary = model_summary(scenario, design.model)
         review = review_design(scenario, design)
     if sim is not None:
-        from .sim.metrics import compute_metrics
+        from trainctl.sim.metrics import compute_metrics
 
         for strategy in sim.strategies:
             if pending is not None:
@@ -702,7 +702,7 @@ def run_scenario(
                 on_simulated(strategy)
         with numerical_errors(scenario.source):
             review = with_simulations(review, design, sims)
-            from .repetitions import collect_repetitions
+            from trainctl.repetitions import collect_repetitions
 
             repetitions, baseline = collect_repetitions(scenario, design, sims,
                                                         pending=pending_repetitions)

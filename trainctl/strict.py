@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from .run import AnalysisRun
+    from trainctl.run import AnalysisRun
 
 __all__ = ["STRICT_KINDS", "StrictFailure", "format_strict", "strict_failures"]
 

@@ -11,8 +11,8 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from ..exceptions import UnknownNameError
-from ..violations import suggest
+from trainctl.exceptions import UnknownNameError
+from trainctl.violations import suggest
 
 __all__ = ["STATUSES", "Check", "DesignReview"]
 

@@ -36,11 +36,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..exceptions import ModelError
-from ..graphs import REFERENCE, CommunicationGraph
+from trainctl.exceptions import ModelError
+from trainctl.graphs import REFERENCE, CommunicationGraph
 
 if TYPE_CHECKING:
-    from ..network import Interruption
+    from trainctl.network import Interruption
 
 __all__ = ["GraphSegment", "WindowConnectivity", "cut_graph", "graph_segments",
            "joint_connectivity", "union_graph"]

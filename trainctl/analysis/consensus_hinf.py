@@ -95,9 +95,8 @@ import numpy as np
 import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
-from ..exceptions import DimensionError, ModelError
-from .delay_lmi import DELAY_KINDS, DelayHinf, DelayHinfProblem
-from .hinf import (
+from trainctl.analysis.delay_lmi import DELAY_KINDS, DelayHinf, DelayHinfProblem
+from trainctl.analysis.hinf import (
     BoundedRealProblem,
     BoundedRealResult,
     ChannelNorms,
@@ -105,10 +104,11 @@ from .hinf import (
     channel_norms,
     hinf_norm,
 )
+from trainctl.exceptions import DimensionError, ModelError
 
 if TYPE_CHECKING:
-    from ..design.model import DesignModel
-    from ..graphs import CommunicationGraph
+    from trainctl.design.model import DesignModel
+    from trainctl.graphs import CommunicationGraph
 
 __all__ = [
     "CHANNEL_GROUPS", "DEFAULT_SCALING", "OUTPUTS", "OWN_SPEEDS", "PADE_POINTS", "Certificate",
@@ -375,7 +375,7 @@ class ConsensusLoop:
             plant states), outputs the performance outputs (read from the
             plant states).
         """
-        from .delay import pade_loop
+        from trainctl.analysis.delay import pade_loop
 
         A, _ = self.delay_matrices(kp, kc)
         K = kp * self.Kp_delayed + kc * self.Kc_delayed
@@ -811,7 +811,7 @@ def synthesise_gains(loop: ConsensusLoop, *, kp_bounds: Sequence[float] = (0.01,
     >>> np.round(res.gamma_grid[:, 0], 1).tolist()  # certified γ per grid point [-]
     [92.3, 10.0, 1.4]
     """
-    from ..exceptions import SolverError
+    from trainctl.exceptions import SolverError
 
     kp_lo, kp_hi = _check_bounds(kp_bounds, "kp_bounds")
     kc_lo, kc_hi = _check_bounds(kc_bounds, "kc_bounds")

@@ -30,10 +30,10 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from .rank_results import ControllabilityResult as ControllabilityResult
-from .rank_results import ObservabilityResult as ObservabilityResult
-from .rank_results import UncontrollableMode as UncontrollableMode
-from .rank_results import UnobservableMode as UnobservableMode
+from trainctl.analysis.rank_results import ControllabilityResult as ControllabilityResult
+from trainctl.analysis.rank_results import ObservabilityResult as ObservabilityResult
+from trainctl.analysis.rank_results import UncontrollableMode as UncontrollableMode
+from trainctl.analysis.rank_results import UnobservableMode as UnobservableMode
 
 __all__ = [
     "ControllabilityResult",

@@ -42,7 +42,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..exceptions import DimensionError, ModelError
+from trainctl.exceptions import DimensionError, ModelError
 
 if TYPE_CHECKING:
     import control as ct

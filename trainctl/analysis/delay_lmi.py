@@ -80,8 +80,8 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from ..exceptions import DimensionError, ModelError
-from .hinf import _solver_name, certified_level, parameter_terms, solve_quietly
+from trainctl.analysis.hinf import _solver_name, certified_level, parameter_terms, solve_quietly
+from trainctl.exceptions import DimensionError, ModelError
 
 if TYPE_CHECKING:
     import cvxpy as cp

@@ -15,7 +15,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import NDArray
 
-from .iteration import (
+from trainctl.analysis.iteration import (
     RelaxationResult,
     closed_loop_matrix,
     cooperative_iteration,
@@ -26,7 +26,7 @@ from .iteration import (
     spectral_radius,
     threshold_weight,
 )
-from .local_iteration import (
+from trainctl.analysis.local_iteration import (
     LocalModel,
     local_closed_loop,
     local_finite_iteration_closed_loop,
@@ -35,7 +35,7 @@ from .local_iteration import (
     local_prediction_error,
     local_threshold_weight,
 )
-from .mpc import MPCDesign, prediction
+from trainctl.analysis.mpc import MPCDesign, prediction
 
 __all__ = ["LOCAL_THRESHOLD_SIZE", "DMPCAnalysis", "LocalDMPCAnalysis", "analyse_dmpc",
            "analyse_local_dmpc"]

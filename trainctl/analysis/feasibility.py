@@ -33,14 +33,14 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from ..models.envelope import EnvelopeBounds
-from ..models.feedforward import ForceSplit
-from ..models.track import Track, TrackSection
-from .check import Check, finite_or_none
+from trainctl.analysis.check import Check, finite_or_none
+from trainctl.models.envelope import EnvelopeBounds
+from trainctl.models.feedforward import ForceSplit
+from trainctl.models.track import Track, TrackSection
 
 if TYPE_CHECKING:
-    from ..models.train import Train
-    from ..scenario import Scenario, SimulationSettings
+    from trainctl.models.train import Train
+    from trainctl.scenario import Scenario, SimulationSettings
 
 __all__ = ["GRID_POINTS", "RouteForces", "feasibility_check", "reference_motion", "route_forces"]
 
@@ -189,7 +189,7 @@ def route_forces(scenario: Scenario, times: Array | None = None) -> RouteForces:
     if sim is None and times is None:
         return _cruise(train, track, split, scenario.model.speed)
     if sim is None:
-        from ..exceptions import ScenarioError
+        from trainctl.exceptions import ScenarioError
 
         raise ScenarioError(f"{scenario.source}: route_forces at given times needs a "
                             "[simulation] reference (got none).")

@@ -30,8 +30,13 @@ import numpy as np
 import scipy.optimize
 from numpy.typing import NDArray
 
-from ..exceptions import DimensionError
-from .sensitivity import UNIT_CIRCLE_TOL, bandwidth, frequency_grid, loop_sensitivity
+from trainctl.analysis.sensitivity import (
+    UNIT_CIRCLE_TOL,
+    bandwidth,
+    frequency_grid,
+    loop_sensitivity,
+)
+from trainctl.exceptions import DimensionError
 
 __all__ = ["FrequencyResult", "Peak", "analyse_frequency"]
 

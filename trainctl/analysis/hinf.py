@@ -77,7 +77,7 @@ import scipy.linalg
 import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
-from ..exceptions import DimensionError, ModelError, SolverError
+from trainctl.exceptions import DimensionError, ModelError, SolverError
 
 if TYPE_CHECKING:
     import cvxpy as cp

@@ -29,8 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..exceptions import ModelError
-from .mpc import MPCDesign, Prediction, prediction
+from trainctl.analysis.mpc import MPCDesign, Prediction, prediction
+from trainctl.exceptions import ModelError
 
 __all__ = [
     "RelaxationResult",

@@ -160,9 +160,9 @@ import scipy.sparse
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
-from ..exceptions import ModelError
-from .iteration import log_bisection, spectral_radius
-from .mpc import MPCDesign, prediction
+from trainctl.analysis.iteration import log_bisection, spectral_radius
+from trainctl.analysis.mpc import MPCDesign, prediction
+from trainctl.exceptions import ModelError
 
 __all__ = [
     "CoachPrediction",
@@ -888,7 +888,7 @@ def local_shift_matrix(design: MPCDesign, it: LocalIteration, substeps: int) -> 
     >>> S[2:].astype(int).tolist()  # z(k+1) <- z(k+2), z(k+2) <- z(k+2)
     [[0, 0, 0, 0, 1, 0], [0, 0, 0, 0, 0, 1], [0, 0, 0, 0, 1, 0], [0, 0, 0, 0, 0, 1]]
     """
-    from .iteration import shift_matrix
+    from trainctl.analysis.iteration import shift_matrix
 
     MN, size = it.n_plan, it.D0.shape[0]
     nx = design.A.shape[0]

@@ -26,12 +26,12 @@ from typing import TYPE_CHECKING, Any
 
 import control as ct
 
-from .frequency import FrequencyResult, analyse_frequency
-from .steps import StepResult, analyse_grade_step, step_duration
-from .string_stability import StringStabilityResult, string_stability
+from trainctl.analysis.frequency import FrequencyResult, analyse_frequency
+from trainctl.analysis.steps import StepResult, analyse_grade_step, step_duration
+from trainctl.analysis.string_stability import StringStabilityResult, string_stability
 
 if TYPE_CHECKING:
-    from ..design import Design
+    from trainctl.design import Design
 
 __all__ = ["ClosedLoopResponse", "analyse_closed_loops", "as_discrete", "loop_strategies"]
 
@@ -131,7 +131,7 @@ def loop_strategies(design: Design) -> tuple[str, ...]:
     >>> loop_strategies(build_design(load_scenario("heavy-haul-hinf")))
     ()
     """
-    from ..controllers.registry import get_family
+    from trainctl.controllers.registry import get_family
 
     sim = design.scenario.simulation
     if sim is not None:

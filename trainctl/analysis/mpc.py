@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..exceptions import ModelError
+from trainctl.exceptions import ModelError
 
 __all__ = ["FORMS", "MPCDesign", "Prediction", "prediction", "prediction_matrices"]
 

@@ -59,12 +59,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..units import GRAVITY
-from .check import Check
+from trainctl.analysis.check import Check
+from trainctl.units import GRAVITY
 
 if TYPE_CHECKING:
-    from ..models.vehicle import Vehicle
-    from ..scenario import Scenario
+    from trainctl.models.vehicle import Vehicle
+    from trainctl.scenario import Scenario
 
 __all__ = ["RANGES", "Range", "plausibility_check"]
 

@@ -20,19 +20,19 @@ import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
-from ..naming import describe_direction
-from .check import STATUSES, Check, DesignReview
-from .controllability import analyse_controllability, analyse_observability
-from .sampling import analyse_sampling
-from .stability import analyse_stability, mode_direction
-from .string_stability import string_stability_check
+from trainctl.analysis.check import STATUSES, Check, DesignReview
+from trainctl.analysis.controllability import analyse_controllability, analyse_observability
+from trainctl.analysis.sampling import analyse_sampling
+from trainctl.analysis.stability import analyse_stability, mode_direction
+from trainctl.analysis.string_stability import string_stability_check
+from trainctl.naming import describe_direction
 
 if TYPE_CHECKING:
     from collections.abc import Mapping
 
-    from ..design import Design, DesignModel
-    from ..scenario import Scenario
-    from ..sim.results import SimulationResult
+    from trainctl.design import Design, DesignModel
+    from trainctl.scenario import Scenario
+    from trainctl.sim.results import SimulationResult
 
 __all__ = [
     "LOOP_CHECK_NAMES", "MODEL_CHECK_NAMES", "SAMPLING_FAIL", "SAMPLING_PASS", "STATUSES",
@@ -91,8 +91,8 @@ def review_design(scenario: Scenario, design: Design | None = None) -> DesignRev
     >>> review.check("sampling").status
     'fail'
     """
-    from ..controllers.registry import get_family
-    from ..design import build_design
+    from trainctl.controllers.registry import get_family
+    from trainctl.design import build_design
 
     if design is None:
         design = build_design(scenario)
@@ -150,7 +150,7 @@ def with_simulations(review: DesignReview, design: Design,
     >>> len(judged.checks) == len(review.checks)
     True
     """
-    from ..controllers.registry import get_family
+    from trainctl.controllers.registry import get_family
 
     found: dict[str, Check] = {}
     for strategy, result in simulations.items():
@@ -248,8 +248,8 @@ def scenario_checks(scenario: Scenario) -> list[Check]:
     >>> [c.status for c in scenario_checks(load_scenario("crh2-dmpc"))]
     ['pass', 'pass']
     """
-    from .feasibility import feasibility_check
-    from .plausibility import plausibility_check
+    from trainctl.analysis.feasibility import feasibility_check
+    from trainctl.analysis.plausibility import plausibility_check
 
     return [feasibility_check(scenario), plausibility_check(scenario)]
 

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import control as ct
 import numpy as np
 
-from ..models.discrete import discretise
-from .modes import continuous_modes, nyquist_sample_time
+from trainctl.analysis.modes import continuous_modes, nyquist_sample_time
+from trainctl.models.discrete import discretise
 
 __all__ = ["SamplingResult", "analyse_sampling"]
 

@@ -38,7 +38,7 @@ import numpy as np
 import scipy.optimize
 from numpy.typing import NDArray
 
-from ..exceptions import DimensionError
+from trainctl.exceptions import DimensionError
 
 __all__ = [
     "DECADES", "POINTS_PER_DECADE", "UNIT_CIRCLE_TOL", "bandwidth", "frequency_grid",

@@ -28,8 +28,8 @@ import control as ct
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .check import finite_or_none
-from .modes import ZERO_TOL, classify_mode
+from trainctl.analysis.check import finite_or_none
+from trainctl.analysis.modes import ZERO_TOL, classify_mode
 
 __all__ = ["ModeStability", "StabilityResult", "analyse_stability", "mode_direction"]
 

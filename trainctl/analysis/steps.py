@@ -26,8 +26,8 @@ import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
-from ..exceptions import DimensionError
-from ..units import GRAVITY
+from trainctl.exceptions import DimensionError
+from trainctl.units import GRAVITY
 
 __all__ = ["GRADE_STEP", "MAX_STEPS", "StepResult", "analyse_grade_step", "step_duration"]
 

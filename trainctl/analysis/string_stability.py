@@ -44,12 +44,12 @@ import numpy as np
 import scipy.optimize
 from numpy.typing import NDArray
 
-from ..exceptions import DimensionError
-from .check import Check
-from .sensitivity import UNIT_CIRCLE_TOL, frequency_grid
+from trainctl.analysis.check import Check
+from trainctl.analysis.sensitivity import UNIT_CIRCLE_TOL, frequency_grid
+from trainctl.exceptions import DimensionError
 
 if TYPE_CHECKING:
-    from ..design import Design
+    from trainctl.design import Design
 
 __all__ = [
     "MIN_FIT", "QUANTITIES", "RELATIVE_TOL", "ChainPeaks", "StringStabilityResult",
@@ -538,7 +538,7 @@ def string_stability_check(design: Design) -> Check | None:
     >>> string_stability_check(build_design(load_scenario("heavy-haul-hinf"))) is None  # no law
     True
     """
-    from ..controllers.registry import get_family
+    from trainctl.controllers.registry import get_family
 
     if not design.families or design.model.n_vehicles < 2:
         return None

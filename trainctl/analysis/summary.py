@@ -9,12 +9,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..models.dynamics import Equilibrium
-from .modes import Mode, continuous_modes, nyquist_sample_time
+from trainctl.analysis.modes import Mode, continuous_modes, nyquist_sample_time
+from trainctl.models.dynamics import Equilibrium
 
 if TYPE_CHECKING:
-    from ..design import DesignModel
-    from ..scenario import Scenario
+    from trainctl.design import DesignModel
+    from trainctl.scenario import Scenario
 
 __all__ = ["ModelSummary", "model_summary"]
 
@@ -179,7 +179,7 @@ def model_summary(scenario: Scenario, model: DesignModel | None = None) -> Model
     (False, 0.113)
     """
     if model is None:
-        from ..design import build_model
+        from trainctl.design import build_model
 
         model = build_model(scenario)
     train, cfg = scenario.train, scenario.model

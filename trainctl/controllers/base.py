@@ -21,7 +21,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from ..exceptions import ModelError
+from trainctl.exceptions import ModelError
 
 __all__ = [
     "STATUSES",

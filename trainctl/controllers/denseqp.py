@@ -53,9 +53,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import cho_factor, cho_solve
 
-from ..exceptions import SolverError
-from .fastqp import FastOSQP, QPSolution, _as_slice
-from .status import from_daqp
+from trainctl.controllers.fastqp import FastOSQP, QPSolution, _as_slice
+from trainctl.controllers.status import from_daqp
+from trainctl.exceptions import SolverError
 
 __all__ = ["DAQP_SETTINGS", "FastDAQP"]
 

@@ -31,8 +31,8 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
-from ..exceptions import SolverError
-from .status import from_osqp
+from trainctl.controllers.status import from_osqp
+from trainctl.exceptions import SolverError
 
 __all__ = ["OSQP_SETTINGS", "SOLVER_OUTPUT", "FastOSQP", "QPSolution", "SolverOutput",
            "interrupt_record", "osqp_runner", "pass_on_interrupt"]

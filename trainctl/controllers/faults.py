@@ -29,7 +29,7 @@ from typing import TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .base import StepRecord
+from trainctl.controllers.base import StepRecord
 
 __all__ = ["call_solver", "fault_record", "non_finite_reason", "safe_inputs"]
 

@@ -26,11 +26,11 @@ import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
-from .._validation import check_positive
-from ..models.discrete import discretise
-from ..models.linear import linearise
-from ..models.plant import Plant
-from ..models.train import Train
+from trainctl._validation import check_positive
+from trainctl.models.discrete import discretise
+from trainctl.models.linear import linearise
+from trainctl.models.plant import Plant
+from trainctl.models.train import Train
 
 __all__ = ["KalmanObserver", "ObserverSettings"]
 

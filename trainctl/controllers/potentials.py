@@ -43,8 +43,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
-from .._validation import check_finite
-from ..exceptions import ModelError
+from trainctl._validation import check_finite
+from trainctl.exceptions import ModelError
 
 __all__ = [
     "BarrierPotential",

@@ -36,9 +36,8 @@ import cvxpy as cp
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..exceptions import ModelError, SolverError
-from .denseqp import FastDAQP
-from .fastqp import (
+from trainctl.controllers.denseqp import FastDAQP
+from trainctl.controllers.fastqp import (
     OSQP_SETTINGS,
     SOLVER_OUTPUT,
     FastOSQP,
@@ -46,7 +45,8 @@ from .fastqp import (
     interrupt_record,
     pass_on_interrupt,
 )
-from .status import from_cvxpy
+from trainctl.controllers.status import from_cvxpy
+from trainctl.exceptions import ModelError, SolverError
 
 __all__ = ["DAQP_MAX_DECISIONS", "OSQP_SETTINGS", "QP_SOLVERS", "ParametricQP", "QPSolution",
            "choose_solver"]

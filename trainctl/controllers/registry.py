@@ -55,16 +55,16 @@ from collections.abc import Iterable, Mapping, Sequence
 from importlib import import_module
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
-from ..exceptions import ScenarioError
+from trainctl.exceptions import ScenarioError
 
 if TYPE_CHECKING:
     import control as ct
 
-    from ..analysis.review import Check
-    from ..design import DesignModel
-    from ..report.figures import ReportFigure
-    from ..scenario import Scenario
-    from .base import Controller
+    from trainctl.analysis.review import Check
+    from trainctl.controllers.base import Controller
+    from trainctl.design import DesignModel
+    from trainctl.report.figures import ReportFigure
+    from trainctl.scenario import Scenario
 
 __all__ = [
     "DEFAULT_FAMILY",

@@ -16,12 +16,12 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from ..exceptions import ScenarioError
+from trainctl.exceptions import ScenarioError
 
 if TYPE_CHECKING:
-    from ..analysis.check import Check
-    from ..design import DesignModel
-    from ..scenario import Scenario
+    from trainctl.analysis.check import Check
+    from trainctl.design import DesignModel
+    from trainctl.scenario import Scenario
 
 __all__ = ["SAMPLING_THRESHOLD", "ZERO_TOL", "ClosedLoopSpectrum", "closed_loop_spectrum",
            "control_interval", "cumulative", "held_loop", "incidence", "initial_errors",
@@ -303,7 +303,7 @@ def sampling_check(name: str, A_cl: NDArray[np.float64], held: NDArray[np.float6
     >>> round(check.details["sampled_radius"], 6)  # |1 - 3| = 2 > 1: unstable
     2.0
     """
-    from ..analysis.check import Check
+    from trainctl.analysis.check import Check
 
     lam = np.linalg.eigvals(A_cl)
     omega = float(np.max(np.abs(lam)))

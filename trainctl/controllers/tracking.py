@@ -18,8 +18,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Annotated
 
-from ..constraints import Choice, NameList, Number, Violation, raise_at
-from ..declare import Alt, Key
+from trainctl.constraints import Choice, NameList, Number, Violation, raise_at
+from trainctl.declare import Alt, Key
 
 __all__ = [
     "CONTROLLER_OUTPUTS",

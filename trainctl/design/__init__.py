@@ -11,14 +11,14 @@ again.
 
 from __future__ import annotations
 
-from .model import KN as KN
-from .model import DesignModel as DesignModel
-from .model import build_model as build_model
-from .stage import Design as Design
-from .stage import build_design as build_design
-from .stage import scenario_controllers as scenario_controllers
-from .stage import split_strategy as split_strategy
-from .stage import strategy_interval as strategy_interval
+from trainctl.design.model import KN as KN
+from trainctl.design.model import DesignModel as DesignModel
+from trainctl.design.model import build_model as build_model
+from trainctl.design.stage import Design as Design
+from trainctl.design.stage import build_design as build_design
+from trainctl.design.stage import scenario_controllers as scenario_controllers
+from trainctl.design.stage import split_strategy as split_strategy
+from trainctl.design.stage import strategy_interval as strategy_interval
 
 __all__ = [
     "KN", "Design", "DesignModel", "build_design", "build_model", "scenario_controllers",

@@ -26,16 +26,16 @@ import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
-from .._validation import check_finite_arrays
-from ..exceptions import ModelError
-from ..models.discrete import discretise
-from ..models.dynamics import Equilibrium, equilibrium
-from ..models.linear import linearise
-from ..models.subsystems import CoachSubsystems, coach_subsystems
+from trainctl._validation import check_finite_arrays
+from trainctl.exceptions import ModelError
+from trainctl.models.discrete import discretise
+from trainctl.models.dynamics import Equilibrium, equilibrium
+from trainctl.models.linear import linearise
+from trainctl.models.subsystems import CoachSubsystems, coach_subsystems
 
 if TYPE_CHECKING:
-    from ..models.train import Train
-    from ..scenario import ModelSettings, Scenario
+    from trainctl.models.train import Train
+    from trainctl.scenario import ModelSettings, Scenario
 
 __all__ = ["KN", "DesignModel", "build_model"]
 

@@ -7,13 +7,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from ..exceptions import ScenarioError
-from .model import DesignModel, build_model
+from trainctl.design.model import DesignModel, build_model
+from trainctl.exceptions import ScenarioError
 
 if TYPE_CHECKING:
     import control as ct
 
-    from ..scenario import Scenario
+    from trainctl.scenario import Scenario
 
 __all__ = ["Design", "build_design", "scenario_controllers", "split_strategy",
            "strategy_interval"]
@@ -103,7 +103,7 @@ class Design:
         >>> loop.dt, loop.ninputs, loop.noutputs
         (20.0, 4, 10)
         """
-        from ..controllers.registry import get_family
+        from trainctl.controllers.registry import get_family
 
         family, name = self.resolve(strategy)
         return get_family(family).closed_loop(self.family(family), name)
@@ -191,7 +191,7 @@ def split_strategy(scenario: Scenario, strategy: str) -> tuple[str, str]:
     ...     print(err)
     builtin:crh2-potential: family 'lqr' has no strategy 'nash' (it has centralised, decentralised).
     """
-    from ..controllers.registry import get_family
+    from trainctl.controllers.registry import get_family
 
     controllers = scenario_controllers(scenario)
     if not controllers:
@@ -230,7 +230,7 @@ def build_design(scenario: Scenario, *, model: DesignModel | None = None) -> Des
     >>> list(design.families), design.family("mpc").mpc.prediction_horizon
     (['mpc'], 4)
     """
-    from ..controllers.registry import get_family
+    from trainctl.controllers.registry import get_family
 
     if model is None:
         model = build_model(scenario)

@@ -83,10 +83,10 @@ import scipy.linalg
 import scipy.sparse
 from numpy.typing import NDArray
 
-from .chain import Chain
+from trainctl.models.chain import Chain
 
 if TYPE_CHECKING:
-    from .plant import Plant
+    from trainctl.models.plant import Plant
 
 __all__ = [
     "BAND_TOL", "BANDED_MIN_VEHICLES", "Band", "LocalFlow", "banded_flow", "local_flow",

@@ -31,12 +31,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from ._plant_banded import LocalFlow, local_flow
-from ._plant_propagators import LADDER_LEVELS, TrackArrays, ladder
-from .train import Train
+from trainctl.models._plant_banded import LocalFlow, local_flow
+from trainctl.models._plant_propagators import LADDER_LEVELS, TrackArrays, ladder
+from trainctl.models.train import Train
 
 if TYPE_CHECKING:
-    from .plant import Plant
+    from trainctl.models.plant import Plant
 
 __all__ = ["SectionTracker", "crossings", "hermite_root", "hermite_root1", "linear_flow",
            "sections"]

@@ -32,14 +32,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_positive
-from ..exceptions import ModelError
-from ._plant_crossings import linear_flow
-from ._plant_propagators import propagator
+from trainctl._validation import check_positive
+from trainctl.exceptions import ModelError
+from trainctl.models._plant_crossings import linear_flow
+from trainctl.models._plant_propagators import propagator
 
 if TYPE_CHECKING:
-    from .plant import Plant
-    from .train import Train
+    from trainctl.models.plant import Plant
+    from trainctl.models.train import Train
 
 __all__ = ["DenseOutput", "DenseRecord", "dense_indices"]
 

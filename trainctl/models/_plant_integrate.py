@@ -15,12 +15,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from ._plant_propagators import drag_flow, grid_speed, propagator
+from trainctl.models._plant_propagators import drag_flow, grid_speed, propagator
 
 if TYPE_CHECKING:
-    from ._plant_crossings import SectionTracker
-    from ._plant_dense import DenseRecord
-    from .plant import Plant
+    from trainctl.models._plant_crossings import SectionTracker
+    from trainctl.models._plant_dense import DenseRecord
+    from trainctl.models.plant import Plant
 
 __all__ = ["integrate"]
 

@@ -26,7 +26,7 @@ import scipy.linalg
 import scipy.sparse
 from numpy.typing import NDArray
 
-from ._plant_banded import banded_flow, sparse_nbytes
+from trainctl.models._plant_banded import banded_flow, sparse_nbytes
 
 try:  # scipy's C++ CSR product, called without the ~10 µs of ``@`` dispatch per substep
     from scipy.sparse._sparsetools import csr_matvec as _csr_matvec
@@ -34,7 +34,7 @@ except ImportError:  # pragma: no cover - a scipy without the private module: us
     _csr_matvec = None
 
 if TYPE_CHECKING:
-    from .plant import Plant
+    from trainctl.models.plant import Plant
 
 __all__ = [
     "CACHE_BYTES", "LADDER_LEVELS", "LRU", "Propagator", "Split", "TrackArrays",

@@ -17,13 +17,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import solve_ivp
 
-from ..exceptions import SolverError
-from .dynamics import train_rhs, vehicle_positions
-from .train import Train
+from trainctl.exceptions import SolverError
+from trainctl.models.dynamics import train_rhs, vehicle_positions
+from trainctl.models.train import Train
 
 if TYPE_CHECKING:
-    from ._plant_propagators import TrackArrays
-    from .plant import Plant
+    from trainctl.models._plant_propagators import TrackArrays
+    from trainctl.models.plant import Plant
 
 __all__ = ["advance_reference"]
 

@@ -25,10 +25,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_nonnegative
-from ..exceptions import DimensionError
-from .envelope import EnvelopeBounds
-from .train import Train
+from trainctl._validation import check_nonnegative
+from trainctl.exceptions import DimensionError
+from trainctl.models.envelope import EnvelopeBounds
+from trainctl.models.train import Train
 
 __all__ = ["SATURATION_TOLERANCE", "ActuatorLimits"]
 

@@ -51,8 +51,8 @@ import numpy as np
 import scipy.sparse
 from numpy.typing import ArrayLike, NDArray
 
-from ..exceptions import DimensionError, ModelError
-from .train import Train
+from trainctl.exceptions import DimensionError, ModelError
+from trainctl.models.train import Train
 
 __all__ = ["Chain", "train_chain"]
 

@@ -17,8 +17,8 @@ from __future__ import annotations
 import control as ct
 import numpy as np
 
-from .._validation import check_finite_arrays, check_positive
-from ..exceptions import ModelError
+from trainctl._validation import check_finite_arrays, check_positive
+from trainctl.exceptions import ModelError
 
 __all__ = ["DISCRETISATIONS", "discretise"]
 

@@ -25,13 +25,13 @@ import control as ct
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_finite, check_positive
-from ..exceptions import DimensionError
-from ..units import permille_to_accel
-from .chain import train_chain
-from .feedforward import ALLOCATIONS, ForceSplit
-from .track import Track
-from .train import Train
+from trainctl._validation import check_finite, check_positive
+from trainctl.exceptions import DimensionError
+from trainctl.models.chain import train_chain
+from trainctl.models.feedforward import ALLOCATIONS, ForceSplit
+from trainctl.models.track import Track
+from trainctl.models.train import Train
+from trainctl.units import permille_to_accel
 
 __all__ = [
     "ALLOCATIONS",

@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from .train import Train
-from .vehicle import TractionEnvelope, envelope_limit
+from trainctl.models.train import Train
+from trainctl.models.vehicle import TractionEnvelope, envelope_limit
 
 __all__ = ["EnvelopeBounds"]
 

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..exceptions import ModelError
-from .train import Train
+from trainctl.exceptions import ModelError
+from trainctl.models.train import Train
 
 __all__ = ["ALLOCATIONS", "ForceSplit", "QuasiStaticForces"]
 

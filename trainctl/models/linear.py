@@ -25,10 +25,10 @@ import control as ct
 import numpy as np
 from numpy.typing import NDArray
 
-from .._validation import check_finite_arrays, check_positive
-from ..exceptions import ModelError
-from .chain import Chain
-from .train import Train
+from trainctl._validation import check_finite_arrays, check_positive
+from trainctl.exceptions import ModelError
+from trainctl.models.chain import Chain
+from trainctl.models.train import Train
 
 __all__ = ["LINEARISATIONS", "OUTPUT_GROUPS", "linear_matrices", "linearise", "resistance_damping"]
 

@@ -146,22 +146,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_positive
-from ..exceptions import DimensionError, ModelError
-from ._plant_banded import BANDED_MIN_VEHICLES
-from ._plant_crossings import SectionTracker
-from ._plant_dense import DenseOutput, DenseRecord
-from ._plant_integrate import integrate
-from ._plant_propagators import (
-    CACHE_BYTES,
-    LRU,
-    Propagator,
-    TrackArrays,
-)
-from ._plant_reference import advance_reference
-from .chain import Chain
-from .track import Track
-from .train import Train
+from trainctl._validation import check_positive
+from trainctl.exceptions import DimensionError, ModelError
+from trainctl.models._plant_banded import BANDED_MIN_VEHICLES
+from trainctl.models._plant_crossings import SectionTracker
+from trainctl.models._plant_dense import DenseOutput, DenseRecord
+from trainctl.models._plant_integrate import integrate
+from trainctl.models._plant_propagators import CACHE_BYTES, LRU, Propagator, TrackArrays
+from trainctl.models._plant_reference import advance_reference
+from trainctl.models.chain import Chain
+from trainctl.models.track import Track
+from trainctl.models.train import Train
 
 __all__ = ["Plant"]
 

@@ -25,8 +25,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
-from ..exceptions import ModelError
-from ..units import (
+from trainctl.exceptions import ModelError
+from trainctl.models.train import Train
+from trainctl.models.vehicle import Coupler, TractionEnvelope, Vehicle
+from trainctl.units import (
     davis_book_literal,
     davis_from_unit_resistance_kmh,
     kn_per_m_to_n_per_m,
@@ -34,8 +36,6 @@ from ..units import (
     kw_to_w,
     tonnes_to_kg,
 )
-from .train import Train
-from .vehicle import Coupler, TractionEnvelope, Vehicle
 
 __all__ = ["PRESETS", "crh2_8car", "crh2_half", "heavy_haul_1p2p1", "virtual_formation"]
 

@@ -26,9 +26,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import block_diag
 
-from ..exceptions import ModelError
-from .linear import resistance_damping
-from .train import Train
+from trainctl.exceptions import ModelError
+from trainctl.models.linear import resistance_damping
+from trainctl.models.train import Train
 
 __all__ = [
     "CoachSubsystems",

@@ -23,11 +23,11 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..constraints import FINITE, POSITIVE, Choice, Rule
-from ..declare import check_fields
-from ..exceptions import ModelError
-from ..limits import CURVE_RADIUS, GRADE
-from ..units import GRAVITY
+from trainctl.constraints import FINITE, POSITIVE, Choice, Rule
+from trainctl.declare import check_fields
+from trainctl.exceptions import ModelError
+from trainctl.limits import CURVE_RADIUS, GRADE
+from trainctl.units import GRAVITY
 
 __all__ = ["RESISTANCE_FORMULAS", "SECTION_RULES", "TRACK_RULES", "Track", "TrackSection"]
 

@@ -14,8 +14,8 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import NDArray
 
-from ..exceptions import ModelError
-from .vehicle import Coupler, Vehicle
+from trainctl.exceptions import ModelError
+from trainctl.models.vehicle import Coupler, Vehicle
 
 __all__ = ["Train"]
 

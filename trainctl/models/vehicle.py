@@ -15,11 +15,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..constraints import NONNEGATIVE, Number, Rule
-from ..declare import check_fields
-from ..exceptions import ModelError
-from ..limits import COUPLER_DAMPING, COUPLER_SPACING, COUPLER_STIFFNESS, DAVIS, LENGTH, MASS
-from ..units import GRAVITY
+from trainctl.constraints import NONNEGATIVE, Number, Rule
+from trainctl.declare import check_fields
+from trainctl.exceptions import ModelError
+from trainctl.limits import COUPLER_DAMPING, COUPLER_SPACING, COUPLER_STIFFNESS, DAVIS, LENGTH, MASS
+from trainctl.units import GRAVITY
 
 __all__ = ["COUPLER_RULES", "ENVELOPE_RULES", "VEHICLE_RULES", "Coupler", "TractionEnvelope",
            "Vehicle", "envelope_limit"]

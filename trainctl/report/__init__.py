@@ -23,24 +23,24 @@ True
 
 from __future__ import annotations
 
-from .build import ReportJob as ReportJob
-from .build import normalise_timestamp as normalise_timestamp
-from .build import portable_command as portable_command
-from .build import run_report_data as run_report_data
-from .build import write_gallery as write_gallery
-from .build import write_report_file as write_report_file
-from .context import build_index_context as build_index_context
-from .context import build_report_context as build_report_context
-from .context import headline as headline
-from .data import ReportData as ReportData
-from .data import collect_report_data as collect_report_data
-from .data import is_saved_run as is_saved_run
-from .figures import figure_svg as figure_svg
-from .figures import report_figures as report_figures
-from .render import make_environment as make_environment
-from .render import render_index as render_index
-from .render import render_report as render_report
-from .render import write_report as write_report
+from trainctl.report.build import ReportJob as ReportJob
+from trainctl.report.build import normalise_timestamp as normalise_timestamp
+from trainctl.report.build import portable_command as portable_command
+from trainctl.report.build import run_report_data as run_report_data
+from trainctl.report.build import write_gallery as write_gallery
+from trainctl.report.build import write_report_file as write_report_file
+from trainctl.report.context import build_index_context as build_index_context
+from trainctl.report.context import build_report_context as build_report_context
+from trainctl.report.context import headline as headline
+from trainctl.report.data import ReportData as ReportData
+from trainctl.report.data import collect_report_data as collect_report_data
+from trainctl.report.data import is_saved_run as is_saved_run
+from trainctl.report.figures import figure_svg as figure_svg
+from trainctl.report.figures import report_figures as report_figures
+from trainctl.report.render import make_environment as make_environment
+from trainctl.report.render import render_index as render_index
+from trainctl.report.render import render_report as render_report
+from trainctl.report.render import write_report as write_report
 
 __all__ = [
     "ReportData",

@@ -9,7 +9,7 @@ import re
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ..naming import one_based
+from trainctl.naming import one_based
 
 __all__ = [
     "docstring_units", "format_complex", "format_number", "format_value", "humanise", "one_based",

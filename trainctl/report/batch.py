@@ -16,14 +16,14 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .._files import read_regular
-from .build import ReportJob, run_report_data, write_gallery, write_report_file
-from .data import ReportData
-from .output import OutputError as OutputError
-from .output import OutputTarget, output_target
+from trainctl._files import read_regular
+from trainctl.report.build import ReportJob, run_report_data, write_gallery, write_report_file
+from trainctl.report.data import ReportData
+from trainctl.report.output import OutputError as OutputError
+from trainctl.report.output import OutputTarget, output_target
 
 if TYPE_CHECKING:
-    from ..scenario import Scenario
+    from trainctl.scenario import Scenario
 
 __all__ = [
     "OutputError",
@@ -60,7 +60,7 @@ def default_report_path(scenario: Scenario) -> Path:
     >>> default_report_path(load_scenario("crh2-dmpc")).as_posix()
     'reports/crh2-dmpc.html'
     """
-    from ..scenario import slugify
+    from trainctl.scenario import slugify
 
     source = str(getattr(scenario, "source", ""))
     if source.startswith("builtin:"):
@@ -287,8 +287,8 @@ def render_saved_run(data: ReportData, source: str, target: Path | OutputTarget,
     ...         print(str(error).split(". ")[0])
     saved-run: the saved run's data does not fit the report (key 'equilibrium' is missing)
     """
-    from ..exceptions import ScenarioError
-    from .runfile import RUN_HINT
+    from trainctl.exceptions import ScenarioError
+    from trainctl.report.runfile import RUN_HINT
 
     try:
         return write_report_file(data, target, generated_at=generated_at,
@@ -407,7 +407,7 @@ def report_scenario(job: ReportJob, path: Path | OutputTarget, *, workers: int =
     >>> written, summary_line(data)
     (['crh2.html'], '19 checks: 13 pass, 3 warn, 3 fail; 1 controllers simulated')
     """
-    from .._progress import Progress
+    from trainctl._progress import Progress
 
     target = check_report_output(path, default_name=default_report_path(job.scenario).name)
     with Progress(progress_total([job])) as bar:
@@ -472,7 +472,7 @@ def report_all(jobs: Sequence[ReportJob], outdir: Path, *, workers: int = 0,
     ...         print(str(error).split(": ")[1])
     is not a directory; with --all, -o names the output directory
     """
-    from .._progress import Progress
+    from trainctl._progress import Progress
 
     names = [default_report_path(job.scenario).name for job in jobs] + ["index.html"]
     check_gallery_output(outdir, names)

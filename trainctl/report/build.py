@@ -19,17 +19,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..exceptions import TrainctlError
-from .context import build_index_context, build_report_context, headline
-from .data import ReportData, collect_report_data
-from .render import render_index, render_report, write_report
+from trainctl.exceptions import TrainctlError
+from trainctl.report.context import build_index_context, build_report_context, headline
+from trainctl.report.data import ReportData, collect_report_data
+from trainctl.report.render import render_index, render_report, write_report
 
 if TYPE_CHECKING:
-    from .._progress import Progress
-    from ..design import Design
-    from ..scenario import Scenario
-    from ..sim.results import SimulationResult
-    from .output import OutputTarget
+    from trainctl._progress import Progress
+    from trainctl.design import Design
+    from trainctl.report.output import OutputTarget
+    from trainctl.scenario import Scenario
+    from trainctl.sim.results import SimulationResult
 
 __all__ = [
     "ReportJob",
@@ -170,7 +170,7 @@ def normalise_timestamp(value: str) -> str:
 
 def _cost(design: Design, strategy: str) -> float:
     """Relative cost of simulating a strategy: steps x vehicles x the family's step cost."""
-    from ..controllers.registry import get_family
+    from trainctl.controllers.registry import get_family
 
     scenario = design.scenario
     sim = scenario.simulation
@@ -219,8 +219,8 @@ def run_report_data(
     >>> data.simulations["decentralised"].time[-1]  # s
     np.float64(120.0)
     """
-    from ..design import build_design
-    from ..parallel import worker_pool
+    from trainctl.design import build_design
+    from trainctl.parallel import worker_pool
 
     designs = [build_design(job.scenario) for job in jobs]
     with worker_pool(workers) as pool:
@@ -230,14 +230,14 @@ def run_report_data(
             tasks = [(k, strategy) for k, job in enumerate(jobs) if job.scenario.simulation
                      for strategy in job.scenario.simulation.strategies]
             tasks.sort(key=lambda t: -_cost(designs[t[0]], t[1]))
-            from ..run import _simulate_recorded
+            from trainctl.run import _simulate_recorded
 
             for k, strategy in tasks:
                 future = pool.submit(_simulate_recorded, jobs[k].scenario, strategy, designs[k])
                 if progress is not None:
                     future.add_done_callback(_advance(progress, f"simulated {strategy}"))
                 pending.setdefault(k, {})[strategy] = future
-            from ..repetitions import submit_repetitions
+            from trainctl.repetitions import submit_repetitions
 
             for k, job in enumerate(jobs):
                 extra[k] = submit_repetitions(job.scenario, pool, designs[k])
@@ -255,7 +255,7 @@ def _run_one(job: ReportJob, design: Design,
              pending: dict[str, Future[SimulationResult]] | None,
              progress: Progress | None,
              repetitions: dict[tuple[str, int], Future[Any]] | None = None) -> ReportData:
-    from ..run import run_scenario
+    from trainctl.run import run_scenario
 
     name = job.scenario.name
     if progress is not None:

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from ._format import format_value, is_real, one_based
-from .data import ReportData
+from trainctl.report._format import format_value, is_real, one_based
+from trainctl.report.data import ReportData
 
 __all__ = ["checks_context"]
 

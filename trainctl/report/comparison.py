@@ -14,8 +14,8 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-from ._format import format_number, format_value
-from .data import ReportData
+from trainctl.report._format import format_number, format_value
+from trainctl.report.data import ReportData
 
 __all__ = ["controllers_context"]
 
@@ -117,7 +117,7 @@ _SPREAD = (
 
 def _spread_cell(values: list[float | None], scale: float = 1.0) -> str:
     """``median [min – max]`` of some numbers (None: never settled, ∞)."""
-    from ..repetitions import spread
+    from trainctl.repetitions import spread
 
     x = [math.inf if v is None else float(v) * scale for v in values]
     if not x:
@@ -132,7 +132,7 @@ def _spread_cell(values: list[float | None], scale: float = 1.0) -> str:
 def _repetition_table(data: ReportData, repetitions: Mapping[str, Any]) -> dict[str, Any]:
     """The spread of every strategy's whole-run measures over its repetitions and its
     baseline-network run (:mod:`trainctl.repetitions`)."""
-    from ..repetitions import SETTLING_BAND
+    from trainctl.repetitions import SETTLING_BAND
 
     sim = data.scenario.simulation
     baseline = data.results.get("baseline_network", {})

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ._format import (
+from trainctl.report._format import (
     docstring_units,
     format_complex,
     format_number,
@@ -26,10 +26,10 @@ from ._format import (
     is_real,
     one_based,
 )
-from .checks import checks_context
-from .comparison import controllers_context
-from .data import ReportData
-from .figures import FIGURES_SECTION, ReportFigure, family_section, report_figures
+from trainctl.report.checks import checks_context
+from trainctl.report.comparison import controllers_context
+from trainctl.report.data import ReportData
+from trainctl.report.figures import FIGURES_SECTION, ReportFigure, family_section, report_figures
 
 __all__ = ["MATRIX_COACHES_SHOWN", "build_index_context", "build_report_context", "headline"]
 
@@ -125,7 +125,7 @@ def _sections(data: ReportData, figures: Sequence[ReportFigure]) -> list[dict[st
 
     A family's section lists the figures placed in it (:attr:`ReportFigure.section`).
     """
-    from ..controllers.registry import get_family
+    from trainctl.controllers.registry import get_family
 
     sections: list[dict[str, Any]] = []
     for key, title in SECTIONS:
@@ -212,7 +212,7 @@ def _field_names(settings: Any) -> list[str]:
 
 def _file_keys(cls: type) -> dict[str, tuple[str, ...]]:
     """Field name → the file keys that can set it (its key, or its alternatives)."""
-    from ..declare import declared_fields
+    from trainctl.declare import declared_fields
 
     keys: dict[str, tuple[str, ...]] = {}
     for f in declared_fields(cls):

@@ -40,19 +40,19 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .._files import node_kind, read_regular_text
-from .._validation import numerical_errors
-from ..exceptions import ScenarioError
-from .output import OutputError
-from .runfile import FORMAT as FORMAT
-from .runfile import MANIFEST as MANIFEST
-from .runfile import text_digest
+from trainctl._files import node_kind, read_regular_text
+from trainctl._validation import numerical_errors
+from trainctl.exceptions import ScenarioError
+from trainctl.report.output import OutputError
+from trainctl.report.runfile import FORMAT as FORMAT
+from trainctl.report.runfile import MANIFEST as MANIFEST
+from trainctl.report.runfile import text_digest
 
 if TYPE_CHECKING:
-    from ..models.subsystems import CoachSubsystems
-    from ..run import AnalysisRun
-    from ..scenario import Scenario
-    from ..sim.results import SimulationResult
+    from trainctl.models.subsystems import CoachSubsystems
+    from trainctl.run import AnalysisRun
+    from trainctl.scenario import Scenario
+    from trainctl.sim.results import SimulationResult
 
 __all__ = [
     "FORMAT", "MANIFEST", "ReportData", "check_save_target", "collect_report_data",
@@ -236,7 +236,7 @@ class ReportData:
             was edited: the message names the file and the key or array at
             fault (:mod:`trainctl.report.runfile`).
         """
-        from .runfile import read_saved_run
+        from trainctl.report.runfile import read_saved_run
 
         run = read_saved_run(Path(directory))
         raw = run["raw"]  # validated by run["document"]; kept as read for an exact round trip
@@ -590,8 +590,8 @@ def collect_report_data(
     >>> list(data.families), data.simulations
     (['mpc'], {})
     """
-    from ..controllers.registry import get_family
-    from ..sim.results import environment
+    from trainctl.controllers.registry import get_family
+    from trainctl.sim.results import environment
 
     design = run.design
     with numerical_errors(run.scenario.source):

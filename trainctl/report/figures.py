@@ -26,11 +26,11 @@ from markupsafe import Markup
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
-from .. import plot
-from .._plotting import pin_titles
+from trainctl import plot
+from trainctl._plotting import pin_titles
 
 if TYPE_CHECKING:
-    from .data import ReportData
+    from trainctl.report.data import ReportData
 
 __all__ = [
     "FIGURES_SECTION", "OPEN_LOOP_LABEL", "ReportFigure", "eigenvalue_figure", "encode",
@@ -257,12 +257,12 @@ def encode(key: str, title: str, caption: str, figure: Figure, *,
 
 
 def _figures(data: ReportData) -> Iterator[ReportFigure]:
-    from .figures_frequency import frequency_figures
-    from .figures_time import time_figures
+    from trainctl.report.figures_frequency import frequency_figures
+    from trainctl.report.figures_time import time_figures
 
     if data.simulations:
         yield from time_figures(data.scenario, data.simulations, encode)
-        from .figures_claims import performance_figure
+        from trainctl.report.figures_claims import performance_figure
 
         performance = performance_figure(data, encode)
         if performance is not None:
@@ -270,7 +270,7 @@ def _figures(data: ReportData) -> Iterator[ReportFigure]:
     if data.spectra:
         yield eigenvalue_figure(data.spectra)
     yield from frequency_figures(data.frequency, encode)
-    from ..controllers.registry import get_family
+    from trainctl.controllers.registry import get_family
 
     for name, family_data in data.families.items():
         yield from get_family(name).report_figures(family_data)

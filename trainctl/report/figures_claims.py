@@ -19,11 +19,11 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from .._plotting import fixed_margins, legend_outside, series_style
+from trainctl._plotting import fixed_margins, legend_outside, series_style
 
 if TYPE_CHECKING:
-    from .data import ReportData
-    from .figures import ReportFigure
+    from trainctl.report.data import ReportData
+    from trainctl.report.figures import ReportFigure
 
 __all__ = ["performance_figure"]
 
@@ -59,7 +59,7 @@ def performance_figure(data: ReportData,
     >>> performance_figure(data, encode) is None
     True
     """
-    from ..claims import family_strategy, performance_energies
+    from trainctl.claims import family_strategy, performance_energies
 
     claims = {c.get("key"): c for c in data.results.get("claims", [])}
     strategy = family_strategy(data.scenario, data.simulations, "hinf")

@@ -18,11 +18,11 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from .. import freqplot
-from .._plotting import fixed_margins, legend_outside, series_style
+from trainctl import freqplot
+from trainctl._plotting import fixed_margins, legend_outside, series_style
 
 if TYPE_CHECKING:
-    from .figures import ReportFigure
+    from trainctl.report.figures import ReportFigure
 
 __all__ = ["frequency_figures"]
 

@@ -30,14 +30,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from .. import plot
-from .._plotting import fixed_margins
-from ..graphs import CommunicationGraph
-from ._format import format_number
-from .figures import encode, family_section
+from trainctl import plot
+from trainctl._plotting import fixed_margins
+from trainctl.graphs import CommunicationGraph
+from trainctl.report._format import format_number
+from trainctl.report.figures import encode, family_section
 
 if TYPE_CHECKING:
-    from .figures import ReportFigure
+    from trainctl.report.figures import ReportFigure
 
 __all__ = ["GRAPH_FIGSIZE", "graph_caption", "graph_figure", "graph_figure_key",
            "graph_from_data", "graph_report_data"]

@@ -20,13 +20,13 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from numpy.typing import NDArray
 
-from .. import plot
-from .._plotting import fixed_margins, legend_outside, limit_lines, series_style
+from trainctl import plot
+from trainctl._plotting import fixed_margins, legend_outside, limit_lines, series_style
 
 if TYPE_CHECKING:
-    from ..scenario import Scenario
-    from ..sim.results import SimulationResult
-    from .figures import ReportFigure
+    from trainctl.report.figures import ReportFigure
+    from trainctl.scenario import Scenario
+    from trainctl.sim.results import SimulationResult
 
 __all__ = ["MAX_PANELS", "shown_indices", "time_figures", "vehicle_limits"]
 

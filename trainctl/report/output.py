@@ -46,8 +46,8 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from .._files import node_kind
-from ..exceptions import TrainctlError
+from trainctl._files import node_kind
+from trainctl.exceptions import TrainctlError
 
 __all__ = ["OutputError", "OutputTarget", "output_target", "write_output", "write_text_atomic"]
 

@@ -21,9 +21,9 @@ from typing import Any
 import jinja2
 from markupsafe import Markup
 
-from ..naming import printable
-from .output import OutputTarget, write_output
-from .output import write_text_atomic as write_text_atomic
+from trainctl.naming import printable
+from trainctl.report.output import OutputTarget, write_output
+from trainctl.report.output import write_text_atomic as write_text_atomic
 
 __all__ = [
     "make_environment",
@@ -90,8 +90,8 @@ class _FamilyLoader(jinja2.BaseLoader):
     def get_source(
         self, environment: jinja2.Environment, template: str
     ) -> tuple[str, str | None, Any]:
-        from ..controllers.registry import get_family
-        from ..exceptions import ScenarioError
+        from trainctl.controllers.registry import get_family
+        from trainctl.exceptions import ScenarioError
 
         name = template.removeprefix(FAMILY_TEMPLATES).removesuffix(".html.j2")
         if f"{FAMILY_TEMPLATES}{name}.html.j2" != template:
@@ -103,7 +103,7 @@ class _FamilyLoader(jinja2.BaseLoader):
         return source, None, lambda: False  # never cached across families' changes
 
     def list_templates(self) -> list[str]:
-        from ..controllers.registry import family_names
+        from trainctl.controllers.registry import family_names
 
         return [f"{FAMILY_TEMPLATES}{name}.html.j2" for name in family_names()]
 

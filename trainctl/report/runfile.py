@@ -38,13 +38,13 @@ from pydantic import (
     model_validator,
 )
 
-from .._files import read_regular
-from ..constraints import Choice, Integer, Violation, raise_at
-from ..controllers.base import STATUSES as STEP_STATUSES
-from ..exceptions import DimensionError, ModelError, ScenarioError
-from ..jsonfile import FiniteFloat, read_json, validate_json
-from ..limits import MAX_SAMPLES, MAX_VEHICLES, SAMPLE_TIME, SPEED, in_unit
-from ..units import KMH_PER_MS
+from trainctl._files import read_regular
+from trainctl.constraints import Choice, Integer, Violation, raise_at
+from trainctl.controllers.base import STATUSES as STEP_STATUSES
+from trainctl.exceptions import DimensionError, ModelError, ScenarioError
+from trainctl.jsonfile import FiniteFloat, read_json, validate_json
+from trainctl.limits import MAX_SAMPLES, MAX_VEHICLES, SAMPLE_TIME, SPEED, in_unit
+from trainctl.units import KMH_PER_MS
 
 __all__ = ["FORMAT", "MANIFEST", "RUN_HINT", "RunFile", "read_saved_run", "text_digest"]
 
@@ -391,7 +391,7 @@ def read_saved_run(directory: str | Path) -> dict[str, Any]:
     >>> sorted(parts), parts["text"] == text, parts["simulations"], refused
     (['document', 'raw', 'scenario', 'simulations', 'text'], True, {}, True)
     """
-    from ..scenario import parse_scenario
+    from trainctl.scenario import parse_scenario
 
     path = Path(directory)
     manifest = path / MANIFEST
@@ -426,7 +426,7 @@ def _check_format(manifest: Path, raw: Any) -> None:
 
 
 def _scenario_text(path: Path, doc: RunFile) -> str:
-    from ..scenario.parse import MAX_TEXT_BYTES, check_size
+    from trainctl.scenario.parse import MAX_TEXT_BYTES, check_size
 
     toml = path / "scenario.toml"
     try:
@@ -507,8 +507,8 @@ def _short(value: Any) -> str:
 
 
 def _simulation(path: Path, strategy: str, scenario: Any, metrics: Metrics) -> Any:
-    from ..design import strategy_interval
-    from ..sim.results import SimulationResult
+    from trainctl.design import strategy_interval
+    from trainctl.sim.results import SimulationResult
 
     where = path / "simulations" / strategy
     if not where.is_dir():

@@ -48,10 +48,10 @@ from typing import TYPE_CHECKING, Any
 
 from markupsafe import Markup
 
-from ..exceptions import ScenarioError
-from ._format import format_value
-from .figures import ReportFigure, encode
-from .figures_sweep import (
+from trainctl.exceptions import ScenarioError
+from trainctl.report._format import format_value
+from trainctl.report.figures import ReportFigure, encode
+from trainctl.report.figures_sweep import (
     MAX_PANELS,
     Grid,
     Line,
@@ -66,7 +66,7 @@ from .figures_sweep import (
 if TYPE_CHECKING:
     import pandas as pd
 
-    from .output import OutputTarget
+    from trainctl.report.output import OutputTarget
 
 __all__ = [
     "CERTIFICATES",
@@ -316,7 +316,7 @@ def load_sweep_report_data(path: str | os.PathLike[str]) -> SweepReportData:
     True
     >>> tmp.cleanup()
     """
-    from ..sweep.store import SweepStore
+    from trainctl.sweep.store import SweepStore
 
     root = Path(path)
     store = SweepStore.load(root)
@@ -429,7 +429,7 @@ def key_title(key: str) -> str:
 @lru_cache(maxsize=64)
 def _schema_entry(key: str) -> tuple[str, str]:
     """(title, unit) of a dotted file key in the scenario's JSON Schema ("" when unknown)."""
-    from ..scenario import json_schema
+    from trainctl.scenario import json_schema
 
     schema = json_schema()
     defs = schema.get("$defs", {})
@@ -977,8 +977,8 @@ def build_sweep_context(data: SweepReportData, *, generated_at: str | None = Non
     ['check-ndmpc-convergence-status', 'check-ndmpc-convergence-value']
     >>> tmp.cleanup()
     """
-    from ..sim.results import environment
-    from .context import utc_now
+    from trainctl.report.context import utc_now
+    from trainctl.sim.results import environment
 
     if generated_at is None and not deterministic:
         generated_at = utc_now()
@@ -1144,7 +1144,7 @@ def render_sweep_report(context: Mapping[str, Any]) -> str:
     (True, False)
     >>> tmp.cleanup()
     """
-    from .render import _stylesheet, make_environment
+    from trainctl.report.render import _stylesheet, make_environment
 
     template = make_environment().get_template("sweep.html.j2")
     return template.render(**context, css=Markup(_stylesheet()))
@@ -1196,7 +1196,7 @@ def write_sweep_report(source: str | os.PathLike[str],
     False
     >>> tmp.cleanup()
     """
-    from .render import write_report
+    from trainctl.report.render import write_report
 
     data = load_sweep_report_data(source)
     try:

@@ -31,32 +31,32 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..controllers.mpc.settings import CONTROLLER_FORMS as CONTROLLER_FORMS
-from ..controllers.mpc.settings import NEIGHBOURHOODS as NEIGHBOURHOODS
-from ..controllers.mpc.settings import OBSERVERS as OBSERVERS
-from ..controllers.mpc.settings import SOLVER_PATHS as SOLVER_PATHS
-from ..controllers.mpc.settings import ControllerSettings as ControllerSettings
-from ..controllers.tracking import CONTROLLER_OUTPUTS as CONTROLLER_OUTPUTS
-from ..models.discrete import DISCRETISATIONS as DISCRETISATIONS
-from ..models.dynamics import ALLOCATIONS as ALLOCATIONS
-from ..models.linear import LINEARISATIONS as LINEARISATIONS
-from ..network import NetworkSettings as NetworkSettings
-from .communication import CommunicationSettings as CommunicationSettings
-from .core import RESERVED_SECTIONS as RESERVED_SECTIONS
-from .core import SCHEMA_VERSION as SCHEMA_VERSION
-from .core import BuiltinScenario as BuiltinScenario
-from .core import Scenario as Scenario
-from .core import check_names as check_names
-from .core import strategy_names as strategy_names
-from .files import builtin_scenario_text as builtin_scenario_text
-from .files import builtin_scenarios as builtin_scenarios
-from .files import load_scenario as load_scenario
-from .files import read_scenario_text as read_scenario_text
-from .files import slugify as slugify
-from .parse import parse_scenario as parse_scenario
-from .schema import json_schema as json_schema
-from .settings import ModelSettings as ModelSettings
-from .settings import SimulationSettings as SimulationSettings
+from trainctl.controllers.mpc.settings import CONTROLLER_FORMS as CONTROLLER_FORMS
+from trainctl.controllers.mpc.settings import NEIGHBOURHOODS as NEIGHBOURHOODS
+from trainctl.controllers.mpc.settings import OBSERVERS as OBSERVERS
+from trainctl.controllers.mpc.settings import SOLVER_PATHS as SOLVER_PATHS
+from trainctl.controllers.mpc.settings import ControllerSettings as ControllerSettings
+from trainctl.controllers.tracking import CONTROLLER_OUTPUTS as CONTROLLER_OUTPUTS
+from trainctl.models.discrete import DISCRETISATIONS as DISCRETISATIONS
+from trainctl.models.dynamics import ALLOCATIONS as ALLOCATIONS
+from trainctl.models.linear import LINEARISATIONS as LINEARISATIONS
+from trainctl.network import NetworkSettings as NetworkSettings
+from trainctl.scenario.communication import CommunicationSettings as CommunicationSettings
+from trainctl.scenario.core import RESERVED_SECTIONS as RESERVED_SECTIONS
+from trainctl.scenario.core import SCHEMA_VERSION as SCHEMA_VERSION
+from trainctl.scenario.core import BuiltinScenario as BuiltinScenario
+from trainctl.scenario.core import Scenario as Scenario
+from trainctl.scenario.core import check_names as check_names
+from trainctl.scenario.core import strategy_names as strategy_names
+from trainctl.scenario.files import builtin_scenario_text as builtin_scenario_text
+from trainctl.scenario.files import builtin_scenarios as builtin_scenarios
+from trainctl.scenario.files import load_scenario as load_scenario
+from trainctl.scenario.files import read_scenario_text as read_scenario_text
+from trainctl.scenario.files import slugify as slugify
+from trainctl.scenario.parse import parse_scenario as parse_scenario
+from trainctl.scenario.schema import json_schema as json_schema
+from trainctl.scenario.settings import ModelSettings as ModelSettings
+from trainctl.scenario.settings import SimulationSettings as SimulationSettings
 
 __all__ = [
     "ALLOCATIONS",
@@ -107,8 +107,8 @@ def __getattr__(name: str) -> Any:
     """
     if name not in _COMPUTED:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    from ..controllers.registry import DEFAULT_FAMILY, get_family
-    from .core import check_statuses
+    from trainctl.controllers.registry import DEFAULT_FAMILY, get_family
+    from trainctl.scenario.core import check_statuses
 
     family = get_family(DEFAULT_FAMILY)
     value = {

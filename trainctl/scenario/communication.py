@@ -7,10 +7,10 @@ from typing import Annotated
 
 from pydantic import model_validator
 
-from ..constraints import Array, Choice, Number, Violation, raise_at
-from ..declare import Key, settings
-from ..exceptions import ModelError
-from ..graphs import PINNING, TOPOLOGIES, CommunicationGraph, make_graph
+from trainctl.constraints import Array, Choice, Number, Violation, raise_at
+from trainctl.declare import Key, settings
+from trainctl.exceptions import ModelError
+from trainctl.graphs import PINNING, TOPOLOGIES, CommunicationGraph, make_graph
 
 __all__ = ["CommunicationSettings"]
 

@@ -15,15 +15,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NoReturn
 
-from ..constraints import Violation, suggest
-from ..exceptions import ModelError
-from ..graphs import CommunicationGraph
-from ..models.track import Track
-from ..models.train import Train
-from ..network import NetworkSettings
-from .communication import CommunicationSettings
-from .frozen import FrozenMapping as FrozenMapping
-from .settings import ModelSettings, SimulationSettings
+from trainctl.constraints import Violation, suggest
+from trainctl.exceptions import ModelError
+from trainctl.graphs import CommunicationGraph
+from trainctl.models.track import Track
+from trainctl.models.train import Train
+from trainctl.network import NetworkSettings
+from trainctl.scenario.communication import CommunicationSettings
+from trainctl.scenario.frozen import FrozenMapping as FrozenMapping
+from trainctl.scenario.settings import ModelSettings, SimulationSettings
 
 __all__ = [
     "RESERVED_SECTIONS",
@@ -64,7 +64,7 @@ def model_check_names() -> tuple[str, ...]:
     >>> "sampling" in names, "ndmpc_convergence" in names
     (True, False)
     """
-    from ..analysis.review import MODEL_CHECK_NAMES
+    from trainctl.analysis.review import MODEL_CHECK_NAMES
 
     return MODEL_CHECK_NAMES
 
@@ -82,13 +82,13 @@ def check_statuses() -> tuple[str, ...]:
     >>> check_statuses()
     ('pass', 'warn', 'fail')
     """
-    from ..analysis.review import STATUSES
+    from trainctl.analysis.review import STATUSES
 
     return STATUSES
 
 
 def _families(names: Iterable[str] | None = None) -> list[Any]:
-    from ..controllers.registry import family_names, get_family
+    from trainctl.controllers.registry import family_names, get_family
 
     return [get_family(n) for n in (family_names() if names is None else names)]
 
@@ -113,7 +113,7 @@ def check_names(families: Sequence[str] | None = None) -> tuple[str, ...]:
 'feasibility', 'plausibility', 'lqr_closed_loop', 'lqr_decentralised_closed_loop', \
 'string_stability')
     """
-    from ..analysis.review import LOOP_CHECK_NAMES
+    from trainctl.analysis.review import LOOP_CHECK_NAMES
 
     names = [*model_check_names(), *(c for f in _families(families) for c in f.check_names),
              *LOOP_CHECK_NAMES]
@@ -217,7 +217,7 @@ def expectation_violation(check: str, families: Sequence[str]) -> Violation | No
     >>> expectation_violation("ndmpc_convergence", []).text
     'needs a [controller] section'
     """
-    from ..analysis.review import LOOP_CHECK_NAMES
+    from trainctl.analysis.review import LOOP_CHECK_NAMES
 
     owners = [f.name for f in _families() if check in f.check_names]
     if check in LOOP_CHECK_NAMES:
@@ -336,7 +336,7 @@ class Scenario:
 
     def __post_init__(self) -> None:
         if self.document is not None:
-            from .replace import freeze
+            from trainctl.scenario.replace import freeze
 
             object.__setattr__(self, "document", freeze(self.document))
         controllers = self._controllers()
@@ -445,9 +445,9 @@ class Scenario:
         trainctl.exceptions.ScenarioError: builtin:crh2-dmpc (controller.r_per_kn2 = -1.0): \
 [controller].r_per_kn2 must be a number > 0 (got -1.0). ...
         """
-        from ..exceptions import ScenarioError
-        from .parse import parse_document
-        from .replace import replaced_document
+        from trainctl.exceptions import ScenarioError
+        from trainctl.scenario.parse import parse_document
+        from trainctl.scenario.replace import replaced_document
 
         if self.document is None:
             raise ScenarioError(
@@ -462,7 +462,7 @@ class Scenario:
     @property
     def slug(self) -> str:
         """File-name-safe form of :attr:`name` (see :func:`~trainctl.scenario.slugify`)."""
-        from .files import slugify
+        from trainctl.scenario.files import slugify
 
         return slugify(self.name)
 

@@ -19,11 +19,18 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-from ..constraints import NOTHING, Violation
-from ..declare import first_error, render_refs, violation_of
-from ..exceptions import ScenarioError
-from .core import RESERVED_SECTIONS
-from .filemodel import field_at, field_names, file_loc, rule_of, sub_model, table_kind
+from trainctl.constraints import NOTHING, Violation
+from trainctl.declare import first_error, render_refs, violation_of
+from trainctl.exceptions import ScenarioError
+from trainctl.scenario.core import RESERVED_SECTIONS
+from trainctl.scenario.filemodel import (
+    field_at,
+    field_names,
+    file_loc,
+    rule_of,
+    sub_model,
+    table_kind,
+)
 
 __all__ = ["DocumentTable", "describe", "got", "scenario_error"]
 
@@ -294,7 +301,7 @@ def _unknown(table: DocumentTable, loc: tuple[Any, ...], extra: Sequence[str]) -
     if not table.prefix and len(loc) == 1 and name in RESERVED_SECTIONS:
         return (f"section [{name}] is reserved for a later trainctl release and is not "
                 "supported yet. Remove it to load this scenario.")
-    from ..constraints import suggest
+    from trainctl.constraints import suggest
 
     allowed = field_names(_model_at(table.model, loc[:-1]) if loc[:-1] else table.model)
     allowed = (*allowed, *(extra if len(loc) == 1 else ()))

@@ -35,9 +35,9 @@ from pydantic import (
 )
 from pydantic_core import InitErrorDetails
 
-from ..constraints import ERROR_TYPE, Rule, Violation, fail, raise_at
-from ..declare import Alt, DeclaredField, Key, declared_fields
-from ..limits import in_unit
+from trainctl.constraints import ERROR_TYPE, Rule, Violation, fail, raise_at
+from trainctl.declare import Alt, DeclaredField, Key, declared_fields
+from trainctl.limits import in_unit
 
 __all__ = [
     "FileTable",

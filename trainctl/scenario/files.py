@@ -9,11 +9,11 @@ import unicodedata
 from importlib import resources
 from pathlib import Path
 
-from .._files import read_regular
-from ..constraints import suggest
-from ..exceptions import ScenarioError
-from .core import BuiltinScenario, Scenario
-from .parse import MAX_TEXT_BYTES, check_size, load_toml, parse_scenario
+from trainctl._files import read_regular
+from trainctl.constraints import suggest
+from trainctl.exceptions import ScenarioError
+from trainctl.scenario.core import BuiltinScenario, Scenario
+from trainctl.scenario.parse import MAX_TEXT_BYTES, check_size, load_toml, parse_scenario
 
 __all__ = [
     "builtin_scenario_text",

@@ -24,14 +24,14 @@ from typing import Any, Literal, TypeVar
 
 from pydantic import BaseModel, ConfigDict, ValidationError, create_model
 
-from ..constraints import Violation, suggest
-from ..exceptions import ModelError, ScenarioError
-from ..models.track import Track, TrackSection
-from ..models.train import Train
-from ..models.vehicle import Coupler, TractionEnvelope, Vehicle
-from ..network import NetworkSettings
-from .communication import CommunicationSettings
-from .core import (
+from trainctl.constraints import Violation, suggest
+from trainctl.exceptions import ModelError, ScenarioError
+from trainctl.models.track import Track, TrackSection
+from trainctl.models.train import Train
+from trainctl.models.vehicle import Coupler, TractionEnvelope, Vehicle
+from trainctl.network import NetworkSettings
+from trainctl.scenario.communication import CommunicationSettings
+from trainctl.scenario.core import (
     FrozenMapping,
     Scenario,
     check_names,
@@ -39,10 +39,10 @@ from .core import (
     expectation_violation,
     strategy_names,
 )
-from .errors import DocumentTable, describe, got, scenario_error
-from .filemodel import FileTable, convert, field_at, file_model, load_settings
-from .settings import ModelSettings, SimulationSettings
-from .tables import (
+from trainctl.scenario.errors import DocumentTable, describe, got, scenario_error
+from trainctl.scenario.filemodel import FileTable, convert, field_at, file_model, load_settings
+from trainctl.scenario.settings import ModelSettings, SimulationSettings
+from trainctl.scenario.tables import (
     DAVIS_KEYS,
     CouplerTable,
     SectionTable,
@@ -196,7 +196,7 @@ def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:
     """
     if not isinstance(text, str):
         raise TypeError(f"parse_scenario: 'text' must be a str (got {type(text).__name__}).")
-    from .tags import source_tags
+    from trainctl.scenario.tags import source_tags
 
     return _Parser(source, load_toml(text, source), source_tags(text)).scenario()
 
@@ -334,7 +334,7 @@ class _Parser:
         """A preset train, called with the checked ``[train.preset_options]``."""
         name = table.preset or ""
         try:
-            from ..models.presets import PRESETS
+            from trainctl.models.presets import PRESETS
         except ImportError as exc:
             raise ScenarioError(f"{self.file}: [train].preset: presets are not available "
                                 f"({exc}).") from None
@@ -366,7 +366,7 @@ class _Parser:
         """``[controller]``: the primary family, then ``[controller.<family>]`` sub-tables."""
         if raw is None:
             return {}
-        from ..controllers.registry import DEFAULT_FAMILY, family_names, get_family
+        from trainctl.controllers.registry import DEFAULT_FAMILY, family_names, get_family
 
         names = family_names()
         family = self.validate(family_table(names, DEFAULT_FAMILY), ("controller",)).family
@@ -414,7 +414,7 @@ class _Parser:
 
     def sweep(self) -> Any:
         """``[sweep]``: its keys checked, the axes built (points are validated when run)."""
-        from ..sweep.definition import GridAxis, ListAxis, RandomAxis, SweepDefinition
+        from trainctl.sweep.definition import GridAxis, ListAxis, RandomAxis, SweepDefinition
 
         table: SweepTable = self.validate(SweepTable, ("sweep",))
         raw = self.doc["sweep"]

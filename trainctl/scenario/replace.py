@@ -20,8 +20,8 @@ import re
 from collections.abc import Mapping
 from typing import Any
 
-from ..exceptions import ScenarioError
-from .core import FrozenMapping
+from trainctl.exceptions import ScenarioError
+from trainctl.scenario.core import FrozenMapping
 
 __all__ = ["freeze", "parse_key_path", "replaced_document", "thaw"]
 
@@ -211,13 +211,13 @@ def _alternatives(key: str) -> tuple[str, ...]:
 
 def _one_of_groups() -> tuple[tuple[str, ...], ...]:
     """Every group of alternative keys declared in the file tables (leaf names)."""
-    from ..controllers.registry import family_names, get_family
-    from ..declare import declared_fields
-    from ..network import NetworkSettings
-    from .communication import CommunicationSettings
-    from .filemodel import file_model, sub_model
-    from .settings import ModelSettings, SimulationSettings
-    from .tables import TrackTable, TrainTable
+    from trainctl.controllers.registry import family_names, get_family
+    from trainctl.declare import declared_fields
+    from trainctl.network import NetworkSettings
+    from trainctl.scenario.communication import CommunicationSettings
+    from trainctl.scenario.filemodel import file_model, sub_model
+    from trainctl.scenario.settings import ModelSettings, SimulationSettings
+    from trainctl.scenario.tables import TrackTable, TrainTable
 
     roots: list[type | None] = [TrainTable, TrackTable, file_model(ModelSettings),
                                 file_model(SimulationSettings),

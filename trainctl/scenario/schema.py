@@ -26,13 +26,13 @@ from typing import Annotated, Any
 from pydantic import BaseModel, ConfigDict, create_model
 from pydantic.json_schema import models_json_schema
 
-from ..declare import Key, declared_fields
-from ..network import NetworkSettings
-from .communication import CommunicationSettings
-from .core import SCHEMA_VERSION, check_names, check_statuses
-from .filemodel import FileTable, file_model
-from .settings import ModelSettings, SimulationSettings
-from .tables import SweepTable, TopLevel, TrackTable, TrainTable, expected_table
+from trainctl.declare import Key, declared_fields
+from trainctl.network import NetworkSettings
+from trainctl.scenario.communication import CommunicationSettings
+from trainctl.scenario.core import SCHEMA_VERSION, check_names, check_statuses
+from trainctl.scenario.filemodel import FileTable, file_model
+from trainctl.scenario.settings import ModelSettings, SimulationSettings
+from trainctl.scenario.tables import SweepTable, TopLevel, TrackTable, TrainTable, expected_table
 
 __all__ = ["DRAFT", "json_schema"]
 
@@ -129,7 +129,7 @@ def json_schema() -> dict[str, Any]:
     >>> speed["unit"], speed["exclusiveMinimum"], speed["maximum"], speed["type"]
     ('km/h', 0, 1000.0, 'number')
     """
-    from ..controllers.registry import DEFAULT_FAMILY, family_names, get_family
+    from trainctl.controllers.registry import DEFAULT_FAMILY, family_names, get_family
 
     names = family_names()
     families = {n: file_model(get_family(n).settings) for n in names}

@@ -17,10 +17,10 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import TypeAdapter, ValidationError, ValidationInfo, model_validator
 
-from ..constraints import Array, Choice, Flag, Integer, NameList, Number, Violation, raise_at
-from ..declare import Alt, Key, python_error, settings
-from ..exceptions import ModelError
-from ..limits import (
+from trainctl.constraints import Array, Choice, Flag, Integer, NameList, Number, Violation, raise_at
+from trainctl.declare import Alt, Key, python_error, settings
+from trainctl.exceptions import ModelError
+from trainctl.limits import (
     DURATION,
     MAX_SAMPLES,
     SAMPLE_TIME,
@@ -30,10 +30,10 @@ from ..limits import (
     SPEED_NOISE,
     SPEED_POINTS,
 )
-from ..models.discrete import DISCRETISATIONS
-from ..models.dynamics import ALLOCATIONS
-from ..models.linear import LINEARISATIONS
-from ..units import kmh_to_ms
+from trainctl.models.discrete import DISCRETISATIONS
+from trainctl.models.dynamics import ALLOCATIONS
+from trainctl.models.linear import LINEARISATIONS
+from trainctl.units import kmh_to_ms
 
 __all__ = ["ModelSettings", "SimulationSettings"]
 
@@ -87,7 +87,7 @@ def _strategies(context: dict[str, Any] | None) -> tuple[str, ...]:
     """The strategies of the scenario's families, or of every family."""
     if isinstance(context, dict) and "strategies" in context:
         return tuple(context["strategies"])
-    from .core import strategy_names
+    from trainctl.scenario.core import strategy_names
 
     return strategy_names()
 

@@ -27,7 +27,7 @@ from pydantic import (
 )
 from pydantic_core import CoreSchema, core_schema
 
-from ..constraints import (
+from trainctl.constraints import (
     Array,
     Choice,
     Flag,
@@ -39,11 +39,20 @@ from ..constraints import (
     fail,
     raise_at,
 )
-from ..declare import Key
-from ..limits import COUPLER_GAP, MAX_VEHICLES, VEHICLES_WHY, in_unit
-from ..models.track import SECTION_RULES, TRACK_RULES
-from ..models.vehicle import COUPLER_RULES, ENVELOPE_RULES, VEHICLE_RULES
-from ..units import (
+from trainctl.declare import Key
+from trainctl.limits import COUPLER_GAP, MAX_VEHICLES, VEHICLES_WHY, in_unit
+from trainctl.models.track import SECTION_RULES, TRACK_RULES
+from trainctl.models.vehicle import COUPLER_RULES, ENVELOPE_RULES, VEHICLE_RULES
+from trainctl.scenario.core import SCHEMA_VERSION
+from trainctl.scenario.filemodel import (
+    FileTable,
+    Section,
+    convert,
+    exactly_one,
+    field_at,
+    one_of_schema,
+)
+from trainctl.units import (
     davis_book_literal,
     davis_from_unit_resistance_kmh,
     kn_per_m_to_n_per_m,
@@ -52,8 +61,6 @@ from ..units import (
     kw_to_w,
     tonnes_to_kg,
 )
-from .core import SCHEMA_VERSION
-from .filemodel import FileTable, Section, convert, exactly_one, field_at, one_of_schema
 
 __all__ = [
     "MAX_VEHICLES",
@@ -143,7 +150,7 @@ class PresetName(Text):
 
     def json_extra(self) -> dict[str, Any]:
         """The presets as an enumeration."""
-        from ..models.presets import PRESETS
+        from trainctl.models.presets import PRESETS
 
         return {"enum": sorted(PRESETS)}
 

@@ -13,21 +13,21 @@ Importing this package loads neither pandas nor :mod:`trainctl.plot`; they are
 imported when a view needs them.
 """
 
-from ..models.plant import Plant as Plant
-from ._log import DENSE_PHASE_STEP as DENSE_PHASE_STEP
-from ._log import MAX_DENSE_POINTS as MAX_DENSE_POINTS
-from ._log import MAX_DENSE_VALUES as MAX_DENSE_VALUES
-from ._log import dense_grid as dense_grid
-from .closed_loop import DIVERGENCE_SPEED_ERROR as DIVERGENCE_SPEED_ERROR
-from .closed_loop import HOLD_FALLBACK as HOLD_FALLBACK
-from .closed_loop import simulate as simulate
-from .metrics import Metrics as Metrics
-from .metrics import compute_metrics as compute_metrics
-from .reference import Reference as Reference
-from .reference import SpeedProfile as SpeedProfile
-from .reference import ramp_profile as ramp_profile
-from .results import SimulationResult as SimulationResult
-from .results import environment as environment
+from trainctl.models.plant import Plant as Plant
+from trainctl.sim._log import DENSE_PHASE_STEP as DENSE_PHASE_STEP
+from trainctl.sim._log import MAX_DENSE_POINTS as MAX_DENSE_POINTS
+from trainctl.sim._log import MAX_DENSE_VALUES as MAX_DENSE_VALUES
+from trainctl.sim._log import dense_grid as dense_grid
+from trainctl.sim.closed_loop import DIVERGENCE_SPEED_ERROR as DIVERGENCE_SPEED_ERROR
+from trainctl.sim.closed_loop import HOLD_FALLBACK as HOLD_FALLBACK
+from trainctl.sim.closed_loop import simulate as simulate
+from trainctl.sim.metrics import Metrics as Metrics
+from trainctl.sim.metrics import compute_metrics as compute_metrics
+from trainctl.sim.reference import Reference as Reference
+from trainctl.sim.reference import SpeedProfile as SpeedProfile
+from trainctl.sim.reference import ramp_profile as ramp_profile
+from trainctl.sim.results import SimulationResult as SimulationResult
+from trainctl.sim.results import environment as environment
 
 __all__ = [
     "DENSE_PHASE_STEP", "DIVERGENCE_SPEED_ERROR", "HOLD_FALLBACK", "MAX_DENSE_POINTS",

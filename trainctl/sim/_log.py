@@ -30,11 +30,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..controllers.base import StepRecord
-from ..exceptions import DimensionError
-from ..models.dynamics import coupler_forces
-from ..models.plant import Plant
-from .reference import Reference
+from trainctl.controllers.base import StepRecord
+from trainctl.exceptions import DimensionError
+from trainctl.models.dynamics import coupler_forces
+from trainctl.models.plant import Plant
+from trainctl.sim.reference import Reference
 
 __all__ = [
     "DENSE_PHASE_STEP", "HOLD_FALLBACK", "MAX_DENSE_POINTS", "MAX_DENSE_VALUES", "Log",

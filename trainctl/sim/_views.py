@@ -13,13 +13,13 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 from numpy.typing import NDArray
 
-from ..exceptions import MissingDependencyError, ModelError
+from trainctl.exceptions import MissingDependencyError, ModelError
 
 if TYPE_CHECKING:
     import control as ct
     from matplotlib.axes import Axes
 
-    from .results import SimulationResult
+    from trainctl.sim.results import SimulationResult
 
 __all__ = ["PLOT_KINDS", "ResultViews"]
 
@@ -156,7 +156,7 @@ class ResultViews:
         matplotlib.axes.Axes
             The axes drawn into.
         """
-        from .. import plot
+        from trainctl import plot
 
         functions = {
             "velocity": plot.velocity_plot,

@@ -43,22 +43,22 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_nonnegative, check_positive
-from ..controllers.base import Controller, Measurement
-from ..exceptions import (
+from trainctl._validation import check_nonnegative, check_positive
+from trainctl.controllers.base import Controller, Measurement
+from trainctl.exceptions import (
     ConvergenceWarning,
     DimensionError,
     InaccurateSolutionWarning,
     ModelError,
 )
-from ..models.actuator import SATURATION_TOLERANCE, ActuatorLimits
-from ..models.dynamics import vehicle_positions
-from ..models.plant import Plant
-from ..network import FATES, Network
-from ._log import HOLD_FALLBACK, Log, dense_grid
-from .metrics import unconverged_steps
-from .reference import Reference
-from .results import SimulationResult, environment
+from trainctl.models.actuator import SATURATION_TOLERANCE, ActuatorLimits
+from trainctl.models.dynamics import vehicle_positions
+from trainctl.models.plant import Plant
+from trainctl.network import FATES, Network
+from trainctl.sim._log import HOLD_FALLBACK, Log, dense_grid
+from trainctl.sim.metrics import unconverged_steps
+from trainctl.sim.reference import Reference
+from trainctl.sim.results import SimulationResult, environment
 
 __all__ = ["DIVERGENCE_SPEED_ERROR", "HOLD_FALLBACK", "simulate"]
 

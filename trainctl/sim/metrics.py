@@ -52,9 +52,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_finite
-from ..exceptions import ModelError
-from .results import SimulationResult
+from trainctl._validation import check_finite
+from trainctl.exceptions import ModelError
+from trainctl.sim.results import SimulationResult
 
 __all__ = ["Metrics", "compute_metrics"]
 

@@ -6,6 +6,6 @@ observers can use it too; ``trainctl.sim.Plant`` and this module keep
 working for simulations.
 """
 
-from ..models.plant import Plant as Plant
+from trainctl.models.plant import Plant as Plant
 
 __all__ = ["Plant"]

@@ -17,9 +17,9 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .._validation import check_nonnegative, check_positive
-from ..controllers.base import ReferencePreview
-from ..exceptions import ModelError
+from trainctl._validation import check_nonnegative, check_positive
+from trainctl.controllers.base import ReferencePreview
+from trainctl.exceptions import ModelError
 
 __all__ = ["Reference", "SpeedProfile", "ramp_profile"]
 

@@ -34,12 +34,12 @@ from pydantic import (
     field_validator,
 )
 
-from .._files import require_regular
-from ..constraints import Choice
-from ..controllers.base import STATUSES
-from ..exceptions import ModelError
-from ..jsonfile import FiniteFloat, read_json, validate_json
-from .results import ARRAY_NAMES, FORMAT, OPTIONAL_ARRAY_NAMES
+from trainctl._files import require_regular
+from trainctl.constraints import Choice
+from trainctl.controllers.base import STATUSES
+from trainctl.exceptions import ModelError
+from trainctl.jsonfile import FiniteFloat, read_json, validate_json
+from trainctl.sim.results import ARRAY_NAMES, FORMAT, OPTIONAL_ARRAY_NAMES
 
 __all__ = ["MAX_ARRAY_BYTES", "RESULT_HINT", "ResultFile", "read_result"]
 

@@ -36,9 +36,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..controllers.base import STATUSES
-from ..exceptions import DimensionError
-from ._views import PLOT_KINDS, ResultViews
+from trainctl.controllers.base import STATUSES
+from trainctl.exceptions import DimensionError
+from trainctl.sim._views import PLOT_KINDS, ResultViews
 
 __all__ = ["ARRAY_NAMES", "FORMAT", "OPTIONAL_ARRAY_NAMES", "PLOT_KINDS", "SimulationResult",
            "environment"]
@@ -80,7 +80,7 @@ def environment() -> dict[str, object]:
     >>> sorted(env), "trainctl" in env["versions"]
     (['platform', 'python', 'versions'], True)
     """
-    from .. import __version__
+    from trainctl import __version__
 
     # trainctl's own version is the one imported: the index's "trainctl" is
     # another project, and a source checkout may have no metadata at all.
@@ -404,7 +404,7 @@ class SimulationResult(ResultViews):
         DimensionError
             When the arrays' shapes do not fit together.
         """
-        from .resultfile import RESULT_HINT, read_result
+        from trainctl.sim.resultfile import RESULT_HINT, read_result
 
         path = Path(directory)
         fields = read_result(path)

@@ -20,7 +20,7 @@ Examples
 [{'controller.r_per_kn2': 0.1}, {'controller.r_per_kn2': 1}, {'controller.r_per_kn2': 10}]
 """
 
-from .definition import (
+from trainctl.sweep.definition import (
     DISTRIBUTIONS,
     MAX_POINTS,
     SCALES,
@@ -33,9 +33,9 @@ from .definition import (
     parse_set,
     point_key,
 )
-from .rows import METRICS, point_rows, run_point, sweep_rows
-from .runner import dask_executor, run_point_results, run_sweep, sweep_scenario
-from .store import SweepStore, rows_frame
+from trainctl.sweep.rows import METRICS, point_rows, run_point, sweep_rows
+from trainctl.sweep.runner import dask_executor, run_point_results, run_sweep, sweep_scenario
+from trainctl.sweep.store import SweepStore, rows_frame
 
 __all__ = [
     "DISTRIBUTIONS",

@@ -57,10 +57,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..exceptions import ScenarioError
+from trainctl.exceptions import ScenarioError
 
 if TYPE_CHECKING:
-    from ..scenario import Scenario
+    from trainctl.scenario import Scenario
 
 __all__ = [
     "DISTRIBUTIONS",
@@ -112,7 +112,7 @@ def _fail(where: str, message: str) -> ScenarioError:
 
 
 def _check_key(key: object) -> str:
-    from ..scenario.replace import parse_key_path
+    from trainctl.scenario.replace import parse_key_path
 
     if not isinstance(key, str) or not key:
         raise ScenarioError(f"sweep axis: the key must be a file key path such as "
@@ -408,7 +408,7 @@ class SweepPoint(Mapping[str, Any]):
     changes: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        from ..scenario.frozen import FrozenMapping
+        from trainctl.scenario.frozen import FrozenMapping
 
         object.__setattr__(self, "changes", FrozenMapping(self.changes))
 
@@ -819,8 +819,8 @@ def _without_sweep(scenario: Scenario) -> Scenario:
     """``scenario`` without its ``[sweep]`` table (the same one if it has none)."""
     if scenario.document is None or "sweep" not in scenario.document:
         return scenario
-    from ..scenario.parse import parse_document
-    from ..scenario.replace import thaw
+    from trainctl.scenario.parse import parse_document
+    from trainctl.scenario.replace import thaw
 
     document = {k: thaw(v) for k, v in scenario.document.items() if k != "sweep"}
     return parse_document(document, source=scenario.source, tags=scenario.tags)
@@ -854,7 +854,7 @@ def point_key(scenario: Scenario) -> str:
     >>> point_key(book) == point_key(book.replace("controller.r_per_kn2", 1.0))
     False
     """
-    from ..scenario.replace import thaw
+    from trainctl.scenario.replace import thaw
 
     if scenario.document is None:
         raise ScenarioError(f"point_key: {scenario.name!r} was built in Python and has no "

@@ -29,8 +29,8 @@ from concurrent.futures import Executor
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from ..scenario import Scenario
-    from .definition import SweepPoint
+    from trainctl.scenario import Scenario
+    from trainctl.sweep.definition import SweepPoint
 
 __all__ = ["METRICS", "point_rows", "run_point", "sweep_rows"]
 
@@ -76,8 +76,8 @@ def run_point(scenario: Scenario, simulate: bool = True) -> dict[str, Any]:
     >>> "simulations" in summary
     False
     """
-    from .._cli_support import without_wall_clock
-    from ..run import run_scenario
+    from trainctl._cli_support import without_wall_clock
+    from trainctl.run import run_scenario
 
     result: dict[str, Any] = without_wall_clock(run_scenario(scenario, simulate=simulate)
                                                 .to_dict())
@@ -196,10 +196,10 @@ def sweep_rows(points: Sequence[SweepPoint], scenarios: Sequence[Scenario], *,
     ...   r["check.ndmpc_convergence.status"], r["strategy"]) for r in rows]
     [(1, 1.5849, 'fail', ''), (10, 0.3057, 'pass', '')]
     """
-    from .definition import point_key
+    from trainctl.sweep.definition import point_key
 
     if len(points) != len(scenarios):
-        from ..exceptions import ModelError
+        from trainctl.exceptions import ModelError
 
         raise ModelError(f"sweep_rows: {len(points)} points but {len(scenarios)} scenarios.")
     if executor is None:

@@ -30,13 +30,13 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from typing import TYPE_CHECKING, Any
 
-from ..exceptions import ScenarioError
+from trainctl.exceptions import ScenarioError
 
 if TYPE_CHECKING:
-    from ..scenario import Scenario
-    from ..sim.results import SimulationResult
-    from .definition import Axis
-    from .store import SweepStore
+    from trainctl.scenario import Scenario
+    from trainctl.sim.results import SimulationResult
+    from trainctl.sweep.definition import Axis
+    from trainctl.sweep.store import SweepStore
 
 __all__ = ["CONNECT_TIMEOUT", "HANDSHAKE_TIMEOUT", "SCHEDULER_ENV", "check_scheduler_address",
            "dask_executor", "run_point_results", "run_sweep", "sweep_scenario",
@@ -92,8 +92,8 @@ def run_point_results(scenario: Scenario, simulate: bool = True, arrays: bool | 
     """
     import dataclasses
 
-    from .._cli_support import without_wall_clock
-    from ..run import run_scenario
+    from trainctl._cli_support import without_wall_clock
+    from trainctl.run import run_scenario
 
     if isinstance(arrays, bool):
         arrays = "dense" if arrays else "none"
@@ -164,9 +164,9 @@ def sweep_scenario(scenario: str | os.PathLike[str], directory: str | os.PathLik
     >>> [round(v, 4) for v in table["check.ndmpc_convergence.value"]]
     [1.5849, 0.3057]
     """
-    from ..scenario import parse_scenario, read_scenario_text
-    from .definition import SweepDefinition, parse_set, point_key
-    from .store import SweepStore
+    from trainctl.scenario import parse_scenario, read_scenario_text
+    from trainctl.sweep.definition import SweepDefinition, parse_set, point_key
+    from trainctl.sweep.store import SweepStore
 
     text, label = read_scenario_text(scenario)
     base = parse_scenario(text, source=label)

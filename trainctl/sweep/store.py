@@ -64,16 +64,16 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictStr, model_validator
 
-from .._files import read_regular_text
-from ..constraints import Choice, Integer, Violation, raise_at
-from ..exceptions import ScenarioError
-from ..jsonfile import read_json, validate_json
+from trainctl._files import read_regular_text
+from trainctl.constraints import Choice, Integer, Violation, raise_at
+from trainctl.exceptions import ScenarioError
+from trainctl.jsonfile import read_json, validate_json
 
 if TYPE_CHECKING:
     import pandas as pd
 
-    from ..sim.results import SimulationResult
-    from .definition import SweepPoint
+    from trainctl.sim.results import SimulationResult
+    from trainctl.sweep.definition import SweepPoint
 
 __all__ = ["ARRAYS", "FORMAT", "LOCK", "MANIFEST", "SweepManifest", "SweepStore", "is_sweep_store",
            "sweep_fingerprint"]
@@ -330,7 +330,7 @@ class SweepStore:
             or trainctl version): nothing is written. Or another process
             holds the store's lock: "store in use by PID ...".
         """
-        from .. import __version__
+        from trainctl import __version__
 
         if arrays not in ARRAYS:
             raise ScenarioError(f"sweep arrays: must be one of {', '.join(ARRAYS)}; "
@@ -359,7 +359,7 @@ class SweepStore:
     def _open_locked(cls, root: Path, *, label: str, scenario_text: str,
                      points: Sequence[SweepPoint], keys: Sequence[str], swept: Sequence[str],
                      simulate: bool, arrays: str, fingerprint: str) -> SweepStore:
-        from .. import __version__
+        from trainctl import __version__
 
         if is_sweep_store(root):
             store = cls.load(root)
@@ -378,7 +378,7 @@ class SweepStore:
             raise ScenarioError(f"{root}: not empty and not a sweep store ({MANIFEST} is "
                                 "missing); refusing to write into it. Give an empty or new "
                                 "--output directory.")
-        from ..sim.results import environment
+        from trainctl.sim.results import environment
 
         manifest = {
             "format": FORMAT,
@@ -415,8 +415,8 @@ class SweepStore:
         ScenarioError
             Not a sweep store, or its manifest is damaged.
         """
-        from .. import __version__
-        from .definition import SweepPoint
+        from trainctl import __version__
+        from trainctl.sweep.definition import SweepPoint
 
         root = Path(path)
         if not is_sweep_store(root):
@@ -675,8 +675,8 @@ class SweepStore:
         ScenarioError
             A point has not run yet.
         """
-        from .definition import SweepPoint
-        from .rows import point_rows
+        from trainctl.sweep.definition import SweepPoint
+        from trainctl.sweep.rows import point_rows
 
         rows: list[dict[str, Any]] = []
         for entry in self.manifest["points"]:

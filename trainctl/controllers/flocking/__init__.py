@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-from .family import FAMILY as FAMILY
-from .family import STRATEGIES as STRATEGIES
+from trainctl.controllers.flocking.family import FAMILY as FAMILY
+from trainctl.controllers.flocking.family import STRATEGIES as STRATEGIES
 
 __all__ = ["FAMILY", "STRATEGIES"]

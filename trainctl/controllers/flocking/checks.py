@@ -53,12 +53,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from ...analysis.check import Check
-from ..sampled import closed_loop_spectrum, cumulative, sampling_check
+from trainctl.analysis.check import Check
+from trainctl.controllers.sampled import closed_loop_spectrum, cumulative, sampling_check
 
 if TYPE_CHECKING:
-    from ...sim import SimulationResult
-    from .family import FlockingDesign
+    from trainctl.controllers.flocking.family import FlockingDesign
+    from trainctl.sim import SimulationResult
 
 __all__ = ["SOFT_SPRING", "flocking_checks", "initial_energy", "trajectory_checks",
            "trajectory_gaps"]
@@ -261,7 +261,7 @@ def _pair_peak(design: FlockingDesign) -> float:
 
 def actuators_check(design: FlockingDesign) -> Check:
     """Largest law force per train against its envelope at the cruise speed."""
-    from ...models.envelope import EnvelopeBounds
+    from trainctl.models.envelope import EnvelopeBounds
 
     law, model = design.law, design.model
     n = law.n

@@ -24,14 +24,14 @@ import time
 import numpy as np
 from numpy.typing import NDArray
 
-from ...exceptions import ModelError
-from ...models.envelope import EnvelopeBounds
-from ...models.feedforward import ForceSplit
-from ...models.train import Train
-from ..base import Measurement, ReferencePreview, StepRecord
-from ..faults import call_solver, fault_record, non_finite_reason
-from ..reference import ReferencePosition, position_errors
-from .law import FlockingLaw
+from trainctl.controllers.base import Measurement, ReferencePreview, StepRecord
+from trainctl.controllers.faults import call_solver, fault_record, non_finite_reason
+from trainctl.controllers.flocking.law import FlockingLaw
+from trainctl.controllers.reference import ReferencePosition, position_errors
+from trainctl.exceptions import ModelError
+from trainctl.models.envelope import EnvelopeBounds
+from trainctl.models.feedforward import ForceSplit
+from trainctl.models.train import Train
 
 __all__ = ["FlockingController"]
 

@@ -27,13 +27,13 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:
     import control as ct
 
-    from ...analysis.review import Check
-    from ...design import DesignModel
-    from ...report.figures import ReportFigure
-    from ...scenario import Scenario
-    from ...sim import SimulationResult
-    from .controller import FlockingController
-    from .law import FlockingLaw
+    from trainctl.analysis.review import Check
+    from trainctl.controllers.flocking.controller import FlockingController
+    from trainctl.controllers.flocking.law import FlockingLaw
+    from trainctl.design import DesignModel
+    from trainctl.report.figures import ReportFigure
+    from trainctl.scenario import Scenario
+    from trainctl.sim import SimulationResult
 
 __all__ = ["CHECK_NAMES", "FAMILY", "GRAPH_USAGE", "STRATEGIES", "FlockingDesign",
            "FlockingFamily", "design_flocking"]
@@ -128,7 +128,7 @@ class FlockingDesign:
         ndarray
             Φ + Γ F, (2n, 2n) [-].
         """
-        from ..sampled import held_loop
+        from trainctl.controllers.sampled import held_loop
 
         T = self.control_interval if interval is None else float(interval)
         return held_loop(self.A_open, self.B_open, self.law.feedback(), T)
@@ -167,8 +167,8 @@ def design_flocking(scenario: Scenario, model: DesignModel, settings: Any) -> Fl
     >>> d.A_cl.shape, d.law.potential.desired_gap
     ((8, 8), 500.0)
     """
-    from ..sampled import control_interval, initial_errors
-    from .law import closed_loop_matrices, law_of
+    from trainctl.controllers.flocking.law import closed_loop_matrices, law_of
+    from trainctl.controllers.sampled import control_interval, initial_errors
 
     T = control_interval(scenario, model, settings, "flocking")
     law = law_of(scenario, settings)
@@ -209,7 +209,7 @@ class FlockingFamily:
     @property
     def settings(self) -> type[Any]:
         """The schema of the family's ``[controller]`` table."""
-        from .settings import FlockingSettings
+        from trainctl.controllers.flocking.settings import FlockingSettings
 
         return FlockingSettings
 
@@ -249,7 +249,7 @@ class FlockingFamily:
             The law about the cruise feedforward, dt = ``control_interval``
             [s], clipped to the envelope if the settings' ``input_bounds``.
         """
-        from .controller import FlockingController
+        from trainctl.controllers.flocking.controller import FlockingController
 
         return FlockingController(design.scenario.train, design.law, dt=design.control_interval,
                                   input_bounds=design.settings.input_bounds, name=strategy)
@@ -267,7 +267,7 @@ class FlockingFamily:
         list of Check
             In :data:`CHECK_NAMES` order.
         """
-        from .checks import flocking_checks
+        from trainctl.controllers.flocking.checks import flocking_checks
 
         return flocking_checks(design)
 
@@ -290,7 +290,7 @@ class FlockingFamily:
             The two checks, replacing the design review's checks of the same
             names.
         """
-        from .checks import trajectory_checks
+        from trainctl.controllers.flocking.checks import trajectory_checks
 
         return trajectory_checks(design, strategy, result)
 
@@ -343,7 +343,7 @@ class FlockingFamily:
             the collision barrier), ``control_interval`` [s] (as text),
             ``input_bounds`` and ``graph``.
         """
-        from ...report.figures_graph import graph_report_data
+        from trainctl.report.figures_graph import graph_report_data
 
         lam = np.linalg.eigvals(design.A_cl).astype(complex)
         z = np.exp(lam * design.model.settings.sample_time)
@@ -381,7 +381,7 @@ class FlockingFamily:
         list of ReportFigure
             One figure, the communication graph.
         """
-        from ...report.figures_graph import graph_figure
+        from trainctl.report.figures_graph import graph_figure
 
         return [graph_figure(data["graph"], family=self.name, usage=GRAPH_USAGE)]
 

@@ -57,13 +57,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ...exceptions import ModelError, ScenarioError
-from ..potentials import FlockingPotential
-from ..sampled import cumulative, incidence
+from trainctl.controllers.potentials import FlockingPotential
+from trainctl.controllers.sampled import cumulative, incidence
+from trainctl.exceptions import ModelError, ScenarioError
 
 if TYPE_CHECKING:
-    from ...design import DesignModel
-    from ...scenario import Scenario
+    from trainctl.design import DesignModel
+    from trainctl.scenario import Scenario
 
 __all__ = ["FlockingLaw", "closed_loop_matrices", "desired_gaps", "law_of"]
 

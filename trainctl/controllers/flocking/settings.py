@@ -14,8 +14,8 @@ from typing import Annotated, ClassVar
 
 from pydantic import model_validator
 
-from ...constraints import Flag, Number, Violation, raise_at
-from ...declare import Key, settings
+from trainctl.constraints import Flag, Number, Violation, raise_at
+from trainctl.declare import Key, settings
 
 __all__ = ["FlockingSettings"]
 

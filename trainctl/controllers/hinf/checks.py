@@ -70,12 +70,12 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from ...analysis.check import Check
-from ..sampled import closed_loop_spectrum
-from ..sampled import sampling_check as shared_sampling_check
+from trainctl.analysis.check import Check
+from trainctl.controllers.sampled import closed_loop_spectrum
+from trainctl.controllers.sampled import sampling_check as shared_sampling_check
 
 if TYPE_CHECKING:
-    from .family import HinfDesign
+    from trainctl.controllers.hinf.family import HinfDesign
 
 __all__ = ["closed_loop_check", "connectivity_check", "delay_check", "gamma_check",
            "hinf_checks", "sampling_check"]

@@ -46,13 +46,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ...exceptions import ModelError
-from ...models.envelope import EnvelopeBounds
-from ...models.train import Train
-from ...network import ARRIVAL_TOLERANCE, REFERENCE
-from ..base import Measurement, ReferencePreview, StepRecord, measured_speeds
-from ..faults import call_solver, fault_record, non_finite_reason
-from .law import HinfLaw
+from trainctl.controllers.base import Measurement, ReferencePreview, StepRecord, measured_speeds
+from trainctl.controllers.faults import call_solver, fault_record, non_finite_reason
+from trainctl.controllers.hinf.law import HinfLaw
+from trainctl.exceptions import ModelError
+from trainctl.models.envelope import EnvelopeBounds
+from trainctl.models.train import Train
+from trainctl.network import ARRIVAL_TOLERANCE, REFERENCE
 
 __all__ = ["HinfController"]
 

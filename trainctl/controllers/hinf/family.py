@@ -34,17 +34,17 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:
     import control as ct
 
-    from ...analysis.connectivity import WindowConnectivity
-    from ...analysis.consensus_hinf import ConsensusLoop, GainSynthesis
-    from ...analysis.delay import DelayMargin
-    from ...analysis.review import Check
-    from ...design import DesignModel
-    from ...graphs import CommunicationGraph
-    from ...network import NetworkSettings
-    from ...report.figures import ReportFigure
-    from ...scenario import Scenario
-    from .controller import HinfController
-    from .law import HinfLaw, LoopMatrices
+    from trainctl.analysis.connectivity import WindowConnectivity
+    from trainctl.analysis.consensus_hinf import ConsensusLoop, GainSynthesis
+    from trainctl.analysis.delay import DelayMargin
+    from trainctl.analysis.review import Check
+    from trainctl.controllers.hinf.controller import HinfController
+    from trainctl.controllers.hinf.law import HinfLaw, LoopMatrices
+    from trainctl.design import DesignModel
+    from trainctl.graphs import CommunicationGraph
+    from trainctl.network import NetworkSettings
+    from trainctl.report.figures import ReportFigure
+    from trainctl.scenario import Scenario
 
 __all__ = ["CHECK_NAMES", "DELAY_POINTS", "DELAY_SEARCH", "FAMILY", "GRAPH_USAGE", "STRATEGIES",
            "HinfDesign", "HinfFamily", "design_hinf"]
@@ -169,7 +169,7 @@ class HinfDesign:
         gains (delay-free, or for constant delays in [0, τ_max] with
         ``delay_certificate_s``).
         """
-        from ...analysis.consensus_hinf import certify_gains
+        from trainctl.analysis.consensus_hinf import certify_gains
 
         if self.synthesis is not None:
             return self.synthesis
@@ -196,7 +196,7 @@ class HinfDesign:
     @cached_property
     def delay(self) -> DelayMargin:
         """The full loop's delay margin (:func:`trainctl.analysis.delay.delay_margin`)."""
-        from ...analysis.delay import delay_margin
+        from trainctl.analysis.delay import delay_margin
 
         worst = self.worst_delay or 0.0
         loops = self.loops
@@ -206,7 +206,7 @@ class HinfDesign:
     @cached_property
     def consensus_bound(self) -> float | None:
         """π/(2 λ_max(κ_p P + κ_c L)) [s]; None for a directed graph (the bound needs symmetry)."""
-        from ...analysis.delay import consensus_delay_bound
+        from trainctl.analysis.delay import consensus_delay_bound
 
         Lp = self.law.pinned_laplacian()
         if not np.allclose(Lp, Lp.T, rtol=1e-10, atol=1e-12):
@@ -216,7 +216,7 @@ class HinfDesign:
     @cached_property
     def connectivity(self) -> list[WindowConnectivity]:
         """Per ``[network]`` interruption window: who is cut off, whether reached again."""
-        from ...analysis.connectivity import joint_connectivity
+        from trainctl.analysis.connectivity import joint_connectivity
 
         windows = self.network.interruptions if self.network is not None else ()
         if not windows:
@@ -236,7 +236,7 @@ class HinfDesign:
         ndarray
             (2n−1, 2n−1) [-].
         """
-        from ..sampled import held_loop
+        from trainctl.controllers.sampled import held_loop
 
         T = self.control_interval if interval is None else float(interval)
         speed = float(self.model.settings.speed)
@@ -285,10 +285,10 @@ def design_hinf(scenario: Scenario, model: DesignModel, settings: Any) -> HinfDe
     >>> d.gains_source, d.consensus.channels[:2]
     ('given', ('f[0]', 'f[1]'))
     """
-    from ...analysis.consensus_hinf import consensus_loop, synthesise_gains
-    from ...exceptions import SolverError
-    from ..sampled import control_interval
-    from .law import closed_loop_matrices, law_of
+    from trainctl.analysis.consensus_hinf import consensus_loop, synthesise_gains
+    from trainctl.controllers.hinf.law import closed_loop_matrices, law_of
+    from trainctl.controllers.sampled import control_interval
+    from trainctl.exceptions import SolverError
 
     T = control_interval(scenario, model, settings, "hinf")
     law = law_of(scenario, settings)
@@ -344,7 +344,7 @@ def _gamma_value(x: float) -> str:
 
 def _gamma_rows(design: HinfDesign, gamma: GainSynthesis) -> list[tuple[str, str]]:
     """Certified γ (all, per group), the independent norm, the scaling and the delay range."""
-    from ...analysis.consensus_hinf import CHANNEL_GROUPS
+    from trainctl.analysis.consensus_hinf import CHANNEL_GROUPS
 
     names = {"force": "force", "reference": "reference noise", "link": "link noise"}
     s = design.settings
@@ -371,7 +371,7 @@ def _seconds(x: float | None, missing: str = "no [network]") -> str:
 
 def _age_rows(design: HinfDesign) -> list[tuple[str, str]]:
     """The age of the newest datum held over a random-delay network (median, 99 %)."""
-    from ...analysis.delay import held_data_age
+    from trainctl.analysis.delay import held_data_age
 
     network = design.network
     if network is None:
@@ -412,7 +412,7 @@ class HinfFamily:
     @property
     def settings(self) -> type[Any]:
         """The schema of the family's ``[controller]`` table."""
-        from .settings import HinfSettings
+        from trainctl.controllers.hinf.settings import HinfSettings
 
         return HinfSettings
 
@@ -453,7 +453,7 @@ class HinfFamily:
             The law with the design's gains, dt = ``control_interval`` [s],
             clipped to the envelope if the settings' ``input_bounds``.
         """
-        from .controller import HinfController
+        from trainctl.controllers.hinf.controller import HinfController
 
         return HinfController(design.scenario.train, design.law, dt=design.control_interval,
                               input_bounds=design.settings.input_bounds, name=strategy)
@@ -471,7 +471,7 @@ class HinfFamily:
         list of Check
             In :data:`CHECK_NAMES` order.
         """
-        from .checks import hinf_checks
+        from trainctl.controllers.hinf.checks import hinf_checks
 
         return hinf_checks(design)
 
@@ -525,8 +525,8 @@ class HinfFamily:
             (the delay margin), ``consensus_bound`` [s] (None for a directed
             graph or no bound), ``connectivity`` (per window) and ``graph``.
         """
-        from ...analysis.check import finite_or_none
-        from ...report.figures_graph import graph_report_data
+        from trainctl.analysis.check import finite_or_none
+        from trainctl.report.figures_graph import graph_report_data
 
         lam = np.linalg.eigvals(design.loops.A_cl).astype(complex)
         z = np.exp(lam * design.model.settings.sample_time)
@@ -573,7 +573,7 @@ class HinfFamily:
         list of ReportFigure
             One figure, the communication graph.
         """
-        from ...report.figures_graph import graph_figure
+        from trainctl.report.figures_graph import graph_figure
 
         return [graph_figure(data["graph"], family=self.name, usage=GRAPH_USAGE)]
 

@@ -90,12 +90,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ...models.track import Track
-from ..synchronous.law import line_resistance, own_resistance, resistance_damping_per_vehicle
+from trainctl.controllers.synchronous.law import (
+    line_resistance,
+    own_resistance,
+    resistance_damping_per_vehicle,
+)
+from trainctl.models.track import Track
 
 if TYPE_CHECKING:
-    from ...design import DesignModel
-    from ...scenario import Scenario
+    from trainctl.design import DesignModel
+    from trainctl.scenario import Scenario
 
 __all__ = ["HinfLaw", "LoopMatrices", "closed_loop_matrices", "law_of"]
 

@@ -18,8 +18,8 @@ from typing import Annotated, ClassVar
 
 from pydantic import model_validator
 
-from ...constraints import Array, Choice, Flag, Integer, Number, Violation, raise_at
-from ...declare import Key, settings
+from trainctl.constraints import Array, Choice, Flag, Integer, Number, Violation, raise_at
+from trainctl.declare import Key, settings
 
 __all__ = ["DEFAULT_CONSENSUS_BOUNDS", "DEFAULT_CONSENSUS_GAIN", "DEFAULT_PINNING_BOUNDS",
            "DEFAULT_PINNING_GAIN", "OWN_SPEEDS", "PERFORMANCES", "HinfSettings"]

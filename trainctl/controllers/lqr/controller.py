@@ -23,12 +23,12 @@ import time
 import numpy as np
 from numpy.typing import NDArray
 
-from ...exceptions import DimensionError, ModelError
-from ...models.envelope import EnvelopeBounds
-from ...models.feedforward import ForceSplit
-from ...models.train import Train
-from ..base import Measurement, ReferencePreview, StepRecord
-from ..faults import call_solver, fault_record, non_finite_reason
+from trainctl.controllers.base import Measurement, ReferencePreview, StepRecord
+from trainctl.controllers.faults import call_solver, fault_record, non_finite_reason
+from trainctl.exceptions import DimensionError, ModelError
+from trainctl.models.envelope import EnvelopeBounds
+from trainctl.models.feedforward import ForceSplit
+from trainctl.models.train import Train
 
 __all__ = ["FEEDFORWARD", "LQRController"]
 

@@ -29,11 +29,11 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:
     import control as ct
 
-    from ...analysis.review import Check
-    from ...design import DesignModel
-    from ...report.figures import ReportFigure
-    from ...scenario import Scenario
-    from .controller import LQRController
+    from trainctl.analysis.review import Check
+    from trainctl.controllers.lqr.controller import LQRController
+    from trainctl.design import DesignModel
+    from trainctl.report.figures import ReportFigure
+    from trainctl.scenario import Scenario
 
 __all__ = ["CHECK_NAMES", "FAMILY", "STRATEGIES", "LQRDesign", "LQRFamily", "design_lqr"]
 
@@ -186,7 +186,7 @@ def _decentralised_gain(model: DesignModel, settings: Any, C: Array, q: Array) -
     """Block-diagonal K from each coach's own (A_ii, B_i) and the outputs it owns."""
     import control as ct
 
-    from ...models.discrete import discretise
+    from trainctl.models.discrete import discretise
 
     n, nc, nx = model.n_vehicles, model.train.n_couplers, model.n_states
     sub, cfg = model.subsystems, model.settings
@@ -234,7 +234,7 @@ class LQRFamily:
     @property
     def settings(self) -> type[Any]:
         """The schema of the family's ``[controller]`` table."""
-        from .settings import LQRSettings
+        from trainctl.controllers.lqr.settings import LQRSettings
 
         return LQRSettings
 
@@ -273,7 +273,7 @@ class LQRFamily:
             With the strategy's gain, the model's sample time [s] and the
             settings' ``input_bounds``, named after the strategy.
         """
-        from .controller import LQRController
+        from trainctl.controllers.lqr.controller import LQRController
 
         return LQRController(design.scenario.train, design.gains[strategy],
                              dt=design.model.settings.sample_time,
@@ -292,7 +292,7 @@ class LQRFamily:
         list of Check
             ``lqr_closed_loop`` (centralised) and ``lqr_decentralised_closed_loop``.
         """
-        from ...analysis.review import radius_check
+        from trainctl.analysis.review import radius_check
 
         labels = design.scenario.train.state_labels()
         hint = "raise the output weights or lower R"

@@ -11,9 +11,8 @@ from typing import Annotated, ClassVar
 
 from pydantic import model_validator
 
-from ...constraints import Flag
-from ...declare import Key, settings
-from ..tracking import (
+from trainctl.constraints import Flag
+from trainctl.controllers.tracking import (
     InputWeight,
     InputWeightUnit,
     Outputs,
@@ -22,6 +21,7 @@ from ..tracking import (
     check_force_weight,
     per_kn2,
 )
+from trainctl.declare import Key, settings
 
 __all__ = ["LQRSettings"]
 

@@ -13,17 +13,17 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from .family import FAMILY as FAMILY
-from .settings import STRATEGIES as STRATEGIES
-from .settings import MPCConstraints as MPCConstraints
+from trainctl.controllers.mpc.family import FAMILY as FAMILY
+from trainctl.controllers.mpc.settings import STRATEGIES as STRATEGIES
+from trainctl.controllers.mpc.settings import MPCConstraints as MPCConstraints
 
 if TYPE_CHECKING:
-    from .controller import MPCController as MPCController
-    from .controller import make_mpc as make_mpc
-    from .linear import LinearMPC as LinearMPC
-    from .linear import LinearMPCController as LinearMPCController
-    from .linear import MPCSolution as MPCSolution
-    from .linear import make_linear_mpc as make_linear_mpc
+    from trainctl.controllers.mpc.controller import MPCController as MPCController
+    from trainctl.controllers.mpc.controller import make_mpc as make_mpc
+    from trainctl.controllers.mpc.linear import LinearMPC as LinearMPC
+    from trainctl.controllers.mpc.linear import LinearMPCController as LinearMPCController
+    from trainctl.controllers.mpc.linear import MPCSolution as MPCSolution
+    from trainctl.controllers.mpc.linear import make_linear_mpc as make_linear_mpc
 
 __all__ = ["FAMILY", "STRATEGIES", "LinearMPC", "LinearMPCController", "MPCConstraints",
            "MPCController", "MPCSolution", "make_linear_mpc", "make_mpc"]

@@ -10,10 +10,10 @@ import dataclasses
 import math
 from typing import TYPE_CHECKING, Any
 
-from ...analysis.review import Check, radius_check
+from trainctl.analysis.review import Check, radius_check
 
 if TYPE_CHECKING:
-    from .family import MPCFamilyDesign
+    from trainctl.controllers.mpc.family import MPCFamilyDesign
 
 __all__ = ["mpc_checks"]
 
@@ -52,7 +52,7 @@ def mpc_checks(design: MPCFamilyDesign) -> list[Check]:
     >>> round(design.analysis.rho_d0, 2), round(design.analysis.threshold_weight, 2)
     (0.31, 2.25)
     """
-    from .review_checks import (
+    from trainctl.controllers.mpc.review_checks import (
         coupler_force_check,
         horizon_check,
         qp_conditioning_check,

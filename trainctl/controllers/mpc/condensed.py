@@ -27,9 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ...exceptions import ModelError
-from ..fastqp import QPSolution
-from ..qp import PARAMETERS, ParametricQP
+from trainctl.controllers.fastqp import QPSolution
+from trainctl.controllers.qp import PARAMETERS, ParametricQP
+from trainctl.exceptions import ModelError
 
 __all__ = ["BlockParameters", "MoveMaps", "QPBlock", "block_parameters", "build_block",
            "input_rows", "move_maps", "shifted"]

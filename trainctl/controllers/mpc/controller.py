@@ -68,20 +68,20 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
-from ...analysis.local_iteration import LocalModel
-from ...analysis.mpc import MPCDesign
-from ...exceptions import ModelError
-from ...models.envelope import EnvelopeBounds
-from ...models.feedforward import ForceSplit
-from ...models.train import Train
-from ..base import Measurement, ReferencePreview, StepRecord
-from ..faults import safe_inputs
-from ..observer import KalmanObserver, ObserverSettings
-from .condensed import QPBlock, shifted
-from .local import LocalTrainProblem
-from .problem import StepContext, TrainProblem
-from .settings import QP_SOLVERS, STRATEGIES, MPCConstraints
-from .strategies import make_strategy
+from trainctl.analysis.local_iteration import LocalModel
+from trainctl.analysis.mpc import MPCDesign
+from trainctl.controllers.base import Measurement, ReferencePreview, StepRecord
+from trainctl.controllers.faults import safe_inputs
+from trainctl.controllers.mpc.condensed import QPBlock, shifted
+from trainctl.controllers.mpc.local import LocalTrainProblem
+from trainctl.controllers.mpc.problem import StepContext, TrainProblem
+from trainctl.controllers.mpc.settings import QP_SOLVERS, STRATEGIES, MPCConstraints
+from trainctl.controllers.mpc.strategies import make_strategy
+from trainctl.controllers.observer import KalmanObserver, ObserverSettings
+from trainctl.exceptions import ModelError
+from trainctl.models.envelope import EnvelopeBounds
+from trainctl.models.feedforward import ForceSplit
+from trainctl.models.train import Train
 
 __all__ = ["HOLD_INPUT", "ITERATING", "STRATEGIES", "MPCConstraints", "MPCController", "make_mpc"]
 
@@ -534,7 +534,7 @@ def make_mpc(train: Train, design: MPCDesign, *, dt: float, strategy: str = "ndm
     >>> rec.status, bool(np.allclose(rec.inputs, eq.inputs))
     ('optimal', True)
     """
-    from ...models.linear import linearise
+    from trainctl.models.linear import linearise
 
     _check_design("make_mpc", train, design, np.zeros((train.n_vehicles - 1, design.A.shape[0])))
     force_rows = np.asarray(linearise(train, 1.0, outputs=("force",)).C, dtype=float) / KN

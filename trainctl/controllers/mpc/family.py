@@ -17,19 +17,19 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .settings import STRATEGIES
+from trainctl.controllers.mpc.settings import STRATEGIES
 
 if TYPE_CHECKING:
     import control as ct
 
-    from ...analysis.dmpc import DMPCAnalysis, LocalDMPCAnalysis
-    from ...analysis.local_iteration import LocalModel
-    from ...analysis.mpc import MPCDesign
-    from ...analysis.review import Check
-    from ...design import DesignModel
-    from ...report.figures import ReportFigure
-    from ...scenario import Scenario
-    from .controller import MPCController
+    from trainctl.analysis.dmpc import DMPCAnalysis, LocalDMPCAnalysis
+    from trainctl.analysis.local_iteration import LocalModel
+    from trainctl.analysis.mpc import MPCDesign
+    from trainctl.analysis.review import Check
+    from trainctl.controllers.mpc.controller import MPCController
+    from trainctl.design import DesignModel
+    from trainctl.report.figures import ReportFigure
+    from trainctl.scenario import Scenario
 
 __all__ = ["CHECK_NAMES", "FAMILY", "MPCFamily", "MPCFamilyDesign"]
 
@@ -90,7 +90,7 @@ class MPCFamilyDesign:
     @cached_property
     def analysis(self) -> DMPCAnalysis:
         """The closed-form N-DMPC / cooperative analysis (computed once)."""
-        from ...analysis.dmpc import analyse_dmpc
+        from trainctl.analysis.dmpc import analyse_dmpc
 
         return analyse_dmpc(self.mpc, iterations=self.settings.iterations,
                             cooperative_weights=self.cooperative_weights())
@@ -104,7 +104,7 @@ class MPCFamilyDesign:
         (:func:`~trainctl.analysis.local_iteration.local_model`). Needs the
         zero-order-hold design model (``discretisation = "zoh"``).
         """
-        from ...analysis.local_iteration import local_model, train_state_owner
+        from trainctl.analysis.local_iteration import local_model, train_state_owner
 
         sys, ctl = self.model.design, self.settings
         return local_model(self.mpc, np.asarray(sys.A, dtype=float),
@@ -121,7 +121,7 @@ class MPCFamilyDesign:
     @cached_property
     def local_analysis(self) -> LocalDMPCAnalysis:
         """The closed-form analysis of neighbourhood-local N-DMPC (computed once)."""
-        from ...analysis.dmpc import analyse_local_dmpc
+        from trainctl.analysis.dmpc import analyse_local_dmpc
 
         return analyse_local_dmpc(self.mpc, self.local, iterations=self.settings.iterations)
 
@@ -169,7 +169,7 @@ def design_mpc(scenario: Scenario, model: DesignModel, settings: Any) -> MPCFami
     MPCFamilyDesign
         The design (its analysis is computed on first use).
     """
-    from ...analysis.mpc import MPCDesign
+    from trainctl.analysis.mpc import MPCDesign
 
     train = scenario.train
     n, nc = train.n_vehicles, train.n_couplers
@@ -201,8 +201,8 @@ def make_mpc_controller(design: MPCFamilyDesign, strategy: str) -> MPCController
     MPCController
         Ready to ``step``.
     """
-    from ..observer import KalmanObserver, ObserverSettings
-    from .controller import MPCController
+    from trainctl.controllers.mpc.controller import MPCController
+    from trainctl.controllers.observer import KalmanObserver, ObserverSettings
 
     scenario, ctl = design.scenario, design.settings
     dt = scenario.model.sample_time
@@ -271,8 +271,8 @@ def mpc_closed_loop(design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:
 
 
 def _decentralised_closed_loop(mpc: MPCDesign) -> np.ndarray:
-    from ...analysis.iteration import closed_loop_matrix, iteration_matrices
-    from ...analysis.mpc import prediction
+    from trainctl.analysis.iteration import closed_loop_matrix, iteration_matrices
+    from trainctl.analysis.mpc import prediction
 
     own = mpc.with_neighbourhoods([(i,) for i in range(mpc.n_inputs)])
     pred = prediction(own)
@@ -305,14 +305,14 @@ class MPCFamily:
     @property
     def settings(self) -> type[Any]:
         """The schema of the family's ``[controller]`` table."""
-        from .settings import ControllerSettings
+        from trainctl.controllers.mpc.settings import ControllerSettings
 
         return ControllerSettings
 
     @property
     def report_partial(self) -> str:
         """Jinja source of the family's report section."""
-        from .report import PARTIAL
+        from trainctl.controllers.mpc.report import PARTIAL
 
         return PARTIAL
 
@@ -367,7 +367,7 @@ class MPCFamily:
         list of Check
             One check per name of :data:`CHECK_NAMES`, in that order.
         """
-        from .checks import mpc_checks
+        from trainctl.controllers.mpc.checks import mpc_checks
 
         return mpc_checks(design)
 
@@ -404,7 +404,7 @@ class MPCFamily:
             JSON-safe: closed-loop ``spectra``, the ``weight_sweep`` of ρ(D0)
             against R, and display values for the section.
         """
-        from .report import mpc_report_data
+        from trainctl.controllers.mpc.report import mpc_report_data
 
         return mpc_report_data(design)
 
@@ -421,7 +421,7 @@ class MPCFamily:
         sequence of ReportFigure
             The convergence figure (ρ(D0) against R, R* marked).
         """
-        from .report import mpc_report_figures
+        from trainctl.controllers.mpc.report import mpc_report_figures
 
         return mpc_report_figures(data)
 

@@ -35,15 +35,15 @@ import control as ct
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ...analysis.mpc import prediction_matrices
-from ...exceptions import DimensionError, ModelError
-from ..base import Measurement, ReferencePreview, StepRecord
-from ..qp import QP_SOLVERS, ParametricQP
-from ..status import is_usable
-from . import validate as check
-from .condensed import block_parameters, build_block, move_maps
-from .rows import constraint_rows
-from .strategies import solve_block
+from trainctl.analysis.mpc import prediction_matrices
+from trainctl.controllers.base import Measurement, ReferencePreview, StepRecord
+from trainctl.controllers.mpc import validate as check
+from trainctl.controllers.mpc.condensed import block_parameters, build_block, move_maps
+from trainctl.controllers.mpc.rows import constraint_rows
+from trainctl.controllers.mpc.strategies import solve_block
+from trainctl.controllers.qp import QP_SOLVERS, ParametricQP
+from trainctl.controllers.status import is_usable
+from trainctl.exceptions import DimensionError, ModelError
 
 __all__ = ["LinearMPC", "LinearMPCController", "MPCSolution", "make_linear_mpc"]
 

@@ -32,17 +32,15 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ...analysis.local_iteration import (
+from trainctl.analysis.local_iteration import (
     CoachPrediction,
     LocalModel,
     LocalResponse,
     coach_predictions,
     rows_response,
 )
-from ...analysis.mpc import MPCDesign
-from ..qp import ParametricQP
-from ..status import is_usable
-from .condensed import (
+from trainctl.analysis.mpc import MPCDesign
+from trainctl.controllers.mpc.condensed import (
     BlockParameters,
     QPBlock,
     block_parameters,
@@ -50,9 +48,9 @@ from .condensed import (
     input_rows,
     move_maps,
 )
-from .problem import KN, StepContext, TrainProblem, fill_move_sources
-from .settings import MPCConstraints
-from .strategies import (
+from trainctl.controllers.mpc.problem import KN, StepContext, TrainProblem, fill_move_sources
+from trainctl.controllers.mpc.settings import MPCConstraints
+from trainctl.controllers.mpc.strategies import (
     FALLBACK,
     FallbackPlan,
     PlanResult,
@@ -61,6 +59,8 @@ from .strategies import (
     solve_block,
     worst_status,
 )
+from trainctl.controllers.qp import ParametricQP
+from trainctl.controllers.status import is_usable
 
 __all__ = ["LocalNDMPC", "LocalTrainProblem"]
 

@@ -26,10 +26,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from ...analysis.mpc import MPCDesign, Prediction, prediction
-from ..faults import safe_inputs
-from ..qp import ParametricQP
-from .condensed import (
+from trainctl.analysis.mpc import MPCDesign, Prediction, prediction
+from trainctl.controllers.faults import safe_inputs
+from trainctl.controllers.mpc.condensed import (
     BlockParameters,
     QPBlock,
     block_parameters,
@@ -37,11 +36,12 @@ from .condensed import (
     input_rows,
     move_maps,
 )
-from .settings import MPCConstraints
-from .strategies import Strategy
+from trainctl.controllers.mpc.settings import MPCConstraints
+from trainctl.controllers.mpc.strategies import Strategy
+from trainctl.controllers.qp import ParametricQP
 
 if TYPE_CHECKING:
-    from .local import LocalTrainProblem
+    from trainctl.controllers.mpc.local import LocalTrainProblem
 
 __all__ = ["StepContext", "TrainProblem"]
 

@@ -17,8 +17,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from ...report.figures import ReportFigure
-    from .family import MPCFamilyDesign
+    from trainctl.controllers.mpc.family import MPCFamilyDesign
+    from trainctl.report.figures import ReportFigure
 
 __all__ = ["PARTIAL", "SWEEP_POINTS", "mpc_report_data", "mpc_report_figures"]
 
@@ -64,7 +64,7 @@ def mpc_report_data(design: MPCFamilyDesign) -> dict[str, Any]:
     >>> list(data["spectra"])
     ['centralised', 'N-DMPC (Nash)', 'N-DMPC (10 iterations)']
     """
-    from ...analysis.iteration import convergence_sweep, threshold_weight
+    from trainctl.analysis.iteration import convergence_sweep, threshold_weight
 
     ctl, res = design.settings, design.analysis
     k = ctl.iterations
@@ -121,9 +121,9 @@ def mpc_report_figures(data: Mapping[str, Any]) -> list[ReportFigure]:
     """
     from matplotlib.figure import Figure
 
-    from ... import plot
-    from ..._plotting import fixed_margins
-    from ...report.figures import ReportFigure, figure_svg
+    from trainctl import plot
+    from trainctl._plotting import fixed_margins
+    from trainctl.report.figures import ReportFigure, figure_svg
 
     sweep = data["weight_sweep"]
     threshold = math.inf if sweep["threshold"] is None else sweep["threshold"]

@@ -39,10 +39,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ...analysis.check import Check
+from trainctl.analysis.check import Check
 
 if TYPE_CHECKING:
-    from .family import MPCFamilyDesign
+    from trainctl.controllers.mpc.family import MPCFamilyDesign
 
 __all__ = [
     "COND_FAIL", "COND_WARN", "HORIZON_FAIL", "HORIZON_WARN", "coupler_force_check",
@@ -141,7 +141,7 @@ def qp_conditioning_check(design: MPCFamilyDesign) -> Check:
     >>> check.status, round(check.value, 2)
     ('pass', 1.74)
     """
-    from ...analysis.mpc import prediction
+    from trainctl.analysis.mpc import prediction
 
     H = prediction(design.mpc).hessian()
     cond = float(np.linalg.cond(H))
@@ -243,7 +243,7 @@ def coupler_force_check(design: MPCFamilyDesign) -> Check:
     >>> check.status, round(check.value, 3)
     ('pass', 7.564)
     """
-    from ...analysis.feasibility import route_forces
+    from trainctl.analysis.feasibility import route_forces
 
     limit = design.settings.coupler_force_limit
     train = design.scenario.train
@@ -290,7 +290,7 @@ def _speed_mode(design: MPCFamilyDesign) -> tuple[float, complex]:
 
 def _force_steps(design: MPCFamilyDesign) -> tuple[dict[str, float], dict[str, float]]:
     """Largest per-sample change of a needed force on steady ramps and at jumps [kN]."""
-    from ...analysis.feasibility import route_forces
+    from trainctl.analysis.feasibility import route_forces
 
     scenario = design.scenario
     sim = scenario.simulation

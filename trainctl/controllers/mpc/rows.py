@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .condensed import MoveMaps, input_rows
+from trainctl.controllers.mpc.condensed import MoveMaps, input_rows
 
 __all__ = ["ConstraintRows", "constraint_rows"]
 

@@ -21,11 +21,14 @@ from pydantic import (
     model_validator,
 )
 
-from ...constraints import Array, Choice, Flag, Integer, Number, Violation, raise_at
-from ...declare import Key, python_error, settings
-from ...limits import HORIZON, ITERATIONS
-from ...units import kn_to_n
-from ..tracking import (
+from trainctl.constraints import Array, Choice, Flag, Integer, Number, Violation, raise_at
+from trainctl.controllers.mpc.rules import (
+    NEIGHBOURHOODS,
+    CooperativeWeightsRule,
+    NeighbourhoodRule,
+    coaches,
+)
+from trainctl.controllers.tracking import (
     InputWeight,
     InputWeightUnit,
     Outputs,
@@ -35,7 +38,9 @@ from ..tracking import (
     check_outputs_fit,
     per_kn2,
 )
-from .rules import NEIGHBOURHOODS, CooperativeWeightsRule, NeighbourhoodRule, coaches
+from trainctl.declare import Key, python_error, settings
+from trainctl.limits import HORIZON, ITERATIONS
+from trainctl.units import kn_to_n
 
 __all__ = [
     "CONTROLLER_FORMS",

@@ -41,11 +41,11 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from ...analysis.mpc import MPCDesign
-from ..fastqp import QPSolution
-from ..faults import call_solver
-from ..status import is_usable
-from .condensed import BlockParameters, QPBlock
+from trainctl.analysis.mpc import MPCDesign
+from trainctl.controllers.fastqp import QPSolution
+from trainctl.controllers.faults import call_solver
+from trainctl.controllers.mpc.condensed import BlockParameters, QPBlock
+from trainctl.controllers.status import is_usable
 
 __all__ = ["Centralised", "Cooperative", "Decentralised", "NDMPC", "PlanResult", "Strategy",
            "make_strategy", "solve_block"]
@@ -544,7 +544,7 @@ def make_strategy(name: str, *, max_iterations: int, tolerance: float, relaxatio
     if name == "ndmpc":
         return NDMPC(max_iterations=max_iterations, tolerance=tolerance, relaxation=relaxation)
     if name == "ndmpc-local":
-        from .local import LocalNDMPC
+        from trainctl.controllers.mpc.local import LocalNDMPC
 
         return LocalNDMPC(max_iterations=max_iterations, tolerance=tolerance,
                           relaxation=relaxation)

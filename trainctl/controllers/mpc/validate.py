@@ -18,8 +18,8 @@ import control as ct
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ...analysis.mpc import FORMS
-from ...exceptions import DimensionError, ModelError
+from trainctl.analysis.mpc import FORMS
+from trainctl.exceptions import DimensionError, ModelError
 
 __all__ = ["BOUND_GROUPS", "SOFT_PENALTY", "CoreSettings", "as_bound", "as_soft", "as_vector",
            "as_weight", "check_horizons", "check_system", "core_settings"]

@@ -59,13 +59,13 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from ...analysis.check import Check
-from ..sampled import SAMPLING_THRESHOLD, closed_loop_spectrum
-from ..sampled import sampling_check as shared_sampling_check
+from trainctl.analysis.check import Check
+from trainctl.controllers.sampled import SAMPLING_THRESHOLD, closed_loop_spectrum
+from trainctl.controllers.sampled import sampling_check as shared_sampling_check
 
 if TYPE_CHECKING:
-    from ...sim import SimulationResult
-    from .family import PotentialDesign
+    from trainctl.controllers.potential.family import PotentialDesign
+    from trainctl.sim import SimulationResult
 
 __all__ = ["LMI_MARGIN", "LMI_MAX_STATES", "SAMPLING_THRESHOLD", "barrier_bound", "bound_lmi",
            "final_offset", "lyapunov_equation", "lyapunov_lmi", "potential_checks",
@@ -152,7 +152,7 @@ def closed_form_certificate(design: PotentialDesign) -> Array | None:
     it applies to equal masses and a symmetric consensus graph, and is kept
     only when AᵀP + PA ⪯ 0 holds numerically.
     """
-    from ..sampled import cumulative, incidence
+    from trainctl.controllers.sampled import cumulative, incidence
 
     law, train = design.law, design.scenario.train
     m = law.mass
@@ -202,7 +202,7 @@ def lyapunov_lmi(A: Array, margin: float = LMI_MARGIN) -> Array | None:
     """
     import cvxpy as cp
 
-    from ...analysis.hinf import solve_quietly
+    from trainctl.analysis.hinf import solve_quietly
 
     At, D = scipy.linalg.matrix_balance(A, permute=False, separate=True)
     d = np.asarray(D[0], dtype=float)
@@ -467,7 +467,7 @@ def barrier_bound(design: PotentialDesign) -> float:
     >>> round(barrier_bound(design), 4)  # [m]
     0.159
     """
-    from ..sampled import cumulative, incidence
+    from trainctl.controllers.sampled import cumulative, incidence
 
     law, train = design.law, design.scenario.train
     n, m = law.n, float(law.mass[0])

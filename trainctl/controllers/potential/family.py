@@ -24,13 +24,13 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:
     import control as ct
 
-    from ...analysis.review import Check
-    from ...design import DesignModel
-    from ...report.figures import ReportFigure
-    from ...scenario import Scenario
-    from ...sim import SimulationResult
-    from .controller import PotentialController
-    from .law import PotentialLaw
+    from trainctl.analysis.review import Check
+    from trainctl.controllers.potential.controller import PotentialController
+    from trainctl.controllers.potential.law import PotentialLaw
+    from trainctl.design import DesignModel
+    from trainctl.report.figures import ReportFigure
+    from trainctl.scenario import Scenario
+    from trainctl.sim import SimulationResult
 
 __all__ = ["CHECK_NAMES", "FAMILY", "GRAPH_USAGE", "STRATEGIES", "PotentialDesign",
            "PotentialFamily", "design_potential"]
@@ -130,7 +130,7 @@ class PotentialDesign:
         ndarray
             Φ + Γ F, (2n, 2n) [-].
         """
-        from ..sampled import held_loop
+        from trainctl.controllers.sampled import held_loop
 
         T = self.control_interval if interval is None else float(interval)
         return held_loop(self.A_open, self.B_open, self.law.feedback(), T)
@@ -138,7 +138,12 @@ class PotentialDesign:
     @cached_property
     def certificate(self) -> tuple[str, Array] | None:
         """("closed_form", "lmi" or "equation", P) on [v̂, z, p] ([v̂, z] unpinned); None if none."""
-        from .checks import LMI_MAX_STATES, closed_form_certificate, lyapunov_equation, lyapunov_lmi
+        from trainctl.controllers.potential.checks import (
+            LMI_MAX_STATES,
+            closed_form_certificate,
+            lyapunov_equation,
+            lyapunov_lmi,
+        )
 
         keep = self.A_cl.shape[0] - (0 if self.pinned else 1)
         P = closed_form_certificate(self)
@@ -185,8 +190,8 @@ def design_potential(scenario: Scenario, model: DesignModel, settings: Any) -> P
     >>> d.A_cl.shape, d.control_interval
     ((8, 8), 0.05)
     """
-    from ..sampled import control_interval, initial_errors
-    from .law import closed_loop_matrices, law_of
+    from trainctl.controllers.potential.law import closed_loop_matrices, law_of
+    from trainctl.controllers.sampled import control_interval, initial_errors
 
     T = control_interval(scenario, model, settings, "potential")
     law = law_of(scenario, settings)
@@ -224,7 +229,7 @@ class PotentialFamily:
     @property
     def settings(self) -> type[Any]:
         """The schema of the family's ``[controller]`` table."""
-        from .settings import PotentialSettings
+        from trainctl.controllers.potential.settings import PotentialSettings
 
         return PotentialSettings
 
@@ -264,7 +269,7 @@ class PotentialFamily:
             The law about the cruise feedforward, dt = ``control_interval``
             [s], clipped to the envelope if the settings' ``input_bounds``.
         """
-        from .controller import PotentialController
+        from trainctl.controllers.potential.controller import PotentialController
 
         return PotentialController(design.scenario.train, design.law,
                                    dt=design.control_interval,
@@ -283,7 +288,7 @@ class PotentialFamily:
         list of Check
             In :data:`CHECK_NAMES` order.
         """
-        from .checks import potential_checks
+        from trainctl.controllers.potential.checks import potential_checks
 
         return potential_checks(design)
 
@@ -306,7 +311,7 @@ class PotentialFamily:
             The ``potential_linearisation`` check, replacing the design
             review's check of that name.
         """
-        from .checks import trajectory_checks
+        from trainctl.controllers.potential.checks import trajectory_checks
 
         return trajectory_checks(design, strategy, result)
 
@@ -356,7 +361,7 @@ class PotentialFamily:
             ``rows`` (name/value rows of the gains table), ``potential``,
             ``control_interval`` [s] (as text), ``input_bounds`` and ``graph``.
         """
-        from ...report.figures_graph import graph_report_data
+        from trainctl.report.figures_graph import graph_report_data
 
         lam = np.linalg.eigvals(design.A_cl).astype(complex)
         z = np.exp(lam * design.model.settings.sample_time)
@@ -389,7 +394,7 @@ class PotentialFamily:
         list of ReportFigure
             One figure, the communication graph.
         """
-        from ...report.figures_graph import graph_figure
+        from trainctl.report.figures_graph import graph_figure
 
         return [graph_figure(data["graph"], family=self.name, usage=GRAPH_USAGE)]
 

@@ -40,14 +40,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ...exceptions import ScenarioError
-from ..sampled import cumulative, incidence
+from trainctl.controllers.sampled import cumulative, incidence
+from trainctl.exceptions import ScenarioError
 
 if TYPE_CHECKING:
-    from ...design import DesignModel
-    from ...models.train import Train
-    from ...scenario import Scenario
-    from ..potentials import PairPotential
+    from trainctl.controllers.potentials import PairPotential
+    from trainctl.design import DesignModel
+    from trainctl.models.train import Train
+    from trainctl.scenario import Scenario
 
 __all__ = ["PotentialLaw", "closed_loop_matrices", "law_of", "make_potential"]
 
@@ -82,7 +82,7 @@ def make_potential(settings: Any, train: Train) -> PairPotential:
     >>> round(make_potential(s, crh2_half()).curvature(), 12)
     0.5
     """
-    from ..potentials import (
+    from trainctl.controllers.potentials import (
         BarrierPotential,
         FlockingPotential,
         QuadraticPotential,

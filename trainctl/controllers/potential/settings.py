@@ -12,8 +12,8 @@ from typing import Annotated, ClassVar
 
 from pydantic import model_validator
 
-from ...constraints import Choice, Flag, Number, Violation, raise_at
-from ...declare import Key, settings
+from trainctl.constraints import Choice, Flag, Number, Violation, raise_at
+from trainctl.declare import Key, settings
 
 __all__ = ["POTENTIALS", "PotentialSettings"]
 

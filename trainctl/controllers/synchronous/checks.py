@@ -33,12 +33,12 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from ...analysis.check import Check
-from ..sampled import closed_loop_spectrum
-from ..sampled import sampling_check as shared_sampling_check
+from trainctl.analysis.check import Check
+from trainctl.controllers.sampled import closed_loop_spectrum
+from trainctl.controllers.sampled import sampling_check as shared_sampling_check
 
 if TYPE_CHECKING:
-    from .family import SynchronousDesign
+    from trainctl.controllers.synchronous.family import SynchronousDesign
 
 __all__ = ["closed_loop_check", "delay_check", "sampling_check", "synchronous_checks"]
 

@@ -30,14 +30,14 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from ...exceptions import ModelError
-from ...models.envelope import EnvelopeBounds
-from ...models.train import Train
-from ...network import NetworkSettings
-from ..base import Measurement, ReferencePreview, StepRecord, measured_speeds
-from ..faults import call_solver, fault_record, non_finite_reason
-from .law import SynchronousLaw
-from .relay import CommandRelay
+from trainctl.controllers.base import Measurement, ReferencePreview, StepRecord, measured_speeds
+from trainctl.controllers.faults import call_solver, fault_record, non_finite_reason
+from trainctl.controllers.synchronous.law import SynchronousLaw
+from trainctl.controllers.synchronous.relay import CommandRelay
+from trainctl.exceptions import ModelError
+from trainctl.models.envelope import EnvelopeBounds
+from trainctl.models.train import Train
+from trainctl.network import NetworkSettings
 
 __all__ = ["SynchronousController"]
 
@@ -127,7 +127,7 @@ class SynchronousController:
         seed : int
             The run's seed, >= 0.
         """
-        from .relay import RELAY_STREAM
+        from trainctl.controllers.synchronous.relay import RELAY_STREAM
 
         if self._relay_factory is not None:
             self.relay = self._relay_factory(network, int(seed))

@@ -27,15 +27,15 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:
     import control as ct
 
-    from ...analysis.delay import DelayMargin
-    from ...analysis.review import Check
-    from ...design import DesignModel
-    from ...network import NetworkSettings
-    from ...report.figures import ReportFigure
-    from ...scenario import Scenario
-    from .controller import SynchronousController
-    from .law import LoopMatrices, SynchronousLaw
-    from .relay import CommandRelay
+    from trainctl.analysis.delay import DelayMargin
+    from trainctl.analysis.review import Check
+    from trainctl.controllers.synchronous.controller import SynchronousController
+    from trainctl.controllers.synchronous.law import LoopMatrices, SynchronousLaw
+    from trainctl.controllers.synchronous.relay import CommandRelay
+    from trainctl.design import DesignModel
+    from trainctl.network import NetworkSettings
+    from trainctl.report.figures import ReportFigure
+    from trainctl.scenario import Scenario
 
 __all__ = ["CHECK_NAMES", "DELAY_SEARCH", "FAMILY", "STRATEGIES", "SynchronousDesign",
            "SynchronousFamily", "design_synchronous"]
@@ -130,7 +130,7 @@ class SynchronousDesign:
     @cached_property
     def delay(self) -> DelayMargin:
         """The relay's delay margin (:func:`trainctl.analysis.delay.delay_margin`)."""
-        from ...analysis.delay import delay_margin
+        from trainctl.analysis.delay import delay_margin
 
         worst = self.worst_delay or 0.0
         loops = self.loops
@@ -150,7 +150,7 @@ class SynchronousDesign:
         ndarray
             (2n−1, 2n−1) [-].
         """
-        from ..sampled import held_loop
+        from trainctl.controllers.sampled import held_loop
 
         T = self.control_interval if interval is None else float(interval)
         speed = float(self.model.settings.speed)
@@ -180,7 +180,11 @@ class SynchronousDesign:
             delays, losses and outages and the settings' command noise
             [m/s²].
         """
-        from .relay import RELAY_STREAM, CommandRelay, relay_settings
+        from trainctl.controllers.synchronous.relay import (
+            RELAY_STREAM,
+            CommandRelay,
+            relay_settings,
+        )
 
         settings = self.network if network == "design" else network
         run_seed = int(self.scenario.seed) if seed is None else int(seed)
@@ -224,8 +228,8 @@ def design_synchronous(scenario: Scenario, model: DesignModel,
     >>> d.loops.A_cl.shape, d.control_interval, d.worst_delay
     ((7, 7), 0.1, None)
     """
-    from ..sampled import control_interval
-    from .law import closed_loop_matrices, law_of
+    from trainctl.controllers.sampled import control_interval
+    from trainctl.controllers.synchronous.law import closed_loop_matrices, law_of
 
     T = control_interval(scenario, model, settings, "synchronous")
     law = law_of(scenario, settings)
@@ -266,7 +270,7 @@ class SynchronousFamily:
     @property
     def settings(self) -> type[Any]:
         """The schema of the family's ``[controller]`` table."""
-        from .settings import SynchronousSettings
+        from trainctl.controllers.synchronous.settings import SynchronousSettings
 
         return SynchronousSettings
 
@@ -309,7 +313,7 @@ class SynchronousFamily:
             each run), dt = ``control_interval`` [s], clipped to the envelope
             if the settings' ``input_bounds``.
         """
-        from .controller import SynchronousController
+        from trainctl.controllers.synchronous.controller import SynchronousController
 
         return SynchronousController(design.scenario.train, design.law, design.make_relay(),
                                      dt=design.control_interval,
@@ -329,7 +333,7 @@ class SynchronousFamily:
         list of Check
             In :data:`CHECK_NAMES` order.
         """
-        from .checks import synchronous_checks
+        from trainctl.controllers.synchronous.checks import synchronous_checks
 
         return synchronous_checks(design)
 

@@ -67,12 +67,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ...exceptions import ModelError, ScenarioError
-from ...models.track import Track
+from trainctl.exceptions import ModelError, ScenarioError
+from trainctl.models.track import Track
 
 if TYPE_CHECKING:
-    from ...design import DesignModel
-    from ...scenario import Scenario
+    from trainctl.design import DesignModel
+    from trainctl.scenario import Scenario
 
 __all__ = ["LoopMatrices", "SynchronousLaw", "closed_loop_matrices", "law_of", "line_resistance",
            "own_resistance"]

@@ -46,8 +46,8 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from ...graphs import CommunicationGraph, make_graph
-from ...network import Network, NetworkSettings
+from trainctl.graphs import CommunicationGraph, make_graph
+from trainctl.network import Network, NetworkSettings
 
 __all__ = ["RELAY_STREAM", "CommandRelay", "relay_graph", "relay_settings"]
 

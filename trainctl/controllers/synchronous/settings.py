@@ -13,8 +13,8 @@ from typing import Annotated, ClassVar
 
 from pydantic import ValidationInfo, model_validator
 
-from ...constraints import Flag, Integer, Number, Violation, raise_at
-from ...declare import Key, settings
+from trainctl.constraints import Flag, Integer, Number, Violation, raise_at
+from trainctl.declare import Key, settings
 
 __all__ = ["DEFAULT_SPEED_GAIN", "SynchronousSettings"]
 
