@@ -10,7 +10,7 @@ scenario's iteration settings, over the same closed-loop sequence of states:
   fast      trainctl, cvxpy-modelled QPs solved through the probed OSQP data
             (qp_solver="osqp")
   fast DAQP the same, solved by the dense active-set path (qp_solver="daqp",
-            trainctl.controllers.denseqp.FastDAQP)
+            trainctl.controllers.mpc.qp.dense.FastDAQP)
   cvxpy     trainctl, the same QPs re-solved with Problem.solve(warm_start=True)
   rebuild   a new controller (cvxpy problems rebuilt) at every step
   raw OSQP  the identical (P, q, A, l, u) sequence the fast path produced,
@@ -56,7 +56,7 @@ import scipy.sparse as sp
 
 from trainctl.controllers.base import Measurement, ReferencePreview
 from trainctl.controllers.mpc import MPCConstraints, make_mpc
-from trainctl.controllers.qp import OSQP_SETTINGS
+from trainctl.controllers.mpc.qp.parametric import OSQP_SETTINGS
 from trainctl.design import build_design
 from trainctl.models import Coupler, Train, equilibrium
 from trainctl.scenario import load_scenario
@@ -177,7 +177,7 @@ def replay_fast(ctl, log, steps, solver):
     """The recorded data on a fast-path solver of every block: ``"osqp"`` (FastOSQP, fresh
     workspace), ``"daqp"`` (FastDAQP, warm-started) or ``"daqp-cold"`` (the empty working
     set for every QP, same workspace). Returns the time per step and the solutions."""
-    from trainctl.controllers.denseqp import FastDAQP
+    from trainctl.controllers.mpc.qp.dense import FastDAQP
 
     solvers = []
     for block in ctl.blocks:
@@ -217,7 +217,7 @@ def part1b(fast, log, steps, rounds):
     diff_fast = max(np.abs(d.z - f.z).max() for d, f in zip(dense, fast_sols, strict=True))
     statuses = {s.status for s in dense}
     blocks = [b.qp for b in fast.blocks]
-    from trainctl.controllers.denseqp import FastDAQP
+    from trainctl.controllers.mpc.qp.dense import FastDAQP
 
     shapes = {(d.n_vars, d.n_simple, d.n_rows, d.soft) for d in
               (FastDAQP(qp.fast_path) for qp in blocks)}
@@ -291,8 +291,8 @@ SCALING_R = {4: 0.2, 8: 0.505, 16: 0.757, 32: 2.05, 64: 2.76}
 
 
 def part2(sizes, steps, compute_r=False):
-    from trainctl.analysis.iteration import threshold_weight
-    from trainctl.analysis.mpc import MPCDesign
+    from trainctl.controllers.mpc.theory.iteration import threshold_weight
+    from trainctl.controllers.mpc.theory.mpc import MPCDesign
     from trainctl.models import discretise, linearise
 
     print("\nScaling (fast path with OSQP and with DAQP, N-DMPC, adjacent neighbourhoods, "
@@ -331,8 +331,8 @@ def part2(sizes, steps, compute_r=False):
 
 def chain_design(n, r, P=40):
     """The part-2 design of an n-coach chain and its continuous model partitioned by coach."""
-    from trainctl.analysis.local_iteration import local_model, train_state_owner
-    from trainctl.analysis.mpc import MPCDesign
+    from trainctl.controllers.mpc.theory.local_iteration import local_model, train_state_owner
+    from trainctl.controllers.mpc.theory.mpc import MPCDesign
     from trainctl.models import discretise, linearise
 
     train = chain(n)

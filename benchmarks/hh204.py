@@ -44,9 +44,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # threads thrash on a loaded
 
 import numpy as np  # noqa: E402
 
-import trainctl.run as run  # noqa: E402
-from trainctl.analysis.review import review_design  # noqa: E402
+import trainctl.run.analysis as run  # noqa: E402
 from trainctl.design import build_design  # noqa: E402
+from trainctl.design.review import review_design  # noqa: E402
 from trainctl.scenario import load_scenario  # noqa: E402
 
 SCENARIO = str(Path(__file__).resolve().parent / "scenarios" / "heavy-haul-204-ndmpc.toml")

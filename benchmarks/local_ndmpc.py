@@ -6,7 +6,7 @@ For crh2-dmpc (T = 20 s, Δu-form, P = 4, M = 2, R = 10) and
 crh2-dmpc-well-sampled (T = 0.05 s, u-form, P = 40, M = 5, R = 0.2): ρ(D0),
 the threshold weight R*, the spectral radius of the converged (Nash) closed
 loop and, for the local formulation, the largest relative error of a coach's
-local output prediction (trainctl.analysis.local_iteration), for the
+local output prediction (trainctl.controllers.mpc.theory.local_iteration), for the
 variants of the outer-state coupling: hold (first/zero order), exchanged
 samples per sample time (N) and boundary ("state": the book's Â_{i,i±1};
 "force": boundary coupler elongations exchanged too).
@@ -16,9 +16,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from trainctl.analysis.dmpc import analyse_dmpc
-from trainctl.analysis.iteration import spectral_radius
-from trainctl.analysis.local_iteration import (
+from trainctl.controllers.mpc.theory.dmpc import analyse_dmpc
+from trainctl.controllers.mpc.theory.iteration import spectral_radius
+from trainctl.controllers.mpc.theory.local_iteration import (
     coach_predictions,
     local_closed_loop,
     local_iteration,

@@ -12,7 +12,7 @@ had asked for 10 s and 60 s):
 
 Side by side, as baselines on the same machine and in the same session:
 
-  import    `python -c "import trainctl.cli, trainctl.report, trainctl.run"` —
+  import    `python -c "import trainctl.cli.main, trainctl.report, trainctl.run.analysis"` —
             the fixed start-up cost inside every run above
   all -j1   `trainctl report --all --jobs 1` — everything in one process; the
             ratio all / all -j1 is what the process pool buys on this machine
@@ -68,7 +68,7 @@ def timed(args: list[str], cwd: Path) -> float:
 
 def side_by_side(baseline: Path, repeat: int, skip_all: bool) -> int:
     """This checkout against ``baseline``, interleaved; medians and ratios."""
-    cases = [("import", ["-c", "import trainctl.cli, trainctl.report, trainctl.run"], repeat),
+    cases = [("import", ["-c", "import trainctl.cli.main, trainctl.report, trainctl.run.analysis"], repeat),
              ("default report", ["-m", "trainctl", "report"], repeat)]
     if not skip_all:
         cases.append(("all reports", ["-m", "trainctl", "report", "--all"], 1))
@@ -102,7 +102,7 @@ def main() -> int:
     rows: list[tuple[str, float, str]] = []
     with tempfile.TemporaryDirectory() as scratch:
         cwd = Path(scratch)
-        imports = [timed(["-c", "import trainctl.cli, trainctl.report, trainctl.run"], cwd)
+        imports = [timed(["-c", "import trainctl.cli.main, trainctl.report, trainctl.run.analysis"], cwd)
                    for _ in range(args.repeat)]
         rows.append(("import (baseline)", statistics.median(imports), ""))
         default = [timed(["-m", "trainctl", "report"], cwd) for _ in range(args.repeat)]

@@ -22,7 +22,7 @@ noise of the runs: write_point per point, write_table + read_table.
 
 Part 2 — the same ``--points`` points (default 8) with 1 and 2 local worker
 processes (``-j 1`` is one after the other in this process, ``-j 2`` the
-process pool of trainctl.parallel.worker_pool, its start-up included) and on
+process pool of trainctl.run.pool.worker_pool, its start-up included) and on
 a Dask LocalCluster of two single-threaded worker processes on loopback
 (started beforehand and warmed, as a running cluster is; the client's
 connection is included). The speed-up is relative to ``-j 1``.
@@ -56,8 +56,8 @@ from concurrent.futures import Executor
 from pathlib import Path
 from typing import Any
 
-from trainctl.parallel import worker_pool
-from trainctl.run import run_scenario
+from trainctl.run.analysis import run_scenario
+from trainctl.run.pool import worker_pool
 from trainctl.scenario import builtin_scenario_text, load_scenario
 from trainctl.sweep import SweepDefinition, SweepPoint, parse_set, point_key
 from trainctl.sweep.runner import dask_executor, run_point_results, run_sweep
@@ -174,7 +174,7 @@ def part_speedup(scratch: Path, count: int, duration: float) -> dict[str, Any]:
         cluster_start = time.perf_counter() - start
         with distributed.Client(cluster.scheduler_address, set_as_default=False) as client:
             # a running cluster's workers have trainctl imported already
-            client.run(lambda: __import__("trainctl.run") and None)
+            client.run(lambda: __import__("trainctl.run.analysis") and None)
         start = time.perf_counter()
         with dask_executor(cluster.scheduler_address) as executor:
             time_sweep(scratch / "dask", sweep, points, scenarios, executor)

@@ -5,7 +5,7 @@ under ``trainctl`` whose dotted name has no component starting with an
 underscore and which defines ``__all__``. A name re-exported by several
 public modules is described once, at its canonical home: the public module
 that defines it, or else the public module closest to the private module
-that defines it (``trainctl.report._format`` → ``trainctl.report``). The
+that defines it (``trainctl._format`` → ``trainctl.report``). The
 other modules list it with a link to that home.
 
 Called by ``conf.py`` at every build; also runnable alone

@@ -13,7 +13,9 @@ from trainctl.analysis.controllability import (
     finite_horizon_gramian,
     kalman_matrix,
 )
-from trainctl.analysis.iteration import (
+from trainctl.analysis.sampling import analyse_sampling
+from trainctl.analysis.stability import analyse_stability
+from trainctl.controllers.mpc.theory.iteration import (
     closed_loop_matrix,
     cooperative_iteration,
     finite_iteration_closed_loop,
@@ -23,9 +25,7 @@ from trainctl.analysis.iteration import (
     spectral_radius,
     threshold_weight,
 )
-from trainctl.analysis.mpc import MPCDesign, prediction
-from trainctl.analysis.sampling import analyse_sampling
-from trainctl.analysis.stability import analyse_stability
+from trainctl.controllers.mpc.theory.mpc import MPCDesign, prediction
 from trainctl.models import crh2_half, discretise, linearise
 
 V300 = 300 / 3.6

@@ -33,7 +33,7 @@ import pytest
 from PIL import Image
 
 from tests import chromium
-from trainctl.cli import main
+from trainctl.cli.main import main
 
 pytestmark = pytest.mark.slow
 

@@ -1,5 +1,5 @@
 # Run estimates and the time budget: long runs announced, impossible ones refused up front.
-"""trainctl.budget and ``--max-time``: estimates, refusals, announcements, the runtime stop."""
+"""trainctl.run.budget and ``--max-time``: estimates, refusals, announcements, the runtime stop."""
 
 from __future__ import annotations
 
@@ -13,7 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from trainctl.budget import (
+from trainctl.cli.main import main
+from trainctl.run.budget import (
     DEFAULT_MAX_TIME,
     BudgetError,
     RunEstimate,
@@ -22,7 +23,6 @@ from trainctl.budget import (
     parse_duration,
     total_estimate,
 )
-from trainctl.cli import main
 from trainctl.scenario import builtin_scenario_text, builtin_scenarios, load_scenario
 
 REPO = Path(__file__).resolve().parents[1]
@@ -181,7 +181,7 @@ class TestIssueCases:
         def stop(*args: object, **kwargs: object) -> None:
             raise TrainctlError("stopped by the test")
 
-        monkeypatch.setattr("trainctl.run.run_scenario", stop)
+        monkeypatch.setattr("trainctl.run.analysis.run_scenario", stop)
         assert main(["analyse", "crh2-dmpc-well-sampled"]) == 2
         err = capsys.readouterr().err.splitlines()
         assert err[0].startswith("trainctl: estimate: 24000 samples × 5 strategies = 120000 "
@@ -198,14 +198,14 @@ class TestIssueCases:
 
 _UNDERESTIMATE = """
 import sys
-import trainctl.budget as budget
+import trainctl.run.budget as budget
 real = budget.estimate_run
 def quick(scenario, **kwargs):
     import dataclasses
     return dataclasses.replace(real(scenario, **kwargs), design_seconds=0.1,
                                simulation_seconds=0.1)
 budget.estimate_run = quick
-from trainctl.cli import main
+from trainctl.cli.main import main
 sys.exit(main(sys.argv[1:]))
 """
 

@@ -16,8 +16,8 @@ from typing import Any
 
 import pytest
 
-from trainctl.cli import main
-from trainctl.parallel import worker_pool
+from trainctl.cli.main import main
+from trainctl.run.pool import worker_pool
 from trainctl.scenario import Scenario, load_scenario
 from trainctl.sweep import METRICS, SweepDefinition, SweepPoint, point_rows, run_point, sweep_rows
 

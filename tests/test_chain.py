@@ -275,7 +275,7 @@ def test_plant_lives_in_models_and_sim_reexports_it():
     """Controllers use trainctl.models.Plant; trainctl.sim keeps offering the same class."""
     import trainctl.sim
     import trainctl.sim.plant
-    from trainctl.controllers.observer import KalmanObserver
+    from trainctl.controllers.mpc.observer import KalmanObserver
 
     assert trainctl.sim.Plant is Plant and trainctl.sim.plant.Plant is Plant
     assert KalmanObserver.__init__.__globals__["Plant"] is Plant
@@ -286,7 +286,7 @@ def test_controllers_do_not_import_sim():
     import subprocess
     import sys
 
-    code = ("import sys, trainctl.controllers.observer, trainctl.controllers.mpc.controller; "
+    code = ("import sys, trainctl.controllers.mpc.observer, trainctl.controllers.mpc.controller; "
             "print(sorted(m for m in sys.modules if m.startswith('trainctl.sim')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

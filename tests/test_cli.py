@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 
 import trainctl
-from trainctl.analysis.review import review_design
-from trainctl.cli import main
+from trainctl.cli.main import main
+from trainctl.design.review import review_design
 from trainctl.scenario import builtin_scenario_text, load_scenario
 
 REPO = Path(__file__).resolve().parents[1]
@@ -255,7 +255,7 @@ class TestAnalyse:
     @pytest.mark.parametrize("name", BUILTINS)
     def test_every_builtin(self, name: str, capsys: pytest.CaptureFixture[str]) -> None:
         """Every built-in analyses with exit 0; --strict exits 1 exactly when a check fails."""
-        from trainctl.analysis.review import review_design
+        from trainctl.design.review import review_design
 
         assert main(["analyse", name, "--no-simulate"]) == 0
         assert load_scenario(name).name in capsys.readouterr().out
@@ -505,8 +505,8 @@ class TestReport:
         def refuse(*args: object, **kwargs: object) -> None:
             raise AssertionError("report DIR must not re-run anything")
 
-        monkeypatch.setattr("trainctl.run.simulate_strategy", refuse)
-        monkeypatch.setattr("trainctl.run.run_scenario", refuse)
+        monkeypatch.setattr("trainctl.run.analysis.simulate_strategy", refuse)
+        monkeypatch.setattr("trainctl.run.analysis.run_scenario", refuse)
         path = tmp_path / "r.html"
         assert main(["report", str(saved), "-o", str(path), "--deterministic"]) == 0
         html = path.read_text(encoding="utf-8")

@@ -9,7 +9,7 @@ import pytest
 
 from trainctl.exceptions import InaccurateSolutionWarning
 from trainctl.models import Plant
-from trainctl.run import run_scenario
+from trainctl.run.analysis import run_scenario
 from trainctl.scenario import load_scenario
 
 
@@ -89,7 +89,7 @@ def test_infeasible_scenario_records_statuses_falls_back_and_completes():
     """Start at 20 m/s asked to accelerate at 0.8 m/s²: the feedforward exceeds the 60 kN
     power limit by more than the 1 kN/step rate limit allows. The run completes, the
     infeasible samples are recorded and the declared fallback (shifted plan) is applied."""
-    from trainctl.run import simulate_strategy
+    from trainctl.run.analysis import simulate_strategy
     from trainctl.scenario import builtin_scenario_text, parse_scenario
 
     text = builtin_scenario_text("crh2-dmpc")

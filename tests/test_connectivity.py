@@ -13,8 +13,8 @@ from trainctl.analysis.connectivity import (
     union_graph,
 )
 from trainctl.exceptions import ModelError
-from trainctl.graphs import make_graph
-from trainctl.network import Interruption
+from trainctl.models.graphs import make_graph
+from trainctl.models.network import Interruption
 
 
 def test_segments_cover_the_run_and_split_at_every_edge() -> None:

@@ -20,7 +20,7 @@ import pytest
 
 from trainctl.naming import printable
 from trainctl.report import build_report_context, collect_report_data, render_report
-from trainctl.run import run_scenario
+from trainctl.run.analysis import run_scenario
 from trainctl.scenario import load_scenario
 
 # Raw characters a page or a terminal must never receive, as TOML escapes

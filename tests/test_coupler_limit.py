@@ -14,13 +14,13 @@ import jsonschema
 import numpy as np
 import pytest
 
-from trainctl.cli import main
+from trainctl.cli.main import main
 from trainctl.exceptions import ModelError, ScenarioError
 from trainctl.models.vehicle import Coupler
-from trainctl.run import AnalysisRun, run_scenario
+from trainctl.run.analysis import AnalysisRun, run_scenario
+from trainctl.run.strict import STRICT_KINDS, strict_failures
 from trainctl.scenario import json_schema, parse_scenario
 from trainctl.sim import SimulationResult, compute_metrics
-from trainctl.strict import STRICT_KINDS, strict_failures
 
 MASS = 40e3
 """Mass of each coach of the test train [kg] (``mass_t = 40.0``)."""

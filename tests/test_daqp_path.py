@@ -10,11 +10,16 @@ import numpy as np
 import pytest
 
 from trainctl.controllers.base import Measurement, ReferencePreview
-from trainctl.controllers.denseqp import FastDAQP
 from trainctl.controllers.mpc import MPCConstraints, make_mpc
+from trainctl.controllers.mpc.qp.dense import FastDAQP
+from trainctl.controllers.mpc.qp.parametric import (
+    DAQP_MAX_DECISIONS,
+    QP_SOLVERS,
+    ParametricQP,
+    choose_solver,
+)
+from trainctl.controllers.mpc.qp.status import from_daqp
 from trainctl.controllers.mpc.settings import QP_SOLVERS as SETTINGS_QP_SOLVERS
-from trainctl.controllers.qp import DAQP_MAX_DECISIONS, QP_SOLVERS, ParametricQP, choose_solver
-from trainctl.controllers.status import from_daqp
 from trainctl.design import build_design
 from trainctl.exceptions import ModelError
 from trainctl.models import equilibrium
@@ -189,7 +194,7 @@ class TestController:
     @pytest.mark.parametrize("solver", ["auto", "osqp", "daqp"])
     def test_the_scenario_key_reaches_every_qp(self, solver):
         """[controller] qp_solver builds the family's controller on that solver."""
-        from trainctl.run import make_controller
+        from trainctl.run.analysis import make_controller
         from trainctl.scenario import builtin_scenario_text, parse_scenario
 
         text = builtin_scenario_text("crh2-dmpc").replace(
@@ -314,7 +319,7 @@ class TestEqualityRows:
         """A general cvxpy problem on FastOSQP: equality rows (DAQP sense 5), rows of one side."""
         import cvxpy as cvx
 
-        from trainctl.controllers.fastqp import FastOSQP
+        from trainctl.controllers.mpc.qp.fast import FastOSQP
 
         rng = np.random.default_rng(7)
         M = rng.normal(size=(4, 4))
@@ -435,7 +440,7 @@ class TestWarmStart:
 
 def test_a_clone_has_its_own_dense_workspace():
     """A cloned DAQP QP solves with its own workspace: the original's solves leave it alone."""
-    from trainctl.controllers.qp import ParametricQP
+    from trainctl.controllers.mpc.qp.parametric import ParametricQP
 
     H = np.array([[2.0, 0.5], [0.5, 1.0]])
     C = np.eye(2)

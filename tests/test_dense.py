@@ -21,7 +21,7 @@ from trainctl.models import (
     heavy_haul_1p2p1,
     train_rhs,
 )
-from trainctl.run import simulate_strategy
+from trainctl.run.analysis import simulate_strategy
 from trainctl.scenario import load_scenario
 from trainctl.sim import (
     MAX_DENSE_POINTS,

@@ -1,7 +1,7 @@
 # Extreme values (1e300 and the like): refused naming the file and key, never a traceback or a hang.
 """Values far outside any train are refused before anything runs, naming the key.
 
-The hard limits (:mod:`trainctl.limits`, the hinf settings' gains and scales)
+The hard limits (:mod:`trainctl.declare.limits`, the hinf settings' gains and scales)
 refuse them with the reason; values inside the limits but outside any real
 train are warned about by the plausibility check (tests/test_review.py).
 """
@@ -16,7 +16,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from trainctl.cli import main
+from trainctl.cli.main import main
 from trainctl.exceptions import ModelError, ScenarioError
 from trainctl.scenario import builtin_scenario_text, load_scenario
 

@@ -16,16 +16,16 @@ import scipy.linalg
 from trainctl.controllers.lqr.family import FAMILY as LQR
 from trainctl.controllers.lqr.family import design_lqr
 from trainctl.controllers.mpc.family import FAMILY as MPC
-from trainctl.controllers.registry import (
+from trainctl.design import build_design, build_model
+from trainctl.exceptions import ScenarioError
+from trainctl.models.linear import linearise
+from trainctl.registry import (
     ControllerFamily,
     family_names,
     get_family,
     register_family,
     unregister_family,
 )
-from trainctl.design import build_design, build_model
-from trainctl.exceptions import ScenarioError
-from trainctl.models.linear import linearise
 from trainctl.scenario import load_scenario
 
 
@@ -129,7 +129,7 @@ class TestDesignStage:
         import trainctl.design.model as model_module
         import trainctl.models.discrete as discrete_module
         import trainctl.models.linear as linear_module
-        from trainctl.cli import main
+        from trainctl.cli.main import main
 
         calls = {"linearise": 0, "discretise": 0}
 
@@ -169,7 +169,7 @@ class TestMPCClosedLoop:
 
     def test_decentralised_loop_is_one_sweep_of_own_cost(self) -> None:
         """Decentralised: U = D1(self) e, the closed loop of the coaches' own problems."""
-        from trainctl.analysis.iteration import closed_loop_matrix, iteration_matrices
+        from trainctl.controllers.mpc.theory.iteration import closed_loop_matrix, iteration_matrices
 
         design = build_design(load_scenario("crh2-dmpc-well-sampled")).family("mpc")
         own = design.mpc.with_neighbourhoods([(i,) for i in range(design.mpc.n_inputs)])
@@ -357,7 +357,7 @@ class ToyFamily:
                              name=strategy)
 
     def checks(self, design: ToyDesign) -> list[object]:
-        from trainctl.analysis.review import radius_check
+        from trainctl.analysis.check import radius_check
 
         return [radius_check("toy_closed_loop", self._matrix(design),
                              design.model.train.state_labels(),  # type: ignore[attr-defined]
@@ -399,7 +399,7 @@ class TestToyFamily:
         """Checks, the simulation, the report section and the closed loop, all from the toy."""
         import json
 
-        from trainctl.cli import main
+        from trainctl.cli.main import main
 
         path = tmp_path / "toy.toml"
         path.write_text(TOY_SCENARIO, encoding="utf-8")

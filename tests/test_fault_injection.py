@@ -26,12 +26,12 @@ import numpy as np
 import pytest
 
 from trainctl.controllers.base import STATUSES, Measurement
-from trainctl.controllers.fastqp import QPSolution
-from trainctl.controllers.registry import family_names, get_family
+from trainctl.controllers.mpc.qp.fast import QPSolution
 from trainctl.design import build_design
 from trainctl.exceptions import InaccurateSolutionWarning
 from trainctl.models import ActuatorLimits, Plant, equilibrium
 from trainctl.models.actuator import SATURATION_TOLERANCE
+from trainctl.registry import family_names, get_family
 from trainctl.scenario import load_scenario
 from trainctl.scenario.core import family_of
 from trainctl.scenario.files import builtin_scenarios
@@ -247,7 +247,7 @@ class TestSolverExceptions:
         import cvxpy as cp
 
         from trainctl.controllers.mpc import MPCConstraints, make_mpc
-        from trainctl.controllers.qp import ParametricQP
+        from trainctl.controllers.mpc.qp.parametric import ParametricQP
         from trainctl.sim import compute_metrics
 
         scenario, design = family_setup("mpc")

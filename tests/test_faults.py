@@ -10,15 +10,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import trainctl.run as run_module
+import trainctl.run.analysis as run_module
 from trainctl.controllers.base import STATUSES, Measurement, ReferencePreview, StepRecord
 from trainctl.controllers.mpc import MPCConstraints, make_linear_mpc, make_mpc
-from trainctl.controllers.qp import ParametricQP
+from trainctl.controllers.mpc.qp.parametric import ParametricQP
 from trainctl.design import build_design
 from trainctl.exceptions import InaccurateSolutionWarning, ScenarioError
 from trainctl.models import ActuatorLimits, Plant, crh2_half, equilibrium
 from trainctl.models.envelope import EnvelopeBounds
-from trainctl.run import make_controller, run_scenario, simulate_strategy
+from trainctl.run.analysis import make_controller, run_scenario, simulate_strategy
 from trainctl.scenario import builtin_scenario_text, parse_scenario
 from trainctl.sim import compute_metrics, ramp_profile, simulate
 
@@ -372,8 +372,8 @@ class TestOSQPStatus:
         import osqp
         import scipy.sparse as sp
 
-        from trainctl.controllers.fastqp import OSQP_SETTINGS, osqp_runner
-        from trainctl.controllers.status import from_osqp
+        from trainctl.controllers.mpc.qp.fast import OSQP_SETTINGS, osqp_runner
+        from trainctl.controllers.mpc.qp.status import from_osqp
 
         solver = osqp.OSQP()
         eye = sp.csc_matrix(np.eye(2))
@@ -399,7 +399,7 @@ class TestOSQPStatus:
     def test_every_osqp_status_is_mapped_by_name(self):
         from osqp import SolverStatus
 
-        from trainctl.controllers.status import from_osqp
+        from trainctl.controllers.mpc.qp.status import from_osqp
 
         names = {member.name: from_osqp(int(member.value)) for member in SolverStatus}
         assert names["OSQP_SOLVED"] == "optimal"

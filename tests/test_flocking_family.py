@@ -9,14 +9,14 @@ import numpy as np
 import pytest
 
 from tests.test_cli import run_module
-from trainctl.analysis.review import review_design
 from trainctl.controllers.flocking.checks import trajectory_gaps
 from trainctl.controllers.flocking.settings import FlockingSettings
-from trainctl.controllers.registry import get_family
 from trainctl.design import build_design
+from trainctl.design.review import review_design
 from trainctl.exceptions import ModelError, ScenarioError
 from trainctl.models.dynamics import train_rhs
-from trainctl.run import simulate_strategy
+from trainctl.registry import get_family
+from trainctl.run.analysis import simulate_strategy
 from trainctl.scenario import load_scenario
 
 ANALYSES = Path(__file__).resolve().parents[1] / "analyses"

@@ -20,7 +20,7 @@ from trainctl.analysis import (
 from trainctl.analysis.steps import GRADE_STEP
 from trainctl.design import build_design
 from trainctl.exceptions import DimensionError
-from trainctl.run import run_scenario
+from trainctl.run.analysis import run_scenario
 from trainctl.scenario import load_scenario
 
 

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from trainctl.exceptions import ModelError
-from trainctl.graphs import REFERENCE, CommunicationGraph, make_graph
+from trainctl.models.graphs import REFERENCE, CommunicationGraph, make_graph
 
 
 @pytest.mark.parametrize("n", [2, 3, 8, 25])
@@ -129,7 +129,7 @@ def test_summary_is_one_based_and_json_safe():
 
 def test_graph_figure_draws_every_link_once():
     """Bidirectional links are one double-headed arc; the reference pins each pinned vehicle."""
-    from trainctl.plot import graph_plot
+    from trainctl.plots.time import graph_plot
 
     ax = graph_plot(make_graph("bidirectional", 5, pinned="all"))
     arrows = [p for p in ax.patches if type(p).__name__ == "FancyArrowPatch"]
@@ -191,7 +191,7 @@ class TestCommunicationSection:
             parse_scenario(self.text(f"\n[communication]\n{section}\n"))
 
     def test_cli_exit_2_without_traceback(self, tmp_path, capsys):
-        from trainctl.cli import main
+        from trainctl.cli.main import main
 
         path = tmp_path / "bad.toml"
         path.write_text(self.text('\n[communication]\ntopology = "explicit"\n'),

@@ -14,10 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from trainctl.analysis.review import scenario_checks
 from trainctl.controllers.mpc.controller import fixed_inputs
 from trainctl.design import build_design
-from trainctl.run import make_controller, simulate_strategy
+from trainctl.design.review import scenario_checks
+from trainctl.run.analysis import make_controller, simulate_strategy
 from trainctl.scenario import load_scenario
 
 SCENARIO = str(Path(__file__).resolve().parents[1] / "benchmarks" / "scenarios"

@@ -16,7 +16,6 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from trainctl.analysis.consensus_hinf import consensus_loop, synthesise_gains
 from trainctl.analysis.delay import delay_abscissa, delay_margin
 from trainctl.analysis.delay_lmi import (
     KrasovskiiProblem,
@@ -33,9 +32,10 @@ from trainctl.analysis.hinf import (
     hamiltonian_matrix,
     hinf_norm,
 )
+from trainctl.controllers.hinf.synthesis import consensus_loop, synthesise_gains
 from trainctl.design import build_model
 from trainctl.exceptions import DimensionError, ModelError
-from trainctl.graphs import make_graph
+from trainctl.models.graphs import make_graph
 from trainctl.scenario import load_scenario
 
 # --------------------------------------------------------------------------------------------

@@ -20,11 +20,11 @@ from tests.test_cli import run_module
 from trainctl.analysis.connectivity import joint_connectivity
 from trainctl.analysis.delay import discrete_delay_loop
 from trainctl.controllers.base import Measurement, ReferencePreview
-from trainctl.controllers.registry import get_family
 from trainctl.design import build_design
 from trainctl.models.dynamics import train_rhs
-from trainctl.network import REFERENCE, Received
-from trainctl.run import simulate_strategy
+from trainctl.models.network import REFERENCE, Received
+from trainctl.registry import get_family
+from trainctl.run.analysis import simulate_strategy
 from trainctl.scenario import Scenario, builtin_scenario_text, load_scenario
 from trainctl.sim.results import SimulationResult
 
@@ -512,7 +512,7 @@ def test_sampling_check() -> None:
 def test_report_data_and_page() -> None:
     """The quantity table, JSON-safe data, the family's section with its graph figure."""
     from trainctl.report import build_report_context, collect_report_data, render_report
-    from trainctl.run import run_scenario
+    from trainctl.run.analysis import run_scenario
 
     sc = _scenario(network={"delay_range_s": [0.0, 2.0]})
     design = build_design(sc).family("hinf")

@@ -21,12 +21,12 @@ import numpy as np
 import pytest
 
 from tests.test_cli import run_module
-from trainctl.analysis.consensus_hinf import consensus_loop
 from trainctl.analysis.delay import pade_loop
 from trainctl.analysis.delay_lmi import DelayHinfProblem, delay_hinf_gamma
 from trainctl.analysis.hinf import hinf_norm
-from trainctl.controllers.registry import get_family
+from trainctl.controllers.hinf.synthesis import consensus_loop
 from trainctl.design import build_design
+from trainctl.registry import get_family
 from trainctl.scenario import Scenario, builtin_scenario_text, load_scenario
 
 FAMILY = get_family("hinf")

@@ -106,7 +106,7 @@ class TestWheelContents:
         assert "Version: 0.1.0" in metadata
         assert "Requires-Python: >=3.11" in metadata
         assert "Requires-Dist: control>=0.10.2" in metadata
-        assert "trainctl = trainctl.cli:main" in entry_points
+        assert "trainctl = trainctl.cli.main:main" in entry_points
 
 
 class TestInstalledWheel:

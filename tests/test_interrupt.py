@@ -32,14 +32,14 @@ def _announced_fsync(fd):
     time.sleep(60)
     _real_fsync(fd)
 os.fsync = _announced_fsync
-from trainctl.cli import main
+from trainctl.cli.main import main
 sys.exit(main(sys.argv[1:]))
 """
 
 
 def _start(out: Path, *, hook: bool) -> subprocess.Popen[str]:
     env = dict(os.environ, PYTHONPATH=str(REPO))
-    plain = "import sys; from trainctl.cli import main; sys.exit(main(sys.argv[1:]))"
+    plain = "import sys; from trainctl.cli.main import main; sys.exit(main(sys.argv[1:]))"
     code = _HOOK if hook else plain
     return subprocess.Popen(
         [sys.executable, "-c", code, "report", "heavy-haul-hinf", "-o", str(out)],

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from trainctl.exceptions import ConvergenceWarning
-from trainctl.run import make_controller, run_scenario, simulate_strategy
+from trainctl.run.analysis import make_controller, run_scenario, simulate_strategy
 from trainctl.scenario import load_scenario
 from trainctl.sim import SimulationResult, compute_metrics
 from trainctl.sweep import SweepPoint, point_rows
@@ -114,7 +114,7 @@ class TestController:
         not warn: the switch is an argument, not the process-wide warnings filter."""
         from concurrent.futures import ThreadPoolExecutor
 
-        from trainctl.run import submit_simulations
+        from trainctl.run.analysis import submit_simulations
 
         scenario = (load_scenario("crh2-dmpc-convergence-sweep")
                     .replace("controller.max_iterations", 2)

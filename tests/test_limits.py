@@ -1,5 +1,5 @@
 # Hard limits: values that cannot be computed are refused up front, with the key and the reason.
-"""trainctl.limits (bounds in a key's unit), non-finite models and oversized or deep TOML."""
+"""trainctl.declare.limits (bounds in a key's unit), non-finite models and oversized or deep TOML."""
 
 from __future__ import annotations
 
@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from trainctl._validation import check_finite_arrays, numerical_errors
-from trainctl.cli import main
-from trainctl.constraints import Number
+from trainctl.cli.main import main
+from trainctl.declare.constraints import Number
+from trainctl.declare.limits import MASS, MAX_SAMPLES, SAMPLE_TIME, SPEED, in_unit
 from trainctl.exceptions import ModelError, ScenarioError
-from trainctl.limits import MASS, MAX_SAMPLES, SAMPLE_TIME, SPEED, in_unit
 from trainctl.models import discretise
 from trainctl.models.vehicle import Coupler, Vehicle
 from trainctl.scenario import (

@@ -9,9 +9,9 @@ import cvxpy as cp
 import numpy as np
 import pytest
 
-from trainctl.analysis.mpc import MPCDesign
 from trainctl.controllers.base import Controller, Measurement
 from trainctl.controllers.mpc import MPCConstraints, MPCController, make_linear_mpc, make_mpc
+from trainctl.controllers.mpc.theory.mpc import MPCDesign
 from trainctl.design import build_design
 from trainctl.exceptions import DimensionError, ModelError
 from trainctl.models import equilibrium, virtual_formation

@@ -1,4 +1,4 @@
-"""Tests of neighbourhood-local N-DMPC (trainctl.analysis.local_iteration).
+"""Tests of neighbourhood-local N-DMPC (trainctl.controllers.mpc.theory.local_iteration).
 
 Independent routes: the local QPs iterated one coach at a time with their own
 step-by-step prediction (sampled by quadrature, not by the augmented matrix
@@ -13,8 +13,8 @@ import pytest
 from scipy.integrate import quad_vec
 from scipy.linalg import expm
 
-from trainctl.analysis.iteration import spectral_radius
-from trainctl.analysis.local_iteration import (
+from trainctl.controllers.mpc.theory.iteration import spectral_radius
+from trainctl.controllers.mpc.theory.local_iteration import (
     coach_predictions,
     local_closed_loop,
     local_iteration,
@@ -24,7 +24,7 @@ from trainctl.analysis.local_iteration import (
     local_threshold_weight,
     train_state_owner,
 )
-from trainctl.analysis.mpc import MPCDesign, prediction
+from trainctl.controllers.mpc.theory.mpc import MPCDesign, prediction
 from trainctl.design import build_design
 from trainctl.exceptions import ModelError
 from trainctl.scenario import load_scenario

@@ -5,20 +5,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from trainctl.analysis.local_iteration import (
+from trainctl.controllers.base import Measurement, ReferencePreview
+from trainctl.controllers.mpc import MPCConstraints, make_mpc
+from trainctl.controllers.mpc.theory.local_iteration import (
     local_closed_loop,
     local_iteration,
     local_model,
     local_nash_gain,
     train_state_owner,
 )
-from trainctl.analysis.mpc import MPCDesign
-from trainctl.controllers.base import Measurement, ReferencePreview
-from trainctl.controllers.mpc import MPCConstraints, make_mpc
+from trainctl.controllers.mpc.theory.mpc import MPCDesign
 from trainctl.design import build_design
 from trainctl.exceptions import ModelError
 from trainctl.models import Coupler, Train, discretise, equilibrium, linearise
-from trainctl.run import run_scenario
+from trainctl.run.analysis import run_scenario
 from trainctl.scenario import load_scenario
 
 NONE = MPCConstraints(input_bounds=False)
@@ -175,9 +175,9 @@ def test_constrained_run_tracks_on_the_well_sampled_train():
 
 def test_design_review_reports_both_formulations():
     """With ndmpc-local simulated, the convergence and Nash-loop checks carry the local numbers."""
-    from trainctl.analysis.dmpc import analyse_local_dmpc
-    from trainctl.analysis.iteration import spectral_radius
     from trainctl.controllers.mpc.family import FAMILY
+    from trainctl.controllers.mpc.theory.dmpc import analyse_local_dmpc
+    from trainctl.controllers.mpc.theory.iteration import spectral_radius
 
     sc = load_scenario("crh2-dmpc-well-sampled")
     plain = build_design(sc).family("mpc")
@@ -249,7 +249,7 @@ def test_cvxpy_path_with_shared_problems_equals_the_fast_path():
 @pytest.mark.parametrize(("form", "r"), [("u", 1.0), ("du", 50.0)])
 def test_fixed_iteration_count_closed_loop_equals_the_controller(well, form, r):
     """L = 3 iterations per sample from the shifted plans and trajectories, as the controller."""
-    from trainctl.analysis.local_iteration import local_finite_iteration_closed_loop
+    from trainctl.controllers.mpc.theory.local_iteration import local_finite_iteration_closed_loop
 
     train, d0, sys = well
     d = _design(d0, form=form, r=r)

@@ -10,11 +10,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from trainctl.analysis.iteration import cooperative_iteration, iteration_matrices, nash_gain
-from trainctl.analysis.mpc import MPCDesign, prediction
 from trainctl.controllers.base import Measurement, ReferencePreview
 from trainctl.controllers.mpc import MPCConstraints, make_mpc
-from trainctl.controllers.qp import ParametricQP
+from trainctl.controllers.mpc.qp.parametric import ParametricQP
+from trainctl.controllers.mpc.theory.iteration import (
+    cooperative_iteration,
+    iteration_matrices,
+    nash_gain,
+)
+from trainctl.controllers.mpc.theory.mpc import MPCDesign, prediction
 from trainctl.design import build_design
 from trainctl.models import equilibrium
 from trainctl.models.envelope import EnvelopeBounds

@@ -11,8 +11,8 @@ from scipy import stats
 
 from trainctl.controllers.base import Measurement
 from trainctl.exceptions import DimensionError, ModelError
-from trainctl.graphs import REFERENCE, CommunicationGraph, make_graph
-from trainctl.network import FATES, Interruption, Network, NetworkSettings, Received
+from trainctl.models.graphs import REFERENCE, CommunicationGraph, make_graph
+from trainctl.models.network import FATES, Interruption, Network, NetworkSettings, Received
 
 DT = 0.1
 
@@ -552,7 +552,7 @@ class TestNetworkSection:
 
     def test_cli_exit_2_without_traceback(self, tmp_path, capsys):
         """trainctl analyse on a bad [network] prints one error line and exits 2."""
-        from trainctl.cli import main
+        from trainctl.cli.main import main
 
         path = tmp_path / "bad.toml"
         path.write_text(self.text("\n[network]\ndelay_range_s = [2.0, 1.0]\n"),

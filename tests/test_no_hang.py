@@ -32,7 +32,7 @@ from typing import Any
 
 import pytest
 
-from trainctl.cli import main
+from trainctl.cli.main import main
 
 REPO = Path(__file__).resolve().parents[1]
 ENV = dict(os.environ, PYTHONPATH=str(REPO))
@@ -50,7 +50,7 @@ GONE = 10.0
 # stored), so that the signal lands in the middle of the work and not in the start-up.
 _HOOK = """
 import sys
-import trainctl.run as run
+import trainctl.run.analysis as run
 import trainctl.sweep.store as store
 def announcing(real):
     def announced(*args, **kwargs):
@@ -59,7 +59,7 @@ def announcing(real):
     return announced
 run.run_scenario = announcing(run.run_scenario)
 store.SweepStore.write_point = announcing(store.SweepStore.write_point)
-from trainctl.cli import main
+from trainctl.cli.main import main
 sys.exit(main())  # as the installed command calls it (argv from sys.argv)
 """
 
@@ -210,7 +210,7 @@ def test_signal_ends_the_command(command: str, name: str, tmp_path: Path) -> Non
 def test_hangup_unwinds_like_ctrl_c() -> None:
     """In process: SIGHUP (and SIGTERM) raise Interrupted inside the guard, a
     KeyboardInterrupt carrying the signal; the handlers are restored after."""
-    from trainctl._runtime import Interrupted, exit_status, signal_guard
+    from trainctl.run._signals import Interrupted, exit_status, signal_guard
 
     before = signal.getsignal(signal.SIGHUP)
     for signum, status in ((signal.SIGHUP, 129), (signal.SIGTERM, 143)):
@@ -280,7 +280,7 @@ def test_kill_9_of_a_sweep_leaves_no_process(tmp_path: Path) -> None:
 def test_worker_ends_when_its_lifeline_closes() -> None:
     """In process: a pool worker whose lifeline is closed (as when the parent dies) exits at
     once, even in the middle of a task."""
-    from trainctl.parallel import worker_pool
+    from trainctl.run.pool import worker_pool
 
     with worker_pool(2) as pool:
         assert pool is not None
@@ -298,7 +298,7 @@ def test_worker_ends_when_its_lifeline_closes() -> None:
 def test_jobs_capped_at_cpus_and_tasks(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                        capsys: pytest.CaptureFixture[str]) -> None:
     """``--jobs 10000`` asks for no more workers than the usable CPUs and the points."""
-    import trainctl.parallel as parallel
+    import trainctl.run.pool as parallel
 
     cpus = parallel.available_cpus()
     asked: list[int] = []

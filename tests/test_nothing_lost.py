@@ -28,7 +28,7 @@ from trainctl.exceptions import TrainctlError
 from trainctl.report import ReportData, collect_report_data
 from trainctl.report.data import MANIFEST, check_save_target
 from trainctl.report.output import OutputError, write_output, write_text_atomic
-from trainctl.run import run_scenario
+from trainctl.run.analysis import run_scenario
 from trainctl.scenario import builtin_scenario_text, load_scenario, read_scenario_text
 
 REPO = Path(__file__).resolve().parents[1]
@@ -45,7 +45,7 @@ def _announced(self):
     time.sleep(60)
     return _document(self)
 data.ReportData._document = _announced
-from trainctl.cli import main
+from trainctl.cli.main import main
 sys.exit(main(sys.argv[1:]))
 """
 """The CLI, pausing inside ReportData.save once its staging directory holds scenario.toml."""
@@ -565,7 +565,7 @@ class TestOutputTargets:
                 "def full(fd):\n"
                 "    raise OSError(errno.ENOSPC, 'No space left on device')\n"
                 "os.fsync = full\n"
-                "from trainctl.cli import main\n"
+                "from trainctl.cli.main import main\n"
                 "sys.exit(main(sys.argv[1:]))\n")
         result = cli("export", "crh2-dmpc", "-o", "scenario.toml", cwd=tmp_path, code=code)
         assert_refused(result, "scenario.toml", "No space left on device")
@@ -619,7 +619,7 @@ class TestGallery:
         capsys: pytest.CaptureFixture[str]
     ) -> None:
         """The issue's case: a user's index.html (and a page of a built-in's name) in DIR."""
-        from trainctl.cli import main
+        from trainctl.cli.main import main
 
         self._no_run(monkeypatch)
         out = tmp_path / "gallery"
@@ -643,7 +643,7 @@ class TestGallery:
     ) -> None:
         """A link to a user's unmarked file, a broken link, a directory or a pipe of a page's
         name: refused (the output rules of -o), the link's target unchanged, no wait."""
-        from trainctl.cli import main
+        from trainctl.cli.main import main
 
         self._no_run(monkeypatch)
         elsewhere = tmp_path / "elsewhere"
@@ -671,7 +671,7 @@ class TestGallery:
         self, tmp_path: Path, one_builtin: str, capsys: pytest.CaptureFixture[str]
     ) -> None:
         """An earlier gallery's pages (one through a link) are replaced; other files stay."""
-        from trainctl.cli import main
+        from trainctl.cli.main import main
 
         out, elsewhere = tmp_path / "gallery", tmp_path / "elsewhere"
         out.mkdir()
@@ -706,7 +706,7 @@ class TestGallery:
     ) -> None:
         """An index.html a user writes while the scenarios run is checked again: kept, exit 2."""
         import trainctl.report.batch as batch
-        from trainctl.cli import main
+        from trainctl.cli.main import main
 
         out = tmp_path / "gallery"
         out.mkdir()

@@ -7,7 +7,7 @@ import pytest
 
 from trainctl.controllers.base import Measurement
 from trainctl.controllers.mpc import MPCConstraints, make_mpc
-from trainctl.controllers.observer import KalmanObserver, ObserverSettings
+from trainctl.controllers.mpc.observer import KalmanObserver, ObserverSettings
 from trainctl.design import build_design
 from trainctl.exceptions import ModelError
 from trainctl.models import Track, TrackSection, crh2_half, equilibrium
@@ -104,7 +104,7 @@ class TestOffsetFree:
 class TestScenarioObserver:
     def test_kalman_observer_from_a_scenario_file(self):
         """[controller] observer = "kalman": the strategy runs on measured speeds only."""
-        from trainctl.run import make_controller, simulate_strategy
+        from trainctl.run.analysis import make_controller, simulate_strategy
         from trainctl.scenario import builtin_scenario_text, parse_scenario
 
         text = builtin_scenario_text("crh2-dmpc").replace(

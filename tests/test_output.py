@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from trainctl.cli import main
+from trainctl.cli.main import main
 from trainctl.report.output import (
     OutputError,
     output_target,

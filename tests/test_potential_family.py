@@ -16,7 +16,7 @@ from trainctl.controllers.potential.law import law_of
 from trainctl.design import build_design
 from trainctl.models.dynamics import train_rhs
 from trainctl.models.feedforward import ForceSplit
-from trainctl.run import simulate_strategy
+from trainctl.run.analysis import simulate_strategy
 from trainctl.scenario import Scenario, load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,4 +1,4 @@
-# Tests of trainctl.controllers.potentials against hand computations and independent routes.
+# Tests of trainctl.controllers.continuous.potentials against hand computations and independent routes.
 """Potentials: hand-computed values, finite differences, independent quadrature, validation."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import brentq
 
-from trainctl.controllers.potentials import (
+from trainctl.controllers.continuous.potentials import (
     BarrierPotential,
     FlockingPotential,
     PairPotential,

@@ -1,4 +1,4 @@
-"""Repetitions of a scenario's runs and their baselines (trainctl.repetitions), seed 003 (c).
+"""Repetitions of a scenario's runs and their baselines (trainctl.run.repetitions), seed 003 (c).
 
 Each repetition is checked against a run of the scenario with its seed
 changed, each baseline against the scenario file with its delay keys (or its
@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from tests.test_seed003_cases import _claims, _short_delay
-from trainctl.cli import main
-from trainctl.repetitions import SETTLING_BAND, deviation, planned_runs, run_repetition
-from trainctl.run import run_scenario, simulate_strategy
+from trainctl.cli.main import main
+from trainctl.run.analysis import run_scenario, simulate_strategy
+from trainctl.run.repetitions import SETTLING_BAND, deviation, planned_runs, run_repetition
 from trainctl.scenario import parse_scenario
 from trainctl.sim.results import SimulationResult
 
@@ -92,11 +92,11 @@ def test_ideal_baseline_is_the_scenario_without_network() -> None:
 @pytest.mark.slow
 def test_repetitions_on_the_pool_equal_the_serial_ones(short_run) -> None:
     """The same seeds give the same repetitions serially and on the local process pool."""
-    from trainctl.parallel import worker_pool
+    from trainctl.run.pool import worker_pool
 
     with worker_pool(2) as pool:
         pooled = run_scenario(short_run.scenario, executor=pool)
-    from trainctl._cli_support import without_wall_clock
+    from trainctl.cli.support import without_wall_clock
 
     serial = short_run.to_dict()
     both = pooled.to_dict()
@@ -141,7 +141,7 @@ def test_bad_repetition_keys_exit_2(tmp_path: Path, capsys, line: str, match: st
 
 def test_the_budget_counts_every_run() -> None:
     """Repetitions and the baseline multiply the estimated simulation time."""
-    from trainctl.budget import estimate_run
+    from trainctl.run.budget import estimate_run
 
     sc = parse_scenario(_short_delay())
     one = parse_scenario(_short_delay(**{"repetitions = 3": "repetitions = 1",
@@ -205,7 +205,7 @@ def test_a_run_that_stopped_early_never_settled() -> None:
 def test_outage_windows_merged_and_clipped() -> None:
     from types import SimpleNamespace
 
-    from trainctl.claims import _windows_union
+    from trainctl.controllers.hinf.claims import _windows_union
 
     w = [SimpleNamespace(start=10.0, end=30.0), SimpleNamespace(start=20.0, end=40.0),
          SimpleNamespace(start=90.0, end=200.0), SimpleNamespace(start=300.0, end=310.0)]
@@ -218,7 +218,7 @@ def test_summaries_are_strict_json_when_a_measure_is_not_finite() -> None:
     import dataclasses
     import json
 
-    from trainctl.repetitions import Deviation
+    from trainctl.run.repetitions import Deviation
     from trainctl.scenario import load_scenario
 
     scenario = (load_scenario("crh2-dmpc").replace("simulation.settle_time", 60.0)

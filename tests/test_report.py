@@ -33,7 +33,7 @@ from trainctl.report import (
 from trainctl.report.build import TimestampError
 from trainctl.report.data import MANIFEST
 from trainctl.report.output import OutputError
-from trainctl.run import run_scenario
+from trainctl.run.analysis import run_scenario
 from trainctl.scenario import read_scenario_text
 
 FIXED_TIME = "2025-01-01T00:00:00Z"
@@ -557,7 +557,7 @@ class TestWriteReport:
 
 def test_sequential_and_pool_runs_agree() -> None:
     """Simulations on a process pool give exactly the sequential results."""
-    from trainctl.parallel import process_pool
+    from trainctl.run.pool import process_pool
     from trainctl.scenario import load_scenario
 
     scenario = load_scenario("crh2-dmpc")
@@ -593,7 +593,7 @@ class TestProgress:
 
     def test_draws_on_a_terminal_and_clears(self) -> None:
         """On a terminal: counted bar with the label, then the line is cleared."""
-        from trainctl._progress import Progress
+        from trainctl.run._progress import Progress
 
         term = self._Terminal()
         with Progress(4, stream=term) as bar:  # type: ignore[arg-type]
@@ -608,7 +608,7 @@ class TestProgress:
         """Not a terminal (pipe, log, CI): nothing is written."""
         import io
 
-        from trainctl._progress import Progress
+        from trainctl.run._progress import Progress
 
         stream = io.StringIO()
         with Progress(2, stream=stream) as bar:

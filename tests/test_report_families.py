@@ -21,17 +21,17 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from trainctl.graphs import make_graph
-from trainctl.report import ReportData, build_report_context, collect_report_data, render_report
-from trainctl.report.data import MANIFEST
-from trainctl.report.figures import FIGURES_SECTION, ReportFigure
-from trainctl.report.figures_graph import (
+from trainctl.models.graphs import make_graph
+from trainctl.plots.graph_figures import (
     graph_figure,
     graph_figure_key,
     graph_from_data,
     graph_report_data,
 )
-from trainctl.run import run_scenario
+from trainctl.report import ReportData, build_report_context, collect_report_data, render_report
+from trainctl.report.data import MANIFEST
+from trainctl.report.figures import FIGURES_SECTION, ReportFigure
+from trainctl.run.analysis import run_scenario
 from trainctl.scenario import load_scenario, read_scenario_text
 
 FIXED_TIME = "2025-01-01T00:00:00Z"
@@ -352,7 +352,7 @@ def test_figure_of_an_absent_section_goes_to_figures(unsimulated: dict[str, Repo
 def test_saved_runs_with_sampled_laws_render(tmp_path: Path, name: str, strategy: str,
                                              dt: float) -> None:
     """analyse --save, then report DIR: a law's results keep its control interval as dt."""
-    from trainctl.cli import main
+    from trainctl.cli.main import main
     from trainctl.sim.results import SimulationResult
 
     run = tmp_path / "run"

@@ -12,13 +12,13 @@ from hypothesis import given
 from hypothesis import strategies as st
 from matplotlib.figure import Figure
 
-from trainctl import plot
-from trainctl._plotting import THIN_BUCKETS, limit_lines, thin
+from trainctl.plots import time as plot
+from trainctl.plots._common import THIN_BUCKETS, limit_lines, thin
 from trainctl.report import build_report_context, collect_report_data
 from trainctl.report.figures import eigenvalue_figure
 from trainctl.report.figures_frequency import frequency_figures
 from trainctl.report.figures_time import time_figures, vehicle_limits
-from trainctl.run import run_scenario
+from trainctl.run.analysis import run_scenario
 from trainctl.scenario import load_scenario, read_scenario_text
 from trainctl.sim.results import SimulationResult
 
@@ -395,8 +395,8 @@ def test_family_figures_inside(monkeypatch) -> None:
     """The communication graph and the N-DMPC convergence figure keep everything on canvas."""
     import trainctl.report.figures as report_figures
     from trainctl.controllers.mpc.report import mpc_report_figures
-    from trainctl.graphs import make_graph
-    from trainctl.report.figures_graph import graph_figure, graph_report_data
+    from trainctl.models.graphs import make_graph
+    from trainctl.plots.graph_figures import graph_figure, graph_report_data
 
     figures: dict[str, Figure] = {}
     graph_figure(graph_report_data(make_graph("bidirectional", 8, pinned="head")),

@@ -10,11 +10,15 @@ import numpy as np
 import pytest
 
 from tests.test_analysis import crh2_design
-from trainctl.analysis.dmpc import analyse_dmpc
-from trainctl.analysis.iteration import iteration_matrices, spectral_radius, threshold_weight
-from trainctl.analysis.review import review_design
-from trainctl.cli import main
-from trainctl.run import run_scenario
+from trainctl.cli.main import main
+from trainctl.controllers.mpc.theory.dmpc import analyse_dmpc
+from trainctl.controllers.mpc.theory.iteration import (
+    iteration_matrices,
+    spectral_radius,
+    threshold_weight,
+)
+from trainctl.design.review import review_design
+from trainctl.run.analysis import run_scenario
 from trainctl.scenario import (
     builtin_scenario_text,
     builtin_scenarios,
@@ -524,7 +528,7 @@ def test_heavy_haul_down_grade_run_records_braking_saturation():
     saturation record must show braking saturation of every subsystem, first after the
     head reached the grade (t > 1000 m / 70 km/h ≈ 51 s), and no traction saturation.
     """
-    from trainctl.run import simulate_strategy
+    from trainctl.run.analysis import simulate_strategy
     from trainctl.sim.metrics import compute_metrics
 
     text = heavy_haul_text().replace("start = 20000.0 ", "start = 1000.0 ")

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from trainctl.controllers.fastqp import SOLVER_OUTPUT, pass_on_interrupt
+from trainctl.controllers.mpc.qp.fast import SOLVER_OUTPUT, pass_on_interrupt
 from trainctl.scenario import builtin_scenario_text
 
 REPO = Path(__file__).resolve().parents[1]
@@ -89,7 +89,7 @@ class TestCleanStdout:
     def test_c_level_prints_go_nowhere(self, tmp_path: Path) -> None:
         """What C code writes to descriptor 1 during a command never reaches stdout."""
         code = ("import ctypes, sys\n"
-                "import trainctl.run as run\n"
+                "import trainctl.run.analysis as run\n"
                 "real = run.run_scenario\n"
                 "def noisy(*a, **k):\n"
                 "    libc = ctypes.CDLL(None)\n"
@@ -97,7 +97,7 @@ class TestCleanStdout:
                 "    libc.fflush(None)\n"
                 "    return real(*a, **k)\n"
                 "run.run_scenario = noisy\n"
-                "from trainctl.cli import main\n"
+                "from trainctl.cli.main import main\n"
                 "sys.exit(main(sys.argv[1:]))\n")
         proc = run("analyse", "heavy-haul-hinf", "--json", cwd=tmp_path, code=code)
         assert proc.returncode == 0, proc.stderr
@@ -109,7 +109,7 @@ def test_solve_output_is_dropped(capsys: pytest.CaptureFixture[str]) -> None:
     """In process: a fast-path MPC solve prints nothing, and the sink counted the note."""
     import numpy as np
 
-    from trainctl.controllers.qp import ParametricQP
+    from trainctl.controllers.mpc.qp.parametric import ParametricQP
 
     qp = ParametricQP(np.eye(2), np.eye(2), np.zeros((0, 2)), name="t")
     for path in ("fast", "cvxpy"):
@@ -181,7 +181,7 @@ def test_sigint_after_osqps_last_look_stops_the_solve(route: str,
     import numpy as np
     import osqp
 
-    from trainctl.controllers.qp import ParametricQP
+    from trainctl.controllers.mpc.qp.parametric import ParametricQP
 
     qp = ParametricQP(np.eye(2), np.eye(2), np.zeros((0, 2)), name="t")
     fast = qp.fast_path
@@ -220,22 +220,22 @@ def test_sigint_after_osqps_last_look_stops_the_solve(route: str,
 
 _STUCK = """
 import sys, numpy as np
-import trainctl.run as run
+import trainctl.run.analysis as run
 def stuck(*args, **kwargs):
     a = np.random.default_rng(0).random((4000, 4000))  # drawn before STUCK: under load the
     sys.stderr.write("STUCK\\n"); sys.stderr.flush()   # draw outlasted the 0.5 s delay
     np.linalg.svd(a)
     sys.stderr.write("SVD RETURNED\\n")
 run.run_scenario = stuck
-from trainctl.cli import main
+from trainctl.cli.main import main
 sys.exit(main(sys.argv[1:]))
 """
 
 
 _LATE = """
 import ctypes, signal, sys
-import trainctl.controllers.fastqp as fastqp
-import trainctl.controllers.qp as qp
+import trainctl.controllers.mpc.qp.fast as fastqp
+import trainctl.controllers.mpc.qp.parametric as qp
 qp.DAQP_MAX_DECISIONS = -1  # qp_solver "auto" takes OSQP: the signal must land in OSQP
 real_runner, solves = fastqp.osqp_runner, [0]
 def runner(solver, *, internal=True):
@@ -252,7 +252,7 @@ def runner(solver, *, internal=True):
         return found
     return solve_then_signal, route
 fastqp.osqp_runner = runner
-from trainctl.cli import main
+from trainctl.cli.main import main
 sys.exit(main(sys.argv[1:]))
 """
 

@@ -12,7 +12,7 @@ import pytest
 from trainctl.controllers.base import StepRecord
 from trainctl.exceptions import DimensionError, InaccurateSolutionWarning, ScenarioError
 from trainctl.models import ActuatorLimits, Plant, crh2_half, equilibrium
-from trainctl.run import run_scenario
+from trainctl.run.analysis import run_scenario
 from trainctl.scenario import builtin_scenario_text, load_scenario, parse_scenario
 from trainctl.sim import SimulationResult, compute_metrics, ramp_profile, simulate
 

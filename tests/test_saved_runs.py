@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from trainctl.cli import main
+from trainctl.cli.main import main
 from trainctl.exceptions import ModelError
 from trainctl.report import ReportData
 from trainctl.report.runfile import FORMAT, RunFile

@@ -17,16 +17,16 @@ import pytest
 from pydantic import BaseModel, ConfigDict
 
 from tests.test_scenario import BASE, CONTROLLER, SINGLE, edit, with_controller, with_simulation
-from trainctl.cli import main
-from trainctl.constraints import Number
+from trainctl.cli.main import main
 from trainctl.controllers.lqr.settings import LQRSettings
-from trainctl.controllers.registry import (
+from trainctl.declare.constraints import Number
+from trainctl.exceptions import ModelError, ScenarioError
+from trainctl.registry import (
     FAMILY_MODULES,
     get_family,
     register_family,
     unregister_family,
 )
-from trainctl.exceptions import ModelError, ScenarioError
 from trainctl.scenario import (
     CHECK_NAMES,
     SIMULATION_STRATEGIES,
@@ -360,7 +360,7 @@ class TestOneDeclaration:
     def test_vocabularies_come_from_where_they_live(self) -> None:
         """The scenario package re-exports, never copies, the vocabularies."""
         import trainctl.scenario as scenario
-        from trainctl.analysis.review import LOOP_CHECK_NAMES, MODEL_CHECK_NAMES
+        from trainctl.analysis.check import LOOP_CHECK_NAMES, MODEL_CHECK_NAMES
         from trainctl.models.discrete import DISCRETISATIONS
         from trainctl.models.dynamics import ALLOCATIONS
         from trainctl.models.linear import LINEARISATIONS

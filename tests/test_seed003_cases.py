@@ -16,11 +16,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from trainctl.cli import main
+from trainctl.cli.main import main
 from trainctl.controllers.base import Measurement, ReferencePreview
+from trainctl.models.network import Network
 from trainctl.models.track import Track, TrackSection
-from trainctl.network import Network
-from trainctl.run import run_scenario, simulate_strategy
+from trainctl.run.analysis import run_scenario, simulate_strategy
 from trainctl.scenario import builtin_scenario_text, load_scenario, parse_scenario
 
 CASES = ("heavy-haul-hinf-ideal", "heavy-haul-hinf-interruption", "heavy-haul-hinf-delay",
@@ -99,7 +99,7 @@ def test_the_lead_relays_the_grade_under_itself() -> None:
     # the law alone, unclipped
     sc = load_scenario("heavy-haul-hinf-ideal").replace("controller.synchronous.input_bounds",
                                                         False)
-    from trainctl.run import make_controller
+    from trainctl.run.analysis import make_controller
 
     ctl = make_controller(sc, "synchronous.synchronous")
     ctl.reset()
@@ -126,7 +126,7 @@ def test_the_relay_carries_its_own_command_noise_not_the_speed_noise() -> None:
     """[network] speed noise does not reach the command; command_noise_std_m_s2 does, at its std."""
     sc = load_scenario("heavy-haul-hinf-interruption")
     assert sc.network is not None and sc.network.communication_noise_std == 0.05
-    from trainctl.run import make_controller
+    from trainctl.run.analysis import make_controller
 
     quiet = make_controller(sc, "synchronous.synchronous")
     quiet.reset()
@@ -242,7 +242,7 @@ def test_noise_energy_by_a_second_network() -> None:
         "duration = 600.0 ", "duration = 100.0 ").replace("settle_time = 60.0 ",
                                                            "settle_time = 50.0 "))
     result = simulate_strategy(sc, "distributed")
-    from trainctl.run import NETWORK_STREAM
+    from trainctl.run.analysis import NETWORK_STREAM
 
     net = Network(sc.network, sc.graph(), seed=np.random.SeedSequence([sc.seed, NETWORK_STREAM]))
     steps = result.velocities.shape[1] - 1
@@ -267,8 +267,8 @@ def test_noise_energy_by_a_second_network() -> None:
 
 def test_held_noise_by_receiving() -> None:
     """With random delays and losses, the held noise equals what receive() holds, link by link."""
-    from trainctl.graphs import make_graph
-    from trainctl.network import NetworkSettings
+    from trainctl.models.graphs import make_graph
+    from trainctl.models.network import NetworkSettings
 
     net = Network(NetworkSettings(delay_range_s=[0.0, 2.0], loss_probability=0.2,
                                   communication_noise_std=0.3, reference_noise_std=0.1),
@@ -347,7 +347,7 @@ def test_delay_case_report(tmp_path: Path, capsys) -> None:
 
 def test_every_case_declares_every_check() -> None:
     """Each case's [expected] states an outcome for every check the review makes."""
-    from trainctl.analysis.review import review_design
+    from trainctl.design.review import review_design
 
     for name in CASES:
         sc = load_scenario(name)
@@ -372,8 +372,8 @@ def test_both_families_track_the_profile_over_an_ideal_network() -> None:
 def test_held_data_age_against_a_network() -> None:
     """The age distribution of the newest datum held matches a long run of the network."""
     from trainctl.analysis.delay import held_data_age
-    from trainctl.graphs import make_graph
-    from trainctl.network import NetworkSettings
+    from trainctl.models.graphs import make_graph
+    from trainctl.models.network import NetworkSettings
 
     T = 0.2
     settings = NetworkSettings(delay_range_s=[0.0, 2.0], loss_probability=0.1)

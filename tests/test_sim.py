@@ -33,7 +33,7 @@ from trainctl.models import (
     linearise,
     virtual_formation,
 )
-from trainctl.plot import coupler_force_plot, input_plot, iterations_plot, velocity_plot
+from trainctl.plots.time import coupler_force_plot, input_plot, iterations_plot, velocity_plot
 from trainctl.sim import (
     HOLD_FALLBACK,
     Plant,
@@ -577,7 +577,7 @@ def test_plots_return_labelled_axes(crh2_run) -> None:
 
 def test_import_does_not_load_pandas() -> None:
     code = ("import sys, trainctl.sim; "
-            "print(sorted(m for m in ('pandas', 'trainctl.plot') if m in sys.modules))")
+            "print(sorted(m for m in ('pandas', 'trainctl.plots.time') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
 

@@ -1,4 +1,4 @@
-"""Tests of `--strict`: the policy in trainctl.strict, its report in analyse text and JSON."""
+"""Tests of `--strict`: the policy in trainctl.run.strict, its report in analyse text and JSON."""
 
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from trainctl.cli import main
-from trainctl.run import AnalysisRun, run_scenario
+from trainctl.cli.main import main
+from trainctl.run.analysis import AnalysisRun, run_scenario
+from trainctl.run.strict import strict_failures
 from trainctl.scenario import builtin_scenario_text, load_scenario
-from trainctl.strict import strict_failures
 
 TIGHT_TRACKING = """
 schema_version = 1

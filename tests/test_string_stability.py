@@ -14,7 +14,7 @@ import scipy.linalg
 import scipy.optimize
 
 from trainctl.analysis.string_stability import MIN_FIT, string_stability
-from trainctl.cli import main
+from trainctl.cli.main import main
 from trainctl.design import build_design
 from trainctl.exceptions import DimensionError
 from trainctl.scenario import load_scenario

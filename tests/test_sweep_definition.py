@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from trainctl.cli import main
+from trainctl.cli.main import main
 from trainctl.exceptions import ScenarioError
 from trainctl.scenario import (
     RESERVED_SECTIONS,
@@ -358,7 +358,7 @@ class TestCli:
 
         monkeypatch.chdir(tmp_path)
 
-        from trainctl.run import run_scenario
+        from trainctl.run.analysis import run_scenario
         from trainctl.scenario import load_scenario
 
         code = main(["sweep", "crh2-dmpc", "--set", "controller.r_per_kn2=1,10",
@@ -378,7 +378,7 @@ class TestCli:
     @pytest.mark.slow
     def test_pool_and_serial_rows_identical(self) -> None:
         """Two worker processes give exactly the rows of a serial run (simulations included)."""
-        from trainctl.parallel import worker_pool
+        from trainctl.run.pool import worker_pool
         from trainctl.scenario import load_scenario
         from trainctl.sweep import sweep_rows
 

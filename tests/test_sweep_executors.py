@@ -19,8 +19,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from trainctl.cli import main
-from trainctl.parallel import WORKER_THREAD_VARIABLES, worker_pool
+from trainctl.cli.main import main
+from trainctl.run.pool import WORKER_THREAD_VARIABLES, worker_pool
 from trainctl.sweep.runner import SCHEDULER_ENV
 from trainctl.sweep.store import SweepStore
 

@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 from tests.test_report import parse
-from trainctl.cli import main
+from trainctl.cli.main import main
 from trainctl.report.figures_sweep import is_log
 from trainctl.report.sweep import (
     CERTIFICATES,

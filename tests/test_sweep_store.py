@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from trainctl.cli import main
+from trainctl.cli.main import main
 from trainctl.exceptions import ScenarioError
 from trainctl.scenario import load_scenario
 from trainctl.sweep import SweepDefinition, SweepPoint, parse_set, point_key
@@ -260,14 +260,14 @@ def _announced(self, key, summary, simulations=None):
     time.sleep(60 if _count[0] == 3 else 0.2)
     return path
 _store.SweepStore.write_point = _announced
-from trainctl.cli import main
+from trainctl.cli.main import main
 sys.exit(main(sys.argv[1:]))
 """
 
 
 def _sweep_cli(out: Path, *extra: str, hook: bool = False) -> subprocess.Popen[str]:
     env = dict(os.environ, PYTHONPATH=str(REPO))
-    plain = "import sys; from trainctl.cli import main; sys.exit(main(sys.argv[1:]))"
+    plain = "import sys; from trainctl.cli.main import main; sys.exit(main(sys.argv[1:]))"
     return subprocess.Popen(
         [sys.executable, "-c", _HOOK if hook else plain, "sweep", "crh2-dmpc", "--set",
          WEIGHTS, "--no-simulate", "-o", str(out), *extra],

@@ -13,14 +13,14 @@ import scipy.optimize
 
 from tests.test_cli import run_module
 from trainctl.controllers.base import Measurement, ReferencePreview
-from trainctl.controllers.registry import get_family
 from trainctl.controllers.synchronous.law import law_of
 from trainctl.controllers.synchronous.relay import RELAY_STREAM, relay_graph
 from trainctl.controllers.synchronous.settings import SynchronousSettings
 from trainctl.design import build_design
 from trainctl.exceptions import ModelError, ScenarioError
 from trainctl.models.dynamics import train_rhs
-from trainctl.run import NETWORK_STREAM, simulate_strategy
+from trainctl.registry import get_family
+from trainctl.run.analysis import NETWORK_STREAM, simulate_strategy
 from trainctl.scenario import Scenario, builtin_scenario_text, load_scenario
 from trainctl.sim.results import SimulationResult
 
@@ -311,7 +311,7 @@ def test_sampling_check_and_report_table() -> None:
 def test_report_page_has_the_family_section() -> None:
     """The rendered report carries the family's section with its quantity table."""
     from trainctl.report import build_report_context, collect_report_data, render_report
-    from trainctl.run import run_scenario
+    from trainctl.run.analysis import run_scenario
 
     sc = _scenario(network={"delay_range_s": [0.0, 2.0]})
     run = run_scenario(sc, simulate=False)

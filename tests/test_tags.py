@@ -74,7 +74,7 @@ def test_report_settings_show_the_sources() -> None:
     """The report's settings tables carry each value's tag; untagged scenarios get no column."""
     from trainctl.report.build import collect_report_data
     from trainctl.report.context import build_report_context
-    from trainctl.run import run_scenario
+    from trainctl.run.analysis import run_scenario
     from trainctl.scenario import read_scenario_text
 
     def settings(scenario, text):

@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from trainctl.cli import main
+from trainctl.cli.main import main
 from trainctl.scenario import builtin_scenario_text
 
 REPO = Path(__file__).resolve().parents[1]
@@ -758,7 +758,7 @@ def _announced(self, key, summary, simulations=None):
     time.sleep(3.0)
     return path
 _store.SweepStore.write_point = _announced
-from trainctl.cli import main
+from trainctl.cli.main import main
 sys.exit(main(sys.argv[1:]))
 """
 WEIGHTS = ["--set", "controller.r_per_kn2=1,2,3,5", "--no-simulate"]
@@ -766,7 +766,7 @@ WEIGHTS = ["--set", "controller.r_per_kn2=1,2,3,5", "--no-simulate"]
 
 def _cli(out: Path, slow: bool) -> subprocess.Popen[str]:
     env = dict(os.environ, PYTHONPATH=str(REPO))
-    plain = "import sys; from trainctl.cli import main; sys.exit(main(sys.argv[1:]))"
+    plain = "import sys; from trainctl.cli.main import main; sys.exit(main(sys.argv[1:]))"
     return subprocess.Popen([sys.executable, "-c", _SLOW if slow else plain, "sweep",
                              "crh2-dmpc", *WEIGHTS, "-o", str(out)], env=env, text=True,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)

@@ -2,7 +2,7 @@
 
 The potential family's linearisation range and the flocking family's
 connectivity and collision checks are design checks that a simulation can
-settle; :func:`trainctl.analysis.review.with_simulations` replaces them after
+settle; :func:`trainctl.design.review.with_simulations` replaces them after
 ``[simulation]``. These tests compute the trajectory quantities by a second
 route (gaps by integrating the speeds, offsets by the linear loop's
 matrix exponential) and compare.
@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from trainctl.analysis.review import review_design
-from trainctl.cli import main
+from trainctl.cli.main import main
 from trainctl.controllers.potential.checks import final_offset
 from trainctl.design import build_design
-from trainctl.run import run_scenario
+from trainctl.design.review import review_design
+from trainctl.run.analysis import run_scenario
 from trainctl.scenario import load_scenario
 
 ANALYSES = Path(__file__).resolve().parent.parent / "analyses"

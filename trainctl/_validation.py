@@ -21,7 +21,7 @@ __all__ = ["as_vector", "check_finite", "check_finite_arrays", "check_nonnegativ
 _DEGENERATE_HINT = (
     "The model's numbers are too far apart for floating point (e.g. a very light vehicle on "
     "a very stiff or strongly damped coupler); bring the masses, couplers, Davis terms and "
-    "sample time closer to a train's (trainctl.limits gives the hard bounds).")
+    "sample time closer to a train's (trainctl.declare.limits gives the hard bounds).")
 
 
 def check_finite(where: str, name: str, value: float) -> float:

@@ -103,7 +103,7 @@ class SolverError(TrainctlError, RuntimeError):
     A QP built without its fast path has no solver data to hand out:
 
     >>> import numpy as np
-    >>> from trainctl.controllers.qp import ParametricQP
+    >>> from trainctl.controllers.mpc.qp.parametric import ParametricQP
     >>> qp = ParametricQP(np.eye(1), np.zeros((0, 1)), np.zeros((0, 1)), name="demo",
     ...                   fast=False)
     >>> qp.data_map()

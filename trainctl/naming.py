@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 
-from trainctl.constraints import UNPRINTABLE
+from trainctl.declare.constraints import UNPRINTABLE
 
 __all__ = ["describe_direction", "one_based", "printable"]
 
@@ -25,7 +25,7 @@ _SYMBOLS = {"delta": "δ"}
 def printable(text: str) -> str:
     """Text safe to show in a terminal or a page: control characters written as escapes.
 
-    Every character of :data:`trainctl.constraints.UNPRINTABLE` (a NUL, an
+    Every character of :data:`trainctl.declare.constraints.UNPRINTABLE` (a NUL, an
     escape that starts a terminal command, a right-to-left override, ...)
     becomes the escape ``\\uXXXX`` that spells it (valid in Python, TOML and
     JSON strings alike); tabs, line feeds and all other text stay. Scenario

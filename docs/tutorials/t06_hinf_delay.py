@@ -29,8 +29,8 @@ import numpy as np
 
 import trainctl
 from trainctl.analysis import review_design
-from trainctl.analysis.consensus_hinf import consensus_loop
 from trainctl.analysis.delay import consensus_delay_bound, delay_abscissa, delay_margin
+from trainctl.controllers.hinf.synthesis import consensus_loop
 from trainctl.design import build_model
 from trainctl.run import simulate_strategy
 

@@ -38,7 +38,7 @@ the closed-form ρ(D0) says it should?
 # The code runs under ``if __name__ == "__main__":``. A process pool starts
 # fresh Python processes that import this script to find what it defines;
 # the guard keeps them from running the sweep again themselves. Any script
-# that uses ``worker_pool`` or ``trainctl.parallel`` needs it.
+# that uses ``worker_pool`` or ``trainctl.run.pool`` needs it.
 
 import os
 import shutil
@@ -48,7 +48,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 
 import trainctl
-from trainctl.parallel import worker_pool
+from trainctl.run.pool import worker_pool
 from trainctl.sweep import SweepDefinition, dask_executor, sweep_scenario
 
 SHORT = os.environ.get("TRAINCTL_TUTORIAL_SHORT") == "1"

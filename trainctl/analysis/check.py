@@ -1,7 +1,7 @@
 # The result types of the design review: one named check, and the review of a scenario.
 """A named design check (:class:`Check`) and the checks of one scenario (:class:`DesignReview`).
 
-The checks themselves are computed in :mod:`trainctl.analysis.review` (the
+The checks themselves are computed in :mod:`trainctl.design.review` (the
 model and scenario checks) and by each controller family.
 """
 
@@ -11,10 +11,39 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from trainctl.exceptions import UnknownNameError
-from trainctl.violations import suggest
+import numpy as np
+from numpy.typing import NDArray
 
-__all__ = ["STATUSES", "Check", "DesignReview"]
+from trainctl.declare.violations import suggest
+from trainctl.exceptions import UnknownNameError
+from trainctl.naming import describe_direction
+
+__all__ = [
+    "LOOP_CHECK_NAMES", "MODEL_CHECK_NAMES", "SAMPLING_FAIL", "SAMPLING_PASS", "STATUSES",
+    "Check", "DesignReview", "radius_check",
+]
+
+MODEL_CHECK_NAMES = (
+    "open_loop_stability", "controllability", "observability", "sampling", "input_collapse",
+    "feasibility", "plausibility",
+)
+
+LOOP_CHECK_NAMES = ("string_stability",)
+"""Checks of the primary family's linear closed loop, whatever the family (after its own)."""
+"""Names of the checks that need no controller: the linear model's (:func:`model_checks`),
+then the scenario's (:func:`scenario_checks`); controller families add their own."""
+
+SAMPLING_PASS = math.pi / 2
+"""ω_max·T [rad] below which the sampling resolves the fastest coupler mode (pass): at
+least four samples per period of the fastest mode. The sampling hint asks for
+T < SAMPLING_PASS / ω_max."""
+
+SAMPLING_FAIL = math.pi
+"""ω_max·T [rad] at and above which the fastest coupler mode is aliased (Nyquist, fail)."""
+
+_UNIT_TOL = 1e-9
+"""Closed-loop eigenvalues within this of the unit circle count as marginal."""
+
 
 STATUSES = ("pass", "warn", "fail")
 """Check statuses, from best to worst."""
@@ -227,3 +256,61 @@ def format_number(x: float | None) -> str:
     if math.isinf(x):
         return "inf"
     return f"{x:.4g}"
+
+
+def radius_check(name: str, A_cl: NDArray[np.float64], labels: list[str], what: str, *,
+                 marginal_hint: str, unstable_hint: str) -> Check:
+    """Judge a discrete closed loop by its spectral radius (fail > 1, warn on the circle).
+
+    Parameters
+    ----------
+    name : str
+        Check name.
+    A_cl : ndarray
+        Closed-loop state matrix (discrete).
+    labels : list of str
+        State names (eigenvector directions are described with them).
+    what : str
+        What the closed loop is, for the message.
+    marginal_hint, unstable_hint : str
+        Hints when eigenvalues sit on the unit circle / outside it.
+
+    Returns
+    -------
+    Check
+        Value ρ, threshold 1; details with the eigenvalues on the circle.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> def judge(A):
+    ...     return radius_check("demo", A, ["v[0]", "v[1]"], "toy loop",
+    ...                         marginal_hint="on the circle", unstable_hint="outside")
+    >>> judge(np.diag([0.5, 0.9])).status, judge(np.diag([0.5, 0.9])).value
+    ('pass', 0.9)
+    >>> c = judge(np.diag([0.5, 1.0]))  # v[1] never decays
+    >>> c.status, c.details["unit_circle"][0]["direction"]
+    ('warn', {'v[1]': 1.0})
+    >>> judge(np.diag([0.5, 1.1])).message
+    'toy loop: closed loop unstable, ρ = 1.1'
+    """
+    from trainctl.analysis.stability import mode_direction  # stability imports this module
+
+    lam, vec = np.linalg.eig(A_cl)
+    rho = float(np.max(np.abs(lam)))
+    on_circle = np.flatnonzero(np.abs(np.abs(lam) - 1) <= _UNIT_TOL)
+    directions = [mode_direction(vec[:, k], labels) for k in on_circle]
+    circle = [{"eigenvalue": [float(lam[k].real), float(lam[k].imag)], "direction": d}
+              for k, d in zip(on_circle, directions, strict=True)]
+    details = {"spectral_radius": rho, "unit_circle": circle}
+    if rho > 1 + _UNIT_TOL:
+        return Check(name=name, status="fail", value=rho, threshold=1.0, unit="",
+                     message=f"{what}: closed loop unstable, ρ = {rho:.6g}",
+                     hint=unstable_hint, details=details)
+    if circle:
+        return Check(name=name, status="warn", value=rho, threshold=1.0, unit="",
+                     message=f"{what}: {len(circle)} eigenvalue(s) on the unit circle, e.g. "
+                     f"direction {describe_direction(directions[0])}",
+                     hint=marginal_hint, details=details)
+    return Check(name=name, status="pass", value=rho, threshold=1.0, unit="",
+                 message=f"{what}: ρ = {rho:.6g} < 1", details=details)

@@ -2,7 +2,7 @@
 """Which vehicles the reference reaches while links are interrupted, and whether it comes back.
 
 A ``[network]`` section cuts links over interruption windows
-(:class:`trainctl.network.Interruption`). Between the window edges the
+(:class:`trainctl.models.network.Interruption`). Between the window edges the
 graph in force is constant: :func:`graph_segments` splits ``[0, duration)``
 there and gives each piece's graph (the scenario's graph without the links
 cut then; a cut ``("reference")`` link removes that vehicle's pinning).
@@ -17,8 +17,8 @@ run ends.
 
 Examples
 --------
->>> from trainctl.graphs import make_graph
->>> from trainctl.network import Interruption
+>>> from trainctl.models.graphs import make_graph
+>>> from trainctl.models.network import Interruption
 >>> g = make_graph("predecessor", 3, pinned="head")
 >>> cut = [Interruption(start=10.0, end=20.0, links=[[1, 0]])]
 >>> [(s.start, s.end, s.unreached) for s in graph_segments(g, cut, 60.0)]
@@ -37,10 +37,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from trainctl.exceptions import ModelError
-from trainctl.graphs import REFERENCE, CommunicationGraph
+from trainctl.models.graphs import REFERENCE, CommunicationGraph
 
 if TYPE_CHECKING:
-    from trainctl.network import Interruption
+    from trainctl.models.network import Interruption
 
 __all__ = ["GraphSegment", "WindowConnectivity", "cut_graph", "graph_segments",
            "joint_connectivity", "union_graph"]
@@ -63,8 +63,8 @@ def cut_graph(graph: CommunicationGraph, windows: Sequence[Interruption]) -> Com
 
     Examples
     --------
-    >>> from trainctl.graphs import make_graph
-    >>> from trainctl.network import Interruption
+    >>> from trainctl.models.graphs import make_graph
+    >>> from trainctl.models.network import Interruption
     >>> g = make_graph("predecessor", 3, pinned="head")
     >>> c = cut_graph(g, [Interruption(start=10.0, end=20.0, links=[[1, 0]])])
     >>> c.adjacency.tolist()  # only vehicle 2 still hears vehicle 1
@@ -107,8 +107,8 @@ def union_graph(graphs: Sequence[CommunicationGraph]) -> CommunicationGraph:
     Cutting the 1 → 0 link in one graph and the reference pinning in the
     other: the union has every link back.
 
-    >>> from trainctl.graphs import make_graph
-    >>> from trainctl.network import Interruption
+    >>> from trainctl.models.graphs import make_graph
+    >>> from trainctl.models.network import Interruption
     >>> g = make_graph("predecessor", 3, pinned="head")
     >>> a = cut_graph(g, [Interruption(start=0.0, end=1.0, links=[[1, 0]])])
     >>> b = cut_graph(g, [Interruption(start=0.0, end=1.0, links=[[0, "reference"]])])
@@ -144,8 +144,8 @@ class GraphSegment:
 
     Examples
     --------
-    >>> from trainctl.graphs import make_graph
-    >>> from trainctl.network import Interruption
+    >>> from trainctl.models.graphs import make_graph
+    >>> from trainctl.models.network import Interruption
     >>> g = make_graph("predecessor", 3, pinned="head")
     >>> seg = graph_segments(g, [Interruption(start=10.0, end=20.0, links=[[1, 0]])], 60.0)[1]
     >>> seg.start, seg.end, seg.windows  # [s], window 0 open
@@ -187,8 +187,8 @@ def graph_segments(graph: CommunicationGraph, windows: Sequence[Interruption],
     --------
     Two overlapping windows split a 60 s run at 10, 20 and 30 s:
 
-    >>> from trainctl.graphs import make_graph
-    >>> from trainctl.network import Interruption
+    >>> from trainctl.models.graphs import make_graph
+    >>> from trainctl.models.network import Interruption
     >>> g = make_graph("predecessor", 3, pinned="head")
     >>> cuts = [Interruption(start=10.0, end=30.0, links=[[2, 1]]),
     ...         Interruption(start=20.0, end=30.0, links=[[1, 0]])]
@@ -239,8 +239,8 @@ class WindowConnectivity:
     --------
     A cut that lasts to the end of the run leaves no time to recover:
 
-    >>> from trainctl.graphs import make_graph
-    >>> from trainctl.network import Interruption
+    >>> from trainctl.models.graphs import make_graph
+    >>> from trainctl.models.network import Interruption
     >>> g = make_graph("predecessor", 3, pinned="head")
     >>> w = joint_connectivity(g, [Interruption(start=10.0, end=60.0, links=[[1, 0]])], 60.0)[0]
     >>> w.cut_off, w.recovered, w.recovery_time
@@ -294,8 +294,8 @@ def joint_connectivity(graph: CommunicationGraph, windows: Sequence[Interruption
     The first window only drops the head's pinning and is over at 20 s, so the
     links are back afterwards; the second lasts to the end of the run.
 
-    >>> from trainctl.graphs import make_graph
-    >>> from trainctl.network import Interruption
+    >>> from trainctl.models.graphs import make_graph
+    >>> from trainctl.models.network import Interruption
     >>> g = make_graph("predecessor", 3, pinned="head")
     >>> cuts = [Interruption(start=10.0, end=20.0, links=[[0, "reference"]]),
     ...         Interruption(start=40.0, end=60.0, links=[[2, 1]])]

@@ -470,7 +470,7 @@ def held_data_age(interval: float, delay_range: tuple[float, float], *,
     A message sent at each control instant t − iT (i = 0, 1, ...) arrives
     with probability 1 − p after a delay uniform in [lo, hi] (constant when
     lo = hi), independently; the receiver holds the newest one arrived by t
-    (:class:`trainctl.network.Network`). The held datum is older than jT
+    (:class:`trainctl.models.network.Network`). The held datum is older than jT
     only if none of the messages i = 0 … j has arrived:
     P(age > jT) = Π_{i≤j} (1 − (1 − p) F(iT)), F the delay's distribution
     function. With a message every 0.2 s and delays in 0–2 s the newest datum

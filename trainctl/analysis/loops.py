@@ -131,7 +131,7 @@ def loop_strategies(design: Design) -> tuple[str, ...]:
     >>> loop_strategies(build_design(load_scenario("heavy-haul-hinf")))
     ()
     """
-    from trainctl.controllers.registry import get_family
+    from trainctl.registry import get_family
 
     sim = design.scenario.simulation
     if sim is not None:

@@ -48,7 +48,7 @@ coupler gap            <= 1e4 m               a virtual link keeps trains within
 A value outside its range is a warning (the ``plausibility`` check), not an
 error: the run is still computed, as for a real but unusual train. Values that
 break the computation itself are refused by the hard limits of
-:mod:`trainctl.limits`.
+:mod:`trainctl.declare.limits`.
 """
 
 from __future__ import annotations

@@ -538,7 +538,7 @@ def string_stability_check(design: Design) -> Check | None:
     >>> string_stability_check(build_design(load_scenario("heavy-haul-hinf"))) is None  # no law
     True
     """
-    from trainctl.controllers.registry import get_family
+    from trainctl.registry import get_family
 
     if not design.families or design.model.n_vehicles < 2:
         return None

@@ -57,7 +57,7 @@ class Measurement:
         Networked controllers: per-agent data received over the communication
         network (with their own time stamps), e.g. ``{(i, j): (t_sent, value)}``
         for receiver i and sender j (0-based, or ``"reference"``), as
-        :meth:`trainctl.network.Network.messages` gives them.
+        :meth:`trainctl.models.network.Network.messages` gives them.
     positions : ndarray or None
         Each vehicle's position along the track [m], head first, as the
         plant evaluates the line resistance at it

@@ -12,7 +12,7 @@ limit (where the family has one) and the actuator envelope; the run goes on.
 - :func:`call_solver` is the narrow ``try`` around one solver call: any
   ``Exception`` the call raises becomes a reason string (the step is then
   ``"error"``); ``MemoryError``, ``KeyboardInterrupt`` (the signals of
-  :mod:`trainctl._runtime`) and ``SystemExit`` pass through.
+  :mod:`trainctl.run._signals`) and ``SystemExit`` pass through.
 - :func:`safe_inputs` clips a fallback to the rate window about the last
   applied input, then to the envelope: where the two do not meet (the
   envelope moved further in one sample than the rate limit allows) the

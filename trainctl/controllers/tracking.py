@@ -4,7 +4,7 @@
 The MPC and LQR families weigh the same outputs with the same kind of
 quadratic weights: velocity errors [per (m/s)²], coupler-force deviations
 [per kN²] and the input force [per kN² or per N²]. Each key is declared here
-once (:mod:`trainctl.declare`) and used by both settings classes, together
+once (:mod:`trainctl.declare.keys`) and used by both settings classes, together
 with the rules that span several of them.
 
 Examples
@@ -18,8 +18,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Annotated
 
-from trainctl.constraints import Choice, NameList, Number, Violation, raise_at
-from trainctl.declare import Alt, Key
+from trainctl.declare.constraints import Choice, NameList, Number, Violation, raise_at
+from trainctl.declare.keys import Alt, Key
 
 __all__ = [
     "CONTROLLER_OUTPUTS",

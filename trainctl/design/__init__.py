@@ -5,7 +5,7 @@
 (:class:`DesignModel`: one linearisation, one discretisation) and the design
 of every controller family the scenario names. The design review, the
 controllers and the report read them from the :class:`Design` carried in
-:class:`~trainctl.run.AnalysisRun`; none of them linearises or discretises
+:class:`~trainctl.run.analysis.AnalysisRun`; none of them linearises or discretises
 again.
 """
 

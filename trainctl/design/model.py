@@ -301,7 +301,7 @@ def build_model(scenario: Scenario, *, outputs: tuple[str, ...] | None = None) -
 
 
 _FINITE_HINT = ("Check the masses, couplers, Davis terms, grades and the speed for values far "
-                "outside a train's (see trainctl.limits).")
+                "outside a train's (see trainctl.declare.limits).")
 
 
 _SYSTEMS = ("linear", "design", "discrete")

@@ -103,7 +103,7 @@ class Design:
         >>> loop.dt, loop.ninputs, loop.noutputs
         (20.0, 4, 10)
         """
-        from trainctl.controllers.registry import get_family
+        from trainctl.registry import get_family
 
         family, name = self.resolve(strategy)
         return get_family(family).closed_loop(self.family(family), name)
@@ -191,7 +191,7 @@ def split_strategy(scenario: Scenario, strategy: str) -> tuple[str, str]:
     ...     print(err)
     builtin:crh2-potential: family 'lqr' has no strategy 'nash' (it has centralised, decentralised).
     """
-    from trainctl.controllers.registry import get_family
+    from trainctl.registry import get_family
 
     controllers = scenario_controllers(scenario)
     if not controllers:
@@ -230,7 +230,7 @@ def build_design(scenario: Scenario, *, model: DesignModel | None = None) -> Des
     >>> list(design.families), design.family("mpc").mpc.prediction_horizon
     (['mpc'], 4)
     """
-    from trainctl.controllers.registry import get_family
+    from trainctl.registry import get_family
 
     if model is None:
         model = build_model(scenario)

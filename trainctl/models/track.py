@@ -23,10 +23,10 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from trainctl.constraints import FINITE, POSITIVE, Choice, Rule
-from trainctl.declare import check_fields
+from trainctl.declare.constraints import FINITE, POSITIVE, Choice, Rule
+from trainctl.declare.keys import check_fields
+from trainctl.declare.limits import CURVE_RADIUS, GRADE
 from trainctl.exceptions import ModelError
-from trainctl.limits import CURVE_RADIUS, GRADE
 from trainctl.units import GRAVITY
 
 __all__ = ["RESISTANCE_FORMULAS", "SECTION_RULES", "TRACK_RULES", "Track", "TrackSection"]

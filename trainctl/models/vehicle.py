@@ -15,10 +15,17 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from trainctl.constraints import NONNEGATIVE, Number, Rule
-from trainctl.declare import check_fields
+from trainctl.declare.constraints import NONNEGATIVE, Number, Rule
+from trainctl.declare.keys import check_fields
+from trainctl.declare.limits import (
+    COUPLER_DAMPING,
+    COUPLER_SPACING,
+    COUPLER_STIFFNESS,
+    DAVIS,
+    LENGTH,
+    MASS,
+)
 from trainctl.exceptions import ModelError
-from trainctl.limits import COUPLER_DAMPING, COUPLER_SPACING, COUPLER_STIFFNESS, DAVIS, LENGTH, MASS
 from trainctl.units import GRAVITY
 
 __all__ = ["COUPLER_RULES", "ENVELOPE_RULES", "VEHICLE_RULES", "Coupler", "TractionEnvelope",

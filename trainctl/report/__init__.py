@@ -3,7 +3,7 @@
 
 The pipeline, each step usable on its own (e.g. in a notebook):
 
-1. :func:`collect_report_data` — from a :class:`~trainctl.run.AnalysisRun` to
+1. :func:`collect_report_data` — from a :class:`~trainctl.run.analysis.AnalysisRun` to
    a :class:`ReportData` (which :meth:`ReportData.save` / :meth:`ReportData.load`
    write and read: ``trainctl analyse --save DIR``).
 2. :func:`build_report_context` — the one pure function from data to

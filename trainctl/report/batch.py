@@ -273,7 +273,7 @@ def render_saved_run(data: ReportData, source: str, target: Path | OutputTarget,
     >>> import dataclasses
     >>> import tempfile
     >>> import trainctl
-    >>> from trainctl.run import run_scenario
+    >>> from trainctl.run.analysis import run_scenario
     >>> from trainctl.scenario import read_scenario_text
     >>> text, _ = read_scenario_text("crh2-dmpc")
     >>> from trainctl.report import collect_report_data
@@ -351,7 +351,7 @@ def summary_line(data: ReportData) -> str:
     Examples
     --------
     >>> import trainctl
-    >>> from trainctl.run import run_scenario
+    >>> from trainctl.run.analysis import run_scenario
     >>> from trainctl.scenario import read_scenario_text
     >>> text, _ = read_scenario_text("crh2-dmpc")
     >>> from trainctl.report import collect_report_data
@@ -407,7 +407,7 @@ def report_scenario(job: ReportJob, path: Path | OutputTarget, *, workers: int =
     >>> written, summary_line(data)
     (['crh2.html'], '19 checks: 13 pass, 3 warn, 3 fail; 1 controllers simulated')
     """
-    from trainctl._progress import Progress
+    from trainctl.run._progress import Progress
 
     target = check_report_output(path, default_name=default_report_path(job.scenario).name)
     with Progress(progress_total([job])) as bar:
@@ -472,7 +472,7 @@ def report_all(jobs: Sequence[ReportJob], outdir: Path, *, workers: int = 0,
     ...         print(str(error).split(": ")[1])
     is not a directory; with --all, -o names the output directory
     """
-    from trainctl._progress import Progress
+    from trainctl.run._progress import Progress
 
     names = [default_report_path(job.scenario).name for job in jobs] + ["index.html"]
     check_gallery_output(outdir, names)

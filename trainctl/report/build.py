@@ -2,7 +2,7 @@
 """The ``trainctl report`` pipeline.
 
 :func:`run_report_data` runs scenarios (analysis here, simulations on a
-process pool when they are long, see :func:`trainctl.parallel.want_pool`)
+process pool when they are long, see :func:`trainctl.run.pool.want_pool`)
 and yields one :class:`~trainctl.report.ReportData` per scenario, in order.
 :func:`write_report_file` renders one and writes it atomically;
 :func:`write_gallery` writes the ``index.html`` of several.
@@ -25,9 +25,9 @@ from trainctl.report.data import ReportData, collect_report_data
 from trainctl.report.render import render_index, render_report, write_report
 
 if TYPE_CHECKING:
-    from trainctl._progress import Progress
     from trainctl.design import Design
     from trainctl.report.output import OutputTarget
+    from trainctl.run._progress import Progress
     from trainctl.scenario import Scenario
     from trainctl.sim.results import SimulationResult
 
@@ -170,7 +170,7 @@ def normalise_timestamp(value: str) -> str:
 
 def _cost(design: Design, strategy: str) -> float:
     """Relative cost of simulating a strategy: steps x vehicles x the family's step cost."""
-    from trainctl.controllers.registry import get_family
+    from trainctl.registry import get_family
 
     scenario = design.scenario
     sim = scenario.simulation
@@ -220,7 +220,7 @@ def run_report_data(
     np.float64(120.0)
     """
     from trainctl.design import build_design
-    from trainctl.parallel import worker_pool
+    from trainctl.run.pool import worker_pool
 
     designs = [build_design(job.scenario) for job in jobs]
     with worker_pool(workers) as pool:
@@ -230,14 +230,14 @@ def run_report_data(
             tasks = [(k, strategy) for k, job in enumerate(jobs) if job.scenario.simulation
                      for strategy in job.scenario.simulation.strategies]
             tasks.sort(key=lambda t: -_cost(designs[t[0]], t[1]))
-            from trainctl.run import _simulate_recorded
+            from trainctl.run.analysis import _simulate_recorded
 
             for k, strategy in tasks:
                 future = pool.submit(_simulate_recorded, jobs[k].scenario, strategy, designs[k])
                 if progress is not None:
                     future.add_done_callback(_advance(progress, f"simulated {strategy}"))
                 pending.setdefault(k, {})[strategy] = future
-            from trainctl.repetitions import submit_repetitions
+            from trainctl.run.repetitions import submit_repetitions
 
             for k, job in enumerate(jobs):
                 extra[k] = submit_repetitions(job.scenario, pool, designs[k])
@@ -255,7 +255,7 @@ def _run_one(job: ReportJob, design: Design,
              pending: dict[str, Future[SimulationResult]] | None,
              progress: Progress | None,
              repetitions: dict[tuple[str, int], Future[Any]] | None = None) -> ReportData:
-    from trainctl.run import run_scenario
+    from trainctl.run.analysis import run_scenario
 
     name = job.scenario.name
     if progress is not None:
@@ -324,7 +324,7 @@ def write_report_file(
 
     >>> import tempfile
     >>> import trainctl
-    >>> from trainctl.run import run_scenario
+    >>> from trainctl.run.analysis import run_scenario
     >>> from trainctl.scenario import read_scenario_text
     >>> text, _ = read_scenario_text("crh2-dmpc")
     >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
@@ -375,7 +375,7 @@ def write_gallery(
 
     >>> import tempfile
     >>> import trainctl
-    >>> from trainctl.run import run_scenario
+    >>> from trainctl.run.analysis import run_scenario
     >>> from trainctl.scenario import read_scenario_text
     >>> text, _ = read_scenario_text("crh2-dmpc")
     >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)

@@ -3,14 +3,14 @@
 
 The review's messages name signals in python-control's 0-based index syntax
 (``u_prev[3]``); the page numbers vehicles from 1, so they are shown through
-:func:`~trainctl.report._format.one_based`. Forces in N are shown in kN.
+:func:`~trainctl._format.one_based`. Forces in N are shown in kN.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from trainctl.report._format import format_value, is_real, one_based
+from trainctl._format import format_value, is_real, one_based
 from trainctl.report.data import ReportData
 
 __all__ = ["checks_context"]

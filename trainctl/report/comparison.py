@@ -14,7 +14,7 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
-from trainctl.report._format import format_number, format_value
+from trainctl._format import format_number, format_value
 from trainctl.report.data import ReportData
 
 __all__ = ["controllers_context"]
@@ -64,7 +64,7 @@ def controllers_context(data: ReportData, *, deterministic: bool) -> dict[str, A
     one row per loop:
 
     >>> import trainctl
-    >>> from trainctl.run import run_scenario
+    >>> from trainctl.run.analysis import run_scenario
     >>> from trainctl.scenario import read_scenario_text
     >>> text, _ = read_scenario_text("crh2-dmpc")
     >>> from trainctl.report import collect_report_data
@@ -117,7 +117,7 @@ _SPREAD = (
 
 def _spread_cell(values: list[float | None], scale: float = 1.0) -> str:
     """``median [min – max]`` of some numbers (None: never settled, ∞)."""
-    from trainctl.repetitions import spread
+    from trainctl.run.repetitions import spread
 
     x = [math.inf if v is None else float(v) * scale for v in values]
     if not x:
@@ -131,8 +131,8 @@ def _spread_cell(values: list[float | None], scale: float = 1.0) -> str:
 
 def _repetition_table(data: ReportData, repetitions: Mapping[str, Any]) -> dict[str, Any]:
     """The spread of every strategy's whole-run measures over its repetitions and its
-    baseline-network run (:mod:`trainctl.repetitions`)."""
-    from trainctl.repetitions import SETTLING_BAND
+    baseline-network run (:mod:`trainctl.run.repetitions`)."""
+    from trainctl.run.repetitions import SETTLING_BAND
 
     sim = data.scenario.simulation
     baseline = data.results.get("baseline_network", {})

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from trainctl.report._format import (
+from trainctl._format import (
     docstring_units,
     format_complex,
     format_number,
@@ -85,7 +85,7 @@ def build_report_context(
 
     >>> import trainctl
     >>> from trainctl.report import collect_report_data
-    >>> from trainctl.run import run_scenario
+    >>> from trainctl.run.analysis import run_scenario
     >>> from trainctl.scenario import read_scenario_text
     >>> text, _ = read_scenario_text("crh2-dmpc")
     >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
@@ -125,7 +125,7 @@ def _sections(data: ReportData, figures: Sequence[ReportFigure]) -> list[dict[st
 
     A family's section lists the figures placed in it (:attr:`ReportFigure.section`).
     """
-    from trainctl.controllers.registry import get_family
+    from trainctl.registry import get_family
 
     sections: list[dict[str, Any]] = []
     for key, title in SECTIONS:
@@ -145,7 +145,7 @@ def _sections(data: ReportData, figures: Sequence[ReportFigure]) -> list[dict[st
 
 
 def _claims(data: ReportData) -> list[dict[str, str]]:
-    """The run's paper claims (:mod:`trainctl.claims`), each with its badge status.
+    """The run's paper claims (:mod:`trainctl.controllers.hinf.claims`), each with its badge status.
 
     ``status`` maps the verdict onto the page's badges: reproduced → pass,
     not reproduced → fail, depends → warn.
@@ -212,7 +212,7 @@ def _field_names(settings: Any) -> list[str]:
 
 def _file_keys(cls: type) -> dict[str, tuple[str, ...]]:
     """Field name → the file keys that can set it (its key, or its alternatives)."""
-    from trainctl.declare import declared_fields
+    from trainctl.declare.keys import declared_fields
 
     keys: dict[str, tuple[str, ...]] = {}
     for f in declared_fields(cls):

@@ -1,7 +1,7 @@
 # What a report shows, computed once: collected from a run, saved, loaded back.
 """The numbers behind a report, and the saved-results directory.
 
-:func:`collect_report_data` turns an :class:`~trainctl.run.AnalysisRun` into a
+:func:`collect_report_data` turns an :class:`~trainctl.run.analysis.AnalysisRun` into a
 :class:`ReportData`: the run's JSON summary plus what only the report shows
 (the per-coach matrices, the eigenvalues of the open and closed loops, the
 ρ(D0)-against-R curve) and the simulation results. ``trainctl analyse --save
@@ -50,7 +50,7 @@ from trainctl.report.runfile import text_digest
 
 if TYPE_CHECKING:
     from trainctl.models.subsystems import CoachSubsystems
-    from trainctl.run import AnalysisRun
+    from trainctl.run.analysis import AnalysisRun
     from trainctl.scenario import Scenario
     from trainctl.sim.results import SimulationResult
 
@@ -109,7 +109,7 @@ class ReportData:
 
     >>> import tempfile
     >>> import trainctl
-    >>> from trainctl.run import run_scenario
+    >>> from trainctl.run.analysis import run_scenario
     >>> from trainctl.scenario import read_scenario_text
     >>> text, _ = read_scenario_text("crh2-dmpc")
     >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
@@ -308,7 +308,7 @@ def is_saved_run(path: str | os.PathLike[str]) -> bool:
     --------
     >>> import tempfile
     >>> import trainctl
-    >>> from trainctl.run import run_scenario
+    >>> from trainctl.run.analysis import run_scenario
     >>> from trainctl.scenario import read_scenario_text
     >>> text, _ = read_scenario_text("crh2-dmpc")
     >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
@@ -558,7 +558,7 @@ def collect_report_data(
     Parameters
     ----------
     run : AnalysisRun
-        From :func:`trainctl.run.run_scenario`.
+        From :func:`trainctl.run.analysis.run_scenario`.
     scenario_text : str
         The scenario's TOML text (echoed in the report and saved).
     command : str
@@ -579,7 +579,7 @@ def collect_report_data(
     alone at e^(−aT/2), with a = 2.685e-3 1/s: e^(−0.02685) = 0.97351:
 
     >>> import trainctl
-    >>> from trainctl.run import run_scenario
+    >>> from trainctl.run.analysis import run_scenario
     >>> from trainctl.scenario import read_scenario_text
     >>> text, _ = read_scenario_text("crh2-dmpc")
     >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
@@ -590,7 +590,7 @@ def collect_report_data(
     >>> list(data.families), data.simulations
     (['mpc'], {})
     """
-    from trainctl.controllers.registry import get_family
+    from trainctl.registry import get_family
     from trainctl.sim.results import environment
 
     design = run.design

@@ -3,7 +3,7 @@
 
 Each figure is a :class:`matplotlib.figure.Figure` (no pyplot, no global
 figure registry) drawn with the same functions notebooks use
-(:mod:`trainctl.plot`), encoded with :func:`figure_svg` and then dropped.
+(:mod:`trainctl.plots.time`), encoded with :func:`figure_svg` and then dropped.
 
 :func:`figure_svg` makes the SVG fit for inlining and for byte-identical
 output: a fixed hash salt (clip-path ids), no date or tool metadata, text as
@@ -26,8 +26,8 @@ from markupsafe import Markup
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
-from trainctl import plot
-from trainctl._plotting import pin_titles
+from trainctl.plots import time as plot
+from trainctl.plots._common import pin_titles
 
 if TYPE_CHECKING:
     from trainctl.report.data import ReportData
@@ -201,7 +201,7 @@ def report_figures(data: ReportData) -> list[ReportFigure]:
         (:func:`~trainctl.report.figures_frequency.frequency_figures`), then
         each controller family's figures (MPC: the ρ(D0)-against-R curve, in
         the Figures section; potential and flocking: the communication graph,
-        in their own sections, :mod:`trainctl.report.figures_graph`).
+        in their own sections, :mod:`trainctl.plots.graph_figures`).
 
     Examples
     --------
@@ -209,7 +209,7 @@ def report_figures(data: ReportData) -> list[ReportFigure]:
     the eigenvalue map first, then the linear closed loops' figures:
 
     >>> import trainctl
-    >>> from trainctl.run import run_scenario
+    >>> from trainctl.run.analysis import run_scenario
     >>> from trainctl.scenario import read_scenario_text
     >>> text, _ = read_scenario_text("crh2-dmpc")
     >>> from trainctl.report import collect_report_data
@@ -262,7 +262,7 @@ def _figures(data: ReportData) -> Iterator[ReportFigure]:
 
     if data.simulations:
         yield from time_figures(data.scenario, data.simulations, encode)
-        from trainctl.report.figures_claims import performance_figure
+        from trainctl.controllers.hinf.claims_figures import performance_figure
 
         performance = performance_figure(data, encode)
         if performance is not None:
@@ -270,7 +270,7 @@ def _figures(data: ReportData) -> Iterator[ReportFigure]:
     if data.spectra:
         yield eigenvalue_figure(data.spectra)
     yield from frequency_figures(data.frequency, encode)
-    from trainctl.controllers.registry import get_family
+    from trainctl.registry import get_family
 
     for name, family_data in data.families.items():
         yield from get_family(name).report_figures(family_data)

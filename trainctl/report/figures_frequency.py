@@ -18,8 +18,8 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from trainctl import freqplot
-from trainctl._plotting import fixed_margins, legend_outside, series_style
+from trainctl.plots import frequency as freqplot
+from trainctl.plots._common import fixed_margins, legend_outside, series_style
 
 if TYPE_CHECKING:
     from trainctl.report.figures import ReportFigure
@@ -80,7 +80,7 @@ def frequency_figures(curves: Mapping[str, Mapping[str, Any]],
     keeps only the keys lists the figures:
 
     >>> import trainctl
-    >>> from trainctl.run import run_scenario
+    >>> from trainctl.run.analysis import run_scenario
     >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
     >>> curves = {name: loop.curves() for name, loop in run.frequency.items()}
     >>> def key_only(key, title, caption, figure, **kwargs):  # keep the key, drop the drawing

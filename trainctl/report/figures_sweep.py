@@ -32,7 +32,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from trainctl._plotting import plain_log_labels
+from trainctl.plots._common import plain_log_labels
 
 __all__ = [
     "CATEGORY_COLOURS", "LINE_COLOURS", "MAX_PANELS", "Panel", "category_figure",

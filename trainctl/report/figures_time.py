@@ -3,9 +3,9 @@
 
 The strategies are compared where an engineer compares them: one panel per
 vehicle (or coupler), every strategy overlaid in its own colour and line
-style (:func:`trainctl._plotting.series_style`), the legend above the
+style (:func:`trainctl.plots._common.series_style`), the legend above the
 panels, off the data. Axes follow the data; limits are drawn when near and
-named when far (:func:`trainctl._plotting.limit_lines`). Vehicles are
+named when far (:func:`trainctl.plots._common.limit_lines`). Vehicles are
 numbered from 1, head first, as in the seeds.
 """
 
@@ -20,8 +20,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from numpy.typing import NDArray
 
-from trainctl import plot
-from trainctl._plotting import fixed_margins, legend_outside, limit_lines, series_style
+from trainctl.plots import time as plot
+from trainctl.plots._common import fixed_margins, legend_outside, limit_lines, series_style
 
 if TYPE_CHECKING:
     from trainctl.report.figures import ReportFigure
@@ -134,7 +134,7 @@ def time_figures(scenario: Scenario, sims: Mapping[str, SimulationResult],
     so the iterations figure is there. A ``make`` that keeps only the keys:
 
     >>> import trainctl
-    >>> from trainctl.run import simulate_strategy
+    >>> from trainctl.run.analysis import simulate_strategy
     >>> scenario = (trainctl.load_scenario("crh2-dmpc")
     ...             .replace("simulation.settle_time", 60.0)
     ...             .replace("simulation.duration", 120.0))

@@ -90,8 +90,8 @@ class _FamilyLoader(jinja2.BaseLoader):
     def get_source(
         self, environment: jinja2.Environment, template: str
     ) -> tuple[str, str | None, Any]:
-        from trainctl.controllers.registry import get_family
         from trainctl.exceptions import ScenarioError
+        from trainctl.registry import get_family
 
         name = template.removeprefix(FAMILY_TEMPLATES).removesuffix(".html.j2")
         if f"{FAMILY_TEMPLATES}{name}.html.j2" != template:
@@ -103,7 +103,7 @@ class _FamilyLoader(jinja2.BaseLoader):
         return source, None, lambda: False  # never cached across families' changes
 
     def list_templates(self) -> list[str]:
-        from trainctl.controllers.registry import family_names
+        from trainctl.registry import family_names
 
         return [f"{FAMILY_TEMPLATES}{name}.html.j2" for name in family_names()]
 
@@ -139,7 +139,7 @@ def render_report(context: Mapping[str, Any]) -> str:
 
     >>> import trainctl
     >>> from trainctl.report import build_report_context, collect_report_data
-    >>> from trainctl.run import run_scenario
+    >>> from trainctl.run.analysis import run_scenario
     >>> from trainctl.scenario import read_scenario_text
     >>> text, _ = read_scenario_text("crh2-dmpc")
     >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)

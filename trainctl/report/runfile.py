@@ -12,7 +12,7 @@ are the ones simulated and saved, and every simulation result
 train and sample time.
 
 Nothing of the file is trusted: counts are integers within
-:mod:`trainctl.limits`, statuses and verdicts come from their vocabularies,
+:mod:`trainctl.declare.limits`, statuses and verdicts come from their vocabularies,
 per-vehicle lists have one entry per vehicle, ``failed_checks`` and
 ``unexpected`` follow from the checks, and the scenario text (re-validated)
 must be the one the results describe: its name, train, speed, sample time,
@@ -39,11 +39,11 @@ from pydantic import (
 )
 
 from trainctl._files import read_regular
-from trainctl.constraints import Choice, Integer, Violation, raise_at
 from trainctl.controllers.base import STATUSES as STEP_STATUSES
+from trainctl.declare.constraints import Choice, Integer, Violation, raise_at
+from trainctl.declare.jsonfile import FiniteFloat, read_json, validate_json
+from trainctl.declare.limits import MAX_SAMPLES, MAX_VEHICLES, SAMPLE_TIME, SPEED, in_unit
 from trainctl.exceptions import DimensionError, ModelError, ScenarioError
-from trainctl.jsonfile import FiniteFloat, read_json, validate_json
-from trainctl.limits import MAX_SAMPLES, MAX_VEHICLES, SAMPLE_TIME, SPEED, in_unit
 from trainctl.units import KMH_PER_MS
 
 __all__ = ["FORMAT", "MANIFEST", "RUN_HINT", "RunFile", "read_saved_run", "text_digest"]
@@ -280,7 +280,7 @@ class RunFile(_Closed):
     >>> import tempfile
     >>> import trainctl
     >>> from trainctl.report import collect_report_data
-    >>> from trainctl.run import run_scenario
+    >>> from trainctl.run.analysis import run_scenario
     >>> from trainctl.scenario import read_scenario_text
     >>> text, _ = read_scenario_text("crh2-dmpc")
     >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
@@ -378,7 +378,7 @@ def read_saved_run(directory: str | Path) -> dict[str, Any]:
     >>> import tempfile
     >>> import trainctl
     >>> from trainctl.report import collect_report_data
-    >>> from trainctl.run import run_scenario
+    >>> from trainctl.run.analysis import run_scenario
     >>> from trainctl.scenario import read_scenario_text
     >>> text, _ = read_scenario_text("crh2-dmpc")
     >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)

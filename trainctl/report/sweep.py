@@ -48,8 +48,8 @@ from typing import TYPE_CHECKING, Any
 
 from markupsafe import Markup
 
+from trainctl._format import format_value
 from trainctl.exceptions import ScenarioError
-from trainctl.report._format import format_value
 from trainctl.report.figures import ReportFigure, encode
 from trainctl.report.figures_sweep import (
     MAX_PANELS,

@@ -10,7 +10,7 @@ unit (``mass_t``, ``speed_kmh``, ``stiffness_kn_per_m``) are converted once,
 on reading, with :mod:`trainctl.units`; every other number is already SI.
 
 Every key is declared once — type, unit and converter to SI, constraint,
-default, one line of documentation (:mod:`trainctl.declare`) — and from that
+default, one line of documentation (:mod:`trainctl.declare.keys`) — and from that
 declaration come the parsing and validation, the schema tables of
 ``analyses/README.md`` (:mod:`trainctl.scenario.docs`) and the JSON Schema of
 the file format (:func:`json_schema`, ``trainctl schema``). Settings objects
@@ -40,7 +40,7 @@ from trainctl.controllers.tracking import CONTROLLER_OUTPUTS as CONTROLLER_OUTPU
 from trainctl.models.discrete import DISCRETISATIONS as DISCRETISATIONS
 from trainctl.models.dynamics import ALLOCATIONS as ALLOCATIONS
 from trainctl.models.linear import LINEARISATIONS as LINEARISATIONS
-from trainctl.network import NetworkSettings as NetworkSettings
+from trainctl.models.network import NetworkSettings as NetworkSettings
 from trainctl.scenario.communication import CommunicationSettings as CommunicationSettings
 from trainctl.scenario.core import RESERVED_SECTIONS as RESERVED_SECTIONS
 from trainctl.scenario.core import SCHEMA_VERSION as SCHEMA_VERSION
@@ -100,14 +100,14 @@ _COMPUTED = {
 def __getattr__(name: str) -> Any:
     """Vocabularies computed from where they live, on first use (PEP 562).
 
-    ``CHECK_NAMES`` are the model checks (:mod:`trainctl.analysis.review`)
+    ``CHECK_NAMES`` are the model checks (:mod:`trainctl.design.review`)
     and the checks of the default controller family; ``SIMULATION_STRATEGIES``
-    the default family's strategies (:mod:`trainctl.controllers.registry`);
+    the default family's strategies (:mod:`trainctl.registry`);
     ``CHECK_STATUSES`` the check statuses.
     """
     if name not in _COMPUTED:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    from trainctl.controllers.registry import DEFAULT_FAMILY, get_family
+    from trainctl.registry import DEFAULT_FAMILY, get_family
     from trainctl.scenario.core import check_statuses
 
     family = get_family(DEFAULT_FAMILY)

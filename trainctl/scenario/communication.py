@@ -1,5 +1,5 @@
 # The [communication] table: the graph over which consensus controllers exchange data.
-"""Settings of the ``[communication]`` table (:mod:`trainctl.graphs`)."""
+"""Settings of the ``[communication]`` table (:mod:`trainctl.models.graphs`)."""
 
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ from typing import Annotated
 
 from pydantic import model_validator
 
-from trainctl.constraints import Array, Choice, Number, Violation, raise_at
-from trainctl.declare import Key, settings
+from trainctl.declare.constraints import Array, Choice, Number, Violation, raise_at
+from trainctl.declare.keys import Key, settings
 from trainctl.exceptions import ModelError
-from trainctl.graphs import PINNING, TOPOLOGIES, CommunicationGraph, make_graph
+from trainctl.models.graphs import PINNING, TOPOLOGIES, CommunicationGraph, make_graph
 
 __all__ = ["CommunicationSettings"]
 
@@ -24,7 +24,7 @@ class CommunicationSettings:
     Parameters
     ----------
     topology : {"bidirectional", "predecessor", "all-to-all", "explicit"}
-        The links between the vehicles (:func:`trainctl.graphs.make_graph`).
+        The links between the vehicles (:func:`trainctl.models.graphs.make_graph`).
     pinned : {"all", "head", "none"}
         Which vehicles receive the reference (the timetable or virtual leader).
     weight : float

@@ -2,8 +2,8 @@
 """The :class:`Scenario` and the names its files may use.
 
 The vocabularies are imported from where the things they name live (the
-controller families in :mod:`trainctl.controllers.registry`, the model
-checks in :mod:`trainctl.analysis.review`); the functions here combine them
+controller families in :mod:`trainctl.registry`, the model
+checks in :mod:`trainctl.design.review`); the functions here combine them
 for one scenario: which strategies ``[simulation]`` may list and which checks
 ``[expected]`` may name, given the controller families present.
 """
@@ -15,12 +15,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NoReturn
 
-from trainctl.constraints import Violation, suggest
+from trainctl.declare.constraints import Violation, suggest
 from trainctl.exceptions import ModelError
-from trainctl.graphs import CommunicationGraph
+from trainctl.models.graphs import CommunicationGraph
+from trainctl.models.network import NetworkSettings
 from trainctl.models.track import Track
 from trainctl.models.train import Train
-from trainctl.network import NetworkSettings
 from trainctl.scenario.communication import CommunicationSettings
 from trainctl.scenario.frozen import FrozenMapping as FrozenMapping
 from trainctl.scenario.settings import ModelSettings, SimulationSettings
@@ -64,7 +64,7 @@ def model_check_names() -> tuple[str, ...]:
     >>> "sampling" in names, "ndmpc_convergence" in names
     (True, False)
     """
-    from trainctl.analysis.review import MODEL_CHECK_NAMES
+    from trainctl.analysis.check import MODEL_CHECK_NAMES
 
     return MODEL_CHECK_NAMES
 
@@ -82,13 +82,13 @@ def check_statuses() -> tuple[str, ...]:
     >>> check_statuses()
     ('pass', 'warn', 'fail')
     """
-    from trainctl.analysis.review import STATUSES
+    from trainctl.analysis.check import STATUSES
 
     return STATUSES
 
 
 def _families(names: Iterable[str] | None = None) -> list[Any]:
-    from trainctl.controllers.registry import family_names, get_family
+    from trainctl.registry import family_names, get_family
 
     return [get_family(n) for n in (family_names() if names is None else names)]
 
@@ -113,7 +113,7 @@ def check_names(families: Sequence[str] | None = None) -> tuple[str, ...]:
 'feasibility', 'plausibility', 'lqr_closed_loop', 'lqr_decentralised_closed_loop', \
 'string_stability')
     """
-    from trainctl.analysis.review import LOOP_CHECK_NAMES
+    from trainctl.analysis.check import LOOP_CHECK_NAMES
 
     names = [*model_check_names(), *(c for f in _families(families) for c in f.check_names),
              *LOOP_CHECK_NAMES]
@@ -217,7 +217,7 @@ def expectation_violation(check: str, families: Sequence[str]) -> Violation | No
     >>> expectation_violation("ndmpc_convergence", []).text
     'needs a [controller] section'
     """
-    from trainctl.analysis.review import LOOP_CHECK_NAMES
+    from trainctl.analysis.check import LOOP_CHECK_NAMES
 
     owners = [f.name for f in _families() if check in f.check_names]
     if check in LOOP_CHECK_NAMES:
@@ -274,7 +274,7 @@ class Scenario:
     network : NetworkSettings or None
         The radio links over which networked controllers receive their
         neighbours' data (``[network]``: delays, losses, noise, outage
-        windows; :class:`trainctl.network.Network`); None when the file has
+        windows; :class:`trainctl.models.network.Network`); None when the file has
         no ``[network]``.
     simulation : SimulationSettings or None
         The closed-loop simulation run; ``None`` when the file has no
@@ -367,7 +367,7 @@ class Scenario:
         Returns
         -------
         CommunicationGraph
-            The graph (:mod:`trainctl.graphs`).
+            The graph (:mod:`trainctl.models.graphs`).
         """
         settings = self.communication or CommunicationSettings()
         return settings.graph(self.train.n_vehicles)

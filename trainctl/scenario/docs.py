@@ -27,9 +27,9 @@ from typing import Any
 
 from pydantic import BaseModel
 
-from trainctl.constraints import Choice
-from trainctl.declare import DeclaredField, Key, declared_fields
-from trainctl.network import Interruption, NetworkSettings
+from trainctl.declare.constraints import Choice
+from trainctl.declare.keys import DeclaredField, Key, declared_fields
+from trainctl.models.network import Interruption, NetworkSettings
 from trainctl.scenario.communication import CommunicationSettings
 from trainctl.scenario.filemodel import file_model, rule_of, sub_model, table_kind
 from trainctl.scenario.settings import ModelSettings, SimulationSettings
@@ -180,7 +180,7 @@ def markdown_tables() -> dict[str, str]:
     >>> tables["vehicle"].splitlines()[0]
     '| Key | Type | Unit | Default | Meaning |'
     """
-    from trainctl.controllers.registry import DEFAULT_FAMILY, FAMILY_MODULES, get_family
+    from trainctl.registry import DEFAULT_FAMILY, FAMILY_MODULES, get_family
 
     simulation = file_model(SimulationSettings)
     reference = next(f for f in declared_fields(simulation) if f.name == "reference")

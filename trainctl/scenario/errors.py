@@ -5,7 +5,7 @@ The message has one shape: ``FILE: KEY PATH must ... (got ...). hint``. The
 key path is built from the error location and the document
 (``[train.vehicle][2].mass_t``: tables in brackets, array indices from 0);
 what must hold comes from the rule that failed
-(:class:`~trainctl.constraints.Violation`) or, for pydantic's structural
+(:class:`~trainctl.declare.constraints.Violation`) or, for pydantic's structural
 errors (a missing or unknown key, a value where a table belongs), from the
 table's declaration. This module is the one place where pydantic error types
 become trainctl's wording.
@@ -19,8 +19,8 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-from trainctl.constraints import NOTHING, Violation
-from trainctl.declare import first_error, render_refs, violation_of
+from trainctl.declare.constraints import NOTHING, Violation
+from trainctl.declare.keys import first_error, render_refs, violation_of
 from trainctl.exceptions import ScenarioError
 from trainctl.scenario.core import RESERVED_SECTIONS
 from trainctl.scenario.filemodel import (
@@ -139,7 +139,7 @@ class DocumentTable:
             Location of the part below this table (keys and array indices).
         value : object
             The value the document holds there;
-            :data:`~trainctl.constraints.NOTHING` when absent (the file model
+            :data:`~trainctl.declare.constraints.NOTHING` when absent (the file model
             alone decides then).
 
         Returns
@@ -271,7 +271,7 @@ def describe(violation: Violation, table: DocumentTable, loc: tuple[Any, ...]) -
     A ``{field}`` reference in the rule's text becomes the file key of that
     field, here in the ``[model]`` table:
 
-    >>> from trainctl.constraints import Violation
+    >>> from trainctl.declare.constraints import Violation
     >>> from trainctl.scenario.filemodel import file_model
     >>> from trainctl.scenario.settings import ModelSettings
     >>> doc = {"model": {"speed_kmh": 300.0, "sample_time": 20.0}}
@@ -301,7 +301,7 @@ def _unknown(table: DocumentTable, loc: tuple[Any, ...], extra: Sequence[str]) -
     if not table.prefix and len(loc) == 1 and name in RESERVED_SECTIONS:
         return (f"section [{name}] is reserved for a later trainctl release and is not "
                 "supported yet. Remove it to load this scenario.")
-    from trainctl.constraints import suggest
+    from trainctl.declare.constraints import suggest
 
     allowed = field_names(_model_at(table.model, loc[:-1]) if loc[:-1] else table.model)
     allowed = (*allowed, *(extra if len(loc) == 1 else ()))

@@ -1,8 +1,8 @@
 # File tables derived from declarations: generated pydantic models, SI conversion, walking.
 """The scenario-file table of a settings class, generated from its declaration.
 
-A settings class (:func:`trainctl.declare.settings`) declares SI fields with
-a :class:`~trainctl.declare.Key` each. :func:`file_model` turns it into the
+A settings class (:func:`trainctl.declare.keys.settings`) declares SI fields with
+a :class:`~trainctl.declare.keys.Key` each. :func:`file_model` turns it into the
 pydantic model of its file table: one field per file key (a dotted key
 ``"a.b"`` becomes key ``b`` of the sub-table ``[x.a]``), with the file
 flavour of the same rule, the default, the unit and the documentation.
@@ -35,9 +35,9 @@ from pydantic import (
 )
 from pydantic_core import InitErrorDetails
 
-from trainctl.constraints import ERROR_TYPE, Rule, Violation, fail, raise_at
-from trainctl.declare import Alt, DeclaredField, Key, declared_fields
-from trainctl.limits import in_unit
+from trainctl.declare.constraints import ERROR_TYPE, Rule, Violation, fail, raise_at
+from trainctl.declare.keys import Alt, DeclaredField, Key, declared_fields
+from trainctl.declare.limits import in_unit
 
 __all__ = [
     "FileTable",
@@ -60,7 +60,7 @@ class FileTable(BaseModel):
     """Base of every file table: unknown keys are errors.
 
     A subclass's docstring gets a Parameters section written from its keys'
-    :class:`~trainctl.declare.Key` declarations (:func:`parameters_section`),
+    :class:`~trainctl.declare.keys.Key` declarations (:func:`parameters_section`),
     so each key is described once, for the schema, the Markdown tables and
     the API reference alike. A table's JSON Schema description stays the
     first paragraph of its docstring.
@@ -138,7 +138,7 @@ def _type_text(annotation: Any) -> str:
 def parameters_section(cls: type[BaseModel]) -> str:
     """The numpydoc Parameters section of a file table, from its keys' declarations.
 
-    A field without a :class:`~trainctl.declare.Key` is left out (and so
+    A field without a :class:`~trainctl.declare.keys.Key` is left out (and so
     shows as undocumented to a docstring check).
 
     Parameters
@@ -268,7 +268,7 @@ def rule_of(f: DeclaredField) -> Rule | None:
     The per-vehicle speed errors are optional (``... | None``), so their
     rule sits inside the annotation rather than on the field:
 
-    >>> from trainctl.declare import declared_fields
+    >>> from trainctl.declare.keys import declared_fields
     >>> from trainctl.scenario.settings import SimulationSettings
     >>> f = next(f for f in declared_fields(SimulationSettings)
     ...          if f.name == "initial_speed_errors")
@@ -628,7 +628,7 @@ def table_kind(f: DeclaredField) -> str:
     In ``[train]``, vehicles are an array of tables; the couplers may be one
     table for every link or an array of them:
 
-    >>> from trainctl.declare import declared_fields
+    >>> from trainctl.declare.keys import declared_fields
     >>> from trainctl.scenario.tables import TrainTable
     >>> {f.name: table_kind(f) for f in declared_fields(TrainTable)}
     {'preset': 'value', 'preset_options': 'table', 'vehicle': 'tables', 'coupler': 'either'}

@@ -10,7 +10,7 @@ from importlib import resources
 from pathlib import Path
 
 from trainctl._files import read_regular
-from trainctl.constraints import suggest
+from trainctl.declare.constraints import suggest
 from trainctl.exceptions import ScenarioError
 from trainctl.scenario.core import BuiltinScenario, Scenario
 from trainctl.scenario.parse import MAX_TEXT_BYTES, check_size, load_toml, parse_scenario

@@ -24,12 +24,12 @@ from typing import Any, Literal, TypeVar
 
 from pydantic import BaseModel, ConfigDict, ValidationError, create_model
 
-from trainctl.constraints import Violation, suggest
+from trainctl.declare.constraints import Violation, suggest
 from trainctl.exceptions import ModelError, ScenarioError
+from trainctl.models.network import NetworkSettings
 from trainctl.models.track import Track, TrackSection
 from trainctl.models.train import Train
 from trainctl.models.vehicle import Coupler, TractionEnvelope, Vehicle
-from trainctl.network import NetworkSettings
 from trainctl.scenario.communication import CommunicationSettings
 from trainctl.scenario.core import (
     FrozenMapping,
@@ -63,7 +63,7 @@ _T = TypeVar("_T")
 
 MAX_TEXT_BYTES = 4 * 1024 * 1024
 """Largest scenario text trainctl reads [bytes] (the built-ins are under 10 kB; a train of
-:data:`~trainctl.limits.MAX_VEHICLES` vehicles written one table each stays under 2 MB)."""
+:data:`~trainctl.declare.limits.MAX_VEHICLES` vehicles written one table each stays under 2 MB)."""
 
 
 def load_toml(text: str, source: str) -> dict[str, Any]:
@@ -366,7 +366,7 @@ class _Parser:
         """``[controller]``: the primary family, then ``[controller.<family>]`` sub-tables."""
         if raw is None:
             return {}
-        from trainctl.controllers.registry import DEFAULT_FAMILY, family_names, get_family
+        from trainctl.registry import DEFAULT_FAMILY, family_names, get_family
 
         names = family_names()
         family = self.validate(family_table(names, DEFAULT_FAMILY), ("controller",)).family

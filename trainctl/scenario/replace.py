@@ -211,9 +211,9 @@ def _alternatives(key: str) -> tuple[str, ...]:
 
 def _one_of_groups() -> tuple[tuple[str, ...], ...]:
     """Every group of alternative keys declared in the file tables (leaf names)."""
-    from trainctl.controllers.registry import family_names, get_family
-    from trainctl.declare import declared_fields
-    from trainctl.network import NetworkSettings
+    from trainctl.declare.keys import declared_fields
+    from trainctl.models.network import NetworkSettings
+    from trainctl.registry import family_names, get_family
     from trainctl.scenario.communication import CommunicationSettings
     from trainctl.scenario.filemodel import file_model, sub_model
     from trainctl.scenario.settings import ModelSettings, SimulationSettings

@@ -26,8 +26,8 @@ from typing import Annotated, Any
 from pydantic import BaseModel, ConfigDict, create_model
 from pydantic.json_schema import models_json_schema
 
-from trainctl.declare import Key, declared_fields
-from trainctl.network import NetworkSettings
+from trainctl.declare.keys import Key, declared_fields
+from trainctl.models.network import NetworkSettings
 from trainctl.scenario.communication import CommunicationSettings
 from trainctl.scenario.core import SCHEMA_VERSION, check_names, check_statuses
 from trainctl.scenario.filemodel import FileTable, file_model
@@ -129,7 +129,7 @@ def json_schema() -> dict[str, Any]:
     >>> speed["unit"], speed["exclusiveMinimum"], speed["maximum"], speed["type"]
     ('km/h', 0, 1000.0, 'number')
     """
-    from trainctl.controllers.registry import DEFAULT_FAMILY, family_names, get_family
+    from trainctl.registry import DEFAULT_FAMILY, family_names, get_family
 
     names = family_names()
     families = {n: file_model(get_family(n).settings) for n in names}

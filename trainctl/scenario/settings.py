@@ -1,7 +1,7 @@
 # The [model] and [simulation] settings, each key declared once (SI field, file key, unit, rule).
 """Settings of the ``[model]`` and ``[simulation]`` tables.
 
-Each field is declared once (:mod:`trainctl.declare`): its SI type and rule,
+Each field is declared once (:mod:`trainctl.declare.keys`): its SI type and rule,
 its file key with unit and converter, its default and one line of
 documentation. Objects built in Python and tables read from files are
 checked by the same declarations and validators.
@@ -17,10 +17,18 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import TypeAdapter, ValidationError, ValidationInfo, model_validator
 
-from trainctl.constraints import Array, Choice, Flag, Integer, NameList, Number, Violation, raise_at
-from trainctl.declare import Alt, Key, python_error, settings
-from trainctl.exceptions import ModelError
-from trainctl.limits import (
+from trainctl.declare.constraints import (
+    Array,
+    Choice,
+    Flag,
+    Integer,
+    NameList,
+    Number,
+    Violation,
+    raise_at,
+)
+from trainctl.declare.keys import Alt, Key, python_error, settings
+from trainctl.declare.limits import (
     DURATION,
     MAX_SAMPLES,
     SAMPLE_TIME,
@@ -30,6 +38,7 @@ from trainctl.limits import (
     SPEED_NOISE,
     SPEED_POINTS,
 )
+from trainctl.exceptions import ModelError
 from trainctl.models.discrete import DISCRETISATIONS
 from trainctl.models.dynamics import ALLOCATIONS
 from trainctl.models.linear import LINEARISATIONS
@@ -107,7 +116,7 @@ _STRATEGY_LIST: TypeAdapter[tuple[str, ...]] = TypeAdapter(
 _SAMPLE_TIME: TypeAdapter[float] = TypeAdapter(Annotated[float, SAMPLE_TIME])
 _TIMES = Array(Number(ge=0))
 BASELINES = ("ideal", "delay-free")
-"""Baseline networks of ``[simulation] baseline_network`` (:mod:`trainctl.repetitions`)."""
+"""Baseline networks of ``[simulation] baseline_network`` (:mod:`trainctl.run.repetitions`)."""
 MAX_REPETITIONS = 1000
 """Most runs per strategy of one scenario (``[simulation] repetitions``); more is a sweep."""
 _SPACING_ERROR = Number(ge=-5000.0, le=5000.0, why="a virtual link's gap is not off by more "
@@ -126,7 +135,7 @@ def _whole_steps(duration: float, sample_time: float) -> int | None:
 
 
 def _samples_violation(duration: float, sample_time: float) -> Violation | None:
-    """The violation of a run longer than :data:`~trainctl.limits.MAX_SAMPLES` samples."""
+    """The violation of a run longer than :data:`~trainctl.declare.limits.MAX_SAMPLES` samples."""
     samples = duration / sample_time
     if samples <= MAX_SAMPLES * (1 + _MULTIPLE_TOL):
         return None
@@ -216,11 +225,11 @@ class SimulationSettings:
         noise, the relay's, the measurement noise); run 0 is the one shown,
         and the report gives the spread (median and range) of each
         strategy's measures over all of them
-        (:mod:`trainctl.repetitions`).
+        (:mod:`trainctl.run.repetitions`).
     baseline_network : {"ideal", "delay-free"} or None
         Also run every strategy once over a baseline network, the
         denominator of the report's deviation ratios
-        (:mod:`trainctl.repetitions`): ``"ideal"``, the scenario without its
+        (:mod:`trainctl.run.repetitions`): ``"ideal"``, the scenario without its
         ``[network]`` (no delay, loss, noise or outage); ``"delay-free"``,
         its ``[network]`` with every delay 0 (the same noise, losses and
         outages, drawn the same); None: no baseline run.
@@ -358,7 +367,7 @@ class SimulationSettings:
         ModelError
             If ``sample_time`` is outside its bounds, or ``duration`` is not a
             whole multiple of it (relative tolerance 1e-9) or more than
-            :data:`~trainctl.limits.MAX_SAMPLES` samples.
+            :data:`~trainctl.declare.limits.MAX_SAMPLES` samples.
 
         Examples
         --------

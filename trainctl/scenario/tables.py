@@ -3,8 +3,8 @@
 
 The top level, ``[train]`` with its vehicle groups and couplers, and
 ``[track]`` with its sections are pydantic models whose fields are the file
-keys, each declared once with its rule (:mod:`trainctl.constraints`), unit,
-converter to SI, default and documentation (:class:`~trainctl.declare.Key`);
+keys, each declared once with its rule (:mod:`trainctl.declare.constraints`), unit,
+converter to SI, default and documentation (:class:`~trainctl.declare.keys.Key`);
 model validators hold the rules that span several keys. The domain objects
 (:class:`~trainctl.models.vehicle.Vehicle`, ...) are built from validated
 tables by :mod:`trainctl.scenario.parse`.
@@ -27,7 +27,7 @@ from pydantic import (
 )
 from pydantic_core import CoreSchema, core_schema
 
-from trainctl.constraints import (
+from trainctl.declare.constraints import (
     Array,
     Choice,
     Flag,
@@ -39,8 +39,8 @@ from trainctl.constraints import (
     fail,
     raise_at,
 )
-from trainctl.declare import Key
-from trainctl.limits import COUPLER_GAP, MAX_VEHICLES, VEHICLES_WHY, in_unit
+from trainctl.declare.keys import Key
+from trainctl.declare.limits import COUPLER_GAP, MAX_VEHICLES, VEHICLES_WHY, in_unit
 from trainctl.models.track import SECTION_RULES, TRACK_RULES
 from trainctl.models.vehicle import COUPLER_RULES, ENVELOPE_RULES, VEHICLE_RULES
 from trainctl.scenario.core import SCHEMA_VERSION
@@ -80,7 +80,7 @@ __all__ = [
 _ENVELOPE = {name: rule.for_file() for name, rule in ENVELOPE_RULES.items()}
 
 DAVIS_KEYS = ("davis_n_per_kn_kmh", "davis_si", "davis_book_literal")
-_DAVIS = Array(Number(ge=0), length=3)  # bounded in SI by the Vehicle (trainctl.limits.DAVIS)
+_DAVIS = Array(Number(ge=0), length=3)  # bounded in SI by the Vehicle (trainctl.declare.limits.DAVIS)
 _DAVIS_HINT = (" davis_n_per_kn_kmh is N/kN with V in km/h; davis_si is [a0 m/s², a1 1/s, "
                "a2 1/m].")
 
@@ -252,7 +252,7 @@ class VehicleTable(FileTable):
 def _davis_within_limits(table: VehicleTable, key: str) -> None:
     """The Davis key's coefficients, converted to SI, within the hard limits (at ``key``).
 
-    The limits hold in SI (:data:`trainctl.limits.DAVIS`); a key in another unit
+    The limits hold in SI (:data:`trainctl.declare.limits.DAVIS`); a key in another unit
     is checked after its conversion, so that the message names the file key.
     """
     given = getattr(table, key)

@@ -9,7 +9,7 @@ python-control and matplotlib views); :func:`compute_metrics` summarises it.
 The loop saturates every controller's forces to the vehicles' envelopes and
 records the plant between the samples on a dense grid (:func:`dense_grid`
 gives its rule).
-Importing this package loads neither pandas nor :mod:`trainctl.plot`; they are
+Importing this package loads neither pandas nor :mod:`trainctl.plots.time`; they are
 imported when a view needs them.
 """
 

@@ -2,7 +2,7 @@
 """Views of a :class:`~trainctl.sim.SimulationResult` (a mixin of its methods).
 
 The result keeps its arrays; these methods present them to pandas,
-python-control and :mod:`trainctl.plot`, importing each only when called.
+python-control and :mod:`trainctl.plots.time`, importing each only when called.
 """
 
 from __future__ import annotations
@@ -142,7 +142,7 @@ class ResultViews:
         )
 
     def plot(self, kind: str = "velocity", ax: Axes | None = None) -> Axes:
-        """Plot one view of the run with :mod:`trainctl.plot`.
+        """Plot one view of the run with :mod:`trainctl.plots.time`.
 
         Parameters
         ----------
@@ -156,8 +156,7 @@ class ResultViews:
         matplotlib.axes.Axes
             The axes drawn into.
         """
-        from trainctl import plot
-
+        from trainctl.plots import time as plot
         functions = {
             "velocity": plot.velocity_plot,
             "coupler_force": plot.coupler_force_plot,

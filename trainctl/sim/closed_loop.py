@@ -53,8 +53,8 @@ from trainctl.exceptions import (
 )
 from trainctl.models.actuator import SATURATION_TOLERANCE, ActuatorLimits
 from trainctl.models.dynamics import vehicle_positions
+from trainctl.models.network import FATES, Network
 from trainctl.models.plant import Plant
-from trainctl.network import FATES, Network
 from trainctl.sim._log import HOLD_FALLBACK, Log, dense_grid
 from trainctl.sim.metrics import unconverged_steps
 from trainctl.sim.reference import Reference
@@ -121,7 +121,7 @@ def simulate(
         (inf: only an overflow stops it).
     network : Network or None
         The communication network of networked controllers
-        (:class:`trainctl.network.Network`, reset here): at every sample
+        (:class:`trainctl.models.network.Network`, reset here): at every sample
         each vehicle sends its measured speed [m/s] and the reference sends
         its speed, then ``Measurement.messages`` holds what every vehicle
         has received by then (``{(receiver, sender): (t_sent, value)}``).

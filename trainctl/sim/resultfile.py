@@ -35,17 +35,17 @@ from pydantic import (
 )
 
 from trainctl._files import require_regular
-from trainctl.constraints import Choice
 from trainctl.controllers.base import STATUSES
+from trainctl.declare.constraints import Choice
+from trainctl.declare.jsonfile import FiniteFloat, read_json, validate_json
 from trainctl.exceptions import ModelError
-from trainctl.jsonfile import FiniteFloat, read_json, validate_json
 from trainctl.sim.results import ARRAY_NAMES, FORMAT, OPTIONAL_ARRAY_NAMES
 
 __all__ = ["MAX_ARRAY_BYTES", "RESULT_HINT", "ResultFile", "read_result"]
 
 MAX_ARRAY_BYTES = 4 * 2**30
 """Largest total size of a saved result's arrays, uncompressed [bytes] (4 GiB): the
-longest run allowed (:data:`~trainctl.limits.MAX_SAMPLES`) of a long train is far
+longest run allowed (:data:`~trainctl.declare.limits.MAX_SAMPLES`) of a long train is far
 below it at the controller's samples; an archive declaring more is refused unread."""
 
 _INTEGER_ARRAYS = {"iterations": "iu", "saturation": "biu"}

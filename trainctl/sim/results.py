@@ -163,7 +163,7 @@ class SimulationResult(ResultViews):
     held_noise_square : ndarray or None
         Per sample: Σ over the network's links of the squared noise of the
         value the controller held during it (its unit squared, (m/s)² for
-        speeds; :meth:`trainctl.network.MessageLog.held_noise_square`),
+        speeds; :meth:`trainctl.models.network.MessageLog.held_noise_square`),
         shape (N,); None: zeros (no network).
 
     Examples

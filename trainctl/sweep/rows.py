@@ -2,10 +2,10 @@
 """Run the validated points of a sweep and tabulate them, one row per point and strategy.
 
 Each point is the scenario of :meth:`~trainctl.sweep.SweepDefinition.validate`,
-run by :func:`trainctl.run.run_scenario` like ``trainctl analyse`` runs a
+run by :func:`trainctl.run.analysis.run_scenario` like ``trainctl analyse`` runs a
 file (its analysis and, unless ``simulate=False``, its simulations); a run
 is reduced where it ran to its JSON summary without wall-clock values
-(:meth:`~trainctl.run.AnalysisRun.to_dict`), so that the rows do not depend
+(:meth:`~trainctl.run.analysis.AnalysisRun.to_dict`), so that the rows do not depend
 on where or when a point ran. :func:`point_rows` turns a summary into tidy
 rows:
 
@@ -17,7 +17,7 @@ rows:
   strategy.
 
 The points run in order, on an executor when one is given (a process pool,
-:func:`trainctl.parallel.worker_pool`), each independent of the others, so
+:func:`trainctl.run.pool.worker_pool`), each independent of the others, so
 the rows are the same either way.
 """
 
@@ -45,7 +45,7 @@ DMPC) converged within its ``max_iterations`` at every step (bool), and the numb
 that stopped at that limit unconverged [-] (both None for a strategy that does not iterate:
 :class:`trainctl.sim.Metrics`), and the deviation ratio [-]: vehicle 1's RMS speed error over
 the whole run divided by the same in the run on the ``[simulation] baseline_network`` with
-the same seed (seed 003's case-(c) measure, :mod:`trainctl.claims`; None without a
+the same seed (seed 003's case-(c) measure, :mod:`trainctl.controllers.hinf.claims`; None without a
 baseline network, or when the baseline run does not deviate)."""
 
 
@@ -76,8 +76,8 @@ def run_point(scenario: Scenario, simulate: bool = True) -> dict[str, Any]:
     >>> "simulations" in summary
     False
     """
-    from trainctl._cli_support import without_wall_clock
-    from trainctl.run import run_scenario
+    from trainctl.cli.support import without_wall_clock
+    from trainctl.run.analysis import run_scenario
 
     result: dict[str, Any] = without_wall_clock(run_scenario(scenario, simulate=simulate)
                                                 .to_dict())

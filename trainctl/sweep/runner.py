@@ -10,7 +10,7 @@ writes the table from the store. Where the points run is an
 :class:`concurrent.futures.Executor`:
 
 - None: here, one after the other;
-- a local process pool (:func:`trainctl.parallel.worker_pool`);
+- a local process pool (:func:`trainctl.run.pool.worker_pool`);
 - a Dask cluster: :func:`dask_executor` (``distributed.Client.get_executor``).
 
 Every point is independent and stored under its own key, and the table is
@@ -92,8 +92,8 @@ def run_point_results(scenario: Scenario, simulate: bool = True, arrays: bool | 
     """
     import dataclasses
 
-    from trainctl._cli_support import without_wall_clock
-    from trainctl.run import run_scenario
+    from trainctl.cli.support import without_wall_clock
+    from trainctl.run.analysis import run_scenario
 
     if isinstance(arrays, bool):
         arrays = "dense" if arrays else "none"
@@ -135,7 +135,7 @@ def sweep_scenario(scenario: str | os.PathLike[str], directory: str | os.PathLik
     seeds : int or None
         Seeds per point (None: the ``[sweep]`` section's, else 1).
     executor : concurrent.futures.Executor or None
-        Where the points run (:func:`trainctl.parallel.worker_pool`,
+        Where the points run (:func:`trainctl.run.pool.worker_pool`,
         :func:`dask_executor`); None: here, one after the other.
     simulate : bool
         Run each point's simulations (False: the design review only).

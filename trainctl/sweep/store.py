@@ -65,9 +65,9 @@ from typing import TYPE_CHECKING, Annotated, Any
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictStr, model_validator
 
 from trainctl._files import read_regular_text
-from trainctl.constraints import Choice, Integer, Violation, raise_at
+from trainctl.declare.constraints import Choice, Integer, Violation, raise_at
+from trainctl.declare.jsonfile import read_json, validate_json
 from trainctl.exceptions import ScenarioError
-from trainctl.jsonfile import read_json, validate_json
 
 if TYPE_CHECKING:
     import pandas as pd

@@ -14,14 +14,14 @@
     Re λ > 0 fails.
 ``flocking_sampling``
     ω_max·T_c of the linearised closed loop against 0.1 rad (the hold's
-    phase lag at the fastest mode ≤ 3°, :data:`~trainctl.controllers.sampled.SAMPLING_THRESHOLD`),
+    phase lag at the fastest mode ≤ 3°, :data:`~trainctl.controllers.continuous.sampled.SAMPLING_THRESHOLD`),
     and the held loop's spectral radius (fail ≥ 1), as ``potential_sampling``.
     The lattice spring is linearised at the desired gap: nearer the
     collision barrier φ is steeper, so the margin matters.
 ``flocking_collision``
     H(0) = ½ Σ v̂_i² + Σ_k E(s_k) + ½ c₁ Σ x̂_i² [m²/s²] from the scenario's
     initial errors against the collision barrier E(0) = l·a_s·ψ_α(0)
-    (:meth:`~trainctl.controllers.potentials.FlockingPotential.collision_energy_bound`)
+    (:meth:`~trainctl.controllers.continuous.potentials.FlockingPotential.collision_energy_bound`)
     and its relative-speed equivalent √(2 E(0)). H does not increase along
     the unsaturated continuous loop (:mod:`~trainctl.controllers.flocking.law`),
     so H(0) < E(0) certifies that no gap reaches 0; fail ("uncertified")
@@ -54,7 +54,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trainctl.analysis.check import Check
-from trainctl.controllers.sampled import closed_loop_spectrum, cumulative, sampling_check
+from trainctl.controllers.continuous.sampled import closed_loop_spectrum, cumulative, sampling_check
 
 if TYPE_CHECKING:
     from trainctl.controllers.flocking.family import FlockingDesign

@@ -1,5 +1,5 @@
 # The flocking family as a registry entry: Olfati-Saber's algorithm for virtually coupled trains.
-"""The flocking family object (:data:`FAMILY`), see :mod:`trainctl.controllers.registry`.
+"""The flocking family object (:data:`FAMILY`), see :mod:`trainctl.registry`.
 
 One strategy, ``"flocking"``: Olfati-Saber's (2006) Algorithm 2 on the gaps
 of a virtually coupled formation (:mod:`trainctl.controllers.flocking.law`),
@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:
     import control as ct
 
-    from trainctl.analysis.review import Check
+    from trainctl.analysis.check import Check
     from trainctl.controllers.flocking.controller import FlockingController
     from trainctl.controllers.flocking.law import FlockingLaw
     from trainctl.design import DesignModel
@@ -128,7 +128,7 @@ class FlockingDesign:
         ndarray
             Φ + Γ F, (2n, 2n) [-].
         """
-        from trainctl.controllers.sampled import held_loop
+        from trainctl.controllers.continuous.sampled import held_loop
 
         T = self.control_interval if interval is None else float(interval)
         return held_loop(self.A_open, self.B_open, self.law.feedback(), T)
@@ -167,8 +167,8 @@ def design_flocking(scenario: Scenario, model: DesignModel, settings: Any) -> Fl
     >>> d.A_cl.shape, d.law.potential.desired_gap
     ((8, 8), 500.0)
     """
+    from trainctl.controllers.continuous.sampled import control_interval, initial_errors
     from trainctl.controllers.flocking.law import closed_loop_matrices, law_of
-    from trainctl.controllers.sampled import control_interval, initial_errors
 
     T = control_interval(scenario, model, settings, "flocking")
     law = law_of(scenario, settings)
@@ -327,7 +327,7 @@ class FlockingFamily:
         """Potential parameters, the closed-loop spectrum (sampled) and the graph, JSON-safe.
 
         The ``[communication]`` graph is stored under ``graph``
-        (:func:`trainctl.report.figures_graph.graph_report_data`).
+        (:func:`trainctl.plots.graph_figures.graph_report_data`).
 
         Parameters
         ----------
@@ -343,7 +343,7 @@ class FlockingFamily:
             the collision barrier), ``control_interval`` [s] (as text),
             ``input_bounds`` and ``graph``.
         """
-        from trainctl.report.figures_graph import graph_report_data
+        from trainctl.plots.graph_figures import graph_report_data
 
         lam = np.linalg.eigvals(design.A_cl).astype(complex)
         z = np.exp(lam * design.model.settings.sample_time)
@@ -369,7 +369,7 @@ class FlockingFamily:
         """The communication graph, in the family's section (its spectrum joins the eigenvalue map).
 
         Drawn from ``data["graph"]``
-        (:func:`trainctl.report.figures_graph.graph_figure`).
+        (:func:`trainctl.plots.graph_figures.graph_figure`).
 
         Parameters
         ----------
@@ -381,7 +381,7 @@ class FlockingFamily:
         list of ReportFigure
             One figure, the communication graph.
         """
-        from trainctl.report.figures_graph import graph_figure
+        from trainctl.plots.graph_figures import graph_figure
 
         return [graph_figure(data["graph"], family=self.name, usage=GRAPH_USAGE)]
 

@@ -57,8 +57,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.controllers.potentials import FlockingPotential
-from trainctl.controllers.sampled import cumulative, incidence
+from trainctl.controllers.continuous.potentials import FlockingPotential
+from trainctl.controllers.continuous.sampled import cumulative, incidence
 from trainctl.exceptions import ModelError, ScenarioError
 
 if TYPE_CHECKING:

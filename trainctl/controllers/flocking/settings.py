@@ -1,5 +1,5 @@
 # Settings of the flocking family: the schema of its [controller] table (no solver imports).
-"""The flocking family's settings, declared once (:mod:`trainctl.declare`).
+"""The flocking family's settings, declared once (:mod:`trainctl.declare.keys`).
 
 Olfati-Saber's (2006) Algorithm 2 mapped to virtually coupled trains
 (spec §3.3): a pair potential on the gap between consecutive trains, velocity
@@ -14,8 +14,8 @@ from typing import Annotated, ClassVar
 
 from pydantic import model_validator
 
-from trainctl.constraints import Flag, Number, Violation, raise_at
-from trainctl.declare import Key, settings
+from trainctl.declare.constraints import Flag, Number, Violation, raise_at
+from trainctl.declare.keys import Key, settings
 
 __all__ = ["FlockingSettings"]
 

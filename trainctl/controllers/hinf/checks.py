@@ -13,7 +13,7 @@
 ``hinf_sampling``
     ω_max·T_c of that loop against 0.1 rad and the spectral radius of the
     loop with the law held over each control interval
-    (:func:`trainctl.controllers.sampled.sampling_check`).
+    (:func:`trainctl.controllers.continuous.sampled.sampling_check`).
 ``hinf_delay_margin``
     The smallest uniform delay τ of every message at which the *full*
     coupled loop ẋ = A₀x + B K x(t − τ) loses stability
@@ -50,7 +50,7 @@
     output (``output_scale_m_s``), against 1, the paper's requirement
     (spec §4.2): the bounded-real lemma delay-free, or the
     Lyapunov–Krasovskii LMI for every constant delay in [0, τ_max] with
-    ``delay_certificate_s`` (:mod:`trainctl.analysis.consensus_hinf`). Pass
+    ``delay_certificate_s`` (:mod:`trainctl.controllers.hinf.synthesis`). Pass
     when γ <= 1, fail when γ > 1, naming the channel groups whose own γ
     exceeds 1 and saying that the verdict depends on the scaling (with the
     tracking output a common reference noise reaches the speed errors with
@@ -71,8 +71,8 @@ import math
 from typing import TYPE_CHECKING
 
 from trainctl.analysis.check import Check
-from trainctl.controllers.sampled import closed_loop_spectrum
-from trainctl.controllers.sampled import sampling_check as shared_sampling_check
+from trainctl.controllers.continuous.sampled import closed_loop_spectrum
+from trainctl.controllers.continuous.sampled import sampling_check as shared_sampling_check
 
 if TYPE_CHECKING:
     from trainctl.controllers.hinf.family import HinfDesign

@@ -4,7 +4,7 @@
 At every sample (the family's ``control_interval``) each vehicle records
 its own measured speed, reads what it holds from the network
 (``Measurement.messages``: ``{(receiver, sender): Received(t_sent,
-value)}``, :meth:`trainctl.network.Network.messages`), forms the pinning
+value)}``, :meth:`trainctl.models.network.Network.messages`), forms the pinning
 and consensus differences of :mod:`trainctl.controllers.hinf.law` and
 applies its mass times the command plus its own resistance at its measured
 speed. The forces are held until the next sample.
@@ -13,7 +13,7 @@ Own speeds at a send time
 -------------------------
 With ``own_speed = "delayed"`` vehicle i compares a value sent at t_s with
 its own measured speed at t_s: the newest of its recorded samples at or
-before t_s (within :data:`trainctl.network.ARRIVAL_TOLERANCE`). The
+before t_s (within :data:`trainctl.models.network.ARRIVAL_TOLERANCE`). The
 simulation sends every speed at a control sample, so that is exactly its
 measurement at t_s; a message stamped before the first recorded sample
 (a hand-built one) is compared with the oldest record. The record starts
@@ -51,8 +51,8 @@ from trainctl.controllers.faults import call_solver, fault_record, non_finite_re
 from trainctl.controllers.hinf.law import HinfLaw
 from trainctl.exceptions import ModelError
 from trainctl.models.envelope import EnvelopeBounds
+from trainctl.models.network import ARRIVAL_TOLERANCE, REFERENCE
 from trainctl.models.train import Train
-from trainctl.network import ARRIVAL_TOLERANCE, REFERENCE
 
 __all__ = ["HinfController"]
 

@@ -1,17 +1,17 @@
 # The hinf family as a registry entry: seed 003's distributed robust H∞ cooperative law.
-"""The hinf family object (:data:`FAMILY`), see :mod:`trainctl.controllers.registry`.
+"""The hinf family object (:data:`FAMILY`), see :mod:`trainctl.registry`.
 
 One strategy, ``"distributed"``: the reconstructed distributed robust H∞
 cooperative law of seed 003 (spec §4.2, :mod:`trainctl.controllers.hinf.law`),
 leader-following velocity consensus of the locomotive subsystems over the
 ``[communication]`` graph, each vehicle acting on the reference's and its
 neighbours' speeds as they arrive over the ``[network]`` radio links
-(delayed, lost, interrupted, noisy; :mod:`trainctl.network`), sampled at the
+(delayed, lost, interrupted, noisy; :mod:`trainctl.models.network`), sampled at the
 family's ``control_interval``, about each vehicle's own resistance
 feedforward, clipped to the envelope. The gains κ_p and κ_c are the
 scenario's, or (``synthesise = true``) synthesised once at the design stage
 for the smallest certified H∞ gain γ on the family's own loop
-(:func:`trainctl.analysis.consensus_hinf.consensus_loop` with the
+(:func:`trainctl.controllers.hinf.synthesis.consensus_loop` with the
 feedforward's slope as its local feedback, the family's ``own_speed``,
 channel scaling and performance output). Its linear closed loop on the
 design model (no delay, ideal network) is continuous (dt = 0):
@@ -34,15 +34,15 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:
     import control as ct
 
+    from trainctl.analysis.check import Check
     from trainctl.analysis.connectivity import WindowConnectivity
-    from trainctl.analysis.consensus_hinf import ConsensusLoop, GainSynthesis
     from trainctl.analysis.delay import DelayMargin
-    from trainctl.analysis.review import Check
     from trainctl.controllers.hinf.controller import HinfController
     from trainctl.controllers.hinf.law import HinfLaw, LoopMatrices
+    from trainctl.controllers.hinf.synthesis import ConsensusLoop, GainSynthesis
     from trainctl.design import DesignModel
-    from trainctl.graphs import CommunicationGraph
-    from trainctl.network import NetworkSettings
+    from trainctl.models.graphs import CommunicationGraph
+    from trainctl.models.network import NetworkSettings
     from trainctl.report.figures import ReportFigure
     from trainctl.scenario import Scenario
 
@@ -118,7 +118,7 @@ class HinfDesign:
     consensus : ConsensusLoop
         The same loop affine in (κ_p, κ_c) with the scaled disturbance
         channels and performance output of the settings
-        (:func:`~trainctl.analysis.consensus_hinf.consensus_loop`, the
+        (:func:`~trainctl.controllers.hinf.synthesis.consensus_loop`, the
         feedforward's slope as its local feedback).
     synthesis : GainSynthesis or None
         With ``synthesise = true``: the search's result, whose gains the law
@@ -165,11 +165,11 @@ class HinfDesign:
         """The certified γ of the gains in use and the independent norms beside it.
 
         The synthesis's result when the gains were synthesised; otherwise
-        :func:`~trainctl.analysis.consensus_hinf.certify_gains` at the law's
+        :func:`~trainctl.controllers.hinf.synthesis.certify_gains` at the law's
         gains (delay-free, or for constant delays in [0, τ_max] with
         ``delay_certificate_s``).
         """
-        from trainctl.analysis.consensus_hinf import certify_gains
+        from trainctl.controllers.hinf.synthesis import certify_gains
 
         if self.synthesis is not None:
             return self.synthesis
@@ -236,7 +236,7 @@ class HinfDesign:
         ndarray
             (2n−1, 2n−1) [-].
         """
-        from trainctl.controllers.sampled import held_loop
+        from trainctl.controllers.continuous.sampled import held_loop
 
         T = self.control_interval if interval is None else float(interval)
         speed = float(self.model.settings.speed)
@@ -247,7 +247,7 @@ def design_hinf(scenario: Scenario, model: DesignModel, settings: Any) -> HinfDe
     """The law's gains, its graph and its linear loops.
 
     With ``synthesise = true`` the gains come from one run of
-    :func:`~trainctl.analysis.consensus_hinf.synthesise_gains` on the
+    :func:`~trainctl.controllers.hinf.synthesis.synthesise_gains` on the
     family's consensus loop (the settings' bounds, grid, refinement,
     scaling, performance output and ``delay_certificate_s``); when it
     certifies nothing the law keeps the given gains and the reason is
@@ -285,9 +285,9 @@ def design_hinf(scenario: Scenario, model: DesignModel, settings: Any) -> HinfDe
     >>> d.gains_source, d.consensus.channels[:2]
     ('given', ('f[0]', 'f[1]'))
     """
-    from trainctl.analysis.consensus_hinf import consensus_loop, synthesise_gains
+    from trainctl.controllers.continuous.sampled import control_interval
     from trainctl.controllers.hinf.law import closed_loop_matrices, law_of
-    from trainctl.controllers.sampled import control_interval
+    from trainctl.controllers.hinf.synthesis import consensus_loop, synthesise_gains
     from trainctl.exceptions import SolverError
 
     T = control_interval(scenario, model, settings, "hinf")
@@ -344,7 +344,7 @@ def _gamma_value(x: float) -> str:
 
 def _gamma_rows(design: HinfDesign, gamma: GainSynthesis) -> list[tuple[str, str]]:
     """Certified γ (all, per group), the independent norm, the scaling and the delay range."""
-    from trainctl.analysis.consensus_hinf import CHANNEL_GROUPS
+    from trainctl.controllers.hinf.synthesis import CHANNEL_GROUPS
 
     names = {"force": "force", "reference": "reference noise", "link": "link noise"}
     s = design.settings
@@ -507,7 +507,7 @@ class HinfFamily:
         The delay-free loop's spectrum, sampled at the model's sample time,
         joins the eigenvalue map (``spectra``); the ``[communication]`` graph
         is stored under ``graph``
-        (:func:`trainctl.report.figures_graph.graph_report_data`), JSON-safe.
+        (:func:`trainctl.plots.graph_figures.graph_report_data`), JSON-safe.
 
         Parameters
         ----------
@@ -526,7 +526,7 @@ class HinfFamily:
             graph or no bound), ``connectivity`` (per window) and ``graph``.
         """
         from trainctl.analysis.check import finite_or_none
-        from trainctl.report.figures_graph import graph_report_data
+        from trainctl.plots.graph_figures import graph_report_data
 
         lam = np.linalg.eigvals(design.loops.A_cl).astype(complex)
         z = np.exp(lam * design.model.settings.sample_time)
@@ -561,7 +561,7 @@ class HinfFamily:
         """The communication graph, in the family's section (its spectrum joins the eigenvalue map).
 
         Drawn from ``data["graph"]``
-        (:func:`trainctl.report.figures_graph.graph_figure`).
+        (:func:`trainctl.plots.graph_figures.graph_figure`).
 
         Parameters
         ----------
@@ -573,7 +573,7 @@ class HinfFamily:
         list of ReportFigure
             One figure, the communication graph.
         """
-        from trainctl.report.figures_graph import graph_figure
+        from trainctl.plots.graph_figures import graph_figure
 
         return [graph_figure(data["graph"], family=self.name, usage=GRAPH_USAGE)]
 

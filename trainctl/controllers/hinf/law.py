@@ -13,7 +13,7 @@ where
 
 - v̂_d and v̂_j are the newest reference speed and neighbour j's measured
   speed vehicle i has received over the network (noise included, held
-  during outages and after losses: :class:`trainctl.network.Network`), and
+  during outages and after losses: :class:`trainctl.models.network.Network`), and
   t_i0, t_ij the times at which they were sent;
 - ``v_i(t_··)`` is vehicle i's own measured speed at that send time, from its
   record of its own measurements (``own_speed = "delayed"``: spec §4.2's
@@ -64,7 +64,7 @@ c_i = a1_i + 2 a2_i v_r the slope of the feedforward (cancelling the
 resistance damping of a Jacobian design model; :meth:`HinfLaw.resistance_feedback`),
 P = diag(b_i), L the graph Laplacian. The same loop, affine in (κ_p, κ_c)
 with the disturbance channels, is
-:func:`~trainctl.analysis.consensus_hinf.consensus_loop` with
+:func:`~trainctl.controllers.hinf.synthesis.consensus_loop` with
 ``local_feedback = resistance_feedback(v_r)``: the H∞ synthesis and the
 certificates of the family run on it. With a uniform delay τ on every message the loop is
 ẋ = A₀x̂ + B K x̂(t − τ):
@@ -256,7 +256,7 @@ class HinfLaw:
         the cruise, a gain-free feedback on each vehicle's current speed that
         cancels the resistance damping of a Jacobian design model. It is the
         ``local_feedback`` of
-        :func:`~trainctl.analysis.consensus_hinf.consensus_loop`, so that the
+        :func:`~trainctl.controllers.hinf.synthesis.consensus_loop`, so that the
         gains are synthesised on the loop the family closes.
 
         Parameters

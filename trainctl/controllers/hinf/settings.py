@@ -1,5 +1,5 @@
 # Settings of the hinf family: the schema of its [controller] table (no solver imports).
-"""The hinf family's settings, declared once (:mod:`trainctl.declare`).
+"""The hinf family's settings, declared once (:mod:`trainctl.declare.keys`).
 
 The distributed robust H∞ cooperative law of seed 003 as reconstructed in
 spec §4.2: leader-following velocity consensus over the ``[communication]``
@@ -9,7 +9,7 @@ over the ``[network]`` radio links. The gains κ_p and κ_c are the
 scenario's, or, with ``synthesise = true``, the ones within the bounds that
 minimise the certified H∞ gain γ from the scaled disturbances (force per
 unit mass, reference and link noise) to the scaled performance output
-(:func:`trainctl.analysis.consensus_hinf.synthesise_gains`).
+(:func:`trainctl.controllers.hinf.synthesis.synthesise_gains`).
 """
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ from typing import Annotated, ClassVar
 
 from pydantic import model_validator
 
-from trainctl.constraints import Array, Choice, Flag, Integer, Number, Violation, raise_at
-from trainctl.declare import Key, settings
+from trainctl.declare.constraints import Array, Choice, Flag, Integer, Number, Violation, raise_at
+from trainctl.declare.keys import Key, settings
 
 __all__ = ["DEFAULT_CONSENSUS_BOUNDS", "DEFAULT_CONSENSUS_GAIN", "DEFAULT_PINNING_BOUNDS",
            "DEFAULT_PINNING_GAIN", "OWN_SPEEDS", "PERFORMANCES", "HinfSettings"]
@@ -251,7 +251,7 @@ class HinfSettings:
         dict of str to float
             ``"force"``: ``force_scale`` [m/s²]; ``"reference"`` and
             ``"link"``: ``noise_scale`` [m/s] (the ``scaling`` of
-            :func:`~trainctl.analysis.consensus_hinf.consensus_loop`).
+            :func:`~trainctl.controllers.hinf.synthesis.consensus_loop`).
 
         Examples
         --------

@@ -1,5 +1,5 @@
 # The LQR family as a registry entry: the unconstrained baseline every comparison needs.
-"""The LQR family object (:data:`FAMILY`), see :mod:`trainctl.controllers.registry`.
+"""The LQR family object (:data:`FAMILY`), see :mod:`trainctl.registry`.
 
 Two strategies on the run's discrete design model (inputs in kN):
 
@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:
     import control as ct
 
-    from trainctl.analysis.review import Check
+    from trainctl.analysis.check import Check
     from trainctl.controllers.lqr.controller import LQRController
     from trainctl.design import DesignModel
     from trainctl.report.figures import ReportFigure
@@ -292,7 +292,7 @@ class LQRFamily:
         list of Check
             ``lqr_closed_loop`` (centralised) and ``lqr_decentralised_closed_loop``.
         """
-        from trainctl.analysis.review import radius_check
+        from trainctl.analysis.check import radius_check
 
         labels = design.scenario.train.state_labels()
         hint = "raise the output weights or lower R"

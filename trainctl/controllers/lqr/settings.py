@@ -1,5 +1,5 @@
 # Settings of the LQR family: the schema of its [controller] table (no solver imports).
-"""The LQR family's settings, declared once (:mod:`trainctl.declare`).
+"""The LQR family's settings, declared once (:mod:`trainctl.declare.keys`).
 
 The outputs and weights are the same keys, with the same rules, as the MPC
 family's (:mod:`trainctl.controllers.tracking`).
@@ -11,7 +11,6 @@ from typing import Annotated, ClassVar
 
 from pydantic import model_validator
 
-from trainctl.constraints import Flag
 from trainctl.controllers.tracking import (
     InputWeight,
     InputWeightUnit,
@@ -21,7 +20,8 @@ from trainctl.controllers.tracking import (
     check_force_weight,
     per_kn2,
 )
-from trainctl.declare import Key, settings
+from trainctl.declare.constraints import Flag
+from trainctl.declare.keys import Key, settings
 
 __all__ = ["LQRSettings"]
 

@@ -1,5 +1,5 @@
 # The MPC family's design checks: N-DMPC convergence, relaxation, closed loops, Nash gap.
-"""Design checks of the MPC family (unconstrained theory of :mod:`trainctl.analysis.mpc`).
+"""Design checks of the MPC family (unconstrained theory of :mod:`trainctl.controllers.mpc.theory.mpc`).
 
 Weight thresholds are reported in the unit the scenario used (per kN² or per N²).
 """
@@ -10,7 +10,7 @@ import dataclasses
 import math
 from typing import TYPE_CHECKING, Any
 
-from trainctl.analysis.review import Check, radius_check
+from trainctl.analysis.check import Check, radius_check
 
 if TYPE_CHECKING:
     from trainctl.controllers.mpc.family import MPCFamilyDesign
@@ -120,7 +120,7 @@ def _with_local(check: Check, local: Any, what: str, *,
         r_star = local.threshold_weight
         if r_star is None:
             message += (" (its R* is not computed at this size: call "
-                        "trainctl.analysis.local_iteration.local_threshold_weight)")
+                        "trainctl.controllers.mpc.theory.local_iteration.local_threshold_weight)")
         elif math.isinf(r_star):
             message += ", no R makes it converge"
             raise_r = "no R makes it converge: shorten P or widen the neighbourhoods"
@@ -135,7 +135,7 @@ def _with_local(check: Check, local: Any, what: str, *,
         status = "warn"
         hint = ("the neighbourhood-local formulation (ndmpc-local) "
                 + (f"diverges: {raise_r}" if what == "rho_d0" else "is unstable")
-                + "; see trainctl.analysis.local_iteration")
+                + "; see trainctl.controllers.mpc.theory.local_iteration")
     return dataclasses.replace(check, status=status, message=message, details=details,
                                hint=hint)
 

@@ -3,14 +3,14 @@
 
 A condensed MPC decides the plan U (M moves of nu inputs, ordered move by
 move) with the states eliminated through the prediction Y = Φx + S_u u(k-1)
-+ G U of :func:`trainctl.analysis.mpc.prediction_matrices`. This module holds
++ G U of :func:`trainctl.controllers.mpc.theory.mpc.prediction_matrices`. This module holds
 what every such problem needs, whatever the model:
 
 - :class:`MoveMaps` — decision vector to input moves (u- or Δu-form), move
   differences, the first move and the shift of the previous plan;
 - :func:`input_rows` — constraint rows bounding the moves and their rates;
 - :class:`QPBlock` / :func:`build_block` — one QP over some columns of U,
-  modelled once as a :class:`~trainctl.controllers.qp.ParametricQP`, with its
+  modelled once as a :class:`~trainctl.controllers.mpc.qp.parametric.ParametricQP`, with its
   parameters gathered from a per-step source vector and, on the fast path,
   composed straight into OSQP's data (the other blocks' moves, when the plan
   is split among several optimisers, enter through the coupling maps Ko, Fo);
@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.controllers.fastqp import QPSolution
-from trainctl.controllers.qp import PARAMETERS, ParametricQP
+from trainctl.controllers.mpc.qp.fast import QPSolution
+from trainctl.controllers.mpc.qp.parametric import PARAMETERS, ParametricQP
 from trainctl.exceptions import ModelError
 
 __all__ = ["BlockParameters", "MoveMaps", "QPBlock", "block_parameters", "build_block",
@@ -259,7 +259,7 @@ class QPBlock:
     the fast path stores a scaled selection (the lower bounds enter as -z <=
     -lb, hence the factor -1):
 
-    >>> from trainctl.controllers.qp import ParametricQP
+    >>> from trainctl.controllers.mpc.qp.parametric import ParametricQP
     >>> qp = ParametricQP(np.eye(2), np.eye(2), np.zeros((0, 2)), name="demo")
     >>> params = {"g": np.arange(2), "lb": np.arange(2, 4), "ub": np.arange(4, 6),
     ...           "hl": np.arange(0), "hu": np.arange(0)}
@@ -349,7 +349,7 @@ def build_block(qp: ParametricQP, *, inputs: tuple[int, ...], cols: Index, Kc: A
     Minimise ½‖z‖² + gᵀz with g = (-2, 1) in the box -0.5 <= z <= 0.5: the
     unconstrained optimum -g = (2, -1) is clipped to (0.5, -0.5).
 
-    >>> from trainctl.controllers.qp import ParametricQP
+    >>> from trainctl.controllers.mpc.qp.parametric import ParametricQP
     >>> qp = ParametricQP(np.eye(2), np.eye(2), np.zeros((0, 2)), name="demo")
     >>> params = {"g": np.arange(2), "lb": np.arange(2, 4), "ub": np.arange(4, 6),
     ...           "hl": np.arange(0), "hu": np.arange(0)}
@@ -402,7 +402,7 @@ def block_parameters(blocks: list[QPBlock], src: Array, fast: bool) -> list[Bloc
     picked from the source; with it, OSQP's data [q; h] are composed, the
     lower bounds negated (-z <= -lb).
 
-    >>> from trainctl.controllers.qp import ParametricQP
+    >>> from trainctl.controllers.mpc.qp.parametric import ParametricQP
     >>> qp = ParametricQP(np.eye(2), np.eye(2), np.zeros((0, 2)), name="demo")
     >>> params = {"g": np.arange(2), "lb": np.arange(2, 4), "ub": np.arange(4, 6),
     ...           "hl": np.arange(0), "hu": np.arange(0)}

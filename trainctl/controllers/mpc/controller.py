@@ -30,7 +30,7 @@ strategy (:mod:`.strategies`) decides the blocks and combines their plans:
     from the trajectories the other coaches predicted for their own states
     (exchanged every iteration with the plans); its QP's size and build cost
     do not depend on the train length (:mod:`.local`,
-    :mod:`trainctl.analysis.local_iteration`). Needs ``local_model``.
+    :mod:`trainctl.controllers.mpc.theory.local_iteration`). Needs ``local_model``.
 
 Constraints: the traction/braking envelope of every coach at the reference
 speed (hard; trailers brake only), the input rate (hard, per step), and the
@@ -68,16 +68,16 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.analysis.local_iteration import LocalModel
-from trainctl.analysis.mpc import MPCDesign
 from trainctl.controllers.base import Measurement, ReferencePreview, StepRecord
 from trainctl.controllers.faults import safe_inputs
 from trainctl.controllers.mpc.condensed import QPBlock, shifted
 from trainctl.controllers.mpc.local import LocalTrainProblem
+from trainctl.controllers.mpc.observer import KalmanObserver, ObserverSettings
 from trainctl.controllers.mpc.problem import StepContext, TrainProblem
 from trainctl.controllers.mpc.settings import QP_SOLVERS, STRATEGIES, MPCConstraints
 from trainctl.controllers.mpc.strategies import make_strategy
-from trainctl.controllers.observer import KalmanObserver, ObserverSettings
+from trainctl.controllers.mpc.theory.local_iteration import LocalModel
+from trainctl.controllers.mpc.theory.mpc import MPCDesign
 from trainctl.exceptions import ModelError
 from trainctl.models.envelope import EnvelopeBounds
 from trainctl.models.feedforward import ForceSplit
@@ -133,7 +133,7 @@ class MPCController:
     path : {"fast", "cvxpy"}
         QP solve path.
     qp_solver : {"auto", "osqp", "daqp"}
-        QP solver of the fast path (:func:`~trainctl.controllers.qp.choose_solver`).
+        QP solver of the fast path (:func:`~trainctl.controllers.mpc.qp.parametric.choose_solver`).
     name : str
         Label.
     observer : KalmanObserver or None
@@ -141,7 +141,7 @@ class MPCController:
         (``measurement.outputs``) and compensates the estimated disturbance.
     local_model : LocalModel or None
         The continuous design model partitioned by coach
-        (:func:`trainctl.analysis.local_iteration.local_model`); required by
+        (:func:`trainctl.controllers.mpc.theory.local_iteration.local_model`); required by
         ``"ndmpc-local"``, ignored otherwise.
 
     Examples
@@ -495,7 +495,7 @@ def make_mpc(train: Train, design: MPCDesign, *, dt: float, strategy: str = "ndm
     path : {"fast", "cvxpy"}
         QP solve path.
     qp_solver : {"auto", "osqp", "daqp"}
-        QP solver of the fast path (:func:`~trainctl.controllers.qp.choose_solver`).
+        QP solver of the fast path (:func:`~trainctl.controllers.mpc.qp.parametric.choose_solver`).
     name : str or None
         Label (default: the strategy).
     observer : ObserverSettings or None

@@ -1,10 +1,10 @@
 # The MPC family as a registry entry: vocabulary, schema, design, controllers, checks, report.
-"""The MPC family object (:data:`FAMILY`), see :mod:`trainctl.controllers.registry`.
+"""The MPC family object (:data:`FAMILY`), see :mod:`trainctl.registry`.
 
 The family's design (:class:`MPCFamilyDesign`) holds the unconstrained design
-on the run's discrete model (:class:`~trainctl.analysis.mpc.MPCDesign`) and,
+on the run's discrete model (:class:`~trainctl.controllers.mpc.theory.mpc.MPCDesign`) and,
 computed on first use, its closed-form analysis
-(:func:`~trainctl.analysis.dmpc.analyse_dmpc`), which the checks, the linear
+(:func:`~trainctl.controllers.mpc.theory.dmpc.analyse_dmpc`), which the checks, the linear
 closed loops and the report share.
 """
 
@@ -22,11 +22,11 @@ from trainctl.controllers.mpc.settings import STRATEGIES
 if TYPE_CHECKING:
     import control as ct
 
-    from trainctl.analysis.dmpc import DMPCAnalysis, LocalDMPCAnalysis
-    from trainctl.analysis.local_iteration import LocalModel
-    from trainctl.analysis.mpc import MPCDesign
-    from trainctl.analysis.review import Check
+    from trainctl.analysis.check import Check
     from trainctl.controllers.mpc.controller import MPCController
+    from trainctl.controllers.mpc.theory.dmpc import DMPCAnalysis, LocalDMPCAnalysis
+    from trainctl.controllers.mpc.theory.local_iteration import LocalModel
+    from trainctl.controllers.mpc.theory.mpc import MPCDesign
     from trainctl.design import DesignModel
     from trainctl.report.figures import ReportFigure
     from trainctl.scenario import Scenario
@@ -90,7 +90,7 @@ class MPCFamilyDesign:
     @cached_property
     def analysis(self) -> DMPCAnalysis:
         """The closed-form N-DMPC / cooperative analysis (computed once)."""
-        from trainctl.analysis.dmpc import analyse_dmpc
+        from trainctl.controllers.mpc.theory.dmpc import analyse_dmpc
 
         return analyse_dmpc(self.mpc, iterations=self.settings.iterations,
                             cooperative_weights=self.cooperative_weights())
@@ -101,10 +101,10 @@ class MPCFamilyDesign:
 
         The coach owns its speed and the elongation of the coupler behind it;
         hold, substeps and boundary are the ``local_*`` settings
-        (:func:`~trainctl.analysis.local_iteration.local_model`). Needs the
+        (:func:`~trainctl.controllers.mpc.theory.local_iteration.local_model`). Needs the
         zero-order-hold design model (``discretisation = "zoh"``).
         """
-        from trainctl.analysis.local_iteration import local_model, train_state_owner
+        from trainctl.controllers.mpc.theory.local_iteration import local_model, train_state_owner
 
         sys, ctl = self.model.design, self.settings
         return local_model(self.mpc, np.asarray(sys.A, dtype=float),
@@ -121,7 +121,7 @@ class MPCFamilyDesign:
     @cached_property
     def local_analysis(self) -> LocalDMPCAnalysis:
         """The closed-form analysis of neighbourhood-local N-DMPC (computed once)."""
-        from trainctl.analysis.dmpc import analyse_local_dmpc
+        from trainctl.controllers.mpc.theory.dmpc import analyse_local_dmpc
 
         return analyse_local_dmpc(self.mpc, self.local, iterations=self.settings.iterations)
 
@@ -169,7 +169,7 @@ def design_mpc(scenario: Scenario, model: DesignModel, settings: Any) -> MPCFami
     MPCFamilyDesign
         The design (its analysis is computed on first use).
     """
-    from trainctl.analysis.mpc import MPCDesign
+    from trainctl.controllers.mpc.theory.mpc import MPCDesign
 
     train = scenario.train
     n, nc = train.n_vehicles, train.n_couplers
@@ -202,7 +202,7 @@ def make_mpc_controller(design: MPCFamilyDesign, strategy: str) -> MPCController
         Ready to ``step``.
     """
     from trainctl.controllers.mpc.controller import MPCController
-    from trainctl.controllers.observer import KalmanObserver, ObserverSettings
+    from trainctl.controllers.mpc.observer import KalmanObserver, ObserverSettings
 
     scenario, ctl = design.scenario, design.settings
     dt = scenario.model.sample_time
@@ -271,8 +271,8 @@ def mpc_closed_loop(design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:
 
 
 def _decentralised_closed_loop(mpc: MPCDesign) -> np.ndarray:
-    from trainctl.analysis.iteration import closed_loop_matrix, iteration_matrices
-    from trainctl.analysis.mpc import prediction
+    from trainctl.controllers.mpc.theory.iteration import closed_loop_matrix, iteration_matrices
+    from trainctl.controllers.mpc.theory.mpc import prediction
 
     own = mpc.with_neighbourhoods([(i,) for i in range(mpc.n_inputs)])
     pred = prediction(own)

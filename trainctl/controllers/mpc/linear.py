@@ -14,7 +14,7 @@ over the plan v of M moves: the inputs u (``form="u"``) or their increments
 Δu (``form="du"``), the input held after move M. Q weights the outputs,
 Qf the terminal state, R the plan; every bound may be hard or soft. The
 states are eliminated with the prediction of
-:func:`trainctl.analysis.mpc.prediction_matrices`, and the QP is a block of
+:func:`trainctl.controllers.mpc.theory.mpc.prediction_matrices`, and the QP is a block of
 :mod:`.condensed` — the building blocks the train MPC is made of — solved
 through the probed OSQP data (``path="fast"``) or ``Problem.solve``
 (``path="cvxpy"``).
@@ -35,14 +35,14 @@ import control as ct
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from trainctl.analysis.mpc import prediction_matrices
 from trainctl.controllers.base import Measurement, ReferencePreview, StepRecord
 from trainctl.controllers.mpc import validate as check
 from trainctl.controllers.mpc.condensed import block_parameters, build_block, move_maps
+from trainctl.controllers.mpc.qp.parametric import QP_SOLVERS, ParametricQP
+from trainctl.controllers.mpc.qp.status import is_usable
 from trainctl.controllers.mpc.rows import constraint_rows
 from trainctl.controllers.mpc.strategies import solve_block
-from trainctl.controllers.qp import QP_SOLVERS, ParametricQP
-from trainctl.controllers.status import is_usable
+from trainctl.controllers.mpc.theory.mpc import prediction_matrices
 from trainctl.exceptions import DimensionError, ModelError
 
 __all__ = ["LinearMPC", "LinearMPCController", "MPCSolution", "make_linear_mpc"]
@@ -67,7 +67,7 @@ class MPCSolution:
     plan : ndarray
         The decision: M moves of u (u-form) or Δu (Δu-form), shape (M, nu).
     status : str
-        Step status (:mod:`trainctl.controllers.status`); the arrays are NaN
+        Step status (:mod:`trainctl.controllers.mpc.qp.status`); the arrays are NaN
         unless it is ``"optimal"`` or ``"optimal_inaccurate"``.
     cost : float
         The objective of the module docstring at the solution.
@@ -156,7 +156,7 @@ class LinearMPC:
     path : {"fast", "cvxpy"}
         QP solve path.
     qp_solver : {"auto", "osqp", "daqp"}
-        QP solver of the fast path (:func:`~trainctl.controllers.qp.choose_solver`).
+        QP solver of the fast path (:func:`~trainctl.controllers.mpc.qp.parametric.choose_solver`).
     name : str
         Label of the QP.
 
@@ -504,7 +504,7 @@ def make_linear_mpc(sysd: ct.StateSpace, *, Q: ArrayLike, R: ArrayLike, predicti
     qp_solver : {"osqp", "daqp", "auto"}
         QP solver of the fast path: OSQP, DAQP (dense active set, on the same
         data) or ``"auto"`` (DAQP up to
-        :data:`~trainctl.controllers.qp.DAQP_MAX_DECISIONS` decisions).
+        :data:`~trainctl.controllers.mpc.qp.parametric.DAQP_MAX_DECISIONS` decisions).
     name : str
         Label of the QP and of error messages.
 

@@ -2,7 +2,7 @@
 """The QPs of neighbourhood-local N-DMPC (strategy ``"ndmpc-local"``).
 
 Coach i's QP is built from its neighbourhood model alone
-(:mod:`trainctl.analysis.local_iteration`): its decision is its own M moves,
+(:mod:`trainctl.controllers.mpc.theory.local_iteration`): its decision is its own M moves,
 its cost the outputs of its neighbourhood N_i over P steps, its rows its own
 input bounds and rates and the soft force rows of the couplers next to it —
 all of a size that does not depend on the train length. The rest of the
@@ -32,14 +32,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.analysis.local_iteration import (
-    CoachPrediction,
-    LocalModel,
-    LocalResponse,
-    coach_predictions,
-    rows_response,
-)
-from trainctl.analysis.mpc import MPCDesign
 from trainctl.controllers.mpc.condensed import (
     BlockParameters,
     QPBlock,
@@ -49,6 +41,8 @@ from trainctl.controllers.mpc.condensed import (
     move_maps,
 )
 from trainctl.controllers.mpc.problem import KN, StepContext, TrainProblem, fill_move_sources
+from trainctl.controllers.mpc.qp.parametric import ParametricQP
+from trainctl.controllers.mpc.qp.status import is_usable
 from trainctl.controllers.mpc.settings import MPCConstraints
 from trainctl.controllers.mpc.strategies import (
     FALLBACK,
@@ -59,8 +53,14 @@ from trainctl.controllers.mpc.strategies import (
     solve_block,
     worst_status,
 )
-from trainctl.controllers.qp import ParametricQP
-from trainctl.controllers.status import is_usable
+from trainctl.controllers.mpc.theory.local_iteration import (
+    CoachPrediction,
+    LocalModel,
+    LocalResponse,
+    coach_predictions,
+    rows_response,
+)
+from trainctl.controllers.mpc.theory.mpc import MPCDesign
 
 __all__ = ["LocalNDMPC", "LocalTrainProblem"]
 
@@ -109,7 +109,7 @@ class LocalTrainProblem(TrainProblem):
     path : {"fast", "cvxpy"}
         QP solve path.
     qp_solver : {"auto", "osqp", "daqp"}
-        The fast path's QP solver (:func:`trainctl.controllers.qp.choose_solver`).
+        The fast path's QP solver (:func:`trainctl.controllers.mpc.qp.parametric.choose_solver`).
     fixed : tuple of int
         Coaches whose moves the envelope pins (:func:`~.controller.fixed_inputs`): no QP
         is solved for them; they still publish their predicted own-state trajectory.

@@ -2,7 +2,7 @@
 """The problem of the train MPC: the condensed core plus the train's data.
 
 With x̃ = [v - v_ref; delta - delta_ff] and ũ = u - u_ff (kN) about the
-feedforward u_ff, the prediction of :mod:`trainctl.analysis.mpc` gives
+feedforward u_ff, the prediction of :mod:`trainctl.controllers.mpc.theory.mpc` gives
 Y = Φx̃ + S_u ũ(k-1) + G U for the design outputs (speed errors,
 coupler-force deviations in kN) and a second prediction for the coupler
 forces that the constraints bound. The QPs are the blocks of
@@ -26,7 +26,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.analysis.mpc import MPCDesign, Prediction, prediction
 from trainctl.controllers.faults import safe_inputs
 from trainctl.controllers.mpc.condensed import (
     BlockParameters,
@@ -36,9 +35,10 @@ from trainctl.controllers.mpc.condensed import (
     input_rows,
     move_maps,
 )
+from trainctl.controllers.mpc.qp.parametric import ParametricQP
 from trainctl.controllers.mpc.settings import MPCConstraints
 from trainctl.controllers.mpc.strategies import Strategy
-from trainctl.controllers.qp import ParametricQP
+from trainctl.controllers.mpc.theory.mpc import MPCDesign, Prediction, prediction
 
 if TYPE_CHECKING:
     from trainctl.controllers.mpc.local import LocalTrainProblem
@@ -132,7 +132,7 @@ class TrainProblem:
     path : {"fast", "cvxpy"}
         QP solve path.
     qp_solver : {"auto", "osqp", "daqp"}
-        QP solver of the fast path (:func:`~trainctl.controllers.qp.choose_solver`).
+        QP solver of the fast path (:func:`~trainctl.controllers.mpc.qp.parametric.choose_solver`).
     fixed : tuple of int
         Coaches whose moves the envelope pins (:func:`~.controller.fixed_inputs`): a
         block of only such coaches is not built; their moves are the controller's.

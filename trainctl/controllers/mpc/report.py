@@ -64,7 +64,7 @@ def mpc_report_data(design: MPCFamilyDesign) -> dict[str, Any]:
     >>> list(data["spectra"])
     ['centralised', 'N-DMPC (Nash)', 'N-DMPC (10 iterations)']
     """
-    from trainctl.analysis.iteration import convergence_sweep, threshold_weight
+    from trainctl.controllers.mpc.theory.iteration import convergence_sweep, threshold_weight
 
     ctl, res = design.settings, design.analysis
     k = ctl.iterations
@@ -121,8 +121,8 @@ def mpc_report_figures(data: Mapping[str, Any]) -> list[ReportFigure]:
     """
     from matplotlib.figure import Figure
 
-    from trainctl import plot
-    from trainctl._plotting import fixed_margins
+    from trainctl.plots import time as plot
+    from trainctl.plots._common import fixed_margins
     from trainctl.report.figures import ReportFigure, figure_svg
 
     sweep = data["weight_sweep"]

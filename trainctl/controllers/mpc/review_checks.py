@@ -141,7 +141,7 @@ def qp_conditioning_check(design: MPCFamilyDesign) -> Check:
     >>> check.status, round(check.value, 2)
     ('pass', 1.74)
     """
-    from trainctl.analysis.mpc import prediction
+    from trainctl.controllers.mpc.theory.mpc import prediction
 
     H = prediction(design.mpc).hessian()
     cond = float(np.linalg.cond(H))

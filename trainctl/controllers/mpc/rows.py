@@ -22,7 +22,7 @@ __all__ = ["ConstraintRows", "constraint_rows"]
 
 Array = NDArray[np.float64]
 Prediction = tuple[Array, Array, Array]
-"""(Φ, S_u, G) of :func:`trainctl.analysis.mpc.prediction_matrices`."""
+"""(Φ, S_u, G) of :func:`trainctl.controllers.mpc.theory.mpc.prediction_matrices`."""
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ from typing import Annotated, Any
 from pydantic import GetCoreSchemaHandler, TypeAdapter, ValidationInfo
 from pydantic_core import CoreSchema, core_schema
 
-from trainctl.constraints import Array, Number, Rule, Violation, fail, raise_at, suggest
+from trainctl.declare.constraints import Array, Number, Rule, Violation, fail, raise_at, suggest
 
 __all__ = ["NEIGHBOURHOODS", "CooperativeWeightsRule", "NeighbourhoodRule", "coaches"]
 

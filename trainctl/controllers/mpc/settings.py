@@ -3,7 +3,7 @@
 
 :class:`ControllerSettings` is the schema of the family's ``[controller]``
 table: every key is declared once here (type, unit and converter to SI,
-constraint, default, one line of documentation, :mod:`trainctl.declare`);
+constraint, default, one line of documentation, :mod:`trainctl.declare.keys`);
 the scenario package derives the file table, its messages, documentation and
 JSON Schema from it.
 """
@@ -21,7 +21,6 @@ from pydantic import (
     model_validator,
 )
 
-from trainctl.constraints import Array, Choice, Flag, Integer, Number, Violation, raise_at
 from trainctl.controllers.mpc.rules import (
     NEIGHBOURHOODS,
     CooperativeWeightsRule,
@@ -38,8 +37,9 @@ from trainctl.controllers.tracking import (
     check_outputs_fit,
     per_kn2,
 )
-from trainctl.declare import Key, python_error, settings
-from trainctl.limits import HORIZON, ITERATIONS
+from trainctl.declare.constraints import Array, Choice, Flag, Integer, Number, Violation, raise_at
+from trainctl.declare.keys import Key, python_error, settings
+from trainctl.declare.limits import HORIZON, ITERATIONS
 from trainctl.units import kn_to_n
 
 __all__ = [
@@ -65,14 +65,14 @@ SOLVER_PATHS = ("fast", "cvxpy")
 """QP solve paths of the MPC."""
 
 QP_SOLVERS = ("auto", "osqp", "daqp")
-"""QP solvers of the fast path (``trainctl.controllers.qp.QP_SOLVERS``): ``"auto"`` takes
-DAQP for QPs of at most ``trainctl.controllers.qp.DAQP_MAX_DECISIONS`` decisions, OSQP above."""
+"""QP solvers of the fast path (``trainctl.controllers.mpc.qp.parametric.QP_SOLVERS``): ``"auto"`` takes
+DAQP for QPs of at most ``trainctl.controllers.mpc.qp.parametric.DAQP_MAX_DECISIONS`` decisions, OSQP above."""
 
 LOCAL_HOLDS = ("foh", "zoh")
 """ndmpc-local: first- or zero-order hold of the exchanged outer states."""
 
 LOCAL_BOUNDARIES = ("state", "force")
-"""ndmpc-local: what a neighbourhood takes from outside (trainctl.analysis.local_iteration)."""
+"""ndmpc-local: what a neighbourhood takes from outside (trainctl.controllers.mpc.theory.local_iteration)."""
 
 OBSERVERS = ("none", "kalman")
 """Full-state feedback, or a Kalman observer of the state and a grade-like disturbance."""
@@ -191,7 +191,7 @@ class ControllerSettings:
     qp_solver : {"auto", "osqp", "daqp"}
         QP solver of the fast path: OSQP (ADMM), DAQP (dual active set,
         dense) or ``"auto"``, DAQP for the small QPs (up to
-        ``trainctl.controllers.qp.DAQP_MAX_DECISIONS`` decisions), OSQP
+        ``trainctl.controllers.mpc.qp.parametric.DAQP_MAX_DECISIONS`` decisions), OSQP
         for larger ones. The ``"cvxpy"`` path always uses OSQP.
     observer : {"none", "kalman"}
         ``"none"``: the controller measures the full state. ``"kalman"``: it
@@ -204,7 +204,7 @@ class ControllerSettings:
         applies; None for every step.
     local_hold : {"foh", "zoh"}
         ``"ndmpc-local"``: the exchanged outer states between their samples,
-        linear or constant (:func:`trainctl.analysis.local_iteration.local_model`).
+        linear or constant (:func:`trainctl.controllers.mpc.theory.local_iteration.local_model`).
     local_substeps : int
         ``"ndmpc-local"``: exchanged trajectory samples per sample time, 1..64.
     local_boundary : {"state", "force"}

@@ -41,11 +41,11 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.analysis.mpc import MPCDesign
-from trainctl.controllers.fastqp import QPSolution
 from trainctl.controllers.faults import call_solver
 from trainctl.controllers.mpc.condensed import BlockParameters, QPBlock
-from trainctl.controllers.status import is_usable
+from trainctl.controllers.mpc.qp.fast import QPSolution
+from trainctl.controllers.mpc.qp.status import is_usable
+from trainctl.controllers.mpc.theory.mpc import MPCDesign
 
 __all__ = ["Centralised", "Cooperative", "Decentralised", "NDMPC", "PlanResult", "Strategy",
            "make_strategy", "solve_block"]
@@ -215,7 +215,7 @@ class Centralised:
     Its plan is one solve of the single block: here min ½‖U‖² + gᵀU with
     g = (-2, 1) in the box |U| <= 0.5, whose solution clips -g to (0.5, -0.5).
 
-    >>> from trainctl.controllers.qp import ParametricQP
+    >>> from trainctl.controllers.mpc.qp.parametric import ParametricQP
     >>> from trainctl.controllers.mpc.condensed import block_parameters, build_block
     >>> qp = ParametricQP(np.eye(2), np.eye(2), np.zeros((0, 2)), name="demo")
     >>> params = {"g": np.arange(2), "lb": np.arange(2, 4), "ub": np.arange(4, 6),

@@ -18,7 +18,7 @@ import control as ct
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from trainctl.analysis.mpc import FORMS
+from trainctl.controllers.mpc.theory.mpc import FORMS
 from trainctl.exceptions import DimensionError, ModelError
 
 __all__ = ["BOUND_GROUPS", "SOFT_PENALTY", "CoreSettings", "as_bound", "as_soft", "as_vector",

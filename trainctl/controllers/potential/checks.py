@@ -60,8 +60,8 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from trainctl.analysis.check import Check
-from trainctl.controllers.sampled import SAMPLING_THRESHOLD, closed_loop_spectrum
-from trainctl.controllers.sampled import sampling_check as shared_sampling_check
+from trainctl.controllers.continuous.sampled import SAMPLING_THRESHOLD, closed_loop_spectrum
+from trainctl.controllers.continuous.sampled import sampling_check as shared_sampling_check
 
 if TYPE_CHECKING:
     from trainctl.controllers.potential.family import PotentialDesign
@@ -152,7 +152,7 @@ def closed_form_certificate(design: PotentialDesign) -> Array | None:
     it applies to equal masses and a symmetric consensus graph, and is kept
     only when AᵀP + PA ⪯ 0 holds numerically.
     """
-    from trainctl.controllers.sampled import cumulative, incidence
+    from trainctl.controllers.continuous.sampled import cumulative, incidence
 
     law, train = design.law, design.scenario.train
     m = law.mass
@@ -436,7 +436,7 @@ def barrier_bound(design: PotentialDesign) -> float:
     spec §2.3 item 3 with the barrier U in place of its quadratic part) does
     not increase along the unsaturated continuous loop, and every term is
     non-negative, so m U(z_k(t)) ≤ V(0): |z_k(t)| ≤ Δ √(1 − exp(−2V(0)/(mκ)))
-    (:meth:`~trainctl.controllers.potentials.BarrierPotential.bound`), always
+    (:meth:`~trainctl.controllers.continuous.potentials.BarrierPotential.bound`), always
     below Δ, and the closer to it the larger V(0) is against m κ.
 
     Parameters
@@ -457,7 +457,7 @@ def barrier_bound(design: PotentialDesign) -> float:
     0.2 √(1 − e^(−2·0.01/0.02)) = 0.2 √(1 − e^(−1)) ≈ 0.159 m.
 
     >>> from types import SimpleNamespace
-    >>> from trainctl.controllers.potentials import BarrierPotential
+    >>> from trainctl.controllers.continuous.potentials import BarrierPotential
     >>> law = SimpleNamespace(n=2, mass=np.full(2, 4e4), pinning=np.zeros(2),
     ...                       potential=BarrierPotential(kappa=0.02, delta=0.2))
     >>> design = SimpleNamespace(law=law, initial_errors=np.array([0.1, -0.1, 0.0, 0.0]),
@@ -467,7 +467,7 @@ def barrier_bound(design: PotentialDesign) -> float:
     >>> round(barrier_bound(design), 4)  # [m]
     0.159
     """
-    from trainctl.controllers.sampled import cumulative, incidence
+    from trainctl.controllers.continuous.sampled import cumulative, incidence
 
     law, train = design.law, design.scenario.train
     n, m = law.n, float(law.mass[0])

@@ -58,7 +58,7 @@ class PotentialController:
     Examples
     --------
     >>> from trainctl.models import crh2_half, equilibrium
-    >>> from trainctl.controllers.potentials import QuadraticPotential
+    >>> from trainctl.controllers.continuous.potentials import QuadraticPotential
     >>> train = crh2_half()
     >>> law = PotentialLaw(mass=train.mass, pinning=np.zeros(4), speed_gain=0.5,
     ...                    consensus=np.zeros((4, 4)), potential=QuadraticPotential(0.5))

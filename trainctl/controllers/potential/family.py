@@ -1,5 +1,5 @@
 # The potential family as a registry entry: Zhao & Wang's consensus law with a pair potential.
-"""The potential family object (:data:`FAMILY`), see :mod:`trainctl.controllers.registry`.
+"""The potential family object (:data:`FAMILY`), see :mod:`trainctl.registry`.
 
 One strategy, ``"consensus"``: Zhao & Wang's (CCDC 2017) four-term law
 (:mod:`trainctl.controllers.potential.law`) sampled at the family's
@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:
     import control as ct
 
-    from trainctl.analysis.review import Check
+    from trainctl.analysis.check import Check
     from trainctl.controllers.potential.controller import PotentialController
     from trainctl.controllers.potential.law import PotentialLaw
     from trainctl.design import DesignModel
@@ -130,7 +130,7 @@ class PotentialDesign:
         ndarray
             Φ + Γ F, (2n, 2n) [-].
         """
-        from trainctl.controllers.sampled import held_loop
+        from trainctl.controllers.continuous.sampled import held_loop
 
         T = self.control_interval if interval is None else float(interval)
         return held_loop(self.A_open, self.B_open, self.law.feedback(), T)
@@ -190,8 +190,8 @@ def design_potential(scenario: Scenario, model: DesignModel, settings: Any) -> P
     >>> d.A_cl.shape, d.control_interval
     ((8, 8), 0.05)
     """
+    from trainctl.controllers.continuous.sampled import control_interval, initial_errors
     from trainctl.controllers.potential.law import closed_loop_matrices, law_of
-    from trainctl.controllers.sampled import control_interval, initial_errors
 
     T = control_interval(scenario, model, settings, "potential")
     law = law_of(scenario, settings)
@@ -346,7 +346,7 @@ class PotentialFamily:
         """Gains, the closed-loop spectrum sampled at the model's sample time and the graph.
 
         The ``[communication]`` graph is stored under ``graph``
-        (:func:`trainctl.report.figures_graph.graph_report_data`), JSON-safe.
+        (:func:`trainctl.plots.graph_figures.graph_report_data`), JSON-safe.
 
         Parameters
         ----------
@@ -361,7 +361,7 @@ class PotentialFamily:
             ``rows`` (name/value rows of the gains table), ``potential``,
             ``control_interval`` [s] (as text), ``input_bounds`` and ``graph``.
         """
-        from trainctl.report.figures_graph import graph_report_data
+        from trainctl.plots.graph_figures import graph_report_data
 
         lam = np.linalg.eigvals(design.A_cl).astype(complex)
         z = np.exp(lam * design.model.settings.sample_time)
@@ -382,7 +382,7 @@ class PotentialFamily:
         """The communication graph, in the family's section (its spectrum joins the eigenvalue map).
 
         Drawn from ``data["graph"]``
-        (:func:`trainctl.report.figures_graph.graph_figure`).
+        (:func:`trainctl.plots.graph_figures.graph_figure`).
 
         Parameters
         ----------
@@ -394,7 +394,7 @@ class PotentialFamily:
         list of ReportFigure
             One figure, the communication graph.
         """
-        from trainctl.report.figures_graph import graph_figure
+        from trainctl.plots.graph_figures import graph_figure
 
         return [graph_figure(data["graph"], family=self.name, usage=GRAPH_USAGE)]
 

@@ -40,11 +40,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.controllers.sampled import cumulative, incidence
+from trainctl.controllers.continuous.sampled import cumulative, incidence
 from trainctl.exceptions import ScenarioError
 
 if TYPE_CHECKING:
-    from trainctl.controllers.potentials import PairPotential
+    from trainctl.controllers.continuous.potentials import PairPotential
     from trainctl.design import DesignModel
     from trainctl.models.train import Train
     from trainctl.scenario import Scenario
@@ -82,7 +82,7 @@ def make_potential(settings: Any, train: Train) -> PairPotential:
     >>> round(make_potential(s, crh2_half()).curvature(), 12)
     0.5
     """
-    from trainctl.controllers.potentials import (
+    from trainctl.controllers.continuous.potentials import (
         BarrierPotential,
         FlockingPotential,
         QuadraticPotential,
@@ -123,7 +123,7 @@ class PotentialLaw:
     a gap 0.2 m too wide pulls them together with m κ z = 1e4·0.5·0.2 =
     1000 N; the front car 0.1 m/s too fast is braked by m d_v v̂ = 500 N.
 
-    >>> from trainctl.controllers.potentials import QuadraticPotential
+    >>> from trainctl.controllers.continuous.potentials import QuadraticPotential
     >>> law = PotentialLaw(mass=np.full(2, 1e4), pinning=np.zeros(2), speed_gain=0.5,
     ...                    consensus=np.zeros((2, 2)), potential=QuadraticPotential(0.5))
     >>> law.force(np.zeros(2), np.array([0.2]), np.zeros(2)).tolist()  # [N], front first

@@ -1,5 +1,5 @@
 # Settings of the potential family: the schema of its [controller] table (no solver imports).
-"""The potential family's settings, declared once (:mod:`trainctl.declare`).
+"""The potential family's settings, declared once (:mod:`trainctl.declare.keys`).
 
 Zhao & Wang's four-term law (spec §2.2): position pinning, speed feedback,
 velocity consensus over the ``[communication]`` graph and the gradient of a
@@ -12,8 +12,8 @@ from typing import Annotated, ClassVar
 
 from pydantic import model_validator
 
-from trainctl.constraints import Choice, Flag, Number, Violation, raise_at
-from trainctl.declare import Key, settings
+from trainctl.declare.constraints import Choice, Flag, Number, Violation, raise_at
+from trainctl.declare.keys import Key, settings
 
 __all__ = ["POTENTIALS", "PotentialSettings"]
 

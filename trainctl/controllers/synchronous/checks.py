@@ -10,7 +10,7 @@
 ``synchronous_sampling``
     ω_max·T_c of that loop against 0.1 rad and the spectral radius of the
     loop with the law held over each control interval
-    (:func:`trainctl.controllers.sampled.sampling_check`).
+    (:func:`trainctl.controllers.continuous.sampled.sampling_check`).
 ``synchronous_delay_margin``
     The smallest uniform delay τ of the relay at which
     ẋ = A₀x + B_r K_r x(t − τ) loses stability
@@ -34,8 +34,8 @@ import math
 from typing import TYPE_CHECKING
 
 from trainctl.analysis.check import Check
-from trainctl.controllers.sampled import closed_loop_spectrum
-from trainctl.controllers.sampled import sampling_check as shared_sampling_check
+from trainctl.controllers.continuous.sampled import closed_loop_spectrum
+from trainctl.controllers.continuous.sampled import sampling_check as shared_sampling_check
 
 if TYPE_CHECKING:
     from trainctl.controllers.synchronous.family import SynchronousDesign

@@ -36,8 +36,8 @@ from trainctl.controllers.synchronous.law import SynchronousLaw
 from trainctl.controllers.synchronous.relay import CommandRelay
 from trainctl.exceptions import ModelError
 from trainctl.models.envelope import EnvelopeBounds
+from trainctl.models.network import NetworkSettings
 from trainctl.models.train import Train
-from trainctl.network import NetworkSettings
 
 __all__ = ["SynchronousController"]
 
@@ -113,7 +113,7 @@ class SynchronousController:
     def prepare(self, network: NetworkSettings | None, seed: int) -> None:
         """A new relay for the run about to start: its ``[network]`` and its seed.
 
-        :func:`trainctl.run.simulate_strategy` calls it with the simulated
+        :func:`trainctl.run.analysis.simulate_strategy` calls it with the simulated
         scenario's ``[network]`` and seed, so that a repetition with another
         seed (``[simulation] repetitions``) draws other delays, losses and
         noise, and a baseline run over another network

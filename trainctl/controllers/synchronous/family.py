@@ -1,5 +1,5 @@
 # The synchronous family as a registry entry: the LOCOTROL-type centralised baseline.
-"""The synchronous family object (:data:`FAMILY`), see :mod:`trainctl.controllers.registry`.
+"""The synchronous family object (:data:`FAMILY`), see :mod:`trainctl.registry`.
 
 One strategy, ``"synchronous"``: centralised synchronous operation of a
 distributed-power train (spec §4.2, the baseline of seed 003). The lead
@@ -27,13 +27,13 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:
     import control as ct
 
+    from trainctl.analysis.check import Check
     from trainctl.analysis.delay import DelayMargin
-    from trainctl.analysis.review import Check
     from trainctl.controllers.synchronous.controller import SynchronousController
     from trainctl.controllers.synchronous.law import LoopMatrices, SynchronousLaw
     from trainctl.controllers.synchronous.relay import CommandRelay
     from trainctl.design import DesignModel
-    from trainctl.network import NetworkSettings
+    from trainctl.models.network import NetworkSettings
     from trainctl.report.figures import ReportFigure
     from trainctl.scenario import Scenario
 
@@ -150,7 +150,7 @@ class SynchronousDesign:
         ndarray
             (2n−1, 2n−1) [-].
         """
-        from trainctl.controllers.sampled import held_loop
+        from trainctl.controllers.continuous.sampled import held_loop
 
         T = self.control_interval if interval is None else float(interval)
         speed = float(self.model.settings.speed)
@@ -228,7 +228,7 @@ def design_synchronous(scenario: Scenario, model: DesignModel,
     >>> d.loops.A_cl.shape, d.control_interval, d.worst_delay
     ((7, 7), 0.1, None)
     """
-    from trainctl.controllers.sampled import control_interval
+    from trainctl.controllers.continuous.sampled import control_interval
     from trainctl.controllers.synchronous.law import closed_loop_matrices, law_of
 
     T = control_interval(scenario, model, settings, "synchronous")

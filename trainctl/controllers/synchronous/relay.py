@@ -1,10 +1,10 @@
 # The radio relay of synchronous operation: the lead's command to every remote over the network.
-"""The lead's command on its way to the remotes: a :class:`~trainctl.network.Network` on a star.
+"""The lead's command on its way to the remotes: a :class:`~trainctl.models.network.Network` on a star.
 
 Synchronous operation relays *commands*, not speeds: the lead locomotive
 sends its specific-force command a_ℓ [m/s²] and every remote applies what
 it last received. :class:`CommandRelay` owns a
-:class:`~trainctl.network.Network` built on the star graph lead → every
+:class:`~trainctl.models.network.Network` built on the star graph lead → every
 remote (:func:`relay_graph`: remote i hears the lead, nobody hears the
 reference, which the lead reads locally) with the scenario's
 ``[network]`` settings, so the command reaches each remote after that
@@ -20,7 +20,7 @@ hold-last-value), and before its first arrival it has none.
 
 Why not the simulation's network
 --------------------------------
-:func:`trainctl.run.simulate_strategy` gives controllers that declare
+:func:`trainctl.run.analysis.simulate_strategy` gives controllers that declare
 ``uses_network`` a network on which every vehicle sends its *measured speed*
 and the reference its speed (``Measurement.messages``): the medium of the
 distributed consensus laws. The synchronous baseline sends none of those;
@@ -30,13 +30,13 @@ step. So the controller owns its relay (and does not declare
 ``uses_network``), on its own random stream
 ``SeedSequence([seed, RELAY_STREAM])``, apart from the measurement noise's
 ``default_rng(seed)`` and from the simulation network's
-``SeedSequence([seed, NETWORK_STREAM])`` (:data:`trainctl.run.NETWORK_STREAM`).
+``SeedSequence([seed, NETWORK_STREAM])`` (:data:`trainctl.run.analysis.NETWORK_STREAM`).
 Without a ``[network]`` section the relay is instantaneous and lossless
-(default :class:`~trainctl.network.NetworkSettings`).
+(default :class:`~trainctl.models.network.NetworkSettings`).
 
 Timing: the relay is read at the controller's samples, so a command whose
 delay is not a whole number of control intervals is applied at the first
-sample after it arrives (within :data:`trainctl.network.ARRIVAL_TOLERANCE`).
+sample after it arrives (within :data:`trainctl.models.network.ARRIVAL_TOLERANCE`).
 """
 
 from __future__ import annotations
@@ -46,8 +46,8 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.graphs import CommunicationGraph, make_graph
-from trainctl.network import Network, NetworkSettings
+from trainctl.models.graphs import CommunicationGraph, make_graph
+from trainctl.models.network import Network, NetworkSettings
 
 __all__ = ["RELAY_STREAM", "CommandRelay", "relay_graph", "relay_settings"]
 
@@ -56,7 +56,7 @@ Array = NDArray[np.float64]
 RELAY_STREAM = 2
 """Spawn key of the relay's random stream: ``SeedSequence([seed, RELAY_STREAM])``.
 
-Different from :data:`trainctl.run.NETWORK_STREAM` (1), so that the relay's
+Different from :data:`trainctl.run.analysis.NETWORK_STREAM` (1), so that the relay's
 draws are not those of the simulation's speed network (a scenario may run a
 networked family beside this one) nor of the measurement noise."""
 

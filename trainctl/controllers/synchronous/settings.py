@@ -1,5 +1,5 @@
 # Settings of the synchronous family: the schema of its [controller] table (no solver imports).
-"""The synchronous family's settings, declared once (:mod:`trainctl.declare`).
+"""The synchronous family's settings, declared once (:mod:`trainctl.declare.keys`).
 
 Centralised synchronous operation of a distributed-power train (spec §4.2,
 last paragraph): the lead locomotive closes a speed loop and every remote
@@ -13,8 +13,8 @@ from typing import Annotated, ClassVar
 
 from pydantic import ValidationInfo, model_validator
 
-from trainctl.constraints import Flag, Integer, Number, Violation, raise_at
-from trainctl.declare import Key, settings
+from trainctl.declare.constraints import Flag, Integer, Number, Violation, raise_at
+from trainctl.declare.keys import Key, settings
 
 __all__ = ["DEFAULT_SPEED_GAIN", "SynchronousSettings"]
 

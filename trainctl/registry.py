@@ -1,0 +1,356 @@
+# Controller families: the protocol every family follows and the registry that names them.
+"""Controller families and their registry.
+
+A *family* is one kind of controller (MPC, LQR, potential-function
+consensus, ...) with everything trainctl needs to analyse, simulate and
+report it. It lives in ``trainctl/controllers/<family>/`` and is named in
+:data:`FAMILY_MODULES` (one line). Each family module exposes a ``FAMILY``
+object that follows :class:`ControllerFamily`:
+
+- ``name``, ``strategies`` and ``check_names``: the vocabulary of the
+  family, defined once, in the family;
+- ``settings``: the schema of its ``[controller]`` table (a pydantic model
+  whose validated instance is the family's settings object, SI inside);
+- ``design(scenario, model, settings)``: the family's design, built once per
+  run from the shared :class:`~trainctl.design.DesignModel`;
+- ``make(design, strategy)``: a controller following the
+  :class:`~trainctl.controllers.base.Controller` protocol;
+- ``checks(design)``: its design checks (:class:`~trainctl.design.review.Check`);
+- ``closed_loop(design, strategy)``: the linear closed loop as a
+  ``control.StateSpace``, discrete (a sampled controller such as MPC or
+  LQR) or continuous (a continuous-time law such as the potential and
+  flocking families; analyses that need a discrete loop sample it,
+  :func:`trainctl.analysis.loops.as_discrete`), or None where the loop is
+  not linear: the input of every generic analysis (poles, frequency
+  responses, norms, string stability);
+- optionally ``trajectory_checks(design, strategy, result)``: checks that a
+  simulation decides (the validity range of a linearisation along the
+  trajectory, the connectivity of a formation), each replacing the design
+  check of the same name after ``[simulation]`` has run
+  (:func:`trainctl.design.review.with_simulations`), with their names in
+  ``trajectory_check_names`` (``[expected]`` declares their verdict after
+  the simulation, so a run without one does not compare them);
+- ``report_data(design)``, ``report_figures(data)`` and ``report_partial``:
+  what the HTML report shows for the family (JSON-safe data, figures drawn
+  from that data, and the Jinja source of its report section). A figure goes
+  to the page's Figures section, or, when its ``section`` is the family's
+  (:func:`trainctl.report.figures.family_section`), into the family's own
+  section after the partial (the potential and flocking families' graph,
+  :mod:`trainctl.plots.graph_figures`).
+
+Importing this module, or a family module, imports no solver: families
+import cvxpy and python-control inside their methods.
+
+Examples
+--------
+>>> family_names()[:2]
+('mpc', 'lqr')
+>>> get_family("mpc").strategies
+('centralised', 'decentralised', 'ndmpc', 'cooperative', 'ndmpc-local')
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from importlib import import_module
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+
+from trainctl.exceptions import ScenarioError
+
+if TYPE_CHECKING:
+    import control as ct
+
+    from trainctl.analysis.check import Check
+    from trainctl.controllers.base import Controller
+    from trainctl.design import DesignModel
+    from trainctl.report.figures import ReportFigure
+    from trainctl.scenario import Scenario
+
+__all__ = [
+    "DEFAULT_FAMILY",
+    "FAMILY_MODULES",
+    "ControllerFamily",
+    "family_names",
+    "get_family",
+    "register_family",
+    "unregister_family",
+]
+
+DEFAULT_FAMILY = "mpc"
+"""The family of a ``[controller]`` table without a ``family`` key."""
+
+FAMILY_MODULES: Mapping[str, str] = {
+    "mpc": "trainctl.controllers.mpc",
+    "lqr": "trainctl.controllers.lqr",
+    "potential": "trainctl.controllers.potential",
+    "flocking": "trainctl.controllers.flocking",
+    "synchronous": "trainctl.controllers.synchronous",
+    "hinf": "trainctl.controllers.hinf",
+}
+"""The built-in families: name -> module exposing ``FAMILY`` (imported on first use)."""
+
+_REGISTERED: dict[str, ControllerFamily] = {}
+_LOADED: dict[str, ControllerFamily] = {}
+
+
+@runtime_checkable
+class ControllerFamily(Protocol):
+    """What a controller family provides (module docstring).
+
+    Attributes
+    ----------
+    name : str
+        Registry name, the value of ``[controller] family``.
+    title : str
+        Display name, e.g. ``"Model predictive control"``.
+    strategies : tuple of str
+        Its strategy names, the values of ``[simulation] strategies``.
+    check_names : tuple of str
+        Names of the checks :meth:`checks` returns (what ``[expected]`` may
+        declare for the family).
+    settings : type
+        Pydantic model of the family's ``[controller]`` table.
+    report_partial : str
+        Jinja source of the family's report section (rendered with ``data``,
+        the family's :meth:`report_data`, and ``design`` as context), or ""
+        for none.
+
+    Examples
+    --------
+    Every built-in family satisfies the protocol, which is checked at run time:
+
+    >>> [isinstance(get_family(name), ControllerFamily) for name in ("mpc", "hinf")]
+    [True, True]
+    >>> isinstance(object(), ControllerFamily)
+    False
+    """
+
+    name: str
+    title: str
+    strategies: tuple[str, ...]
+    check_names: tuple[str, ...]
+    settings: type[Any]
+    report_partial: str
+
+    def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> Any:
+        """The family's design (built once per run).
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The validated scenario of the run.
+        model : DesignModel
+            The shared design model (linearised platoon, sample time, bounds).
+        settings : object
+            The family's validated ``[controller]`` settings (an instance of
+            :attr:`settings`, SI units).
+
+        Returns
+        -------
+        object
+            The family's design, passed to :meth:`make`, :meth:`checks`,
+            :meth:`closed_loop` and :meth:`report_data`.
+        """
+        ...
+
+    def make(self, design: Any, strategy: str) -> Controller:
+        """A controller for one strategy, ready to ``step``.
+
+        Parameters
+        ----------
+        design : object
+            The family's design, from :meth:`design`.
+        strategy : str
+            One of :attr:`strategies`.
+
+        Returns
+        -------
+        Controller
+            A fresh controller following the
+            :class:`~trainctl.controllers.base.Controller` protocol.
+        """
+        ...
+
+    def checks(self, design: Any) -> list[Check]:
+        """The family's design checks.
+
+        Parameters
+        ----------
+        design : object
+            The family's design, from :meth:`design`.
+
+        Returns
+        -------
+        list of Check
+            One check per name in :attr:`check_names`.
+        """
+        ...
+
+    def closed_loop(self, design: Any, strategy: str) -> ct.StateSpace | None:
+        """The linear closed loop of a strategy (discrete or continuous), or None.
+
+        Parameters
+        ----------
+        design : object
+            The family's design, from :meth:`design`.
+        strategy : str
+            One of :attr:`strategies`.
+
+        Returns
+        -------
+        control.StateSpace or None
+            The linear closed loop of the strategy (inputs and outputs as the
+            family labels them, e.g. disturbances ``w[i]`` to speed, coupler-force
+            and spacing deviations), discrete (``dt`` the sample time [s]) or
+            continuous; None where the loop is not linear.
+        """
+        ...
+
+    def report_data(self, design: Any) -> dict[str, Any]:
+        """JSON-safe data for the family's report section and figures.
+
+        Parameters
+        ----------
+        design : object
+            The family's design, from :meth:`design`.
+
+        Returns
+        -------
+        dict of str to object
+            JSON-safe data, the ``data`` context of :attr:`report_partial` and
+            the input of :meth:`report_figures`.
+        """
+        ...
+
+    def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
+        """The family's figures, drawn from ``data`` (placed by their ``section``).
+
+        Parameters
+        ----------
+        data : mapping of str to object
+            The family's :meth:`report_data` (possibly read back from JSON).
+
+        Returns
+        -------
+        sequence of ReportFigure
+            The figures, each placed by its ``section``; may be empty.
+        """
+        ...
+
+
+def family_names() -> tuple[str, ...]:
+    """Names of every known family: the built-ins, then the registered ones.
+
+    Returns
+    -------
+    tuple of str
+        Family names.
+
+    Examples
+    --------
+    >>> "mpc" in family_names()
+    True
+    """
+    return tuple(FAMILY_MODULES) + tuple(n for n in _REGISTERED if n not in FAMILY_MODULES)
+
+
+def get_family(name: str) -> ControllerFamily:
+    """The family called ``name``.
+
+    Parameters
+    ----------
+    name : str
+        A name from :func:`family_names`.
+
+    Returns
+    -------
+    ControllerFamily
+        The family object.
+
+    Raises
+    ------
+    ScenarioError
+        If no family has that name (the message lists them).
+
+    Examples
+    --------
+    >>> get_family("lqr").name
+    'lqr'
+    """
+    if name in _REGISTERED:
+        return _REGISTERED[name]
+    if name in _LOADED:
+        return _LOADED[name]
+    if name not in FAMILY_MODULES:
+        from difflib import get_close_matches
+
+        close = get_close_matches(str(name), list(family_names()), n=1)
+        hint = f" Did you mean {close[0]!r}?" if close else ""
+        raise ScenarioError(
+            f"controller family {name!r} is not known.{hint} Families: "
+            f"{', '.join(family_names())}."
+        )
+    family = import_module(FAMILY_MODULES[name]).FAMILY
+    _LOADED[name] = family
+    return family
+
+
+def register_family(family: ControllerFamily) -> None:
+    """Make ``family`` available under ``family.name`` (a plug-in, or a test's toy family).
+
+    Parameters
+    ----------
+    family : ControllerFamily
+        The family; a built-in name cannot be replaced.
+
+    Raises
+    ------
+    ValueError
+        If ``family.name`` is a built-in family or not an identifier.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> toy = SimpleNamespace(name="toy", strategies=("hold",))
+    >>> register_family(toy)
+    >>> family_names()[-1], get_family("toy") is toy
+    ('toy', True)
+    >>> unregister_family("toy")
+    >>> register_family(SimpleNamespace(name="mpc"))
+    Traceback (most recent call last):
+    ...
+    ValueError: register_family: 'mpc' is a built-in family and cannot be replaced.
+    """
+    name = getattr(family, "name", None)
+    if not isinstance(name, str) or not name.isidentifier():
+        raise ValueError(f"register_family: 'name' must be an identifier (got {name!r}).")
+    if name in FAMILY_MODULES:
+        raise ValueError(f"register_family: {name!r} is a built-in family and cannot be replaced.")
+    _REGISTERED[name] = family
+
+
+def unregister_family(name: str) -> None:
+    """Remove a family added with :func:`register_family` (no error if absent).
+
+    Parameters
+    ----------
+    name : str
+        The family's name.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> register_family(SimpleNamespace(name="toy"))
+    >>> "toy" in family_names()
+    True
+    >>> unregister_family("toy")
+    >>> "toy" in family_names()
+    False
+    >>> unregister_family("toy")  # absent: nothing happens
+    """
+    _REGISTERED.pop(name, None)
+
+
+def strategy_names(families: Iterable[str]) -> tuple[str, ...]:
+    """Every strategy of the given families, in order (helper for messages)."""
+    return tuple(s for f in families for s in get_family(f).strategies)

@@ -1,0 +1,587 @@
+# What a run will cost before it starts: steps, time and memory, and the budget it must fit.
+"""Estimate a scenario's run (steps, seconds, memory) and hold it to a budget.
+
+Scenario keys have hard limits (:mod:`trainctl.declare.limits`), but values inside
+them can still combine into a run of days: 500 vehicles, a horizon of 2000
+steps, a million samples. :func:`estimate_run` predicts, from the scenario
+alone and before anything is built, how many controller steps the run takes
+(samples × strategies) and its work (samples × vehicles × prediction
+horizon, the size of what each step solves), and from those a rough time
+and memory; :func:`check_budget` refuses a run whose estimate exceeds a time
+budget (``trainctl analyse/report --max-time``, default
+:data:`DEFAULT_MAX_TIME`) or the machine's memory.
+
+The time model is an order-of-magnitude one, calibrated on a 2-core machine
+(trainctl 0.x, OSQP 1.1, DAQP 0.7): the design review grows like states⁴
+for the modal and controllability checks (one dense factorisation per
+eigenvalue), like vehicles × horizon^1.2 (plus a horizon³ term) for the
+global MPC iteration analysis and like the cube of the local iteration's size
+(vehicles × (control horizon + 2 × prediction horizon)) when
+neighbourhood-local N-DMPC is simulated, and like (solves) × states⁴ for the
+H∞ family's semidefinite programs; each controller step costs the plant's
+substeps plus the strategy's QPs (centralised: one QP of vehicles ×
+control-horizon moves, cubic in it; decentralised: one small QP per vehicle
+with a force to decide — none for a vehicle whose envelope pins it at 0 kN;
+N-DMPC and cooperative: that per iteration, plus the exchange of every
+vehicle's predictions). Recalibrated on the 204-vehicle chain
+(``benchmarks/scenarios/heavy-haul-204-ndmpc.toml`` on the idle machine:
+review 104 s on one BLAS thread, 600 s of decentralised MPC 2.9 s and of
+local N-DMPC 22.6 s) with the CRH2 built-ins' estimates unchanged. Expect
+it within a factor of 3 or so; it is meant to tell a minute from an hour
+from a week.
+
+Examples
+--------
+>>> from trainctl.scenario import load_scenario
+>>> est = estimate_run(load_scenario("crh2-dmpc"))
+>>> est.samples, est.controller_steps, est.work
+(60, 180, 2880)
+>>> est.seconds < 60 < DEFAULT_MAX_TIME
+True
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+from trainctl.exceptions import TrainctlError
+
+if TYPE_CHECKING:
+    from trainctl.scenario import Scenario
+
+__all__ = [
+    "DEFAULT_MAX_TIME", "PRINT_ESTIMATE_FROM", "BudgetError", "RunEstimate", "check_budget",
+    "estimate_run", "format_bytes", "format_duration", "parse_duration", "physical_memory",
+    "total_estimate",
+]
+
+DEFAULT_MAX_TIME = 3600.0
+"""Default time budget of ``trainctl analyse`` and ``report`` [s]: an hour. The built-ins are
+estimated at seconds to a few minutes."""
+
+PRINT_ESTIMATE_FROM = 20.0
+"""Runs estimated at this many seconds or more print their estimate first [s]."""
+
+# Calibration (seconds), see the module docstring.
+_BASE = 0.3                 # scenario, model and review overhead
+_MODAL = 4e-10              # × states⁴: modal, controllability, observability checks (the PBH
+                            # test's Cholesky screen and the Kalman SVD; 408 states: ~12 s)
+_MPC = 4e-3                 # × n · P^1.2: global N-DMPC iteration analysis (n = 4, P = 40: ~1.3 s;
+                            # n = 204, P = 10: ~10 s)
+_MPC_LONG = 2.4e-8          # × n · P^3: the same at long horizons
+_LOCAL = 5e-10              # × (n · (M + 2P))³: the local iteration's spectra (n = 204: ~55 s)
+_EXCHANGE = 5e-6            # per vehicle and iteration: exchanging the local predictions
+                            # (204 vehicles, 4 QPs: 2.5 ms per iteration measured)
+_SUBSTEP = 1e-4             # × (1 + n / 256) per plant substep and its recording (banded
+                            # from 128 vehicles: 204 vehicles ~90 µs measured)
+_STEP = 5e-4                # controller overhead per step
+_LAW = 2e-4                 # × (1 + n / 32): an explicit law's step with its network
+                            # messages, and per plant substep under it:
+_LAW_SUBSTEP = 4e-5         # × (1 + n / 32); measured on heavy-haul-hinf-delay (n = 4, 4
+                            # substeps per 0.2 s step): 0.43 ms per hinf step and 0.27 ms per
+                            # synchronous step in all, 35 µs per plant substep
+_QP = 2e-4                  # one small QP (a vehicle's)
+_CENTRAL = 3e-7             # × (n · M)³: the centralised QP
+_BUILD = 0.5                # building a strategy's controller (cvxpy), + _BUILD_SIZE·(n·P)^1.5
+_BUILD_SIZE = 1e-5
+_ITERATIONS = 5             # typical distributed iterations per sample (of max_iterations)
+_BYTES_PER_ROW = 8 * 6      # result arrays: bytes per sample and vehicle (plus dense grids)
+_DENSE_MATRICES = 5 * 8     # MPC analysis: about five dense (n·P)² float matrices alive
+_SDP = 0.02                 # one small SDP (cvxpy + Clarabel overhead)
+_SDP_SIZE = 0.2             # × (states / 15)^4: one of the H∞ family's SDPs (measured on
+                            # heavy-haul-hinf with synthesis: 7 states 2.4 s, 15 states 24 s
+                            # for about 100 solves)
+_SDP_DELAY = 3.0            # a Lyapunov–Krasovskii SDP against a delay-free one (3 blocks of P)
+
+
+class BudgetError(TrainctlError, ValueError):
+    """A run whose estimate exceeds the time budget or the machine's memory.
+
+    Examples
+    --------
+    ``crh2-dmpc`` is estimated at several seconds, so a one-second budget
+    refuses it:
+
+    >>> from trainctl.scenario import load_scenario
+    >>> estimate = estimate_run(load_scenario("crh2-dmpc"))
+    >>> estimate.seconds > 1.0
+    True
+    >>> try:
+    ...     check_budget(estimate, max_time=1.0)
+    ... except BudgetError as exc:
+    ...     print(str(exc).split(", over")[0].split(": ", 1)[1])
+    the run is estimated at about 9.6 s
+    >>> issubclass(BudgetError, ValueError)
+    True
+    """
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunEstimate:
+    """The predicted cost of running one or more scenarios.
+
+    Parameters
+    ----------
+    label : str
+        The scenario's source (or several, joined).
+    vehicles : int
+        Vehicles of the (largest) train.
+    horizon : int
+        Largest MPC prediction horizon P (1 without MPC).
+    samples : int
+        Samples per simulated strategy (0 without simulations).
+    strategies : int
+        Simulated strategies.
+    controller_steps : int
+        ``samples × strategies × runs``, summed over scenarios.
+    work : int
+        ``controller_steps × vehicles × horizon``, summed over scenarios.
+    design_seconds : float
+        Estimated time of the design stage and review [s].
+    simulation_seconds : float
+        Estimated time of the simulations, run one after the other [s].
+    memory_bytes : float
+        Estimated peak memory of the largest stage [bytes].
+    dominant : str
+        What costs most, in words (for messages).
+    runs : int
+        Runs of each strategy: the ``[simulation]`` repetitions, twice as many
+        with a baseline network (:mod:`trainctl.run.repetitions`); the largest
+        over scenarios for a total.
+
+    Examples
+    --------
+    >>> estimate = RunEstimate(
+    ...     label="toy", vehicles=2, horizon=1, samples=100, strategies=1,
+    ...     controller_steps=100, work=200, design_seconds=0.5, simulation_seconds=1.5,
+    ...     memory_bytes=2e6, dominant="the simulations")
+    >>> estimate.seconds  # 0.5 s + 1.5 s
+    2.0
+    >>> estimate.describe()
+    '100 samples × 1 strategies = 100 controller steps (2 vehicles): about 2 s, 2 MB'
+    """
+
+    label: str
+    vehicles: int
+    horizon: int
+    samples: int
+    strategies: int
+    controller_steps: int
+    work: int
+    design_seconds: float
+    simulation_seconds: float
+    memory_bytes: float
+    dominant: str
+    runs: int = 1
+
+    @property
+    def seconds(self) -> float:
+        """Estimated total time [s]."""
+        return self.design_seconds + self.simulation_seconds
+
+    def describe(self) -> str:
+        """One line: steps, sizes, time and memory.
+
+        Returns
+        -------
+        str
+            The controller steps (``samples × strategies × runs`` where that
+            product is the count, as for one scenario; else the count and the
+            strategies; "design review only" without simulations), the
+            vehicles and horizon P (when > 1),
+            the estimated total time and the peak memory, e.g. ``"... (4
+            vehicles, P = 4): about 9.6 s, 0.1 MB"``.
+
+        Examples
+        --------
+        >>> from trainctl.scenario import load_scenario
+        >>> estimate_run(load_scenario("crh2-dmpc")).describe().split(":")[0]
+        '60 samples × 3 strategies = 180 controller steps (4 vehicles, P = 4)'
+        """
+        runs = f" × {self.runs} runs" if self.runs > 1 else ""
+        if self.strategies and self.samples * self.strategies * self.runs \
+                == self.controller_steps:
+            steps = (f"{self.samples} samples × {self.strategies} strategies{runs} = "
+                     f"{self.controller_steps} controller steps")
+        elif self.strategies:
+            steps = (f"{self.controller_steps} controller steps of {self.strategies} "
+                     "strategies")
+        else:
+            steps = "design review only"
+        size = f"{self.vehicles} vehicles" + (f", P = {self.horizon}" if self.horizon > 1 else "")
+        return (f"{steps} ({size}): about {format_duration(self.seconds)}, "
+                f"{format_bytes(self.memory_bytes)}")
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-safe fields, with ``seconds``.
+
+        Returns
+        -------
+        dict of str to object
+            Every field by name, plus ``seconds``, the estimated total time [s];
+            times in [s], ``memory_bytes`` in [bytes].
+        """
+        return {"label": self.label, "vehicles": self.vehicles, "horizon": self.horizon,
+                "samples": self.samples, "strategies": self.strategies,
+                "controller_steps": self.controller_steps, "work": self.work,
+                "design_seconds": self.design_seconds,
+                "simulation_seconds": self.simulation_seconds, "seconds": self.seconds,
+                "memory_bytes": self.memory_bytes, "dominant": self.dominant,
+                "runs": self.runs}
+
+
+def estimate_run(scenario: Scenario, *, simulate: bool = True) -> RunEstimate:
+    """Predict the steps, time and memory of running a scenario.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A loaded scenario (nothing is built).
+    simulate : bool
+        Include the ``[simulation]`` strategies.
+
+    Returns
+    -------
+    RunEstimate
+        The estimate.
+
+    Examples
+    --------
+    ``crh2-dmpc``: 1200 s / 20 s = 60 samples for each of 3 strategies, with
+    4 vehicles and P = 4, so work = 180 × 4 × 4 = 2880; its result arrays take
+    60 samples × 4 vehicles × 48 bytes × 3 strategies = 34560 bytes:
+
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> est = estimate_run(scenario)
+    >>> est.samples, est.strategies, est.controller_steps, est.work, est.memory_bytes
+    (60, 3, 180, 2880, 34560.0)
+    >>> review = estimate_run(scenario, simulate=False)  # the design review only
+    >>> review.controller_steps, review.simulation_seconds
+    (0, 0.0)
+    >>> review.design_seconds == est.design_seconds
+    True
+    """
+    n = scenario.train.n_vehicles
+    horizon, moves = _horizons(scenario)
+    design, memory, dominant = _design_cost(n, horizon, scenario)
+    sim = scenario.simulation if simulate else None
+    samples = sim.n_steps(scenario.model.sample_time) if sim is not None else 0
+    strategies = tuple(sim.strategies) if sim is not None else ()
+    seconds = 0.0
+    # Each strategy runs once per repetition, and as often over a baseline network when asked
+    # (trainctl.run.repetitions); only the runs shown keep their time series in memory.
+    runs = 1 if sim is None else sim.repetitions * (1 + int(
+        sim.baseline_network is not None and scenario.network is not None))
+    for strategy in strategies:
+        seconds += runs * _strategy_seconds(scenario, strategy, samples, horizon, moves)
+    memory = max(memory, float(samples) * n * _BYTES_PER_ROW * max(1, len(strategies)))
+    if seconds > design:
+        dominant = (f"the simulations: {samples * len(strategies) * runs} controller steps "
+                    "([simulation].duration / [model].sample_time, × strategies"
+                    + (", × runs of each)" if runs > 1 else ")"))
+    return RunEstimate(
+        label=str(scenario.source), vehicles=n, horizon=horizon, samples=samples,
+        strategies=len(strategies), controller_steps=samples * len(strategies) * runs,
+        work=samples * len(strategies) * runs * n * horizon, design_seconds=design,
+        simulation_seconds=seconds, memory_bytes=memory, dominant=dominant, runs=runs)
+
+
+def total_estimate(estimates: Iterable[RunEstimate]) -> RunEstimate:
+    """The estimate of several runs one after the other (``report --all``).
+
+    Parameters
+    ----------
+    estimates : iterable of RunEstimate
+        One per scenario.
+
+    Returns
+    -------
+    RunEstimate
+        Sums of steps, work and times; the largest sizes and memory; the
+        dominant part of the most expensive run.
+
+    Examples
+    --------
+    The full ``crh2-dmpc`` run (60 samples × 3 strategies) and a half-length
+    one (30 × 3) total 180 + 90 = 270 controller steps:
+
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> full, half = (estimate_run(scenario),
+    ...               estimate_run(scenario.replace("simulation.duration", 600.0)))
+    >>> total = total_estimate([full, half])
+    >>> total.controller_steps, total.strategies, total.samples
+    (270, 6, 60)
+    >>> bool(abs(total.seconds - (full.seconds + half.seconds)) < 1e-9)
+    True
+    """
+    items = list(estimates)
+    if not items:
+        raise ValueError("total_estimate: 'estimates' must not be empty")
+    worst = max(items, key=lambda e: e.seconds)
+    return replace(
+        worst,
+        label=", ".join(e.label for e in items),
+        vehicles=max(e.vehicles for e in items), horizon=max(e.horizon for e in items),
+        samples=max(e.samples for e in items), strategies=sum(e.strategies for e in items),
+        controller_steps=sum(e.controller_steps for e in items),
+        work=sum(e.work for e in items),
+        design_seconds=sum(e.design_seconds for e in items),
+        simulation_seconds=sum(e.simulation_seconds for e in items),
+        memory_bytes=max(e.memory_bytes for e in items), runs=max(e.runs for e in items))
+
+
+def check_budget(estimate: RunEstimate, max_time: float) -> None:
+    """Refuse a run estimated over ``max_time`` seconds or over the machine's memory.
+
+    Parameters
+    ----------
+    estimate : RunEstimate
+        From :func:`estimate_run` or :func:`total_estimate`.
+    max_time : float
+        Time budget [s]; ``math.inf`` for none.
+
+    Raises
+    ------
+    BudgetError
+        Naming the estimate, the budget and what dominates.
+
+    Examples
+    --------
+    >>> from trainctl.scenario import load_scenario
+    >>> check_budget(estimate_run(load_scenario("crh2-dmpc")), DEFAULT_MAX_TIME)
+    """
+    memory = physical_memory()
+    if memory is not None and estimate.memory_bytes > memory:
+        raise BudgetError(
+            f"{estimate.label}: the run would need about {format_bytes(estimate.memory_bytes)} "
+            f"of memory, more than this machine's {format_bytes(memory)}; most of it goes to "
+            f"{estimate.dominant}. Estimate: {estimate.describe()}. Make the train, the "
+            "horizon or the run shorter.")
+    if estimate.seconds > max_time:
+        raise BudgetError(
+            f"{estimate.label}: the run is estimated at about {format_duration(estimate.seconds)},"
+            f" over the time budget of {format_duration(max_time)}; most of it goes to "
+            f"{estimate.dominant}. Estimate: {estimate.describe()}. Give --max-time "
+            f"{_suggest(estimate.seconds)} to run it anyway, or make the train, the horizon or "
+            "the run shorter.")
+
+
+def physical_memory() -> float | None:
+    """Total physical memory [bytes], or None where unknown.
+
+    Returns
+    -------
+    float or None
+        The machine's physical memory [bytes]; None where the system does not say.
+
+    Examples
+    --------
+    On Linux it is the page size times the number of physical pages:
+
+    >>> import os
+    >>> memory = physical_memory()
+    >>> memory == os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    True
+    >>> format_bytes(memory).split()[-1] in ("MB", "GB", "TB")
+    True
+    """
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE")) * float(os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, OSError, ValueError):  # pragma: no cover - not POSIX
+        return None
+
+
+def format_duration(seconds: float) -> str:
+    """A duration in the largest fitting unit.
+
+    Parameters
+    ----------
+    seconds : float
+        Duration [s]; inf reads "no limit".
+
+    Returns
+    -------
+    str
+        The duration in s, min, h or days.
+
+    Examples
+    --------
+    >>> format_duration(42), format_duration(150), format_duration(5400), format_duration(3e5)
+    ('42 s', '2.5 min', '1.5 h', '3.5 days')
+    >>> format_duration(float("inf"))
+    'no limit'
+    """
+    if math.isinf(seconds):
+        return "no limit"
+    for unit, size in (("days", 86400.0), ("h", 3600.0), ("min", 60.0)):
+        if seconds >= size:
+            return f"{seconds / size:.2g} {unit}"
+    return f"{seconds:.2g} s" if seconds < 10 else f"{seconds:.0f} s"
+
+
+def format_bytes(size: float) -> str:
+    """A memory size in MB, GB or TB (decimal).
+
+    Parameters
+    ----------
+    size : float
+        Size [bytes].
+
+    Returns
+    -------
+    str
+        The size with two significant digits and its unit.
+
+    Examples
+    --------
+    >>> format_bytes(2.5e6), format_bytes(3e10)
+    ('2.5 MB', '30 GB')
+    """
+    for unit, scale in (("TB", 1e12), ("GB", 1e9)):
+        if size >= scale:
+            return f"{size / scale:.2g} {unit}"
+    return f"{max(size / 1e6, 0.1):.2g} MB"
+
+
+def parse_duration(text: str) -> float:
+    """A time budget from ``"3600"``, ``"90s"``, ``"30min"``, ``"2h"``, ``"1d"`` or ``"inf"``.
+
+    Parameters
+    ----------
+    text : str
+        A positive number with an optional unit s, min, h or d (seconds by
+        default); ``inf`` or ``none`` for no budget.
+
+    Returns
+    -------
+    float
+        Seconds.
+
+    Raises
+    ------
+    ValueError
+        For anything else.
+
+    Examples
+    --------
+    >>> parse_duration("90"), parse_duration("30min"), parse_duration("2h"), parse_duration("none")
+    (90.0, 1800.0, 7200.0, inf)
+    """
+    value = text.strip().lower()
+    if value in ("inf", "none"):
+        return math.inf
+    for suffix, scale in (("min", 60.0), ("s", 1.0), ("h", 3600.0), ("d", 86400.0)):
+        if value.endswith(suffix):
+            value, factor = value[: -len(suffix)].strip(), scale
+            break
+    else:
+        factor = 1.0
+    seconds = float(value) * factor
+    if not (seconds > 0 and math.isfinite(seconds)):
+        raise ValueError(f"must be a positive duration (got {text!r})")
+    return seconds
+
+
+# --------------------------------------------------------------------------- the model
+
+
+def _horizons(scenario: Scenario) -> tuple[int, int]:
+    """The largest prediction and control horizons of the scenario's controllers (1 if none)."""
+    horizon = moves = 1
+    for settings in scenario.controllers.values():
+        horizon = max(horizon, int(getattr(settings, "prediction_horizon", 1) or 1))
+        moves = max(moves, int(getattr(settings, "control_horizon", 1) or 1))
+    return horizon, moves
+
+
+def _design_cost(n: int, horizon: int, scenario: Scenario) -> tuple[float, float, str]:
+    """Seconds and peak bytes of the design stage and review, and what dominates."""
+    states = 2 * n
+    modal = _MODAL * float(states) ** 4
+    mpc = 0.0
+    memory = 10 * 8 * float(states) ** 2
+    if any(hasattr(s, "prediction_horizon") for s in scenario.controllers.values()):
+        mpc = _MPC * n * horizon**1.2 + _MPC_LONG * n * horizon**3
+        memory = max(memory, _DENSE_MATRICES * float(n * horizon) ** 2)
+        sim = scenario.simulation
+        if sim is not None and "ndmpc-local" in tuple(sim.strategies):
+            size = float(n * (_horizons(scenario)[1] + 2 * horizon))
+            mpc += _LOCAL * size**3
+            memory = max(memory, _DENSE_MATRICES * size**2)
+    sdp = _sdp_seconds(n, scenario)
+    if sdp > max(mpc, modal):
+        return _BASE + modal + mpc + sdp, memory, (
+            f"the H∞ certificates (SDPs) of {n} vehicles ({2 * n - 1} states; [train] "
+            "vehicles, [controller] synthesise)")
+    if mpc > modal:
+        dominant = (f"the MPC analysis of {n} vehicles with [controller].prediction_horizon = "
+                    f"{horizon}")
+    else:
+        dominant = f"the design review of {n} vehicles ({states} states; [train] vehicles)"
+    return _BASE + modal + mpc, memory, dominant
+
+
+def _sdp_seconds(n: int, scenario: Scenario) -> float:
+    """Seconds of the semidefinite programs of an ``hinf`` family's design and review.
+
+    Its certificates and synthesis solve SDPs in a dense P on the 2n − 1 loop states:
+    the certified γ and its per-group and per-channel parts (about n + 6 solves), plus
+    grid² + evaluations solves when ``synthesise = true``; each delay-dependent one
+    (``delay_certificate_s``) costs about :data:`_SDP_DELAY` delay-free ones.
+    """
+    settings = scenario.controllers.get("hinf")
+    if settings is None:
+        return 0.0
+    solves = n + 6.0
+    if getattr(settings, "synthesise", False):
+        grid = int(getattr(settings, "synthesis_grid", 7) or 7)
+        solves += grid * grid + int(getattr(settings, "synthesis_evaluations", 40) or 40)
+    if getattr(settings, "delay_certificate", None):
+        solves *= _SDP_DELAY
+    states = 2.0 * n - 1.0
+    return solves * (_SDP + _SDP_SIZE * (states / 15.0) ** 4)
+
+
+def _strategy_seconds(scenario: Scenario, strategy: str, samples: int, horizon: int,
+                      moves: int) -> float:
+    """Seconds to build and run one strategy for ``samples`` steps."""
+    from trainctl.sim.plant import Plant
+
+    n = scenario.train.n_vehicles
+    family, _, name = strategy.rpartition(".")
+    substeps = Plant(train=scenario.train).substeps(scenario.model.sample_time)
+    plant = _SUBSTEP * (1 + n / 256) * substeps
+    if family == "lqr":
+        return samples * (plant + _STEP)
+    settings = scenario.controllers.get(family) if family else scenario.controller
+    if (family or getattr(settings, "family", "mpc")) not in ("mpc", "lqr"):
+        # An explicit law (potential, flocking, synchronous, hinf): no QP, stepped at its own
+        # control interval, the plant's substeps per step scaled to it.
+        interval = getattr(settings, "control_interval", None) or scenario.model.sample_time
+        steps = samples * scenario.model.sample_time / interval
+        under = substeps * interval / scenario.model.sample_time
+        return _BUILD + steps * (1 + n / 32) * (_LAW + _LAW_SUBSTEP * under)
+    # A vehicle whose envelope pins its force at 0 kN has no QP (u-form with input bounds:
+    # trainctl.controllers.mpc.controller.fixed_inputs); counted here from the envelope alone.
+    pinned = sum(1 for v in scenario.train.vehicles if v.envelope.pins_force)
+    if name in ("ndmpc", "cooperative", "ndmpc-local"):
+        limit = int(getattr(settings, "max_iterations", _ITERATIONS) or _ITERATIONS)
+        step = (_QP * (n - pinned) + _EXCHANGE * n) * min(limit, _ITERATIONS)
+    elif name == "decentralised":
+        step = _QP * (n - pinned)
+    else:  # centralised, and other families' strategies
+        step = _QP + _CENTRAL * float(n * moves) ** 3
+    build = _BUILD + _BUILD_SIZE * float(n * horizon) ** 1.5
+    return build + samples * (plant + _STEP + step)
+
+
+def _suggest(seconds: float) -> str:
+    """A ``--max-time`` value comfortably above ``seconds``."""
+    hours = math.ceil(seconds * 1.5 / 3600.0)
+    return f"{hours}h" if hours < 48 else f"{math.ceil(hours / 24)}d"
