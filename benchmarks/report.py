@@ -44,6 +44,8 @@ TARGETS = {"default": 2.5, "all": 20.0}
 REPO = Path(__file__).resolve().parents[1]
 
 
+IMPORTS = "import trainctl.cli.main, trainctl.report, trainctl.run.analysis"
+
 def timed_cpu(args: list[str], cwd: Path, path: Path = REPO) -> tuple[float, float]:
     """Wall and CPU seconds (user + system) of ``python ARGS`` with ``PYTHONPATH=path``."""
     env = dict(os.environ)
@@ -68,7 +70,7 @@ def timed(args: list[str], cwd: Path) -> float:
 
 def side_by_side(baseline: Path, repeat: int, skip_all: bool) -> int:
     """This checkout against ``baseline``, interleaved; medians and ratios."""
-    cases = [("import", ["-c", "import trainctl.cli.main, trainctl.report, trainctl.run.analysis"], repeat),
+    cases = [("import", ["-c", IMPORTS], repeat),
              ("default report", ["-m", "trainctl", "report"], repeat)]
     if not skip_all:
         cases.append(("all reports", ["-m", "trainctl", "report", "--all"], 1))
@@ -102,7 +104,7 @@ def main() -> int:
     rows: list[tuple[str, float, str]] = []
     with tempfile.TemporaryDirectory() as scratch:
         cwd = Path(scratch)
-        imports = [timed(["-c", "import trainctl.cli.main, trainctl.report, trainctl.run.analysis"], cwd)
+        imports = [timed(["-c", IMPORTS], cwd)
                    for _ in range(args.repeat)]
         rows.append(("import (baseline)", statistics.median(imports), ""))
         default = [timed(["-m", "trainctl", "report"], cwd) for _ in range(args.repeat)]

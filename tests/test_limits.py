@@ -1,5 +1,5 @@
 # Hard limits: values that cannot be computed are refused up front, with the key and the reason.
-"""trainctl.declare.limits (bounds in a key's unit), non-finite models and oversized or deep TOML."""
+"""trainctl.declare.limits (bounds in a key's unit), non-finite models, oversized or deep TOML."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-# Tests of trainctl.controllers.continuous.potentials against hand computations and independent routes.
+# Tests of the pair potentials against hand computations and independent routes.
 """Potentials: hand-computed values, finite differences, independent quadrature, validation."""
 
 from __future__ import annotations

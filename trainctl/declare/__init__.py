@@ -19,4 +19,7 @@ from trainctl.declare.keys import python_error as python_error
 from trainctl.declare.keys import render_refs as render_refs
 from trainctl.declare.keys import settings as settings
 
-__all__ = ['Alt', 'Key', 'check_fields', 'declared_fields', 'first_error', 'python_error', 'render_refs', 'settings']
+__all__ = [
+    'Alt', 'Key', 'check_fields', 'declared_fields', 'first_error', 'python_error',
+    'render_refs', 'settings',
+]

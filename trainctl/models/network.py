@@ -710,7 +710,7 @@ class Network:
             raise ModelError(f"Network: 'settings' must be a NetworkSettings (got "
                              f"{type(settings).__name__}).")
         if not isinstance(graph, CommunicationGraph):
-            raise ModelError(f"Network: 'graph' must be a trainctl.models.graphs.CommunicationGraph "
+            raise ModelError("Network: 'graph' must be a trainctl.models.graphs.CommunicationGraph "
                              f"(got {type(graph).__name__}).")
         if not isinstance(seed, np.random.SeedSequence) and (not _integral(seed) or seed < 0):
             raise ModelError(f"Network: 'seed' must be an int >= 0 or a "

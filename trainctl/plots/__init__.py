@@ -15,4 +15,8 @@ from trainctl.plots.time import iterations_plot as iterations_plot
 from trainctl.plots.time import speed_error_plot as speed_error_plot
 from trainctl.plots.time import velocity_plot as velocity_plot
 
-__all__ = ['convergence_plot', 'coupler_force_plot', 'eigenvalue_plot', 'graph_plot', 'input_plot', 'iterations_plot', 'sigma_plot', 'speed_error_plot', 'step_response_plot', 'string_gain_plot', 'velocity_plot']
+__all__ = [
+    'convergence_plot', 'coupler_force_plot', 'eigenvalue_plot', 'graph_plot', 'input_plot',
+    'iterations_plot', 'sigma_plot', 'speed_error_plot', 'step_response_plot',
+    'string_gain_plot', 'velocity_plot',
+]

@@ -17,4 +17,7 @@ from trainctl.run.analysis import run_scenario as run_scenario
 from trainctl.run.analysis import simulate_strategy as simulate_strategy
 from trainctl.run.analysis import submit_simulations as submit_simulations
 
-__all__ = ['AnalysisRun', 'NETWORK_STREAM', 'make_controller', 'run_scenario', 'simulate_strategy', 'submit_simulations']
+__all__ = [
+    'AnalysisRun', 'NETWORK_STREAM', 'make_controller', 'run_scenario', 'simulate_strategy',
+    'submit_simulations',
+]

@@ -163,7 +163,7 @@ class AnalysisRun:
 
     @cached_property
     def claims(self) -> tuple[Claim, ...]:
-        """Seed 003's published claims against this run's numbers (:mod:`trainctl.controllers.hinf.claims`).
+        """Seed 003's published claims against this run's numbers.
 
         Empty unless the scenario has the ``hinf`` family; computed once.
         """

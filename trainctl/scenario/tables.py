@@ -80,7 +80,7 @@ __all__ = [
 _ENVELOPE = {name: rule.for_file() for name, rule in ENVELOPE_RULES.items()}
 
 DAVIS_KEYS = ("davis_n_per_kn_kmh", "davis_si", "davis_book_literal")
-_DAVIS = Array(Number(ge=0), length=3)  # bounded in SI by the Vehicle (trainctl.declare.limits.DAVIS)
+_DAVIS = Array(Number(ge=0), length=3)  # SI bounds: trainctl.declare.limits.DAVIS
 _DAVIS_HINT = (" davis_n_per_kn_kmh is N/kN with V in km/h; davis_si is [a0 m/s², a1 1/s, "
                "a2 1/m].")
 

@@ -14,7 +14,8 @@
     Re λ > 0 fails.
 ``flocking_sampling``
     ω_max·T_c of the linearised closed loop against 0.1 rad (the hold's
-    phase lag at the fastest mode ≤ 3°, :data:`~trainctl.controllers.continuous.sampled.SAMPLING_THRESHOLD`),
+    phase lag at the fastest mode ≤ 3°,
+    :data:`~trainctl.controllers.continuous.sampled.SAMPLING_THRESHOLD`),
     and the held loop's spectral radius (fail ≥ 1), as ``potential_sampling``.
     The lattice spring is linearised at the desired gap: nearer the
     collision barrier φ is steeper, so the margin matters.

@@ -1,5 +1,5 @@
 # The MPC family's design checks: N-DMPC convergence, relaxation, closed loops, Nash gap.
-"""Design checks of the MPC family (unconstrained theory of :mod:`trainctl.controllers.mpc.theory.mpc`).
+"""Design checks of the MPC family (unconstrained theory, :mod:`trainctl.controllers.mpc.theory`).
 
 Weight thresholds are reported in the unit the scenario used (per kN² or per N²).
 """

@@ -65,14 +65,16 @@ SOLVER_PATHS = ("fast", "cvxpy")
 """QP solve paths of the MPC."""
 
 QP_SOLVERS = ("auto", "osqp", "daqp")
-"""QP solvers of the fast path (``trainctl.controllers.mpc.qp.parametric.QP_SOLVERS``): ``"auto"`` takes
-DAQP for QPs of at most ``trainctl.controllers.mpc.qp.parametric.DAQP_MAX_DECISIONS`` decisions, OSQP above."""
+"""QP solvers of the fast path (``trainctl.controllers.mpc.qp.parametric.QP_SOLVERS``):
+``"auto"`` takes DAQP for QPs of at most
+``trainctl.controllers.mpc.qp.parametric.DAQP_MAX_DECISIONS`` decisions, OSQP above."""
 
 LOCAL_HOLDS = ("foh", "zoh")
 """ndmpc-local: first- or zero-order hold of the exchanged outer states."""
 
 LOCAL_BOUNDARIES = ("state", "force")
-"""ndmpc-local: what a neighbourhood takes from outside (trainctl.controllers.mpc.theory.local_iteration)."""
+"""ndmpc-local: what a neighbourhood takes from outside
+(trainctl.controllers.mpc.theory.local_iteration)."""
 
 OBSERVERS = ("none", "kalman")
 """Full-state feedback, or a Kalman observer of the state and a grade-like disturbance."""

@@ -1,5 +1,6 @@
 # The radio relay of synchronous operation: the lead's command to every remote over the network.
-"""The lead's command on its way to the remotes: a :class:`~trainctl.models.network.Network` on a star.
+"""The lead's command on its way to the remotes: a
+:class:`~trainctl.models.network.Network` on a star.
 
 Synchronous operation relays *commands*, not speeds: the lead locomotive
 sends its specific-force command a_ℓ [m/s²] and every remote applies what

@@ -1,7 +1,8 @@
 # The fast solve path: OSQP driven directly with data identified from cvxpy.
 """OSQP driven directly with data probed from a cvxpy problem at build time.
 
-A parametric QP modelled once in cvxpy (:class:`~trainctl.controllers.mpc.qp.parametric.ParametricQP`)
+A parametric QP modelled once in cvxpy
+(:class:`~trainctl.controllers.mpc.qp.parametric.ParametricQP`)
 whose parameters enter only the vectors of OSQP's data (q, l, u) — no
 parameter multiplies a variable, so P and A are constant — has an affine map
 from the parameters to that data. :class:`FastOSQP` identifies it once

@@ -29,4 +29,11 @@ from trainctl.controllers.mpc.theory.mpc import Prediction as Prediction
 from trainctl.controllers.mpc.theory.mpc import prediction as prediction
 from trainctl.controllers.mpc.theory.mpc import prediction_matrices as prediction_matrices
 
-__all__ = ['DMPCAnalysis', 'FORMS', 'LOCAL_THRESHOLD_SIZE', 'LocalDMPCAnalysis', 'MPCDesign', 'Prediction', 'RelaxationResult', 'analyse_dmpc', 'analyse_local_dmpc', 'closed_loop_matrix', 'convergence_sweep', 'cooperative_iteration', 'finite_iteration_closed_loop', 'iteration_matrices', 'log_bisection', 'nash_gain', 'prediction', 'prediction_matrices', 'relaxation', 'shift_matrix', 'spectral_radius', 'threshold_weight']
+__all__ = [
+    'DMPCAnalysis', 'FORMS', 'LOCAL_THRESHOLD_SIZE', 'LocalDMPCAnalysis', 'MPCDesign',
+    'Prediction', 'RelaxationResult', 'analyse_dmpc', 'analyse_local_dmpc',
+    'closed_loop_matrix', 'convergence_sweep', 'cooperative_iteration',
+    'finite_iteration_closed_loop', 'iteration_matrices', 'log_bisection', 'nash_gain',
+    'prediction', 'prediction_matrices', 'relaxation', 'shift_matrix', 'spectral_radius',
+    'threshold_weight',
+]
