@@ -10,7 +10,13 @@ by ``trainctl analyse NAME --save DIR/NAME``. For every scenario directory of
 ``BASE_DIR`` and every strategy under its ``simulations/``, every array of
 ``arrays.npz`` is compared with the same array of ``NEW_DIR``, and so are the
 per-step Jacobi residuals, statuses and fallbacks of ``result.json``. Wall-clock
-arrays (``solve_times``) are skipped.
+arrays (``solve_times``) are skipped. The run's manifest (``trainctl-run.json``: checks,
+spectra, family data, frequency responses, repetitions) is compared too, every number
+as an array of one and every other value for equality, the environment, command,
+timings and source path aside. A directory holding ``sweep.json`` is a sweep store
+(``trainctl sweep -o DIR``): its ``rows.parquet`` (numeric columns as arrays, the others
+for equality; wall-clock columns aside) and every point's ``runs/*/arrays.npz`` are
+compared.
 
 Each array is reported as ``identical`` (equal values, NaNs in the same places)
 or with its maximum relative difference: per signal (row of a 2-D array; a 1-D
@@ -111,12 +117,123 @@ def compare_strategy(base: Path, new: Path, rtol: float) -> tuple[list[str], boo
     return lines, ok
 
 
+MANIFEST = "trainctl-run.json"
+MANIFEST_SKIP = frozenset({"environment", "command", "timings", "source"})
+"""Manifest keys that differ between any two runs (versions, paths, wall clock)."""
+
+
+def _leaves(value: object, path: str = "") -> dict[str, object]:
+    """Every leaf of a JSON document by its path (``a.b[2]``)."""
+    if isinstance(value, dict):
+        out: dict[str, object] = {}
+        for key, item in value.items():
+            out.update(_leaves(item, f"{path}.{key}" if path else str(key)))
+        return out
+    if isinstance(value, list):
+        out = {}
+        for i, item in enumerate(value):
+            out.update(_leaves(item, f"{path}[{i}]"))
+        return out
+    return {path: value}
+
+
+def compare_manifest(base: Path, new: Path, rtol: float) -> tuple[list[str], bool]:
+    """Report lines for the manifests of two saved runs (numbers to ``rtol``)."""
+    if not (base / MANIFEST).is_file():
+        return [], True
+    if not (new / MANIFEST).is_file():
+        return [f"  missing {new / MANIFEST}  MISMATCH"], False
+    b = json.loads((base / MANIFEST).read_text())
+    c = json.loads((new / MANIFEST).read_text())
+    lb = _leaves({k: v for k, v in b.items() if k not in MANIFEST_SKIP})
+    lc = _leaves({k: v for k, v in c.items() if k not in MANIFEST_SKIP})
+    bad = [k for k in lb if k not in lc]
+    added = [k for k in lc if k not in lb]
+    worst, differ = 0.0, []
+    for key in lb.keys() & lc.keys():
+        x, y = lb[key], lc[key]
+        numbers = (int, float)
+        if isinstance(x, numbers) and isinstance(y, numbers) and not isinstance(x, bool):
+            if x != y:
+                rel = relative_difference(np.array([x]), np.array([y]))
+                worst = max(worst, rel)
+                if rel > rtol:
+                    differ.append(f"{key}: {x!r} -> {y!r}")
+        elif x != y:
+            differ.append(f"{key}: {x!r} -> {y!r}")
+    state = "identical" if not (differ or bad or worst) else f"max relative difference {worst:.3e}"
+    lines = [f"  manifest ({len(lb)} values): {state}"]
+    lines += [f"  manifest {k}: only in base  MISMATCH" for k in sorted(bad)[:20]]
+    lines += [f"  manifest {d}  MISMATCH" for d in differ[:20]]
+    if added:
+        lines.append(f"  manifest: {len(added)} values added (only in new)")
+    return lines, not (bad or differ)
+
+
+WALL_COLUMNS = ("seconds", "time_s", "elapsed", "wall")
+"""Substrings of sweep-table columns holding wall-clock times."""
+
+
+def compare_store(base: Path, new: Path, rtol: float) -> tuple[list[str], bool]:
+    """Report lines for two sweep stores: the tidy table and every point's arrays."""
+    import pandas as pd
+
+    lines, ok = [f"{base.name}: sweep store"], True
+    if not (new / "rows.parquet").is_file():
+        return lines + [f"  missing {new / 'rows.parquet'}  MISMATCH"], False
+    tb, tc = pd.read_parquet(base / "rows.parquet"), pd.read_parquet(new / "rows.parquet")
+    if list(tb.columns) != list(tc.columns) or len(tb) != len(tc):
+        return lines + ["  rows.parquet: columns or rows differ  MISMATCH"], False
+    for column in tb.columns:
+        if any(w in column for w in WALL_COLUMNS):
+            continue
+        x, y = tb[column].to_numpy(), tc[column].to_numpy()
+        if x.dtype.kind in "fiu" and y.dtype.kind in "fiu":
+            line, good = compare_array(f"rows.{column}", x.astype(float), y.astype(float), rtol)
+            if not line.endswith("identical"):
+                lines.append(f"  {line}")
+        else:
+            good = [str(v) for v in x] == [str(v) for v in y]
+            if not good:
+                lines.append(f"  rows.{column}: differ  MISMATCH")
+        ok &= good
+    points = sorted((base / "points").glob("*/runs/*"))
+    for run in points:
+        rel = run.relative_to(base)
+        for name, good_line in _npz_lines(run / "arrays.npz", new / rel / "arrays.npz", rtol):
+            ok &= good_line
+            if not name.endswith("identical"):
+                lines.append(f"  {rel}: {name}")
+    lines.append(f"  {len(tb)} rows, {len(points)} point runs compared")
+    return lines, ok
+
+
+def _npz_lines(base: Path, new: Path, rtol: float) -> list[tuple[str, bool]]:
+    if not new.is_file():
+        return [(f"missing {new}  MISMATCH", False)]
+    out = []
+    with np.load(base) as b, np.load(new) as c:
+        for name in sorted(set(b.files) | set(c.files)):
+            if name in WALL_CLOCK:
+                continue
+            if name not in b.files or name not in c.files:
+                out.append((f"{name}: in one run only  MISMATCH", False))
+                continue
+            out.append(compare_array(name, b[name], c[name], rtol))
+    return out
+
+
 def compare_runs(base_dir: Path, new_dir: Path, rtol: float) -> tuple[list[str], bool]:
     """Report lines for every scenario and strategy of ``base_dir`` and the overall verdict."""
     lines: list[str] = []
     ok = True
     scenarios = sorted(p for p in base_dir.iterdir() if p.is_dir())
     for scenario in scenarios:
+        if (scenario / "sweep.json").is_file():
+            more, good = compare_store(scenario, new_dir / scenario.name, rtol)
+            lines += more
+            ok &= good
+            continue
         sims = scenario / "simulations"
         strategies = sorted(p for p in sims.iterdir() if p.is_dir()) if sims.is_dir() else []
         count = f"{len(strategies)} strateg{'y' if len(strategies) == 1 else 'ies'}"
@@ -131,6 +248,9 @@ def compare_runs(base_dir: Path, new_dir: Path, rtol: float) -> tuple[list[str],
             more, good = compare_strategy(strategy, new, rtol)
             lines += more
             ok &= good
+        more, good = compare_manifest(scenario, new_dir / scenario.name, rtol)
+        lines += more
+        ok &= good
     return lines, ok
 
 
