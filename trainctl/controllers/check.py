@@ -226,7 +226,8 @@ def free_growth(A: Array, squarings: int = _SQUARINGS) -> float:
     Returns
     -------
     float
-        log ρ(A) per sample; -inf when A^k vanishes (a nilpotent A).
+        The logarithm of ρ(A) [per sample]; -inf when A^k vanishes (a
+        nilpotent A).
 
     Examples
     --------
@@ -255,8 +256,7 @@ def free_growth(A: Array, squarings: int = _SQUARINGS) -> float:
 # --------------------------------------------------------------------------- the rules
 
 
-def _fail(rule: str, message: str) -> FamilyCheckError:
-    return FamilyCheckError(rule, message)
+_fail = FamilyCheckError
 
 
 def _run(rule: str, what: str, call: Callable[..., Any], *args: Any) -> Any:
@@ -296,7 +296,8 @@ def _vocabulary(family: object) -> None:
     for other in family_names():
         if other != name:
             taken.update({c: f"a check of family {other!r}"
-                          for c in get_family(other).check_names if c not in taken})
+                          for c in getattr(get_family(other), "check_names", ())
+                          if c not in taken})
     clash = [f"{c!r} ({taken[c]})" for c in checks if c in taken]
     if clash:
         raise _fail(rule, f"{where}: check names taken: {', '.join(clash)}.")
@@ -391,6 +392,9 @@ def _settings(family: ControllerFamily[Any, Any], scenario: Scenario) -> None:
     if not isinstance(made, cls):
         raise _fail(rule, f"{where}: the [controller] table gave a {type(made).__name__}, not "
                           f"a {cls.__name__}.")
+    if made != given:
+        raise _fail(rule, f"{where}: the [controller] table of {scenario.source} gives other "
+                          "settings than the scenario holds.")
 
 
 def _controller_table(scenario: Scenario, name: str) -> dict[str, Any] | None:
