@@ -20,7 +20,6 @@ from trainctl.design import build_design, build_model
 from trainctl.exceptions import ScenarioError
 from trainctl.models.linear import linearise
 from trainctl.registry import (
-    ControllerFamily,
     family_names,
     get_family,
     register_family,
@@ -46,14 +45,7 @@ def _lqr_settings(**changes: object) -> SimpleNamespace:
 
 
 class TestRegistry:
-    """family_names / get_family / register_family."""
-
-    def test_builtins_follow_the_protocol(self) -> None:
-        """Every built-in family is a ControllerFamily with its own vocabulary."""
-        for name in ("mpc", "lqr"):
-            family = get_family(name)
-            assert isinstance(family, ControllerFamily)
-            assert family.name == name and family.strategies and family.check_names
+    """family_names / get_family / register_family (the protocol: tests/test_check_family.py)."""
 
     def test_unknown_family_is_a_scenario_error_with_a_suggestion(self) -> None:
         """A misspelt family name is refused with the closest name."""

@@ -53,7 +53,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
 from importlib import import_module
-from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar, runtime_checkable
 
 from trainctl.exceptions import ScenarioError
 
@@ -70,6 +70,8 @@ __all__ = [
     "DEFAULT_FAMILY",
     "FAMILY_MODULES",
     "ControllerFamily",
+    "DesignT",
+    "SettingsT",
     "family_names",
     "get_family",
     "register_family",
@@ -89,13 +91,29 @@ FAMILY_MODULES: Mapping[str, str] = {
 }
 """The built-in families: name -> module exposing ``FAMILY`` (imported on first use)."""
 
-_REGISTERED: dict[str, ControllerFamily] = {}
-_LOADED: dict[str, ControllerFamily] = {}
+DesignT = TypeVar("DesignT")
+"""The type of a family's design (what :meth:`ControllerFamily.design` returns)."""
+
+SettingsT = TypeVar("SettingsT")
+"""The type of a family's settings (an instance of :attr:`ControllerFamily.settings`)."""
+
+_REGISTERED: dict[str, ControllerFamily[Any, Any]] = {}
+_LOADED: dict[str, ControllerFamily[Any, Any]] = {}
 
 
 @runtime_checkable
-class ControllerFamily(Protocol):
+class ControllerFamily(Protocol[DesignT, SettingsT]):
     """What a controller family provides (module docstring).
+
+    The protocol is generic in the family's design type ``DesignT`` and its
+    settings type ``SettingsT``: ``ControllerFamily[LQRDesign, LQRSettings]``
+    is the LQR family, whose :meth:`design` takes ``LQRSettings`` and whose
+    other methods take the ``LQRDesign`` it returns. The registry holds
+    families of every type (``ControllerFamily[Any, Any]``). The attributes
+    are read-only members: a family defines each as a class attribute, an
+    instance attribute or a property.
+    :func:`trainctl.controllers.check_family` checks a family against this
+    protocol, at run time.
 
     Attributes
     ----------
@@ -108,8 +126,11 @@ class ControllerFamily(Protocol):
     check_names : tuple of str
         Names of the checks :meth:`checks` returns (what ``[expected]`` may
         declare for the family).
-    settings : type
-        Pydantic model of the family's ``[controller]`` table.
+    settings : type of SettingsT
+        Pydantic model of the family's ``[controller]`` table (a
+        ``pydantic.BaseModel`` or a pydantic dataclass such as
+        :func:`trainctl.declare.keys.settings` makes); its instances are the
+        settings :meth:`design` takes.
     report_partial : str
         Jinja source of the family's report section (rendered with ``data``,
         the family's :meth:`report_data`, and ``design`` as context), or ""
@@ -125,14 +146,39 @@ class ControllerFamily(Protocol):
     False
     """
 
-    name: str
-    title: str
-    strategies: tuple[str, ...]
-    check_names: tuple[str, ...]
-    settings: type[Any]
-    report_partial: str
+    # Read-only members: a class attribute, an instance attribute or a property follows them
+    # (and a family's tuple[str, str] is a tuple[str, ...]).
+    @property
+    def name(self) -> str:
+        """Registry name (see the class docstring)."""
+        ...
 
-    def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> Any:
+    @property
+    def title(self) -> str:
+        """Display name (see the class docstring)."""
+        ...
+
+    @property
+    def strategies(self) -> tuple[str, ...]:
+        """Strategy names (see the class docstring)."""
+        ...
+
+    @property
+    def check_names(self) -> tuple[str, ...]:
+        """Names of the design checks (see the class docstring)."""
+        ...
+
+    @property
+    def settings(self) -> type[SettingsT]:
+        """The schema of the family's ``[controller]`` table (see the class docstring)."""
+        ...
+
+    @property
+    def report_partial(self) -> str:
+        """Jinja source of the report section (see the class docstring)."""
+        ...
+
+    def design(self, scenario: Scenario, model: DesignModel, settings: SettingsT) -> DesignT:
         """The family's design (built once per run).
 
         Parameters
@@ -141,24 +187,24 @@ class ControllerFamily(Protocol):
             The validated scenario of the run.
         model : DesignModel
             The shared design model (linearised platoon, sample time, bounds).
-        settings : object
+        settings : SettingsT
             The family's validated ``[controller]`` settings (an instance of
             :attr:`settings`, SI units).
 
         Returns
         -------
-        object
+        DesignT
             The family's design, passed to :meth:`make`, :meth:`checks`,
             :meth:`closed_loop` and :meth:`report_data`.
         """
         ...
 
-    def make(self, design: Any, strategy: str) -> Controller:
+    def make(self, design: DesignT, strategy: str) -> Controller:
         """A controller for one strategy, ready to ``step``.
 
         Parameters
         ----------
-        design : object
+        design : DesignT
             The family's design, from :meth:`design`.
         strategy : str
             One of :attr:`strategies`.
@@ -171,12 +217,12 @@ class ControllerFamily(Protocol):
         """
         ...
 
-    def checks(self, design: Any) -> list[Check]:
+    def checks(self, design: DesignT) -> list[Check]:
         """The family's design checks.
 
         Parameters
         ----------
-        design : object
+        design : DesignT
             The family's design, from :meth:`design`.
 
         Returns
@@ -186,12 +232,12 @@ class ControllerFamily(Protocol):
         """
         ...
 
-    def closed_loop(self, design: Any, strategy: str) -> ct.StateSpace | None:
+    def closed_loop(self, design: DesignT, strategy: str) -> ct.StateSpace | None:
         """The linear closed loop of a strategy (discrete or continuous), or None.
 
         Parameters
         ----------
-        design : object
+        design : DesignT
             The family's design, from :meth:`design`.
         strategy : str
             One of :attr:`strategies`.
@@ -206,12 +252,12 @@ class ControllerFamily(Protocol):
         """
         ...
 
-    def report_data(self, design: Any) -> dict[str, Any]:
+    def report_data(self, design: DesignT) -> dict[str, Any]:
         """JSON-safe data for the family's report section and figures.
 
         Parameters
         ----------
-        design : object
+        design : DesignT
             The family's design, from :meth:`design`.
 
         Returns
@@ -254,7 +300,7 @@ def family_names() -> tuple[str, ...]:
     return tuple(FAMILY_MODULES) + tuple(n for n in _REGISTERED if n not in FAMILY_MODULES)
 
 
-def get_family(name: str) -> ControllerFamily:
+def get_family(name: str) -> ControllerFamily[Any, Any]:
     """The family called ``name``.
 
     Parameters
@@ -290,12 +336,12 @@ def get_family(name: str) -> ControllerFamily:
             f"controller family {name!r} is not known.{hint} Families: "
             f"{', '.join(family_names())}."
         )
-    family = import_module(FAMILY_MODULES[name]).FAMILY
+    family: ControllerFamily[Any, Any] = import_module(FAMILY_MODULES[name]).FAMILY
     _LOADED[name] = family
     return family
 
 
-def register_family(family: ControllerFamily) -> None:
+def register_family(family: ControllerFamily[Any, Any]) -> None:
     """Make ``family`` available under ``family.name`` (a plug-in, or a test's toy family).
 
     Parameters
