@@ -19,10 +19,6 @@ __all__ = ["gramian_transform", "state_balance"]
 Array = NDArray[np.float64]
 
 
-# --------------------------------------------------------------------------------------------
-# data and balancing
-
-
 def _as_matrices(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike | None,
                  who: str) -> tuple[Array, Array, Array, Array]:
     """(A, B, C, D) as float arrays with consistent shapes (D None: zeros)."""

@@ -32,10 +32,6 @@ BRL_MARGIN = 1e-8
 """ε of the strict bounded-real LMI (M ⪯ −εI on the balanced, normalised data)."""
 
 
-# --------------------------------------------------------------------------------------------
-# bounded-real lemma
-
-
 def certified_level(M0: Array, level: Sequence[int]) -> float:
     """Smallest t with M0 − t·E ≺ 0, E the identity on the indices ``level`` (else inf).
 

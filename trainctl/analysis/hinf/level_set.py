@@ -37,10 +37,6 @@ MAX_LEVELS = 100
 """Iterations of the level set before it reports non-convergence."""
 
 
-# --------------------------------------------------------------------------------------------
-# frequency response and the level set
-
-
 def _sigma_max(A: Array, B: Array, C: Array, D: Array, s: complex) -> float:
     """σ̄(C(sI − A)⁻¹B + D) [output units per input unit]."""
     n = A.shape[0]
