@@ -40,7 +40,7 @@ from trainctl.exceptions import ModelError
 from trainctl.models.graphs import REFERENCE, CommunicationGraph
 
 if TYPE_CHECKING:
-    from trainctl.models.network import Interruption
+    from trainctl.models.network.schema import Interruption
 
 __all__ = ["GraphSegment", "WindowConnectivity", "cut_graph", "graph_segments",
            "joint_connectivity", "union_graph"]

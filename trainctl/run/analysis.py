@@ -523,7 +523,7 @@ def simulate_strategy(
             prepare(scenario.network, int(scenario.seed))
         network = None
         if scenario.network is not None and getattr(controller, "uses_network", False):
-            from trainctl.models.network import Network
+            from trainctl.models.network.simulator import Network
 
             network = Network(scenario.network, scenario.graph(),
                               seed=np.random.SeedSequence([scenario.seed, NETWORK_STREAM]))

@@ -40,7 +40,7 @@ from trainctl.controllers.tracking import CONTROLLER_OUTPUTS as CONTROLLER_OUTPU
 from trainctl.models.discrete import DISCRETISATIONS as DISCRETISATIONS
 from trainctl.models.dynamics import ALLOCATIONS as ALLOCATIONS
 from trainctl.models.linear import LINEARISATIONS as LINEARISATIONS
-from trainctl.models.network import NetworkSettings as NetworkSettings
+from trainctl.models.network.schema import NetworkSettings as NetworkSettings
 from trainctl.scenario.communication import CommunicationSettings as CommunicationSettings
 from trainctl.scenario.core import RESERVED_SECTIONS as RESERVED_SECTIONS
 from trainctl.scenario.core import SCHEMA_VERSION as SCHEMA_VERSION

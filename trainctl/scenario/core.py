@@ -18,7 +18,7 @@ from typing import Any, NoReturn
 from trainctl.declare.constraints import Violation, suggest
 from trainctl.exceptions import ModelError
 from trainctl.models.graphs import CommunicationGraph
-from trainctl.models.network import NetworkSettings
+from trainctl.models.network.schema import NetworkSettings
 from trainctl.models.track import Track
 from trainctl.models.train import Train
 from trainctl.scenario.communication import CommunicationSettings

@@ -29,7 +29,7 @@ from pydantic import BaseModel
 
 from trainctl.declare.constraints import Choice
 from trainctl.declare.keys import DeclaredField, Key, declared_fields
-from trainctl.models.network import Interruption, NetworkSettings
+from trainctl.models.network.schema import Interruption, NetworkSettings
 from trainctl.scenario.communication import CommunicationSettings
 from trainctl.scenario.filemodel import file_model, rule_of, sub_model, table_kind
 from trainctl.scenario.settings import ModelSettings, SimulationSettings

@@ -26,7 +26,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError, create_model
 
 from trainctl.declare.constraints import Violation, suggest
 from trainctl.exceptions import ModelError, ScenarioError
-from trainctl.models.network import NetworkSettings
+from trainctl.models.network.schema import NetworkSettings
 from trainctl.models.track import Track, TrackSection
 from trainctl.models.train import Train
 from trainctl.models.vehicle import Coupler, TractionEnvelope, Vehicle

@@ -212,7 +212,7 @@ def _alternatives(key: str) -> tuple[str, ...]:
 def _one_of_groups() -> tuple[tuple[str, ...], ...]:
     """Every group of alternative keys declared in the file tables (leaf names)."""
     from trainctl.declare.keys import declared_fields
-    from trainctl.models.network import NetworkSettings
+    from trainctl.models.network.schema import NetworkSettings
     from trainctl.registry import family_names, get_family
     from trainctl.scenario.communication import CommunicationSettings
     from trainctl.scenario.filemodel import file_model, sub_model

@@ -27,7 +27,7 @@ from pydantic import BaseModel, ConfigDict, create_model
 from pydantic.json_schema import models_json_schema
 
 from trainctl.declare.keys import Key, declared_fields
-from trainctl.models.network import NetworkSettings
+from trainctl.models.network.schema import NetworkSettings
 from trainctl.scenario.communication import CommunicationSettings
 from trainctl.scenario.core import SCHEMA_VERSION, check_names, check_statuses
 from trainctl.scenario.filemodel import FileTable, file_model

@@ -53,7 +53,7 @@ from trainctl.exceptions import (
 )
 from trainctl.models.actuator import SATURATION_TOLERANCE, ActuatorLimits
 from trainctl.models.dynamics import vehicle_positions
-from trainctl.models.network import FATES, Network
+from trainctl.models.network.simulator import FATES, Network
 from trainctl.models.plant import Plant
 from trainctl.sim._log import HOLD_FALLBACK, Log, dense_grid
 from trainctl.sim.metrics import unconverged_steps

@@ -75,8 +75,8 @@ from trainctl.controllers.mpc.local import LocalTrainProblem
 from trainctl.controllers.mpc.observer import KalmanObserver, ObserverSettings
 from trainctl.controllers.mpc.problem import StepContext, TrainProblem
 from trainctl.controllers.mpc.settings import QP_SOLVERS, STRATEGIES, MPCConstraints
-from trainctl.controllers.mpc.strategies import make_strategy
-from trainctl.controllers.mpc.theory.local_iteration import LocalModel
+from trainctl.controllers.mpc.strategies.coordinators import make_strategy
+from trainctl.controllers.mpc.theory.local_iteration.model import LocalModel
 from trainctl.controllers.mpc.theory.mpc import MPCDesign
 from trainctl.exceptions import ModelError
 from trainctl.models.envelope import EnvelopeBounds

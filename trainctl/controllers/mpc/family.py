@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     from trainctl.analysis.check import Check
     from trainctl.controllers.mpc.controller import MPCController
     from trainctl.controllers.mpc.theory.dmpc import DMPCAnalysis, LocalDMPCAnalysis
-    from trainctl.controllers.mpc.theory.local_iteration import LocalModel
+    from trainctl.controllers.mpc.theory.local_iteration.model import LocalModel
     from trainctl.controllers.mpc.theory.mpc import MPCDesign
     from trainctl.design import DesignModel
     from trainctl.report.figures import ReportFigure
@@ -104,7 +104,10 @@ class MPCFamilyDesign:
         (:func:`~trainctl.controllers.mpc.theory.local_iteration.local_model`). Needs the
         zero-order-hold design model (``discretisation = "zoh"``).
         """
-        from trainctl.controllers.mpc.theory.local_iteration import local_model, train_state_owner
+        from trainctl.controllers.mpc.theory.local_iteration.model import (
+            local_model,
+            train_state_owner,
+        )
 
         sys, ctl = self.model.design, self.settings
         return local_model(self.mpc, np.asarray(sys.A, dtype=float),

@@ -41,7 +41,7 @@ from trainctl.controllers.mpc.condensed import block_parameters, build_block, mo
 from trainctl.controllers.mpc.qp.parametric import QP_SOLVERS, ParametricQP
 from trainctl.controllers.mpc.qp.status import is_usable
 from trainctl.controllers.mpc.rows import constraint_rows
-from trainctl.controllers.mpc.strategies import solve_block
+from trainctl.controllers.mpc.strategies.base import solve_block
 from trainctl.controllers.mpc.theory.mpc import prediction_matrices
 from trainctl.exceptions import DimensionError, ModelError
 

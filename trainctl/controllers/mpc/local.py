@@ -44,7 +44,7 @@ from trainctl.controllers.mpc.problem import KN, StepContext, TrainProblem, fill
 from trainctl.controllers.mpc.qp.parametric import ParametricQP
 from trainctl.controllers.mpc.qp.status import is_usable
 from trainctl.controllers.mpc.settings import MPCConstraints
-from trainctl.controllers.mpc.strategies import (
+from trainctl.controllers.mpc.strategies.base import (
     FALLBACK,
     FallbackPlan,
     PlanResult,
@@ -53,9 +53,9 @@ from trainctl.controllers.mpc.strategies import (
     solve_block,
     worst_status,
 )
-from trainctl.controllers.mpc.theory.local_iteration import (
+from trainctl.controllers.mpc.theory.local_iteration.model import LocalModel
+from trainctl.controllers.mpc.theory.local_iteration.predictions import (
     CoachPrediction,
-    LocalModel,
     LocalResponse,
     coach_predictions,
     rows_response,

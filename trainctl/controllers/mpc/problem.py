@@ -37,7 +37,7 @@ from trainctl.controllers.mpc.condensed import (
 )
 from trainctl.controllers.mpc.qp.parametric import ParametricQP
 from trainctl.controllers.mpc.settings import MPCConstraints
-from trainctl.controllers.mpc.strategies import Strategy
+from trainctl.controllers.mpc.strategies.base import Strategy
 from trainctl.controllers.mpc.theory.mpc import MPCDesign, Prediction, prediction
 
 if TYPE_CHECKING:

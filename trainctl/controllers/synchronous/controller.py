@@ -36,7 +36,7 @@ from trainctl.controllers.synchronous.law import SynchronousLaw
 from trainctl.controllers.synchronous.relay import CommandRelay
 from trainctl.exceptions import ModelError
 from trainctl.models.envelope import EnvelopeBounds
-from trainctl.models.network import NetworkSettings
+from trainctl.models.network.schema import NetworkSettings
 from trainctl.models.train import Train
 
 __all__ = ["SynchronousController"]

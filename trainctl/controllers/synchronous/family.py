@@ -33,7 +33,7 @@ if TYPE_CHECKING:
     from trainctl.controllers.synchronous.law import LoopMatrices, SynchronousLaw
     from trainctl.controllers.synchronous.relay import CommandRelay
     from trainctl.design import DesignModel
-    from trainctl.models.network import NetworkSettings
+    from trainctl.models.network.schema import NetworkSettings
     from trainctl.report.figures import ReportFigure
     from trainctl.scenario import Scenario
 

@@ -48,7 +48,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trainctl.models.graphs import CommunicationGraph, make_graph
-from trainctl.models.network import Network, NetworkSettings
+from trainctl.models.network.schema import NetworkSettings
+from trainctl.models.network.simulator import Network
 
 __all__ = ["RELAY_STREAM", "CommandRelay", "relay_graph", "relay_settings"]
 

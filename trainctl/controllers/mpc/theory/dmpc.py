@@ -26,15 +26,15 @@ from trainctl.controllers.mpc.theory.iteration import (
     spectral_radius,
     threshold_weight,
 )
-from trainctl.controllers.mpc.theory.local_iteration import (
-    LocalModel,
+from trainctl.controllers.mpc.theory.local_iteration.model import LocalModel
+from trainctl.controllers.mpc.theory.local_iteration.nash import (
     local_closed_loop,
     local_finite_iteration_closed_loop,
     local_iteration,
     local_nash_gain,
-    local_prediction_error,
     local_threshold_weight,
 )
+from trainctl.controllers.mpc.theory.local_iteration.predictions import local_prediction_error
 from trainctl.controllers.mpc.theory.mpc import MPCDesign, prediction
 
 __all__ = ["LOCAL_THRESHOLD_SIZE", "DMPCAnalysis", "LocalDMPCAnalysis", "analyse_dmpc",
