@@ -29,7 +29,7 @@ where
 
 With ``line_feedforward = true`` (the default) each vehicle also adds
 m_i r(p_i), the grade and curve resistance under itself (the track's line
-model at its measured position, :func:`~trainctl.controllers.synchronous.law.line_resistance`:
+model at its measured position, :func:`~trainctl.controllers.continuous.resistance.line_resistance`:
 the rest of spec §4.1's F_wi, which the estimate F̂_ti stands for), so a
 constant grade leaves no steady speed error and a grade change is answered
 by each vehicle where it happens. Without it the grade is a disturbance the
@@ -90,7 +90,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from trainctl.controllers.synchronous.law import (
+from trainctl.controllers.continuous.resistance import (
     line_resistance,
     own_resistance,
     resistance_damping_per_vehicle,
@@ -231,8 +231,9 @@ class HinfLaw:
             Measured speeds [m/s], shape (n,).
         positions : array_like or None
             Each vehicle's position [m], shape (n,), for the line
-            feedforward r(p_i) (:func:`~trainctl.controllers.synchronous.law.line_resistance`);
-            None, or a law without a line: r = 0.
+            feedforward r(p_i)
+            (:func:`~trainctl.controllers.continuous.resistance.line_resistance`); None, or
+            a law without a line: r = 0.
 
         Returns
         -------

@@ -138,7 +138,7 @@ class PotentialDesign:
     @cached_property
     def certificate(self) -> tuple[str, Array] | None:
         """("closed_form", "lmi" or "equation", P) on [v̂, z, p] ([v̂, z] unpinned); None if none."""
-        from trainctl.controllers.potential.checks import (
+        from trainctl.controllers.potential.lyapunov import (
             LMI_MAX_STATES,
             closed_form_certificate,
             lyapunov_equation,
