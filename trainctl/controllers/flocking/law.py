@@ -62,10 +62,9 @@ from trainctl.controllers.continuous.sampled import cumulative, incidence
 from trainctl.exceptions import ModelError, ScenarioError
 
 if TYPE_CHECKING:
-    from trainctl.design import DesignModel
     from trainctl.scenario import Scenario
 
-__all__ = ["FlockingLaw", "closed_loop_matrices", "desired_gaps", "law_of"]
+__all__ = ["FlockingLaw", "desired_gaps", "law_of"]
 
 Array = NDArray[np.float64]
 
@@ -377,42 +376,3 @@ def law_of(scenario: Scenario, settings: Any) -> FlockingLaw:
         consensus_gain=float(settings.consensus_gain),
         position_gain=float(settings.position_gain),
         speed_gain=float(settings.speed_gain))
-
-
-def closed_loop_matrices(model: DesignModel, law: FlockingLaw) -> tuple[Array, Array, Array]:
-    """Continuous open loop with the head-position integrator, and the closed loop.
-
-    Parameters
-    ----------
-    model : DesignModel
-        The run's design model (continuous SI model, no dummy state).
-    law : FlockingLaw
-        The law.
-
-    Returns
-    -------
-    (A_open, B_open, A_cl) : ndarray
-        The loop ξ̇ = A_open ξ + B_open û (û [N]) on ξ = [v̂, z, p], shapes (2n, 2n)
-        and (2n, n); A_cl = A_open + B_open F [1/s].
-
-    Examples
-    --------
-    >>> from trainctl.scenario import load_scenario
-    >>> scenario = load_scenario("heavy-haul-flocking")
-    >>> from trainctl.design import build_model
-    >>> law = law_of(scenario, scenario.controllers["flocking"])
-    >>> A, B, A_cl = closed_loop_matrices(build_model(scenario), law)
-    >>> A.shape, B.shape
-    ((8, 8), (8, 4))
-    >>> A[-1].tolist()  # ṗ = v̂_0: the head's position error integrates its speed error
-    [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
-    >>> bool(np.max(np.linalg.eigvals(A_cl).real) < 0.0)  # the closed loop is stable
-    True
-    """
-    sys = model.observer_model()
-    nx, n = int(sys.nstates), model.n_vehicles
-    A = np.zeros((nx + 1, nx + 1))
-    A[:nx, :nx] = np.asarray(sys.A, dtype=float)
-    A[nx, 0] = 1.0
-    B = np.vstack([np.asarray(sys.B, dtype=float), np.zeros((1, n))])
-    return A, B, A + B @ law.feedback()

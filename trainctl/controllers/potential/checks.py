@@ -60,7 +60,8 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from trainctl.analysis.check import Check
-from trainctl.controllers.continuous.sampled import SAMPLING_THRESHOLD, closed_loop_spectrum
+from trainctl.controllers.continuous.loops import Translation, hurwitz_check
+from trainctl.controllers.continuous.sampled import SAMPLING_THRESHOLD
 from trainctl.controllers.continuous.sampled import sampling_check as shared_sampling_check
 from trainctl.controllers.potential.lyapunov import (
     LMI_MARGIN,
@@ -115,28 +116,16 @@ def potential_checks(design: PotentialDesign) -> list[Check]:
 
 def closed_loop_check(design: PotentialDesign) -> Check:
     """Hurwitz test; a semisimple zero eigenvalue (no pinning) warns."""
-    lam, tol, zero, alpha, semisimple = closed_loop_spectrum(design.A_cl)
-    details: dict[str, object] = {"max_real_part": alpha, "zero_eigenvalues": int(zero.sum()),
-                                  "eigenvalues": [[float(x.real), float(x.imag)] for x in lam]}
-    name = "potential_closed_loop"
-    if alpha >= -tol:
-        return Check(name=name, status="fail", value=alpha, threshold=0.0, unit="1/s",
-                     message=f"closed loop unstable: max Re λ = {alpha:.4g} 1/s",
-                     hint="raise speed_gain_per_s or lower the gains that excite the couplers",
-                     details=details)
-    if np.any(zero):
-        if not semisimple:
-            return Check(name=name, status="fail", value=0.0, threshold=0.0, unit="1/s",
-                         message="zero eigenvalue in a Jordan block: the position error grows",
-                         hint="set position_gain > 0", details=details)
-        return Check(name=name, status="warn", value=0.0, threshold=0.0, unit="1/s",
-                     message="velocities converge, a constant position offset remains "
-                     f"(semisimple zero eigenvalue; other modes Re λ ≤ {alpha:.4g} 1/s)",
-                     hint="set position_gain > 0 to pin the cars to their reference positions",
-                     details=details)
-    return Check(name=name, status="pass", value=alpha, threshold=0.0, unit="1/s",
-                 message=f"continuous closed loop Hurwitz: max Re λ = {alpha:.4g} 1/s",
-                 details=details)
+    return hurwitz_check(
+        "potential_closed_loop", design.A_cl,
+        unstable="closed loop unstable: max Re λ = {alpha:.4g} 1/s",
+        stable="continuous closed loop Hurwitz: max Re λ = {alpha:.4g} 1/s",
+        hint="raise speed_gain_per_s or lower the gains that excite the couplers",
+        translation=Translation(
+            message="velocities converge, a constant position offset remains "
+            "(semisimple zero eigenvalue; other modes Re λ ≤ {alpha:.4g} 1/s)",
+            hint="set position_gain > 0 to pin the cars to their reference positions",
+            jordan_hint="set position_gain > 0"))
 
 
 def lyapunov_check(design: PotentialDesign, certificate: tuple[str, Array] | None) -> Check:

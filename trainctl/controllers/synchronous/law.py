@@ -62,11 +62,13 @@ uniform link delay at which the loop loses stability
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from trainctl.controllers.continuous.loops import LoopMatrices as SharedLoops
+from trainctl.controllers.continuous.loops import closed_loop_matrices as shared_closed_loop
 from trainctl.controllers.continuous.resistance import (
     line_resistance,
     own_resistance,
@@ -76,6 +78,7 @@ from trainctl.exceptions import ScenarioError
 from trainctl.models.track import Track
 
 if TYPE_CHECKING:
+    from trainctl.controllers.synchronous.settings import SynchronousSettings
     from trainctl.design import DesignModel
     from trainctl.scenario import Scenario
 
@@ -267,7 +270,7 @@ class SynchronousLaw:
         return F
 
 
-def law_of(scenario: Scenario, settings: Any) -> SynchronousLaw:
+def law_of(scenario: Scenario, settings: SynchronousSettings) -> SynchronousLaw:
     """The law's gains for a scenario's train.
 
     Parameters
@@ -315,9 +318,10 @@ def law_of(scenario: Scenario, settings: Any) -> SynchronousLaw:
                           line=scenario.track if settings.line_feedforward else None)
 
 
-@dataclass(frozen=True, kw_only=True, eq=False)
-class LoopMatrices:
+class LoopMatrices(SharedLoops):
     """The continuous loops of the law on x̂ = [v̂, δ̂] (module docstring), SI.
+
+    The relayed part is the remotes' feedback on the lead's speed.
 
     Parameters
     ----------
@@ -325,12 +329,12 @@ class LoopMatrices:
         The design model: (2n−1, 2n−1) [1/s] and (2n−1, n) [1/kg].
     A0 : ndarray
         A + B F₀: plant, feedforward slope and the lead's own feedback.
-    B_relay : ndarray
-        B's remote columns, (2n−1, n−1).
-    K_relay : ndarray
-        The remotes' feedback K_r, (n−1, 2n−1).
     A_cl : ndarray
         The delay-free loop A₀ + B_r K_r.
+    B_delayed : ndarray
+        B's remote columns B_r, (2n−1, n−1) (:attr:`B_relay`).
+    K_delayed : ndarray
+        The remotes' feedback K_r, (n−1, 2n−1) (:attr:`K_relay`).
 
     Examples
     --------
@@ -346,16 +350,23 @@ class LoopMatrices:
     True
     """
 
-    A_open: Array
-    B_open: Array
-    A0: Array
-    B_relay: Array
-    K_relay: Array
-    A_cl: Array
+    @property
+    def B_relay(self) -> Array:
+        """B's remote columns, (2n−1, n−1)."""
+        return self.B_delayed
+
+    @property
+    def K_relay(self) -> Array:
+        """The remotes' feedback K_r, (n−1, 2n−1)."""
+        return self.K_delayed
 
 
 def closed_loop_matrices(model: DesignModel, law: SynchronousLaw) -> LoopMatrices:
     """The open loop, the undelayed part, the relayed part and the delay-free closed loop.
+
+    :func:`trainctl.controllers.continuous.loops.closed_loop_matrices` with
+    F₀ = :meth:`SynchronousLaw.local_feedback` and the relayed part
+    K_r = :meth:`SynchronousLaw.relayed_feedback` on the remotes' inputs.
 
     Parameters
     ----------
@@ -383,12 +394,6 @@ def closed_loop_matrices(model: DesignModel, law: SynchronousLaw) -> LoopMatrice
     >>> round(float(np.max(np.linalg.eigvals(loops.A_cl).real)), 4)  # [1/s]
     -0.0282
     """
-    sys = model.observer_model()
-    A = np.asarray(sys.A, dtype=float)
-    B = np.asarray(sys.B, dtype=float)
     speed = float(model.settings.speed)
-    A0 = A + B @ law.local_feedback(speed)
-    B_relay = B[:, list(law.remotes)]
-    K_relay = law.relayed_feedback()
-    return LoopMatrices(A_open=A, B_open=B, A0=A0, B_relay=B_relay, K_relay=K_relay,
-                        A_cl=A0 + B_relay @ K_relay)
+    return shared_closed_loop(model, law.local_feedback(speed), law.relayed_feedback(),
+                              delayed_inputs=law.remotes, factory=LoopMatrices)
