@@ -92,7 +92,7 @@ class SampledDesign(Generic[SettingsT, LawT]):
 
     def _feedback(self) -> Array:
         """The law's linear gain F [N per unit of state] on the design state."""
-        return self.law.feedback()  # type: ignore[attr-defined, no-any-return]
+        return self.law.feedback()  # type: ignore[attr-defined]
 
     def sampled_matrix(self, interval: float | None = None) -> Array:
         """The delay-free loop with the law held over each interval (exact ZOH of the plant).
@@ -172,7 +172,7 @@ class ContinuousFamily(FamilyBase[DesignT, SettingsT]):
             clipped to the envelope if the settings' ``input_bounds``.
         """
         controller = import_path(self.controller_path)
-        return controller(design.scenario.train, design.law, dt=design.control_interval,  # type: ignore[no-any-return]
+        return controller(design.scenario.train, design.law, dt=design.control_interval,
                           input_bounds=design.settings.input_bounds, name=strategy,
                           **self._controller_options(design))
 
@@ -197,7 +197,7 @@ class ContinuousFamily(FamilyBase[DesignT, SettingsT]):
         """
         import control as ct
 
-        n = design.law.n  # type: ignore[attr-defined]
+        n = design.law.n
         rows, outputs = design.model.loop_outputs()
         if not self.force_outputs:
             keep = [k for k, label in enumerate(outputs) if not label.startswith("f[")]
@@ -207,7 +207,7 @@ class ContinuousFamily(FamilyBase[DesignT, SettingsT]):
         if self.head_position:
             C = np.hstack([rows, np.zeros((rows.shape[0], 1))])  # p, the head's position error
             states = states + ["p"]
-        return ct.ss(design.A_cl, design.B_open * design.law.mass[None, :], C, 0,  # type: ignore[attr-defined]
+        return ct.ss(design.A_cl, design.B_open * design.law.mass[None, :], C, 0,
                      states=states, inputs=[f"w[{i}]" for i in range(n)], outputs=outputs,
                      name=f"{self.name}_{strategy}")
 

@@ -28,6 +28,7 @@ from trainctl.controllers.continuous.family import ContinuousFamily, SampledDesi
 
 if TYPE_CHECKING:
     from trainctl.analysis.check import Check
+    from trainctl.controllers.flocking.law import FlockingLaw  # noqa: F401 (a type argument)
     from trainctl.controllers.flocking.settings import FlockingSettings
     from trainctl.design import DesignModel
     from trainctl.scenario import Scenario

@@ -52,7 +52,7 @@ SI model (resistance linearised as for every family) with ṗ = v̂_0.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -62,6 +62,7 @@ from trainctl.controllers.continuous.sampled import cumulative, incidence
 from trainctl.exceptions import ModelError, ScenarioError
 
 if TYPE_CHECKING:
+    from trainctl.controllers.flocking.settings import FlockingSettings
     from trainctl.scenario import Scenario
 
 __all__ = ["FlockingLaw", "desired_gaps", "law_of"]
@@ -309,7 +310,7 @@ def desired_gaps(scenario: Scenario) -> Array:
     return np.asarray(train.spacing - 0.5 * (length[:-1] + length[1:]), dtype=float)
 
 
-def _potential(scenario: Scenario, settings: Any) -> FlockingPotential:
+def _potential(scenario: Scenario, settings: FlockingSettings) -> FlockingPotential:
     """The pair potential, its desired gap the ``[train.coupler]`` gap (checked)."""
     train, where = scenario.train, f"{scenario.source}: [controller] (flocking)"
     if train.n_vehicles < 2 or not np.all(train.virtual):
@@ -335,7 +336,7 @@ def _potential(scenario: Scenario, settings: Any) -> FlockingPotential:
         raise ScenarioError(f"{where}: {exc}") from None
 
 
-def law_of(scenario: Scenario, settings: Any) -> FlockingLaw:
+def law_of(scenario: Scenario, settings: FlockingSettings) -> FlockingLaw:
     """The law for a scenario (its train, ``[train.coupler]`` gap and ``[communication]`` graph).
 
     Parameters

@@ -36,7 +36,10 @@ from trainctl.controllers.continuous.family import ContinuousFamily, SampledDesi
 if TYPE_CHECKING:
     from trainctl.analysis.connectivity import WindowConnectivity
     from trainctl.analysis.delay import DelayMargin
-    from trainctl.controllers.hinf.law import LoopMatrices
+    from trainctl.controllers.hinf.law import (
+        HinfLaw,  # noqa: F401 (a type argument)
+        LoopMatrices,
+    )
     from trainctl.controllers.hinf.settings import HinfSettings
     from trainctl.controllers.hinf.synthesis import ConsensusLoop, GainSynthesis
     from trainctl.design import DesignModel

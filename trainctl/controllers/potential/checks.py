@@ -53,7 +53,7 @@
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import scipy.linalg
@@ -243,7 +243,7 @@ def barrier_bound(design: PotentialDesign) -> float:
     potential = law.potential
     barrier = float(np.sum(np.asarray(potential.energy(z), dtype=float)))
     if not math.isfinite(barrier):
-        return float(design.settings.barrier)
+        return float(cast(float, design.settings.barrier))  # the barrier potential's Δ
     energy = 0.5 * m * float(v @ v) + 0.5 * float(x @ K @ x) + m * barrier
     return float(potential.bound(energy / m))
 

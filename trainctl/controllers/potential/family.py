@@ -25,6 +25,7 @@ from trainctl.controllers.continuous.family import ContinuousFamily, SampledDesi
 
 if TYPE_CHECKING:
     from trainctl.analysis.check import Check
+    from trainctl.controllers.potential.law import PotentialLaw  # noqa: F401 (a type argument)
     from trainctl.controllers.potential.settings import PotentialSettings
     from trainctl.design import DesignModel
     from trainctl.scenario import Scenario

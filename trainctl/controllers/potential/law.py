@@ -35,7 +35,7 @@ everywhere else) with ṗ = v̂_0.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -45,6 +45,7 @@ from trainctl.exceptions import ScenarioError
 
 if TYPE_CHECKING:
     from trainctl.controllers.continuous.potentials import PairPotential
+    from trainctl.controllers.potential.settings import PotentialSettings
     from trainctl.models.train import Train
     from trainctl.scenario import Scenario
 
@@ -53,7 +54,7 @@ __all__ = ["PotentialLaw", "law_of", "make_potential"]
 Array = NDArray[np.float64]
 
 
-def make_potential(settings: Any, train: Train) -> PairPotential:
+def make_potential(settings: PotentialSettings, train: Train) -> PairPotential:
     """The pair potential the settings name, with curvature κ at z = 0.
 
     ``"quadratic"``: U = κz²/2. ``"barrier"``: U = (κΔ²/2) ln(Δ²/(Δ² − z²)).
@@ -90,7 +91,7 @@ def make_potential(settings: Any, train: Train) -> PairPotential:
 
     kappa = float(settings.kappa)
     if settings.potential == "barrier":
-        return BarrierPotential.with_stiffness(kappa, float(settings.barrier))
+        return BarrierPotential.with_stiffness(kappa, float(cast(float, settings.barrier)))
     if settings.potential == "sigma":
         spacing = float(np.mean(train.spacing))
         unit = FlockingPotential(desired_gap=spacing, length_scale=spacing, force_scale=1.0)
@@ -194,7 +195,7 @@ class PotentialLaw:
         return -self.pinning * x_err - self.mass * (damping + incidence(self.n) @ grad)
 
 
-def law_of(scenario: Scenario, settings: Any) -> PotentialLaw:
+def law_of(scenario: Scenario, settings: PotentialSettings) -> PotentialLaw:
     """The law's gains for a scenario (its train and ``[communication]`` graph).
 
     Parameters

@@ -28,7 +28,10 @@ from trainctl.controllers.continuous.family import ContinuousFamily, SampledDesi
 
 if TYPE_CHECKING:
     from trainctl.analysis.delay import DelayMargin
-    from trainctl.controllers.synchronous.law import LoopMatrices
+    from trainctl.controllers.synchronous.law import (
+        LoopMatrices,
+        SynchronousLaw,  # noqa: F401 (a type argument)
+    )
     from trainctl.controllers.synchronous.relay import CommandRelay
     from trainctl.controllers.synchronous.settings import SynchronousSettings
     from trainctl.design import DesignModel
