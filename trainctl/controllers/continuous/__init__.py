@@ -1,4 +1,4 @@
-# What the continuous-time law families share: the base, the sampled law, its loops, pair potentials.
+# What the continuous-time law families share: base, sampled law, loops, pair potentials.
 """Shared parts of the continuous-time law families (potential, flocking, synchronous, hinf).
 
 - :mod:`~trainctl.controllers.continuous.family`: the family and design base

@@ -255,10 +255,10 @@ def report_spectrum(A_cl: Array,
     Returns
     -------
     points : list of [float, float]
-        z as [re, im] pairs, for the report's ``spectra``.
+        The z as [re, im] pairs, for the report's ``spectra``.
     rows : list of (str, str)
-        ("Slowest mode, max Re λ [1/s]", α) and ("Fastest mode, max |λ|
-        [rad/s]", ω_max), as text.
+        The rows ("Slowest mode, max Re λ [1/s]", α) and ("Fastest mode,
+        max |λ| [rad/s]", ω_max), as text.
 
     Examples
     --------

@@ -93,6 +93,18 @@ def line_resistance(line: Track | None, positions: ArrayLike | None, n: int) -> 
 def resistance_damping_per_vehicle(davis: Array, speed: float) -> Array:
     """c_i = a1_i + 2 a2_i v [1/s]: the slope of the Davis resistance per unit mass.
 
+    Parameters
+    ----------
+    davis : ndarray
+        Davis coefficients per unit mass [m/s², 1/s, 1/m], shape (3, n).
+    speed : float
+        The linearisation speed v [m/s].
+
+    Returns
+    -------
+    ndarray
+        The slopes c_i [1/s], shape (n,).
+
     Examples
     --------
     >>> resistance_damping_per_vehicle(np.array([[1.0], [0.01], [0.001]]), 10.0).tolist()

@@ -110,12 +110,12 @@ class HinfDesign(SampledDesign["HinfSettings", "HinfLaw"]):
         The law's SI gains and graph.
     control_interval : float
         T_c [s].
+    loops : LoopMatrices
+        Open loop, undelayed and delayed parts, delay-free closed loop.
     network : NetworkSettings or None
         The scenario's ``[network]`` (None: data arrive when sent).
     graph : CommunicationGraph
         The ``[communication]`` graph.
-    loops : LoopMatrices
-        Open loop, undelayed and delayed parts, delay-free closed loop.
     consensus : ConsensusLoop
         The same loop affine in (κ_p, κ_c) with the scaled disturbance
         channels and performance output of the settings

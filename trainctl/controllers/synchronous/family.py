@@ -88,10 +88,10 @@ class SynchronousDesign(SampledDesign["SynchronousSettings", "SynchronousLaw"]):
         The law's SI gains.
     control_interval : float
         T_c [s].
-    network : NetworkSettings or None
-        The scenario's ``[network]`` (None: an instantaneous relay).
     loops : LoopMatrices
         Open loop, undelayed and relayed parts, delay-free closed loop.
+    network : NetworkSettings or None
+        The scenario's ``[network]`` (None: an instantaneous relay).
 
     Examples
     --------
