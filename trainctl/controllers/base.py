@@ -29,6 +29,7 @@ __all__ = [
     "Measurement",
     "ReferencePreview",
     "StepRecord",
+    "control_dt",
     "measured_speeds",
 ]
 
@@ -197,6 +198,40 @@ class Controller(Protocol):
             step's status, iterations and solve time.
         """
         ...
+
+
+def control_dt(where: str, dt: float) -> float:
+    """A controller's interval ``dt`` [s] as a float, refused unless > 0.
+
+    Parameters
+    ----------
+    where : str
+        The controller's class name, for the message.
+    dt : float
+        The interval [s].
+
+    Returns
+    -------
+    float
+        ``dt`` [s].
+
+    Raises
+    ------
+    ModelError
+        If ``dt`` is not > 0 (NaN included).
+
+    Examples
+    --------
+    >>> control_dt("Demo", 0.5)
+    0.5
+    >>> control_dt("Demo", 0.0)
+    Traceback (most recent call last):
+    ...
+    trainctl.exceptions.ModelError: Demo: 'dt' must be > 0 s (got 0.0).
+    """
+    if not dt > 0:
+        raise ModelError(f"{where}: 'dt' must be > 0 s (got {dt!r}).")
+    return float(dt)
 
 
 def measured_speeds(measurement: Measurement, n: int, name: str) -> NDArray[np.float64]:

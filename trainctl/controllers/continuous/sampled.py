@@ -1,10 +1,11 @@
 # What the continuous-time consensus families share: their control interval and start errors.
-"""Continuous-time laws sampled at a control interval (the potential and flocking families).
+"""Continuous-time laws sampled at a control interval (the potential, flocking,
+synchronous and hinf families).
 
-Both families design a continuous-time law, simulate it sampled every
-``control_interval`` (the controller's ``dt``), judge it from the
-scenario's initial errors and test its closed loop for Hurwitz stability
-apart from a translation mode; this module holds those shared steps.
+Each family designs a continuous-time law, simulates it sampled every
+``control_interval`` (the controller's ``dt``, :func:`control_interval`),
+judges it from the scenario's initial errors and compares the law held over
+an interval with the continuous loop; this module holds those shared steps.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ if TYPE_CHECKING:
 
 __all__ = ["SAMPLING_THRESHOLD", "ZERO_TOL", "ClosedLoopSpectrum", "closed_loop_spectrum",
            "control_interval", "cumulative", "held_loop", "incidence", "initial_errors",
-           "sampling_check"]
+           "law_interval", "sampling_check"]
 
 SAMPLING_THRESHOLD = 0.1
 """Largest ω_max·T_c [rad] for which the continuous analysis stands for the sampled law.
@@ -102,6 +103,37 @@ def closed_loop_spectrum(A: NDArray[np.float64]) -> ClosedLoopSpectrum:
     return ClosedLoopSpectrum(lam, tol, zero, abscissa, bool(semisimple))
 
 
+def law_interval(settings: Any, sample_time: float) -> float:
+    """The interval [s] a family's law runs at: its ``control_interval``, else the sample time.
+
+    The one rule for every controller: a family whose settings have a
+    ``control_interval`` (a continuous-time law sampled faster than the
+    model) runs at it when given; every other at ``[model] sample_time``.
+
+    Parameters
+    ----------
+    settings : object
+        The family's settings, with ``control_interval`` [s] or None, or
+        without that attribute.
+    sample_time : float
+        The model's sample time [s].
+
+    Returns
+    -------
+    float
+        The interval [s].
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> law_interval(SimpleNamespace(control_interval=0.1), 0.5)
+    0.1
+    >>> law_interval(SimpleNamespace(control_interval=None), 0.5), law_interval(object(), 0.5)
+    (0.5, 0.5)
+    """
+    return float(getattr(settings, "control_interval", None) or sample_time)
+
+
 def control_interval(scenario: Scenario, model: DesignModel, settings: Any,
                      family: str) -> float:
     """The interval [s] at which the family's law runs: its setting, else the sample time.
@@ -146,7 +178,7 @@ def control_interval(scenario: Scenario, model: DesignModel, settings: Any,
     ...     print(type(exc).__name__)
     ScenarioError
     """
-    interval = float(settings.control_interval or model.settings.sample_time)
+    interval = law_interval(settings, model.settings.sample_time)
     sim = scenario.simulation
     if sim is not None:
         steps = round(sim.duration / interval)

@@ -55,7 +55,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trainctl.analysis.check import Check
-from trainctl.controllers.continuous.sampled import closed_loop_spectrum, cumulative, sampling_check
+from trainctl.controllers.continuous.loops import Translation, hurwitz_check
+from trainctl.controllers.continuous.sampled import cumulative, sampling_check
 
 if TYPE_CHECKING:
     from trainctl.controllers.flocking.family import FlockingDesign
@@ -178,28 +179,18 @@ def parameters_check(design: FlockingDesign) -> Check:
 
 def closed_loop_check(design: FlockingDesign) -> Check:
     """Hurwitz test; a semisimple zero eigenvalue (c₁ = 0) warns."""
-    lam, tol, zero, alpha, semisimple = closed_loop_spectrum(design.A_cl)
-    details: dict[str, object] = {"spectral_abscissa": alpha, "zero_eigenvalues": int(zero.sum()),
-                                  "eigenvalues": [[float(x.real), float(x.imag)] for x in lam]}
-    name = "flocking_closed_loop"
-    if alpha >= -tol:
-        return Check(name=name, status="fail", value=alpha, threshold=0.0, unit="1/s",
-                     message=f"linearised closed loop unstable: max Re λ = {alpha:.4g} 1/s",
-                     hint="raise speed_gain_per_s or consensus_gain_per_s", details=details)
-    if np.any(zero):
-        if not semisimple:
-            return Check(name=name, status="fail", value=0.0, threshold=0.0, unit="1/s",
-                         message="zero eigenvalue in a Jordan block: the position error grows",
-                         hint="set position_gain_per_s2 > 0", details=details)
-        return Check(name=name, status="warn", value=0.0, threshold=0.0, unit="1/s",
-                     message="semisimple zero eigenvalue (translation of the whole formation, "
-                     "no position term): speeds and gaps converge, a position offset remains; "
-                     f"other modes max Re λ = {alpha:.4g} 1/s",
-                     hint="set position_gain_per_s2 > 0 to track the virtual leader's slots",
-                     details=details)
-    return Check(name=name, status="pass", value=alpha, threshold=0.0, unit="1/s",
-                 message=f"linearised closed loop Hurwitz: spectral abscissa {alpha:.4g} 1/s "
-                 f"(time constant {-1 / alpha:.4g} s)", details=details)
+    return hurwitz_check(
+        "flocking_closed_loop", design.A_cl,
+        unstable="linearised closed loop unstable: max Re λ = {alpha:.4g} 1/s",
+        stable="linearised closed loop Hurwitz: spectral abscissa {alpha:.4g} 1/s "
+        "(time constant {tau:.4g} s)",
+        hint="raise speed_gain_per_s or consensus_gain_per_s", value_key="spectral_abscissa",
+        translation=Translation(
+            message="semisimple zero eigenvalue (translation of the whole formation, no "
+            "position term): speeds and gaps converge, a position offset remains; other "
+            "modes max Re λ = {alpha:.4g} 1/s",
+            hint="set position_gain_per_s2 > 0 to track the virtual leader's slots",
+            jordan_hint="set position_gain_per_s2 > 0"))
 
 
 def collision_check(design: FlockingDesign, energy: float | None) -> Check:

@@ -17,21 +17,20 @@ deviation from it); ``desired_gap_m``, when given, must agree.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-if TYPE_CHECKING:
-    import control as ct
+from trainctl.controllers.continuous.family import ContinuousFamily, SampledDesign
 
+if TYPE_CHECKING:
     from trainctl.analysis.check import Check
-    from trainctl.controllers.flocking.controller import FlockingController
-    from trainctl.controllers.flocking.law import FlockingLaw
+    from trainctl.controllers.flocking.law import FlockingLaw  # noqa: F401 (a type argument)
+    from trainctl.controllers.flocking.settings import FlockingSettings
     from trainctl.design import DesignModel
-    from trainctl.report.figures import ReportFigure
     from trainctl.scenario import Scenario
     from trainctl.sim import SimulationResult
 
@@ -69,7 +68,7 @@ GRAPH_USAGE = ("The law's velocity consensus runs over these links (consensus ga
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
-class FlockingDesign:
+class FlockingDesign(SampledDesign["FlockingSettings", "FlockingLaw"]):
     """The flocking family's design of one scenario.
 
     Parameters
@@ -84,10 +83,9 @@ class FlockingDesign:
         The law's SI gains and pair potential.
     control_interval : float
         T_c [s].
-    A_open, B_open : ndarray
-        Continuous open loop on ξ = [v̂ (n), z (n-1), p] [1/s], inputs û [N].
-    A_cl : ndarray
-        Continuous linear closed loop [1/s], (2n, 2n).
+    loops : LoopMatrices
+        The continuous loops on ξ = [v̂ (n), z (n-1), p] [1/s], inputs û [N]:
+        ``A_open``, ``B_open`` and the closed loop ``A_cl``, (2n, 2n).
     initial_errors : ndarray
         ξ(0) of the scenario's ``[simulation]`` (zeros without one).
 
@@ -105,36 +103,11 @@ class FlockingDesign:
     True
     """
 
-    scenario: Scenario
-    model: DesignModel
-    settings: Any
-    law: FlockingLaw
-    control_interval: float
-    A_open: Array
-    B_open: Array
-    A_cl: Array
     initial_errors: Array
 
-    def sampled_matrix(self, interval: float | None = None) -> Array:
-        """The linear closed loop with the law held over each interval (exact ZOH of the plant).
 
-        Parameters
-        ----------
-        interval : float or None
-            T [s]; None: :attr:`control_interval`.
-
-        Returns
-        -------
-        ndarray
-            Φ + Γ F, (2n, 2n) [-].
-        """
-        from trainctl.controllers.continuous.sampled import held_loop
-
-        T = self.control_interval if interval is None else float(interval)
-        return held_loop(self.A_open, self.B_open, self.law.feedback(), T)
-
-
-def design_flocking(scenario: Scenario, model: DesignModel, settings: Any) -> FlockingDesign:
+def design_flocking(scenario: Scenario, model: DesignModel,
+                    settings: FlockingSettings) -> FlockingDesign:
     """The law and its linear closed loop.
 
     Parameters
@@ -167,18 +140,19 @@ def design_flocking(scenario: Scenario, model: DesignModel, settings: Any) -> Fl
     >>> d.A_cl.shape, d.law.potential.desired_gap
     ((8, 8), 500.0)
     """
+    from trainctl.controllers.continuous.loops import closed_loop_matrices
     from trainctl.controllers.continuous.sampled import control_interval, initial_errors
-    from trainctl.controllers.flocking.law import closed_loop_matrices, law_of
+    from trainctl.controllers.flocking.law import law_of
 
     T = control_interval(scenario, model, settings, "flocking")
     law = law_of(scenario, settings)
-    A, B, A_cl = closed_loop_matrices(model, law)
     return FlockingDesign(scenario=scenario, model=model, settings=settings, law=law,
-                          control_interval=T, A_open=A, B_open=B, A_cl=A_cl,
+                          control_interval=T,
+                          loops=closed_loop_matrices(model, law.feedback(), head_position=True),
                           initial_errors=initial_errors(scenario))
 
 
-class FlockingFamily:
+class FlockingFamily(ContinuousFamily[FlockingDesign, "FlockingSettings"]):
     """Olfati-Saber's flocking law for virtually coupled trains (seed 002).
 
     Examples
@@ -205,71 +179,14 @@ class FlockingFamily:
     measures_gaps = True
     """The law measures the gaps (the model's observability check adds them to the outputs)."""
     report_partial = PARTIAL
-
-    @property
-    def settings(self) -> type[Any]:
-        """The schema of the family's ``[controller]`` table."""
-        from trainctl.controllers.flocking.settings import FlockingSettings
-
-        return FlockingSettings
-
-    def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> FlockingDesign:
-        """See :func:`design_flocking`.
-
-        Parameters
-        ----------
-        scenario : Scenario
-            The scenario (formation, ``[communication]`` graph, ``[simulation]``).
-        model : DesignModel
-            Its design model.
-        settings : FlockingSettings
-            The family's settings.
-
-        Returns
-        -------
-        FlockingDesign
-            The law (SI gains, pair potential on the gap), the control
-            interval and the linear closed loop.
-        """
-        return design_flocking(scenario, model, settings)
-
-    def make(self, design: FlockingDesign, strategy: str) -> FlockingController:
-        """The controller: the law sampled every ``control_interval``.
-
-        Parameters
-        ----------
-        design : FlockingDesign
-            The family's design.
-        strategy : str
-            The strategy, ``"flocking"``; it names the controller.
-
-        Returns
-        -------
-        FlockingController
-            The law about the cruise feedforward, dt = ``control_interval``
-            [s], clipped to the envelope if the settings' ``input_bounds``.
-        """
-        from trainctl.controllers.flocking.controller import FlockingController
-
-        return FlockingController(design.scenario.train, design.law, dt=design.control_interval,
-                                  input_bounds=design.settings.input_bounds, name=strategy)
-
-    def checks(self, design: FlockingDesign) -> list[Check]:
-        """The six checks of :mod:`trainctl.controllers.flocking.checks`.
-
-        Parameters
-        ----------
-        design : FlockingDesign
-            The family's design.
-
-        Returns
-        -------
-        list of Check
-            In :data:`CHECK_NAMES` order.
-        """
-        from trainctl.controllers.flocking.checks import flocking_checks
-
-        return flocking_checks(design)
+    settings_path = "trainctl.controllers.flocking.settings:FlockingSettings"
+    checks_path = "trainctl.controllers.flocking.checks:flocking_checks"
+    controller_path = "trainctl.controllers.flocking.controller:FlockingController"
+    head_position = True
+    force_outputs = False
+    """Virtual links carry no force: the closed loop has no ``f[i]`` outputs."""
+    graph_usage = GRAPH_USAGE
+    _design = staticmethod(design_flocking)
 
     def trajectory_checks(self, design: FlockingDesign, strategy: str,
                           result: SimulationResult) -> list[Check]:
@@ -294,35 +211,6 @@ class FlockingFamily:
 
         return trajectory_checks(design, strategy, result)
 
-    def closed_loop(self, design: FlockingDesign, strategy: str) -> ct.StateSpace:
-        """ξ̇ = A_cl ξ + B_w w (continuous); outputs v [m/s] and d [m] (no f: virtual links).
-
-        Parameters
-        ----------
-        design : FlockingDesign
-            The family's design.
-        strategy : str
-            The strategy, ``"flocking"``; it names the system.
-
-        Returns
-        -------
-        control.StateSpace
-            The continuous linear closed loop on ξ = [v̂, z, p], inputs the
-            specific-force disturbances ``w[i]`` [m/s²], outputs ``v[i]``
-            [m/s] and ``d[i]`` [m].
-        """
-        import control as ct
-
-        n = design.law.n
-        rows, labels = design.model.loop_outputs()
-        keep = [k for k, label in enumerate(labels) if not label.startswith("f[")]  # virtual
-        C = np.hstack([rows[keep], np.zeros((len(keep), 1))])  # p, the head's position error
-        outputs = [labels[k] for k in keep]
-        return ct.ss(design.A_cl, design.B_open * design.law.mass[None, :], C, 0,
-                     states=design.scenario.train.state_labels() + ["p"],
-                     inputs=[f"w[{i}]" for i in range(n)], outputs=outputs,
-                     name=f"flocking_{strategy}")
-
     def report_data(self, design: FlockingDesign) -> dict[str, Any]:
         """Potential parameters, the closed-loop spectrum (sampled) and the graph, JSON-safe.
 
@@ -343,10 +231,10 @@ class FlockingFamily:
             the collision barrier), ``control_interval`` [s] (as text),
             ``input_bounds`` and ``graph``.
         """
+        from trainctl.controllers.continuous.loops import report_spectrum
         from trainctl.plots.graph_figures import graph_report_data
 
-        lam = np.linalg.eigvals(design.A_cl).astype(complex)
-        z = np.exp(lam * design.model.settings.sample_time)
+        points, modes = report_spectrum(design.A_cl, design.model.settings.sample_time)
         p, law = design.law.potential, design.law
         bound = p.collision_energy_bound()
         rows = [("Desired gap d [m]", f"{p.desired_gap:g}"),
@@ -357,33 +245,12 @@ class FlockingFamily:
                 ("Collision barrier E(0) [m²/s²]", f"{bound.energy:.4g}"),
                 ("Barrier as relative speed [m/s]", f"{bound.relative_speed:.4g}"),
                 ("Consensus, position, speed gains", f"{law.consensus_gain:g} 1/s, "
-                 f"{law.position_gain:g} 1/s², {law.speed_gain:g} 1/s"),
-                ("Slowest mode, max Re λ [1/s]", f"{float(np.max(lam.real)):.4g}")]
-        return {"spectra": {"flocking": [[float(x.real), float(x.imag)] for x in z]},
+                 f"{law.position_gain:g} 1/s², {law.speed_gain:g} 1/s"), modes[0]]
+        return {"spectra": {"flocking": points},
                 "rows": [{"name": a, "value": b} for a, b in rows],
                 "control_interval": f"{design.control_interval:g}",
                 "input_bounds": bool(design.settings.input_bounds),
                 "graph": graph_report_data(design.scenario.graph())}
-
-    def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
-        """The communication graph, in the family's section (its spectrum joins the eigenvalue map).
-
-        Drawn from ``data["graph"]``
-        (:func:`trainctl.plots.graph_figures.graph_figure`).
-
-        Parameters
-        ----------
-        data : mapping
-            The family's :meth:`report_data`.
-
-        Returns
-        -------
-        list of ReportFigure
-            One figure, the communication graph.
-        """
-        from trainctl.plots.graph_figures import graph_figure
-
-        return [graph_figure(data["graph"], family=self.name, usage=GRAPH_USAGE)]
 
 
 FAMILY = FlockingFamily()

@@ -71,7 +71,7 @@ import math
 from typing import TYPE_CHECKING
 
 from trainctl.analysis.check import Check
-from trainctl.controllers.continuous.sampled import closed_loop_spectrum
+from trainctl.controllers.continuous.loops import hurwitz_check
 from trainctl.controllers.continuous.sampled import sampling_check as shared_sampling_check
 
 if TYPE_CHECKING:
@@ -155,31 +155,23 @@ def closed_loop_check(design: HinfDesign) -> Check:
     >>> check.status, round(check.value, 4), check.unit  # max Re λ
     ('pass', -0.1, '1/s')
     """
-    spectrum = closed_loop_spectrum(design.loops.A_cl)
-    lam = spectrum.eigenvalues
-    alpha = float(max(lam.real))
     unreached = design.graph.unreached()
-    details: dict[str, object] = {"max_real_part": alpha,
-                                  "eigenvalues": [[float(x.real), float(x.imag)] for x in lam],
-                                  "unreached_vehicles": [i + 1 for i in unreached]}
-    name = "hinf_closed_loop"
-    if alpha >= -spectrum.tol:
-        tree = ("" if not unreached else
-                f"; the [communication] graph has no spanning tree rooted at the reference "
-                f"(it does not reach {_vehicles(unreached)}), which leader-following "
-                "consensus needs")
-        hint = ("pin more vehicles or add links so that the reference reaches every vehicle"
-                if unreached else "lower kappa_p_per_s and kappa_c_per_s")
-        return Check(name=name, status="fail", value=alpha, threshold=0.0, unit="1/s",
-                     message=f"delay-free closed loop not Hurwitz: max Re λ = {alpha:.4g} 1/s"
-                     + tree, hint=hint, details=details)
+    tree = ("" if not unreached else
+            f"; the [communication] graph has no spanning tree rooted at the reference "
+            f"(it does not reach {_vehicles(unreached)}), which leader-following "
+            "consensus needs")
+    hint = ("pin more vehicles or add links so that the reference reaches every vehicle"
+            if unreached else "lower kappa_p_per_s and kappa_c_per_s")
     note = ("" if not unreached else
             f"; the graph does not reach {_vehicles(unreached)}, the couplers carry the "
             "pinning to them")
-    return Check(name=name, status="pass", value=alpha, threshold=0.0, unit="1/s",
-                 message=f"delay-free continuous closed loop Hurwitz: max Re λ = {alpha:.4g} 1/s "
-                 f"(slowest mode, time constant {-1.0 / alpha:.4g} s){note}",
-                 details=details)
+    return hurwitz_check(
+        "hinf_closed_loop", design.loops.A_cl,
+        unstable="delay-free closed loop not Hurwitz: max Re λ = {alpha:.4g} 1/s",
+        stable="delay-free continuous closed loop Hurwitz: max Re λ = {alpha:.4g} 1/s "
+        "(slowest mode, time constant {tau:.4g} s)", hint=hint,
+        unstable_note=tree, stable_note=note,
+        details={"unreached_vehicles": [i + 1 for i in unreached]})
 
 
 def sampling_check(design: HinfDesign) -> Check:

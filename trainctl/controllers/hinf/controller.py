@@ -46,7 +46,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.controllers.base import Measurement, ReferencePreview, StepRecord, measured_speeds
+from trainctl.controllers.base import (
+    Measurement,
+    ReferencePreview,
+    StepRecord,
+    control_dt,
+    measured_speeds,
+)
 from trainctl.controllers.faults import call_solver, fault_record, non_finite_reason
 from trainctl.controllers.hinf.law import HinfLaw
 from trainctl.exceptions import ModelError
@@ -99,8 +105,7 @@ class HinfController:
 
     def __init__(self, train: Train, law: HinfLaw, *, dt: float, input_bounds: bool = True,
                  name: str = "distributed") -> None:
-        if not dt > 0:
-            raise ModelError(f"HinfController: 'dt' must be > 0 s (got {dt!r}).")
+        dt = control_dt("HinfController", dt)
         if law.n != train.n_vehicles:
             raise ModelError(f"HinfController: the law is for {law.n} vehicles; the train has "
                              f"{train.n_vehicles}.")

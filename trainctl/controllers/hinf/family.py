@@ -23,7 +23,7 @@ design model (no delay, ideal network) is continuous (dt = 0):
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
@@ -31,19 +31,20 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-if TYPE_CHECKING:
-    import control as ct
+from trainctl.controllers.continuous.family import ContinuousFamily, SampledDesign
 
-    from trainctl.analysis.check import Check
+if TYPE_CHECKING:
     from trainctl.analysis.connectivity import WindowConnectivity
     from trainctl.analysis.delay import DelayMargin
-    from trainctl.controllers.hinf.controller import HinfController
-    from trainctl.controllers.hinf.law import HinfLaw, LoopMatrices
+    from trainctl.controllers.hinf.law import (
+        HinfLaw,  # noqa: F401 (a type argument)
+        LoopMatrices,
+    )
+    from trainctl.controllers.hinf.settings import HinfSettings
     from trainctl.controllers.hinf.synthesis import ConsensusLoop, GainSynthesis
     from trainctl.design import DesignModel
     from trainctl.models.graphs import CommunicationGraph
     from trainctl.models.network import NetworkSettings
-    from trainctl.report.figures import ReportFigure
     from trainctl.scenario import Scenario
 
 __all__ = ["CHECK_NAMES", "DELAY_POINTS", "DELAY_SEARCH", "FAMILY", "GRAPH_USAGE", "STRATEGIES",
@@ -94,7 +95,7 @@ s{% if not data.input_bounds %} (no saturation){% endif %}. The gains are
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
-class HinfDesign:
+class HinfDesign(SampledDesign["HinfSettings", "HinfLaw"]):
     """The hinf family's design of one scenario.
 
     Parameters
@@ -109,12 +110,12 @@ class HinfDesign:
         The law's SI gains and graph.
     control_interval : float
         T_c [s].
+    loops : LoopMatrices
+        Open loop, undelayed and delayed parts, delay-free closed loop.
     network : NetworkSettings or None
         The scenario's ``[network]`` (None: data arrive when sent).
     graph : CommunicationGraph
         The ``[communication]`` graph.
-    loops : LoopMatrices
-        Open loop, undelayed and delayed parts, delay-free closed loop.
     consensus : ConsensusLoop
         The same loop affine in (κ_p, κ_c) with the scaled disturbance
         channels and performance output of the settings
@@ -141,11 +142,6 @@ class HinfDesign:
     (True, (7, 7))
     """
 
-    scenario: Scenario
-    model: DesignModel
-    settings: Any
-    law: HinfLaw
-    control_interval: float
     network: NetworkSettings | None
     graph: CommunicationGraph
     loops: LoopMatrices
@@ -223,27 +219,12 @@ class HinfDesign:
             return []
         return joint_connectivity(self.graph, windows, self.run_length)
 
-    def sampled_matrix(self, interval: float | None = None) -> Array:
-        """The delay-free loop with the law held over each interval (exact ZOH of the plant).
-
-        Parameters
-        ----------
-        interval : float or None
-            T [s]; None: :attr:`control_interval`.
-
-        Returns
-        -------
-        ndarray
-            (2n−1, 2n−1) [-].
-        """
-        from trainctl.controllers.continuous.sampled import held_loop
-
-        T = self.control_interval if interval is None else float(interval)
-        speed = float(self.model.settings.speed)
-        return held_loop(self.loops.A_open, self.loops.B_open, self.law.feedback(speed), T)
+    def _feedback(self) -> Array:
+        """The delay-free law's gain at the model's speed."""
+        return self.law.feedback(float(self.model.settings.speed))
 
 
-def design_hinf(scenario: Scenario, model: DesignModel, settings: Any) -> HinfDesign:
+def design_hinf(scenario: Scenario, model: DesignModel, settings: HinfSettings) -> HinfDesign:
     """The law's gains, its graph and its linear loops.
 
     With ``synthesise = true`` the gains come from one run of
@@ -386,7 +367,7 @@ def _age_rows(design: HinfDesign) -> list[tuple[str, str]]:
              f"{design.control_interval:g} s, delays in [{lo:g}, {hi:g}] s)")]
 
 
-class HinfFamily:
+class HinfFamily(ContinuousFamily[HinfDesign, "HinfSettings"]):
     """Seed 003's distributed robust H∞ cooperative law (leader-following speed consensus).
 
     Examples
@@ -408,98 +389,11 @@ class HinfFamily:
     check_names = CHECK_NAMES
     strategy_cost: Mapping[str, float] = {"distributed": 0.1}
     report_partial = PARTIAL
-
-    @property
-    def settings(self) -> type[Any]:
-        """The schema of the family's ``[controller]`` table."""
-        from trainctl.controllers.hinf.settings import HinfSettings
-
-        return HinfSettings
-
-    def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> HinfDesign:
-        """See :func:`design_hinf`.
-
-        Parameters
-        ----------
-        scenario : Scenario
-            The scenario (train, ``[communication]``, ``[network]``, ``[simulation]``).
-        model : DesignModel
-            Its design model.
-        settings : HinfSettings
-            The family's settings.
-
-        Returns
-        -------
-        HinfDesign
-            The law (given or synthesised gains), the control interval, the
-            ``[network]``, the graph, the linear loops and the consensus loop
-            of the H∞ analysis.
-        """
-        return design_hinf(scenario, model, settings)
-
-    def make(self, design: HinfDesign, strategy: str) -> HinfController:
-        """The controller: the law sampled every ``control_interval``, on the network's data.
-
-        Parameters
-        ----------
-        design : HinfDesign
-            The family's design.
-        strategy : str
-            The strategy, ``"distributed"``; it names the controller.
-
-        Returns
-        -------
-        HinfController
-            The law with the design's gains, dt = ``control_interval`` [s],
-            clipped to the envelope if the settings' ``input_bounds``.
-        """
-        from trainctl.controllers.hinf.controller import HinfController
-
-        return HinfController(design.scenario.train, design.law, dt=design.control_interval,
-                              input_bounds=design.settings.input_bounds, name=strategy)
-
-    def checks(self, design: HinfDesign) -> list[Check]:
-        """The five checks of :mod:`trainctl.controllers.hinf.checks`.
-
-        Parameters
-        ----------
-        design : HinfDesign
-            The family's design.
-
-        Returns
-        -------
-        list of Check
-            In :data:`CHECK_NAMES` order.
-        """
-        from trainctl.controllers.hinf.checks import hinf_checks
-
-        return hinf_checks(design)
-
-    def closed_loop(self, design: HinfDesign, strategy: str) -> ct.StateSpace:
-        """x̂' = A_cl x̂ + B_w w (continuous, no delay); outputs v [m/s], f [kN], d [m].
-
-        Parameters
-        ----------
-        design : HinfDesign
-            The family's design.
-        strategy : str
-            The strategy, ``"distributed"``; it names the system.
-
-        Returns
-        -------
-        control.StateSpace
-            The continuous delay-free closed loop on x̂ = [v̂, δ̂], inputs the
-            specific-force disturbances ``w[i]`` [m/s²], outputs ``v[i]``
-            [m/s], ``f[i]`` [kN] and ``d[i]`` [m].
-        """
-        import control as ct
-
-        n = design.law.n
-        rows, outputs = design.model.loop_outputs()
-        return ct.ss(design.loops.A_cl, design.loops.B_open * design.law.mass[None, :], rows, 0,
-                     states=design.scenario.train.state_labels(),
-                     inputs=[f"w[{i}]" for i in range(n)], outputs=outputs,
-                     name=f"hinf_{strategy}")
+    settings_path = "trainctl.controllers.hinf.settings:HinfSettings"
+    checks_path = "trainctl.controllers.hinf.checks:hinf_checks"
+    controller_path = "trainctl.controllers.hinf.controller:HinfController"
+    graph_usage = GRAPH_USAGE
+    _design = staticmethod(design_hinf)
 
     def report_data(self, design: HinfDesign) -> dict[str, Any]:
         """Gains, delay margin against the consensus bound and the network, the graph.
@@ -526,10 +420,10 @@ class HinfFamily:
             graph or no bound), ``connectivity`` (per window) and ``graph``.
         """
         from trainctl.analysis.check import finite_or_none
+        from trainctl.controllers.continuous.loops import report_spectrum
         from trainctl.plots.graph_figures import graph_report_data
 
-        lam = np.linalg.eigvals(design.loops.A_cl).astype(complex)
-        z = np.exp(lam * design.model.settings.sample_time)
+        points, modes = report_spectrum(design.loops.A_cl, design.model.settings.sample_time)
         s, res = design.settings, design.delay
         gamma = design.gamma
         rows = [("Pinning gain κ_p [1/s]", f"{design.law.kappa_p:.4g}"),
@@ -542,10 +436,8 @@ class HinfFamily:
                 ("First-order consensus bound [s]",
                  _seconds(design.consensus_bound, "directed graph")),
                 ("Network worst-case delay [s]", _seconds(design.worst_delay)),
-                *_age_rows(design),
-                ("Slowest mode, max Re λ [1/s]", f"{float(np.max(lam.real)):.4g}"),
-                ("Fastest mode, max |λ| [rad/s]", f"{float(np.max(np.abs(lam))):.4g}")]
-        return {"spectra": {"hinf distributed": [[float(x.real), float(x.imag)] for x in z]},
+                *_age_rows(design), *modes]
+        return {"spectra": {"hinf distributed": points},
                 "rows": [{"name": a, "value": b} for a, b in rows],
                 "gains_source": design.gains_source,
                 "gamma_sentence": GAMMA_SENTENCE,
@@ -556,26 +448,6 @@ class HinfFamily:
                 "consensus_bound": finite_or_none(design.consensus_bound),
                 "connectivity": [w.to_dict() for w in design.connectivity],
                 "graph": graph_report_data(design.graph)}
-
-    def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
-        """The communication graph, in the family's section (its spectrum joins the eigenvalue map).
-
-        Drawn from ``data["graph"]``
-        (:func:`trainctl.plots.graph_figures.graph_figure`).
-
-        Parameters
-        ----------
-        data : mapping
-            The family's :meth:`report_data`.
-
-        Returns
-        -------
-        list of ReportFigure
-            One figure, the communication graph.
-        """
-        from trainctl.plots.graph_figures import graph_figure
-
-        return [graph_figure(data["graph"], family=self.name, usage=GRAPH_USAGE)]
 
 
 FAMILY = HinfFamily()

@@ -29,7 +29,7 @@ where
 
 With ``line_feedforward = true`` (the default) each vehicle also adds
 m_i r(p_i), the grade and curve resistance under itself (the track's line
-model at its measured position, :func:`~trainctl.controllers.synchronous.law.line_resistance`:
+model at its measured position, :func:`~trainctl.controllers.continuous.resistance.line_resistance`:
 the rest of spec §4.1's F_wi, which the estimate F̂_ti stands for), so a
 constant grade leaves no steady speed error and a grade change is answered
 by each vehicle where it happens. Without it the grade is a disturbance the
@@ -85,12 +85,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from trainctl.controllers.synchronous.law import (
+from trainctl.controllers.continuous.loops import LoopMatrices as SharedLoops
+from trainctl.controllers.continuous.loops import closed_loop_matrices as shared_closed_loop
+from trainctl.controllers.continuous.resistance import (
     line_resistance,
     own_resistance,
     resistance_damping_per_vehicle,
@@ -98,6 +100,7 @@ from trainctl.controllers.synchronous.law import (
 from trainctl.models.track import Track
 
 if TYPE_CHECKING:
+    from trainctl.controllers.hinf.settings import HinfSettings
     from trainctl.design import DesignModel
     from trainctl.scenario import Scenario
 
@@ -231,8 +234,9 @@ class HinfLaw:
             Measured speeds [m/s], shape (n,).
         positions : array_like or None
             Each vehicle's position [m], shape (n,), for the line
-            feedforward r(p_i) (:func:`~trainctl.controllers.synchronous.law.line_resistance`);
-            None, or a law without a line: r = 0.
+            feedforward r(p_i)
+            (:func:`~trainctl.controllers.continuous.resistance.line_resistance`); None, or
+            a law without a line: r = 0.
 
         Returns
         -------
@@ -323,7 +327,7 @@ class HinfLaw:
         return self._speed_columns(self.kappa_c * np.diag(self.mass) @ self.adjacency)
 
 
-def law_of(scenario: Scenario, settings: Any, gains: tuple[float, float] | None = None
+def law_of(scenario: Scenario, settings: HinfSettings, gains: tuple[float, float] | None = None
            ) -> HinfLaw:
     """The law's gains on a scenario's train and ``[communication]`` graph.
 
@@ -365,9 +369,10 @@ def law_of(scenario: Scenario, settings: Any, gains: tuple[float, float] | None 
                    line=scenario.track if settings.line_feedforward else None)
 
 
-@dataclass(frozen=True, kw_only=True, eq=False)
-class LoopMatrices:
+class LoopMatrices(SharedLoops):
     """The continuous loops of the law on x̂ = [v̂, δ̂] (module docstring), SI.
+
+    The delayed part acts on every input (its input matrix is ``B_open``).
 
     Parameters
     ----------
@@ -375,11 +380,12 @@ class LoopMatrices:
         The design model: (2n−1, 2n−1) [1/s] and (2n−1, n) [1/kg].
     A0 : ndarray
         A + B F₀: plant, feedforward slope and the undelayed feedback [1/s].
-    K_delay : ndarray
-        The delayed feedback K [N per unit of x̂], (n, 2n−1); its input
-        matrix is ``B_open``.
     A_cl : ndarray
         The delay-free loop A₀ + B K [1/s].
+    B_delayed : ndarray
+        ``B_open``, the delayed part's input matrix.
+    K_delayed : ndarray
+        The delayed feedback K [N per unit of x̂], (n, 2n−1) (:attr:`K_delay`).
 
     Examples
     --------
@@ -394,15 +400,17 @@ class LoopMatrices:
     True
     """
 
-    A_open: Array
-    B_open: Array
-    A0: Array
-    K_delay: Array
-    A_cl: Array
+    @property
+    def K_delay(self) -> Array:
+        """The delayed feedback K [N per unit of x̂], (n, 2n−1)."""
+        return self.K_delayed
 
 
 def closed_loop_matrices(model: DesignModel, law: HinfLaw) -> LoopMatrices:
     """The open loop, the undelayed part, the delayed part and the delay-free closed loop.
+
+    :func:`trainctl.controllers.continuous.loops.closed_loop_matrices` with
+    F₀ = :meth:`HinfLaw.undelayed_feedback` and K = :meth:`HinfLaw.delayed_feedback`.
 
     Parameters
     ----------
@@ -428,10 +436,6 @@ def closed_loop_matrices(model: DesignModel, law: HinfLaw) -> LoopMatrices:
     >>> round(float(np.max(np.linalg.eigvals(loops.A_cl).real)), 4)  # [1/s]
     -0.1
     """
-    sys = model.observer_model()
-    A = np.asarray(sys.A, dtype=float)
-    B = np.asarray(sys.B, dtype=float)
     speed = float(model.settings.speed)
-    A0 = A + B @ law.undelayed_feedback(speed)
-    K = law.delayed_feedback()
-    return LoopMatrices(A_open=A, B_open=B, A0=A0, K_delay=K, A_cl=A0 + B @ K)
+    return shared_closed_loop(model, law.undelayed_feedback(speed), law.delayed_feedback(),
+                              factory=LoopMatrices)

@@ -23,7 +23,7 @@ import time
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.controllers.base import Measurement, ReferencePreview, StepRecord
+from trainctl.controllers.base import Measurement, ReferencePreview, StepRecord, control_dt
 from trainctl.controllers.faults import call_solver, fault_record, non_finite_reason
 from trainctl.exceptions import DimensionError, ModelError
 from trainctl.models.envelope import EnvelopeBounds
@@ -81,9 +81,7 @@ class LQRController:
                                  f"{n} vehicles (got {K.shape}).")
         if not np.all(np.isfinite(K)):
             raise ModelError("LQRController: 'gain' must be finite.")
-        if not dt > 0:
-            raise ModelError(f"LQRController: 'dt' must be > 0 (got {dt!r}).")
-        self.train, self.gain, self.dt = train, K, float(dt)
+        self.train, self.gain, self.dt = train, K, control_dt("LQRController", dt)
         self.input_bounds, self.name = bool(input_bounds), name
         self._split = ForceSplit(train, where=name)
         self._envelope = EnvelopeBounds(train, enabled=self.input_bounds)

@@ -19,20 +19,22 @@ Both run with the cruise feedforward and the envelope as saturation
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from trainctl.controllers.family import FamilyBase
+
 if TYPE_CHECKING:
     import control as ct
 
     from trainctl.analysis.check import Check
     from trainctl.controllers.lqr.controller import LQRController
+    from trainctl.controllers.lqr.settings import LQRSettings
     from trainctl.design import DesignModel
-    from trainctl.report.figures import ReportFigure
     from trainctl.scenario import Scenario
 
 __all__ = ["CHECK_NAMES", "FAMILY", "STRATEGIES", "LQRDesign", "LQRFamily", "design_lqr"]
@@ -108,7 +110,7 @@ class LQRDesign:
 
     scenario: Scenario
     model: DesignModel
-    settings: Any
+    settings: LQRSettings
     A: Array
     B: Array
     Q: Array
@@ -207,7 +209,7 @@ def _decentralised_gain(model: DesignModel, settings: Any, C: Array, q: Array) -
     return K
 
 
-class LQRFamily:
+class LQRFamily(FamilyBase[LQRDesign, "LQRSettings"]):
     """Discrete LQR of the train: centralised and decentralised (per coach).
 
     Examples
@@ -230,32 +232,8 @@ class LQRFamily:
     check_names = CHECK_NAMES
     strategy_cost: Mapping[str, float] = {"centralised": 0.1, "decentralised": 0.1}
     report_partial = PARTIAL
-
-    @property
-    def settings(self) -> type[Any]:
-        """The schema of the family's ``[controller]`` table."""
-        from trainctl.controllers.lqr.settings import LQRSettings
-
-        return LQRSettings
-
-    def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> LQRDesign:
-        """See :func:`design_lqr`.
-
-        Parameters
-        ----------
-        scenario : Scenario
-            The scenario.
-        model : DesignModel
-            Its design model.
-        settings : LQRSettings
-            The family's ``[controller]`` settings (outputs, weights, saturation).
-
-        Returns
-        -------
-        LQRDesign
-            The discrete model, weights and the gain of both strategies.
-        """
-        return design_lqr(scenario, model, settings)
+    settings_path = "trainctl.controllers.lqr.settings:LQRSettings"
+    _design = staticmethod(design_lqr)
 
     def make(self, design: LQRDesign, strategy: str) -> LQRController:
         """The controller of one strategy: feedforward, gain, saturation.
@@ -360,21 +338,6 @@ class LQRFamily:
         return {"spectra": spectra, "rows": rows, "outputs": list(settings.outputs),
                 "r_text": f"{settings.input_weight_per_kn2():.4g}", "unit": "per kN²",
                 "input_bounds": bool(settings.input_bounds)}
-
-    def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
-        """No figures of its own: its spectra join the eigenvalue map.
-
-        Parameters
-        ----------
-        data : mapping of str to object
-            The family's :meth:`report_data` (unused).
-
-        Returns
-        -------
-        sequence of ReportFigure
-            Always empty.
-        """
-        return []
 
 
 FAMILY = LQRFamily()

@@ -13,7 +13,7 @@ deviations); generic analyses that need a discrete loop sample it
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
@@ -21,14 +21,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-if TYPE_CHECKING:
-    import control as ct
+from trainctl.controllers.continuous.family import ContinuousFamily, SampledDesign
 
+if TYPE_CHECKING:
     from trainctl.analysis.check import Check
-    from trainctl.controllers.potential.controller import PotentialController
-    from trainctl.controllers.potential.law import PotentialLaw
+    from trainctl.controllers.potential.law import PotentialLaw  # noqa: F401 (a type argument)
+    from trainctl.controllers.potential.settings import PotentialSettings
     from trainctl.design import DesignModel
-    from trainctl.report.figures import ReportFigure
     from trainctl.scenario import Scenario
     from trainctl.sim import SimulationResult
 
@@ -66,7 +65,7 @@ GRAPH_USAGE = ("The law's velocity consensus runs over these links (consensus ga
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
-class PotentialDesign:
+class PotentialDesign(SampledDesign["PotentialSettings", "PotentialLaw"]):
     """The potential family's design of one scenario.
 
     Parameters
@@ -81,10 +80,9 @@ class PotentialDesign:
         The law's SI gains and pair potential.
     control_interval : float
         T_c [s].
-    A_open, B_open : ndarray
-        Continuous open loop on ξ = [v̂ (n), z (n-1), p] [1/s], inputs û [N].
-    A_cl : ndarray
-        Continuous linear closed loop [1/s], (2n, 2n).
+    loops : LoopMatrices
+        The continuous loops on ξ = [v̂ (n), z (n-1), p] [1/s], inputs û [N]:
+        ``A_open``, ``B_open`` and the closed loop ``A_cl``, (2n, 2n).
     initial_errors : ndarray
         ξ(0) of the scenario's ``[simulation]`` (zeros without one).
 
@@ -102,14 +100,6 @@ class PotentialDesign:
     [1.0, -1.0, 1.0, -1.0]
     """
 
-    scenario: Scenario
-    model: DesignModel
-    settings: Any
-    law: PotentialLaw
-    control_interval: float
-    A_open: Array
-    B_open: Array
-    A_cl: Array
     initial_errors: Array
 
     @property
@@ -117,28 +107,10 @@ class PotentialDesign:
         """True when some car is pinned to its reference position (position_gain > 0)."""
         return bool(np.any(self.law.pinning > 0))
 
-    def sampled_matrix(self, interval: float | None = None) -> Array:
-        """The closed loop with the law held over each interval (exact ZOH of the plant).
-
-        Parameters
-        ----------
-        interval : float or None
-            T [s]; None: :attr:`control_interval`.
-
-        Returns
-        -------
-        ndarray
-            Φ + Γ F, (2n, 2n) [-].
-        """
-        from trainctl.controllers.continuous.sampled import held_loop
-
-        T = self.control_interval if interval is None else float(interval)
-        return held_loop(self.A_open, self.B_open, self.law.feedback(), T)
-
     @cached_property
     def certificate(self) -> tuple[str, Array] | None:
         """("closed_form", "lmi" or "equation", P) on [v̂, z, p] ([v̂, z] unpinned); None if none."""
-        from trainctl.controllers.potential.checks import (
+        from trainctl.controllers.potential.lyapunov import (
             LMI_MAX_STATES,
             closed_form_certificate,
             lyapunov_equation,
@@ -156,7 +128,8 @@ class PotentialDesign:
         return None if P is None else ("lmi", P)
 
 
-def design_potential(scenario: Scenario, model: DesignModel, settings: Any) -> PotentialDesign:
+def design_potential(scenario: Scenario, model: DesignModel,
+                     settings: PotentialSettings) -> PotentialDesign:
     """The law's gains and its linear closed loop.
 
     Parameters
@@ -190,18 +163,19 @@ def design_potential(scenario: Scenario, model: DesignModel, settings: Any) -> P
     >>> d.A_cl.shape, d.control_interval
     ((8, 8), 0.05)
     """
+    from trainctl.controllers.continuous.loops import closed_loop_matrices
     from trainctl.controllers.continuous.sampled import control_interval, initial_errors
-    from trainctl.controllers.potential.law import closed_loop_matrices, law_of
+    from trainctl.controllers.potential.law import law_of
 
     T = control_interval(scenario, model, settings, "potential")
     law = law_of(scenario, settings)
-    A, B, A_cl = closed_loop_matrices(model, law)
     return PotentialDesign(scenario=scenario, model=model, settings=settings, law=law,
-                           control_interval=T, A_open=A, B_open=B, A_cl=A_cl,
+                           control_interval=T,
+                           loops=closed_loop_matrices(model, law.feedback(), head_position=True),
                            initial_errors=initial_errors(scenario))
 
 
-class PotentialFamily:
+class PotentialFamily(ContinuousFamily[PotentialDesign, "PotentialSettings"]):
     """Zhao & Wang's potential-function consensus law (seed 001).
 
     Examples
@@ -225,72 +199,12 @@ class PotentialFamily:
     """The checks :meth:`trajectory_checks` judges again on a simulation."""
     strategy_cost: Mapping[str, float] = {"consensus": 0.2}
     report_partial = PARTIAL
-
-    @property
-    def settings(self) -> type[Any]:
-        """The schema of the family's ``[controller]`` table."""
-        from trainctl.controllers.potential.settings import PotentialSettings
-
-        return PotentialSettings
-
-    def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> PotentialDesign:
-        """See :func:`design_potential`.
-
-        Parameters
-        ----------
-        scenario : Scenario
-            The scenario (train, ``[communication]`` graph, ``[simulation]``).
-        model : DesignModel
-            Its design model.
-        settings : PotentialSettings
-            The family's settings.
-
-        Returns
-        -------
-        PotentialDesign
-            The law's SI gains, pair potential, control interval and linear
-            closed loop.
-        """
-        return design_potential(scenario, model, settings)
-
-    def make(self, design: PotentialDesign, strategy: str) -> PotentialController:
-        """The controller: the law sampled every ``control_interval``.
-
-        Parameters
-        ----------
-        design : PotentialDesign
-            The family's design.
-        strategy : str
-            The strategy, ``"consensus"``; it names the controller.
-
-        Returns
-        -------
-        PotentialController
-            The law about the cruise feedforward, dt = ``control_interval``
-            [s], clipped to the envelope if the settings' ``input_bounds``.
-        """
-        from trainctl.controllers.potential.controller import PotentialController
-
-        return PotentialController(design.scenario.train, design.law,
-                                   dt=design.control_interval,
-                                   input_bounds=design.settings.input_bounds, name=strategy)
-
-    def checks(self, design: PotentialDesign) -> list[Check]:
-        """The six checks of :mod:`trainctl.controllers.potential.checks`.
-
-        Parameters
-        ----------
-        design : PotentialDesign
-            The family's design.
-
-        Returns
-        -------
-        list of Check
-            In :data:`CHECK_NAMES` order.
-        """
-        from trainctl.controllers.potential.checks import potential_checks
-
-        return potential_checks(design)
+    settings_path = "trainctl.controllers.potential.settings:PotentialSettings"
+    checks_path = "trainctl.controllers.potential.checks:potential_checks"
+    controller_path = "trainctl.controllers.potential.controller:PotentialController"
+    head_position = True
+    graph_usage = GRAPH_USAGE
+    _design = staticmethod(design_potential)
 
     def trajectory_checks(self, design: PotentialDesign, strategy: str,
                           result: SimulationResult) -> list[Check]:
@@ -315,33 +229,6 @@ class PotentialFamily:
 
         return trajectory_checks(design, strategy, result)
 
-    def closed_loop(self, design: PotentialDesign, strategy: str) -> ct.StateSpace:
-        """ξ̇ = A_cl ξ + B_w w (continuous); outputs v [m/s], f [kN], d [m].
-
-        Parameters
-        ----------
-        design : PotentialDesign
-            The family's design.
-        strategy : str
-            The strategy, ``"consensus"``; it names the system.
-
-        Returns
-        -------
-        control.StateSpace
-            The continuous linear closed loop on ξ = [v̂, z, p], inputs the
-            specific-force disturbances ``w[i]`` [m/s²], outputs ``v[i]``
-            [m/s], ``f[i]`` [kN] and ``d[i]`` [m].
-        """
-        import control as ct
-
-        n = design.law.n
-        rows, outputs = design.model.loop_outputs()
-        C = np.hstack([rows, np.zeros((rows.shape[0], 1))])  # p, the head's position error
-        return ct.ss(design.A_cl, design.B_open * design.law.mass[None, :], C, 0,
-                     states=design.scenario.train.state_labels() + ["p"],
-                     inputs=[f"w[{i}]" for i in range(n)], outputs=outputs,
-                     name=f"potential_{strategy}")
-
     def report_data(self, design: PotentialDesign) -> dict[str, Any]:
         """Gains, the closed-loop spectrum sampled at the model's sample time and the graph.
 
@@ -361,42 +248,20 @@ class PotentialFamily:
             ``rows`` (name/value rows of the gains table), ``potential``,
             ``control_interval`` [s] (as text), ``input_bounds`` and ``graph``.
         """
+        from trainctl.controllers.continuous.loops import report_spectrum
         from trainctl.plots.graph_figures import graph_report_data
 
-        lam = np.linalg.eigvals(design.A_cl).astype(complex)
-        z = np.exp(lam * design.model.settings.sample_time)
+        points, modes = report_spectrum(design.A_cl, design.model.settings.sample_time)
         s, law = design.settings, design.law
         rows = [("Pair potential", s.potential), ("κ [1/s²]", f"{s.kappa:g}"),
                 ("Pinning stiffness, largest [kN/m]", f"{float(np.max(law.pinning)) / 1e3:.4g}"),
                 ("Speed gain [1/s]", f"{s.speed_gain:g}"),
-                ("Consensus gain [1/s]", f"{s.consensus_gain:g}"),
-                ("Slowest mode, max Re λ [1/s]", f"{float(np.max(lam.real)):.4g}"),
-                ("Fastest mode, max |λ| [rad/s]", f"{float(np.max(np.abs(lam))):.4g}")]
-        return {"spectra": {"potential consensus": [[float(x.real), float(x.imag)] for x in z]},
+                ("Consensus gain [1/s]", f"{s.consensus_gain:g}"), *modes]
+        return {"spectra": {"potential consensus": points},
                 "rows": [{"name": a, "value": b} for a, b in rows],
                 "potential": s.potential, "control_interval": f"{design.control_interval:g}",
                 "input_bounds": bool(s.input_bounds),
                 "graph": graph_report_data(design.scenario.graph())}
-
-    def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
-        """The communication graph, in the family's section (its spectrum joins the eigenvalue map).
-
-        Drawn from ``data["graph"]``
-        (:func:`trainctl.plots.graph_figures.graph_figure`).
-
-        Parameters
-        ----------
-        data : mapping
-            The family's :meth:`report_data`.
-
-        Returns
-        -------
-        list of ReportFigure
-            One figure, the communication graph.
-        """
-        from trainctl.plots.graph_figures import graph_figure
-
-        return [graph_figure(data["graph"], family=self.name, usage=GRAPH_USAGE)]
 
 
 FAMILY = PotentialFamily()

@@ -35,7 +35,7 @@ everywhere else) with ṗ = v̂_0.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -45,16 +45,16 @@ from trainctl.exceptions import ScenarioError
 
 if TYPE_CHECKING:
     from trainctl.controllers.continuous.potentials import PairPotential
-    from trainctl.design import DesignModel
+    from trainctl.controllers.potential.settings import PotentialSettings
     from trainctl.models.train import Train
     from trainctl.scenario import Scenario
 
-__all__ = ["PotentialLaw", "closed_loop_matrices", "law_of", "make_potential"]
+__all__ = ["PotentialLaw", "law_of", "make_potential"]
 
 Array = NDArray[np.float64]
 
 
-def make_potential(settings: Any, train: Train) -> PairPotential:
+def make_potential(settings: PotentialSettings, train: Train) -> PairPotential:
     """The pair potential the settings name, with curvature κ at z = 0.
 
     ``"quadratic"``: U = κz²/2. ``"barrier"``: U = (κΔ²/2) ln(Δ²/(Δ² − z²)).
@@ -91,7 +91,7 @@ def make_potential(settings: Any, train: Train) -> PairPotential:
 
     kappa = float(settings.kappa)
     if settings.potential == "barrier":
-        return BarrierPotential.with_stiffness(kappa, float(settings.barrier))
+        return BarrierPotential.with_stiffness(kappa, float(cast(float, settings.barrier)))
     if settings.potential == "sigma":
         spacing = float(np.mean(train.spacing))
         unit = FlockingPotential(desired_gap=spacing, length_scale=spacing, force_scale=1.0)
@@ -195,7 +195,7 @@ class PotentialLaw:
         return -self.pinning * x_err - self.mass * (damping + incidence(self.n) @ grad)
 
 
-def law_of(scenario: Scenario, settings: Any) -> PotentialLaw:
+def law_of(scenario: Scenario, settings: PotentialSettings) -> PotentialLaw:
     """The law's gains for a scenario (its train and ``[communication]`` graph).
 
     Parameters
@@ -245,43 +245,3 @@ def law_of(scenario: Scenario, settings: Any) -> PotentialLaw:
         speed_gain=float(settings.speed_gain),
         consensus=settings.consensus_gain * np.asarray(graph.adjacency, dtype=float),
         potential=make_potential(settings, train))
-
-
-def closed_loop_matrices(model: DesignModel, law: PotentialLaw) -> tuple[Array, Array, Array]:
-    """Continuous open loop with the head-position integrator, and the closed loop.
-
-    Parameters
-    ----------
-    model : DesignModel
-        The run's design model (its continuous SI model, no dummy state).
-    law : PotentialLaw
-        The gains.
-
-    Returns
-    -------
-    (A_open, B_open, A_cl) : ndarray
-        The loop ξ̇ = A_open ξ + B_open û (û [N]) on ξ = [v̂, z, p], shapes (2n, 2n) and
-        (2n, n); A_cl = A_open + B_open F [1/s].
-
-    Examples
-    --------
-    >>> from trainctl.controllers.potential.settings import PotentialSettings
-    >>> from trainctl.scenario import load_scenario
-    >>> scenario = load_scenario("crh2-dmpc-well-sampled")
-    >>> from trainctl.design import build_model
-    >>> law = law_of(scenario, PotentialSettings())
-    >>> A, B, A_cl = closed_loop_matrices(build_model(scenario), law)
-    >>> A.shape, B.shape  # four cars: ξ = [v̂ (4), z (3), p]
-    ((8, 8), (8, 4))
-    >>> A[-1].tolist()  # ṗ = v̂_0
-    [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
-    >>> bool(np.max(np.linalg.eigvals(A_cl).real) < 0.0)
-    True
-    """
-    sys = model.observer_model()
-    nx, n = int(sys.nstates), model.n_vehicles
-    A = np.zeros((nx + 1, nx + 1))
-    A[:nx, :nx] = np.asarray(sys.A, dtype=float)
-    A[nx, 0] = 1.0
-    B = np.vstack([np.asarray(sys.B, dtype=float), np.zeros((1, n))])
-    return A, B, A + B @ law.feedback()

@@ -34,7 +34,7 @@ import math
 from typing import TYPE_CHECKING
 
 from trainctl.analysis.check import Check
-from trainctl.controllers.continuous.sampled import closed_loop_spectrum
+from trainctl.controllers.continuous.loops import hurwitz_check
 from trainctl.controllers.continuous.sampled import sampling_check as shared_sampling_check
 
 if TYPE_CHECKING:
@@ -96,21 +96,12 @@ def closed_loop_check(design: SynchronousDesign) -> Check:
     >>> check.status, round(check.value, 4), check.unit  # max Re λ, time constant 35.4 s
     ('pass', -0.0282, '1/s')
     """
-    spectrum = closed_loop_spectrum(design.loops.A_cl)
-    lam = spectrum.eigenvalues
-    alpha = float(max(lam.real))
-    details: dict[str, object] = {"max_real_part": alpha,
-                                  "eigenvalues": [[float(x.real), float(x.imag)] for x in lam]}
-    name = "synchronous_closed_loop"
-    if alpha >= -spectrum.tol:
-        return Check(name=name, status="fail", value=alpha, threshold=0.0, unit="1/s",
-                     message=f"delay-free closed loop not Hurwitz: max Re λ = {alpha:.4g} 1/s",
-                     hint="lower speed_gain_per_s (the lead's loop excites the couplers)",
-                     details=details)
-    return Check(name=name, status="pass", value=alpha, threshold=0.0, unit="1/s",
-                 message=f"delay-free continuous closed loop Hurwitz: max Re λ = {alpha:.4g} 1/s "
-                 f"(slowest mode, time constant {-1.0 / alpha:.4g} s)",
-                 details=details)
+    return hurwitz_check(
+        "synchronous_closed_loop", design.loops.A_cl,
+        unstable="delay-free closed loop not Hurwitz: max Re λ = {alpha:.4g} 1/s",
+        stable="delay-free continuous closed loop Hurwitz: max Re λ = {alpha:.4g} 1/s "
+        "(slowest mode, time constant {tau:.4g} s)",
+        hint="lower speed_gain_per_s (the lead's loop excites the couplers)")
 
 
 def sampling_check(design: SynchronousDesign) -> Check:

@@ -30,7 +30,13 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.controllers.base import Measurement, ReferencePreview, StepRecord, measured_speeds
+from trainctl.controllers.base import (
+    Measurement,
+    ReferencePreview,
+    StepRecord,
+    control_dt,
+    measured_speeds,
+)
 from trainctl.controllers.faults import call_solver, fault_record, non_finite_reason
 from trainctl.controllers.synchronous.law import SynchronousLaw
 from trainctl.controllers.synchronous.relay import CommandRelay
@@ -93,8 +99,7 @@ class SynchronousController:
                  input_bounds: bool = True, name: str = "synchronous",
                  relay_factory: Callable[[NetworkSettings | None, int], CommandRelay] | None
                  = None) -> None:
-        if not dt > 0:
-            raise ModelError(f"SynchronousController: 'dt' must be > 0 s (got {dt!r}).")
+        dt = control_dt("SynchronousController", dt)
         if law.n != train.n_vehicles or relay.n != train.n_vehicles:
             raise ModelError(f"SynchronousController: the law is for {law.n} vehicles and the "
                              f"relay for {relay.n}; the train has {train.n_vehicles}.")

@@ -16,7 +16,7 @@ and the outputs ``v[i]`` [m/s], ``f[i]`` [kN] and ``d[i]`` [m].
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING, Any, Literal
@@ -24,17 +24,18 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-if TYPE_CHECKING:
-    import control as ct
+from trainctl.controllers.continuous.family import ContinuousFamily, SampledDesign
 
-    from trainctl.analysis.check import Check
+if TYPE_CHECKING:
     from trainctl.analysis.delay import DelayMargin
-    from trainctl.controllers.synchronous.controller import SynchronousController
-    from trainctl.controllers.synchronous.law import LoopMatrices, SynchronousLaw
+    from trainctl.controllers.synchronous.law import (
+        LoopMatrices,
+        SynchronousLaw,  # noqa: F401 (a type argument)
+    )
     from trainctl.controllers.synchronous.relay import CommandRelay
+    from trainctl.controllers.synchronous.settings import SynchronousSettings
     from trainctl.design import DesignModel
     from trainctl.models.network.schema import NetworkSettings
-    from trainctl.report.figures import ReportFigure
     from trainctl.scenario import Scenario
 
 __all__ = ["CHECK_NAMES", "DELAY_SEARCH", "FAMILY", "STRATEGIES", "SynchronousDesign",
@@ -72,7 +73,7 @@ if not data.input_bounds %} (no saturation){% endif %}.</p>
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
-class SynchronousDesign:
+class SynchronousDesign(SampledDesign["SynchronousSettings", "SynchronousLaw"]):
     """The synchronous family's design of one scenario.
 
     Parameters
@@ -87,10 +88,10 @@ class SynchronousDesign:
         The law's SI gains.
     control_interval : float
         T_c [s].
-    network : NetworkSettings or None
-        The scenario's ``[network]`` (None: an instantaneous relay).
     loops : LoopMatrices
         Open loop, undelayed and relayed parts, delay-free closed loop.
+    network : NetworkSettings or None
+        The scenario's ``[network]`` (None: an instantaneous relay).
 
     Examples
     --------
@@ -105,11 +106,6 @@ class SynchronousDesign:
     (3, 7)
     """
 
-    scenario: Scenario
-    model: DesignModel
-    settings: Any
-    law: SynchronousLaw
-    control_interval: float
     network: NetworkSettings | None
     loops: LoopMatrices
 
@@ -137,24 +133,9 @@ class SynchronousDesign:
         return delay_margin(loops.A0, loops.B_relay, loops.K_relay,
                             tau_max=max(DELAY_SEARCH, 2.0 * worst))
 
-    def sampled_matrix(self, interval: float | None = None) -> Array:
-        """The delay-free loop with the law held over each interval (exact ZOH of the plant).
-
-        Parameters
-        ----------
-        interval : float or None
-            T [s]; None: :attr:`control_interval`.
-
-        Returns
-        -------
-        ndarray
-            (2n−1, 2n−1) [-].
-        """
-        from trainctl.controllers.continuous.sampled import held_loop
-
-        T = self.control_interval if interval is None else float(interval)
-        speed = float(self.model.settings.speed)
-        return held_loop(self.loops.A_open, self.loops.B_open, self.law.feedback(speed), T)
+    def _feedback(self) -> Array:
+        """The delay-free law's gain at the model's speed."""
+        return self.law.feedback(float(self.model.settings.speed))
 
     def make_relay(self, network: NetworkSettings | None | Literal["design"] = "design",
                    seed: int | None = None) -> CommandRelay:
@@ -194,7 +175,7 @@ class SynchronousDesign:
 
 
 def design_synchronous(scenario: Scenario, model: DesignModel,
-                       settings: Any) -> SynchronousDesign:
+                       settings: SynchronousSettings) -> SynchronousDesign:
     """The law's gains and its linear loops.
 
     Parameters
@@ -244,7 +225,7 @@ def _seconds(x: float | None) -> str:
     return f"{x:.4g}" if math.isfinite(x) else "∞"
 
 
-class SynchronousFamily:
+class SynchronousFamily(ContinuousFamily[SynchronousDesign, "SynchronousSettings"]):
     """Centralised synchronous operation (the LOCOTROL-type baseline of seed 003).
 
     Examples
@@ -266,102 +247,14 @@ class SynchronousFamily:
     check_names = CHECK_NAMES
     strategy_cost: Mapping[str, float] = {"synchronous": 0.1}
     report_partial = PARTIAL
+    settings_path = "trainctl.controllers.synchronous.settings:SynchronousSettings"
+    checks_path = "trainctl.controllers.synchronous.checks:synchronous_checks"
+    controller_path = "trainctl.controllers.synchronous.controller:SynchronousController"
+    _design = staticmethod(design_synchronous)
 
-    @property
-    def settings(self) -> type[Any]:
-        """The schema of the family's ``[controller]`` table."""
-        from trainctl.controllers.synchronous.settings import SynchronousSettings
-
-        return SynchronousSettings
-
-    def design(self, scenario: Scenario, model: DesignModel,
-               settings: Any) -> SynchronousDesign:
-        """See :func:`design_synchronous`.
-
-        Parameters
-        ----------
-        scenario : Scenario
-            The scenario (train, ``[network]``, ``[simulation]``).
-        model : DesignModel
-            Its design model.
-        settings : SynchronousSettings
-            The family's settings.
-
-        Returns
-        -------
-        SynchronousDesign
-            The law's SI gains, the control interval, the ``[network]`` and
-            the linear loops (undelayed, relayed and delay-free).
-        """
-        return design_synchronous(scenario, model, settings)
-
-    def make(self, design: SynchronousDesign, strategy: str) -> SynchronousController:
-        """The controller: the law sampled every ``control_interval``, with its own relay.
-
-        Parameters
-        ----------
-        design : SynchronousDesign
-            The family's design.
-        strategy : str
-            The strategy, ``"synchronous"``; it names the controller.
-
-        Returns
-        -------
-        SynchronousController
-            The law with a relay over the design's ``[network]``
-            (:meth:`SynchronousDesign.make_relay`, also its relay factory for
-            each run), dt = ``control_interval`` [s], clipped to the envelope
-            if the settings' ``input_bounds``.
-        """
-        from trainctl.controllers.synchronous.controller import SynchronousController
-
-        return SynchronousController(design.scenario.train, design.law, design.make_relay(),
-                                     dt=design.control_interval,
-                                     input_bounds=design.settings.input_bounds, name=strategy,
-                                     relay_factory=design.make_relay)
-
-    def checks(self, design: SynchronousDesign) -> list[Check]:
-        """The three checks of :mod:`trainctl.controllers.synchronous.checks`.
-
-        Parameters
-        ----------
-        design : SynchronousDesign
-            The family's design.
-
-        Returns
-        -------
-        list of Check
-            In :data:`CHECK_NAMES` order.
-        """
-        from trainctl.controllers.synchronous.checks import synchronous_checks
-
-        return synchronous_checks(design)
-
-    def closed_loop(self, design: SynchronousDesign, strategy: str) -> ct.StateSpace:
-        """x̂' = A_cl x̂ + B_w w (continuous, instantaneous relay); outputs v [m/s], f [kN], d [m].
-
-        Parameters
-        ----------
-        design : SynchronousDesign
-            The family's design.
-        strategy : str
-            The strategy, ``"synchronous"``; it names the system.
-
-        Returns
-        -------
-        control.StateSpace
-            The continuous delay-free closed loop on x̂ = [v̂, δ̂], inputs the
-            specific-force disturbances ``w[i]`` [m/s²], outputs ``v[i]``
-            [m/s], ``f[i]`` [kN] and ``d[i]`` [m].
-        """
-        import control as ct
-
-        n = design.law.n
-        rows, outputs = design.model.loop_outputs()
-        return ct.ss(design.loops.A_cl, design.loops.B_open * design.law.mass[None, :], rows, 0,
-                     states=design.scenario.train.state_labels(),
-                     inputs=[f"w[{i}]" for i in range(n)], outputs=outputs,
-                     name=f"synchronous_{strategy}")
+    def _controller_options(self, design: SynchronousDesign) -> dict[str, Any]:
+        """Its own relay over the design's ``[network]``, and the relay factory of each run."""
+        return {"relay": design.make_relay(), "relay_factory": design.make_relay}
 
     def report_data(self, design: SynchronousDesign) -> dict[str, Any]:
         """κ, the lead, the control interval, the delay margin against the network's worst case.
@@ -383,36 +276,20 @@ class SynchronousFamily:
             [s] (as text), ``input_bounds`` and ``delay`` (the delay margin,
             :meth:`~trainctl.analysis.delay.DelayMargin.to_dict`).
         """
-        lam = np.linalg.eigvals(design.loops.A_cl).astype(complex)
-        z = np.exp(lam * design.model.settings.sample_time)
+        from trainctl.controllers.continuous.loops import report_spectrum
+
+        points, modes = report_spectrum(design.loops.A_cl, design.model.settings.sample_time)
         s, res = design.settings, design.delay
         rows = [("Speed gain κ [1/s]", f"{s.speed_gain:g}"),
                 ("Lead locomotive", f"vehicle {design.law.lead + 1}"),
                 ("Control interval [s]", f"{design.control_interval:g}"),
                 ("Delay margin [s]", _seconds(res.margin)),
-                ("Network worst-case delay [s]", _seconds(design.worst_delay)),
-                ("Slowest mode, max Re λ [1/s]", f"{float(np.max(lam.real)):.4g}"),
-                ("Fastest mode, max |λ| [rad/s]", f"{float(np.max(np.abs(lam))):.4g}")]
-        return {"spectra": {"synchronous": [[float(x.real), float(x.imag)] for x in z]},
+                ("Network worst-case delay [s]", _seconds(design.worst_delay)), *modes]
+        return {"spectra": {"synchronous": points},
                 "rows": [{"name": a, "value": b} for a, b in rows],
                 "lead_number": design.law.lead + 1,
                 "control_interval": f"{design.control_interval:g}",
                 "input_bounds": bool(s.input_bounds), "delay": res.to_dict()}
-
-    def report_figures(self, data: Mapping[str, Any]) -> Sequence[ReportFigure]:
-        """No figures of its own: its numbers are in its table, its spectrum in the eigenvalue map.
-
-        Parameters
-        ----------
-        data : mapping
-            The family's :meth:`report_data` (not used).
-
-        Returns
-        -------
-        list of ReportFigure
-            An empty list.
-        """
-        return []
 
 
 FAMILY = SynchronousFamily()

@@ -62,15 +62,23 @@ uniform link delay at which the loop loses stability
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from trainctl.exceptions import ModelError, ScenarioError
+from trainctl.controllers.continuous.loops import LoopMatrices as SharedLoops
+from trainctl.controllers.continuous.loops import closed_loop_matrices as shared_closed_loop
+from trainctl.controllers.continuous.resistance import (
+    line_resistance,
+    own_resistance,
+    resistance_damping_per_vehicle,
+)
+from trainctl.exceptions import ScenarioError
 from trainctl.models.track import Track
 
 if TYPE_CHECKING:
+    from trainctl.controllers.synchronous.settings import SynchronousSettings
     from trainctl.design import DesignModel
     from trainctl.scenario import Scenario
 
@@ -262,87 +270,7 @@ class SynchronousLaw:
         return F
 
 
-def own_resistance(mass: Array, davis: Array, speeds: ArrayLike) -> Array:
-    """R_i(v_i) = m_i (a0_i + a1_i v_i + a2_i v_i²) [N]: each vehicle's Davis resistance.
-
-    Parameters
-    ----------
-    mass : ndarray
-        Masses m_i [kg], shape (n,).
-    davis : ndarray
-        Davis coefficients per unit mass [m/s², 1/s, 1/m], shape (3, n).
-    speeds : array_like
-        Speeds v_i [m/s], shape (n,).
-
-    Returns
-    -------
-    ndarray
-        The resistances R_i [N], shape (n,).
-
-    Examples
-    --------
-    >>> own_resistance(np.array([2.0]), np.array([[1.0], [0.1], [0.01]]), [10.0]).tolist()
-    [6.0]
-    """
-    v = np.asarray(speeds, dtype=float)
-    a0, a1, a2 = davis
-    return np.asarray(mass * (a0 + a1 * v + a2 * v * v), dtype=float)
-
-
-def line_resistance(line: Track | None, positions: ArrayLike | None, n: int) -> Array:
-    """r(p_i) [m/s²], shape (n,): the grade and curve resistance per unit mass at each position.
-
-    The plant's own line model
-    (:meth:`trainctl.models.track.Track.resistance_per_mass`), evaluated at
-    the measured vehicle positions: the line feedforward of the synchronous
-    and hinf laws. Zeros when there is no line to feed forward (``line``
-    None: flat track, or ``line_feedforward = false``) or no positions
-    (a measurement without them).
-
-    Parameters
-    ----------
-    line : Track or None
-        The line.
-    positions : array_like or None
-        Each vehicle's position along the line [m], shape (n,).
-    n : int
-        Number of vehicles.
-
-    Returns
-    -------
-    ndarray
-        Negative on down-grades.
-
-    Examples
-    --------
-    >>> from trainctl.models.track import Track, TrackSection
-    >>> line = Track(sections=(TrackSection(start=0.0),
-    ...                        TrackSection(start=100.0, grade_permille=-12.0)))
-    >>> line_resistance(line, [150.0, 50.0], 2).round(4).tolist()
-    [-0.1177, 0.0]
-    >>> line_resistance(None, [150.0, 50.0], 2).tolist()
-    [0.0, 0.0]
-    """
-    if line is None or positions is None:
-        return np.zeros(n)
-    p = np.asarray(positions, dtype=float)
-    if p.shape != (n,):
-        raise ModelError(f"line_resistance: expected {n} positions (got shape {p.shape}).")
-    return np.asarray(line.resistance_per_mass(p), dtype=float)
-
-
-def resistance_damping_per_vehicle(davis: Array, speed: float) -> Array:
-    """c_i = a1_i + 2 a2_i v [1/s]: the slope of the Davis resistance per unit mass.
-
-    Examples
-    --------
-    >>> resistance_damping_per_vehicle(np.array([[1.0], [0.01], [0.001]]), 10.0).tolist()
-    [0.03]
-    """
-    return np.asarray(davis[1] + 2.0 * davis[2] * float(speed), dtype=float)
-
-
-def law_of(scenario: Scenario, settings: Any) -> SynchronousLaw:
+def law_of(scenario: Scenario, settings: SynchronousSettings) -> SynchronousLaw:
     """The law's gains for a scenario's train.
 
     Parameters
@@ -390,9 +318,10 @@ def law_of(scenario: Scenario, settings: Any) -> SynchronousLaw:
                           line=scenario.track if settings.line_feedforward else None)
 
 
-@dataclass(frozen=True, kw_only=True, eq=False)
-class LoopMatrices:
+class LoopMatrices(SharedLoops):
     """The continuous loops of the law on x̂ = [v̂, δ̂] (module docstring), SI.
+
+    The relayed part is the remotes' feedback on the lead's speed.
 
     Parameters
     ----------
@@ -400,12 +329,12 @@ class LoopMatrices:
         The design model: (2n−1, 2n−1) [1/s] and (2n−1, n) [1/kg].
     A0 : ndarray
         A + B F₀: plant, feedforward slope and the lead's own feedback.
-    B_relay : ndarray
-        B's remote columns, (2n−1, n−1).
-    K_relay : ndarray
-        The remotes' feedback K_r, (n−1, 2n−1).
     A_cl : ndarray
         The delay-free loop A₀ + B_r K_r.
+    B_delayed : ndarray
+        B's remote columns B_r, (2n−1, n−1) (:attr:`B_relay`).
+    K_delayed : ndarray
+        The remotes' feedback K_r, (n−1, 2n−1) (:attr:`K_relay`).
 
     Examples
     --------
@@ -421,16 +350,23 @@ class LoopMatrices:
     True
     """
 
-    A_open: Array
-    B_open: Array
-    A0: Array
-    B_relay: Array
-    K_relay: Array
-    A_cl: Array
+    @property
+    def B_relay(self) -> Array:
+        """B's remote columns, (2n−1, n−1)."""
+        return self.B_delayed
+
+    @property
+    def K_relay(self) -> Array:
+        """The remotes' feedback K_r, (n−1, 2n−1)."""
+        return self.K_delayed
 
 
 def closed_loop_matrices(model: DesignModel, law: SynchronousLaw) -> LoopMatrices:
     """The open loop, the undelayed part, the relayed part and the delay-free closed loop.
+
+    :func:`trainctl.controllers.continuous.loops.closed_loop_matrices` with
+    F₀ = :meth:`SynchronousLaw.local_feedback` and the relayed part
+    K_r = :meth:`SynchronousLaw.relayed_feedback` on the remotes' inputs.
 
     Parameters
     ----------
@@ -458,12 +394,6 @@ def closed_loop_matrices(model: DesignModel, law: SynchronousLaw) -> LoopMatrice
     >>> round(float(np.max(np.linalg.eigvals(loops.A_cl).real)), 4)  # [1/s]
     -0.0282
     """
-    sys = model.observer_model()
-    A = np.asarray(sys.A, dtype=float)
-    B = np.asarray(sys.B, dtype=float)
     speed = float(model.settings.speed)
-    A0 = A + B @ law.local_feedback(speed)
-    B_relay = B[:, list(law.remotes)]
-    K_relay = law.relayed_feedback()
-    return LoopMatrices(A_open=A, B_open=B, A0=A0, B_relay=B_relay, K_relay=K_relay,
-                        A_cl=A0 + B_relay @ K_relay)
+    return shared_closed_loop(model, law.local_feedback(speed), law.relayed_feedback(),
+                              delayed_inputs=law.remotes, factory=LoopMatrices)
