@@ -24,6 +24,7 @@ Observability is the dual problem (A^T, C^T).
 from __future__ import annotations
 
 import math
+from typing import TypedDict, TypeVar
 
 import control as ct
 import numpy as np
@@ -45,6 +46,20 @@ __all__ = [
     "finite_horizon_gramian",
     "kalman_matrix",
 ]
+
+_Mode = TypeVar("_Mode", bound=UncontrollableMode)
+
+
+class _Numbers(TypedDict):
+    """The fields of a rank test's result that :func:`_analyse` computes."""
+
+    n_states: int
+    rank: int
+    tol: float
+    singular_values: NDArray[np.float64]
+    condition_number: float
+    gramian_horizon: float
+    gramian_eigenvalues: NDArray[np.float64]
 
 
 def finite_horizon_gramian(
@@ -78,7 +93,7 @@ def finite_horizon_gramian(
     if not discrete:
         n = A.shape[0]
         M = np.block([[-A, Q], [np.zeros((n, n)), A.T]]) * float(horizon)
-        F = scipy.linalg.expm(M)
+        F: NDArray[np.float64] = scipy.linalg.expm(M)  # scipy is untyped here
         W = F[n:, n:].T @ F[:n, n:]
         return 0.5 * (W + W.T)
     steps = int(horizon)
@@ -212,7 +227,10 @@ def analyse_observability(
     return ObservabilityResult(**numbers, unobservable=modes)
 
 
-def _analyse(A, B, sys, tol, horizon, mode_type):
+def _analyse(
+    A: NDArray[np.float64], B: NDArray[np.float64], sys: ct.StateSpace, tol: float,
+    horizon: float | None, mode_type: type[_Mode],
+) -> tuple[_Numbers, tuple[_Mode, ...]]:
     A = np.asarray(A, dtype=float)
     B = np.asarray(B, dtype=float)
     n = A.shape[0]
@@ -224,7 +242,7 @@ def _analyse(A, B, sys, tol, horizon, mode_type):
         horizon = float(n) if discrete else 10.0
     W = finite_horizon_gramian(A, B, horizon, discrete=discrete)
     gramian_eigenvalues = np.asarray(np.linalg.eigvalsh(W), dtype=np.float64)
-    numbers = {"n_states": n, "rank": rank, "tol": tol, "singular_values": sv,
+    numbers: _Numbers = {"n_states": n, "rank": rank, "tol": tol, "singular_values": sv,
                "condition_number": cond, "gramian_horizon": float(horizon),
                "gramian_eigenvalues": gramian_eigenvalues}
     return numbers, _pbh(A, B, list(sys.state_labels), tol, mode_type)
@@ -232,10 +250,10 @@ def _analyse(A, B, sys, tol, horizon, mode_type):
 
 def _pbh(
     A: NDArray[np.float64], B: NDArray[np.float64], labels: list[str], tol: float,
-    mode_type: type[UncontrollableMode],
-) -> tuple:
+    mode_type: type[_Mode],
+) -> tuple[_Mode, ...]:
     n = A.shape[0]
-    found = []
+    found: list[_Mode] = []
     seen: list[complex] = []
     screen = _RankScreen(A, B, tol)
     for value in np.linalg.eigvals(A):

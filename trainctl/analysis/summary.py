@@ -249,7 +249,7 @@ def _text_lines(s: ModelSummary) -> list[str]:
     )
     lines += ["", "Modes (continuous):",
               f"  {'kind':<12}{'Re [1/s]':>12}{'Im [rad/s]':>12}{'wn [rad/s]':>12}{'zeta':>10}"]
-    modes: list = list(s.modes)
+    modes: list[Mode | None] = list(s.modes)
     if len(modes) > _MODES_SHOWN:  # a long train: the slowest and the fastest modes
         half = _MODES_SHOWN // 2
         modes = modes[:half] + [None] + modes[-half:]

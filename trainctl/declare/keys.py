@@ -354,8 +354,9 @@ def render_refs(text: str, name: Callable[[str], str | None]) -> str:
 def violation_of(error: ErrorDetails) -> Violation:
     """The trainctl violation of a pydantic error (a generic one for others)."""
     ctx = error.get("ctx") or {}
-    if error["type"] == ERROR_TYPE and isinstance(ctx.get("violation"), Violation):
-        return ctx["violation"]
+    violation = ctx.get("violation")
+    if error["type"] == ERROR_TYPE and isinstance(violation, Violation):
+        return violation
     return Violation(text=f"is invalid: {error['msg']}", got=error.get("input", NOTHING))
 
 

@@ -35,6 +35,9 @@ from trainctl.naming import describe_direction
 if TYPE_CHECKING:
     from collections.abc import Mapping
 
+    from trainctl.analysis.rank_results import ControllabilityResult, ObservabilityResult
+    from trainctl.analysis.sampling import SamplingResult
+    from trainctl.analysis.stability import StabilityResult
     from trainctl.design import Design, DesignModel
     from trainctl.scenario import Scenario
     from trainctl.sim.results import SimulationResult
@@ -233,7 +236,7 @@ def scenario_checks(scenario: Scenario) -> list[Check]:
     return [feasibility_check(scenario), plausibility_check(scenario)]
 
 
-def _stability_check(stab) -> Check:
+def _stability_check(stab: StabilityResult) -> Check:
     structural = [m for m in stab.modes if m.name == "dummy"]
     others = [m for m in stab.modes if m.name != "dummy"]
     worst = max((m.status for m in others), default="stable",
@@ -276,7 +279,8 @@ _LISTED = 4
 """Modes a failing rank check names in its message (all are in its details)."""
 
 
-def _rank_check(name: str, res, extra: list[bool] | None = None, virtual: bool = False) -> Check:
+def _rank_check(name: str, res: ControllabilityResult | ObservabilityResult,
+                extra: list[bool] | None = None, virtual: bool = False) -> Check:
     word = "controllable" if name == "controllability" else "observable"
     local = ""
     if extra:
@@ -301,7 +305,7 @@ def _rank_check(name: str, res, extra: list[bool] | None = None, virtual: bool =
                  hint=hint, details=details)
 
 
-def _sampling_check(samp) -> Check:
+def _sampling_check(samp: SamplingResult) -> Check:
     if samp.omega_max == 0:
         return Check(name="sampling", status="pass", value=0.0, threshold=math.pi, unit="rad",
                      message=f"no coupler modes; T = {samp.sample_time:g} s",
@@ -317,7 +321,7 @@ def _sampling_check(samp) -> Check:
                  message=message, hint=hint, details=samp.to_dict())
 
 
-def _collapse_check(samp) -> Check:
+def _collapse_check(samp: SamplingResult) -> Check:
     c = samp.input_collapse
     status = "pass" if c >= 0.1 else ("warn" if c >= 0.01 else "fail")
     hint = "" if status == "pass" else (

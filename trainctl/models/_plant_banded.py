@@ -321,7 +321,7 @@ class LocalFlow(NamedTuple):
     """The larger of ‖S A_w S⁻¹‖₁ and ‖S A_w S⁻¹‖_∞ (S: elongations times ω, as
     :func:`_window_expm` balances), which bounds the growth of the Taylor terms of
     the flow."""
-    rows: dict[int, Any] | None = None
+    rows: dict[int, tuple[Array, ...]] | None = None
     """Per vehicle k of the window: the Taylor series' rows e_k A_w^j and columns
     A_w^j B e_k (:func:`trainctl.models._plant_crossings._series`), filled by the
     crossings as they need them."""

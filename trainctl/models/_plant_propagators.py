@@ -141,7 +141,8 @@ def product(step: Any) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
     ``csr_matvec`` called directly, as ``@`` calls it: the same sums, bit for bit)."""
     if isinstance(step, np.ndarray) or _csr_matvec is None or step.format != "csr" \
             or step.dtype != np.float64:
-        return step.__matmul__
+        matmul: Callable[[NDArray[np.float64]], NDArray[np.float64]] = step.__matmul__
+        return matmul
     rows, cols = step.shape
     indptr, indices, data = step.indptr, step.indices, step.data
     matvec = _csr_matvec

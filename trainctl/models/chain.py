@@ -304,7 +304,8 @@ class Chain:
         Y = np.asarray(Y, dtype=float)
         n = self.n_vehicles
         _, k, d = self._shaped(Y.ndim)
-        return k * Y[n : 2 * n - 1] + d * (Y[: n - 1] - Y[1:n])
+        forces: Array = k * Y[n : 2 * n - 1] + d * (Y[: n - 1] - Y[1:n])
+        return forces
 
     def couple(self, Y: Array, out: Array) -> None:
         """Add the chain's coupling to the vehicles' own accelerations, in place.

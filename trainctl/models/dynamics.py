@@ -153,7 +153,8 @@ def vehicle_positions(train: Train, x: NDArray[np.float64]) -> NDArray[np.float6
     shape = (-1,) + (1,) * (x.ndim - 1)
     gaps = train.spacing.reshape(shape) + x[n : 2 * n - 1]
     behind = np.concatenate([np.zeros((1,) + x.shape[1:]), np.cumsum(gaps, axis=0)])
-    return x[2 * n - 1] - behind
+    positions: NDArray[np.float64] = x[2 * n - 1] - behind
+    return positions
 
 
 def nonlinear_system(
@@ -186,12 +187,12 @@ def nonlinear_system(
     n = train.n_vehicles
 
     def update(
-        t: float, x: NDArray[np.float64], u: NDArray[np.float64], params: dict
+        t: float, x: NDArray[np.float64], u: NDArray[np.float64], params: dict[str, object]
     ) -> NDArray[np.float64]:
         return train_rhs(train, x, u, track)
 
     def output(
-        t: float, x: NDArray[np.float64], u: NDArray[np.float64], params: dict
+        t: float, x: NDArray[np.float64], u: NDArray[np.float64], params: dict[str, object]
     ) -> NDArray[np.float64]:
         return x[:n]
 

@@ -69,7 +69,8 @@ def resistance_damping(train: Train, speed: float, method: str = "jacobian") -> 
             "'jacobian' is the true linearisation; 'book' reproduces Li & Zheng's matrices."
         )
     factor = 2.0 if method == "jacobian" else 1.0
-    return train.davis[1] + factor * train.davis[2] * speed
+    damping: NDArray[np.float64] = train.davis[1] + factor * train.davis[2] * speed
+    return damping
 
 
 def linear_matrices(

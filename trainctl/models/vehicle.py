@@ -171,7 +171,8 @@ def envelope_limit(
     """
     v = np.maximum(np.abs(np.asarray(speed, dtype=float)), _MIN_SPEED)
     limit = np.minimum(force, power / v)
-    return np.minimum(limit, adhesion * mass * GRAVITY)
+    envelope: NDArray[np.float64] = np.minimum(limit, adhesion * mass * GRAVITY)
+    return envelope
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -234,7 +235,8 @@ class Vehicle:
             Resistance per unit mass [m/s²].
         """
         v = np.asarray(speed, dtype=float)
-        return self.a0 + self.a1 * v + self.a2 * v * v
+        resistance: NDArray[np.float64] = self.a0 + self.a1 * v + self.a2 * v * v
+        return resistance
 
     def resistance(self, speed: ArrayLike) -> NDArray[np.float64]:
         """Davis running resistance force [N] at ``speed`` [m/s].

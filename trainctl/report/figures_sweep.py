@@ -534,7 +534,7 @@ def _cividis() -> Any:
     return colormaps["cividis"]
 
 
-def _light(rgba: Any) -> bool:
+def _light(rgba: Sequence[float]) -> bool:
     r, g, b = rgba[:3]
     return 0.299 * r + 0.587 * g + 0.114 * b > 0.5
 

@@ -29,6 +29,7 @@ selects one; anything that looks like a path is read as a file.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from trainctl.controllers.mpc.settings import CONTROLLER_FORMS as CONTROLLER_FORMS
@@ -111,10 +112,11 @@ def __getattr__(name: str) -> Any:
     from trainctl.scenario.core import check_statuses
 
     family = get_family(DEFAULT_FAMILY)
-    value = {
+    computed: dict[str, Callable[[], tuple[str, ...]]] = {
         "CHECK_NAMES": lambda: check_names([DEFAULT_FAMILY]),
         "CHECK_STATUSES": check_statuses,
         "SIMULATION_STRATEGIES": lambda: family.strategies,
-    }[name]()
+    }
+    value = computed[name]()
     globals()[name] = value
     return value

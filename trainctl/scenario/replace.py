@@ -97,7 +97,7 @@ def replaced_document(document: Mapping[str, Any], path: str, value: Any) -> dic
     {'controller': {'r_per_kn2': 10.0}}
     """
     parts = parse_key_path(path)
-    doc = thaw(document)
+    doc: dict[str, Any] = thaw(document)  # a mapping thaws to a dict
     table: Any = doc
     for depth, part in enumerate(parts[:-1]):
         table = _step(table, part, parts[depth + 1], path, parts[: depth + 1])

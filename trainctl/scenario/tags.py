@@ -53,6 +53,7 @@ def _comment(line: str) -> str:
 
 def _tag(comment: str) -> str:
     """The last bracketed source tag of a comment, without its brackets ("" when none)."""
+    group: str  # the pattern has one group: findall gives its strings
     for group in reversed(_GROUP.findall(comment)):
         if _WORD.match(group) or _PAGE.search(group):
             return group.strip()

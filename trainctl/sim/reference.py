@@ -180,7 +180,8 @@ class SpeedProfile:
             Speeds [m/s], same shape as ``t``.
         """
         times, speeds, _ = self._arrays
-        return np.interp(np.asarray(t, dtype=float), times, speeds)
+        speed: NDArray[np.float64] = np.interp(np.asarray(t, dtype=float), times, speeds)
+        return speed
 
     def acceleration(self, t: ArrayLike) -> NDArray[np.float64]:
         """Reference acceleration [m/s²]: the slope of the segment containing ``t``.

@@ -303,7 +303,8 @@ class SimulationResult(ResultViews):
     @property
     def positions(self) -> NDArray[np.float64]:
         """Head position s at the instants [m], shape (N+1,)."""
-        return self.states[-1]
+        head: NDArray[np.float64] = self.states[-1]
+        return head
 
     @property
     def dense_velocities(self) -> NDArray[np.float64]:

@@ -107,7 +107,8 @@ class MPCSolution:
     @property
     def first_move(self) -> Array:
         """u(k), the input to apply now."""
-        return self.inputs[0]
+        move: Array = self.inputs[0]
+        return move
 
     def to_dict(self) -> dict[str, object]:
         """JSON-safe dict (arrays as nested lists).

@@ -106,12 +106,14 @@ class StepContext:
     @property
     def lb(self) -> Array:
         """Lower bounds of the input moves ũ [kN]."""
-        return self.bounds[0]
+        lower: Array = self.bounds[0]
+        return lower
 
     @property
     def ub(self) -> Array:
         """Upper bounds of the input moves ũ [kN]."""
-        return self.bounds[1]
+        upper: Array = self.bounds[1]
+        return upper
 
 
 class TrainProblem:

@@ -42,6 +42,8 @@ OSQP_SETTINGS = {"eps_abs": 1e-6, "eps_rel": 1e-6, "max_iter": 20000, "polishing
 """OSQP settings used by both solve paths."""
 
 Array = NDArray[np.float64]
+_ProblemData = dict[str, Any]
+"""cvxpy's ``get_problem_data`` for OSQP by key: vectors, sparse matrices, the inverse data."""
 _HUGE = 1e19  # data beyond this came from an infinite bound
 _OSQP_SIGINT = (10,)  # osqp.SolverStatus.OSQP_SIGINT: "interrupted by user"
 
@@ -388,23 +390,24 @@ class FastOSQP:
                               "the fast path cannot be used (solve with path='cvxpy').")
         return jac
 
-    def _data(self, flat: Array) -> dict:
+    def _data(self, flat: Array) -> _ProblemData:
         start = 0
         for p in self._params:
             p.value = flat[start:start + p.size].reshape(p.shape)
             start += p.size
+        data: _ProblemData
         data, _, inverse = self.problem.get_problem_data(cp.OSQP)
         data["_inverse"] = inverse
         return data
 
-    def _check_constant(self, data: dict, where: str) -> None:
+    def _check_constant(self, data: _ProblemData, where: str) -> None:
         A = sp.vstack([data["A"], data["F"]]).tocsc()
         if _differs(data["P"], self.P) or _differs(A, self.Amat):
             raise SolverError(f"{self.name}: a parameter changes the QP matrices ({where}); "
                               "the fast path needs parameters in q, l, u only.")
 
     @staticmethod
-    def _vector(data: dict) -> Array:
+    def _vector(data: _ProblemData) -> Array:
         return np.concatenate([data["q"], data["b"], data["G"]])
 
     def qlu(self, vec: Array) -> tuple[Array, Array, Array]:
@@ -438,7 +441,7 @@ class FastOSQP:
         upper[upper >= _HUGE] = np.inf
         return q, upper
 
-    def _locate(self, data: dict) -> dict[str, NDArray[np.int64]]:
+    def _locate(self, data: _ProblemData) -> dict[str, NDArray[np.int64]]:
         # The solver's variable vector stacks cvxpy variables at recorded offsets.
         offsets: dict[int, int] = {}
         for inv in data["_inverse"]:
@@ -469,7 +472,8 @@ class FastOSQP:
         """
         flat = np.concatenate([np.clip(np.asarray(values[key], dtype=float).ravel(), -1e20, 1e20)
                                for key, p in self._all.items() if p.size])
-        return self.offset + self.jac @ flat
+        composed: Array = self.offset + self.jac @ flat
+        return composed
 
     def solve(self, values: Mapping[str, Array]) -> QPSolution:
         """Solve for the parameter values (keys of ``params``; clipped to ±1e20).
@@ -541,7 +545,8 @@ class FastOSQP:
 
 
 def _differs(a: sp.spmatrix, b: sp.spmatrix) -> bool:
-    return a.shape != b.shape or (a != b).nnz > 0
+    differs: bool = a.shape != b.shape or (a != b).nnz > 0  # scipy.sparse is untyped
+    return differs
 
 
 def _as_slice(index: NDArray[np.int64]) -> slice | NDArray[np.int64]:

@@ -86,11 +86,11 @@ class ParametricQP:
     F : ndarray
         Soft constraint rows (ns, nz); may have zero rows.
     soft_linear : float or array_like
-        Linear slack penalty w1 (>= 0) [cost per unit of violation]; one
-        number for every soft row or one per row.
+        Linear slack penalty w1 (finite, >= 0) [cost per unit of violation];
+        one number for every soft row or one per row.
     soft_quadratic : float or array_like
-        Quadratic slack penalty w2 (> 0 when there are soft rows); one number
-        or one per row.
+        Quadratic slack penalty w2 (finite, > 0); one number or one per row.
+        Both are checked only when there are soft rows.
     name : str
         Label for error messages and variable names.
     fast : bool
@@ -98,6 +98,14 @@ class ParametricQP:
     solver : {"auto", "osqp", "daqp"}
         The fast path's QP solver (:func:`choose_solver`); the ``"cvxpy"``
         path always solves with OSQP through cvxpy.
+
+    Raises
+    ------
+    ModelError
+        If ``solver`` is unknown, or a slack penalty is not finite, negative
+        (``soft_quadratic``: not positive) or of neither one nor ``ns`` entries.
+    SolverError
+        If the QP is not DPP.
 
     Examples
     --------
@@ -125,11 +133,12 @@ class ParametricQP:
         self._hu = cp.Parameter(self.ns, name=f"{name}.hu")
         H = 0.5 * (H + H.T)
         cost = 0.5 * cp.quad_form(self._z, cp.psd_wrap(H)) + self._g @ self._z
-        cons = []
+        cons: list[cp.Constraint] = []
         if self.nh:
             cons += [C @ self._z >= self._lb, C @ self._z <= self._ub]
         if self._s is not None:
-            linear, quadratic = _slack_penalty(self._s, soft_linear, soft_quadratic)
+            w1, w2 = _soft_weights(name, self.ns, soft_linear, soft_quadratic)
+            linear, quadratic = _slack_penalty(self._s, w1, w2)
             cost = cost + linear + quadratic
             cons += [F @ self._z >= self._hl - self._s, F @ self._z <= self._hu + self._s]
         self.problem = cp.Problem(cp.Minimize(cost), cons)
@@ -359,10 +368,34 @@ def _or(x: Array | None, n: int, fill: float) -> Array:
     return np.full(n, fill) if x is None else np.asarray(x, dtype=float)
 
 
-def _slack_penalty(s: cp.Variable, linear: float | ArrayLike,
-                   quadratic: float | ArrayLike) -> tuple[cp.Expression, cp.Expression]:
+def _soft_weights(name: str, ns: int, linear: float | ArrayLike,
+                  quadratic: float | ArrayLike) -> tuple[Array, Array]:
+    """The slack penalties (w1, w2) as arrays, checked: finite, w1 >= 0, w2 > 0, 1 or ns each.
+
+    :func:`_slack_penalty` wraps diag(w2) as positive semidefinite for cvxpy
+    (``psd_wrap``, which checks nothing): a negative w2 would make a
+    non-convex QP that cvxpy takes for convex, and a negative w1 rewards
+    violations.
+    """
+    weights = []
+    for label, value, positive in (("soft_linear", linear, False),
+                                   ("soft_quadratic", quadratic, True)):
+        try:
+            w = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            w = np.full(0, np.nan)
+        ok = w.ndim <= 1 and w.size in (1, ns) and bool(np.isfinite(w).all())
+        if not (ok and bool(np.all(w > 0) if positive else np.all(w >= 0))):
+            raise ModelError(
+                f"{name}: {label!r} must be one finite number or one per soft row ({ns}), "
+                f"{'> 0' if positive else '>= 0'} (got {value!r}).")
+        weights.append(w)
+    return weights[0], weights[1]
+
+
+def _slack_penalty(s: cp.Variable, w1: Array,
+                   w2: Array) -> tuple[cp.Expression, cp.Expression]:
     """The terms w1ᵀ s and ½ sᵀ diag(w2) s (scalar weights: w1·Σs and ½w2·Σs²)."""
-    w1, w2 = np.asarray(linear, dtype=float), np.asarray(quadratic, dtype=float)
     if w1.ndim == 0 and w2.ndim == 0:
         return float(w1) * cp.sum(s), 0.5 * float(w2) * cp.sum_squares(s)
     w1, w2 = np.broadcast_to(w1, s.shape), np.broadcast_to(w2, s.shape)

@@ -371,7 +371,8 @@ def log_bisection(excess: Callable[[float], float], low: float, high: float,
             lo = mid
         else:
             hi = mid
-    return 10.0**hi
+    bound: float = 10.0**hi  # float ** float is Any in typeshed (a negative base is complex)
+    return bound
 
 
 def convergence_sweep(design: MPCDesign, weights: ArrayLike) -> Array:

@@ -117,7 +117,8 @@ class MPCDesign:
     @property
     def n_inputs(self) -> int:
         """Number of inputs (= coaches)."""
-        return self.B.shape[1]
+        n_inputs: int = self.B.shape[1]
+        return n_inputs
 
     def with_r(self, r: float | Array) -> MPCDesign:
         """A copy with input weights ``r`` (scalar: the same for every input).
