@@ -102,7 +102,8 @@ class FamilyBase(Generic[DesignT, SettingsT]):
     @property
     def settings(self) -> type[SettingsT]:
         """The schema of the family's ``[controller]`` table (imported on first use)."""
-        return import_path(self.settings_path)
+        schema: type[SettingsT] = import_path(self.settings_path)
+        return schema
 
     def design(self, scenario: Scenario, model: DesignModel, settings: SettingsT) -> DesignT:
         """The family's design (built once per run).
@@ -159,7 +160,8 @@ class FamilyBase(Generic[DesignT, SettingsT]):
         list of Check
             One check per name in :attr:`check_names`, in that order.
         """
-        return import_path(self.checks_path)(design)
+        checks: list[Check] = import_path(self.checks_path)(design)
+        return checks
 
     def closed_loop(self, design: DesignT, strategy: str) -> ct.StateSpace | None:
         """The linear closed loop of a strategy (discrete or continuous), or None.

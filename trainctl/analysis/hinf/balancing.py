@@ -99,7 +99,8 @@ def state_balance(A: Array, B: Array, C: Array) -> Array:
     M[n, :n] = np.linalg.norm(C, axis=0)
     _, (scale, _) = scipy.linalg.matrix_balance(M, permute=False, separate=True)
     s = np.asarray(scale, dtype=float)
-    return s[:n] / s[n]
+    ratios: NDArray[np.float64] = s[:n] / s[n]
+    return ratios
 
 
 MAX_TRANSFORM_CONDITION = 1e8

@@ -92,7 +92,8 @@ class SampledDesign(Generic[SettingsT, LawT]):
 
     def _feedback(self) -> Array:
         """The law's linear gain F [N per unit of state] on the design state."""
-        return self.law.feedback()  # type: ignore[attr-defined]
+        gain: NDArray[np.float64] = self.law.feedback()  # type: ignore[attr-defined]
+        return gain
 
     def sampled_matrix(self, interval: float | None = None) -> Array:
         """The delay-free loop with the law held over each interval (exact ZOH of the plant).
@@ -172,9 +173,11 @@ class ContinuousFamily(FamilyBase[DesignT, SettingsT]):
             clipped to the envelope if the settings' ``input_bounds``.
         """
         controller = import_path(self.controller_path)
-        return controller(design.scenario.train, design.law, dt=design.control_interval,
-                          input_bounds=design.settings.input_bounds, name=strategy,
-                          **self._controller_options(design))
+        made: Controller = controller(design.scenario.train, design.law,
+                                      dt=design.control_interval,
+                                      input_bounds=design.settings.input_bounds, name=strategy,
+                                      **self._controller_options(design))
+        return made
 
     def closed_loop(self, design: DesignT, strategy: str) -> ct.StateSpace:
         """ẋ = A_cl x + B_w w (continuous, dt = 0); outputs v [m/s], f [kN], d [m].

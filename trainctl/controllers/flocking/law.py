@@ -146,7 +146,7 @@ class FlockingLaw:
         """
         head = -np.concatenate([[0.0], np.cumsum(self.length[:-1] + gaps)])
         tail = head - self.length
-        out = np.abs(tail[:, None] - head[None, :])
+        out: NDArray[np.float64] = np.abs(tail[:, None] - head[None, :])
         lower = np.tril_indices(self.n, -1)
         out[lower] = out.T[lower]
         np.fill_diagonal(out, 0.0)
@@ -176,7 +176,7 @@ class FlockingLaw:
             If a gap is not finite.
         """
         bump = np.asarray(self.potential.adjacency(self.pair_gaps(gaps)), dtype=float)
-        weights = self.consensus_gain * self.graph * bump
+        weights: NDArray[np.float64] = self.consensus_gain * self.graph * bump
         np.fill_diagonal(weights, 0.0)
         return weights
 
@@ -207,8 +207,10 @@ class FlockingLaw:
         W = self.consensus_weights(s)
         v = np.asarray(v_err, dtype=float)
         consensus = W @ v - W.sum(axis=1) * v
-        return (incidence(self.n) @ -phi + consensus - self.position_gain * np.asarray(x_err)
-                - self.speed_gain * v)
+        force: NDArray[np.float64] = (incidence(self.n) @ -phi + consensus
+                                      - self.position_gain * np.asarray(x_err)
+                                      - self.speed_gain * v)
+        return force
 
     def force(self, v_err: Array, z: Array, x_err: Array) -> Array:
         """m_i times :meth:`acceleration` [N], shape (n,).

@@ -70,7 +70,8 @@ class PotentialController(SampledLawController[PotentialLaw]):
 
     def _deviations(self, links: Array, ff: QuasiStaticForces) -> Array:
         """z = δ − δ̄: the elongations less the feedforward's quasi-static ones [m]."""
-        return links - ff.elongations[0]
+        z: NDArray[np.float64] = links - ff.elongations[0]
+        return z
 
     def _force_fault(self, z: Array) -> str:
         return ("a spacing deviation left the potential's domain "

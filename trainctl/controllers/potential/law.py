@@ -192,7 +192,9 @@ class PotentialLaw:
         """
         grad = np.asarray(self.potential.gradient(np.asarray(z, dtype=float)), dtype=float)
         damping = self.speed_gain * v_err + self.consensus_laplacian() @ v_err
-        return -self.pinning * x_err - self.mass * (damping + incidence(self.n) @ grad)
+        force: NDArray[np.float64] = (-self.pinning * x_err
+                                      - self.mass * (damping + incidence(self.n) @ grad))
+        return force
 
 
 def law_of(scenario: Scenario, settings: PotentialSettings) -> PotentialLaw:

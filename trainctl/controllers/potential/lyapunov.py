@@ -58,7 +58,7 @@ def closed_form_certificate(design: PotentialDesign) -> Array | None:
     kappa = law.potential.curvature()
     Ks = E @ np.diag(train.stiffness) @ E.T + np.diag(law.pinning) + m[0] * kappa * E @ E.T
     T = np.hstack([-cumulative(n), np.ones((n, 1))])
-    P = scipy.linalg.block_diag(np.diag(m), T.T @ Ks @ T)
+    P: NDArray[np.float64] = scipy.linalg.block_diag(np.diag(m), T.T @ Ks @ T)
     Q = design.A_cl.T @ P + P @ design.A_cl
     scale = float(np.linalg.norm(P, 2) * np.linalg.norm(design.A_cl, 2))
     if float(np.max(np.linalg.eigvalsh(0.5 * (Q + Q.T)))) > 1e-9 * scale:

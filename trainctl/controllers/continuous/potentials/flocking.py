@@ -284,7 +284,8 @@ class FlockingPotential:
         slope_phi = 0.5 * (self.a + self.b) * (1.0 + c * c) ** -1.5
         weight = float(_bump(np.asarray(self.d_alpha / self.r_alpha), self.h))
         slope_sigma = float(sigma_grad(self.desired_gap / self.length_scale, self.eps))
-        return self.force_scale / self.length_scale * weight * slope_phi * slope_sigma**2
+        slope: float = self.force_scale / self.length_scale * weight * slope_phi * slope_sigma**2
+        return slope
 
     def collision_energy_bound(self) -> CollisionBound:
         """Energy barrier at gap 0, ``l a_s psi_alpha(0)`` [m²/s²], and its speed (spec §3.4, 1).

@@ -448,6 +448,6 @@ class SigmaNormPotential:
             return math.inf
         ahead = brentq(lambda z: float(self.energy(z)) - e, 0.0, r - d, xtol=1e-12)
         if e >= self.flocking.collision_energy_bound().energy:
-            return max(ahead, d)
+            return float(max(ahead, d))
         behind = brentq(lambda z: float(self.energy(-z)) - e, 0.0, d, xtol=1e-12)
         return float(max(ahead, behind))
