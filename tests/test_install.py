@@ -80,7 +80,8 @@ class TestWheelContents:
         expected = {
             "trainctl/__init__.py",
             "trainctl/__main__.py",
-            "trainctl/cli.py",
+            "trainctl/cli/__init__.py",
+            "trainctl/cli/main.py",
             "trainctl/py.typed",
             "trainctl/report/templates/report.html.j2",
             "trainctl/report/templates/index.html.j2",
@@ -106,7 +107,7 @@ class TestWheelContents:
         assert "Version: 0.1.0" in metadata
         assert "Requires-Python: >=3.11" in metadata
         assert "Requires-Dist: control>=0.10.2" in metadata
-        assert "trainctl = trainctl.cli.main:main" in entry_points
+        assert "trainctl = trainctl.cli:main" in entry_points
 
 
 class TestInstalledWheel:
