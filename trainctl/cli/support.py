@@ -4,8 +4,8 @@
 :func:`add_budget_option` adds ``--max-time``; :func:`check_cost` estimates the
 run (:mod:`trainctl.run.budget`), refuses one over the budget or the machine's
 memory and prints the estimate of a long one on stderr before anything
-runs. :func:`without_wall_clock` drops the fields that differ between two
-runs of the same scenario (solve and stage times).
+runs. :func:`~trainctl.run.wall_clock.without_wall_clock` (re-exported) drops the fields
+that differ between two runs of the same scenario (solve and stage times).
 """
 
 from __future__ import annotations
@@ -14,24 +14,20 @@ import argparse
 import math
 import os
 import sys
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from trainctl.exceptions import TrainctlError
 from trainctl.naming import printable
 from trainctl.run.budget import DEFAULT_MAX_TIME, format_duration, parse_duration
+from trainctl.run.wall_clock import WALL_CLOCK_KEYS as WALL_CLOCK_KEYS
+from trainctl.run.wall_clock import without_wall_clock as without_wall_clock
 
 if TYPE_CHECKING:
     from trainctl.scenario import Scenario
 
 __all__ = ["WALL_CLOCK_KEYS", "add_budget_option", "check_cost", "describe_error", "positive_int",
            "printable_stdout", "without_wall_clock"]
-
-WALL_CLOCK_KEYS = frozenset({
-    "solve_time_median", "solve_time_p95", "solve_time_max", "solve_time_total", "wall_time",
-    "timings", "solve_time", "search_time",
-})
-"""Keys of ``analyse --json`` whose values are wall-clock times (left out by --deterministic)."""
 
 _R = TypeVar("_R")
 
@@ -139,22 +135,6 @@ def check_cost(scenarios: Sequence[Scenario], max_time: float, *, simulate: bool
             f"time budget {format_duration(max_time)}, --max-time")
         print(f"trainctl: estimate: {estimate.describe()} ({budget})", file=sys.stderr,
               flush=True)
-
-
-def without_wall_clock(value: Any, keys: Iterable[str] = WALL_CLOCK_KEYS) -> Any:
-    """``value`` (JSON-like) without the wall-clock keys, at any depth.
-
-    Examples
-    --------
-    >>> without_wall_clock({"a": 1, "s": [{"solve_time_p95": 0.1, "b": 2}]})
-    {'a': 1, 's': [{'b': 2}]}
-    """
-    drop = frozenset(keys)
-    if isinstance(value, dict):
-        return {k: without_wall_clock(v, drop) for k, v in value.items() if k not in drop}
-    if isinstance(value, list):
-        return [without_wall_clock(v, drop) for v in value]
-    return value
 
 
 def positive_int(text: str) -> int:

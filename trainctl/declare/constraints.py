@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import math
 import numbers
-import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -48,6 +47,8 @@ from trainctl.declare.violations import Violation as Violation
 from trainctl.declare.violations import fail as fail
 from trainctl.declare.violations import raise_at as raise_at
 from trainctl.declare.violations import suggest as suggest
+from trainctl.naming import _UNPRINTABLE_CLASS
+from trainctl.naming import UNPRINTABLE as UNPRINTABLE
 
 __all__ = ["FINITE", "NONNEGATIVE", "NOTHING", "POSITIVE", "UNPRINTABLE", "Array", "Choice",
            "Flag", "Integer", "NameList", "Number", "Rule", "Text", "Violation", "fail", "raise_at",
@@ -587,18 +588,6 @@ class Flag(Rule):
             ``"boolean"``.
         """
         return "boolean"
-
-
-_UNPRINTABLE_CLASS = (r"\x00-\x08\x0b-\x1f\x7f-\x9f\u061C\u200E\u200F\u202A-\u202E"
-                      r"\u2066-\u2069")
-UNPRINTABLE = re.compile(f"[{_UNPRINTABLE_CLASS}]")
-"""Characters refused in text and escaped on output (:func:`trainctl.naming.printable`).
-
-The C0 controls but the tab and the line feed, DEL and the C1 controls, the
-Arabic letter mark, the left-to-right and right-to-left marks, embeddings,
-overrides and isolates: characters that a terminal obeys as commands or that
-reorder the text shown around them.
-"""
 
 
 @dataclass(frozen=True)

@@ -414,7 +414,8 @@ class _Parser:
 
     def sweep(self) -> Any:
         """``[sweep]``: its keys checked, the axes built (points are validated when run)."""
-        from trainctl.sweep.definition import GridAxis, ListAxis, RandomAxis, SweepDefinition
+        from trainctl.scenario.sweep_axes import GridAxis, ListAxis, RandomAxis
+        from trainctl.scenario.sweep_definition import SweepDefinition
 
         table: SweepTable = self.validate(SweepTable, ("sweep",))
         raw = self.doc["sweep"]

@@ -76,8 +76,8 @@ def run_point(scenario: Scenario, simulate: bool = True) -> dict[str, Any]:
     >>> "simulations" in summary
     False
     """
-    from trainctl.cli.support import without_wall_clock
     from trainctl.run.analysis import run_scenario
+    from trainctl.run.wall_clock import without_wall_clock
 
     result: dict[str, Any] = without_wall_clock(run_scenario(scenario, simulate=simulate)
                                                 .to_dict())

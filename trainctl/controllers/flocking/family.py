@@ -31,7 +31,7 @@ if TYPE_CHECKING:
     from trainctl.controllers.flocking.controller import FlockingController
     from trainctl.controllers.flocking.law import FlockingLaw
     from trainctl.design import DesignModel
-    from trainctl.report.figures import ReportFigure
+    from trainctl.plots.svg import ReportFigure
     from trainctl.scenario import Scenario
     from trainctl.sim import SimulationResult
 

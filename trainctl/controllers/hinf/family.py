@@ -43,7 +43,7 @@ if TYPE_CHECKING:
     from trainctl.design import DesignModel
     from trainctl.models.graphs import CommunicationGraph
     from trainctl.models.network import NetworkSettings
-    from trainctl.report.figures import ReportFigure
+    from trainctl.plots.svg import ReportFigure
     from trainctl.scenario import Scenario
 
 __all__ = ["CHECK_NAMES", "DELAY_POINTS", "DELAY_SEARCH", "FAMILY", "GRAPH_USAGE", "STRATEGIES",

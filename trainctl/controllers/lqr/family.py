@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     from trainctl.analysis.check import Check
     from trainctl.controllers.lqr.controller import LQRController
     from trainctl.design import DesignModel
-    from trainctl.report.figures import ReportFigure
+    from trainctl.plots.svg import ReportFigure
     from trainctl.scenario import Scenario
 
 __all__ = ["CHECK_NAMES", "FAMILY", "STRATEGIES", "LQRDesign", "LQRFamily", "design_lqr"]

@@ -28,7 +28,7 @@ if TYPE_CHECKING:
     from trainctl.controllers.potential.controller import PotentialController
     from trainctl.controllers.potential.law import PotentialLaw
     from trainctl.design import DesignModel
-    from trainctl.report.figures import ReportFigure
+    from trainctl.plots.svg import ReportFigure
     from trainctl.scenario import Scenario
     from trainctl.sim import SimulationResult
 

@@ -34,7 +34,7 @@ if TYPE_CHECKING:
     from trainctl.controllers.synchronous.relay import CommandRelay
     from trainctl.design import DesignModel
     from trainctl.models.network import NetworkSettings
-    from trainctl.report.figures import ReportFigure
+    from trainctl.plots.svg import ReportFigure
     from trainctl.scenario import Scenario
 
 __all__ = ["CHECK_NAMES", "DELAY_SEARCH", "FAMILY", "STRATEGIES", "SynchronousDesign",
