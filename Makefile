@@ -69,5 +69,5 @@ lint: $(STAMP_TEST)
 	$(BIN)/lint-imports
 
 clean:
-	rm -rf build dist docs/_build docs/auto_tutorials docs/api/generated docs/sg_execution_times.rst .pytest_cache .hypothesis .mypy_cache .ruff_cache
+	rm -rf build dist docs/_build docs/auto_tutorials docs/api/generated docs/sg_execution_times.rst .pytest_cache .hypothesis .mypy_cache .ruff_cache .import_linter_cache
 	find . -path ./$(VENV) -prune -o -name __pycache__ -type d -exec rm -rf {} +
