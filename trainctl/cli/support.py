@@ -29,6 +29,16 @@ if TYPE_CHECKING:
 __all__ = ["WALL_CLOCK_KEYS", "add_budget_option", "check_cost", "describe_error", "positive_int",
            "printable_stdout", "without_wall_clock"]
 
+PROG = "trainctl"
+"""The command's name (in its messages)."""
+
+EXIT_OK = 0
+EXIT_CHECK_FAILED = 1
+EXIT_ERROR = 2
+EXIT_INTERRUPTED = 130
+"""Ctrl-C (SIGINT); SIGTERM exits 143, SIGHUP 129 (128 + the signal,
+:func:`~trainctl.run._signals.exit_status`)."""
+
 _R = TypeVar("_R")
 
 
@@ -155,3 +165,11 @@ def describe_error(exc: BaseException) -> str:
             return f"{exc.strerror}: {os.fsdecode(exc.filename)}"
     message = str(exc)
     return message or type(exc).__name__
+
+
+def _by_signal(exc: BaseException) -> str:
+    """`` (SIGTERM)`` for a stop signal other than Ctrl-C, else nothing."""
+    import signal
+
+    signum = getattr(exc, "signum", None)
+    return "" if signum is None else f" ({signal.Signals(signum).name})"
