@@ -22,8 +22,8 @@ from matplotlib.lines import Line2D
 from trainctl.plots._common import fixed_margins, legend_outside, series_style
 
 if TYPE_CHECKING:
-    from trainctl.report.data import ReportData
     from trainctl.plots.svg import ReportFigure
+    from trainctl.report.data import ReportData
 
 __all__ = ["performance_figure"]
 
