@@ -37,7 +37,7 @@ class FileTable(BaseModel):
 
     Examples
     --------
-    :class:`~trainctl.scenario.tables.CouplerTable` is a file table: a
+    :class:`~trainctl.scenario.train_tables.CouplerTable` is a file table: a
     misspelt key is refused, and its docstring lists its keys:
 
     >>> from pydantic import ValidationError
