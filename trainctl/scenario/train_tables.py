@@ -58,10 +58,8 @@ from trainctl.units import (
 )
 
 __all__ = [
-    "DAVIS_KEYS",
     "CouplerTable",
     "SectionTable",
-    "TableOrTables",
     "TableRule",
     "TrackTable",
     "TrainTable",
