@@ -110,6 +110,13 @@ def add_budget_option(parser: argparse.ArgumentParser) -> None:
     ----------
     parser : argparse.ArgumentParser
         A subcommand's parser.
+
+    Examples
+    --------
+    >>> parser = argparse.ArgumentParser()
+    >>> add_budget_option(parser)
+    >>> parser.parse_args(["--max-time", "30min"]).max_time
+    1800.0
     """
     parser.add_argument(
         "--max-time", metavar="DURATION", type=_duration, default=DEFAULT_MAX_TIME,
@@ -135,6 +142,13 @@ def check_cost(scenarios: Sequence[Scenario], max_time: float, *, simulate: bool
     ------
     trainctl.run.budget.BudgetError
         When the estimate exceeds the budget or the machine's memory.
+
+    Examples
+    --------
+    The CRH2 design review is far inside an hour (and prints nothing):
+
+    >>> from trainctl.scenario import load_scenario
+    >>> check_cost([load_scenario("crh2-dmpc")], 3600.0, simulate=False)
     """
     from trainctl.run.budget import PRINT_ESTIMATE_FROM, check_budget, estimate_run, total_estimate
 
@@ -148,7 +162,23 @@ def check_cost(scenarios: Sequence[Scenario], max_time: float, *, simulate: bool
 
 
 def positive_int(text: str) -> int:
-    """An argparse type: a whole number >= 1."""
+    """An argparse type: a whole number >= 1.
+
+    Parameters
+    ----------
+    text : str
+        The option's value as given.
+
+    Returns
+    -------
+    int
+        The number.
+
+    Examples
+    --------
+    >>> positive_int("4")
+    4
+    """
     try:
         value = int(text)
     except ValueError:
@@ -159,7 +189,23 @@ def positive_int(text: str) -> int:
 
 
 def describe_error(exc: BaseException) -> str:
-    """The message of an error the command reports (an OSError with its file)."""
+    """The message of an error the command reports (an OSError with its file).
+
+    Parameters
+    ----------
+    exc : BaseException
+        The error.
+
+    Returns
+    -------
+    str
+        Its message; an ``OSError``'s names the file.
+
+    Examples
+    --------
+    >>> describe_error(FileNotFoundError(2, "No such file or directory", "a.toml"))
+    'No such file or directory: a.toml'
+    """
     if isinstance(exc, OSError) and not isinstance(exc, TrainctlError):
         if exc.filename is not None and exc.strerror:
             return f"{exc.strerror}: {os.fsdecode(exc.filename)}"

@@ -23,6 +23,18 @@ WALL_CLOCK_KEYS = frozenset({
 def without_wall_clock(value: Any, keys: Iterable[str] = WALL_CLOCK_KEYS) -> Any:
     """``value`` (JSON-like) without the wall-clock keys, at any depth.
 
+    Parameters
+    ----------
+    value : object
+        JSON-like data: dicts, lists and plain values.
+    keys : iterable of str
+        The keys to drop.
+
+    Returns
+    -------
+    object
+        ``value`` without them (new dicts and lists; the plain values shared).
+
     Examples
     --------
     >>> without_wall_clock({"a": 1, "s": [{"solve_time_p95": 0.1, "b": 2}]})

@@ -420,6 +420,16 @@ class SweepPoint(Mapping[str, Any]):
 def toml_text(value: Any) -> str:
     """A TOML value as written in a file: ``true``, ``"zoh"``, ``[1.0, 2.0]``, ``0.1``.
 
+    Parameters
+    ----------
+    value : object
+        A TOML value: a bool, str, number, array or table.
+
+    Returns
+    -------
+    str
+        Its TOML spelling.
+
     Examples
     --------
     >>> toml_text(True), toml_text("zoh"), toml_text([1, 2.5])
