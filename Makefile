@@ -21,7 +21,7 @@ help:
 	@echo "make test     run the whole test suite, doctests included"
 	@echo "make docs     build the documentation into docs/_build/html (warnings are errors)"
 	@echo "make dist     build the wheel (distribution trainctl-toolbox) into dist/"
-	@echo "make lint     ruff check and mypy"
+	@echo "make lint     ruff check, mypy and the import contracts (lint-imports)"
 	@echo "make clean    remove build artefacts and caches (keeps .venv)"
 
 $(BIN)/python:
@@ -66,7 +66,8 @@ dist: | $(BIN)/python
 lint: $(STAMP_TEST)
 	$(BIN)/ruff check .
 	$(BIN)/mypy
+	$(BIN)/lint-imports
 
 clean:
-	rm -rf build dist docs/_build docs/auto_tutorials docs/api/generated docs/sg_execution_times.rst .pytest_cache .hypothesis .mypy_cache .ruff_cache
+	rm -rf build dist docs/_build docs/auto_tutorials docs/api/generated docs/sg_execution_times.rst .pytest_cache .hypothesis .mypy_cache .ruff_cache .import_linter_cache
 	find . -path ./$(VENV) -prune -o -name __pycache__ -type d -exec rm -rf {} +

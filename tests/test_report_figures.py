@@ -393,7 +393,7 @@ def test_svg_paths_to_a_hundredth_of_a_point() -> None:
 
 def test_family_figures_inside(monkeypatch) -> None:
     """The communication graph and the N-DMPC convergence figure keep everything on canvas."""
-    import trainctl.report.figures as report_figures
+    import trainctl.plots.svg as svg
     from trainctl.controllers.mpc.report import mpc_report_figures
     from trainctl.models.graphs import make_graph
     from trainctl.plots.graph_figures import graph_figure, graph_report_data
@@ -402,7 +402,7 @@ def test_family_figures_inside(monkeypatch) -> None:
     graph_figure(graph_report_data(make_graph("bidirectional", 8, pinned="head")),
                  family="potential", make=lambda key, title, caption, figure, **_:
                  figures.setdefault(key, figure))
-    monkeypatch.setattr(report_figures, "figure_svg",
+    monkeypatch.setattr(svg, "figure_svg",
                         lambda figure, *, prefix: figures.setdefault(prefix, figure))
     weights = np.logspace(-2, 3, 40)
     mpc_report_figures({"weight_sweep": {"weights": weights, "radii": 3 / (1 + weights / 2),

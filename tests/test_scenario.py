@@ -15,6 +15,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from trainctl.controllers.mpc.settings import SOLVER_PATHS, ControllerSettings
 from trainctl.exceptions import ModelError, ScenarioError
 from trainctl.models.train import Train
 from trainctl.models.vehicle import Coupler, Vehicle
@@ -22,9 +23,7 @@ from trainctl.scenario import (
     CHECK_NAMES,
     RESERVED_SECTIONS,
     SIMULATION_STRATEGIES,
-    SOLVER_PATHS,
     BuiltinScenario,
-    ControllerSettings,
     ModelSettings,
     Scenario,
     SimulationSettings,

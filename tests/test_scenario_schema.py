@@ -19,6 +19,7 @@ from pydantic import BaseModel, ConfigDict
 from tests.test_scenario import BASE, CONTROLLER, SINGLE, edit, with_controller, with_simulation
 from trainctl.cli.main import main
 from trainctl.controllers.lqr.settings import LQRSettings
+from trainctl.controllers.mpc.settings import ControllerSettings
 from trainctl.declare.constraints import Number
 from trainctl.exceptions import ModelError, ScenarioError
 from trainctl.registry import (
@@ -30,7 +31,6 @@ from trainctl.registry import (
 from trainctl.scenario import (
     CHECK_NAMES,
     SIMULATION_STRATEGIES,
-    ControllerSettings,
     Scenario,
     check_names,
     json_schema,

@@ -13,9 +13,18 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 
-from trainctl.declare.constraints import UNPRINTABLE
+__all__ = ["UNPRINTABLE", "describe_direction", "one_based", "printable"]
 
-__all__ = ["describe_direction", "one_based", "printable"]
+_UNPRINTABLE_CLASS = (r"\x00-\x08\x0b-\x1f\x7f-\x9f\u061C\u200E\u200F\u202A-\u202E"
+                      r"\u2066-\u2069")
+UNPRINTABLE = re.compile(f"[{_UNPRINTABLE_CLASS}]")
+"""Characters refused in text and escaped on output (:func:`printable`).
+
+The C0 controls but the tab and the line feed, DEL and the C1 controls, the
+Arabic letter mark, the left-to-right and right-to-left marks, embeddings,
+overrides and isolates: characters that a terminal obeys as commands or that
+reorder the text shown around them.
+"""
 
 _INDEXED = re.compile(r"\b([A-Za-z_]\w*)\[(\d+)\]")
 _SUBSCRIPTS = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")
@@ -25,7 +34,7 @@ _SYMBOLS = {"delta": "δ"}
 def printable(text: str) -> str:
     """Text safe to show in a terminal or a page: control characters written as escapes.
 
-    Every character of :data:`trainctl.declare.constraints.UNPRINTABLE` (a NUL, an
+    Every character of :data:`UNPRINTABLE` (a NUL, an
     escape that starts a terminal command, a right-to-left override, ...)
     becomes the escape ``\\uXXXX`` that spells it (valid in Python, TOML and
     JSON strings alike); tabs, line feeds and all other text stay. Scenario

@@ -34,7 +34,7 @@ object that follows :class:`ControllerFamily`:
   what the HTML report shows for the family (JSON-safe data, figures drawn
   from that data, and the Jinja source of its report section). A figure goes
   to the page's Figures section, or, when its ``section`` is the family's
-  (:func:`trainctl.report.figures.family_section`), into the family's own
+  (:func:`trainctl.plots.svg.family_section`), into the family's own
   section after the partial (the potential and flocking families' graph,
   :mod:`trainctl.plots.graph_figures`).
 
@@ -63,7 +63,7 @@ if TYPE_CHECKING:
     from trainctl.analysis.check import Check
     from trainctl.controllers.base import Controller
     from trainctl.design import DesignModel
-    from trainctl.report.figures import ReportFigure
+    from trainctl.plots.svg import ReportFigure
     from trainctl.scenario import Scenario
 
 __all__ = [

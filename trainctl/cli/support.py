@@ -4,8 +4,8 @@
 :func:`add_budget_option` adds ``--max-time``; :func:`check_cost` estimates the
 run (:mod:`trainctl.run.budget`), refuses one over the budget or the machine's
 memory and prints the estimate of a long one on stderr before anything
-runs. :func:`without_wall_clock` drops the fields that differ between two
-runs of the same scenario (solve and stage times).
+runs. :func:`~trainctl.run.wall_clock.without_wall_clock` (re-exported) drops the fields
+that differ between two runs of the same scenario (solve and stage times).
 """
 
 from __future__ import annotations
@@ -14,12 +14,14 @@ import argparse
 import math
 import os
 import sys
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from trainctl.exceptions import TrainctlError
 from trainctl.naming import printable
 from trainctl.run.budget import DEFAULT_MAX_TIME, format_duration, parse_duration
+from trainctl.run.wall_clock import WALL_CLOCK_KEYS as WALL_CLOCK_KEYS
+from trainctl.run.wall_clock import without_wall_clock as without_wall_clock
 
 if TYPE_CHECKING:
     from trainctl.scenario import Scenario
@@ -27,11 +29,15 @@ if TYPE_CHECKING:
 __all__ = ["WALL_CLOCK_KEYS", "add_budget_option", "check_cost", "describe_error", "positive_int",
            "printable_stdout", "without_wall_clock"]
 
-WALL_CLOCK_KEYS = frozenset({
-    "solve_time_median", "solve_time_p95", "solve_time_max", "solve_time_total", "wall_time",
-    "timings", "solve_time", "search_time",
-})
-"""Keys of ``analyse --json`` whose values are wall-clock times (left out by --deterministic)."""
+PROG = "trainctl"
+"""The command's name (in its messages)."""
+
+EXIT_OK = 0
+EXIT_CHECK_FAILED = 1
+EXIT_ERROR = 2
+EXIT_INTERRUPTED = 130
+"""Ctrl-C (SIGINT); SIGTERM exits 143, SIGHUP 129 (128 + the signal,
+:func:`~trainctl.run._signals.exit_status`)."""
 
 _R = TypeVar("_R")
 
@@ -104,6 +110,13 @@ def add_budget_option(parser: argparse.ArgumentParser) -> None:
     ----------
     parser : argparse.ArgumentParser
         A subcommand's parser.
+
+    Examples
+    --------
+    >>> parser = argparse.ArgumentParser()
+    >>> add_budget_option(parser)
+    >>> parser.parse_args(["--max-time", "30min"]).max_time
+    1800.0
     """
     parser.add_argument(
         "--max-time", metavar="DURATION", type=_duration, default=DEFAULT_MAX_TIME,
@@ -129,6 +142,13 @@ def check_cost(scenarios: Sequence[Scenario], max_time: float, *, simulate: bool
     ------
     trainctl.run.budget.BudgetError
         When the estimate exceeds the budget or the machine's memory.
+
+    Examples
+    --------
+    The CRH2 design review is far inside an hour (and prints nothing):
+
+    >>> from trainctl.scenario import load_scenario
+    >>> check_cost([load_scenario("crh2-dmpc")], 3600.0, simulate=False)
     """
     from trainctl.run.budget import PRINT_ESTIMATE_FROM, check_budget, estimate_run, total_estimate
 
@@ -141,24 +161,24 @@ def check_cost(scenarios: Sequence[Scenario], max_time: float, *, simulate: bool
               flush=True)
 
 
-def without_wall_clock(value: Any, keys: Iterable[str] = WALL_CLOCK_KEYS) -> Any:
-    """``value`` (JSON-like) without the wall-clock keys, at any depth.
+def positive_int(text: str) -> int:
+    """An argparse type: a whole number >= 1.
+
+    Parameters
+    ----------
+    text : str
+        The option's value as given.
+
+    Returns
+    -------
+    int
+        The number.
 
     Examples
     --------
-    >>> without_wall_clock({"a": 1, "s": [{"solve_time_p95": 0.1, "b": 2}]})
-    {'a': 1, 's': [{'b': 2}]}
+    >>> positive_int("4")
+    4
     """
-    drop = frozenset(keys)
-    if isinstance(value, dict):
-        return {k: without_wall_clock(v, drop) for k, v in value.items() if k not in drop}
-    if isinstance(value, list):
-        return [without_wall_clock(v, drop) for v in value]
-    return value
-
-
-def positive_int(text: str) -> int:
-    """An argparse type: a whole number >= 1."""
     try:
         value = int(text)
     except ValueError:
@@ -169,9 +189,33 @@ def positive_int(text: str) -> int:
 
 
 def describe_error(exc: BaseException) -> str:
-    """The message of an error the command reports (an OSError with its file)."""
+    """The message of an error the command reports (an OSError with its file).
+
+    Parameters
+    ----------
+    exc : BaseException
+        The error.
+
+    Returns
+    -------
+    str
+        Its message; an ``OSError``'s names the file.
+
+    Examples
+    --------
+    >>> describe_error(FileNotFoundError(2, "No such file or directory", "a.toml"))
+    'No such file or directory: a.toml'
+    """
     if isinstance(exc, OSError) and not isinstance(exc, TrainctlError):
         if exc.filename is not None and exc.strerror:
             return f"{exc.strerror}: {os.fsdecode(exc.filename)}"
     message = str(exc)
     return message or type(exc).__name__
+
+
+def _by_signal(exc: BaseException) -> str:
+    """`` (SIGTERM)`` for a stop signal other than Ctrl-C, else nothing."""
+    import signal
+
+    signum = getattr(exc, "signum", None)
+    return "" if signum is None else f" ({signal.Signals(signum).name})"

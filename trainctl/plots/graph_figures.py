@@ -34,10 +34,10 @@ from trainctl._format import format_number
 from trainctl.models.graphs import CommunicationGraph
 from trainctl.plots import time as plot
 from trainctl.plots._common import fixed_margins
-from trainctl.report.figures import encode, family_section
+from trainctl.plots.svg import encode, family_section
 
 if TYPE_CHECKING:
-    from trainctl.report.figures import ReportFigure
+    from trainctl.plots.svg import ReportFigure
 
 __all__ = ["GRAPH_FIGSIZE", "graph_caption", "graph_figure", "graph_figure_key",
            "graph_from_data", "graph_report_data"]
@@ -138,13 +138,13 @@ def graph_figure(data: Mapping[str, Any], *, family: str, usage: str = "",
         :func:`graph_report_data`.
     family : str
         The family's name: the figure goes to its section
-        (:func:`~trainctl.report.figures.family_section`).
+        (:func:`~trainctl.plots.svg.family_section`).
     usage : str
         A sentence on what the family's law does with the links and the
         reference, appended to the caption.
     make : callable
         ``make(key, title, caption, figure, section=...)``, as
-        :func:`~trainctl.report.figures.encode`.
+        :func:`~trainctl.plots.svg.encode`.
 
     Returns
     -------

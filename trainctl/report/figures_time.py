@@ -120,7 +120,7 @@ def time_figures(scenario: Scenario, sims: Mapping[str, SimulationResult],
         Runs by strategy (non-empty).
     make : callable
         ``make(key, title, caption, figure)`` encodes a figure
-        (:func:`trainctl.report.figures.encode`).
+        (:func:`trainctl.plots.svg.encode`).
 
     Yields
     ------

@@ -33,11 +33,11 @@ import os
 import signal
 import sys
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
-__all__ = ["GRACE", "BudgetExceeded", "Interrupted", "exit_status", "quiet_c_stdout",
-           "signal_guard", "silence_c_stdout"]
+__all__ = ["GRACE", "BudgetExceeded", "Interrupted", "at_forced_stop", "exit_status",
+           "quiet_c_stdout", "signal_guard", "silence_c_stdout"]
 
 GRACE = 0.7
 """Seconds the main thread gets to unwind after a signal before the watchdog ends the process."""
@@ -46,6 +46,31 @@ _HANGUP = getattr(signal, "SIGHUP", None)
 _UNWIND_SIGNALS = tuple(s for s in (signal.SIGTERM, _HANGUP) if s is not None)
 """Signals that unwind like Ctrl-C (:class:`Interrupted`), besides SIGINT itself."""
 _STOP_SIGNALS = (signal.SIGINT, *_UNWIND_SIGNALS, signal.SIGALRM)
+
+_AT_FORCED_STOP: list[Callable[[], None]] = []
+"""Called, in order, before the watchdog ends the process (:func:`at_forced_stop`)."""
+
+
+def at_forced_stop(callback: Callable[[], None]) -> None:
+    """Call ``callback`` before the watchdog ends a process stuck in C code.
+
+    :mod:`trainctl.run.pool` registers its ``terminate_workers`` on import, so
+    that no worker process outlives the command (a pool exists only once that
+    module is imported); this module, below the pool, does not import it.
+
+    Parameters
+    ----------
+    callback : callable
+        Called without arguments; registered once however often it is given.
+
+    Examples
+    --------
+    >>> import trainctl.run.pool as pool
+    >>> pool.terminate_workers in _AT_FORCED_STOP
+    True
+    """
+    if callback not in _AT_FORCED_STOP:
+        _AT_FORCED_STOP.append(callback)
 
 
 class Interrupted(KeyboardInterrupt):
@@ -161,9 +186,8 @@ class _Watchdog:
                 self._force(heard)
 
     def _force(self, heard: set[int]) -> None:
-        from trainctl.run.pool import terminate_workers
-
-        terminate_workers()
+        for callback in _AT_FORCED_STOP:
+            callback()
         budget = heard == {signal.SIGALRM}
         words = ("error: stopped: the run outlived its time budget (--max-time)" if budget
                  else f"{self.words} (the computation did not stop in time; ended it)")

@@ -34,6 +34,8 @@ from multiprocessing.connection import Connection
 from multiprocessing.context import BaseContext
 from typing import TYPE_CHECKING
 
+from trainctl.run._signals import at_forced_stop
+
 if TYPE_CHECKING:
     from trainctl.scenario import Scenario
 
@@ -432,3 +434,6 @@ def terminate_workers() -> None:
     """
     for pool in list(_LIVE):
         _terminate(pool, ending=True)
+
+
+at_forced_stop(terminate_workers)  # the watchdog of trainctl.run._signals ends the workers

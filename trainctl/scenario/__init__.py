@@ -25,6 +25,10 @@ Built-in scenarios are the ``*.toml`` files shipped in
 ``trainctl/builtin_analyses/`` (an installed wheel) or, in a source checkout,
 the top-level ``analyses/`` directory. A bare name such as ``crh2-dmpc``
 selects one; anything that looks like a path is read as a file.
+
+The scenario stage comes before the controllers: a family's settings class
+(MPC's :class:`~trainctl.controllers.mpc.settings.ControllerSettings` and its
+vocabularies) is imported from its family's package, not from here.
 """
 
 from __future__ import annotations
@@ -32,12 +36,6 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from trainctl.controllers.mpc.settings import CONTROLLER_FORMS as CONTROLLER_FORMS
-from trainctl.controllers.mpc.settings import NEIGHBOURHOODS as NEIGHBOURHOODS
-from trainctl.controllers.mpc.settings import OBSERVERS as OBSERVERS
-from trainctl.controllers.mpc.settings import SOLVER_PATHS as SOLVER_PATHS
-from trainctl.controllers.mpc.settings import ControllerSettings as ControllerSettings
-from trainctl.controllers.tracking import CONTROLLER_OUTPUTS as CONTROLLER_OUTPUTS
 from trainctl.models.discrete import DISCRETISATIONS as DISCRETISATIONS
 from trainctl.models.dynamics import ALLOCATIONS as ALLOCATIONS
 from trainctl.models.linear import LINEARISATIONS as LINEARISATIONS
@@ -63,18 +61,12 @@ __all__ = [
     "ALLOCATIONS",
     "CHECK_NAMES",
     "CHECK_STATUSES",
-    "CONTROLLER_FORMS",
-    "CONTROLLER_OUTPUTS",
     "DISCRETISATIONS",
     "LINEARISATIONS",
-    "NEIGHBOURHOODS",
-    "OBSERVERS",
     "RESERVED_SECTIONS",
     "SCHEMA_VERSION",
     "SIMULATION_STRATEGIES",
-    "SOLVER_PATHS",
     "BuiltinScenario",
-    "ControllerSettings",
     "CommunicationSettings",
     "ModelSettings",
     "NetworkSettings",

@@ -43,17 +43,19 @@ from trainctl.scenario.errors import DocumentTable, describe, got, scenario_erro
 from trainctl.scenario.filemodel import FileTable, convert, field_at, file_model, load_settings
 from trainctl.scenario.settings import ModelSettings, SimulationSettings
 from trainctl.scenario.tables import (
-    DAVIS_KEYS,
-    CouplerTable,
-    SectionTable,
     SweepAxisTable,
     SweepTable,
     TopLevel,
+    expected_table,
+    family_table,
+)
+from trainctl.scenario.train_tables import (
+    DAVIS_KEYS,
+    CouplerTable,
+    SectionTable,
     TrackTable,
     TrainTable,
     VehicleTable,
-    expected_table,
-    family_table,
 )
 
 __all__ = ["MAX_TEXT_BYTES", "check_size", "load_toml", "parse_document", "parse_scenario"]
@@ -414,7 +416,8 @@ class _Parser:
 
     def sweep(self) -> Any:
         """``[sweep]``: its keys checked, the axes built (points are validated when run)."""
-        from trainctl.sweep.definition import GridAxis, ListAxis, RandomAxis, SweepDefinition
+        from trainctl.scenario.sweep_axes import GridAxis, ListAxis, RandomAxis
+        from trainctl.scenario.sweep_definition import SweepDefinition
 
         table: SweepTable = self.validate(SweepTable, ("sweep",))
         raw = self.doc["sweep"]

@@ -33,9 +33,9 @@ from trainctl.sweep.definition import (
     parse_set,
     point_key,
 )
-from trainctl.sweep.rows import METRICS, point_rows, run_point, sweep_rows
+from trainctl.sweep.rows import METRICS, point_rows, rows_frame, run_point, sweep_rows
 from trainctl.sweep.runner import dask_executor, run_point_results, run_sweep, sweep_scenario
-from trainctl.sweep.store import SweepStore, rows_frame
+from trainctl.sweep.store import SweepStore
 
 __all__ = [
     "DISTRIBUTIONS",

@@ -23,16 +23,19 @@ the rows are the same either way.
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    import pandas as pd
+
     from trainctl.scenario import Scenario
     from trainctl.sweep.definition import SweepPoint
 
-__all__ = ["METRICS", "point_rows", "run_point", "sweep_rows"]
+__all__ = ["METRICS", "point_rows", "rows_frame", "run_point", "sweep_rows"]
 
 METRICS = ("rms_error", "max_error", "max_coupler_force", "energy_kwh", "tracking_ok",
            "iterations_mean", "diverged", "converged", "iteration_limit_steps",
@@ -76,8 +79,8 @@ def run_point(scenario: Scenario, simulate: bool = True) -> dict[str, Any]:
     >>> "simulations" in summary
     False
     """
-    from trainctl.cli.support import without_wall_clock
     from trainctl.run.analysis import run_scenario
+    from trainctl.run.wall_clock import without_wall_clock
 
     result: dict[str, Any] = without_wall_clock(run_scenario(scenario, simulate=simulate)
                                                 .to_dict())
@@ -211,3 +214,59 @@ def sweep_rows(points: Sequence[SweepPoint], scenarios: Sequence[Scenario], *,
     for point, scenario, summary in zip(points, scenarios, summaries, strict=True):
         rows += point_rows(point, point_key(scenario), summary)
     return rows
+
+
+def _column(values: list[Any]) -> tuple[list[Any], str | None]:
+    """A column's values and pandas dtype: numbers, booleans, text, else JSON text."""
+    present = [v for v in values if v is not None]
+    if all(isinstance(v, bool) for v in present) and present:
+        return values, "boolean"
+    if all(isinstance(v, int) and not isinstance(v, bool) for v in present) and present:
+        return values, "Int64"
+    if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in present):
+        return [math.nan if v is None else float(v) for v in values], "float64"
+    if all(isinstance(v, str) for v in present):
+        return values, "string"
+    return [None if v is None else json.dumps(v, sort_keys=True) for v in values], "string"
+
+
+def rows_frame(rows: Sequence[Mapping[str, Any]], swept: Sequence[str] = ()) -> pd.DataFrame:
+    """Tidy rows as a DataFrame with one dtype per column, the same for the same rows.
+
+    Columns: ``point``, ``point_key``, the swept keys, ``strategy``, then the
+    check and metric columns in the order they first appear. Each column's
+    type follows its values: nullable integers (``Int64``), floats (missing
+    values NaN), nullable booleans, text; anything else (arrays, tables,
+    mixed types) is JSON text.
+
+    Parameters
+    ----------
+    rows : sequence of mapping
+        :func:`~trainctl.sweep.point_rows` of the points.
+    swept : sequence of str
+        The swept keys (put after ``point_key``).
+
+    Returns
+    -------
+    pandas.DataFrame
+
+    Examples
+    --------
+    >>> frame = rows_frame([{"point": 0, "point_key": "a", "x": 1.5, "strategy": "",
+    ...                      "check.c.status": "pass", "check.c.value": None}], ["x"])
+    >>> list(frame.columns), [str(t) for t in frame.dtypes]
+    (['point', 'point_key', 'x', 'strategy', 'check.c.status', 'check.c.value'], ['Int64', \
+'string', 'float64', 'string', 'string', 'float64'])
+    """
+    import pandas as pd
+
+    columns = ["point", "point_key", *swept, "strategy"]
+    for row in rows:
+        for name in row:
+            if name not in columns:
+                columns.append(name)
+    data: dict[str, Any] = {}
+    for name in columns:
+        values, dtype = _column([row.get(name) for row in rows])
+        data[name] = pd.array(values, dtype=dtype) if dtype else values
+    return pd.DataFrame(data, columns=columns)

@@ -92,8 +92,8 @@ def run_point_results(scenario: Scenario, simulate: bool = True, arrays: bool | 
     """
     import dataclasses
 
-    from trainctl.cli.support import without_wall_clock
     from trainctl.run.analysis import run_scenario
+    from trainctl.run.wall_clock import without_wall_clock
 
     if isinstance(arrays, bool):
         arrays = "dense" if arrays else "none"

@@ -22,8 +22,8 @@ from matplotlib.lines import Line2D
 from trainctl.plots._common import fixed_margins, legend_outside, series_style
 
 if TYPE_CHECKING:
+    from trainctl.plots.svg import ReportFigure
     from trainctl.report.data import ReportData
-    from trainctl.report.figures import ReportFigure
 
 __all__ = ["performance_figure"]
 
@@ -55,7 +55,7 @@ def performance_figure(data: ReportData,
     >>> from trainctl.report import collect_report_data
     >>> run = run_scenario(trainctl.load_scenario("crh2-dmpc"), simulate=False)
     >>> data = collect_report_data(run, scenario_text=text)
-    >>> from trainctl.report.figures import encode
+    >>> from trainctl.plots.svg import encode
     >>> performance_figure(data, encode) is None
     True
     """

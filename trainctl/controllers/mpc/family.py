@@ -28,7 +28,7 @@ if TYPE_CHECKING:
     from trainctl.controllers.mpc.theory.local_iteration.model import LocalModel
     from trainctl.controllers.mpc.theory.mpc import MPCDesign
     from trainctl.design import DesignModel
-    from trainctl.report.figures import ReportFigure
+    from trainctl.plots.svg import ReportFigure
     from trainctl.scenario import Scenario
 
 __all__ = ["CHECK_NAMES", "FAMILY", "MPCFamily", "MPCFamilyDesign"]

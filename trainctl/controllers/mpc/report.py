@@ -18,7 +18,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from trainctl.controllers.mpc.family import MPCFamilyDesign
-    from trainctl.report.figures import ReportFigure
+    from trainctl.plots.svg import ReportFigure
 
 __all__ = ["PARTIAL", "SWEEP_POINTS", "mpc_report_data", "mpc_report_figures"]
 
@@ -123,7 +123,7 @@ def mpc_report_figures(data: Mapping[str, Any]) -> list[ReportFigure]:
 
     from trainctl.plots import time as plot
     from trainctl.plots._common import fixed_margins
-    from trainctl.report.figures import ReportFigure, figure_svg
+    from trainctl.plots.svg import ReportFigure, figure_svg
 
     sweep = data["weight_sweep"]
     threshold = math.inf if sweep["threshold"] is None else sweep["threshold"]

@@ -5,7 +5,6 @@
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
@@ -15,24 +14,14 @@ from pydantic_core import CoreSchema, core_schema
 
 from trainctl.declare.constraints.rule import Rule
 from trainctl.declare.violations import Violation, raise_at, suggest
+from trainctl.naming import _UNPRINTABLE_CLASS
+from trainctl.naming import UNPRINTABLE as UNPRINTABLE
 
 __all__ = ["UNPRINTABLE", "Choice", "NameList", "Text"]
 
 
 def _or(items: Sequence[str]) -> str:
     return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " or " + items[-1]
-
-
-_UNPRINTABLE_CLASS = (r"\x00-\x08\x0b-\x1f\x7f-\x9f\u061C\u200E\u200F\u202A-\u202E"
-                      r"\u2066-\u2069")
-UNPRINTABLE = re.compile(f"[{_UNPRINTABLE_CLASS}]")
-"""Characters refused in text and escaped on output (:func:`trainctl.naming.printable`).
-
-The C0 controls but the tab and the line feed, DEL and the C1 controls, the
-Arabic letter mark, the left-to-right and right-to-left marks, embeddings,
-overrides and isolates: characters that a terminal obeys as commands or that
-reorder the text shown around them.
-"""
 
 
 @dataclass(frozen=True)
