@@ -152,7 +152,8 @@ def _make(name: str, fields: dict[str, Any], doc: str) -> type[BaseModel]:
     model = create_model(name, __config__=config, __validators__=validators, **fields)
     model.__doc__ = doc.split("\n\n")[0] if doc else None
     model.one_of_keys = tuple(keys for keys, _ in groups)
-    return model
+    built: type[BaseModel] = model
+    return built
 
 
 def one_of_schema(*groups: tuple[str, ...]) -> dict[str, Any]:
