@@ -24,6 +24,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from trainctl.controllers.hooks import FamilyHooks
+
 if TYPE_CHECKING:
     import control as ct
 
@@ -178,7 +180,7 @@ def design_flocking(scenario: Scenario, model: DesignModel, settings: Any) -> Fl
                           initial_errors=initial_errors(scenario))
 
 
-class FlockingFamily:
+class FlockingFamily(FamilyHooks):
     """Olfati-Saber's flocking law for virtually coupled trains (seed 002).
 
     Examples
@@ -201,7 +203,6 @@ class FlockingFamily:
     check_names = CHECK_NAMES
     trajectory_check_names = ("flocking_collision", "flocking_connectivity")
     """The checks :meth:`trajectory_checks` judges again on a simulation."""
-    strategy_cost: Mapping[str, float] = {"flocking": 0.2}
     measures_gaps = True
     """The law measures the gaps (the model's observability check adds them to the outputs)."""
     report_partial = PARTIAL

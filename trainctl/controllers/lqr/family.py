@@ -26,10 +26,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from trainctl.controllers.hooks import FamilyHooks
+
 if TYPE_CHECKING:
     import control as ct
 
     from trainctl.analysis.check import Check
+    from trainctl.controllers.hooks import StrategyRun
     from trainctl.controllers.lqr.controller import LQRController
     from trainctl.design import DesignModel
     from trainctl.report.figures import ReportFigure
@@ -207,7 +210,7 @@ def _decentralised_gain(model: DesignModel, settings: Any, C: Array, q: Array) -
     return K
 
 
-class LQRFamily:
+class LQRFamily(FamilyHooks):
     """Discrete LQR of the train: centralised and decentralised (per coach).
 
     Examples
@@ -228,7 +231,6 @@ class LQRFamily:
     title = "Linear-quadratic regulator"
     strategies = STRATEGIES
     check_names = CHECK_NAMES
-    strategy_cost: Mapping[str, float] = {"centralised": 0.1, "decentralised": 0.1}
     report_partial = PARTIAL
 
     @property
@@ -375,6 +377,25 @@ class LQRFamily:
             Always empty.
         """
         return []
+
+    # -- optional hooks (trainctl.controllers.hooks.FamilyHooks) ------------------------------
+
+    def strategy_seconds(self, run: StrategyRun) -> float:
+        """A state feedback's simulation: the plant and the step overhead per sample, no build.
+
+        Parameters
+        ----------
+        run : StrategyRun
+            The strategy's simulation as the budget sees it.
+
+        Returns
+        -------
+        float
+            ``samples · (plant + STEP_SECONDS)`` [s].
+        """
+        from trainctl.controllers.hooks import STEP_SECONDS
+
+        return run.samples * (run.plant_seconds + STEP_SECONDS)
 
 
 FAMILY = LQRFamily()

@@ -21,6 +21,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from trainctl.controllers.hooks import FamilyHooks
+
 if TYPE_CHECKING:
     import control as ct
 
@@ -201,7 +203,7 @@ def design_potential(scenario: Scenario, model: DesignModel, settings: Any) -> P
                            initial_errors=initial_errors(scenario))
 
 
-class PotentialFamily:
+class PotentialFamily(FamilyHooks):
     """Zhao & Wang's potential-function consensus law (seed 001).
 
     Examples
@@ -223,7 +225,6 @@ class PotentialFamily:
     check_names = CHECK_NAMES
     trajectory_check_names = ("potential_linearisation",)
     """The checks :meth:`trajectory_checks` judges again on a simulation."""
-    strategy_cost: Mapping[str, float] = {"consensus": 0.2}
     report_partial = PARTIAL
 
     @property

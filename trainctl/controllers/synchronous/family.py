@@ -24,9 +24,12 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from trainctl.controllers.hooks import FamilyHooks
+
 if TYPE_CHECKING:
     import control as ct
 
+    from trainctl.analysis.certificates import Certificate
     from trainctl.analysis.check import Check
     from trainctl.analysis.delay import DelayMargin
     from trainctl.controllers.synchronous.controller import SynchronousController
@@ -244,7 +247,7 @@ def _seconds(x: float | None) -> str:
     return f"{x:.4g}" if math.isfinite(x) else "∞"
 
 
-class SynchronousFamily:
+class SynchronousFamily(FamilyHooks):
     """Centralised synchronous operation (the LOCOTROL-type baseline of seed 003).
 
     Examples
@@ -264,7 +267,6 @@ class SynchronousFamily:
     title = "Synchronous operation (centralised)"
     strategies = STRATEGIES
     check_names = CHECK_NAMES
-    strategy_cost: Mapping[str, float] = {"synchronous": 0.1}
     report_partial = PARTIAL
 
     @property
@@ -413,6 +415,23 @@ class SynchronousFamily:
             An empty list.
         """
         return []
+
+    # -- optional hooks (trainctl.controllers.hooks.FamilyHooks) ------------------------------
+
+    def certificates(self) -> tuple[Certificate, ...]:
+        """The delay margin of synchronous operation against the simulated loop.
+
+        Returns
+        -------
+        tuple of Certificate
+            ``synchronous_delay_margin`` against divergence (else tracking).
+        """
+        from trainctl.analysis.certificates import NOT_DIVERGED, TRACKING, Certificate
+
+        return (Certificate(
+            "synchronous_delay_margin", ("synchronous", "synchronous.synchronous"),
+            (NOT_DIVERGED, TRACKING),
+            "synchronous operation keeps stability up to the network's largest delay"),)
 
 
 FAMILY = SynchronousFamily()
