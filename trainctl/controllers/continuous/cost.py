@@ -44,15 +44,15 @@ def law_seconds(run: StrategyRun) -> float:
 
     Examples
     --------
-    Ten 0.05 s samples of 4 vehicles, one plant substep each:
+    Ten 0.05 s samples of 8 vehicles, one plant substep each:
 
     >>> from trainctl.controllers.hooks import StrategyRun
     >>> from trainctl.scenario import load_scenario
     >>> run = StrategyRun(scenario=load_scenario("crh2-potential"), settings=None,
     ...                   strategy="consensus", samples=10, sample_time=0.05,
     ...                   interval=0.05, substeps=1, plant_seconds=1e-4)
-    >>> round(law_seconds(run), 6)  # 0.5 + 10 · 1.125 · (2e-4 + 4e-5)
-    0.5027
+    >>> round(law_seconds(run), 6)  # 0.5 + 10 · 1.25 · (2e-4 + 4e-5)
+    0.503
     """
     n = run.n_vehicles
     steps = run.samples * run.sample_time / run.interval
