@@ -16,7 +16,10 @@ strategy or a check:
   :class:`~trainctl.analysis.claims.Claim`);
 - the certificates a sweep sets against simulation
   (:meth:`FamilyHooks.certificates`; vocabulary
-  :class:`~trainctl.analysis.certificates.Certificate`).
+  :class:`~trainctl.analysis.certificates.Certificate`);
+- what the report says of the family beside its own section: the labels of
+  its settings (:attr:`FamilyHooks.settings_labels`) and the checks whose
+  value the page's headline quotes (:attr:`FamilyHooks.headline_checks`).
 
 A family class inherits :class:`FamilyHooks` and overrides what it has;
 :func:`family_hook` gives the stages a family's hook, or the default for a
@@ -35,9 +38,10 @@ Examples
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import partial
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
@@ -143,6 +147,13 @@ class FamilyHooks:
     claims_source : str
         The publication the family's claims come from, for the page and the
         text summary (``""`` when it has none).
+    settings_labels : mapping of str to str
+        Display labels of some of its settings' fields (e.g.
+        ``"prediction_horizon"`` → ``"Prediction horizon P"``); the others
+        are humanised from their names.
+    headline_checks : mapping of str to str
+        Check name → the symbol of its value, for the checks whose value the
+        report's headline quotes (e.g. MPC's spectral radius ρ(D0)).
 
     Examples
     --------
@@ -152,6 +163,8 @@ class FamilyHooks:
     """
 
     claims_source: str = ""
+    settings_labels: Mapping[str, str] = MappingProxyType({})
+    headline_checks: Mapping[str, str] = MappingProxyType({})
 
     def cost_horizons(self, settings: Any) -> tuple[int, int]:
         """The prediction and control horizons of what each step solves (1, 1 for none).
@@ -289,7 +302,7 @@ class FamilyHooks:
         return ()
 
 
-def family_hook(family: Any, name: str) -> Callable[..., Any]:
+def family_hook(family: Any, name: str) -> Any:
     """``family``'s hook ``name``, or the default one for a family without it.
 
     Parameters
@@ -297,20 +310,24 @@ def family_hook(family: Any, name: str) -> Callable[..., Any]:
     family : ControllerFamily
         A family (:func:`trainctl.registry.get_family`).
     name : str
-        A hook of :class:`FamilyHooks`.
+        A hook of :class:`FamilyHooks`: a method or an attribute.
 
     Returns
     -------
-    callable
-        The bound hook.
+    object
+        The bound method, or the attribute's value.
 
     Examples
     --------
     >>> from types import SimpleNamespace
-    >>> family_hook(SimpleNamespace(name="toy"), "cost_horizons")(None)
-    (1, 1)
+    >>> toy = SimpleNamespace(name="toy", claims_source="A paper")
+    >>> family_hook(toy, "cost_horizons")(None), family_hook(toy, "claims_source")
+    ((1, 1), 'A paper')
+    >>> dict(family_hook(toy, "headline_checks"))
+    {}
     """
-    hook = getattr(family, name, None)
-    if callable(hook):
-        return hook  # type: ignore[no-any-return]
-    return partial(getattr(FamilyHooks, name), family)
+    default = getattr(FamilyHooks, name)
+    value = getattr(family, name, None)
+    if callable(default):
+        return value if callable(value) else partial(default, family)
+    return default if value is None else value

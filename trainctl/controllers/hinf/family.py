@@ -583,7 +583,7 @@ class HinfFamily(FamilyHooks):
 
     # -- optional hooks (trainctl.controllers.hooks.FamilyHooks) ------------------------------
 
-    claims_source = "Ning et al. (2016), for the 1+2+1 heavy-haul train"
+    claims_source = "Ning et al. 2016, the 1+2+1 heavy-haul train"
 
     def design_cost(self, scenario: Scenario, settings: Any,
                     strategies: Sequence[str]) -> DesignCost:

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -379,6 +380,10 @@ class LQRFamily(FamilyHooks):
         return []
 
     # -- optional hooks (trainctl.controllers.hooks.FamilyHooks) ------------------------------
+
+    settings_labels = MappingProxyType({
+        "q_velocity": "Velocity weight Q_v", "q_force": "Coupler-force weight Q_f",
+        "input_weight": "Input weight R"})
 
     def strategy_seconds(self, run: StrategyRun) -> float:
         """A state feedback's simulation: the plant and the step overhead per sample, no build.

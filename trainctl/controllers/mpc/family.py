@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -424,6 +425,12 @@ class MPCFamily(FamilyHooks):
         return mpc_report_figures(data)
 
     # -- optional hooks (trainctl.controllers.hooks.FamilyHooks) ------------------------------
+
+    settings_labels = MappingProxyType({
+        "q_velocity": "Velocity weight Q_v", "q_force": "Coupler-force weight Q_f",
+        "input_weight": "Input weight R", "prediction_horizon": "Prediction horizon P",
+        "control_horizon": "Control horizon M"})
+    headline_checks = MappingProxyType({"ndmpc_convergence": "ρ(D0)"})
 
     def cost_horizons(self, settings: Any) -> tuple[int, int]:
         """The prediction and control horizons (:func:`trainctl.controllers.mpc.cost.horizons`).
