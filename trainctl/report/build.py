@@ -220,7 +220,7 @@ def run_report_data(
             from trainctl.run.budget import strategy_seconds
 
             tasks.sort(key=lambda t: -strategy_seconds(jobs[t[0]].scenario, t[1]))
-            from trainctl.run.analysis import _simulate_recorded
+            from trainctl.run.simulate import _simulate_recorded
 
             for k, strategy in tasks:
                 future = pool.submit(_simulate_recorded, jobs[k].scenario, strategy, designs[k])

@@ -139,4 +139,4 @@ def strategy_seconds(run: StrategyRun) -> float:
     else:  # centralised
         step = _QP + _CENTRAL * float(n * moves) ** 3
     build = BUILD_SECONDS + _BUILD_SIZE * float(n * horizon) ** 1.5
-    return build + run.samples * (run.plant_seconds + STEP_SECONDS + step)
+    return float(build + run.samples * (run.plant_seconds + STEP_SECONDS + step))
