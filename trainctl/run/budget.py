@@ -12,18 +12,20 @@ budget (``trainctl analyse/report --max-time``, default
 :data:`DEFAULT_MAX_TIME`) or the machine's memory.
 
 The time model is an order-of-magnitude one, calibrated on a 2-core machine
-(trainctl 0.x, OSQP 1.1, DAQP 0.7): the design review grows like states⁴
-for the modal and controllability checks (one dense factorisation per
-eigenvalue), like vehicles × horizon^1.2 (plus a horizon³ term) for the
-global MPC iteration analysis and like the cube of the local iteration's size
-(vehicles × (control horizon + 2 × prediction horizon)) when
-neighbourhood-local N-DMPC is simulated, and like (solves) × states⁴ for the
-H∞ family's semidefinite programs; each controller step costs the plant's
-substeps plus the strategy's QPs (centralised: one QP of vehicles ×
-control-horizon moves, cubic in it; decentralised: one small QP per vehicle
-with a force to decide — none for a vehicle whose envelope pins it at 0 kN;
-N-DMPC and cooperative: that per iteration, plus the exchange of every
-vehicle's predictions). Recalibrated on the 204-vehicle chain
+(trainctl 0.x, OSQP 1.1, DAQP 0.7). This module holds the shared part: the
+design review grows like states⁴ for the modal and controllability checks
+(one dense factorisation per eigenvalue) and each recorded sample costs the
+plant's substeps. Each family prices the rest through its hooks
+(:class:`~trainctl.controllers.hooks.FamilyHooks`): its design and review
+(``design_cost``: MPC's iteration analyses, :mod:`trainctl.controllers.mpc.cost`;
+the H∞ family's semidefinite programs, :mod:`trainctl.controllers.hinf.cost`),
+the size of what each step solves (``cost_horizons``) and one strategy's
+build and steps at its control interval (``strategy_seconds``: MPC's QPs;
+an explicit law's evaluation, :mod:`trainctl.controllers.continuous.cost`);
+this module only sums them. :func:`strategy_seconds` is the one estimate of
+a strategy's cost (the report orders its pooled simulations by it) and
+:func:`estimate_run` the one count of a run's steps (the pool's,
+:func:`trainctl.run.pool.estimated_steps`). Recalibrated on the 204-vehicle chain
 (``benchmarks/scenarios/heavy-haul-204-ndmpc.toml`` on the idle machine:
 review 104 s on one BLAS thread, 600 s of decentralised MPC 2.9 s and of
 local N-DMPC 22.6 s) with the CRH2 built-ins' estimates unchanged. Expect
