@@ -91,8 +91,6 @@ __all__ = [
     "build_sweep_context",
     "declared_certificates",
     "default_sweep_report_path",
-    "key_label",
-    "key_title",
     "load_sweep_report_data",
     "render_sweep_report",
     "write_sweep_report",

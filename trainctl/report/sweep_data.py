@@ -27,8 +27,8 @@ from trainctl.report.figures_sweep import (
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["REPORT_NAME", "STATUSES", "Parameter", "Quantity", "SweepReportData",
-           "default_sweep_report_path", "key_label", "key_title", "load_sweep_report_data"]
+__all__ = ["REPORT_NAME", "SweepReportData", "default_sweep_report_path",
+           "load_sweep_report_data"]
 
 REPORT_NAME = "report.html"
 """File name of the default sweep report, inside the store."""
