@@ -23,7 +23,7 @@ design model (no delay, ideal network) is continuous (dt = 0):
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
@@ -31,20 +31,17 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.controllers.hooks import FamilyHooks
+from trainctl.controllers.hinf.hooks import HinfHooks
 
 if TYPE_CHECKING:
     import control as ct
 
-    from trainctl.analysis.certificates import Certificate
     from trainctl.analysis.check import Check
-    from trainctl.analysis.claims import Claim
     from trainctl.analysis.connectivity import WindowConnectivity
     from trainctl.analysis.delay import DelayMargin
     from trainctl.controllers.hinf.controller import HinfController
     from trainctl.controllers.hinf.law import HinfLaw, LoopMatrices
     from trainctl.controllers.hinf.synthesis import ConsensusLoop, GainSynthesis
-    from trainctl.controllers.hooks import DesignCost
     from trainctl.design import DesignModel
     from trainctl.models.graphs import CommunicationGraph
     from trainctl.models.network import NetworkSettings
@@ -391,7 +388,7 @@ def _age_rows(design: HinfDesign) -> list[tuple[str, str]]:
              f"{design.control_interval:g} s, delays in [{lo:g}, {hi:g}] s)")]
 
 
-class HinfFamily(FamilyHooks):
+class HinfFamily(HinfHooks):
     """Seed 003's distributed robust H∞ cooperative law (leader-following speed consensus).
 
     Examples
@@ -580,84 +577,6 @@ class HinfFamily(FamilyHooks):
         from trainctl.plots.graph_figures import graph_figure
 
         return [graph_figure(data["graph"], family=self.name, usage=GRAPH_USAGE)]
-
-    # -- optional hooks (trainctl.controllers.hooks.FamilyHooks) ------------------------------
-
-    claims_source = "Ning et al. 2016, the 1+2+1 heavy-haul train"
-
-    def design_cost(self, scenario: Scenario, settings: Any,
-                    strategies: Sequence[str]) -> DesignCost:
-        """The SDPs' cost (:func:`trainctl.controllers.hinf.cost.design_cost`).
-
-        Parameters
-        ----------
-        scenario : Scenario
-            The scenario.
-        settings : HinfSettings
-            The family's settings.
-        strategies : sequence of str
-            The family's simulated strategies.
-
-        Returns
-        -------
-        DesignCost
-            Seconds and what dominates.
-        """
-        from trainctl.controllers.hinf.cost import design_cost
-
-        return design_cost(scenario, settings, strategies)
-
-    def claims(self, run: Any) -> list[Claim]:
-        """Seed 003's claims (:func:`trainctl.controllers.hinf.claims.paper_claims`).
-
-        Parameters
-        ----------
-        run : AnalysisRun
-            The analysis run.
-
-        Returns
-        -------
-        list of Claim
-            The claims the run decides.
-        """
-        from trainctl.controllers.hinf.claims import paper_claims
-
-        return paper_claims(run)
-
-    def claim_figures(self, data: Any,
-                      make: Callable[..., ReportFigure]) -> list[ReportFigure]:
-        """The H∞ index figure (:mod:`trainctl.controllers.hinf.claims_figures`).
-
-        Parameters
-        ----------
-        data : ReportData
-            The report data.
-        make : callable
-            Turns a matplotlib figure into a report figure.
-
-        Returns
-        -------
-        list of ReportFigure
-            The figure, when the run decides the H∞ index claim.
-        """
-        from trainctl.controllers.hinf.claims_figures import performance_figure
-
-        figure = performance_figure(data, make)
-        return [] if figure is None else [figure]
-
-    def certificates(self) -> tuple[Certificate, ...]:
-        """The H∞ law's delay margin against the simulated loop.
-
-        Returns
-        -------
-        tuple of Certificate
-            ``hinf_delay_margin`` against divergence (else tracking).
-        """
-        from trainctl.analysis.certificates import NOT_DIVERGED, TRACKING, Certificate
-
-        return (Certificate("hinf_delay_margin", ("distributed", "hinf.distributed"),
-                            (NOT_DIVERGED, TRACKING),
-                            "the H∞ law keeps stability up to the network's largest delay"),)
 
 
 FAMILY = HinfFamily()
