@@ -17,12 +17,8 @@ __all__ = [
 
 _LABELS = {
     "n_vehicles": "Number of vehicles",
-    "q_velocity": "Velocity weight Q_v",
-    "q_force": "Coupler-force weight Q_f",
-    "input_weight": "Input weight R",
-    "prediction_horizon": "Prediction horizon P",
-    "control_horizon": "Control horizon M",
 }
+"""Fixed labels of :func:`humanise` (a family's settings' labels are its ``settings_labels``)."""
 
 
 def humanise(key: str) -> str:

@@ -36,7 +36,10 @@ object that follows :class:`ControllerFamily`:
   to the page's Figures section, or, when its ``section`` is the family's
   (:func:`trainctl.plots.svg.family_section`), into the family's own
   section after the partial (the potential and flocking families' graph,
-  :mod:`trainctl.plots.graph_figures`).
+  :mod:`trainctl.plots.graph_figures`);
+- optional hooks for the later stages (the cost estimate, published claims,
+  sweep certificates, report labels), with defaults in
+  :class:`trainctl.controllers.hooks.FamilyHooks`, which families inherit.
 
 Importing this module, or a family module, imports no solver: families
 import cvxpy and python-control inside their methods.
@@ -51,7 +54,7 @@ Examples
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from importlib import import_module
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar, runtime_checkable
 
@@ -60,8 +63,11 @@ from trainctl.exceptions import ScenarioError
 if TYPE_CHECKING:
     import control as ct
 
+    from trainctl.analysis.certificates import Certificate
     from trainctl.analysis.check import Check
+    from trainctl.analysis.claims import Claim
     from trainctl.controllers.base import Controller
+    from trainctl.controllers.hooks import DesignCost, StrategyRun
     from trainctl.design import DesignModel
     from trainctl.plots.svg import ReportFigure
     from trainctl.scenario import Scenario
@@ -280,6 +286,113 @@ class ControllerFamily(Protocol[DesignT, SettingsT]):
         -------
         sequence of ReportFigure
             The figures, each placed by its ``section``; may be empty.
+        """
+        ...
+
+    # -- optional hooks ------------------------------------------------------------------------
+    # What the run, the budget, the pool, the report and sweeps ask of a family beyond the
+    # members above. Defaults: trainctl.controllers.hooks.FamilyHooks (a family inherits it);
+    # the stages call them through trainctl.controllers.hooks.family_hook, which falls back to
+    # the default for a family written against the required members alone.
+
+    claims_source: str
+    """The publication the family's :meth:`claims` come from (``""``: none)."""
+    settings_labels: Mapping[str, str]
+    """Display labels of some of the settings' fields, for the report."""
+    headline_checks: Mapping[str, str]
+    """Check name → symbol of its value, for the checks the report's headline quotes."""
+
+    def cost_horizons(self, settings: Any) -> tuple[int, int]:
+        """The prediction and control horizons of what each step solves ((1, 1): none).
+
+        Parameters
+        ----------
+        settings : object
+            The family's settings.
+
+        Returns
+        -------
+        (int, int)
+            P and M [steps] (the budget's ``work`` is steps × vehicles × P).
+        """
+        ...
+
+    def design_cost(self, scenario: Scenario, settings: Any,
+                    strategies: Sequence[str]) -> DesignCost | None:
+        """The estimated cost of the family's design and review, or None when negligible.
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+        settings : object
+            The family's settings.
+        strategies : sequence of str
+            The family's simulated strategies.
+
+        Returns
+        -------
+        DesignCost or None
+            Seconds, peak bytes and what dominates (:mod:`trainctl.run.budget` sums them).
+        """
+        ...
+
+    def strategy_seconds(self, run: StrategyRun) -> float:
+        """Seconds to build a strategy's controller and simulate it (the plant's included).
+
+        Parameters
+        ----------
+        run : StrategyRun
+            The strategy's simulation as the budget sees it (samples, control
+            interval, the plant's cost per sample).
+
+        Returns
+        -------
+        float
+            Time [s].
+        """
+        ...
+
+    def claims(self, run: Any) -> Sequence[Claim]:
+        """The published claims a run decides, with trainctl's numbers and verdicts.
+
+        Parameters
+        ----------
+        run : AnalysisRun
+            The analysis run.
+
+        Returns
+        -------
+        sequence of Claim
+            Possibly empty.
+        """
+        ...
+
+    def claim_figures(self, data: Any,
+                      make: Callable[..., ReportFigure]) -> Sequence[ReportFigure]:
+        """Report figures that illustrate the family's claims (after the time series).
+
+        Parameters
+        ----------
+        data : ReportData
+            The report data.
+        make : callable
+            Turns a matplotlib figure into a report figure.
+
+        Returns
+        -------
+        sequence of ReportFigure
+            Possibly empty.
+        """
+        ...
+
+    def certificates(self) -> Sequence[Certificate]:
+        """Design checks that a sweep sets against simulated outcomes.
+
+        Returns
+        -------
+        sequence of Certificate
+            Possibly empty.
         """
         ...
 

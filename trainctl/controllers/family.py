@@ -17,6 +17,8 @@ from collections.abc import Mapping, Sequence
 from importlib import import_module
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
+from trainctl.controllers.hooks import FamilyHooks
+
 if TYPE_CHECKING:
     import control as ct
 
@@ -57,12 +59,14 @@ def import_path(path: str) -> Any:
     return getattr(import_module(module), attribute)
 
 
-class FamilyBase(Generic[DesignT, SettingsT]):
+class FamilyBase(FamilyHooks, Generic[DesignT, SettingsT]):
     """The shared part of a controller family (:class:`~trainctl.registry.ControllerFamily`).
 
     A subclass sets the class attributes below and writes ``_design``,
     :meth:`make` and :meth:`closed_loop` (and, for a report section,
-    :meth:`report_data` and :meth:`report_figures`).
+    :meth:`report_data` and :meth:`report_figures`); the optional hooks
+    (cost, claims, certificates) and their defaults come from
+    :class:`~trainctl.controllers.hooks.FamilyHooks`.
 
     Attributes
     ----------

@@ -168,18 +168,6 @@ def normalise_timestamp(value: str) -> str:
 # --------------------------------------------------------------------------- running
 
 
-def _cost(design: Design, strategy: str) -> float:
-    """Relative cost of simulating a strategy: steps x vehicles x the family's step cost."""
-    from trainctl.registry import get_family
-
-    scenario = design.scenario
-    sim = scenario.simulation
-    steps = sim.n_steps(scenario.model.sample_time) if sim is not None else 0
-    family, name = design.resolve(strategy)
-    per_step = getattr(get_family(family), "strategy_cost", {}).get(name, 2.0)
-    return steps * scenario.train.n_vehicles * per_step
-
-
 def run_report_data(
     jobs: Sequence[ReportJob],
     *,
@@ -229,8 +217,10 @@ def run_report_data(
         if pool is not None:
             tasks = [(k, strategy) for k, job in enumerate(jobs) if job.scenario.simulation
                      for strategy in job.scenario.simulation.strategies]
-            tasks.sort(key=lambda t: -_cost(designs[t[0]], t[1]))
-            from trainctl.run.analysis import _simulate_recorded
+            from trainctl.run.budget import strategy_seconds
+
+            tasks.sort(key=lambda t: -strategy_seconds(jobs[t[0]].scenario, t[1]))
+            from trainctl.run.simulate import _simulate_recorded
 
             for k, strategy in tasks:
                 future = pool.submit(_simulate_recorded, jobs[k].scenario, strategy, designs[k])

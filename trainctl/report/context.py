@@ -113,6 +113,7 @@ def build_report_context(
         "checks": checks,
         "controllers": controllers_context(data, deterministic=deterministic),
         "claims": _claims(data),
+        "claims_source": _claims_sources(data),
         "figures": shown,
         "figure_numbers": _figure_numbers(sections, shown),
         "footer": _footer(data, generated_at=generated_at, deterministic=deterministic),
@@ -145,14 +146,25 @@ def _sections(data: ReportData, figures: Sequence[ReportFigure]) -> list[dict[st
 
 
 def _claims(data: ReportData) -> list[dict[str, str]]:
-    """The run's paper claims (:mod:`trainctl.controllers.hinf.claims`), each with its badge status.
+    """The run's published claims (each family's ``claims`` hook), each with its badge status.
 
-    ``status`` maps the verdict onto the page's badges: reproduced → pass,
-    not reproduced → fail, depends → warn.
+    ``status`` maps the verdict onto the page's badges
+    (:data:`~trainctl.analysis.claims.VERDICT_BADGES`: reproduced → pass,
+    not reproduced → fail, depends → warn).
     """
-    badge = {"reproduced": "pass", "not reproduced": "fail", "depends": "warn"}
-    return [{**c, "status": badge.get(c.get("kind", ""), "other")}
+    from trainctl.analysis.claims import VERDICT_BADGES
+
+    return [{**c, "status": VERDICT_BADGES.get(c.get("kind", ""), "other")}
             for c in data.results.get("claims", [])]
+
+
+def _claims_sources(data: ReportData) -> str:
+    """Where the run's families' claims come from (their ``claims_source``), joined."""
+    from trainctl.controllers.hooks import family_hook
+    from trainctl.registry import get_family
+
+    return "; ".join(source for name in data.families
+                     if (source := family_hook(get_family(name), "claims_source")))
 
 
 def _figure_numbers(sections: Sequence[Mapping[str, Any]],
@@ -172,18 +184,23 @@ def _figure_numbers(sections: Sequence[Mapping[str, Any]],
 
 def _scenario(data: ReportData) -> dict[str, Any]:
     scenario = data.scenario
-    blocks: list[tuple[str, Any, str]] = [("Model", scenario.model, "model")]
+    from trainctl.controllers.hooks import family_hook
+    from trainctl.registry import get_family
+
+    blocks: list[tuple[str, Any, str, Mapping[str, str]]] = [
+        ("Model", scenario.model, "model", {})]
     controllers = dict(scenario.controllers)
     for i, (name, obj) in enumerate(controllers.items()):
         blocks.append(("Controller" if len(controllers) == 1 else f"Controller ({name})", obj,
-                       "controller" if i == 0 else f"controller.{name}"))
-    blocks.append(("Simulation", scenario.simulation, "simulation"))
+                       "controller" if i == 0 else f"controller.{name}",
+                       family_hook(get_family(name), "settings_labels")))
+    blocks.append(("Simulation", scenario.simulation, "simulation", {}))
     tags = dict(scenario.tags)
     settings = []
-    for title, obj, table in blocks:
+    for title, obj, table, labels in blocks:
         if obj is None:
             continue
-        rows = _settings_rows(obj, tags, table)
+        rows = _settings_rows(obj, tags, table, labels)
         settings.append({"title": title, "rows": rows, "tag": tags.get(table, ""),
                          "sources": any(row.get("source") for row in rows)})
     return {
@@ -226,13 +243,16 @@ def _file_keys(cls: type) -> dict[str, tuple[str, ...]]:
 
 
 def _settings_rows(settings: Any, tags: Mapping[str, str] | None = None,
-                   table: str = "") -> list[dict[str, str]]:
+                   table: str = "", labels: Mapping[str, str] | None = None
+                   ) -> list[dict[str, str]]:
     """Name, value, unit and source tag of every field of a settings object.
 
     ``tags`` are the scenario's source tags by file key path
-    (:attr:`~trainctl.scenario.Scenario.tags`) and ``table`` the file table
-    the settings come from ("model", "controller", "controller.lqr", ...).
+    (:attr:`~trainctl.scenario.Scenario.tags`), ``table`` the file table
+    the settings come from ("model", "controller", "controller.lqr", ...)
+    and ``labels`` the family's labels of its fields (``settings_labels``).
     """
+    labels = labels or {}
     units = docstring_units(type(settings))
     file_keys = _file_keys(type(settings))
     tags = tags or {}
@@ -251,7 +271,8 @@ def _settings_rows(settings: Any, tags: Mapping[str, str] | None = None,
             shown, unit = format_value(scaled), "k" + unit
         source = next((tags[f"{table}.{key}"] for key in file_keys.get(name, (name,))
                        if f"{table}.{key}" in tags), "")
-        rows.append({"name": humanise(name), "key": name, "value": shown, "unit": unit,
+        rows.append({"name": labels.get(name) or humanise(name), "key": name, "value": shown,
+                     "unit": unit,
                      "source": source})
         if name == "speed" and is_real(value):
             rows.append({"name": "Speed", "key": "speed_kmh",
@@ -423,9 +444,10 @@ def headline(data: ReportData) -> str:
     checks = data.results.get("checks", [])
     counts = {s: sum(1 for c in checks if c["status"] == s) for s in ("pass", "warn", "fail")}
     parts = [f"{len(checks)} checks: " + ", ".join(f"{v} {k}" for k, v in counts.items())]
+    quoted = _headline_checks(data)
     for check in checks:
-        if check["name"] == "ndmpc_convergence" and check["value"] is not None:
-            parts.append(f"ρ(D0) = {format_number(check['value'], 3)}")
+        if check["name"] in quoted and check["value"] is not None:
+            parts.append(f"{quoted[check['name']]} = {format_number(check['value'], 3)}")
     sims = data.results.get("simulations", {})
     if sims:
         best = min(sims, key=lambda name: max(x for x in sims[name]["max_error"]
@@ -495,3 +517,13 @@ def build_index_context(
         generated_at = utc_now()
     return {"title": "trainctl — built-in analyses", "entries": [dict(e) for e in entries],
             "generated_at": generated_at or "", "versions": [dict(v) for v in versions]}
+
+
+def _headline_checks(data: ReportData) -> dict[str, str]:
+    """Check name → symbol, for the checks whose value the headline quotes (the families'
+    ``headline_checks``)."""
+    from trainctl.controllers.hooks import family_hook
+    from trainctl.registry import get_family
+
+    return {check: symbol for name in data.families
+            for check, symbol in family_hook(get_family(name), "headline_checks").items()}

@@ -89,11 +89,11 @@ def _figures(data: ReportData) -> Iterator[ReportFigure]:
 
     if data.simulations:
         yield from time_figures(data.scenario, data.simulations, encode)
-        from trainctl.controllers.hinf.claims_figures import performance_figure
+        from trainctl.controllers.hooks import family_hook
+        from trainctl.registry import get_family
 
-        performance = performance_figure(data, encode)
-        if performance is not None:
-            yield performance
+        for name in data.families:
+            yield from family_hook(get_family(name), "claim_figures")(data, encode)
     if data.spectra:
         yield eigenvalue_figure(data.spectra)
     yield from frequency_figures(data.frequency, encode)

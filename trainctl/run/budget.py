@@ -12,18 +12,20 @@ budget (``trainctl analyse/report --max-time``, default
 :data:`DEFAULT_MAX_TIME`) or the machine's memory.
 
 The time model is an order-of-magnitude one, calibrated on a 2-core machine
-(trainctl 0.x, OSQP 1.1, DAQP 0.7): the design review grows like states⁴
-for the modal and controllability checks (one dense factorisation per
-eigenvalue), like vehicles × horizon^1.2 (plus a horizon³ term) for the
-global MPC iteration analysis and like the cube of the local iteration's size
-(vehicles × (control horizon + 2 × prediction horizon)) when
-neighbourhood-local N-DMPC is simulated, and like (solves) × states⁴ for the
-H∞ family's semidefinite programs; each controller step costs the plant's
-substeps plus the strategy's QPs (centralised: one QP of vehicles ×
-control-horizon moves, cubic in it; decentralised: one small QP per vehicle
-with a force to decide — none for a vehicle whose envelope pins it at 0 kN;
-N-DMPC and cooperative: that per iteration, plus the exchange of every
-vehicle's predictions). Recalibrated on the 204-vehicle chain
+(trainctl 0.x, OSQP 1.1, DAQP 0.7). This module holds the shared part: the
+design review grows like states⁴ for the modal and controllability checks
+(one dense factorisation per eigenvalue) and each recorded sample costs the
+plant's substeps. Each family prices the rest through its hooks
+(:class:`~trainctl.controllers.hooks.FamilyHooks`): its design and review
+(``design_cost``: MPC's iteration analyses, :mod:`trainctl.controllers.mpc.cost`;
+the H∞ family's semidefinite programs, :mod:`trainctl.controllers.hinf.cost`),
+the size of what each step solves (``cost_horizons``) and one strategy's
+build and steps at its control interval (``strategy_seconds``: MPC's QPs;
+an explicit law's evaluation, :mod:`trainctl.controllers.continuous.cost`);
+this module only sums them. :func:`strategy_seconds` is the one estimate of
+a strategy's cost (the report orders its pooled simulations by it) and
+:func:`estimate_run` the one count of a run's steps (the pool's,
+:func:`trainctl.run.pool.estimated_steps`). Recalibrated on the 204-vehicle chain
 (``benchmarks/scenarios/heavy-haul-204-ndmpc.toml`` on the idle machine:
 review 104 s on one BLAS thread, 600 s of decentralised MPC 2.9 s and of
 local N-DMPC 22.6 s) with the CRH2 built-ins' estimates unchanged. Expect
@@ -46,7 +48,7 @@ import math
 import os
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from trainctl.exceptions import TrainctlError
 
@@ -56,7 +58,7 @@ if TYPE_CHECKING:
 __all__ = [
     "DEFAULT_MAX_TIME", "PRINT_ESTIMATE_FROM", "BudgetError", "RunEstimate", "check_budget",
     "estimate_run", "format_bytes", "format_duration", "parse_duration", "physical_memory",
-    "total_estimate",
+    "strategy_seconds", "total_estimate",
 ]
 
 DEFAULT_MAX_TIME = 3600.0
@@ -66,36 +68,14 @@ estimated at seconds to a few minutes."""
 PRINT_ESTIMATE_FROM = 20.0
 """Runs estimated at this many seconds or more print their estimate first [s]."""
 
-# Calibration (seconds), see the module docstring.
+# Calibration (seconds), see the module docstring; each family's own model is in the family
+# (its cost hooks, trainctl.controllers.hooks.FamilyHooks).
 _BASE = 0.3                 # scenario, model and review overhead
 _MODAL = 4e-10              # × states⁴: modal, controllability, observability checks (the PBH
                             # test's Cholesky screen and the Kalman SVD; 408 states: ~12 s)
-_MPC = 4e-3                 # × n · P^1.2: global N-DMPC iteration analysis (n = 4, P = 40: ~1.3 s;
-                            # n = 204, P = 10: ~10 s)
-_MPC_LONG = 2.4e-8          # × n · P^3: the same at long horizons
-_LOCAL = 5e-10              # × (n · (M + 2P))³: the local iteration's spectra (n = 204: ~55 s)
-_EXCHANGE = 5e-6            # per vehicle and iteration: exchanging the local predictions
-                            # (204 vehicles, 4 QPs: 2.5 ms per iteration measured)
 _SUBSTEP = 1e-4             # × (1 + n / 256) per plant substep and its recording (banded
                             # from 128 vehicles: 204 vehicles ~90 µs measured)
-_STEP = 5e-4                # controller overhead per step
-_LAW = 2e-4                 # × (1 + n / 32): an explicit law's step with its network
-                            # messages, and per plant substep under it:
-_LAW_SUBSTEP = 4e-5         # × (1 + n / 32); measured on heavy-haul-hinf-delay (n = 4, 4
-                            # substeps per 0.2 s step): 0.43 ms per hinf step and 0.27 ms per
-                            # synchronous step in all, 35 µs per plant substep
-_QP = 2e-4                  # one small QP (a vehicle's)
-_CENTRAL = 3e-7             # × (n · M)³: the centralised QP
-_BUILD = 0.5                # building a strategy's controller (cvxpy), + _BUILD_SIZE·(n·P)^1.5
-_BUILD_SIZE = 1e-5
-_ITERATIONS = 5             # typical distributed iterations per sample (of max_iterations)
 _BYTES_PER_ROW = 8 * 6      # result arrays: bytes per sample and vehicle (plus dense grids)
-_DENSE_MATRICES = 5 * 8     # MPC analysis: about five dense (n·P)² float matrices alive
-_SDP = 0.02                 # one small SDP (cvxpy + Clarabel overhead)
-_SDP_SIZE = 0.2             # × (states / 15)^4: one of the H∞ family's SDPs (measured on
-                            # heavy-haul-hinf with synthesis: 7 states 2.4 s, 15 states 24 s
-                            # for about 100 solves)
-_SDP_DELAY = 3.0            # a Lyapunov–Krasovskii SDP against a delay-free one (3 blocks of P)
 
 
 class BudgetError(TrainctlError, ValueError):
@@ -267,8 +247,8 @@ def estimate_run(scenario: Scenario, *, simulate: bool = True) -> RunEstimate:
     True
     """
     n = scenario.train.n_vehicles
-    horizon, moves = _horizons(scenario)
-    design, memory, dominant = _design_cost(n, horizon, scenario)
+    horizon, _ = _horizons(scenario)
+    design, memory, dominant = _design_cost(n, scenario)
     sim = scenario.simulation if simulate else None
     samples = sim.n_steps(scenario.model.sample_time) if sim is not None else 0
     strategies = tuple(sim.strategies) if sim is not None else ()
@@ -278,7 +258,7 @@ def estimate_run(scenario: Scenario, *, simulate: bool = True) -> RunEstimate:
     runs = 1 if sim is None else sim.repetitions * (1 + int(
         sim.baseline_network is not None and scenario.network is not None))
     for strategy in strategies:
-        seconds += runs * _strategy_seconds(scenario, strategy, samples, horizon, moves)
+        seconds += runs * strategy_seconds(scenario, strategy, samples=samples)
     memory = max(memory, float(samples) * n * _BYTES_PER_ROW * max(1, len(strategies)))
     if seconds > design:
         dominant = (f"the simulations: {samples * len(strategies) * runs} controller steps "
@@ -491,94 +471,99 @@ def parse_duration(text: str) -> float:
 # --------------------------------------------------------------------------- the model
 
 
+def _families(scenario: Scenario) -> list[tuple[Any, Any, list[str]]]:
+    """Each controller family of the scenario: (family, settings, its simulated strategies)."""
+    from trainctl.design.stage import split_strategy
+    from trainctl.registry import get_family
+
+    simulated: dict[str, list[str]] = {}
+    if scenario.simulation is not None:
+        for strategy in scenario.simulation.strategies:
+            family, name = split_strategy(scenario, strategy)
+            simulated.setdefault(family, []).append(name)
+    return [(get_family(name), settings, simulated.get(name, []))
+            for name, settings in scenario.controllers.items()]
+
+
 def _horizons(scenario: Scenario) -> tuple[int, int]:
     """The largest prediction and control horizons of the scenario's controllers (1 if none)."""
+    from trainctl.controllers.hooks import family_hook
+
     horizon = moves = 1
-    for settings in scenario.controllers.values():
-        horizon = max(horizon, int(getattr(settings, "prediction_horizon", 1) or 1))
-        moves = max(moves, int(getattr(settings, "control_horizon", 1) or 1))
+    for family, settings, _ in _families(scenario):
+        p, m = family_hook(family, "cost_horizons")(settings)
+        horizon, moves = max(horizon, p), max(moves, m)
     return horizon, moves
 
 
-def _design_cost(n: int, horizon: int, scenario: Scenario) -> tuple[float, float, str]:
+def _design_cost(n: int, scenario: Scenario) -> tuple[float, float, str]:
     """Seconds and peak bytes of the design stage and review, and what dominates."""
+    from trainctl.controllers.hooks import family_hook
+
     states = 2 * n
     modal = _MODAL * float(states) ** 4
-    mpc = 0.0
+    seconds = _BASE + modal
     memory = 10 * 8 * float(states) ** 2
-    if any(hasattr(s, "prediction_horizon") for s in scenario.controllers.values()):
-        mpc = _MPC * n * horizon**1.2 + _MPC_LONG * n * horizon**3
-        memory = max(memory, _DENSE_MATRICES * float(n * horizon) ** 2)
-        sim = scenario.simulation
-        if sim is not None and "ndmpc-local" in tuple(sim.strategies):
-            size = float(n * (_horizons(scenario)[1] + 2 * horizon))
-            mpc += _LOCAL * size**3
-            memory = max(memory, _DENSE_MATRICES * size**2)
-    sdp = _sdp_seconds(n, scenario)
-    if sdp > max(mpc, modal):
-        return _BASE + modal + mpc + sdp, memory, (
-            f"the H∞ certificates (SDPs) of {n} vehicles ({2 * n - 1} states; [train] "
-            "vehicles, [controller] synthesise)")
-    if mpc > modal:
-        dominant = (f"the MPC analysis of {n} vehicles with [controller].prediction_horizon = "
-                    f"{horizon}")
-    else:
-        dominant = f"the design review of {n} vehicles ({states} states; [train] vehicles)"
-    return _BASE + modal + mpc, memory, dominant
+    dominant, largest = f"the design review of {n} vehicles ({states} states; [train] vehicles)", \
+        modal
+    for family, settings, strategies in _families(scenario):
+        cost = family_hook(family, "design_cost")(scenario, settings, strategies)
+        if cost is None:
+            continue
+        seconds += cost.seconds
+        memory = max(memory, cost.memory_bytes)
+        if cost.seconds > largest:
+            dominant, largest = cost.dominant, cost.seconds
+    return seconds, memory, dominant
 
 
-def _sdp_seconds(n: int, scenario: Scenario) -> float:
-    """Seconds of the semidefinite programs of an ``hinf`` family's design and review.
+def strategy_seconds(scenario: Scenario, strategy: str, *, samples: int | None = None) -> float:
+    """The budget's estimate of building and simulating one strategy once [s].
 
-    Its certificates and synthesis solve SDPs in a dense P on the 2n − 1 loop states:
-    the certified γ and its per-group and per-channel parts (about n + 6 solves), plus
-    grid² + evaluations solves when ``synthesise = true``; each delay-dependent one
-    (``delay_certificate_s``) costs about :data:`_SDP_DELAY` delay-free ones.
+    The one estimate of a strategy's cost: the budget sums it, the report
+    and the pool order their simulations by it. The plant's share is the
+    budget's; the controller's is the family's
+    (:meth:`~trainctl.controllers.hooks.FamilyHooks.strategy_seconds`), at the
+    strategy's control interval (:func:`trainctl.design.stage.strategy_interval`).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A loaded scenario.
+    strategy : str
+        A name from ``[simulation] strategies``.
+    samples : int or None
+        Recorded samples; None: ``[simulation] duration / [model] sample_time``.
+
+    Returns
+    -------
+    float
+        Seconds [s].
+
+    Examples
+    --------
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("crh2-dmpc")
+    >>> strategy_seconds(scenario, "ndmpc") > strategy_seconds(scenario, "decentralised")
+    True
     """
-    settings = scenario.controllers.get("hinf")
-    if settings is None:
-        return 0.0
-    solves = n + 6.0
-    if getattr(settings, "synthesise", False):
-        grid = int(getattr(settings, "synthesis_grid", 7) or 7)
-        solves += grid * grid + int(getattr(settings, "synthesis_evaluations", 40) or 40)
-    if getattr(settings, "delay_certificate", None):
-        solves *= _SDP_DELAY
-    states = 2.0 * n - 1.0
-    return solves * (_SDP + _SDP_SIZE * (states / 15.0) ** 4)
-
-
-def _strategy_seconds(scenario: Scenario, strategy: str, samples: int, horizon: int,
-                      moves: int) -> float:
-    """Seconds to build and run one strategy for ``samples`` steps."""
+    from trainctl.controllers.hooks import StrategyRun, family_hook
+    from trainctl.design.stage import split_strategy, strategy_interval
+    from trainctl.registry import get_family
     from trainctl.sim.plant import Plant
 
+    sample_time = scenario.model.sample_time
+    if samples is None:
+        sim = scenario.simulation
+        samples = sim.n_steps(sample_time) if sim is not None else 0
     n = scenario.train.n_vehicles
-    family, _, name = strategy.rpartition(".")
-    substeps = Plant(train=scenario.train).substeps(scenario.model.sample_time)
-    plant = _SUBSTEP * (1 + n / 256) * substeps
-    if family == "lqr":
-        return samples * (plant + _STEP)
-    settings = scenario.controllers.get(family) if family else scenario.controller
-    if (family or getattr(settings, "family", "mpc")) not in ("mpc", "lqr"):
-        # An explicit law (potential, flocking, synchronous, hinf): no QP, stepped at its own
-        # control interval, the plant's substeps per step scaled to it.
-        interval = getattr(settings, "control_interval", None) or scenario.model.sample_time
-        steps = samples * scenario.model.sample_time / interval
-        under = substeps * interval / scenario.model.sample_time
-        return _BUILD + steps * (1 + n / 32) * (_LAW + _LAW_SUBSTEP * under)
-    # A vehicle whose envelope pins its force at 0 kN has no QP (u-form with input bounds:
-    # trainctl.controllers.mpc.controller.fixed_inputs); counted here from the envelope alone.
-    pinned = sum(1 for v in scenario.train.vehicles if v.envelope.pins_force)
-    if name in ("ndmpc", "cooperative", "ndmpc-local"):
-        limit = int(getattr(settings, "max_iterations", _ITERATIONS) or _ITERATIONS)
-        step = (_QP * (n - pinned) + _EXCHANGE * n) * min(limit, _ITERATIONS)
-    elif name == "decentralised":
-        step = _QP * (n - pinned)
-    else:  # centralised, and other families' strategies
-        step = _QP + _CENTRAL * float(n * moves) ** 3
-    build = _BUILD + _BUILD_SIZE * float(n * horizon) ** 1.5
-    return build + samples * (plant + _STEP + step)
+    family, name = split_strategy(scenario, strategy)
+    substeps = Plant(train=scenario.train).substeps(sample_time)
+    run = StrategyRun(scenario=scenario, settings=scenario.controllers[family], strategy=name,
+                      samples=samples, sample_time=sample_time,
+                      interval=strategy_interval(scenario, strategy), substeps=substeps,
+                      plant_seconds=_SUBSTEP * (1 + n / 256) * substeps)
+    return float(family_hook(get_family(family), "strategy_seconds")(run))
 
 
 def _suggest(seconds: float) -> str:

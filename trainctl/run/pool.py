@@ -127,7 +127,8 @@ def estimated_steps(scenario: Scenario) -> int:
     Returns
     -------
     int
-        ``n_steps × number of runs`` (:func:`simulation_runs`).
+        ``n_steps × number of runs`` (:func:`simulation_runs`): the budget's
+        count (:attr:`trainctl.run.budget.RunEstimate.controller_steps`).
 
     Examples
     --------
@@ -143,10 +144,9 @@ def estimated_steps(scenario: Scenario) -> int:
     >>> estimated_steps(scenario.replace("simulation.duration", 600.0))  # 30 steps × 3
     90
     """
-    sim = scenario.simulation
-    if sim is None:
-        return 0
-    return sim.n_steps(scenario.model.sample_time) * simulation_runs(scenario)
+    from trainctl.run.budget import estimate_run
+
+    return estimate_run(scenario).controller_steps
 
 
 def simulation_runs(scenario: Scenario) -> int:

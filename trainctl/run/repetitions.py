@@ -315,7 +315,7 @@ def run_repetition(scenario: Scenario, strategy: str, design: Design | None,
     >>> bool(np.all(rep.deviation.rms_error < 1.0))  # m/s, four vehicles
     True
     """
-    from trainctl.run.analysis import _simulate_recorded
+    from trainctl.run.simulate import _simulate_recorded
 
     sim = scenario.simulation
     assert sim is not None

@@ -17,7 +17,6 @@ deviation from it); ``desired_gap_m``, when given, must agree.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -175,7 +174,6 @@ class FlockingFamily(ContinuousFamily[FlockingDesign, "FlockingSettings"]):
     check_names = CHECK_NAMES
     trajectory_check_names = ("flocking_collision", "flocking_connectivity")
     """The checks :meth:`trajectory_checks` judges again on a simulation."""
-    strategy_cost: Mapping[str, float] = {"flocking": 0.2}
     measures_gaps = True
     """The law measures the gaps (the model's observability check adds them to the outputs)."""
     report_partial = PARTIAL

@@ -55,10 +55,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from trainctl.analysis.claims import Claim
 
 if TYPE_CHECKING:
     from trainctl.run.analysis import AnalysisRun
@@ -74,63 +75,6 @@ RATIO_FACTOR = 1.5
 
 VERDICTS = ("reproduced", "not reproduced", "depends")
 """Kinds of verdict (the text of a "depends" verdict says on what)."""
-
-
-@dataclass(frozen=True, kw_only=True)
-class Claim:
-    """One published claim, trainctl's number and the verdict.
-
-    Parameters
-    ----------
-    key : str
-        ``"delay_deviation"``, ``"settling"``, ``"interruption_deviation"``,
-        ``"interruption_force"``, ``"interruption_recovery"``,
-        ``"performance_index"`` or ``"gamma"``.
-    case : str
-        The paper's case: ``"(a)"`` … ``"(d)"``, or ``"design"``.
-    claim : str
-        What the paper says.
-    paper : str
-        The paper's number or statement.
-    trainctl : str
-        trainctl's number(s).
-    kind : {"reproduced", "not reproduced", "depends"}
-        The verdict's kind.
-    verdict : str
-        The verdict as shown (``"depends on the scaling"`` for that kind).
-    note : str
-        How it was measured and what it depends on.
-
-    Examples
-    --------
-    >>> claim = Claim(key="gamma", case="design", claim="γ = 1 is achieved", paper="γ = 1",
-    ...               trainctl="certified γ = 0.8", kind="depends",
-    ...               verdict="depends on the scaling", note="No scaling in the paper.")
-    >>> claim.to_dict()["verdict"]
-    'depends on the scaling'
-    """
-
-    key: str
-    case: str
-    claim: str
-    paper: str
-    trainctl: str
-    kind: str
-    verdict: str
-    note: str
-
-    def to_dict(self) -> dict[str, str]:
-        """JSON-safe.
-
-        Returns
-        -------
-        dict of str to str
-            Every field by name: ``key``, ``case``, ``claim``, ``paper``,
-            ``trainctl``, ``kind``, ``verdict`` and ``note``.
-        """
-        return {"key": self.key, "case": self.case, "claim": self.claim, "paper": self.paper,
-                "trainctl": self.trainctl, "kind": self.kind, "verdict": self.verdict,
-                "note": self.note}
 
 
 def _fmt(x: float, digits: int = 3) -> str:

@@ -23,7 +23,6 @@ design model (no delay, ideal network) is continuous (dt = 0):
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
@@ -32,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trainctl.controllers.continuous.family import ContinuousFamily, SampledDesign
+from trainctl.controllers.hinf.hooks import HinfHooks
 
 if TYPE_CHECKING:
     from trainctl.analysis.connectivity import WindowConnectivity
@@ -367,7 +367,7 @@ def _age_rows(design: HinfDesign) -> list[tuple[str, str]]:
              f"{design.control_interval:g} s, delays in [{lo:g}, {hi:g}] s)")]
 
 
-class HinfFamily(ContinuousFamily[HinfDesign, "HinfSettings"]):
+class HinfFamily(HinfHooks, ContinuousFamily[HinfDesign, "HinfSettings"]):
     """Seed 003's distributed robust H∞ cooperative law (leader-following speed consensus).
 
     Examples
@@ -387,7 +387,6 @@ class HinfFamily(ContinuousFamily[HinfDesign, "HinfSettings"]):
     title = "Distributed robust H∞ cooperative control"
     strategies = STRATEGIES
     check_names = CHECK_NAMES
-    strategy_cost: Mapping[str, float] = {"distributed": 0.1}
     report_partial = PARTIAL
     settings_path = "trainctl.controllers.hinf.settings:HinfSettings"
     checks_path = "trainctl.controllers.hinf.checks:hinf_checks"

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -32,6 +33,7 @@ if TYPE_CHECKING:
     import control as ct
 
     from trainctl.analysis.check import Check
+    from trainctl.controllers.hooks import StrategyRun
     from trainctl.controllers.lqr.controller import LQRController
     from trainctl.controllers.lqr.settings import LQRSettings
     from trainctl.design import DesignModel
@@ -230,7 +232,6 @@ class LQRFamily(FamilyBase[LQRDesign, "LQRSettings"]):
     title = "Linear-quadratic regulator"
     strategies = STRATEGIES
     check_names = CHECK_NAMES
-    strategy_cost: Mapping[str, float] = {"centralised": 0.1, "decentralised": 0.1}
     report_partial = PARTIAL
     settings_path = "trainctl.controllers.lqr.settings:LQRSettings"
     _design = staticmethod(design_lqr)
@@ -338,6 +339,29 @@ class LQRFamily(FamilyBase[LQRDesign, "LQRSettings"]):
         return {"spectra": spectra, "rows": rows, "outputs": list(settings.outputs),
                 "r_text": f"{settings.input_weight_per_kn2():.4g}", "unit": "per kN²",
                 "input_bounds": bool(settings.input_bounds)}
+
+    # -- optional hooks (trainctl.controllers.hooks.FamilyHooks) ------------------------------
+
+    settings_labels = MappingProxyType({
+        "q_velocity": "Velocity weight Q_v", "q_force": "Coupler-force weight Q_f",
+        "input_weight": "Input weight R"})
+
+    def strategy_seconds(self, run: StrategyRun) -> float:
+        """A state feedback's simulation: the plant and the step overhead per sample, no build.
+
+        Parameters
+        ----------
+        run : StrategyRun
+            The strategy's simulation as the budget sees it.
+
+        Returns
+        -------
+        float
+            ``samples · (plant + STEP_SECONDS)`` [s].
+        """
+        from trainctl.controllers.hooks import STEP_SECONDS
+
+        return run.samples * (run.plant_seconds + STEP_SECONDS)
 
 
 FAMILY = LQRFamily()

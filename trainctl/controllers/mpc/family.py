@@ -13,16 +13,20 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from trainctl.controllers.hooks import FamilyHooks
 from trainctl.controllers.mpc.settings import STRATEGIES
 
 if TYPE_CHECKING:
     import control as ct
 
+    from trainctl.analysis.certificates import Certificate
     from trainctl.analysis.check import Check
+    from trainctl.controllers.hooks import DesignCost, StrategyRun
     from trainctl.controllers.mpc.controller import MPCController
     from trainctl.controllers.mpc.theory.dmpc import DMPCAnalysis, LocalDMPCAnalysis
     from trainctl.controllers.mpc.theory.local_iteration.model import LocalModel
@@ -47,10 +51,6 @@ CHECK_NAMES = (
     "coupler_force_conflict",
 )
 """The MPC family's design checks."""
-
-STRATEGY_COST = {"centralised": 1.0, "decentralised": 1.5, "ndmpc": 2.5, "cooperative": 3.0,
-                 "ndmpc-local": 2.5}
-"""Relative cost of a controller step per strategy (iterating strategies solve more QPs)."""
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -283,7 +283,7 @@ def _decentralised_closed_loop(mpc: MPCDesign) -> np.ndarray:
     return closed_loop_matrix(own, D1, pred)  # one sweep from the feedforward: U = D1 e
 
 
-class MPCFamily:
+class MPCFamily(FamilyHooks):
     """Centralised, decentralised, N-DMPC and cooperative DMPC of the train.
 
     Examples
@@ -303,7 +303,6 @@ class MPCFamily:
     title = "Model predictive control"
     strategies = STRATEGIES
     check_names = CHECK_NAMES
-    strategy_cost: Mapping[str, float] = STRATEGY_COST
 
     @property
     def settings(self) -> type[Any]:
@@ -427,6 +426,85 @@ class MPCFamily:
         from trainctl.controllers.mpc.report import mpc_report_figures
 
         return mpc_report_figures(data)
+
+    # -- optional hooks (trainctl.controllers.hooks.FamilyHooks) ------------------------------
+
+    settings_labels = MappingProxyType({
+        "q_velocity": "Velocity weight Q_v", "q_force": "Coupler-force weight Q_f",
+        "input_weight": "Input weight R", "prediction_horizon": "Prediction horizon P",
+        "control_horizon": "Control horizon M"})
+    headline_checks = MappingProxyType({"ndmpc_convergence": "ρ(D0)"})
+
+    def cost_horizons(self, settings: Any) -> tuple[int, int]:
+        """The prediction and control horizons (:func:`trainctl.controllers.mpc.cost.horizons`).
+
+        Parameters
+        ----------
+        settings : ControllerSettings
+            The family's settings.
+
+        Returns
+        -------
+        (int, int)
+            P and M [steps].
+        """
+        from trainctl.controllers.mpc.cost import horizons
+
+        return horizons(settings)
+
+    def design_cost(self, scenario: Scenario, settings: Any,
+                    strategies: Sequence[str]) -> DesignCost:
+        """The MPC analysis' cost (:func:`trainctl.controllers.mpc.cost.design_cost`).
+
+        Parameters
+        ----------
+        scenario : Scenario
+            The scenario.
+        settings : ControllerSettings
+            The family's settings.
+        strategies : sequence of str
+            The family's simulated strategies.
+
+        Returns
+        -------
+        DesignCost
+            Seconds, peak bytes and what dominates.
+        """
+        from trainctl.controllers.mpc.cost import design_cost
+
+        return design_cost(scenario, settings, strategies)
+
+    def strategy_seconds(self, run: StrategyRun) -> float:
+        """A strategy's build and QPs (:func:`trainctl.controllers.mpc.cost.strategy_seconds`).
+
+        Parameters
+        ----------
+        run : StrategyRun
+            The strategy's simulation as the budget sees it.
+
+        Returns
+        -------
+        float
+            Seconds [s].
+        """
+        from trainctl.controllers.mpc.cost import strategy_seconds
+
+        return strategy_seconds(run)
+
+    def certificates(self) -> tuple[Certificate, ...]:
+        """The N-DMPC convergence check against the simulated iteration.
+
+        Returns
+        -------
+        tuple of Certificate
+            ``ndmpc_convergence`` against ``metric.converged`` (else tracking,
+            else divergence).
+        """
+        from trainctl.analysis.certificates import CONVERGED, NOT_DIVERGED, TRACKING, Certificate
+
+        return (Certificate("ndmpc_convergence", ("ndmpc", "mpc.ndmpc"),
+                            (CONVERGED, TRACKING, NOT_DIVERGED),
+                            "ρ(D0) < 1: the N-DMPC iteration converges at every step"),)
 
 
 FAMILY = MPCFamily()

@@ -13,7 +13,6 @@ deviations); generic analyses that need a discrete loop sample it
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
@@ -197,7 +196,6 @@ class PotentialFamily(ContinuousFamily[PotentialDesign, "PotentialSettings"]):
     check_names = CHECK_NAMES
     trajectory_check_names = ("potential_linearisation",)
     """The checks :meth:`trajectory_checks` judges again on a simulation."""
-    strategy_cost: Mapping[str, float] = {"consensus": 0.2}
     report_partial = PARTIAL
     settings_path = "trainctl.controllers.potential.settings:PotentialSettings"
     checks_path = "trainctl.controllers.potential.checks:potential_checks"

@@ -16,7 +16,6 @@ and the outputs ``v[i]`` [m/s], ``f[i]`` [kN] and ``d[i]`` [m].
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING, Any, Literal
@@ -27,6 +26,7 @@ from numpy.typing import NDArray
 from trainctl.controllers.continuous.family import ContinuousFamily, SampledDesign
 
 if TYPE_CHECKING:
+    from trainctl.analysis.certificates import Certificate
     from trainctl.analysis.delay import DelayMargin
     from trainctl.controllers.synchronous.law import (
         LoopMatrices,
@@ -245,7 +245,6 @@ class SynchronousFamily(ContinuousFamily[SynchronousDesign, "SynchronousSettings
     title = "Synchronous operation (centralised)"
     strategies = STRATEGIES
     check_names = CHECK_NAMES
-    strategy_cost: Mapping[str, float] = {"synchronous": 0.1}
     report_partial = PARTIAL
     settings_path = "trainctl.controllers.synchronous.settings:SynchronousSettings"
     checks_path = "trainctl.controllers.synchronous.checks:synchronous_checks"
@@ -290,6 +289,21 @@ class SynchronousFamily(ContinuousFamily[SynchronousDesign, "SynchronousSettings
                 "lead_number": design.law.lead + 1,
                 "control_interval": f"{design.control_interval:g}",
                 "input_bounds": bool(s.input_bounds), "delay": res.to_dict()}
+
+    def certificates(self) -> tuple[Certificate, ...]:
+        """The delay margin of synchronous operation against the simulated loop.
+
+        Returns
+        -------
+        tuple of Certificate
+            ``synchronous_delay_margin`` against divergence (else tracking).
+        """
+        from trainctl.analysis.certificates import NOT_DIVERGED, TRACKING, Certificate
+
+        return (Certificate(
+            "synchronous_delay_margin", ("synchronous", "synchronous.synchronous"),
+            (NOT_DIVERGED, TRACKING),
+            "synchronous operation keeps stability up to the network's largest delay"),)
 
 
 FAMILY = SynchronousFamily()

@@ -1,0 +1,234 @@
+# Simulating one strategy of a scenario: its controller, its plant, its closed loop.
+"""Build a strategy's controller and simulate it (:func:`simulate_strategy`), here or on a pool."""
+
+from __future__ import annotations
+
+import pickle
+import threading
+from concurrent.futures import Executor, Future
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from trainctl._validation import numerical_errors
+
+if TYPE_CHECKING:
+    from trainctl.controllers.base import Controller
+    from trainctl.design import Design
+    from trainctl.models.plant import Plant
+    from trainctl.scenario import Scenario
+    from trainctl.sim.results import SimulationResult
+
+__all__ = ["NETWORK_STREAM", "make_controller", "simulate_strategy", "submit_simulations"]
+
+NETWORK_STREAM = 1
+"""Spawn key of the network's random stream: ``SeedSequence([seed, NETWORK_STREAM])``, apart
+from the measurement noise's ``default_rng(seed)``, so the two are not correlated."""
+
+
+def make_controller(scenario: Scenario, strategy: str, design: Design | None = None) -> Controller:
+    """The scenario's controller for one strategy (QPs and gains built once here).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A scenario with a ``[controller]`` section.
+    strategy : str
+        A name from ``[simulation] strategies``: a strategy of the primary
+        family (``"ndmpc"``) or ``"family.strategy"`` (``"lqr.centralised"``).
+    design : Design or None
+        The run's design (:func:`trainctl.design.build_design`); built here
+        when None.
+
+    Returns
+    -------
+    Controller
+        Ready for :func:`trainctl.sim.simulate`.
+
+    Examples
+    --------
+    >>> from trainctl.scenario import load_scenario
+    >>> ctl = make_controller(load_scenario("crh2-dmpc"), "ndmpc")
+    >>> type(ctl).__name__, ctl.name
+    ('MPCController', 'ndmpc')
+    """
+    from trainctl.design import build_design
+    from trainctl.registry import get_family
+
+    if design is None:
+        design = build_design(scenario)
+    family, name = design.resolve(strategy)
+    controller = get_family(family).make(design.family(family), name)
+    controller.name = strategy
+    return controller
+
+
+def simulate_strategy(
+    scenario: Scenario, strategy: str, design: Design | None = None, *, warn: bool = True
+) -> SimulationResult:
+    """Simulate one strategy of the scenario's ``[simulation]`` on the nonlinear plant.
+
+    The train starts at the feedforward equilibrium of the reference at t = 0
+    (speed, acceleration) with every vehicle off by ``initial_speed_error``
+    plus its ``initial_speed_errors`` entry, and every coupler's elongation
+    off by its ``initial_spacing_errors`` entry.
+    A controller with ``uses_network = True`` in a scenario with a
+    ``[network]`` section receives its neighbours' and the reference's
+    speeds through :class:`trainctl.models.network.Network` (its generator seeded
+    with ``SeedSequence([seed, NETWORK_STREAM])``); a controller with a
+    network of its own (a ``prepare(network, seed)`` method, e.g. the
+    synchronous family's relay) gets the scenario's ``[network]`` and seed.
+    The plant saturates the forces to the envelopes (``plant_saturation``),
+    records the dense grid (``output_interval``) and stops a diverging run
+    (``divergence_speed_error``), as the ``[simulation]`` table says.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A scenario with ``[controller]`` and ``[simulation]`` sections.
+    strategy : str
+        A name from ``[simulation] strategies``.
+    design : Design or None
+        The run's design; built here when None.
+    warn : bool
+        Warn once about solver trouble (:func:`trainctl.sim.simulate`'s
+        Warns); False records it in the result only.
+
+    Returns
+    -------
+    SimulationResult
+        Time series, statuses, iterations and solve times.
+
+    Examples
+    --------
+    The CRH2 reference holds 20 m/s until 60 s, then ramps at
+    (60 − 20) m/s / 400 s = 0.1 m/s²: 22 m/s at 80 s, 34 m/s at 200 s.
+
+    >>> from trainctl.scenario import load_scenario
+    >>> sc = load_scenario("crh2-dmpc").replace("simulation.duration", 200.0)
+    >>> res = simulate_strategy(sc, "centralised")
+    >>> res.time[[0, 4, -1]].tolist(), res.reference_speed[[0, 4, -1]].tolist()  # [s], [m/s]
+    ([0.0, 80.0, 200.0], [20.0, 22.0, 34.0])
+    >>> res.velocities[:, 0].tolist()  # every coach starts on the reference [m/s]
+    [20.0, 20.0, 20.0, 20.0]
+    >>> bool(abs(res.velocities[:, -1] - 34.0).max() < 1.0)
+    True
+    """
+    from trainctl.exceptions import ScenarioError
+    from trainctl.models.dynamics import equilibrium
+    from trainctl.sim.closed_loop import simulate
+    from trainctl.sim.plant import Plant
+    from trainctl.sim.reference import SpeedProfile
+
+    sim = scenario.simulation
+    if sim is None:
+        raise ScenarioError(f"{scenario.source}: there is no [simulation] section to run.")
+    profile = SpeedProfile(times=np.asarray(sim.reference_times, dtype=float),
+                           speeds=np.asarray(sim.reference_speeds, dtype=float))
+    v0 = float(profile.speed(0.0))
+    start = equilibrium(scenario.train, max(v0, 0.1), acceleration=float(profile.acceleration(0.0)))
+    state = start.state(position=0.0)
+    n = scenario.train.n_vehicles
+    speed_offsets, spacing_offsets = sim.initial_offsets(n)
+    state[:n] = v0 + speed_offsets
+    state[n:2 * n - 1] += spacing_offsets
+    with numerical_errors(f"{scenario.source}: simulating {strategy!r}"):
+        controller = make_controller(scenario, strategy, design)
+        prepare = getattr(controller, "prepare", None)
+        if callable(prepare):
+            prepare(scenario.network, int(scenario.seed))
+        network = None
+        if scenario.network is not None and getattr(controller, "uses_network", False):
+            from trainctl.models.network.simulator import Network
+
+            network = Network(scenario.network, scenario.graph(),
+                              seed=np.random.SeedSequence([scenario.seed, NETWORK_STREAM]))
+        return simulate(_shared_plant(Plant, scenario), controller, profile,
+                        duration=sim.duration, initial_state=state,
+                        preview_steps=_preview_steps(controller),
+                        measurement_noise=sim.measurement_noise, seed=scenario.seed,
+                        full_state=getattr(controller, "needs_full_state", True),
+                        saturation=sim.plant_saturation, output_interval=sim.output_interval,
+                        divergence_speed_error=sim.divergence_speed_error, network=network,
+                        warn=warn)
+
+
+_PLANTS = threading.local()
+
+
+def _shared_plant(plant_class: type[Plant], scenario: Scenario) -> Plant:
+    """The plant of this scenario's train and track, shared by its strategies in this thread.
+
+    A :class:`~trainctl.models.Plant` caches its propagators (matrix
+    exponentials per substep and linearisation speed); the strategies of one
+    scenario simulate the same train on the same track, so the second and
+    later ones find them computed. Every cache entry is a pure function of
+    its key, so a shared plant gives the same bits as a fresh one. The key
+    is the pickled train and track (a process-pool worker receives a fresh
+    copy of the scenario with each task); each thread keeps only the last
+    plant, so the caches' memory stays that of one plant.
+    """
+    key = pickle.dumps((scenario.train, scenario.track), protocol=pickle.HIGHEST_PROTOCOL)
+    last: tuple[bytes, Plant] | None = getattr(_PLANTS, "last", None)
+    if last is not None and last[0] == key and type(last[1]) is plant_class:
+        return last[1]
+    plant = plant_class(train=scenario.train, track=scenario.track)
+    _PLANTS.last = (key, plant)
+    return plant
+
+
+def _preview_steps(controller: Controller) -> int:
+    """Samples of reference preview a controller reads (its horizon P; 1 without one)."""
+    steps: int | None = getattr(controller, "preview_steps", None)
+    if steps is None:
+        steps = int(getattr(controller, "P", 1))
+    return steps
+
+
+def submit_simulations(
+    scenario: Scenario, executor: Executor, design: Design | None = None
+) -> dict[str, Future[SimulationResult]]:
+    """Start every ``[simulation]`` strategy of a scenario on an executor.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A loaded scenario (no ``[simulation]``: nothing is submitted).
+    executor : concurrent.futures.Executor
+        Where to run :func:`simulate_strategy`: a process pool
+        (:func:`trainctl.run.pool.process_pool`), a Dask executor, ...
+    design : Design or None
+        The run's design, sent along so that the workers do not rebuild it.
+
+    Returns
+    -------
+    dict of str to Future
+        Strategy → future of its :class:`~trainctl.sim.SimulationResult`.
+
+    Examples
+    --------
+    A thread pool stands in for a process pool here:
+
+    >>> from concurrent.futures import ThreadPoolExecutor
+    >>> from trainctl.scenario import load_scenario
+    >>> sc = load_scenario("crh2-dmpc").replace("simulation.duration", 200.0)
+    >>> with ThreadPoolExecutor(max_workers=1) as pool:
+    ...     futures = submit_simulations(sc, pool)
+    ...     results = {name: f.result() for name, f in futures.items()}
+    >>> list(results), results["ndmpc"].controller_name
+    (['centralised', 'decentralised', 'ndmpc'], 'ndmpc')
+    """
+    if scenario.simulation is None:
+        return {}
+    return {strategy: executor.submit(_simulate_recorded, scenario, strategy, design)
+            for strategy in scenario.simulation.strategies}
+
+
+def _simulate_recorded(scenario: Scenario, strategy: str,
+                       design: Design | None) -> SimulationResult:
+    """:func:`simulate_strategy` recording its solver trouble without warning (a pool's
+    task; the caller's metrics carry it). An argument, not a warnings filter: filters are
+    process-wide, and threads of a Dask worker run several simulations at once."""
+    return simulate_strategy(scenario, strategy, design, warn=False)
+
+
