@@ -76,6 +76,7 @@ __all__ = [
     "DEFAULT_FAMILY",
     "FAMILY_MODULES",
     "ControllerFamily",
+    "ControllerFamilyHooks",
     "DesignT",
     "SettingsT",
     "family_names",
@@ -289,11 +290,26 @@ class ControllerFamily(Protocol[DesignT, SettingsT]):
         """
         ...
 
-    # -- optional hooks ------------------------------------------------------------------------
-    # What the run, the budget, the pool, the report and sweeps ask of a family beyond the
-    # members above. Defaults: trainctl.controllers.hooks.FamilyHooks (a family inherits it);
-    # the stages call them through trainctl.controllers.hooks.family_hook, which falls back to
-    # the default for a family written against the required members alone.
+
+SettingsInT = TypeVar("SettingsInT", contravariant=True)
+"""The settings type the hooks take (contravariant: hooks only read settings)."""
+
+
+@runtime_checkable
+class ControllerFamilyHooks(Protocol[SettingsInT]):
+    """The optional hooks of a family, beyond :class:`ControllerFamily`.
+
+    What the run, the budget, the pool, the report and sweeps ask of a family. A family
+    may leave out any of them: the stages call them through
+    :func:`trainctl.controllers.hooks.family_hook`, which falls back to the default of
+    :class:`trainctl.controllers.hooks.FamilyHooks` (the mixin every built-in family
+    inherits, through :class:`trainctl.controllers.family.FamilyBase`).
+
+    Examples
+    --------
+    >>> isinstance(get_family("mpc"), ControllerFamilyHooks)
+    True
+    """
 
     claims_source: str
     """The publication the family's :meth:`claims` come from (``""``: none)."""
@@ -302,7 +318,7 @@ class ControllerFamily(Protocol[DesignT, SettingsT]):
     headline_checks: Mapping[str, str]
     """Check name → symbol of its value, for the checks the report's headline quotes."""
 
-    def cost_horizons(self, settings: Any) -> tuple[int, int]:
+    def cost_horizons(self, settings: SettingsInT) -> tuple[int, int]:
         """The prediction and control horizons of what each step solves ((1, 1): none).
 
         Parameters
@@ -317,7 +333,7 @@ class ControllerFamily(Protocol[DesignT, SettingsT]):
         """
         ...
 
-    def design_cost(self, scenario: Scenario, settings: Any,
+    def design_cost(self, scenario: Scenario, settings: SettingsInT,
                     strategies: Sequence[str]) -> DesignCost | None:
         """The estimated cost of the family's design and review, or None when negligible.
 

@@ -1,5 +1,5 @@
 # The optional hooks of a controller family, with their defaults: cost, claims, certificates.
-"""Default implementations of the optional hooks of :class:`~trainctl.registry.ControllerFamily`.
+"""Defaults of the optional family hooks (:class:`~trainctl.registry.ControllerFamilyHooks`).
 
 Everything a stage after the design asks of a family, beside the required
 members, goes through these hooks, so that no stage names a family, a
