@@ -15,7 +15,7 @@ if TYPE_CHECKING:
 
     from trainctl.scenario import Scenario
 
-__all__ = ["Design", "build_design", "scenario_controllers", "split_strategy",
+__all__ = ["Design", "build_design", "law_interval", "scenario_controllers", "split_strategy",
            "strategy_interval"]
 
 
@@ -267,5 +267,35 @@ def strategy_interval(scenario: Scenario, strategy: str) -> float:
     (0.002, 0.05)
     """
     family, _ = split_strategy(scenario, strategy)
-    settings = scenario.controllers[family]
-    return float(getattr(settings, "control_interval", None) or scenario.model.sample_time)
+    return law_interval(scenario.controllers[family], scenario.model.sample_time)
+
+
+def law_interval(settings: Any, sample_time: float) -> float:
+    """The interval [s] a family's law runs at: its ``control_interval``, else the sample time.
+
+    The one rule for every controller: a family whose settings have a
+    ``control_interval`` (a continuous-time law sampled faster than the
+    model) runs at it when given; every other at ``[model] sample_time``.
+
+    Parameters
+    ----------
+    settings : object
+        The family's settings, with ``control_interval`` [s] or None, or
+        without that attribute.
+    sample_time : float
+        The model's sample time [s].
+
+    Returns
+    -------
+    float
+        The interval [s].
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> law_interval(SimpleNamespace(control_interval=0.1), 0.5)
+    0.1
+    >>> law_interval(SimpleNamespace(control_interval=None), 0.5), law_interval(object(), 0.5)
+    (0.5, 0.5)
+    """
+    return float(getattr(settings, "control_interval", None) or sample_time)

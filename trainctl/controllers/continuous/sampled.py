@@ -17,6 +17,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
+from trainctl.design.stage import law_interval as law_interval
 from trainctl.exceptions import ScenarioError
 
 if TYPE_CHECKING:
@@ -101,37 +102,6 @@ def closed_loop_spectrum(A: NDArray[np.float64]) -> ClosedLoopSpectrum:
     abscissa = float(np.max(lam[~zero].real)) if np.any(~zero) else 0.0
     semisimple = A.shape[0] - np.linalg.matrix_rank(A, tol=tol) == int(zero.sum())
     return ClosedLoopSpectrum(lam, tol, zero, abscissa, bool(semisimple))
-
-
-def law_interval(settings: Any, sample_time: float) -> float:
-    """The interval [s] a family's law runs at: its ``control_interval``, else the sample time.
-
-    The one rule for every controller: a family whose settings have a
-    ``control_interval`` (a continuous-time law sampled faster than the
-    model) runs at it when given; every other at ``[model] sample_time``.
-
-    Parameters
-    ----------
-    settings : object
-        The family's settings, with ``control_interval`` [s] or None, or
-        without that attribute.
-    sample_time : float
-        The model's sample time [s].
-
-    Returns
-    -------
-    float
-        The interval [s].
-
-    Examples
-    --------
-    >>> from types import SimpleNamespace
-    >>> law_interval(SimpleNamespace(control_interval=0.1), 0.5)
-    0.1
-    >>> law_interval(SimpleNamespace(control_interval=None), 0.5), law_interval(object(), 0.5)
-    (0.5, 0.5)
-    """
-    return float(getattr(settings, "control_interval", None) or sample_time)
 
 
 def control_interval(scenario: Scenario, model: DesignModel, settings: Any,
