@@ -12,11 +12,12 @@ synthesis: 7 states 2.4 s, 15 states 24 s for about 100 solves.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from trainctl.controllers.hooks import DesignCost
 
 if TYPE_CHECKING:
+    from trainctl.controllers.hinf.settings import HinfSettings
     from trainctl.scenario import Scenario
 
 __all__ = ["SDP_DELAY", "SDP_SECONDS", "SDP_SIZE_SECONDS", "design_cost"]
@@ -31,7 +32,8 @@ SDP_DELAY = 3.0
 """A Lyapunov–Krasovskii SDP against a delay-free one (3 blocks of P)."""
 
 
-def design_cost(scenario: Scenario, settings: Any, strategies: Sequence[str]) -> DesignCost:
+def design_cost(scenario: Scenario, settings: HinfSettings,
+                strategies: Sequence[str]) -> DesignCost:
     """Seconds of the semidefinite programs of the family's design and review.
 
     Parameters

@@ -19,6 +19,7 @@ from trainctl.controllers.hooks import FamilyHooks
 if TYPE_CHECKING:
     from trainctl.analysis.certificates import Certificate
     from trainctl.analysis.claims import Claim
+    from trainctl.controllers.hinf.settings import HinfSettings
     from trainctl.controllers.hooks import DesignCost
     from trainctl.report.figures import ReportFigure
     from trainctl.scenario import Scenario
@@ -37,7 +38,7 @@ class HinfHooks(FamilyHooks):
 
     claims_source = "Ning et al. 2016, the 1+2+1 heavy-haul train"
 
-    def design_cost(self, scenario: Scenario, settings: Any,
+    def design_cost(self, scenario: Scenario, settings: HinfSettings,
                     strategies: Sequence[str]) -> DesignCost:
         """The SDPs' cost (:func:`trainctl.controllers.hinf.cost.design_cost`).
 

@@ -136,7 +136,7 @@ class LQRDesign:
         return np.asarray(self.A - self.B @ self.gains[strategy], dtype=float)
 
 
-def design_lqr(scenario: Scenario, model: DesignModel, settings: Any) -> LQRDesign:
+def design_lqr(scenario: Scenario, model: DesignModel, settings: LQRSettings) -> LQRDesign:
     """Centralised and decentralised discrete LQR gains.
 
     Parameters
@@ -180,13 +180,14 @@ def design_lqr(scenario: Scenario, model: DesignModel, settings: Any) -> LQRDesi
                      gains=gains)
 
 
-def _output_weights(model: DesignModel, settings: Any) -> Array:
+def _output_weights(model: DesignModel, settings: LQRSettings) -> Array:
     n, nc = model.n_vehicles, model.train.n_couplers
     weight = {"v": np.full(n, settings.q_velocity), "force": np.full(nc, settings.q_force)}
     return np.concatenate([weight[g] for g in settings.outputs])
 
 
-def _decentralised_gain(model: DesignModel, settings: Any, C: Array, q: Array) -> Array:
+def _decentralised_gain(model: DesignModel, settings: LQRSettings, C: Array,
+                        q: Array) -> Array:
     """Block-diagonal K from each coach's own (A_ii, B_i) and the outputs it owns."""
     import control as ct
 

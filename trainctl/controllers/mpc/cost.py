@@ -16,12 +16,13 @@ predictions). Calibrated on a 2-core machine (OSQP 1.1, DAQP 0.7) and on the
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from trainctl.controllers.hooks import BUILD_SECONDS, STEP_SECONDS, DesignCost
 
 if TYPE_CHECKING:
     from trainctl.controllers.hooks import StrategyRun
+    from trainctl.controllers.mpc.settings import ControllerSettings
     from trainctl.scenario import Scenario
 
 __all__ = ["design_cost", "horizons", "strategy_seconds"]
@@ -39,7 +40,7 @@ _ITERATIONS = 5             # typical distributed iterations per sample (of max_
 _DENSE_MATRICES = 5 * 8     # MPC analysis: about five dense (n·P)² float matrices alive
 
 
-def horizons(settings: Any) -> tuple[int, int]:
+def horizons(settings: ControllerSettings) -> tuple[int, int]:
     """The prediction and control horizons P and M of the MPC settings [steps].
 
     Parameters
@@ -62,7 +63,8 @@ def horizons(settings: Any) -> tuple[int, int]:
             int(getattr(settings, "control_horizon", 1) or 1))
 
 
-def design_cost(scenario: Scenario, settings: Any, strategies: Sequence[str]) -> DesignCost:
+def design_cost(scenario: Scenario, settings: ControllerSettings,
+                strategies: Sequence[str]) -> DesignCost:
     """The cost of the MPC analysis: the global iteration, and the local one when simulated.
 
     Parameters

@@ -18,14 +18,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from trainctl.controllers.hooks import FamilyHooks
-from trainctl.controllers.mpc.settings import STRATEGIES
+from trainctl.controllers.family import FamilyBase
+from trainctl.controllers.mpc.report import PARTIAL
+from trainctl.controllers.mpc.settings import STRATEGIES, ControllerSettings
 
 if TYPE_CHECKING:
     import control as ct
 
     from trainctl.analysis.certificates import Certificate
-    from trainctl.analysis.check import Check
     from trainctl.controllers.hooks import DesignCost, StrategyRun
     from trainctl.controllers.mpc.controller import MPCController
     from trainctl.controllers.mpc.theory.dmpc import DMPCAnalysis, LocalDMPCAnalysis
@@ -84,7 +84,7 @@ class MPCFamilyDesign:
 
     scenario: Scenario
     model: DesignModel
-    settings: Any
+    settings: ControllerSettings
     mpc: MPCDesign
 
     @cached_property
@@ -155,7 +155,8 @@ class MPCFamilyDesign:
         return labels
 
 
-def design_mpc(scenario: Scenario, model: DesignModel, settings: Any) -> MPCFamilyDesign:
+def design_mpc(scenario: Scenario, model: DesignModel,
+               settings: ControllerSettings) -> MPCFamilyDesign:
     """The MPC family's design on the run's discrete design model.
 
     Parameters
@@ -283,8 +284,11 @@ def _decentralised_closed_loop(mpc: MPCDesign) -> np.ndarray:
     return closed_loop_matrix(own, D1, pred)  # one sweep from the feedforward: U = D1 e
 
 
-class MPCFamily(FamilyHooks):
+class MPCFamily(FamilyBase[MPCFamilyDesign, ControllerSettings]):
     """Centralised, decentralised, N-DMPC and cooperative DMPC of the train.
+
+    Its design is :func:`design_mpc`, its checks
+    :func:`trainctl.controllers.mpc.checks.mpc_checks`.
 
     Examples
     --------
@@ -303,41 +307,10 @@ class MPCFamily(FamilyHooks):
     title = "Model predictive control"
     strategies = STRATEGIES
     check_names = CHECK_NAMES
-
-    @property
-    def settings(self) -> type[Any]:
-        """The schema of the family's ``[controller]`` table."""
-        from trainctl.controllers.mpc.settings import ControllerSettings
-
-        return ControllerSettings
-
-    @property
-    def report_partial(self) -> str:
-        """Jinja source of the family's report section."""
-        from trainctl.controllers.mpc.report import PARTIAL
-
-        return PARTIAL
-
-    def design(self, scenario: Scenario, model: DesignModel, settings: Any) -> MPCFamilyDesign:
-        """See :func:`design_mpc`.
-
-        Parameters
-        ----------
-        scenario : Scenario
-            The scenario.
-        model : DesignModel
-            Its design model.
-        settings : ControllerSettings
-            The family's ``[controller]`` settings (horizons, form, weights,
-            neighbourhoods).
-
-        Returns
-        -------
-        MPCFamilyDesign
-            The unconstrained MPC design on the discrete model (its analysis
-            is computed on first use).
-        """
-        return design_mpc(scenario, model, settings)
+    report_partial = PARTIAL
+    settings_path = "trainctl.controllers.mpc.settings:ControllerSettings"
+    checks_path = "trainctl.controllers.mpc.checks:mpc_checks"
+    _design = staticmethod(design_mpc)
 
     def make(self, design: MPCFamilyDesign, strategy: str) -> MPCController:
         """See :func:`make_mpc_controller`.
@@ -355,23 +328,6 @@ class MPCFamily(FamilyHooks):
             The strategy's controller, its QPs built, ready to ``step``.
         """
         return make_mpc_controller(design, strategy)
-
-    def checks(self, design: MPCFamilyDesign) -> list[Check]:
-        """See :func:`trainctl.controllers.mpc.checks.mpc_checks`.
-
-        Parameters
-        ----------
-        design : MPCFamilyDesign
-            The family's design.
-
-        Returns
-        -------
-        list of Check
-            One check per name of :data:`CHECK_NAMES`, in that order.
-        """
-        from trainctl.controllers.mpc.checks import mpc_checks
-
-        return mpc_checks(design)
 
     def closed_loop(self, design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:
         """See :func:`mpc_closed_loop`.
@@ -435,7 +391,7 @@ class MPCFamily(FamilyHooks):
         "control_horizon": "Control horizon M"})
     headline_checks = MappingProxyType({"ndmpc_convergence": "ρ(D0)"})
 
-    def cost_horizons(self, settings: Any) -> tuple[int, int]:
+    def cost_horizons(self, settings: ControllerSettings) -> tuple[int, int]:
         """The prediction and control horizons (:func:`trainctl.controllers.mpc.cost.horizons`).
 
         Parameters
@@ -452,7 +408,7 @@ class MPCFamily(FamilyHooks):
 
         return horizons(settings)
 
-    def design_cost(self, scenario: Scenario, settings: Any,
+    def design_cost(self, scenario: Scenario, settings: ControllerSettings,
                     strategies: Sequence[str]) -> DesignCost:
         """The MPC analysis' cost (:func:`trainctl.controllers.mpc.cost.design_cost`).
 
