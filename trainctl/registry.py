@@ -71,6 +71,7 @@ if TYPE_CHECKING:
     from trainctl.design import DesignModel
     from trainctl.plots.svg import ReportFigure
     from trainctl.scenario import Scenario
+    from trainctl.sim import SimulationResult
 
 __all__ = [
     "DEFAULT_FAMILY",
@@ -317,6 +318,30 @@ class ControllerFamilyHooks(Protocol[SettingsInT]):
     """Display labels of some of the settings' fields, for the report."""
     headline_checks: Mapping[str, str]
     """Check name → symbol of its value, for the checks the report's headline quotes."""
+    trajectory_check_names: tuple[str, ...]
+    """The checks :meth:`trajectory_checks` judges again on a simulation."""
+    measures_gaps: bool
+    """Whether the family's controllers measure the gaps (observability counts them)."""
+
+    def trajectory_checks(self, design: Any, strategy: str,
+                          result: SimulationResult) -> list[Check]:
+        """Checks a simulation decides, each replacing the design check of its name.
+
+        Parameters
+        ----------
+        design : object
+            The family's design.
+        strategy : str
+            The simulated strategy.
+        result : SimulationResult
+            Its simulation.
+
+        Returns
+        -------
+        list of Check
+            Named from :attr:`trajectory_check_names`.
+        """
+        ...
 
     def cost_horizons(self, settings: SettingsInT) -> tuple[int, int]:
         """The prediction and control horizons of what each step solves ((1, 1): none).

@@ -1,4 +1,4 @@
-# Analysis of train models: modes, stability, controllability, sampling, DMPC.
+# Analysis of linear models and loops: modes, stability, controllability, sampling, norms.
 """Analysis layer: each check is a public function returning a frozen result.
 
 The generic analyses of linear models and closed loops live here. Names that
@@ -52,24 +52,28 @@ __all__ = [
     "string_stability",
 ]
 
-_MOVED = {
-    "DMPCAnalysis": "trainctl.controllers.mpc.theory.dmpc",
-    "MPCDesign": "trainctl.controllers.mpc.theory.mpc",
-    "analyse_dmpc": "trainctl.controllers.mpc.theory.dmpc",
-    "convergence_sweep": "trainctl.controllers.mpc.theory.iteration",
-    "model_checks": "trainctl.design.review",
-    "prediction": "trainctl.controllers.mpc.theory.mpc",
-    "review_design": "trainctl.design.review",
-    "scenario_checks": "trainctl.design.review",
-}
-"""Names that moved out of this package: name -> its home module (imported on first use)."""
+_FROM_DESIGN = ("model_checks", "review_design", "scenario_checks")
+"""Names that moved to :mod:`trainctl.design.review` (the design review)."""
+_FROM_MPC = ("DMPCAnalysis", "MPCDesign", "analyse_dmpc", "convergence_sweep", "prediction")
+"""Names that moved to :mod:`trainctl.controllers.mpc.theory` (the MPC family's theory)."""
 
 
 def __getattr__(name: str) -> object:
-    if name in _MOVED:
-        from importlib import import_module
+    # Imported on first use only: this stage comes before the design stage and the
+    # controllers (the contract in pyproject.toml names these two imports).
+    if name in _FROM_DESIGN:
+        from trainctl.design import review
 
-        value = getattr(import_module(_MOVED[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+        value = getattr(review, name)
+    elif name in _FROM_MPC:
+        from trainctl.controllers.mpc import theory
+
+        value = getattr(theory, name)
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_FROM_DESIGN) | set(_FROM_MPC))

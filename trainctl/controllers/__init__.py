@@ -1,4 +1,4 @@
-# Controllers: the protocol and the MPC family.
+# Controllers: the controller protocol, the family conformance suite and the families.
 """Controllers following one protocol (:class:`~trainctl.controllers.base.Controller`).
 
 :func:`check_family` checks a controller family (a built-in or a user's own)

@@ -34,7 +34,7 @@ __all__ = [
 ]
 
 STATUSES = ("optimal", "optimal_inaccurate", "max_iterations", "infeasible", "error")
-"""Step statuses: the solver's outcome, mapped in one place (controllers.status).
+"""Step statuses: the solver's outcome, mapped in one place (trainctl.controllers.mpc.qp.status).
 
 A step that applied a fallback input keeps the solver's outcome as its status
 (``"infeasible"``, ``"max_iterations"``, ``"error"``) and names the fallback in

@@ -46,9 +46,11 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from trainctl.analysis.certificates import Certificate
+    from trainctl.analysis.check import Check
     from trainctl.analysis.claims import Claim
     from trainctl.plots.svg import ReportFigure
     from trainctl.scenario import Scenario
+    from trainctl.sim import SimulationResult
 
 __all__ = ["BUILD_SECONDS", "STEP_SECONDS", "DesignCost", "FamilyHooks", "StrategyRun",
            "family_hook"]
@@ -154,6 +156,12 @@ class FamilyHooks:
     headline_checks : mapping of str to str
         Check name → the symbol of its value, for the checks whose value the
         report's headline quotes (e.g. MPC's spectral radius ρ(D0)).
+    trajectory_check_names : tuple of str
+        The checks :meth:`trajectory_checks` judges again on a simulation
+        (what ``[expected]`` declares after the simulation).
+    measures_gaps : bool
+        Whether the family's controllers measure the gaps between vehicles
+        (the observability check then counts them as outputs, e.g. flocking).
 
     Examples
     --------
@@ -165,6 +173,33 @@ class FamilyHooks:
     claims_source: str = ""
     settings_labels: Mapping[str, str] = MappingProxyType({})
     headline_checks: Mapping[str, str] = MappingProxyType({})
+    trajectory_check_names: tuple[str, ...] = ()
+    measures_gaps: bool = False
+
+    def trajectory_checks(self, design: Any, strategy: str,
+                          result: SimulationResult) -> list[Check]:
+        """Checks a simulation decides, each replacing the design check of its name.
+
+        Parameters
+        ----------
+        design : object
+            The family's design.
+        strategy : str
+            The simulated strategy.
+        result : SimulationResult
+            Its simulation.
+
+        Returns
+        -------
+        list of Check
+            Named from :attr:`trajectory_check_names`; empty by default.
+
+        Examples
+        --------
+        >>> FamilyHooks().trajectory_checks(None, "any", None)
+        []
+        """
+        return []
 
     def cost_horizons(self, settings: Any) -> tuple[int, int]:
         """The prediction and control horizons of what each step solves (1, 1 for none).

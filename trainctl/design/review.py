@@ -79,6 +79,8 @@ def review_design(scenario: Scenario, design: Design | None = None) -> DesignRev
     if design is None:
         design = build_design(scenario)
     primary = next(iter(design.families), None)
+    # the hooks' defaults (trainctl.controllers.hooks.FamilyHooks) read here without importing
+    # the controllers stage, which comes after this one
     gaps = primary is not None and bool(getattr(get_family(primary), "measures_gaps", False))
     checks = model_checks(design.model, measured_gaps=gaps) + scenario_checks(scenario)
     for name, family_design in design.families.items():
@@ -137,7 +139,7 @@ def with_simulations(review: DesignReview, design: Design,
     found: dict[str, Check] = {}
     for strategy, result in simulations.items():
         family, name = design.resolve(strategy)
-        judge = getattr(get_family(family), "trajectory_checks", None)
+        judge = getattr(get_family(family), "trajectory_checks", None)  # default: none
         if judge is None:
             continue
         for check in judge(design.family(family), strategy, result):

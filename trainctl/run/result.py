@@ -121,12 +121,13 @@ class AnalysisRun:
         it (``--no-simulate``) has only the design-time verdict, which is
         not compared.
         """
+        from trainctl.controllers.hooks import family_hook
         from trainctl.registry import get_family
 
         if self.simulations or self.scenario.simulation is None or not self.scenario.expected:
             return ()
         names = {name for family in self.scenario.controllers
-                 for name in getattr(get_family(family), "trajectory_check_names", ())}
+                 for name in family_hook(get_family(family), "trajectory_check_names")}
         return tuple(name for name in self.scenario.expected if name in names)
 
     def unexpected_checks(self) -> dict[str, tuple[str, str]]:
