@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import trainctl.run.analysis as run_module
+import trainctl.run.simulate as run_module
 from trainctl.controllers.base import STATUSES, Measurement, ReferencePreview, StepRecord
 from trainctl.controllers.mpc import MPCConstraints, make_linear_mpc, make_mpc
 from trainctl.controllers.mpc.qp.parametric import ParametricQP

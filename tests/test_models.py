@@ -55,7 +55,9 @@ def fd_jacobian(train, x0, u0, h_rel=1e-6):
     minus[np.arange(nx), np.arange(nx)] -= hx
     U = np.repeat(np.asarray(u0)[:, None], nx, axis=1)
     A = (train_rhs(train, plus, U) - train_rhs(train, minus, U))[:nx] / (2 * hx)
-    hu = h_rel * np.maximum(np.abs(u0), 1.0)
+    # step on the force scale m·(1 m/s²): the rhs is linear in u, and a 1e-6 N step on an
+    # unpowered vehicle (u0 ≈ 0) let rounding of the resistance terms reach 1e-6 relative
+    hu = h_rel * np.maximum(np.abs(u0), [v.mass for v in train.vehicles])
     Up = np.repeat(np.asarray(u0, dtype=float)[:, None], n, axis=1)
     Um = Up.copy()
     Up[np.arange(n), np.arange(n)] += hu
