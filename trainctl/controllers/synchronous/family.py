@@ -23,6 +23,8 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from trainctl.controllers.continuous.delay import seconds as _seconds
+from trainctl.controllers.continuous.delay import worst_delay as network_worst_delay
 from trainctl.controllers.continuous.family import ContinuousFamily, SampledDesign
 
 if TYPE_CHECKING:
@@ -112,7 +114,7 @@ class SynchronousDesign(SampledDesign["SynchronousSettings", "SynchronousLaw"]):
     @property
     def worst_delay(self) -> float | None:
         """The ``[network]`` worst-case delay [s] (upper end of the range); None without one."""
-        return None if self.network is None else float(self.network.delay_bounds()[1])
+        return network_worst_delay(self.network)
 
     @property
     def worst_delay_sampled(self) -> float | None:
@@ -217,12 +219,6 @@ def design_synchronous(scenario: Scenario, model: DesignModel,
     return SynchronousDesign(scenario=scenario, model=model, settings=settings, law=law,
                              control_interval=T, network=scenario.network,
                              loops=closed_loop_matrices(model, law))
-
-
-def _seconds(x: float | None) -> str:
-    if x is None:
-        return "no [network]"
-    return f"{x:.4g}" if math.isfinite(x) else "∞"
 
 
 class SynchronousFamily(ContinuousFamily[SynchronousDesign, "SynchronousSettings"]):
