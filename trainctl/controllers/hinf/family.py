@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 
 from trainctl.controllers.continuous.delay import seconds as _seconds
 from trainctl.controllers.continuous.delay import worst_delay as network_worst_delay
-from trainctl.controllers.continuous.family import ContinuousFamily, SampledDesign
+from trainctl.controllers.continuous.family import QUANTITIES_TABLE, ContinuousFamily, SampledDesign
 from trainctl.controllers.hinf.hooks import HinfHooks
 
 if TYPE_CHECKING:
@@ -85,15 +85,7 @@ received data's send time{% else %}now{% endif %}. Sampled every {{ data.control
 s{% if not data.input_bounds %} (no saturation){% endif %}. The gains are
 {{ data.gains_source }}.</p>
 <p>{{ data.gamma_sentence }}</p>
-<table class="quantities">
-  <thead><tr><th scope="col">Quantity</th><th scope="col">Value</th></tr></thead>
-  <tbody>
-{% for row in data.rows %}
-    <tr><td>{{ row.name }}</td><td class="num">{{ row.value }}</td></tr>
-{% endfor %}
-  </tbody>
-</table>
-"""
+""" + QUANTITIES_TABLE
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)

@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from trainctl.controllers.continuous.delay import seconds as _seconds
 from trainctl.controllers.continuous.delay import worst_delay as network_worst_delay
-from trainctl.controllers.continuous.family import ContinuousFamily, SampledDesign
+from trainctl.controllers.continuous.family import QUANTITIES_TABLE, ContinuousFamily, SampledDesign
 
 if TYPE_CHECKING:
     from trainctl.analysis.certificates import Certificate
@@ -63,15 +63,7 @@ closes a speed loop and relays its specific-force command over the radio link; e
 applies it scaled by its mass, holding the last command while nothing arrives, and every
 vehicle adds its own resistance at its speed. Sampled every {{ data.control_interval }} s{%
 if not data.input_bounds %} (no saturation){% endif %}.</p>
-<table class="quantities">
-  <thead><tr><th scope="col">Quantity</th><th scope="col">Value</th></tr></thead>
-  <tbody>
-{% for row in data.rows %}
-    <tr><td>{{ row.name }}</td><td class="num">{{ row.value }}</td></tr>
-{% endfor %}
-  </tbody>
-</table>
-"""
+""" + QUANTITIES_TABLE
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
