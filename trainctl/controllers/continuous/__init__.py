@@ -10,6 +10,8 @@
   Hurwitz check and its report spectrum;
 - :mod:`~trainctl.controllers.continuous.sampled`: the control interval, the
   initial errors, the loop held over an interval and its sampling check;
+- :mod:`~trainctl.controllers.continuous.delay`: the delay margin against
+  the ``[network]`` worst case, its check (synchronous, hinf);
 - :mod:`~trainctl.controllers.continuous.resistance`: the resistance
   feedforward (synchronous, hinf);
 - :mod:`~trainctl.controllers.continuous.potentials`: the pair potentials

@@ -8,7 +8,7 @@ and the loop held over an interval; :class:`ContinuousFamily` makes the
 controller, closes the linear loop and draws the ``[communication]`` graph
 for every such family. A family then writes its law, its design function,
 its checks and its settings (``tests/test_continuous_base.py`` has a
-minimal one).
+minimal one); its report partial may end with :data:`QUANTITIES_TABLE`.
 """
 
 from __future__ import annotations
@@ -31,11 +31,23 @@ if TYPE_CHECKING:
     from trainctl.report.figures import ReportFigure
     from trainctl.scenario import Scenario
 
-__all__ = ["ContinuousFamily", "SampledDesign"]
+__all__ = ["QUANTITIES_TABLE", "ContinuousFamily", "SampledDesign"]
 
 Array = NDArray[np.float64]
 
 LawT = TypeVar("LawT")
+
+QUANTITIES_TABLE = """\
+<table class="quantities">
+  <thead><tr><th scope="col">Quantity</th><th scope="col">Value</th></tr></thead>
+  <tbody>
+{% for row in data.rows %}
+    <tr><td>{{ row.name }}</td><td class="num">{{ row.value }}</td></tr>
+{% endfor %}
+  </tbody>
+</table>
+"""
+"""The end of a family's ``report_partial``: its ``data.rows`` (name, value) as a table."""
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.controllers.continuous.family import ContinuousFamily, SampledDesign
+from trainctl.controllers.continuous.family import QUANTITIES_TABLE, ContinuousFamily, SampledDesign
 
 if TYPE_CHECKING:
     from trainctl.analysis.check import Check
@@ -50,15 +50,7 @@ PARTIAL = """\
 consensus weighted by the communication graph and the bump of the gap, navigation feedback)
 about the cruise feedforward, sampled every {{ data.control_interval }} s{% if not
 data.input_bounds %} (no saturation){% endif %}.</p>
-<table class="quantities">
-  <thead><tr><th scope="col">Quantity</th><th scope="col">Value</th></tr></thead>
-  <tbody>
-{% for row in data.rows %}
-    <tr><td>{{ row.name }}</td><td class="num">{{ row.value }}</td></tr>
-{% endfor %}
-  </tbody>
-</table>
-"""
+""" + QUANTITIES_TABLE
 
 GRAPH_USAGE = ("The law's velocity consensus runs over these links (consensus gain × a_ij × the "
                "bump of the gap); its pair potential acts on every consecutive pair and its "

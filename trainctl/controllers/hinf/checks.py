@@ -71,6 +71,7 @@ import math
 from typing import TYPE_CHECKING
 
 from trainctl.analysis.check import Check
+from trainctl.controllers.continuous.delay import delay_margin_check
 from trainctl.controllers.continuous.loops import hurwitz_check
 from trainctl.controllers.continuous.sampled import sampling_check as shared_sampling_check
 
@@ -247,46 +248,17 @@ def delay_check(design: HinfDesign) -> Check:
     >>> check.status, round(check.value, 2), check.unit  # delay margin
     ('warn', 0.57, 's')
     """
-    name = "hinf_delay_margin"
-    res = design.delay
-    margin = res.margin
-    worst = design.worst_delay
-    details: dict[str, object] = {**res.to_dict(), "worst_delay": worst,
-                                  "consensus_bound": design.consensus_bound,
-                                  "own_speed": design.law.own_speed}
-    shown = (f"{margin:.4g} s" if math.isfinite(margin)
-             else f"above {res.tau_max:g} s (stable up to the end of the search)")
-    crossing = ("" if math.isnan(res.crossing_frequency)
-                else f", crossing at {res.crossing_frequency:.3g} rad/s")
-    orders = ("" if res.agree else
-              f"; the Padé orders {res.orders[0]} and {res.orders[1]} disagree "
-              f"({res.margins[0]:.4g} s against {res.margins[1]:.4g} s)")
-    bound = _bound_text(design, margin)
     what = ("every pinning and consensus difference" if design.law.own_speed == "delayed"
             else "the neighbours' speeds")
-    if margin == 0.0:
-        return Check(name=name, status="fail", value=0.0, threshold=worst, unit="s",
-                     message="the loop is unstable without delay: no delay margin",
-                     hint="see hinf_closed_loop", details=details)
-    if worst is None:
-        return Check(name=name, status="warn", value=margin, threshold=None, unit="s",
-                     message=f"delay margin of the full coupled loop {shown}{crossing}{bound}; "
-                     "no [network]: the data arrive when sent, nothing to compare" + orders,
-                     hint="add a [network] section with the radio links' delays",
-                     details=details)
-    if worst >= margin:
-        return Check(name=name, status="fail", value=margin, threshold=worst, unit="s",
-                     message=f"delay margin of the full coupled loop {shown}{crossing} ≤ the "
-                     f"[network] worst-case delay {worst:g} s: delayed data in {what} can "
-                     f"destabilise the train{bound}" + orders,
-                     hint="lower kappa_p_per_s and kappa_c_per_s, or shorten the links' delays",
-                     details=details)
-    status = "pass" if res.agree else "warn"
-    return Check(name=name, status=status, value=margin, threshold=worst, unit="s",
-                 message=f"delay margin of the full coupled loop {shown}{crossing} > the "
-                 f"[network] worst-case delay {worst:g} s{bound}" + orders,
-                 hint="" if res.agree else "raise the Padé orders to settle the margin",
-                 details=details)
+    return delay_margin_check(
+        "hinf_delay_margin", design.delay, design.worst_delay,
+        details={"consensus_bound": design.consensus_bound, "own_speed": design.law.own_speed},
+        closed_loop="hinf_closed_loop", subject=" of the full coupled loop",
+        unconnected="the data arrive when sent, nothing to compare",
+        destabilises=f"delayed data in {what} can destabilise the train",
+        note=_bound_text(design, design.delay.margin),
+        unconnected_hint="add a [network] section with the radio links' delays",
+        fail_hint="lower kappa_p_per_s and kappa_c_per_s, or shorten the links' delays")
 
 
 def connectivity_check(design: HinfDesign) -> Check:

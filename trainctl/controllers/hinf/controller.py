@@ -53,7 +53,8 @@ from trainctl.controllers.base import (
     control_dt,
     measured_speeds,
 )
-from trainctl.controllers.faults import call_solver, fault_record, non_finite_reason
+from trainctl.controllers.continuous.resistance import feedforward_fallback
+from trainctl.controllers.faults import call_solver, non_finite_reason
 from trainctl.controllers.hinf.law import HinfLaw
 from trainctl.exceptions import ModelError
 from trainctl.models.envelope import EnvelopeBounds
@@ -187,10 +188,7 @@ class HinfController:
     def _fallback(self, v_ref: float, a_ref: float, speeds: Array, reason: str,
                   start: float) -> StepRecord:
         """The faulty step's record: m a_ref + R(v_ref) [N] within the envelope at ``speeds``."""
-        n = self.law.n
-        feedforward = self.law.forces(np.full(n, a_ref), np.full(n, max(v_ref, 0.0)))
-        inputs, _ = self._envelope.clip(np.asarray(feedforward, dtype=float), speeds)
-        return fault_record(inputs, reason=reason, fallback="feedforward", start=start)
+        return feedforward_fallback(self.law, self._envelope, v_ref, a_ref, speeds, reason, start)
 
     def _errors(self, t: float, speeds: Array,
                 messages: Mapping[Any, Any]) -> tuple[Array, Array, float]:

@@ -30,7 +30,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.controllers.continuous.family import ContinuousFamily, SampledDesign
+from trainctl.controllers.continuous.delay import seconds as _seconds
+from trainctl.controllers.continuous.delay import worst_delay as network_worst_delay
+from trainctl.controllers.continuous.family import QUANTITIES_TABLE, ContinuousFamily, SampledDesign
 from trainctl.controllers.hinf.hooks import HinfHooks
 
 if TYPE_CHECKING:
@@ -83,15 +85,7 @@ received data's send time{% else %}now{% endif %}. Sampled every {{ data.control
 s{% if not data.input_bounds %} (no saturation){% endif %}. The gains are
 {{ data.gains_source }}.</p>
 <p>{{ data.gamma_sentence }}</p>
-<table class="quantities">
-  <thead><tr><th scope="col">Quantity</th><th scope="col">Value</th></tr></thead>
-  <tbody>
-{% for row in data.rows %}
-    <tr><td>{{ row.name }}</td><td class="num">{{ row.value }}</td></tr>
-{% endfor %}
-  </tbody>
-</table>
-"""
+""" + QUANTITIES_TABLE
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -175,7 +169,7 @@ class HinfDesign(SampledDesign["HinfSettings", "HinfLaw"]):
     @property
     def worst_delay(self) -> float | None:
         """The ``[network]`` worst-case delay [s] (upper end of the range); None without one."""
-        return None if self.network is None else float(self.network.delay_bounds()[1])
+        return network_worst_delay(self.network)
 
     @property
     def run_length(self) -> float:
@@ -342,12 +336,6 @@ def _gamma_rows(design: HinfDesign, gamma: GainSynthesis) -> list[tuple[str, str
             ("Scaling of the force channels [m/s²]", f"{s.force_scale:g}"),
             ("Scaling of the reference and link noise channels [m/s]", f"{s.noise_scale:g}")]
     return rows
-
-
-def _seconds(x: float | None, missing: str = "no [network]") -> str:
-    if x is None:
-        return missing
-    return f"{x:.4g}" if math.isfinite(x) else "∞"
 
 
 def _age_rows(design: HinfDesign) -> list[tuple[str, str]]:

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.controllers.continuous.family import ContinuousFamily, SampledDesign
+from trainctl.controllers.continuous.family import QUANTITIES_TABLE, ContinuousFamily, SampledDesign
 
 if TYPE_CHECKING:
     from trainctl.analysis.check import Check
@@ -47,15 +47,7 @@ PARTIAL = """\
 the communication graph, gradient of the {{ data.potential }} pair potential between coupled
 cars) about the cruise feedforward, sampled every {{ data.control_interval }} s{% if not
 data.input_bounds %} (no saturation){% endif %}.</p>
-<table class="quantities">
-  <thead><tr><th scope="col">Quantity</th><th scope="col">Value</th></tr></thead>
-  <tbody>
-{% for row in data.rows %}
-    <tr><td>{{ row.name }}</td><td class="num">{{ row.value }}</td></tr>
-{% endfor %}
-  </tbody>
-</table>
-"""
+""" + QUANTITIES_TABLE
 
 GRAPH_USAGE = ("The law's velocity consensus runs over these links (consensus gain × a_ij); "
                "its position pinning acts on the cars the reference pins (stiffness "

@@ -30,10 +30,10 @@
 
 from __future__ import annotations
 
-import math
 from typing import TYPE_CHECKING
 
 from trainctl.analysis.check import Check
+from trainctl.controllers.continuous.delay import delay_margin_check
 from trainctl.controllers.continuous.loops import hurwitz_check
 from trainctl.controllers.continuous.sampled import sampling_check as shared_sampling_check
 
@@ -165,39 +165,11 @@ def delay_check(design: SynchronousDesign) -> Check:
     >>> check.status, round(check.value, 1), check.unit  # delay margin
     ('warn', 26.9, 's')
     """
-    name = "synchronous_delay_margin"
-    res = design.delay
-    margin = res.margin
-    worst = design.worst_delay
-    details: dict[str, object] = {**res.to_dict(), "worst_delay": worst,
-                                  "worst_delay_sampled": design.worst_delay_sampled}
-    shown = (f"{margin:.4g} s" if math.isfinite(margin)
-             else f"above {res.tau_max:g} s (stable up to the end of the search)")
-    crossing = ("" if math.isnan(res.crossing_frequency)
-                else f", crossing at {res.crossing_frequency:.3g} rad/s")
-    orders = ("" if res.agree else
-              f"; the Padé orders {res.orders[0]} and {res.orders[1]} disagree "
-              f"({res.margins[0]:.4g} s against {res.margins[1]:.4g} s)")
-    if margin == 0.0:
-        return Check(name=name, status="fail", value=0.0, threshold=worst, unit="s",
-                     message="the loop is unstable without delay: no delay margin",
-                     hint="see synchronous_closed_loop", details=details)
-    if worst is None:
-        return Check(name=name, status="warn", value=margin, threshold=None, unit="s",
-                     message=f"delay margin of the relayed command {shown}{crossing}; no "
-                     "[network]: the relay is instantaneous, nothing to compare" + orders,
-                     hint="add a [network] section with the radio link's delays",
-                     details=details)
-    if worst >= margin:
-        return Check(name=name, status="fail", value=margin, threshold=worst, unit="s",
-                     message=f"delay margin {shown}{crossing} ≤ the [network] worst-case delay "
-                     f"{worst:g} s: the remotes' delayed copy of the lead's command can "
-                     "destabilise the train" + orders,
-                     hint="lower speed_gain_per_s, or shorten the link's delays",
-                     details=details)
-    status = "pass" if res.agree else "warn"
-    return Check(name=name, status=status, value=margin, threshold=worst, unit="s",
-                 message=f"delay margin {shown}{crossing} > the [network] worst-case delay "
-                 f"{worst:g} s" + orders,
-                 hint="" if res.agree else "raise the Padé orders to settle the margin",
-                 details=details)
+    return delay_margin_check(
+        "synchronous_delay_margin", design.delay, design.worst_delay,
+        details={"worst_delay_sampled": design.worst_delay_sampled},
+        closed_loop="synchronous_closed_loop", unconnected_subject=" of the relayed command",
+        unconnected="the relay is instantaneous, nothing to compare",
+        destabilises="the remotes' delayed copy of the lead's command can destabilise the train",
+        unconnected_hint="add a [network] section with the radio link's delays",
+        fail_hint="lower speed_gain_per_s, or shorten the link's delays")

@@ -23,7 +23,9 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.controllers.continuous.family import ContinuousFamily, SampledDesign
+from trainctl.controllers.continuous.delay import seconds as _seconds
+from trainctl.controllers.continuous.delay import worst_delay as network_worst_delay
+from trainctl.controllers.continuous.family import QUANTITIES_TABLE, ContinuousFamily, SampledDesign
 
 if TYPE_CHECKING:
     from trainctl.analysis.certificates import Certificate
@@ -61,15 +63,7 @@ closes a speed loop and relays its specific-force command over the radio link; e
 applies it scaled by its mass, holding the last command while nothing arrives, and every
 vehicle adds its own resistance at its speed. Sampled every {{ data.control_interval }} s{%
 if not data.input_bounds %} (no saturation){% endif %}.</p>
-<table class="quantities">
-  <thead><tr><th scope="col">Quantity</th><th scope="col">Value</th></tr></thead>
-  <tbody>
-{% for row in data.rows %}
-    <tr><td>{{ row.name }}</td><td class="num">{{ row.value }}</td></tr>
-{% endfor %}
-  </tbody>
-</table>
-"""
+""" + QUANTITIES_TABLE
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -112,7 +106,7 @@ class SynchronousDesign(SampledDesign["SynchronousSettings", "SynchronousLaw"]):
     @property
     def worst_delay(self) -> float | None:
         """The ``[network]`` worst-case delay [s] (upper end of the range); None without one."""
-        return None if self.network is None else float(self.network.delay_bounds()[1])
+        return network_worst_delay(self.network)
 
     @property
     def worst_delay_sampled(self) -> float | None:
@@ -217,12 +211,6 @@ def design_synchronous(scenario: Scenario, model: DesignModel,
     return SynchronousDesign(scenario=scenario, model=model, settings=settings, law=law,
                              control_interval=T, network=scenario.network,
                              loops=closed_loop_matrices(model, law))
-
-
-def _seconds(x: float | None) -> str:
-    if x is None:
-        return "no [network]"
-    return f"{x:.4g}" if math.isfinite(x) else "∞"
 
 
 class SynchronousFamily(ContinuousFamily[SynchronousDesign, "SynchronousSettings"]):
