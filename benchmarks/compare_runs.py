@@ -120,6 +120,8 @@ def compare_strategy(base: Path, new: Path, rtol: float) -> tuple[list[str], boo
 MANIFEST = "trainctl-run.json"
 MANIFEST_SKIP = frozenset({"environment", "command", "timings", "source"})
 """Manifest keys that differ between any two runs (versions, paths, wall clock)."""
+WALL_CLOCK_LEAVES = ("solve_time", "search_time")
+"""Substrings of the manifest's leaf names that hold wall-clock times (e.g. solve_time_p95)."""
 
 
 def _leaves(value: object, path: str = "") -> dict[str, object]:
@@ -145,8 +147,12 @@ def compare_manifest(base: Path, new: Path, rtol: float) -> tuple[list[str], boo
         return [f"  missing {new / MANIFEST}  MISMATCH"], False
     b = json.loads((base / MANIFEST).read_text())
     c = json.loads((new / MANIFEST).read_text())
-    lb = _leaves({k: v for k, v in b.items() if k not in MANIFEST_SKIP})
-    lc = _leaves({k: v for k, v in c.items() if k not in MANIFEST_SKIP})
+    def kept(doc: dict) -> dict[str, object]:
+        leaves = _leaves({k: v for k, v in doc.items() if k not in MANIFEST_SKIP})
+        return {k: v for k, v in leaves.items()
+                if not any(w in k.rsplit(".", 1)[-1] for w in WALL_CLOCK_LEAVES)}
+
+    lb, lc = kept(b), kept(c)
     bad = [k for k in lb if k not in lc]
     added = [k for k in lc if k not in lb]
     worst, differ = 0.0, []
