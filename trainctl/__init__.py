@@ -3,7 +3,10 @@
 
 Importing :mod:`trainctl` is light: it loads the errors eagerly and the
 scenario machinery only when ``trainctl.load_scenario`` is first used, so
-``import trainctl`` imports neither cvxpy nor matplotlib.
+``import trainctl`` imports neither cvxpy nor matplotlib. The stage packages
+re-export their names the same way (:func:`_lazy_exports`): ``from
+trainctl.models import Train`` imports the module of ``Train``, not every model
+module, so a command loads only what it uses (``tests/test_import_graph.py``).
 
 Examples
 --------
@@ -16,6 +19,9 @@ True
 
 from __future__ import annotations
 
+import sys
+from collections.abc import Callable, Mapping
+from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 from trainctl.exceptions import ConvergenceWarning as ConvergenceWarning
@@ -52,19 +58,55 @@ __all__ = [
     "load_scenario",
 ]
 
-_LAZY = {"load_scenario": ".scenario"}
+def _lazy_exports(
+    package: str, exports: Mapping[str, str]
+) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
+    """A package's ``__getattr__`` and ``__dir__`` that import its re-exports on first use.
 
+    ``exports`` maps each re-exported name to the module defining it (PEP 562).
+    A name that is not re-exported but names a submodule imports the submodule,
+    as an eager ``__init__`` would have (``trainctl.models.discrete`` after
+    ``import trainctl.models``). The package keeps the same names under
+    ``if TYPE_CHECKING:`` for the type checker.
 
-def __getattr__(name: str) -> Any:
-    """Import the lazily re-exported names on first access (PEP 562)."""
-    if name in _LAZY:
-        from importlib import import_module
+    Examples
+    --------
+    >>> import sys, types
+    >>> pkg = types.ModuleType("pkg")
+    >>> pkg.__path__ = []  # a package: pkg.nothing could be a submodule
+    >>> pkg.__getattr__, pkg.__dir__ = _lazy_exports("pkg", {"dumps": "json"})
+    >>> sys.modules["pkg"] = pkg
+    >>> import json
+    >>> pkg.dumps is json.dumps, "dumps" in vars(pkg), "dumps" in dir(pkg)
+    (True, True, True)
+    >>> pkg.nothing
+    Traceback (most recent call last):
+    ...
+    AttributeError: module 'pkg' has no attribute 'nothing'
+    >>> del sys.modules["pkg"]
+    """
 
-        value = getattr(import_module(_LAZY[name], __name__), name)
-        globals()[name] = value
+    def __getattr__(name: str) -> Any:
+        module = exports.get(name)
+        if module is not None:
+            value = getattr(import_module(module), name)
+        elif name.startswith("__") or "__path__" not in vars(sys.modules[package]):
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        else:
+            try:
+                value = import_module(f"{package}.{name}")
+            except ModuleNotFoundError as exc:
+                if exc.name != f"{package}.{name}":
+                    raise
+                raise AttributeError(
+                    f"module {package!r} has no attribute {name!r}") from None
+        setattr(sys.modules[package], name, value)
         return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+    def __dir__() -> list[str]:
+        return sorted(set(vars(sys.modules[package])) | set(exports))
+
+    return __getattr__, __dir__
 
 
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = _lazy_exports(__name__, {"load_scenario": "trainctl.scenario"})

@@ -14,11 +14,15 @@ stable. Even at small T it only approximates; use ZOH.
 
 from __future__ import annotations
 
-import control as ct
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from trainctl._validation import check_finite_arrays, check_positive
 from trainctl.exceptions import ModelError
+
+if TYPE_CHECKING:
+    import control as ct
 
 __all__ = ["DISCRETISATIONS", "discretise"]
 
@@ -46,12 +50,14 @@ def discretise(sys: ct.StateSpace, dt: float, *, method: str = "zoh") -> ct.Stat
 
     Examples
     --------
-    >>> import numpy as np
+    >>> import control as ct, numpy as np
     >>> sys = ct.ss([[-1.0]], [[1.0]], [[1.0]], 0, states=["v[0]"])
     >>> sysd = discretise(sys, 0.1)
     >>> bool(np.isclose(sysd.A[0, 0], np.exp(-0.1))), sysd.state_labels, sys.dt
     (True, ['v[0]'], 0)
     """
+    import control as ct
+
     dt = check_positive("discretise", "dt", dt)
     if method not in DISCRETISATIONS:
         hint = (

@@ -20,8 +20,8 @@ chain definition, :class:`~trainctl.models.Chain`; the traction split of
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import control as ct
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -32,6 +32,9 @@ from trainctl.models.feedforward import ALLOCATIONS, ForceSplit
 from trainctl.models.track import Track
 from trainctl.models.train import Train
 from trainctl.units import permille_to_accel
+
+if TYPE_CHECKING:
+    import control as ct
 
 __all__ = [
     "ALLOCATIONS",
@@ -184,6 +187,8 @@ def nonlinear_system(
     >>> sys.nstates, sys.ninputs, sys.noutputs
     (8, 4, 4)
     """
+    import control as ct
+
     n = train.n_vehicles
 
     def update(

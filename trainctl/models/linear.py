@@ -21,7 +21,8 @@ Two treatments of the quadratic Davis term are offered:
 
 from __future__ import annotations
 
-import control as ct
+from typing import TYPE_CHECKING
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -29,6 +30,9 @@ from trainctl._validation import check_finite_arrays, check_positive
 from trainctl.exceptions import ModelError
 from trainctl.models.chain import Chain
 from trainctl.models.train import Train
+
+if TYPE_CHECKING:
+    import control as ct
 
 __all__ = ["LINEARISATIONS", "OUTPUT_GROUPS", "linear_matrices", "linearise", "resistance_damping"]
 
@@ -151,6 +155,8 @@ def linearise(
     >>> sys.state_labels[-1]
     'delta[3]'
     """
+    import control as ct
+
     A, B = linear_matrices(train, speed, method=method, dummy_state=dummy_state)
     check_finite_arrays("linearise", f" The train's parameters at {speed!r} m/s give a model "
                         "beyond floating point; check masses, couplers and Davis terms.", A=A, B=B)

@@ -23,24 +23,29 @@ True
 
 from __future__ import annotations
 
-from trainctl.report.build import ReportJob as ReportJob
-from trainctl.report.build import normalise_timestamp as normalise_timestamp
-from trainctl.report.build import portable_command as portable_command
-from trainctl.report.build import run_report_data as run_report_data
-from trainctl.report.build import write_gallery as write_gallery
-from trainctl.report.build import write_report_file as write_report_file
-from trainctl.report.context import build_index_context as build_index_context
-from trainctl.report.context import build_report_context as build_report_context
-from trainctl.report.context import headline as headline
-from trainctl.report.data import ReportData as ReportData
-from trainctl.report.data import collect_report_data as collect_report_data
-from trainctl.report.data import is_saved_run as is_saved_run
-from trainctl.report.figures import figure_svg as figure_svg
-from trainctl.report.figures import report_figures as report_figures
-from trainctl.report.render import make_environment as make_environment
-from trainctl.report.render import render_index as render_index
-from trainctl.report.render import render_report as render_report
-from trainctl.report.render import write_report as write_report
+from typing import TYPE_CHECKING
+
+from trainctl import _lazy_exports
+
+if TYPE_CHECKING:
+    from trainctl.report.build import ReportJob as ReportJob
+    from trainctl.report.build import normalise_timestamp as normalise_timestamp
+    from trainctl.report.build import portable_command as portable_command
+    from trainctl.report.build import run_report_data as run_report_data
+    from trainctl.report.build import write_gallery as write_gallery
+    from trainctl.report.build import write_report_file as write_report_file
+    from trainctl.report.context import build_index_context as build_index_context
+    from trainctl.report.context import build_report_context as build_report_context
+    from trainctl.report.context import headline as headline
+    from trainctl.report.data import ReportData as ReportData
+    from trainctl.report.data import collect_report_data as collect_report_data
+    from trainctl.report.data import is_saved_run as is_saved_run
+    from trainctl.report.figures import figure_svg as figure_svg
+    from trainctl.report.figures import report_figures as report_figures
+    from trainctl.report.render import make_environment as make_environment
+    from trainctl.report.render import render_index as render_index
+    from trainctl.report.render import render_report as render_report
+    from trainctl.report.render import write_report as write_report
 
 __all__ = [
     "ReportData",
@@ -62,3 +67,27 @@ __all__ = [
     "write_report",
     "write_report_file",
 ]
+
+_EXPORTS = {
+    "ReportJob": "trainctl.report.build",
+    "normalise_timestamp": "trainctl.report.build",
+    "portable_command": "trainctl.report.build",
+    "run_report_data": "trainctl.report.build",
+    "write_gallery": "trainctl.report.build",
+    "write_report_file": "trainctl.report.build",
+    "build_index_context": "trainctl.report.context",
+    "build_report_context": "trainctl.report.context",
+    "headline": "trainctl.report.context",
+    "ReportData": "trainctl.report.data",
+    "collect_report_data": "trainctl.report.data",
+    "is_saved_run": "trainctl.report.data",
+    "figure_svg": "trainctl.report.figures",
+    "report_figures": "trainctl.report.figures",
+    "make_environment": "trainctl.report.render",
+    "render_index": "trainctl.report.render",
+    "render_report": "trainctl.report.render",
+    "write_report": "trainctl.report.render",
+}
+"""Re-exported name -> its module, imported on first use (:func:`trainctl._lazy_exports`)."""
+
+__getattr__, __dir__ = _lazy_exports(__name__, _EXPORTS)

@@ -37,7 +37,7 @@ from collections.abc import Callable
 from typing import Any
 
 from trainctl.models.discrete import DISCRETISATIONS as DISCRETISATIONS
-from trainctl.models.dynamics import ALLOCATIONS as ALLOCATIONS
+from trainctl.models.feedforward import ALLOCATIONS as ALLOCATIONS
 from trainctl.models.linear import LINEARISATIONS as LINEARISATIONS
 from trainctl.models.network.schema import NetworkSettings as NetworkSettings
 from trainctl.scenario.communication import CommunicationSettings as CommunicationSettings

@@ -40,7 +40,7 @@ from trainctl.declare.limits import (
 )
 from trainctl.exceptions import ModelError
 from trainctl.models.discrete import DISCRETISATIONS
-from trainctl.models.dynamics import ALLOCATIONS
+from trainctl.models.feedforward import ALLOCATIONS
 from trainctl.models.linear import LINEARISATIONS
 from trainctl.units import kmh_to_ms
 
