@@ -22,6 +22,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable, Mapping
 from importlib import import_module
+from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 from trainctl.exceptions import ConvergenceWarning as ConvergenceWarning
@@ -66,8 +67,11 @@ def _lazy_exports(
     ``exports`` maps each re-exported name to the module defining it (PEP 562).
     A name that is not re-exported but names a submodule imports the submodule,
     as an eager ``__init__`` would have (``trainctl.models.discrete`` after
-    ``import trainctl.models``). The package keeps the same names under
-    ``if TYPE_CHECKING:`` for the type checker.
+    ``import trainctl.models``). A re-exported name that is also its module's
+    name (``trainctl.analysis.string_stability``, the function) stays the
+    re-exported object when that submodule is imported, as it was eagerly: the
+    package's module class sees the import set the attribute. The package keeps
+    the same names under ``if TYPE_CHECKING:`` for the type checker.
 
     Examples
     --------
@@ -106,6 +110,17 @@ def _lazy_exports(
     def __dir__() -> list[str]:
         return sorted(set(vars(sys.modules[package])) | set(exports))
 
+    shadowed = {name for name, module in exports.items() if module == f"{package}.{name}"}
+    if shadowed:
+
+        class _Package(ModuleType):
+            def __setattr__(self, name: str, value: Any) -> None:
+                if (name in shadowed and isinstance(value, ModuleType)
+                        and value.__name__ == f"{package}.{name}"):
+                    value = getattr(value, name)   # the import of the submodule
+                super().__setattr__(name, value)
+
+        sys.modules[package].__class__ = _Package
     return __getattr__, __dir__
 
 

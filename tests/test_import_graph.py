@@ -1,0 +1,147 @@
+# Which modules a command loads: the light commands import no solver, plotting or python-control.
+"""The import graph of the light commands, read from ``python -X importtime``.
+
+``trainctl --help``, ``list``, ``schema``, ``export`` and loading a scenario
+need none of the solvers (cvxpy, DAQP, OSQP, Clarabel), matplotlib,
+python-control (which imports ``scipy.signal`` and ``scipy.stats``), Jinja,
+pandas, pyarrow or Dask: each runs in a fresh interpreter under ``-X
+importtime`` (every module it imports is one line on stderr), must do its job,
+and none of those modules may be among the lines. What is measured is which
+modules load, never how long they take. The stage packages re-export their
+names on first use (:func:`trainctl._lazy_exports`); the names they list for
+the type checker (``if TYPE_CHECKING:``) and the ones they import at run time
+must agree.
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+HEAVY = (
+    "cvxpy", "daqp", "osqp", "clarabel", "scs",   # solvers
+    "matplotlib",
+    "control", "scipy.signal", "scipy.stats",    # python-control imports both
+    "jinja2", "pandas", "pyarrow", "dask", "distributed",
+)
+"""Modules (and their submodules) a light command must not import."""
+
+LOAD = "from trainctl.scenario import load_scenario; print(type(load_scenario('crh2-dmpc')).__name__)"
+
+COMMANDS: dict[str, tuple[list[str], str]] = {
+    "--help": (["-m", "trainctl", "--help"], "usage: trainctl"),
+    "list": (["-m", "trainctl", "list"], "crh2-dmpc"),
+    "schema": (["-m", "trainctl", "schema"], '"$schema"'),
+    "export": (["-m", "trainctl", "export", "crh2-dmpc", "-o", "-"], "[train"),
+    "load_scenario": (["-c", LOAD], "Scenario"),
+    "import trainctl": (["-c", "import trainctl; print(trainctl.__version__)"], "0."),
+}
+"""Command -> (interpreter arguments, a fragment its stdout shows when it worked)."""
+
+
+def imported_modules(args: list[str], cwd: Path) -> tuple[subprocess.CompletedProcess[str], set[str]]:
+    """Run ``python -X importtime ARGS`` on this tree; the process and the modules it imported."""
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    found = subprocess.run([sys.executable, "-X", "importtime", *args], cwd=cwd, env=env,
+                           capture_output=True, text=True, timeout=300, check=False)
+    modules = set()
+    for line in found.stderr.splitlines():
+        # "import time: self [us] | cumulative | name", the name indented by its depth
+        if line.startswith("import time:") and line.count("|") == 2:
+            name = line.rsplit("|", 1)[1].strip()
+            if name != "imported package":   # the header line
+                modules.add(name)
+    return found, modules
+
+
+def heavy(modules: set[str]) -> list[str]:
+    """The modules of :data:`HEAVY` (or their submodules) among ``modules``."""
+    return sorted(m for m in modules if any(m == h or m.startswith(h + ".") for h in HEAVY))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command", list(COMMANDS))
+def test_light_commands_import_nothing_heavy(command: str, tmp_path: Path) -> None:
+    """The command works and imports none of :data:`HEAVY`."""
+    args, shows = COMMANDS[command]
+    found, modules = imported_modules(args, tmp_path)
+    assert found.returncode == 0, found.stderr[-3000:]
+    assert shows in found.stdout
+    assert "trainctl" in modules   # the graph was read
+    assert heavy(modules) == []
+    if command == "schema":
+        assert json.loads(found.stdout)["$schema"]
+
+
+@pytest.mark.slow
+def test_the_graph_sees_a_heavy_import(tmp_path: Path) -> None:
+    """The check can fail: an analysis module imports python-control and, through it, the rest."""
+    found, modules = imported_modules(["-c", "import trainctl.analysis.stability"], tmp_path)
+    assert found.returncode == 0, found.stderr[-3000:]
+    assert {"control", "scipy.signal", "scipy.stats"} <= set(heavy(modules))
+
+
+def lazy_packages() -> list[str]:
+    """The packages of trainctl that re-export through :func:`trainctl._lazy_exports`."""
+    found = []
+    for init in sorted((REPO / "trainctl").rglob("__init__.py")):
+        if "_lazy_exports(__name__" in init.read_text(encoding="utf-8"):
+            found.append(".".join(init.parent.relative_to(REPO).parts))
+    return found
+
+
+def type_checking_exports(package: str) -> dict[str, str]:
+    """Name -> module of the ``from M import N as N`` lines under ``if TYPE_CHECKING:``."""
+    init = REPO.joinpath(*package.split("."), "__init__.py")
+    tree = ast.parse(init.read_text(encoding="utf-8"))
+    names: dict[str, str] = {}
+    for node in tree.body:
+        if isinstance(node, ast.If) and ast.unparse(node.test) == "TYPE_CHECKING":
+            for stmt in node.body:
+                if isinstance(stmt, ast.ImportFrom) and stmt.module and stmt.level == 0:
+                    names.update((alias.asname or alias.name, stmt.module)
+                                 for alias in stmt.names)
+    return names
+
+
+def test_lazy_packages_are_found() -> None:
+    """The stage packages that re-export lazily include the ones the light commands pass."""
+    assert {"trainctl", "trainctl.models", "trainctl.analysis", "trainctl.run",
+            "trainctl.report"} <= set(lazy_packages())
+
+
+@pytest.mark.parametrize("package", lazy_packages())
+def test_lazy_exports_match_the_type_checking_names(package: str) -> None:
+    """Each lazy package imports at run time what its TYPE_CHECKING block names, from there."""
+    module = importlib.import_module(package)
+    exports = type_checking_exports(package)
+    lazy = getattr(module, "_EXPORTS", None)
+    if lazy is not None:   # the root package passes its one name inline
+        assert dict(lazy) == exports
+    for name, home in exports.items():
+        assert getattr(module, name) is getattr(importlib.import_module(home), name), name
+        assert name in dir(module)
+    assert set(getattr(module, "__all__", ())) <= set(exports) | set(dir(module))
+    with pytest.raises(AttributeError):
+        _ = getattr(module, "no_such_name")
+
+
+@pytest.mark.slow
+def test_a_submodule_import_keeps_the_re_exported_function(tmp_path: Path) -> None:
+    """``trainctl.analysis.string_stability`` is the function, also after its module is imported."""
+    code = ("import trainctl.analysis.string_stability, trainctl.analysis as a; "
+            "from trainctl.analysis import string_stability as f; "
+            "print(type(a.string_stability).__name__, f is a.string_stability.__globals__['string_stability'])")
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    found = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env,
+                           capture_output=True, text=True, timeout=300, check=True)
+    assert found.stdout.split() == ["function", "True"]
