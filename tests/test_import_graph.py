@@ -35,32 +35,53 @@ HEAVY = (
 )
 """Modules (and their submodules) a light command must not import."""
 
-LOAD = "from trainctl.scenario import load_scenario; print(type(load_scenario('crh2-dmpc')).__name__)"
+LOAD = ("from trainctl.scenario import load_scenario; "
+        "print(type(load_scenario('crh2-dmpc')).__name__)")
 
 COMMANDS: dict[str, tuple[list[str], str]] = {
-    "--help": (["-m", "trainctl", "--help"], "usage: trainctl"),
-    "list": (["-m", "trainctl", "list"], "crh2-dmpc"),
-    "schema": (["-m", "trainctl", "schema"], '"$schema"'),
-    "export": (["-m", "trainctl", "export", "crh2-dmpc", "-o", "-"], "[train"),
-    "load_scenario": (["-c", LOAD], "Scenario"),
-    "import trainctl": (["-c", "import trainctl; print(trainctl.__version__)"], "0."),
+    "--help": (["--help"], "usage: trainctl"),
+    "list": (["list"], "crh2-dmpc"),
+    "schema": (["schema"], '"$schema"'),
+    "export": (["export", "crh2-dmpc", "-o", "-"], "[train"),
+    "load_scenario": ([], "Scenario"),
+    "import trainctl": ([], "0."),
 }
-"""Command -> (interpreter arguments, a fragment its stdout shows when it worked)."""
+"""Command -> (``trainctl`` arguments, a fragment its stdout shows when it worked)."""
+
+SNIPPETS = {"load_scenario": LOAD,
+            "import trainctl": "import trainctl; print(trainctl.__version__)"}
+"""The commands that are Python code rather than ``trainctl`` arguments."""
+
+_AT_EXIT = ("import atexit, sys; atexit.register(lambda: print('MODULES:', *sys.modules, "
+            "file=sys.stderr)); ")
+"""Prints the modules loaded at exit: ``-X importtime`` misses ``importlib.import_module``."""
 
 
-def imported_modules(args: list[str], cwd: Path) -> tuple[subprocess.CompletedProcess[str], set[str]]:
-    """Run ``python -X importtime ARGS`` on this tree; the process and the modules it imported."""
+def imported_modules(code: str, cwd: Path) -> tuple[subprocess.CompletedProcess[str], set[str]]:
+    """Run ``python -X importtime -c CODE`` on this tree: the process, the modules it imported."""
     env = dict(os.environ, PYTHONPATH=str(REPO))
-    found = subprocess.run([sys.executable, "-X", "importtime", *args], cwd=cwd, env=env,
-                           capture_output=True, text=True, timeout=300, check=False)
-    modules = set()
+    found = subprocess.run([sys.executable, "-X", "importtime", "-c", _AT_EXIT + code], cwd=cwd,
+                           env=env, capture_output=True, text=True, timeout=300, check=False)
+    logged, at_exit = set(), set()
     for line in found.stderr.splitlines():
         # "import time: self [us] | cumulative | name", the name indented by its depth
         if line.startswith("import time:") and line.count("|") == 2:
             name = line.rsplit("|", 1)[1].strip()
             if name != "imported package":   # the header line
-                modules.add(name)
-    return found, modules
+                logged.add(name)
+        elif line.startswith("MODULES: "):
+            at_exit.update(line.split()[1:])
+    assert "trainctl" in logged or found.returncode != 0   # -X importtime did log
+    return found, logged | at_exit
+
+
+def command_code(command: str) -> str:
+    """The Python code that runs ``command`` (``trainctl ARGS`` as ``python -m trainctl`` does)."""
+    if command in SNIPPETS:
+        return SNIPPETS[command]
+    args = COMMANDS[command][0]
+    return (f"import runpy; sys.argv = ['trainctl', *{args!r}]; "
+            "runpy.run_module('trainctl', run_name='__main__', alter_sys=True)")
 
 
 def heavy(modules: set[str]) -> list[str]:
@@ -72,8 +93,8 @@ def heavy(modules: set[str]) -> list[str]:
 @pytest.mark.parametrize("command", list(COMMANDS))
 def test_light_commands_import_nothing_heavy(command: str, tmp_path: Path) -> None:
     """The command works and imports none of :data:`HEAVY`."""
-    args, shows = COMMANDS[command]
-    found, modules = imported_modules(args, tmp_path)
+    found, modules = imported_modules(command_code(command), tmp_path)
+    shows = COMMANDS[command][1]
     assert found.returncode == 0, found.stderr[-3000:]
     assert shows in found.stdout
     assert "trainctl" in modules   # the graph was read
@@ -85,7 +106,7 @@ def test_light_commands_import_nothing_heavy(command: str, tmp_path: Path) -> No
 @pytest.mark.slow
 def test_the_graph_sees_a_heavy_import(tmp_path: Path) -> None:
     """The check can fail: an analysis module imports python-control and, through it, the rest."""
-    found, modules = imported_modules(["-c", "import trainctl.analysis.stability"], tmp_path)
+    found, modules = imported_modules("import trainctl.analysis.stability", tmp_path)
     assert found.returncode == 0, found.stderr[-3000:]
     assert {"control", "scipy.signal", "scipy.stats"} <= set(heavy(modules))
 
@@ -132,7 +153,7 @@ def test_lazy_exports_match_the_type_checking_names(package: str) -> None:
         assert name in dir(module)
     assert set(getattr(module, "__all__", ())) <= set(exports) | set(dir(module))
     with pytest.raises(AttributeError):
-        _ = getattr(module, "no_such_name")
+        _ = module.no_such_name
 
 
 @pytest.mark.slow
@@ -140,7 +161,8 @@ def test_a_submodule_import_keeps_the_re_exported_function(tmp_path: Path) -> No
     """``trainctl.analysis.string_stability`` is the function, also after its module is imported."""
     code = ("import trainctl.analysis.string_stability, trainctl.analysis as a; "
             "from trainctl.analysis import string_stability as f; "
-            "print(type(a.string_stability).__name__, f is a.string_stability.__globals__['string_stability'])")
+            "print(type(a.string_stability).__name__, "
+            "f is a.string_stability.__globals__['string_stability'])")
     env = dict(os.environ, PYTHONPATH=str(REPO))
     found = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env,
                            capture_output=True, text=True, timeout=300, check=True)
