@@ -75,13 +75,15 @@ def imported_modules(code: str, cwd: Path) -> tuple[subprocess.CompletedProcess[
     return found, logged | at_exit
 
 
-def command_code(command: str) -> str:
-    """The Python code that runs ``command`` (``trainctl ARGS`` as ``python -m trainctl`` does)."""
-    if command in SNIPPETS:
-        return SNIPPETS[command]
-    args = COMMANDS[command][0]
+def trainctl_code(args: list[str]) -> str:
+    """Python code that runs ``trainctl ARGS`` as ``python -m trainctl`` does."""
     return (f"import runpy; sys.argv = ['trainctl', *{args!r}]; "
             "runpy.run_module('trainctl', run_name='__main__', alter_sys=True)")
+
+
+def command_code(command: str) -> str:
+    """The Python code that runs ``command`` of :data:`COMMANDS`."""
+    return SNIPPETS.get(command) or trainctl_code(COMMANDS[command][0])
 
 
 def heavy(modules: set[str]) -> list[str]:
@@ -167,3 +169,20 @@ def test_a_submodule_import_keeps_the_re_exported_function(tmp_path: Path) -> No
     found = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env,
                            capture_output=True, text=True, timeout=300, check=True)
     assert found.stdout.split() == ["function", "True"]
+
+
+REPORT_UNUSED = ("pandas", "pyarrow", "dask", "distributed", "trainctl.sweep",
+                 "trainctl.scenario.sweep_definition")
+"""What the default report (one scenario, simulated in this process) does not use."""
+
+
+@pytest.mark.slow
+def test_the_default_report_imports_no_sweep_or_dataframe(tmp_path: Path) -> None:
+    """``trainctl report`` of a scenario loads neither the sweep machinery nor pandas/Arrow/Dask."""
+    out = tmp_path / "report.html"
+    found, modules = imported_modules(trainctl_code(["report", "-o", str(out)]), tmp_path)
+    assert found.returncode == 0, found.stderr[-3000:]
+    assert out.stat().st_size > 0
+    assert {"control", "matplotlib", "trainctl.report.render"} <= modules   # it did the work
+    assert sorted(m for m in modules
+                  if any(m == u or m.startswith(u + ".") for u in REPORT_UNUSED)) == []

@@ -483,9 +483,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
               f"{time.perf_counter() - start:.1f} s)")
         return EXIT_OK
     source = args.scenario or DEFAULT_SCENARIO
-    from trainctl.sweep.store import is_sweep_store
-
-    if is_sweep_store(source):
+    if _is_sweep_store(source):
         from trainctl.report.sweep import default_sweep_report_path, write_sweep_report
         from trainctl.report.sweep import summary_line as sweep_line
 
@@ -517,6 +515,18 @@ def _cmd_report(args: argparse.Namespace) -> int:
     print(f"wrote {path} ({summary_line(data)}; {time.perf_counter() - start:.1f} s)",
           file=sys.stderr if path.kind == "fd" else sys.stdout)
     return EXIT_OK
+
+
+def _is_sweep_store(source: str) -> bool:
+    """Whether ``trainctl report SOURCE`` reports a sweep (a store is a directory).
+
+    A scenario name or file does not import the sweep package.
+    """
+    if not Path(source).is_dir():
+        return False
+    from trainctl.sweep.store import is_sweep_store
+
+    return is_sweep_store(source)
 
 
 def _report_job(source: str, args: argparse.Namespace) -> Any:
