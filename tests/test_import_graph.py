@@ -1,8 +1,8 @@
 # Which modules a command loads: the light commands import no solver, plotting or python-control.
 """The import graph of the light commands, read from ``python -X importtime``.
 
-``trainctl --help``, ``list``, ``schema``, ``export`` and loading a scenario
-need none of the solvers (cvxpy, DAQP, OSQP, Clarabel), matplotlib,
+``trainctl --help``, ``list``, ``schema``, ``export``, ``sweep --dry-run`` and
+loading a scenario need none of the solvers (cvxpy, DAQP, OSQP, Clarabel), matplotlib,
 python-control (which imports ``scipy.signal`` and ``scipy.stats``), Jinja,
 pandas, pyarrow or Dask: each runs in a fresh interpreter under ``-X
 importtime`` (every module it imports is one line on stderr), must do its job,
@@ -42,7 +42,11 @@ COMMANDS: dict[str, tuple[list[str], str]] = {
     "--help": (["--help"], "usage: trainctl"),
     "list": (["list"], "crh2-dmpc"),
     "schema": (["schema"], '"$schema"'),
+    "schema --markdown": (["schema", "--markdown"], "|"),
     "export": (["export", "crh2-dmpc", "-o", "-"], "[train"),
+    "sweep --dry-run": (["sweep", "crh2-dmpc", "--set", "controller.r_per_kn2=1,10", "--dry-run"],
+                        "controller.r_per_kn2"),
+    "report --help": (["report", "--help"], "usage: trainctl report"),
     "load_scenario": ([], "Scenario"),
     "import trainctl": ([], "0."),
 }
