@@ -5,21 +5,26 @@ from __future__ import annotations
 
 import pickle
 import threading
+from collections.abc import Sequence
 from concurrent.futures import Executor, Future
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
+from numpy.typing import NDArray
 
 from trainctl._validation import numerical_errors
 
 if TYPE_CHECKING:
     from trainctl.controllers.base import Controller
     from trainctl.design import Design
+    from trainctl.models.network.simulator import Network
     from trainctl.models.plant import Plant
     from trainctl.scenario import Scenario
+    from trainctl.sim.reference import SpeedProfile
     from trainctl.sim.results import SimulationResult
 
-__all__ = ["NETWORK_STREAM", "make_controller", "simulate_strategy", "submit_simulations"]
+__all__ = ["NETWORK_STREAM", "make_controller", "simulate_batch_strategy", "simulate_strategy",
+           "submit_simulations"]
 
 NETWORK_STREAM = 1
 """Spawn key of the network's random stream: ``SeedSequence([seed, NETWORK_STREAM])``, apart
@@ -114,9 +119,33 @@ def simulate_strategy(
     >>> bool(abs(res.velocities[:, -1] - 34.0).max() < 1.0)
     True
     """
+    from trainctl.sim.closed_loop import simulate
+
+    with numerical_errors(f"{scenario.source}: simulating {strategy!r}"):
+        run = _prepare(scenario, strategy, design)
+        return simulate(run.plant, run.controller, run.profile, duration=run.duration,
+                        initial_state=run.state, seed=scenario.seed, network=run.network,
+                        warn=warn, **run.options)
+
+
+class _Run(NamedTuple):
+    """One run of a strategy, ready for :func:`trainctl.sim.simulate` (or a batch of them)."""
+
+    plant: Plant
+    controller: Controller
+    profile: SpeedProfile
+    duration: float
+    state: NDArray[np.float64]
+    network: Network | None
+    options: dict[str, Any]
+    """The other keyword arguments of :func:`trainctl.sim.simulate`."""
+
+
+def _prepare(scenario: Scenario, strategy: str, design: Design | None) -> _Run:
+    """:func:`simulate_strategy`'s plant, controller (prepared for the scenario's network and
+    seed), reference, initial state and network (inside its ``numerical_errors``)."""
     from trainctl.exceptions import ScenarioError
     from trainctl.models.dynamics import equilibrium
-    from trainctl.sim.closed_loop import simulate
     from trainctl.sim.plant import Plant
     from trainctl.sim.reference import SpeedProfile
 
@@ -132,25 +161,55 @@ def simulate_strategy(
     speed_offsets, spacing_offsets = sim.initial_offsets(n)
     state[:n] = v0 + speed_offsets
     state[n:2 * n - 1] += spacing_offsets
-    with numerical_errors(f"{scenario.source}: simulating {strategy!r}"):
-        controller = make_controller(scenario, strategy, design)
-        prepare = getattr(controller, "prepare", None)
-        if callable(prepare):
-            prepare(scenario.network, int(scenario.seed))
-        network = None
-        if scenario.network is not None and getattr(controller, "uses_network", False):
-            from trainctl.models.network.simulator import Network
+    controller = make_controller(scenario, strategy, design)
+    prepare = getattr(controller, "prepare", None)
+    if callable(prepare):
+        prepare(scenario.network, int(scenario.seed))
+    network = None
+    if scenario.network is not None and getattr(controller, "uses_network", False):
+        from trainctl.models.network.simulator import Network
 
-            network = Network(scenario.network, scenario.graph(),
-                              seed=np.random.SeedSequence([scenario.seed, NETWORK_STREAM]))
-        return simulate(_shared_plant(Plant, scenario), controller, profile,
-                        duration=sim.duration, initial_state=state,
-                        preview_steps=_preview_steps(controller),
-                        measurement_noise=sim.measurement_noise, seed=scenario.seed,
-                        full_state=getattr(controller, "needs_full_state", True),
-                        saturation=sim.plant_saturation, output_interval=sim.output_interval,
-                        divergence_speed_error=sim.divergence_speed_error, network=network,
-                        warn=warn)
+        network = Network(scenario.network, scenario.graph(),
+                          seed=np.random.SeedSequence([scenario.seed, NETWORK_STREAM]))
+    options: dict[str, Any] = {
+        "preview_steps": _preview_steps(controller), "measurement_noise": sim.measurement_noise,
+        "full_state": getattr(controller, "needs_full_state", True),
+        "saturation": sim.plant_saturation, "output_interval": sim.output_interval,
+        "divergence_speed_error": sim.divergence_speed_error}
+    return _Run(_shared_plant(Plant, scenario), controller, profile, sim.duration, state,
+                network, options)
+
+
+def simulate_batch_strategy(scenarios: Sequence[Scenario], strategy: str,
+                            design: Design | None = None) -> list[SimulationResult] | None:
+    """:func:`simulate_strategy` (``warn=False``) of one strategy for several scenarios
+    that differ only in their seed and ``[network]``, as one batch
+    (:func:`trainctl.sim.batch.simulate_batch`), each result equal to its serial run bit for
+    bit but for the wall-clock fields; None when the batch does not cover these runs
+    (run them serially).
+    """
+    from trainctl.controllers.batch import BatchUnsupported
+    from trainctl.sim.batch import simulate_batch
+
+    if not scenarios:
+        return []
+    first = scenarios[0]
+    with numerical_errors(f"{first.source}: simulating {strategy!r} in a batch"):
+        runs = [_prepare(sc, strategy, design) for sc in scenarios]
+        head = runs[0]
+        if any(r.plant is not head.plant or r.options != head.options
+               or r.duration != head.duration
+               or not np.array_equal(r.profile.times, head.profile.times)
+               or not np.array_equal(r.profile.speeds, head.profile.speeds) for r in runs):
+            return None
+        try:
+            return simulate_batch(head.plant, [r.controller for r in runs], head.profile,
+                                  duration=head.duration, initial_states=[r.state for r in runs],
+                                  seeds=[int(sc.seed) for sc in scenarios],
+                                  networks=[r.network for r in runs], warn=False,
+                                  **head.options)
+        except BatchUnsupported:
+            return None
 
 
 _PLANTS = threading.local()

@@ -37,6 +37,8 @@ not finite).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import bisect
 import math
 import time
@@ -60,6 +62,9 @@ from trainctl.exceptions import ModelError
 from trainctl.models.envelope import EnvelopeBounds
 from trainctl.models.network import ARRIVAL_TOLERANCE, REFERENCE
 from trainctl.models.train import Train
+
+if TYPE_CHECKING:
+    from trainctl.controllers.hinf.batch import HinfBatch
 
 __all__ = ["HinfController"]
 
@@ -117,6 +122,14 @@ class HinfController:
                        if law.adjacency[i, j] > 0]
         self._times: list[float] = []
         self._speeds: list[Array] = []
+
+    @staticmethod
+    def batched(controllers: list[Any]) -> HinfBatch:
+        """The law of these controllers (one per run) over R runs at once
+        (:mod:`trainctl.controllers.hinf.batch`, for :func:`trainctl.sim.batch.simulate_batch`)."""
+        from trainctl.controllers.hinf.batch import HinfBatch
+
+        return HinfBatch(controllers)
 
     def reset(self) -> None:
         """Forget the record of the vehicles' own measured speeds."""

@@ -24,6 +24,8 @@ not finite).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import time
 from collections.abc import Callable
 
@@ -45,6 +47,9 @@ from trainctl.exceptions import ModelError
 from trainctl.models.envelope import EnvelopeBounds
 from trainctl.models.network.schema import NetworkSettings
 from trainctl.models.train import Train
+
+if TYPE_CHECKING:
+    from trainctl.controllers.synchronous.batch import SynchronousBatch
 
 __all__ = ["SynchronousController"]
 
@@ -111,6 +116,14 @@ class SynchronousController:
         self._relay_factory = relay_factory
         self.input_bounds, self.name = bool(input_bounds), name
         self._envelope = EnvelopeBounds(train, enabled=self.input_bounds)
+
+    @staticmethod
+    def batched(controllers: list[Any]) -> SynchronousBatch:
+        """The law of these controllers (one per run) over R runs at once
+        (:mod:`trainctl.controllers.synchronous.batch`, for :func:`trainctl.sim.batch.simulate_batch`)."""
+        from trainctl.controllers.synchronous.batch import SynchronousBatch
+
+        return SynchronousBatch(controllers)
 
     def reset(self) -> None:
         """Forget every relayed command and restart the relay's random stream."""

@@ -1,0 +1,110 @@
+# The hinf controller's law over many runs at once (trainctl.sim.batch).
+"""R runs of :class:`~trainctl.controllers.hinf.controller.HinfController` on (R, n)
+arrays, each bit for bit its serial :meth:`~HinfController.step` (the same
+elementwise operations, the consensus sum along the same contiguous axis)."""
+
+from __future__ import annotations
+
+import math
+import pickle
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from trainctl.controllers.base import ReferencePreview
+from trainctl.controllers.batch import (
+    BatchUnsupported,
+    Messages,
+    clip_rows,
+    own_resistance_rows,
+)
+from trainctl.models.network import ARRIVAL_TOLERANCE, REFERENCE
+
+if TYPE_CHECKING:
+    from trainctl.controllers.hinf.controller import HinfController
+
+__all__ = ["HinfBatch"]
+
+Array = NDArray[np.float64]
+
+
+class HinfBatch:
+    """The law of R hinf controllers with the same settings (one per run)."""
+
+    def __init__(self, controllers: Sequence[HinfController]) -> None:
+        first = controllers[0]
+        key = pickle.dumps((first.law, first.dt, first.input_bounds))
+        if any(pickle.dumps((c.law, c.dt, c.input_bounds)) != key for c in controllers[1:]):
+            raise BatchUnsupported("the runs' hinf laws differ")
+        self.law, self.R = first.law, len(controllers)
+        self.envelopes = first._envelope.envelopes if first.input_bounds else None
+        if first.input_bounds and self.envelopes is None:
+            raise BatchUnsupported("the train has envelopes of another kind")
+        self.times = np.zeros(0)
+        self.history = np.zeros((0, 0, 0))
+
+    def start(self, times: Array) -> None:
+        """Forget the record of own speeds (:meth:`HinfController.reset`)."""
+        self.times = np.asarray(times, dtype=float)
+        if self.law.own_speed == "delayed":
+            self.history = np.empty((self.R, self.times.size, self.law.n))
+
+    def step(self, k: int, t: float, states: Array, measured: Array, positions: Array,
+             messages: Messages | None, reference: ReferencePreview) -> Array:
+        """The forces of :meth:`HinfController.step` for every run, shape (R, n)."""
+        law, n = self.law, self.law.n
+        speeds = measured
+        v_ref, a_ref = float(reference.speed[0]), float(reference.acceleration[0])
+        if not np.isfinite(speeds).all():
+            raise BatchUnsupported("a measured speed is not finite")
+        if self.history.size:
+            self.history[:, k] = speeds
+        R = speeds.shape[0]
+        if messages is None:
+            e0 = speeds - float(reference.speed[0])
+            e = speeds[:, :, None] - speeds[:, None, :]
+        else:
+            e0 = np.full((R, n), math.nan)
+            e = np.full((R, n, n), math.nan)
+            for m, (receiver, sender) in enumerate(messages.links):
+                i = int(receiver)
+                if not 0 <= i < n:
+                    continue
+                if sender == REFERENCE:
+                    if law.pinning[i] <= 0:
+                        continue
+                else:
+                    j = int(sender)
+                    if not 0 <= j < n or law.adjacency[i, j] <= 0:
+                        continue
+                value = messages.values[:, m]
+                if law.own_speed == "delayed":
+                    own = self._own_speed(k, i, messages.t_sent[:, m])
+                else:
+                    own = speeds[:, i]
+                diff = np.where(np.isnan(value), math.nan, own - value)
+                if sender == REFERENCE:
+                    e0[:, i] = diff
+                else:
+                    e[:, i, int(sender)] = diff
+        pin_weights, weights = law._weights
+        pin = np.where((pin_weights > 0) & ~np.isnan(e0), pin_weights * e0, 0.0)
+        consensus = np.sum(np.where((weights > 0) & ~np.isnan(e), weights * e, 0.0), axis=2)
+        commands = float(a_ref) - law.kappa_p * pin - law.kappa_c * consensus
+        if not np.isfinite(commands).all():
+            raise BatchUnsupported("a command is not finite")
+        line = (np.zeros(n) if law.line is None
+                else np.asarray(law.line.resistance_per_mass(positions), dtype=float))
+        inputs = law.mass * (commands + line) + own_resistance_rows(law.mass, law.davis, speeds)
+        del v_ref
+        return clip_rows(self.envelopes, inputs, speeds)
+
+    def _own_speed(self, k: int, i: int, t_sent: Array) -> Array:
+        """Vehicle i's recorded measured speed at each run's ``t_sent`` (NaN: none held)."""
+        sent = np.where(np.isnan(t_sent), 0.0, t_sent)
+        due = sent + ARRIVAL_TOLERANCE * np.maximum(1.0, np.abs(sent))
+        index = np.maximum(np.searchsorted(self.times[: k + 1], due, side="right") - 1, 0)
+        own: Array = self.history[np.arange(sent.size), index, i]
+        return own
