@@ -202,14 +202,39 @@ def simulate_batch_strategy(scenarios: Sequence[Scenario], strategy: str,
                or not np.array_equal(r.profile.times, head.profile.times)
                or not np.array_equal(r.profile.speeds, head.profile.speeds) for r in runs):
             return None
+        size = _batch_size(head)
+        results: list[SimulationResult] = []
         try:
-            return simulate_batch(head.plant, [r.controller for r in runs], head.profile,
-                                  duration=head.duration, initial_states=[r.state for r in runs],
-                                  seeds=[int(sc.seed) for sc in scenarios],
-                                  networks=[r.network for r in runs], warn=False,
-                                  **head.options)
+            for a in range(0, len(runs), size):
+                chunk, seeds = runs[a : a + size], scenarios[a : a + size]
+                results += simulate_batch(
+                    head.plant, [r.controller for r in chunk], head.profile,
+                    duration=head.duration, initial_states=[r.state for r in chunk],
+                    seeds=[int(sc.seed) for sc in seeds], networks=[r.network for r in chunk],
+                    warn=False, **head.options)
         except BatchUnsupported:
             return None
+        return results
+
+
+BATCH_VALUES = 1 << 25
+"""Most numbers of dense states and coupler forces [-] one batch holds (256 MB of float64);
+a batch of longer runs is split."""
+
+
+def _batch_size(run: _Run) -> int:
+    """How many runs like ``run`` one batch takes (:data:`BATCH_VALUES`)."""
+    from trainctl.sim._log import dense_grid
+
+    dt = float(run.controller.dt)
+    steps = max(1, round(run.duration / dt))
+    n = run.plant.train.n_vehicles
+    substeps = run.plant.substeps(dt)
+    interval = run.options["output_interval"]
+    every, inner = dense_grid(substeps, steps, n, dt, interval,
+                              run.plant.fastest_rate if interval is None else 0.0)
+    points = steps * run.plant.dense_offsets(dt, every, inner).size + 1
+    return max(1, BATCH_VALUES // (points * (3 * n - 1)))
 
 
 _PLANTS = threading.local()
