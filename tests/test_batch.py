@@ -147,6 +147,7 @@ def test_plan_equals_network() -> None:
             else:
                 assert not has[m]
     log, mine = net.history(), planned.history(times.size, sent)
+    assert np.array_equal(planned.held_noise_square(), log.held_noise_square(times))
     for f in fields(log):
         a, b = getattr(log, f.name), getattr(mine, f.name)
         if isinstance(a, np.ndarray):

@@ -191,7 +191,13 @@ def _integrate(plant: Plant, x: Array, u: Array, dt: float, steps: int, every: i
 
 def _linear_step(plant: Plant, h: float, vbar: Array, z: Array) -> Array:
     """Each row's ``propagator(plant, h, vbar[r]).step @ z[r]`` (stacked gemv)."""
-    values, index = np.unique(vbar, return_inverse=True)
-    steps = np.stack([propagator(plant, h, float(v)).step for v in values.tolist()])
-    out: Array = np.matmul(steps[index.ravel()], z[:, :, None])[:, :, 0]
+    first = float(vbar[0])
+    if (vbar == first).all():  # one grid speed (the usual case): the step broadcast
+        step = propagator(plant, h, first).step
+        stacked = np.broadcast_to(step, (z.shape[0], *step.shape))
+    else:
+        values, index = np.unique(vbar, return_inverse=True)
+        steps = np.stack([propagator(plant, h, float(v)).step for v in values.tolist()])
+        stacked = steps[index.ravel()]
+    out: Array = np.matmul(stacked, z[:, :, None])[:, :, 0]
     return out

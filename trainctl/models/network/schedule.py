@@ -84,6 +84,22 @@ class Plan:
         values = sent[idx, cols] + self.noise[idx, cols]
         return np.where(has, values, np.nan), has
 
+    def held_noise_square(self) -> Array:
+        """:meth:`MessageLog.held_noise_square` of the whole run at the read times, from
+        :attr:`source` (the same sums: link by link, in the order of each link's first
+        delivered message, as the log groups them)."""
+        K, L = self.source.shape
+        out = np.zeros(K)
+        delivered = self.fate == _DELIVERED
+        some = np.flatnonzero(delivered.any(axis=0))
+        first = np.argmax(delivered[:, some], axis=0) * L + some
+        square = self.noise**2
+        for m in some[np.argsort(first)].tolist():
+            src = self.source[:, m]
+            has = src >= 0
+            out[has] += square[src[has], m]
+        return out
+
     def history(self, done: int, sent: Array) -> MessageLog:
         """The :class:`MessageLog` of the first ``done`` sends, as :meth:`Network.history` has it.
 
