@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 import trainctl
+from trainctl.models._plant_batch import advance_dense_batch
 from trainctl.models.dynamics import equilibrium
 from trainctl.models.graphs import REFERENCE, make_graph
-from trainctl.models.network.schema import Interruption, NetworkSettings
 from trainctl.models.network.schedule import plan
+from trainctl.models.network.schema import Interruption, NetworkSettings
 from trainctl.models.network.simulator import Network
 from trainctl.models.plant import Plant
-from trainctl.models._plant_batch import advance_dense_batch
 from trainctl.run.repetitions import BASELINE, repetition_scenario, run_repetition, run_repetitions
 from trainctl.run.simulate import simulate_batch_strategy, simulate_strategy
 from trainctl.sim.results import SimulationResult

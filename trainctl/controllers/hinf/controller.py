@@ -37,13 +37,11 @@ not finite).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
-
 import bisect
 import math
 import time
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -125,8 +123,8 @@ class HinfController:
 
     @staticmethod
     def batched(controllers: list[Any]) -> HinfBatch:
-        """The law of these controllers (one per run) over R runs at once
-        (:mod:`trainctl.controllers.hinf.batch`, for :func:`trainctl.sim.batch.simulate_batch`)."""
+        """The law of these controllers (one per run) over R runs at once, for
+        :func:`trainctl.sim.batch.simulate_batch` (:mod:`trainctl.controllers.hinf.batch`)."""
         from trainctl.controllers.hinf.batch import HinfBatch
 
         return HinfBatch(controllers)

@@ -24,10 +24,9 @@ not finite).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
-
 import time
 from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -119,8 +118,8 @@ class SynchronousController:
 
     @staticmethod
     def batched(controllers: list[Any]) -> SynchronousBatch:
-        """The law of these controllers (one per run) over R runs at once
-        (:mod:`trainctl.controllers.synchronous.batch`, for :func:`trainctl.sim.batch.simulate_batch`)."""
+        """The law of these controllers (one per run) over R runs at once, for
+        :func:`trainctl.sim.batch.simulate_batch` (:mod:`trainctl.controllers.synchronous.batch`)."""
         from trainctl.controllers.synchronous.batch import SynchronousBatch
 
         return SynchronousBatch(controllers)

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from trainctl.models.network._draws import draws, draws_by_calls
 from trainctl.models.network.schema import Link, Sender
 from trainctl.models.network.simulator import (
     _BLOCKED,
@@ -144,22 +145,16 @@ def plan(network: Network, times: Array, senders: Sequence[Sender]) -> Plan:
     """
     times = np.asarray(times, dtype=float)
     K = times.size
-    rng = np.random.default_rng(network.seed)
     fanouts = [network._fanout[s] for s in senders]
     widths = [len(f) for f in fanouts]
     links = tuple(link for f in fanouts for link, _ in f)
     L = len(links)
-    u = np.empty((K, L, 2))
-    z = np.empty((K, L))
-    starts = np.cumsum([0, *widths])
-    active = [(int(starts[m]), int(starts[m + 1])) for m in range(len(senders)) if widths[m]]
-    # The draws in the network's order: per time, per sender u ~ U(k, 2), then z ~ N(k).
-    random, normal = rng.random, rng.standard_normal
-    for k in range(K):
-        uk, zk = u[k], z[k]
-        for a, b in active:
-            uk[a:b] = random((b - a, 2))
-            zk[a:b] = normal(b - a)
+    # The draws in the network's order: per time, per sender u ~ U(w, 2), then z ~ N(w).
+    drawn = draws(network.seed, widths, K)
+    if drawn is None:
+        drawn = draws_by_calls(np.random.default_rng(network.seed), widths, K)
+    u, z = drawn
+    assert u.shape == (K, L, 2)
     lo, hi = network._lo, network._hi
     delay = lo + (hi - lo) * u[:, :, 0]
     std = np.array([network._noise_std[s] for s, w in zip(senders, widths, strict=True)
