@@ -119,7 +119,8 @@ class SynchronousController:
     @staticmethod
     def batched(controllers: list[Any]) -> SynchronousBatch:
         """The law of these controllers (one per run) over R runs at once, for
-        :func:`trainctl.sim.batch.simulate_batch` (:mod:`trainctl.controllers.synchronous.batch`)."""
+        :func:`trainctl.sim.batch.simulate_batch`
+        (:mod:`trainctl.controllers.synchronous.batch`)."""
         from trainctl.controllers.synchronous.batch import SynchronousBatch
 
         return SynchronousBatch(controllers)
