@@ -46,7 +46,7 @@ from trainctl.models.dynamics import vehicle_positions
 from trainctl.models.envelope import EnvelopeBounds
 from trainctl.models.graphs import REFERENCE
 from trainctl.models.network.schedule import Plan, plan
-from trainctl.models.network.simulator import FATES, Network
+from trainctl.models.network.simulator import Network
 from trainctl.models.plant import Plant
 from trainctl.models.vehicle import envelope_limit
 from trainctl.sim._log import Log, dense_grid
@@ -151,13 +151,8 @@ def simulate_batch(
             "divergence_speed_error": bound if math.isfinite(bound) else None,
             "divergence": None, "wall_time": wall, **_iteration_limit(controller),
         })
-        history = None
         if plans is not None:
-            history = plans[r].history(steps, engine.sent[r])
-            fates = history.fate
-            meta["network"] = {fate: int(np.count_nonzero(fates == fate)) for fate in FATES}
-            delivered = fates == "delivered"
-            meta["network"]["noise_square_sum"] = float(np.sum(history.noise[delivered] ** 2))
+            meta["network"] = plans[r].counts()
         to_dict = getattr(reference, "to_dict", None)
         if callable(to_dict):
             meta["reference"] = to_dict()

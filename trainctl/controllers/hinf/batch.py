@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 import pickle
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -28,6 +28,7 @@ if TYPE_CHECKING:
 __all__ = ["HinfBatch"]
 
 Array = NDArray[np.float64]
+IntArray = NDArray[np.intp]
 
 
 class HinfBatch:
@@ -44,6 +45,7 @@ class HinfBatch:
             raise BatchUnsupported("the train has envelopes of another kind")
         self.times = np.zeros(0)
         self.history = np.zeros((0, 0, 0))
+        self._links: dict[Any, Any] = {}
 
     def start(self, times: Array) -> None:
         """Forget the record of own speeds (:meth:`HinfController.reset`)."""
@@ -66,29 +68,22 @@ class HinfBatch:
             e0 = speeds - float(reference.speed[0])
             e = speeds[:, :, None] - speeds[:, None, :]
         else:
+            ref, pairs = self._used(messages.links)
             e0 = np.full((R, n), math.nan)
             e = np.full((R, n, n), math.nan)
-            for m, (receiver, sender) in enumerate(messages.links):
-                i = int(receiver)
-                if not 0 <= i < n:
+            for pinned, (m, receivers) in ((True, ref), (False, pairs[:2])):
+                if not m.size:
                     continue
-                if sender == REFERENCE:
-                    if law.pinning[i] <= 0:
-                        continue
-                else:
-                    j = int(sender)
-                    if not 0 <= j < n or law.adjacency[i, j] <= 0:
-                        continue
                 value = messages.values[:, m]
                 if law.own_speed == "delayed":
-                    own = self._own_speed(k, i, messages.t_sent[:, m])
+                    own = self._own_speed(k, receivers, messages.t_sent[:, m])
                 else:
-                    own = speeds[:, i]
+                    own = speeds[:, receivers]
                 diff = np.where(np.isnan(value), math.nan, own - value)
-                if sender == REFERENCE:
-                    e0[:, i] = diff
+                if pinned:
+                    e0[:, receivers] = diff
                 else:
-                    e[:, i, int(sender)] = diff
+                    e[:, receivers, pairs[2]] = diff
         pin_weights, weights = law._weights
         pin = np.where((pin_weights > 0) & ~np.isnan(e0), pin_weights * e0, 0.0)
         consensus = np.sum(np.where((weights > 0) & ~np.isnan(e), weights * e, 0.0), axis=2)
@@ -101,10 +96,41 @@ class HinfBatch:
         del v_ref
         return clip_rows(self.envelopes, inputs, speeds)
 
-    def _own_speed(self, k: int, i: int, t_sent: Array) -> Array:
-        """Vehicle i's recorded measured speed at each run's ``t_sent`` (NaN: none held)."""
+    def _used(self, links: tuple[tuple[int, Any], ...]
+              ) -> tuple[tuple[IntArray, IntArray], tuple[IntArray, IntArray, IntArray]]:
+        """The links the law reads (:meth:`HinfController._errors` skips the others):
+        (columns, receivers) of the reference's, (columns, receivers, senders) of the
+        vehicles'."""
+        cached = self._links.get(links)
+        if cached is not None:
+            return cached
+        law, n = self.law, self.law.n
+        ref: tuple[list[int], list[int]] = ([], [])
+        pairs: tuple[list[int], list[int], list[int]] = ([], [], [])
+        for m, (receiver, sender) in enumerate(links):
+            i = int(receiver)
+            if not 0 <= i < n:
+                continue
+            if sender == REFERENCE:
+                if law.pinning[i] > 0:
+                    ref[0].append(m)
+                    ref[1].append(i)
+                continue
+            j = int(sender)
+            if 0 <= j < n and law.adjacency[i, j] > 0:
+                pairs[0].append(m)
+                pairs[1].append(i)
+                pairs[2].append(j)
+        out = (tuple(np.array(x, dtype=np.intp) for x in ref),
+               tuple(np.array(x, dtype=np.intp) for x in pairs))
+        self._links[links] = out  # type: ignore[assignment]
+        return out  # type: ignore[return-value]
+
+    def _own_speed(self, k: int, receivers: IntArray, t_sent: Array) -> Array:
+        """Each receiver's recorded measured speed at each run's ``t_sent`` (R, links)."""
         sent = np.where(np.isnan(t_sent), 0.0, t_sent)
         due = sent + ARRIVAL_TOLERANCE * np.maximum(1.0, np.abs(sent))
         index = np.maximum(np.searchsorted(self.times[: k + 1], due, side="right") - 1, 0)
-        own: Array = self.history[np.arange(sent.size), index, i]
+        rows = np.arange(sent.shape[0])[:, None]
+        own: Array = self.history[rows, index, receivers[None, :]]
         return own

@@ -101,6 +101,15 @@ class Plan:
             out[has] += square[src[has], m]
         return out
 
+    def counts(self) -> dict[str, float]:
+        """``meta["network"]`` of :func:`trainctl.sim.simulate` for the whole run: the messages
+        per fate and the noise square sum of the delivered ones (the log's order)."""
+        codes = self.fate.ravel()
+        out: dict[str, float] = {fate: int(np.count_nonzero(codes == code))
+                                 for code, fate in enumerate(FATES)}
+        out["noise_square_sum"] = float(np.sum(self.noise.ravel()[codes == _DELIVERED] ** 2))
+        return out
+
     def history(self, done: int, sent: Array) -> MessageLog:
         """The :class:`MessageLog` of the first ``done`` sends, as :meth:`Network.history` has it.
 
