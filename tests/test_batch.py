@@ -71,6 +71,34 @@ def test_delayed_own_speed_batch_equals_serial() -> None:
         assert_same(result, simulate_strategy(run, "distributed", warn=False))
 
 
+@pytest.mark.parametrize("strategy", ["distributed", "synchronous.synchronous"])
+def test_outage_and_losses_batch_equals_serial(strategy: str) -> None:
+    # every link cut over 5-12 s, 20 % of the messages lost, delays in 0-1 s
+    scenario = (short("heavy-haul-hinf-interruption", 20.0)
+                .replace("network.interruption", [{"start": 5.0, "end": 12.0, "links": "all"}])
+                .replace("network.loss_probability", 0.2)
+                .replace("network.delay_range_s", [0.0, 1.0]))
+    runs = [replace(scenario, seed=s) for s in (1, 2)]
+    batched = simulate_batch_strategy(runs, strategy)
+    assert batched is not None
+    for run, result in zip(runs, batched, strict=True):
+        assert_same(result, simulate_strategy(run, strategy, warn=False))
+    if strategy == "distributed":
+        counts = batched[0].meta["network"]
+        assert counts["lost"] > 0 and counts["blocked"] > 0
+
+
+def test_ideal_network_batch_equals_serial() -> None:
+    # no [network]: the hinf law reads the measured speeds and the reference directly
+    scenario = short("heavy-haul-hinf-ideal", 20.0)
+    runs = [replace(scenario, seed=s) for s in (1, 2)]
+    for strategy in scenario.simulation.strategies:
+        batched = simulate_batch_strategy(runs, strategy)
+        assert batched is not None
+        for run, result in zip(runs, batched, strict=True):
+            assert_same(result, simulate_strategy(run, strategy, warn=False))
+
+
 def test_repetitions_batched_equal_serial_repetitions() -> None:
     scenario = short("heavy-haul-hinf-delay", 20.0)
     indices = [1, 2, BASELINE]
@@ -114,6 +142,12 @@ def test_plant_batch_equals_serial_rows() -> None:
         states.append(x)
         inputs.append(eq.inputs * rng.uniform(0.5, 1.5, n))
     X, U = np.array(states), np.array(inputs)
+    # and rows about one speed, all with one grid speed (one propagator broadcast)
+    eq = equilibrium(scenario.train, 15.0)
+    same = np.tile(eq.state(position=1000.0), (8, 1))
+    same[:, :n] += rng.uniform(-0.3, 0.3, (8, n))
+    X = np.vstack([X, same])
+    U = np.vstack([U, np.tile(eq.inputs, (8, 1)) * rng.uniform(0.9, 1.1, (8, n))])
     for dt, every, inner in [(0.2, 1, 1), (1.0, 3, 1), (0.2, 1, 2)]:
         batched = advance_dense_batch(plant, X, U, dt, every, inner)
         for r in range(X.shape[0]):
@@ -155,3 +189,16 @@ def test_plan_equals_network() -> None:
             assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), f.name
         else:
             assert a == b, f.name
+
+
+@pytest.mark.parametrize("widths", [(4, 1, 2, 2, 1), (3,), (0, 2, 5)])
+def test_draws_equal_the_generators_calls(widths: tuple[int, ...]) -> None:
+    # the raw-stream decoding (slow-path normals included: ~1 % of the draws) against
+    # the generator's own random((w, 2)) and standard_normal(w) calls
+    from trainctl.models.network._draws import draws, draws_by_calls
+
+    for seed in (np.random.SeedSequence([3, 1]), np.random.SeedSequence([9, 2]), 11):
+        got = draws(seed, widths, 4000)
+        assert got is not None
+        want = draws_by_calls(np.random.default_rng(seed), widths, 4000)
+        assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
