@@ -537,8 +537,8 @@ def collect_repetitions(
         done = {key: pending[key].result() for key in runs}
     else:
         for strategy, indices in _by_strategy(runs).items():
-            reps = run_repetitions(scenario, strategy, design, indices)
-            done.update({(strategy, r): rep for r, rep in zip(indices, reps, strict=True)})
+            batch = run_repetitions(scenario, strategy, design, indices)
+            done.update({(strategy, r): rep for r, rep in zip(indices, batch, strict=True)})
     sim = scenario.simulation
     assert sim is not None
     reps: dict[str, tuple[Repetition, ...]] = {}

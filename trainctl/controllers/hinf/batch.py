@@ -29,6 +29,7 @@ __all__ = ["HinfBatch"]
 
 Array = NDArray[np.float64]
 IntArray = NDArray[np.intp]
+_Used = tuple[tuple[IntArray, IntArray], tuple[IntArray, IntArray, IntArray]]
 
 
 class HinfBatch:
@@ -45,7 +46,7 @@ class HinfBatch:
             raise BatchUnsupported("the train has envelopes of another kind")
         self.times = np.zeros(0)
         self.history = np.zeros((0, 0, 0))
-        self._links: dict[Any, Any] = {}
+        self._links: dict[tuple[tuple[int, Any], ...], _Used] = {}
 
     def start(self, times: Array) -> None:
         """Forget the record of own speeds (:meth:`HinfController.reset`)."""
@@ -96,12 +97,11 @@ class HinfBatch:
         del v_ref
         return clip_rows(self.envelopes, inputs, speeds)
 
-    def _used(self, links: tuple[tuple[int, Any], ...]
-              ) -> tuple[tuple[IntArray, IntArray], tuple[IntArray, IntArray, IntArray]]:
+    def _used(self, links: tuple[tuple[int, Any], ...]) -> _Used:
         """The links the law reads (:meth:`HinfController._errors` skips the others):
         (columns, receivers) of the reference's, (columns, receivers, senders) of the
         vehicles'."""
-        cached = self._links.get(links)
+        cached: _Used | None = self._links.get(links)
         if cached is not None:
             return cached
         law, n = self.law, self.law.n
@@ -121,10 +121,14 @@ class HinfBatch:
                 pairs[0].append(m)
                 pairs[1].append(i)
                 pairs[2].append(j)
-        out = (tuple(np.array(x, dtype=np.intp) for x in ref),
-               tuple(np.array(x, dtype=np.intp) for x in pairs))
-        self._links[links] = out  # type: ignore[assignment]
-        return out  # type: ignore[return-value]
+
+        def index(values: list[int]) -> IntArray:
+            return np.array(values, dtype=np.intp)
+
+        out: _Used = ((index(ref[0]), index(ref[1])),
+                      (index(pairs[0]), index(pairs[1]), index(pairs[2])))
+        self._links[links] = out
+        return out
 
     def _own_speed(self, k: int, receivers: IntArray, t_sent: Array) -> Array:
         """Each receiver's recorded measured speed at each run's ``t_sent`` (R, links)."""
