@@ -21,7 +21,13 @@ Array = NDArray[np.float64]
 
 
 class BatchUnsupported(Exception):
-    """The batch cannot give these runs' serial results bit for bit: run them serially."""
+    """The batch cannot give these runs' serial results bit for bit: run them serially.
+
+    Examples
+    --------
+    >>> str(BatchUnsupported("a run diverged"))
+    'a run diverged'
+    """
 
 
 class Messages:
@@ -35,6 +41,14 @@ class Messages:
         Shape (R, L): the value each link holds, noise included (NaN: none yet).
     t_sent : ndarray
         Shape (R, L): when it was sent [s] (NaN: none).
+
+    Examples
+    --------
+    Two runs, one link (vehicle 1 hears vehicle 0); the second run holds nothing yet:
+
+    >>> m = Messages(((1, 0),), np.array([[15.0], [np.nan]]), np.array([[0.2], [np.nan]]))
+    >>> m.values[:, 0].tolist()
+    [15.0, nan]
     """
 
     def __init__(self, links: tuple[tuple[int, Any], ...], values: Array, t_sent: Array):
@@ -42,7 +56,16 @@ class Messages:
 
 
 class BatchLaw(Protocol):
-    """A controller's law over R runs: one call per sample on (R, ...) arrays."""
+    """A controller's law over R runs: one call per sample on (R, ...) arrays.
+
+    Examples
+    --------
+    The hinf family's (:class:`trainctl.controllers.hinf.batch.HinfBatch`):
+
+    >>> from trainctl.controllers.hinf.batch import HinfBatch
+    >>> callable(HinfBatch.step), callable(HinfBatch.start)
+    (True, True)
+    """
 
     def start(self, times: Array) -> None:
         """Reset for runs whose samples are at ``times`` [s] (shape (K,))."""

@@ -328,7 +328,28 @@ def run_repetition(scenario: Scenario, strategy: str, design: Design | None,
 
 
 def repetition_scenario(scenario: Scenario, index: int) -> Scenario:
-    """The scenario run ``index`` simulates (:func:`run_repetition`): its seed, its network."""
+    """The scenario run ``index`` simulates (:func:`run_repetition`): its seed, its network.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (with ``[simulation]``).
+    index : int
+        A repetition r >= 0 or a baseline ``BASELINE - r``.
+
+    Returns
+    -------
+    Scenario
+        With the seed ``seed + r``; a baseline over the baseline network.
+
+    Examples
+    --------
+    >>> import trainctl
+    >>> scenario = trainctl.load_scenario("heavy-haul-hinf-delay")
+    >>> run = repetition_scenario(scenario, baseline_index(2))
+    >>> run.seed, run.network.delay_range_s
+    (5, None)
+    """
     sim = scenario.simulation
     assert sim is not None
     if index <= BASELINE:
@@ -346,6 +367,22 @@ def run_repetitions(scenario: Scenario, strategy: str, design: Design | None,
     results equal the serial runs' bit for bit; where the batch does not
     cover them (a family without a batched law, a run that diverges, ...)
     each runs serially.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (with ``[simulation]``).
+    strategy : str
+        One of its strategies.
+    design : Design or None
+        The runs' design (built here when None).
+    indices : sequence of int
+        The runs (:func:`run_repetition`'s ``index``).
+
+    Returns
+    -------
+    list of Repetition
+        One per index, in order.
 
     Examples
     --------

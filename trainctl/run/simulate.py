@@ -182,11 +182,40 @@ def _prepare(scenario: Scenario, strategy: str, design: Design | None) -> _Run:
 
 def simulate_batch_strategy(scenarios: Sequence[Scenario], strategy: str,
                             design: Design | None = None) -> list[SimulationResult] | None:
-    """:func:`simulate_strategy` (``warn=False``) of one strategy for several scenarios
-    that differ only in their seed and ``[network]``, as one batch
-    (:func:`trainctl.sim.batch.simulate_batch`), each result equal to its serial run bit for
-    bit but for the wall-clock fields; None when the batch does not cover these runs
-    (run them serially).
+    """:func:`simulate_strategy` (``warn=False``) of one strategy for several runs at once.
+
+    The scenarios differ only in their seed and ``[network]``; they run as
+    batches (:func:`trainctl.sim.batch.simulate_batch`, at most
+    :data:`BATCH_VALUES` dense numbers each), each result equal to its serial
+    run bit for bit but for the wall-clock fields.
+
+    Parameters
+    ----------
+    scenarios : sequence of Scenario
+        The runs' scenarios.
+    strategy : str
+        A name from their ``[simulation] strategies``.
+    design : Design or None
+        Their design; built here (per run) when None.
+
+    Returns
+    -------
+    list of SimulationResult or None
+        One per scenario; None when the batch does not cover these runs (a
+        family without a batched law, a run that diverges, ...): run them
+        serially.
+
+    Examples
+    --------
+    >>> from dataclasses import replace
+    >>> from trainctl.scenario import load_scenario
+    >>> sc = (load_scenario("heavy-haul-hinf-delay").replace("simulation.settle_time", 5.0)
+    ...       .replace("simulation.duration", 10.0))
+    >>> runs = [replace(sc, seed=3), replace(sc, seed=4)]
+    >>> batch = simulate_batch_strategy(runs, "distributed")
+    >>> serial = simulate_strategy(runs[1], "distributed", warn=False)
+    >>> bool(np.array_equal(batch[1].dense_states, serial.dense_states))
+    True
     """
     from trainctl.controllers.batch import BatchUnsupported
     from trainctl.sim.batch import simulate_batch

@@ -33,7 +33,41 @@ Array = NDArray[np.float64]
 
 
 class SynchronousBatch:
-    """The law and relays of R synchronous controllers with the same law (one per run)."""
+    """The law and relays of R synchronous controllers with the same law (one per run).
+
+    Parameters
+    ----------
+    controllers : sequence of SynchronousController
+        One per run (its relay as prepared for the run), with equal laws,
+        control intervals and envelope settings (else
+        :class:`~trainctl.controllers.batch.BatchUnsupported`).
+
+    Examples
+    --------
+    Over an instantaneous relay every remote holds the lead's command at once,
+    as :meth:`SynchronousController.step` has it:
+
+    >>> from trainctl.controllers.base import Measurement, ReferencePreview
+    >>> from trainctl.controllers.synchronous.controller import SynchronousController
+    >>> from trainctl.controllers.synchronous.law import law_of
+    >>> from trainctl.controllers.synchronous.relay import CommandRelay
+    >>> from trainctl.controllers.synchronous.settings import SynchronousSettings
+    >>> from trainctl.scenario import load_scenario
+    >>> scenario = load_scenario("heavy-haul-hinf")
+    >>> law = law_of(scenario, SynchronousSettings())
+    >>> ctl = SynchronousController(scenario.train, law, CommandRelay(None, 4, 0, seed=0),
+    ...                             dt=0.1)
+    >>> batch = SynchronousBatch([ctl])
+    >>> batch.start(np.zeros(1))
+    >>> ref = ReferencePreview(times=np.zeros(1), speed=np.full(1, 19.5),
+    ...                        acceleration=np.zeros(1))
+    >>> v = np.array([[19.6, 19.5, 19.5, 19.4]])
+    >>> u = batch.step(0, 0.0, np.zeros((1, 8)), v, np.zeros((1, 4)), None, ref)
+    >>> ctl.reset()
+    >>> serial = ctl.step(0.0, Measurement(outputs=v[0], positions=np.zeros(4)), ref).inputs
+    >>> bool(np.array_equal(u[0], serial))
+    True
+    """
 
     def __init__(self, controllers: Sequence[SynchronousController]) -> None:
         first = controllers[0]
