@@ -68,16 +68,43 @@ class BatchLaw(Protocol):
     """
 
     def start(self, times: Array) -> None:
-        """Reset for runs whose samples are at ``times`` [s] (shape (K,))."""
+        """Reset for runs whose samples are at ``times``.
+
+        Parameters
+        ----------
+        times : ndarray
+            The sample times [s], shape (K,).
+        """
         ...
 
     def step(self, k: int, t: float, states: Array, measured: Array, positions: Array,
              messages: Messages | None, reference: ReferencePreview) -> Array:
-        """The R runs' forces [N] for sample k, shape (R, n), as their serial steps give them.
+        """The R runs' forces for sample k, as their serial steps give them.
 
-        ``states`` (R, 2n) true states, ``measured`` (R, n) measured speeds
-        [m/s], ``positions`` (R, n) [m]. Raises :class:`BatchUnsupported`
-        where a serial step would take a fault path.
+        Raises :class:`BatchUnsupported` where a serial step would take a
+        fault path.
+
+        Parameters
+        ----------
+        k : int
+            The sample index.
+        t : float
+            Its time [s].
+        states : ndarray
+            The true states ``[v, delta, s]``, shape (R, 2n).
+        measured : ndarray
+            The measured speeds [m/s] (noise included), shape (R, n).
+        positions : ndarray
+            Each vehicle's position [m], shape (R, n).
+        messages : Messages or None
+            What the runs' links hold (None: no network).
+        reference : ReferencePreview
+            The reference preview at t.
+
+        Returns
+        -------
+        ndarray
+            The forces [N] to hold over [t, t + dt), shape (R, n).
         """
         ...
 

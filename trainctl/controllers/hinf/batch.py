@@ -79,14 +79,43 @@ class HinfBatch:
         self._links: dict[tuple[tuple[int, Any], ...], _Used] = {}
 
     def start(self, times: Array) -> None:
-        """Forget the record of own speeds (:meth:`HinfController.reset`)."""
+        """Forget the record of own speeds (:meth:`HinfController.reset`).
+
+        Parameters
+        ----------
+        times : ndarray
+            The sample times [s], shape (K,).
+        """
         self.times = np.asarray(times, dtype=float)
         if self.law.own_speed == "delayed":
             self.history = np.empty((self.R, self.times.size, self.law.n))
 
     def step(self, k: int, t: float, states: Array, measured: Array, positions: Array,
              messages: Messages | None, reference: ReferencePreview) -> Array:
-        """The forces of :meth:`HinfController.step` for every run, shape (R, n)."""
+        """The forces of :meth:`HinfController.step` for every run, shape (R, n).
+
+        Parameters
+        ----------
+        k : int
+            The sample index.
+        t : float
+            Its time [s].
+        states : ndarray
+            The true states ``[v, delta, s]``, shape (R, 2n).
+        measured : ndarray
+            The measured speeds [m/s] (noise included), shape (R, n).
+        positions : ndarray
+            Each vehicle's position [m], shape (R, n).
+        messages : Messages or None
+            What the runs' links hold (None: no network).
+        reference : ReferencePreview
+            The reference preview at t.
+
+        Returns
+        -------
+        ndarray
+            The forces [N] to hold over [t, t + dt), shape (R, n).
+        """
         law, n = self.law, self.law.n
         speeds = measured
         v_ref, a_ref = float(reference.speed[0]), float(reference.acceleration[0])

@@ -123,8 +123,19 @@ class HinfController:
 
     @staticmethod
     def batched(controllers: list[Any]) -> HinfBatch:
-        """The law of these controllers (one per run) over R runs at once, for
-        :func:`trainctl.sim.batch.simulate_batch` (:mod:`trainctl.controllers.hinf.batch`)."""
+        """The law of these controllers (one per run) over R runs at once.
+
+        For :func:`trainctl.sim.batch.simulate_batch` (:mod:`trainctl.controllers.hinf.batch`).
+
+        Parameters
+        ----------
+        controllers : list
+            One controller of this class per run.
+
+        Returns
+        -------
+        HinfBatch
+        """
         from trainctl.controllers.hinf.batch import HinfBatch
 
         return HinfBatch(controllers)

@@ -81,7 +81,13 @@ class SynchronousBatch:
             raise BatchUnsupported("the train has envelopes of another kind")
 
     def start(self, times: Array) -> None:
-        """Plan every run's relay over the samples (:meth:`CommandRelay.reset`)."""
+        """Plan every run's relay over the samples (:meth:`CommandRelay.reset`).
+
+        Parameters
+        ----------
+        times : ndarray
+            The sample times [s], shape (K,).
+        """
         lead = self.law.lead
         plans = [plan(net, times, (lead,)) for net in self.networks]
         links = plans[0].links
@@ -94,7 +100,30 @@ class SynchronousBatch:
 
     def step(self, k: int, t: float, states: Array, measured: Array, positions: Array,
              messages: Messages | None, reference: ReferencePreview) -> Array:
-        """The forces of :meth:`SynchronousController.step` for every run, shape (R, n)."""
+        """The forces of :meth:`SynchronousController.step` for every run, shape (R, n).
+
+        Parameters
+        ----------
+        k : int
+            The sample index.
+        t : float
+            Its time [s].
+        states : ndarray
+            The true states ``[v, delta, s]``, shape (R, 2n).
+        measured : ndarray
+            The measured speeds [m/s] (noise included), shape (R, n).
+        positions : ndarray
+            Each vehicle's position [m], shape (R, n).
+        messages : Messages or None
+            What the runs' links hold (None: no network).
+        reference : ReferencePreview
+            The reference preview at t.
+
+        Returns
+        -------
+        ndarray
+            The forces [N] to hold over [t, t + dt), shape (R, n).
+        """
         law, n, R = self.law, self.law.n, self.R
         speeds = measured
         v_ref, a_ref = float(reference.speed[0]), float(reference.acceleration[0])

@@ -118,9 +118,20 @@ class SynchronousController:
 
     @staticmethod
     def batched(controllers: list[Any]) -> SynchronousBatch:
-        """The law of these controllers (one per run) over R runs at once, for
-        :func:`trainctl.sim.batch.simulate_batch`
-        (:mod:`trainctl.controllers.synchronous.batch`)."""
+        """The law of these controllers (one per run) over R runs at once.
+
+        For :func:`trainctl.sim.batch.simulate_batch`
+        (:mod:`trainctl.controllers.synchronous.batch`).
+
+        Parameters
+        ----------
+        controllers : list
+            One controller of this class per run.
+
+        Returns
+        -------
+        SynchronousBatch
+        """
         from trainctl.controllers.synchronous.batch import SynchronousBatch
 
         return SynchronousBatch(controllers)

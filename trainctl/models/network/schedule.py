@@ -85,10 +85,21 @@ class Plan:
     source: NDArray[np.int64]
 
     def held(self, k: int, sent: Array) -> tuple[Array, NDArray[np.bool_]]:
-        """The values the links hold at read k (NaN where none) and which hold one.
+        """The values the links hold at read k, and which hold one.
 
-        ``sent`` (shape (K, L)) holds, per send and link, the value its
-        sender sent (the values of sends after k are not read).
+        Parameters
+        ----------
+        k : int
+            The read (and send) index.
+        sent : ndarray
+            Shape (K, L): per send and link, the value its sender sent (the
+            values of sends after k are not read).
+
+        Returns
+        -------
+        (ndarray, ndarray of bool)
+            The values held, noise included (NaN where none), and where one
+            is held, shape (L,) each.
         """
         src = self.source[k]
         has = src >= 0
@@ -98,9 +109,16 @@ class Plan:
         return np.where(has, values, np.nan), has
 
     def held_noise_square(self) -> Array:
-        """:meth:`MessageLog.held_noise_square` of the whole run at the read times, from
-        :attr:`source` (the same sums: link by link, in the order of each link's first
-        delivered message, as the log groups them)."""
+        """:meth:`MessageLog.held_noise_square` of the whole run at the read times.
+
+        From :attr:`source`, with the same sums: link by link, in the order of
+        each link's first delivered message, as the log groups them.
+
+        Returns
+        -------
+        ndarray
+            Shape (K,), in the values' unit squared.
+        """
         K, L = self.source.shape
         out = np.zeros(K)
         delivered = self.fate == _DELIVERED
@@ -114,8 +132,14 @@ class Plan:
         return out
 
     def counts(self) -> dict[str, float]:
-        """``meta["network"]`` of :func:`trainctl.sim.simulate` for the whole run: the messages
-        per fate and the noise square sum of the delivered ones (the log's order)."""
+        """``meta["network"]`` of :func:`trainctl.sim.simulate` for the whole run.
+
+        Returns
+        -------
+        dict
+            The messages per fate (:data:`FATES`) and ``noise_square_sum``,
+            Σ n² over the delivered ones, summed in the log's order.
+        """
         codes = self.fate.ravel()
         out: dict[str, float] = {fate: int(np.count_nonzero(codes == code))
                                  for code, fate in enumerate(FATES)}
@@ -123,10 +147,19 @@ class Plan:
         return out
 
     def history(self, done: int, sent: Array) -> MessageLog:
-        """The :class:`MessageLog` of the first ``done`` sends, as :meth:`Network.history` has it.
+        """The :class:`MessageLog` of the first sends, as :meth:`Network.history` has it.
 
-        ``sent`` (shape (K, L)): the value of each send, per link (a
-        sender's value repeated over its links).
+        Parameters
+        ----------
+        done : int
+            How many sends (times) were made.
+        sent : ndarray
+            Shape (K, L): the value of each send, per link (a sender's value
+            repeated over its links).
+
+        Returns
+        -------
+        MessageLog
         """
         if done == 0 or not self.links:
             empty = np.zeros(0)
