@@ -148,7 +148,17 @@ def test_plant_batch_equals_serial_rows() -> None:
     same[:, :n] += rng.uniform(-0.3, 0.3, (8, n))
     X = np.vstack([X, same])
     U = np.vstack([U, np.tile(eq.inputs, (8, 1)) * rng.uniform(0.9, 1.1, (8, n))])
-    for dt, every, inner in [(0.2, 1, 1), (1.0, 3, 1), (0.2, 1, 2)]:
+    # heads just short of the grade change at 20 km, so that vehicles cross it within
+    # 0.2 s (and, much farther, within one 20 s interval)
+    cross = np.tile(equilibrium(scenario.train, 20.0).state(position=0.0), (6, 1))
+    cross[:, 2 * n - 1] = 20000.0 - np.array([0.5, 1.0, 2.0, 60.0, 300.0, 380.0])
+    X = np.vstack([X, cross])
+    U = np.vstack([U, np.tile(equilibrium(scenario.train, 20.0).inputs, (6, 1))])
+    from trainctl.models._plant_batch import _integrate
+
+    crossed = _integrate(plant, X, U, 20.0, plant.substeps(20.0), 50)[1]
+    assert crossed[-6:].all() and not crossed.all()
+    for dt, every, inner in [(0.2, 1, 1), (1.0, 3, 1), (0.2, 1, 2), (20.0, 50, 1)]:
         batched = advance_dense_batch(plant, X, U, dt, every, inner)
         for r in range(X.shape[0]):
             serial = plant.advance_dense(X[r], U[r], dt, every, inner)[1]

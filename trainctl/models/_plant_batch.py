@@ -12,9 +12,10 @@ path, whereas ``Z @ step.T`` (gemm) sums in another order and differs in the
 last bits (measured: about 8 of 11 entries per row differ by an ulp).
 
 Rows the vectorised substeps do not cover go through ``plant.advance_dense``
-itself: a row with a vehicle within reach of a section boundary during the
-interval (a crossing's Newton solve), and every row on the banded path or
-with inner points per substep.
+itself: a row in which some vehicle is in another track section at some
+substep boundary than at the start (the serial path's section tracker would
+find a crossing there and solve for it; without one its lookups change
+nothing), and every row on the banded path or with inner points per substep.
 """
 
 from __future__ import annotations
@@ -29,11 +30,6 @@ from trainctl.models.plant import Plant
 __all__ = ["advance_dense_batch"]
 
 Array = NDArray[np.float64]
-
-REACH_SLACK = 2.0
-"""[m] added to a vehicle's reach over an interval (twice its speed times the interval)
-within which a section boundary sends its row to the serial plant."""
-
 
 def _grid(speed: Array) -> Array:
     """:func:`~trainctl.models._plant_propagators.grid_speed` per element (+0.0: no -0.0,
@@ -79,36 +75,31 @@ def advance_dense_batch(plant: Plant, states: Array, inputs: Array, dt: float, e
     m = steps * inner if inner > 1 else (steps - 1) // every + 1
     out = np.empty((R, 2 * n, m))
     serial = np.zeros(R, dtype=bool)
-    track = plant._track_arrays
-    uniform = track is not None and track[0].size == 1
     if plant._banded or inner > 1:
         serial[:] = True
-    elif track is not None and not uniform:
-        serial |= _near_boundary(plant, states, dt, track[0][1:])
-    for r in np.flatnonzero(serial):
-        out[r] = plant.advance_dense(states[r], inputs[r], dt, every, inner)[1]
     rows = np.flatnonzero(~serial)
     if rows.size:
-        out[rows] = _integrate(plant, states[rows], inputs[rows], dt, steps, every)
+        out[rows], crossed = _integrate(plant, states[rows], inputs[rows], dt, steps, every)
+        serial[rows[crossed]] = True
+    for r in np.flatnonzero(serial):
+        out[r] = plant.advance_dense(states[r], inputs[r], dt, every, inner)[1]
     return out
 
 
-def _near_boundary(plant: Plant, states: Array, dt: float, bounds: Array) -> NDArray[np.bool_]:
-    """Rows with a vehicle whose reach over ``dt`` holds a section boundary."""
+def _sections(plant: Plant, z: Array, s: Array, starts: Array) -> NDArray[np.intp]:
+    """:func:`~trainctl.models._plant_crossings.sections` of every row (the same sums)."""
     n = plant.train.n_vehicles
-    gaps = plant.train.spacing[None, :] + states[:, n : 2 * n - 1]
-    behind = np.concatenate([np.zeros((states.shape[0], 1)), np.cumsum(gaps, axis=1)], axis=1)
-    p = states[:, 2 * n - 1, None] - behind
-    reach = 2.0 * dt * np.max(np.abs(states[:, :n]), axis=1) + REACH_SLACK
-    distance = np.min(np.abs(p[:, :, None] - bounds[None, None, :]), axis=(1, 2)) \
-        if bounds.size else np.full(states.shape[0], np.inf)
-    near: NDArray[np.bool_] = distance <= reach
-    return near
+    behind = np.zeros((z.shape[0], n))
+    np.cumsum(plant.train.spacing[None, :] + z[:, n : 2 * n - 1], axis=1, out=behind[:, 1:])
+    sections: NDArray[np.intp] = np.searchsorted(starts, s[:, None] - behind, side="right") - 1
+    return sections
 
 
-def _integrate(plant: Plant, x: Array, u: Array, dt: float, steps: int, every: int) -> Array:
-    """:func:`~trainctl.models._plant_integrate.integrate` with a dense record, on rows that
-    cross no section boundary (flat, uniform or far from the boundaries); (R, 2n, m)."""
+def _integrate(plant: Plant, x: Array, u: Array, dt: float, steps: int, every: int
+               ) -> tuple[Array, NDArray[np.bool_]]:
+    """:func:`~trainctl.models._plant_integrate.integrate` with a dense record on every row,
+    (R, 2n, m), as if no vehicle crossed a section boundary; and the rows where one did
+    (to be done again serially)."""
     R = x.shape[0]
     n = plant.train.n_vehicles
     h = dt / steps
@@ -116,14 +107,12 @@ def _integrate(plant: Plant, x: Array, u: Array, dt: float, steps: int, every: i
     base = u - plant._forces[0]
     track = plant._track_arrays
     resist: Array | None = None
+    crossed = np.zeros(R, dtype=bool)
+    now: NDArray[np.intp] | None = None
     if track is not None and track[0].size == 1:
         base = base - plant.train.mass * track[1][0]
     elif track is not None:
-        gaps = plant.train.spacing[None, :] + x[:, n : 2 * n - 1]
-        behind = np.zeros((R, n))
-        np.cumsum(gaps, axis=1, out=behind[:, 1:])
-        p = x[:, 2 * n - 1, None] - behind
-        now = np.searchsorted(track[0], p, side="right") - 1
+        now = _sections(plant, x, x[:, 2 * n - 1], track[0])
         resist = plant.train.mass * track[1][now]
     z = np.empty((R, 3 * n - 1))
     z[:, : 2 * n - 1] = x[:, : 2 * n - 1]
@@ -153,6 +142,8 @@ def _integrate(plant: Plant, x: Array, u: Array, dt: float, steps: int, every: i
         new = _linear_step(plant, h, vbar, z)
         s = s + new[:, 2 * n - 1]
         z[:, : 2 * n - 1] = new[:, : 2 * n - 1]
+        if now is not None and track is not None:
+            crossed |= (_sections(plant, z, s, track[0]) != now).any(axis=1)
         if not quadratic:
             continue
         if j == steps - 1:
@@ -186,7 +177,7 @@ def _integrate(plant: Plant, x: Array, u: Array, dt: float, steps: int, every: i
         rec[:, cols, :n] = vb + w / (1.0 + undo * w)
     rec[:, -1, : 2 * n - 1] = z[:, : 2 * n - 1]
     rec[:, -1, 2 * n - 1] = s
-    return rec.transpose(0, 2, 1)
+    return rec.transpose(0, 2, 1), crossed
 
 
 def _linear_step(plant: Plant, h: float, vbar: Array, z: Array) -> Array:
