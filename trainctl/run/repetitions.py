@@ -24,7 +24,9 @@ scenario would hold gigabytes. Runs go to a process pool when one is given
 (:func:`submit_repetitions`, one task per strategy), else run here; the
 runs of one strategy share its design and run as one batch where the family
 has a batched law (:func:`run_repetitions`,
-:func:`trainctl.sim.batch.simulate_batch`). Each run depends only on its
+:func:`trainctl.sim.batch.simulate_batch`; a batch holds at most
+:data:`trainctl.run.simulate.BATCH_VALUES` numbers of time series at once,
+and is summarised before the next starts). Each run depends only on its
 scenario, strategy and seed, so the results are the same every way, bit
 for bit.
 
@@ -400,17 +402,25 @@ def run_repetitions(scenario: Scenario, strategy: str, design: Design | None,
     ([4, 3], True)
     """
     from trainctl.design import build_design
-    from trainctl.run.simulate import simulate_batch_strategy
+    from trainctl.run.simulate import batch_size, simulate_batch_strategy
 
     indices = [int(i) for i in indices]
-    if design is None and len(indices) > 1:
+    if len(indices) < 2:
+        return [run_repetition(scenario, strategy, design, i) for i in indices]
+    if design is None:
         design = build_design(scenario)
     scenarios = [repetition_scenario(scenario, i) for i in indices]
-    results = simulate_batch_strategy(scenarios, strategy, design) if len(indices) > 1 else None
-    if results is None:
-        return [run_repetition(scenario, strategy, design, i) for i in indices]
-    return [summarise(result, scenario, strategy, i, int(sc.seed))
-            for result, sc, i in zip(results, scenarios, indices, strict=True)]
+    size = batch_size(scenarios[0], strategy, design)
+    out: list[Repetition] = []
+    for a in range(0, len(indices), size):  # each batch summarised before the next runs
+        chunk, runs = indices[a : a + size], scenarios[a : a + size]
+        results = simulate_batch_strategy(runs, strategy, design) if len(chunk) > 1 else None
+        if results is None:
+            out += [run_repetition(scenario, strategy, design, i) for i in chunk]
+        else:
+            out += [summarise(result, scenario, strategy, i, int(sc.seed))
+                    for result, sc, i in zip(results, runs, chunk, strict=True)]
+    return out
 
 
 def baseline_scenario(scenario: Scenario) -> Scenario:
