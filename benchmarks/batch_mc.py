@@ -15,6 +15,11 @@ the medians is reported, in wall-clock and in CPU seconds of this process
 seconds (1800 s: the whole run; the cost of both is linear in the duration,
 the batch's fixed part aside), and the script checks that every batched run's
 speeds equal the serial run's bit for bit.
+
+Measured (2-core machine shared with other jobs, load 6-15;
+``--duration 300 --rounds 2``): serial 89.8 / 88.4 s CPU, batched 4.4 / 4.2 s
+CPU, median ratio 20.7x in CPU time and 27.6x in wall-clock time (596 s
+against 21.5 s); every batched run's speeds equal the serial ones.
 """
 
 from __future__ import annotations
