@@ -21,8 +21,13 @@ scenario's :class:`~trainctl.sim.metrics.Metrics` (judged after
 ``settle_time``, as in the main table) and the whole-run measures of
 :class:`Deviation`. The time series are not kept: twenty runs of a long
 scenario would hold gigabytes. Runs go to a process pool when one is given
-(:func:`submit_repetitions`), else run here; each run depends only on its
-scenario, strategy and seed, so the results are the same either way, bit
+(:func:`submit_repetitions`, one task per strategy), else run here; the
+runs of one strategy share its design and run as one batch where the family
+has a batched law (:func:`run_repetitions`,
+:func:`trainctl.sim.batch.simulate_batch`; a batch holds at most
+:data:`trainctl.run.simulate.BATCH_VALUES` numbers of time series at once,
+and is summarised before the next starts). Each run depends only on its
+scenario, strategy and seed, so the results are the same every way, bit
 for bit.
 
 Measures of a run (:func:`deviation`)
@@ -41,9 +46,10 @@ Per vehicle i, e_i = v_i − v_ref:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor, Future
 from dataclasses import dataclass, replace
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -58,7 +64,8 @@ if TYPE_CHECKING:
     from trainctl.sim.results import SimulationResult
 
 __all__ = ["BASELINE", "SETTLING_BAND", "Deviation", "Repetition", "baseline_index",
-           "collect_repetitions", "deviation", "run_repetition", "spread", "submit_repetitions"]
+           "collect_repetitions", "deviation", "repetition_scenario", "run_repetition",
+           "run_repetitions", "spread", "submit_repetitions"]
 
 Array = NDArray[np.float64]
 
@@ -317,16 +324,103 @@ def run_repetition(scenario: Scenario, strategy: str, design: Design | None,
     """
     from trainctl.run.simulate import _simulate_recorded
 
+    run_scenario = repetition_scenario(scenario, index)
+    result = _simulate_recorded(run_scenario, strategy, design)  # recorded in its metrics
+    return summarise(result, scenario, strategy, index, int(run_scenario.seed))
+
+
+def repetition_scenario(scenario: Scenario, index: int) -> Scenario:
+    """The scenario run ``index`` simulates (:func:`run_repetition`): its seed, its network.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (with ``[simulation]``).
+    index : int
+        A repetition r >= 0 or a baseline ``BASELINE - r``.
+
+    Returns
+    -------
+    Scenario
+        With the seed ``seed + r``; a baseline over the baseline network.
+
+    Examples
+    --------
+    >>> import trainctl
+    >>> scenario = trainctl.load_scenario("heavy-haul-hinf-delay")
+    >>> run = repetition_scenario(scenario, baseline_index(2))
+    >>> run.seed, run.network.delay_range_s
+    (5, None)
+    """
     sim = scenario.simulation
     assert sim is not None
     if index <= BASELINE:
-        seed = int(scenario.seed) + baseline_index(index)
-        run_scenario = replace(baseline_scenario(scenario), seed=seed)
-    else:
-        seed = int(scenario.seed) + int(index)
-        run_scenario = replace(scenario, seed=seed)
-    result = _simulate_recorded(run_scenario, strategy, design)  # recorded in its metrics
-    return summarise(result, scenario, strategy, index, seed)
+        return replace(baseline_scenario(scenario), seed=int(scenario.seed) + baseline_index(index))
+    return replace(scenario, seed=int(scenario.seed) + int(index))
+
+
+def run_repetitions(scenario: Scenario, strategy: str, design: Design | None,
+                    indices: Sequence[int]) -> list[Repetition]:
+    """:func:`run_repetition` for several runs of one strategy, as one batch when it can.
+
+    The runs share the design, so they go through
+    :func:`trainctl.run.simulate.simulate_batch_strategy` (one plant and one
+    law over (runs x states) arrays, each run's own network plan), whose
+    results equal the serial runs' bit for bit; where the batch does not
+    cover them (a family without a batched law, a run that diverges, ...)
+    each runs serially.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (with ``[simulation]``).
+    strategy : str
+        One of its strategies.
+    design : Design or None
+        The runs' design (built here when None).
+    indices : sequence of int
+        The runs (:func:`run_repetition`'s ``index``).
+
+    Returns
+    -------
+    list of Repetition
+        One per index, in order.
+
+    Examples
+    --------
+    Repetition 1 and the baseline of repetition 0 of the synchronous
+    baseline, batched, equal their serial runs:
+
+    >>> import trainctl
+    >>> scenario = (trainctl.load_scenario("heavy-haul-hinf-delay")
+    ...             .replace("simulation.settle_time", 10.0)
+    ...             .replace("simulation.duration", 20.0))
+    >>> reps = run_repetitions(scenario, "synchronous.synchronous", None, [1, BASELINE])
+    >>> one = run_repetition(scenario, "synchronous.synchronous", None, BASELINE)
+    >>> [r.seed for r in reps], bool(np.array_equal(reps[1].deviation.rms_error,
+    ...                                              one.deviation.rms_error))
+    ([4, 3], True)
+    """
+    from trainctl.design import build_design
+    from trainctl.run.simulate import batch_size, simulate_batch_strategy
+
+    indices = [int(i) for i in indices]
+    if len(indices) < 2:
+        return [run_repetition(scenario, strategy, design, i) for i in indices]
+    if design is None:
+        design = build_design(scenario)
+    scenarios = [repetition_scenario(scenario, i) for i in indices]
+    size = batch_size(scenarios[0], strategy, design)
+    out: list[Repetition] = []
+    for a in range(0, len(indices), size):  # each batch summarised before the next runs
+        chunk, runs = indices[a : a + size], scenarios[a : a + size]
+        results = simulate_batch_strategy(runs, strategy, design) if len(chunk) > 1 else None
+        if results is None:
+            out += [run_repetition(scenario, strategy, design, i) for i in chunk]
+        else:
+            out += [summarise(result, scenario, strategy, i, int(sc.seed))
+                    for result, sc, i in zip(results, runs, chunk, strict=True)]
+    return out
 
 
 def baseline_scenario(scenario: Scenario) -> Scenario:
@@ -411,8 +505,31 @@ def submit_repetitions(scenario: Scenario, executor: Executor, design: Design | 
     >>> seeds
     {('decentralised', 1): 1}
     """
-    return {(s, r): executor.submit(run_repetition, scenario, s, design, r)
-            for s, r in planned_runs(scenario)}
+    futures: dict[tuple[str, int], Future[Repetition]] = {}
+    for strategy, indices in _by_strategy(planned_runs(scenario)).items():
+        batch = executor.submit(run_repetitions, scenario, strategy, design, indices)
+        mine = {r: Future[Repetition]() for r in indices}
+        futures.update({(strategy, r): f for r, f in mine.items()})
+        batch.add_done_callback(partial(_hand_out, mine))
+    return futures
+
+
+def _by_strategy(runs: Sequence[tuple[str, int]]) -> dict[str, list[int]]:
+    """The planned runs' indices per strategy, in order."""
+    out: dict[str, list[int]] = {}
+    for strategy, index in runs:
+        out.setdefault(strategy, []).append(index)
+    return out
+
+
+def _hand_out(futures: Mapping[int, Future[Repetition]], batch: Future[list[Repetition]]) -> None:
+    """Set each run's future from its batch's (its result or its exception)."""
+    error = batch.exception()
+    for k, (_, future) in enumerate(futures.items()):
+        if error is not None:
+            future.set_exception(error)
+        else:
+            future.set_result(batch.result()[k])
 
 
 def collect_repetitions(
@@ -463,11 +580,12 @@ def collect_repetitions(
     if not runs:
         return {}, {}
     done: dict[tuple[str, int], Repetition] = {}
-    for key in runs:
-        if pending is not None:
-            done[key] = pending[key].result()
-        else:
-            done[key] = run_repetition(scenario, key[0], design, key[1])
+    if pending is not None:
+        done = {key: pending[key].result() for key in runs}
+    else:
+        for strategy, indices in _by_strategy(runs).items():
+            batch = run_repetitions(scenario, strategy, design, indices)
+            done.update({(strategy, r): rep for r, rep in zip(indices, batch, strict=True)})
     sim = scenario.simulation
     assert sim is not None
     reps: dict[str, tuple[Repetition, ...]] = {}

@@ -5,21 +5,26 @@ from __future__ import annotations
 
 import pickle
 import threading
+from collections.abc import Sequence
 from concurrent.futures import Executor, Future
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
+from numpy.typing import NDArray
 
 from trainctl._validation import numerical_errors
 
 if TYPE_CHECKING:
     from trainctl.controllers.base import Controller
     from trainctl.design import Design
+    from trainctl.models.network.simulator import Network
     from trainctl.models.plant import Plant
     from trainctl.scenario import Scenario
+    from trainctl.sim.reference import SpeedProfile
     from trainctl.sim.results import SimulationResult
 
-__all__ = ["NETWORK_STREAM", "make_controller", "simulate_strategy", "submit_simulations"]
+__all__ = ["BATCH_VALUES", "NETWORK_STREAM", "batch_size", "make_controller",
+           "simulate_batch_strategy", "simulate_strategy", "submit_simulations"]
 
 NETWORK_STREAM = 1
 """Spawn key of the network's random stream: ``SeedSequence([seed, NETWORK_STREAM])``, apart
@@ -114,9 +119,33 @@ def simulate_strategy(
     >>> bool(abs(res.velocities[:, -1] - 34.0).max() < 1.0)
     True
     """
+    from trainctl.sim.closed_loop import simulate
+
+    with numerical_errors(f"{scenario.source}: simulating {strategy!r}"):
+        run = _prepare(scenario, strategy, design)
+        return simulate(run.plant, run.controller, run.profile, duration=run.duration,
+                        initial_state=run.state, seed=scenario.seed, network=run.network,
+                        warn=warn, **run.options)
+
+
+class _Run(NamedTuple):
+    """One run of a strategy, ready for :func:`trainctl.sim.simulate` (or a batch of them)."""
+
+    plant: Plant
+    controller: Controller
+    profile: SpeedProfile
+    duration: float
+    state: NDArray[np.float64]
+    network: Network | None
+    options: dict[str, Any]
+    """The other keyword arguments of :func:`trainctl.sim.simulate`."""
+
+
+def _prepare(scenario: Scenario, strategy: str, design: Design | None) -> _Run:
+    """:func:`simulate_strategy`'s plant, controller (prepared for the scenario's network and
+    seed), reference, initial state and network (inside its ``numerical_errors``)."""
     from trainctl.exceptions import ScenarioError
     from trainctl.models.dynamics import equilibrium
-    from trainctl.sim.closed_loop import simulate
     from trainctl.sim.plant import Plant
     from trainctl.sim.reference import SpeedProfile
 
@@ -132,25 +161,139 @@ def simulate_strategy(
     speed_offsets, spacing_offsets = sim.initial_offsets(n)
     state[:n] = v0 + speed_offsets
     state[n:2 * n - 1] += spacing_offsets
-    with numerical_errors(f"{scenario.source}: simulating {strategy!r}"):
-        controller = make_controller(scenario, strategy, design)
-        prepare = getattr(controller, "prepare", None)
-        if callable(prepare):
-            prepare(scenario.network, int(scenario.seed))
-        network = None
-        if scenario.network is not None and getattr(controller, "uses_network", False):
-            from trainctl.models.network.simulator import Network
+    controller = make_controller(scenario, strategy, design)
+    prepare = getattr(controller, "prepare", None)
+    if callable(prepare):
+        prepare(scenario.network, int(scenario.seed))
+    network = None
+    if scenario.network is not None and getattr(controller, "uses_network", False):
+        from trainctl.models.network.simulator import Network
 
-            network = Network(scenario.network, scenario.graph(),
-                              seed=np.random.SeedSequence([scenario.seed, NETWORK_STREAM]))
-        return simulate(_shared_plant(Plant, scenario), controller, profile,
-                        duration=sim.duration, initial_state=state,
-                        preview_steps=_preview_steps(controller),
-                        measurement_noise=sim.measurement_noise, seed=scenario.seed,
-                        full_state=getattr(controller, "needs_full_state", True),
-                        saturation=sim.plant_saturation, output_interval=sim.output_interval,
-                        divergence_speed_error=sim.divergence_speed_error, network=network,
-                        warn=warn)
+        network = Network(scenario.network, scenario.graph(),
+                          seed=np.random.SeedSequence([scenario.seed, NETWORK_STREAM]))
+    options: dict[str, Any] = {
+        "preview_steps": _preview_steps(controller), "measurement_noise": sim.measurement_noise,
+        "full_state": getattr(controller, "needs_full_state", True),
+        "saturation": sim.plant_saturation, "output_interval": sim.output_interval,
+        "divergence_speed_error": sim.divergence_speed_error}
+    return _Run(_shared_plant(Plant, scenario), controller, profile, sim.duration, state,
+                network, options)
+
+
+def simulate_batch_strategy(scenarios: Sequence[Scenario], strategy: str,
+                            design: Design | None = None) -> list[SimulationResult] | None:
+    """:func:`simulate_strategy` (``warn=False``) of one strategy for several runs at once.
+
+    The scenarios differ only in their seed and ``[network]``; they run as
+    batches (:func:`trainctl.sim.batch.simulate_batch`, at most
+    :data:`BATCH_VALUES` dense numbers each), each result equal to its serial
+    run bit for bit but for the wall-clock fields.
+
+    Parameters
+    ----------
+    scenarios : sequence of Scenario
+        The runs' scenarios.
+    strategy : str
+        A name from their ``[simulation] strategies``.
+    design : Design or None
+        Their design; built here (per run) when None.
+
+    Returns
+    -------
+    list of SimulationResult or None
+        One per scenario; None when the batch does not cover these runs (a
+        family without a batched law, a run that diverges, ...): run them
+        serially.
+
+    Examples
+    --------
+    >>> from dataclasses import replace
+    >>> from trainctl.scenario import load_scenario
+    >>> sc = (load_scenario("heavy-haul-hinf-delay").replace("simulation.settle_time", 5.0)
+    ...       .replace("simulation.duration", 10.0))
+    >>> runs = [replace(sc, seed=3), replace(sc, seed=4)]
+    >>> batch = simulate_batch_strategy(runs, "distributed")
+    >>> serial = simulate_strategy(runs[1], "distributed", warn=False)
+    >>> bool(np.array_equal(batch[1].dense_states, serial.dense_states))
+    True
+    """
+    from trainctl.controllers.batch import BatchUnsupported
+    from trainctl.sim.batch import simulate_batch
+
+    if not scenarios:
+        return []
+    first = scenarios[0]
+    with numerical_errors(f"{first.source}: simulating {strategy!r} in a batch"):
+        runs = [_prepare(sc, strategy, design) for sc in scenarios]
+        head = runs[0]
+        if any(r.plant is not head.plant or r.options != head.options
+               or r.duration != head.duration
+               or not np.array_equal(r.profile.times, head.profile.times)
+               or not np.array_equal(r.profile.speeds, head.profile.speeds) for r in runs):
+            return None
+        size = _batch_size(head)
+        results: list[SimulationResult] = []
+        try:
+            for a in range(0, len(runs), size):
+                chunk, seeds = runs[a : a + size], scenarios[a : a + size]
+                results += simulate_batch(
+                    head.plant, [r.controller for r in chunk], head.profile,
+                    duration=head.duration, initial_states=[r.state for r in chunk],
+                    seeds=[int(sc.seed) for sc in seeds], networks=[r.network for r in chunk],
+                    warn=False, **head.options)
+        except BatchUnsupported:
+            return None
+        return results
+
+
+def batch_size(scenario: Scenario, strategy: str, design: Design | None = None) -> int:
+    """How many runs of one strategy of this scenario one batch takes (:data:`BATCH_VALUES`).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        One of the runs' scenarios (they differ in seed and network only).
+    strategy : str
+        The strategy.
+    design : Design or None
+        The design (built here when None).
+
+    Returns
+    -------
+    int
+        At least 1.
+
+    Examples
+    --------
+    A 4-vehicle run of 1800 s at 0.2 s with 4 dense points per sample holds
+    36 001 x 11 numbers of dense states and coupler forces:
+
+    >>> from trainctl.scenario import load_scenario
+    >>> batch_size(load_scenario("heavy-haul-hinf-delay"), "distributed")
+    84
+    """
+    with numerical_errors(f"{scenario.source}: sizing a batch of {strategy!r}"):
+        return _batch_size(_prepare(scenario, strategy, design))
+
+
+BATCH_VALUES = 1 << 25
+"""Most numbers of dense states and coupler forces [-] one batch holds (256 MB of float64);
+a batch of longer runs is split."""
+
+
+def _batch_size(run: _Run) -> int:
+    """How many runs like ``run`` one batch takes (:data:`BATCH_VALUES`)."""
+    from trainctl.sim._log import dense_grid
+
+    dt = float(run.controller.dt)
+    steps = max(1, round(run.duration / dt))
+    n = run.plant.train.n_vehicles
+    substeps = run.plant.substeps(dt)
+    interval = run.options["output_interval"]
+    every, inner = dense_grid(substeps, steps, n, dt, interval,
+                              run.plant.fastest_rate if interval is None else 0.0)
+    points = steps * run.plant.dense_offsets(dt, every, inner).size + 1
+    return max(1, BATCH_VALUES // (points * (3 * n - 1)))
 
 
 _PLANTS = threading.local()

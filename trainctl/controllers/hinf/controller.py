@@ -41,7 +41,7 @@ import bisect
 import math
 import time
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -60,6 +60,9 @@ from trainctl.exceptions import ModelError
 from trainctl.models.envelope import EnvelopeBounds
 from trainctl.models.network import ARRIVAL_TOLERANCE, REFERENCE
 from trainctl.models.train import Train
+
+if TYPE_CHECKING:
+    from trainctl.controllers.hinf.batch import HinfBatch
 
 __all__ = ["HinfController"]
 
@@ -117,6 +120,25 @@ class HinfController:
                        if law.adjacency[i, j] > 0]
         self._times: list[float] = []
         self._speeds: list[Array] = []
+
+    @staticmethod
+    def batched(controllers: list[Any]) -> HinfBatch:
+        """The law of these controllers (one per run) over R runs at once.
+
+        For :func:`trainctl.sim.batch.simulate_batch` (:mod:`trainctl.controllers.hinf.batch`).
+
+        Parameters
+        ----------
+        controllers : list
+            One controller of this class per run.
+
+        Returns
+        -------
+        HinfBatch
+        """
+        from trainctl.controllers.hinf.batch import HinfBatch
+
+        return HinfBatch(controllers)
 
     def reset(self) -> None:
         """Forget the record of the vehicles' own measured speeds."""

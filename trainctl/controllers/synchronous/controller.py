@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -45,6 +46,9 @@ from trainctl.exceptions import ModelError
 from trainctl.models.envelope import EnvelopeBounds
 from trainctl.models.network.schema import NetworkSettings
 from trainctl.models.train import Train
+
+if TYPE_CHECKING:
+    from trainctl.controllers.synchronous.batch import SynchronousBatch
 
 __all__ = ["SynchronousController"]
 
@@ -111,6 +115,26 @@ class SynchronousController:
         self._relay_factory = relay_factory
         self.input_bounds, self.name = bool(input_bounds), name
         self._envelope = EnvelopeBounds(train, enabled=self.input_bounds)
+
+    @staticmethod
+    def batched(controllers: list[Any]) -> SynchronousBatch:
+        """The law of these controllers (one per run) over R runs at once.
+
+        For :func:`trainctl.sim.batch.simulate_batch`
+        (:mod:`trainctl.controllers.synchronous.batch`).
+
+        Parameters
+        ----------
+        controllers : list
+            One controller of this class per run.
+
+        Returns
+        -------
+        SynchronousBatch
+        """
+        from trainctl.controllers.synchronous.batch import SynchronousBatch
+
+        return SynchronousBatch(controllers)
 
     def reset(self) -> None:
         """Forget every relayed command and restart the relay's random stream."""
