@@ -522,18 +522,27 @@ class TestReport:
         assert_user_error(code, capsys.readouterr().err)
         assert [p.name for p in tmp_path.iterdir()] == ["keep.txt"]
 
+    @pytest.mark.parametrize("which", [
+        "two",
+        pytest.param("every", marks=pytest.mark.e2e),  # every built-in's report: 30 s and more
+    ])
     def test_all_writes_gallery(
-        self, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        self, which: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]
     ) -> None:
         """--all writes a report per built-in and an index linking each with key results."""
         import trainctl.scenario as scenario_module
 
         # The long well-sampled simulation is covered by benchmarks/report.py, seed 003's
-        # cases by tests/test_seed003_cases.py; here the gallery machinery runs on the others.
+        # cases by tests/test_seed003_cases.py; here the gallery machinery runs on the others
+        # (e2e), or on two quick ones of two families, one simulated (make test).
         every = scenario_module.builtin_scenarios()
         chosen = [b for b in every if b.name != "crh2-dmpc-well-sampled"
                   and not b.name.startswith("heavy-haul-hinf-")]
+        if which == "two":
+            chosen = [b for b in chosen if b.name in ("heavy-haul-flocking-collision",
+                                                      "heavy-haul-hinf")]
+            assert len(chosen) == 2
         monkeypatch.setattr(scenario_module, "builtin_scenarios", lambda: chosen)
         out = tmp_path / "gallery"
         assert main(["report", "--all", "-o", str(out)]) == 0
