@@ -315,6 +315,7 @@ def test_interruption_strict_and_report(interruption, tmp_path: Path, capsys) ->
 
 
 @pytest.mark.slow
+@pytest.mark.e2e  # three full built-in runs, saved and rendered (case (b): make test, above)
 @pytest.mark.parametrize("name", ["heavy-haul-hinf-ideal", "heavy-haul-hinf-noise",
                                   "heavy-haul-hinf-delayed-own-speed"])
 def test_case_reports_and_strict(name: str, tmp_path: Path, capsys) -> None:
