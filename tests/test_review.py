@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from tests.test_analysis import crh2_design
+from tests.test_seed003_cases import CASES as SEED003_CASES
 from trainctl.cli.main import main
 from trainctl.controllers.mpc.theory.dmpc import analyse_dmpc
 from trainctl.controllers.mpc.theory.iteration import (
@@ -51,6 +52,9 @@ class TestDeclaredExpectations:
         """Each built-in's [expected] table matches what the review finds."""
         run = unsimulated_run(name)
         assert run.unexpected_checks() == {}
+        if name in SEED003_CASES:  # (moved here from tests/test_seed003_cases.py: one review)
+            # each of seed 003's cases states an outcome for every check the review makes
+            assert {c.name for c in run.review.checks} == set(run.scenario.expected)
 
     def test_well_sampled_variant_declares_every_check(self):
         """The well-sampled variant states an outcome for every check, all pass."""
