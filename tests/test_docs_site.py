@@ -57,9 +57,20 @@ def _need_sphinx() -> None:
     pytest.skip(reason)
 
 
+SITE_ENV = "TRAINCTL_DOCS_SITE"
+"""An HTML site built by ``make docs`` (warnings are errors there too) to check instead of
+building one: CI builds the site anyway, and the check need not build it twice."""
+
+
 @pytest.fixture(scope="session")
 def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The HTML site, built once with warnings as errors and short tutorials."""
+    """The HTML site, built once with warnings as errors and short tutorials; or the site
+    :data:`SITE_ENV` names, already built so (``.ci/run``: ``make docs``, the full build)."""
+    given = os.environ.get(SITE_ENV, "")
+    if given:
+        built = Path(given).resolve()
+        assert (built / "index.html").is_file(), f"{SITE_ENV}={given}: no index.html there"
+        return built
     _need_sphinx()
     out = tmp_path_factory.mktemp("docs-site") / "html"
     env = {**os.environ, "TRAINCTL_TUTORIAL_SHORT": "1", "PYTHONWARNINGS": "default"}
