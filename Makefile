@@ -14,11 +14,12 @@ STAMP_TEST := $(VENV)/.trainctl-install-test.stamp
 STAMP_DOCS := $(VENV)/.trainctl-install-docs.stamp
 INSTALL_DEPS := pyproject.toml trainctl/__init__.py
 
-.PHONY: help report test docs dist install install-test install-docs lint clean
+.PHONY: help report test test-e2e docs dist install install-test install-docs lint clean
 
 help:
 	@echo "make report   write reports/crh2-dmpc.html (creates .venv when missing)"
-	@echo "make test     run the whole test suite, doctests included"
+	@echo "make test     run the test suite, doctests included, except the e2e group (minutes)"
+	@echo "make test-e2e run the long end-to-end tests (pytest -m e2e); CI runs both"
 	@echo "make docs     build the documentation into docs/_build/html (warnings are errors)"
 	@echo "make dist     build the wheel (distribution trainctl-toolbox) into dist/"
 	@echo "make lint     ruff check, mypy and the import contracts (lint-imports)"
@@ -50,8 +51,13 @@ install-docs: $(STAMP_DOCS)
 report: $(STAMP_RUN)
 	$(BIN)/trainctl report
 
+# The fast suite: everything but the tests marked e2e (pyproject.toml's markers), the
+# long end-to-end runs of whole pipelines, which `make test-e2e` runs (.ci/run runs both).
 test: $(STAMP_TEST)
-	$(BIN)/python -m pytest -n auto --dist loadfile
+	$(BIN)/python -m pytest -n auto --dist loadfile -m "not e2e"
+
+test-e2e: $(STAMP_TEST)
+	$(BIN)/python -m pytest -n auto --dist loadfile -m e2e tests
 
 docs: $(STAMP_DOCS)
 	$(BIN)/python -m sphinx -W --keep-going -b html docs docs/_build/html

@@ -103,6 +103,7 @@ def test_ci_workflow() -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.e2e  # a wheel built and installed in a fresh venv
 def test_ci_workflow_installs_the_built_wheel_and_passes(tmp_path: Path) -> None:
     """The workflow's steps, run verbatim in a fresh venv, install trainctl-toolbox from a
     wheel that ``make dist`` just built and pass: ``--strict`` exits 0, the script runs."""

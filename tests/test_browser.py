@@ -37,6 +37,10 @@ from trainctl.cli.main import main
 
 pytestmark = pytest.mark.slow
 
+E2E = pytest.mark.e2e
+"""Reports rendered in full and laid out in Chromium: `make test-e2e` (the harness
+self-checks, one small page each, stay in `make test`)."""
+
 WIDTH = 1280
 """Window width [px] the report must fit."""
 
@@ -186,6 +190,7 @@ def test_harness_sees_console_errors(tmp_path: Path) -> None:
     assert any("bang" in m for m in messages)
 
 
+@E2E
 def test_default_report_loads_cleanly(report: Path, tmp_path: Path) -> None:
     """No console message at all, and a screenshot with real content."""
     shot = tmp_path / "report.png"
@@ -217,6 +222,7 @@ def test_harness_sees_overflow(tmp_path: Path) -> None:
     assert "outside div" in problems and "scrolls div" in problems
 
 
+@E2E
 def test_default_report_fits_1280(report: Path, tmp_path: Path) -> None:
     """No horizontal overflow at 1280 px: nothing outside the window, nothing scrolling."""
     record = _measure(report, tmp_path)
@@ -225,6 +231,7 @@ def test_default_report_fits_1280(report: Path, tmp_path: Path) -> None:
     assert record["problems"] == []
 
 
+@E2E
 def test_figures_for_every_strategy(report: Path) -> None:
     """Each comparison figure names every strategy; the iterations figure only iterating ones."""
     html = report.read_text(encoding="utf-8")
@@ -241,6 +248,7 @@ def test_figures_for_every_strategy(report: Path) -> None:
         assert f"vehicle {i}" in texts["speed"] and f"{i} " in texts["input"]
 
 
+@E2E
 def test_mixed_families_report_fits_1280(mixed: Path, tmp_path: Path) -> None:
     """Five strategies with long names (``lqr.decentralised``) still fit, every one drawn."""
     record = _measure(mixed, tmp_path)
@@ -253,6 +261,7 @@ def test_mixed_families_report_fits_1280(mixed: Path, tmp_path: Path) -> None:
             assert re.search(rf"(^|\s){re.escape(name)}(\s|$)", texts[key]), (key, name)
 
 
+@E2E
 def test_family_report_loads_cleanly(family_report: tuple[str, Path], tmp_path: Path) -> None:
     """The potential, flocking and hinf reports log no console message and fit 1280 px."""
     family, page = family_report
@@ -265,6 +274,7 @@ def test_family_report_loads_cleanly(family_report: tuple[str, Path], tmp_path: 
     assert record["width"] <= WIDTH and record["problems"] == []
 
 
+@E2E
 def test_family_report_shows_the_graph(family_report: tuple[str, Path], tmp_path: Path) -> None:
     """One graph figure, laid out in the family's section: every vehicle and the reference."""
     from trainctl.scenario import load_scenario
@@ -282,6 +292,7 @@ def test_family_report_shows_the_graph(family_report: tuple[str, Path], tmp_path
     assert "reaches every vehicle" in found["caption"]
 
 
+@E2E
 def test_seed003_repetitions_and_claims_fit_1280(tmp_path: Path) -> None:
     """Case (c) shortened: the spread table, the coupler column and the claims fit, cleanly."""
     from tests.test_seed003_cases import _short_delay
@@ -308,6 +319,7 @@ def sweep_report(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return store / "report.html"
 
 
+@E2E
 def test_sweep_report_loads_cleanly_and_fits_1280(sweep_report: Path, tmp_path: Path) -> None:
     """The sweep report: no console message, real content, nothing wider than 1280 px."""
     shot = tmp_path / "sweep.png"

@@ -31,6 +31,9 @@ from tests import chromium
 
 pytestmark = pytest.mark.slow
 
+E2E = pytest.mark.e2e
+"""The site-building tests (the Sphinx build of the whole site): `make test-e2e`."""
+
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 MISSING = [name for name in ("sphinx", "pydata_sphinx_theme", "numpydoc", "sphinx_gallery")
@@ -54,9 +57,20 @@ def _need_sphinx() -> None:
     pytest.skip(reason)
 
 
+SITE_ENV = "TRAINCTL_DOCS_SITE"
+"""An HTML site built by ``make docs`` (warnings are errors there too) to check instead of
+building one: CI builds the site anyway, and the check need not build it twice."""
+
+
 @pytest.fixture(scope="session")
 def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The HTML site, built once with warnings as errors and short tutorials."""
+    """The HTML site, built once with warnings as errors and short tutorials; or the site
+    :data:`SITE_ENV` names, already built so (``.ci/run``: ``make docs``, the full build)."""
+    given = os.environ.get(SITE_ENV, "")
+    if given:
+        built = Path(given).resolve()
+        assert (built / "index.html").is_file(), f"{SITE_ENV}={given}: no index.html there"
+        return built
     _need_sphinx()
     out = tmp_path_factory.mktemp("docs-site") / "html"
     env = {**os.environ, "TRAINCTL_TUTORIAL_SHORT": "1", "PYTHONWARNINGS": "default"}
@@ -137,6 +151,7 @@ def test_link_check_sees_broken_links(tmp_path: Path) -> None:
     assert any("no id 'there'" in f for f in found) and any("no id 'gone'" in f for f in found)
 
 
+@E2E
 def test_site_has_its_pages(site: Path) -> None:
     """The front page, the usage page, the tutorials, the assignment and the API reference."""
     for page in ("index.html", "usage.html", "auto_tutorials/index.html",
@@ -152,12 +167,14 @@ def test_site_has_its_pages(site: Path) -> None:
     assert tutorials, "no tutorial page was built"
 
 
+@E2E
 def test_internal_links_resolve(site: Path) -> None:
     """Every href/src without a scheme reaches a file, and its #anchor an id there."""
     found = broken_links(site)
     assert not found, f"{len(found)} broken internal links:\n" + "\n".join(found[:50])
 
 
+@E2E
 def test_pages_load_without_console_messages(site: Path, tmp_path: Path) -> None:
     """The front page, an API page and a tutorial log nothing to the console offline.
 

@@ -15,7 +15,7 @@ REPO = Path(__file__).resolve().parents[1]
 # Every file in the repository's analyses/ is a built-in scenario.
 BUILTINS = tuple(sorted(p.stem for p in (REPO / "analyses").glob("*.toml")))
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.e2e]  # a wheel built, installed and run
 
 
 def _run(cmd: list[str], **kwargs: object) -> subprocess.CompletedProcess[str]:

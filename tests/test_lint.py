@@ -45,6 +45,7 @@ def test_ruff_check_is_clean() -> None:
     assert result.returncode == 0, _report(result)
 
 
+@pytest.mark.e2e  # mypy --strict of the whole package: minutes
 def test_mypy_is_clean() -> None:
     """``mypy`` reports no errors on the files listed in pyproject.toml."""
     result = _run_module("mypy")

@@ -178,9 +178,16 @@ COMMANDS = {
 }
 
 
+FAST_CASES = {("analyse", "INT"), ("report", "TERM"), ("report-all", "HUP"), ("sweep", "INT")}
+"""The pairs `make test` runs: every command and every signal once (the sweep, whose pool
+workers must end too, with Ctrl-C); the other eight pairs of the matrix are e2e."""
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("name", list(SIGNALS))
-@pytest.mark.parametrize("command", list(COMMANDS))
+@pytest.mark.parametrize(("command", "name"), [
+    pytest.param(command, name, id=f"{command}-{name}",
+                 marks=() if (command, name) in FAST_CASES else pytest.mark.e2e)
+    for command in COMMANDS for name in SIGNALS])
 def test_signal_ends_the_command(command: str, name: str, tmp_path: Path) -> None:
     """Mid-work, each stop signal ends the command promptly with 128 + the signal:
     one clear line, no traceback, no output file, no process of its group left."""

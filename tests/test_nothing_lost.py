@@ -225,8 +225,11 @@ class TestSaveCommand:
         assert snapshot(tmp_path) == before
 
 
-    @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL],
-                             ids=["SIGINT", "SIGTERM", "SIGKILL"])
+    @pytest.mark.parametrize("signum", [
+        # SIGINT unwinds as SIGTERM does (tests/test_no_hang.py: both, in process): e2e
+        pytest.param(signal.SIGINT, id="SIGINT", marks=pytest.mark.e2e),
+        pytest.param(signal.SIGTERM, id="SIGTERM"),
+        pytest.param(signal.SIGKILL, id="SIGKILL")])
     def test_signal_while_staging(self, tmp_path: Path, earlier_save: Path, hinf: ReportData,
                                   signum: int) -> None:
         """Signalled mid-save: the earlier save is whole; only SIGKILL leaves its staging,

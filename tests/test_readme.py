@@ -37,6 +37,7 @@ def test_the_readme_has_python_examples() -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.e2e  # ten fresh interpreters, each importing trainctl: the README run as printed
 @pytest.mark.parametrize(("line", "code"), BLOCKS, ids=[f"line{line}" for line, _ in BLOCKS])
 def test_block_runs_verbatim(tmp_path: Path, line: int, code: str) -> None:
     """The block, as printed, runs without error in an empty directory."""

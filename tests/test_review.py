@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import re
@@ -10,6 +11,7 @@ import numpy as np
 import pytest
 
 from tests.test_analysis import crh2_design
+from tests.test_seed003_cases import CASES as SEED003_CASES
 from trainctl.cli.main import main
 from trainctl.controllers.mpc.theory.dmpc import analyse_dmpc
 from trainctl.controllers.mpc.theory.iteration import (
@@ -37,12 +39,22 @@ def book_text(controller_lines: dict[str, str]) -> str:
     return "\n".join(out + [f"{k} = {v}" for k, v in controller_lines.items()]) + "\n"
 
 
+@functools.cache
+def unsimulated_run(name: str):
+    """The built-in's run without simulations (its design review), once per process: the
+    declared-status and the plausibility tests below read the same review."""
+    return run_scenario(load_scenario(name), simulate=False)
+
+
 class TestDeclaredExpectations:
     @pytest.mark.parametrize("name", [b.name for b in builtin_scenarios()])
     def test_every_check_has_the_status_its_scenario_declares(self, name):
         """Each built-in's [expected] table matches what the review finds."""
-        run = run_scenario(load_scenario(name), simulate=False)
+        run = unsimulated_run(name)
         assert run.unexpected_checks() == {}
+        if name in SEED003_CASES:  # (moved here from tests/test_seed003_cases.py: one review)
+            # each of seed 003's cases states an outcome for every check the review makes
+            assert {c.name for c in run.review.checks} == set(run.scenario.expected)
 
     def test_well_sampled_variant_declares_every_check(self):
         """The well-sampled variant states an outcome for every check, all pass."""
@@ -111,20 +123,30 @@ class TestDMPCAnalysis:
         assert "ρ(D0)" in res._repr_html_()
 
 
-class TestCli:
-    def test_analyse_prints_the_check_table(self, capsys):
-        """The text output has every check with its status and hints."""
+@pytest.fixture(scope="module")
+def analyse_output() -> str:
+    """What ``trainctl analyse crh2-dmpc`` (simulations included) prints, run once."""
+    import contextlib
+    import io
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
         assert main(["analyse", "crh2-dmpc"]) == 0
-        out = capsys.readouterr().out
+    return out.getvalue()
+
+
+class TestCli:
+    def test_analyse_prints_the_check_table(self, analyse_output):
+        """The text output has every check with its status and hints."""
+        out = analyse_output
         assert "Design checks:" in out and "ndmpc_convergence" in out and "hint:" in out
 
-    def test_no_simulate_skips_the_runs(self, capsys):
+    def test_no_simulate_skips_the_runs(self, capsys, analyse_output):
         """--no-simulate prints the checks but no closed-loop table."""
         assert main(["analyse", "crh2-dmpc", "--no-simulate"]) == 0
         out = capsys.readouterr().out
         assert "Design checks:" in out and "Closed-loop simulations" not in out
-        assert main(["analyse", "crh2-dmpc"]) == 0
-        assert "Closed-loop simulations" in capsys.readouterr().out
+        assert "Closed-loop simulations" in analyse_output
 
     def test_json_has_the_checks(self, capsys):
         """--json carries the same checks, statuses and hints."""
@@ -278,7 +300,7 @@ class TestPlausibility:
     @pytest.mark.parametrize("name", [b.name for b in builtin_scenarios()])
     def test_no_warning_on_any_builtin(self, name):
         """Every built-in's physical values are in their usual ranges."""
-        check = review_design(load_scenario(name)).check("plausibility")
+        check = unsimulated_run(name).review.check("plausibility")
         assert check.status == "pass", check.message
 
     @pytest.mark.parametrize(("key", "value", "expect"), [

@@ -315,6 +315,7 @@ def test_interruption_strict_and_report(interruption, tmp_path: Path, capsys) ->
 
 
 @pytest.mark.slow
+@pytest.mark.e2e  # three full built-in runs, saved and rendered (case (b): make test, above)
 @pytest.mark.parametrize("name", ["heavy-haul-hinf-ideal", "heavy-haul-hinf-noise",
                                   "heavy-haul-hinf-delayed-own-speed"])
 def test_case_reports_and_strict(name: str, tmp_path: Path, capsys) -> None:
@@ -345,14 +346,9 @@ def test_delay_case_report(tmp_path: Path, capsys) -> None:
         _strict_code("heavy-haul-hinf-delay")
 
 
-def test_every_case_declares_every_check() -> None:
-    """Each case's [expected] states an outcome for every check the review makes."""
-    from trainctl.design.review import review_design
-
-    for name in CASES:
-        sc = load_scenario(name)
-        checks = {c.name for c in review_design(sc).checks}
-        assert checks == set(sc.expected), name
+# That each case's [expected] states an outcome for every check the review makes is checked
+# by tests/test_review.py (test_every_check_has_the_status_its_scenario_declares), on the
+# design review it makes of every built-in anyway.
 
 
 def test_both_families_track_the_profile_over_an_ideal_network() -> None:

@@ -798,6 +798,7 @@ def _same_store(root: Path, reference: Path) -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.e2e  # two real CLI sweeps on one store (test_lock_names_the_holder: make test)
 def test_second_writer_refused_while_the_first_runs(serial: Path, tmp_path: Path,
                                                      capsys: pytest.CaptureFixture[str]) -> None:
     """Two writers on one store: the second exits 2 naming the first's PID; the first's
@@ -824,6 +825,7 @@ def test_second_writer_refused_while_the_first_runs(serial: Path, tmp_path: Path
 
 
 @pytest.mark.slow
+@pytest.mark.e2e  # a real CLI sweep killed, then resumed (test_lock_names_the_holder: make test)
 def test_kill_9_mid_sweep_then_resume(serial: Path, tmp_path: Path) -> None:
     """SIGKILL after the first point: the lock dies with the process; the resume runs the
     rest once and gives the serial run's table."""

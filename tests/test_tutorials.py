@@ -145,6 +145,7 @@ def test_rst_text_reads_comments() -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.e2e
 @pytest.mark.parametrize("name", sorted(QUOTED))
 def test_tutorial_runs_and_prints_its_quotes(name: str, tmp_path: Path) -> None:
     """Short mode: runs without error or warning, quickly, writing nothing, printing the quotes."""
