@@ -109,7 +109,7 @@ class ActuatorLimits:
         side = np.zeros(u.size, dtype=np.int8)
         if not self.enabled:
             return u, side
-        low, high = self.limits(speeds)
+        low, high = self._bounds.at(self._vector("speeds", speeds))
         tol = self.tolerance
         over, under = u > high + tol, u < low - tol
         if over.any() or under.any():

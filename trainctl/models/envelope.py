@@ -13,7 +13,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trainctl.models.train import Train
-from trainctl.models.vehicle import TractionEnvelope, envelope_limit
+from trainctl.models.vehicle import _MIN_SPEED, TractionEnvelope, envelope_limit
+from trainctl.units import GRAVITY
 
 __all__ = ["EnvelopeBounds"]
 
@@ -56,6 +57,8 @@ class EnvelopeBounds:
     [inf, inf, inf, inf]
     """
 
+    _at: tuple[Array, Array, Array]
+
     def __init__(self, train: Train, *, enabled: bool) -> None:
         self.train, self.enabled, self.n = train, enabled, train.n_vehicles
         self.envelopes: tuple[Array, ...] | None = None
@@ -69,6 +72,10 @@ class EnvelopeBounds:
             self.envelopes = (stack("max_braking", "max_traction"),
                               stack("max_braking_power", "max_power"),
                               stack("adhesion", "adhesion"), train.mass.copy())
+            force, power, adhesion, mass = self.envelopes
+            # :meth:`at`'s per-sample operands, (2, n): envelope_limit's, with its
+            # speed-free product adhesion·m·g taken once (the same product, bit for bit).
+            self._at = (force[:, 0], power[:, 0], (adhesion * mass * GRAVITY)[:, 0])
 
     def pair(self, speeds: Array) -> Array:
         """Bounds [lb; ub] at ``speeds``, shape (2, moves·n), move by move.
@@ -161,7 +168,16 @@ class EnvelopeBounds:
         v = np.asarray(speeds, dtype=float)
         if not self.enabled:
             return np.full(self.n, -np.inf), np.full(self.n, np.inf)
-        if self.envelopes is not None:
+        if self.envelopes is not None and v.shape == (self.n,):
+            # envelope_limit's operations on (2, n) without its broadcast wrapper: called
+            # twice a sample in a closed loop (the controller's clip and the actuators).
+            force, power, cap = self._at
+            speed = np.abs(v)
+            np.maximum(speed, _MIN_SPEED, out=speed)
+            limits = np.divide(power, speed)
+            np.minimum(force, limits, out=limits)
+            np.minimum(limits, cap, out=limits)
+        elif self.envelopes is not None:
             force, power, adhesion, mass = self.envelopes
             limits = envelope_limit(v[None, None, :], force, power, adhesion, mass)[:, 0]
         else:

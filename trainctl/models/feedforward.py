@@ -177,6 +177,36 @@ class ForceSplit:
             inputs=inputs, coupler_forces=forces, elongations=elong, resistance=need
         )
 
+    def single(self, speed: float, acceleration: float) -> tuple[Array, Array]:
+        """The inputs [N] and elongations [m] of one (speed, acceleration) pair, no line
+        resistance: row 0 of :meth:`__call__`'s, bit for bit (the same operations on the
+        pair's row, without the arrays of one pair; a closed loop calls it every sample).
+
+        Examples
+        --------
+        >>> from trainctl.models.presets import crh2_half
+        >>> split = ForceSplit(crh2_half())
+        >>> inputs, elongations = split.single(80.0, 0.1)
+        >>> bool(np.array_equal(inputs, split([80.0], [0.1]).inputs[0]))
+        True
+        """
+        train = self.train
+        v, accel = float(speed), float(acceleration)
+        if self._uniform is not None:
+            a0, a1, a2 = self._uniform
+            need = (a0 + a1 * v + a2 * v * v + accel) * train.mass
+        else:
+            a0v, a1v, a2v = train.davis
+            need = train.mass * (a0v + a1v * v + a2v * v * v + accel)
+        inputs = self._share(need[None, :])[0]
+        forces = np.add.accumulate(inputs - need)[:-1]
+        if self._any_virtual:
+            forces[self._virtual] = 0.0
+            elong = np.where(self._virtual, 0.0, forces / self._stiffness)
+        else:
+            elong = forces / self._stiffness
+        return inputs, elong
+
     def _share(self, need: Array) -> Array:
         """Each group's total need spread by the traction shares (or a copy, for "own")."""
         if self.allocation == "own":

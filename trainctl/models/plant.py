@@ -154,6 +154,7 @@ from trainctl.models._plant_dense import DenseOutput, DenseRecord
 from trainctl.models._plant_integrate import integrate
 from trainctl.models._plant_propagators import CACHE_BYTES, LRU, Propagator, TrackArrays
 from trainctl.models._plant_reference import advance_reference
+from trainctl.models._plant_sample import SampleMap
 from trainctl.models.chain import Chain
 from trainctl.models.track import Track
 from trainctl.models.train import Train
@@ -419,6 +420,14 @@ class Plant(DenseOutput):
         out[: 2 * n - 1] = z[: 2 * n - 1]
         out[2 * n - 1] = s
         return out
+
+    def sample_map(self, dt: float, inner: int = 1) -> SampleMap | None:
+        """The preallocated one-sample path of a closed loop (:mod:`trainctl.models._plant_sample`),
+        ``inner`` dense points per sample; None unless ``dt`` is one substep on dense
+        propagators (then :meth:`advance_dense` is the path). The same result bit for bit."""
+        if self._banded or self._substeps(check_positive("Plant.sample_map", "dt", dt)) != 1:
+            return None
+        return SampleMap(self, dt, inner)
 
     # ------------------------------------------------------------- reference
     def advance_reference(

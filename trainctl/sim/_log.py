@@ -141,6 +141,8 @@ class Log:
         else:
             self.dense_time, self.dense_states = self.times, self.states
         self.dense_reference = np.asarray(reference.speed(self.dense_time), dtype=float)
+        self.fast = plant.sample_map(dt, self.per) if every == 1 else None
+        """The one-substep sample path (:meth:`Plant.sample_map`; None: advance_dense)."""
         self.spacing = float(offsets[0])
         """Spacing of the dense grid [s] (the last point of an interval may be closer)."""
 
@@ -175,6 +177,15 @@ class Log:
         self.inputs[:, k] = applied
         self.saturation[:, k] = side
         x = self.states[:, k]
+        if self.fast is not None and np.isfinite(x).all():
+            if self.per == 1:
+                block = self.states[:, k + 1 : k + 2]
+                self.fast.advance(x, applied, block)
+                return
+            block = self.dense_states[:, k * self.per + 1 : (k + 1) * self.per + 1]
+            self.fast.advance(x, applied, block)
+            self.states[:, k + 1] = block[:, -1]
+            return
         if self.per == 1:
             self.states[:, k + 1] = plant.advance(x, applied, self.dt)
             return

@@ -1,0 +1,82 @@
+# The closed loop's cost per sample with a solver-free law (LQR), new tree against main.
+"""LQR closed-loop cost per sample: this tree against a baseline tree, side by side.
+
+Usage::
+
+    python benchmarks/loop_cost.py [--base /work/main] [--duration 200] [--rounds 5]
+                                   [--strategy lqr.centralised]
+
+Each round runs one subprocess per tree (``PYTHONPATH`` switched to that
+tree, base first then new, interleaved round by round) that loads
+``crh2-dmpc-well-sampled`` (T = 0.05 s, 4 coaches), shortens it to
+``--duration`` seconds, builds the design and simulates the strategy once to
+warm the caches, then times a second run. Printed per round: the loop's wall
+time per sample [µs] (``meta["wall_time"]``, the samples only) and its share
+spent in the controller's step (``solve_times``); then the medians and the
+ratio new / base of the medians. The machine's load average is printed too:
+the timings are only as quiet as the machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parents[1]
+
+CHILD = r"""
+import json, sys
+from trainctl.design import build_design
+from trainctl.run import simulate_strategy
+from trainctl.scenario import load_scenario
+duration, strategy = float(sys.argv[1]), sys.argv[2]
+scenario = load_scenario("crh2-dmpc-well-sampled").replace("simulation.duration", duration)
+design = build_design(scenario)
+simulate_strategy(scenario, strategy, design, warn=False)  # warm the caches
+result = simulate_strategy(scenario, strategy, design, warn=False)
+samples = len(result.statuses)
+print(json.dumps({"samples": samples, "loop": result.meta["wall_time"] / samples,
+                  "controller": float(result.solve_times.sum()) / samples}))
+"""
+
+
+def _run(tree: Path, duration: float, strategy: str) -> dict[str, float]:
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    out = subprocess.run([sys.executable, "-c", CHILD, str(duration), strategy], env=env,
+                         capture_output=True, text=True, cwd=tree)
+    if out.returncode:
+        raise SystemExit(f"{tree}: the run failed:\n{out.stderr}")
+    data: dict[str, float] = json.loads(out.stdout.strip().splitlines()[-1])
+    return data
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--base", type=Path, default=Path("/work/main"))
+    parser.add_argument("--duration", type=float, default=200.0)
+    parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--strategy", default="lqr.centralised")
+    args = parser.parse_args()
+    trees = {"base": args.base.resolve(), "new": HERE}
+    loops: dict[str, list[float]] = {"base": [], "new": []}
+    print(f"load average {os.getloadavg()[0]:.2f}; {args.strategy}, {args.duration:g} s")
+    for r in range(args.rounds):
+        line = []
+        for name, tree in trees.items():
+            data = _run(tree, args.duration, args.strategy)
+            loops[name].append(data["loop"])
+            line.append(f"{name} {1e6 * data['loop']:7.1f} µs/sample "
+                        f"(controller {1e6 * data['controller']:5.1f})")
+        print(f"round {r + 1}: " + "; ".join(line))
+    base, new = (statistics.median(loops[k]) for k in ("base", "new"))
+    print(f"median: base {1e6 * base:.1f} µs/sample, new {1e6 * new:.1f} µs/sample, "
+          f"new/base {new / base:.3f}; load average {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()
