@@ -131,6 +131,8 @@ class ForceSplit:
         # Per unit mass and the same for every vehicle: evaluated once per pair.
         self._uniform = (tuple(float(a) for a in davis[:, 0])
                          if bool(np.all(davis == davis[:, :1])) else None)
+        self._last: tuple[float, float, Array, Array] | None = None
+        """:meth:`single`'s last pair and result (the reference is often constant)."""
 
     def __call__(
         self, speeds: ArrayLike, accelerations: ArrayLike, line: ArrayLike | None = None
@@ -181,6 +183,7 @@ class ForceSplit:
         """The inputs [N] and elongations [m] of one (speed, acceleration) pair, no line
         resistance: row 0 of :meth:`__call__`'s, bit for bit (the same operations on the
         pair's row, without the arrays of one pair; a closed loop calls it every sample).
+        The arrays are read-only: the last pair's are kept and returned again for it.
 
         Examples
         --------
@@ -190,8 +193,11 @@ class ForceSplit:
         >>> bool(np.array_equal(inputs, split([80.0], [0.1]).inputs[0]))
         True
         """
-        train = self.train
         v, accel = float(speed), float(acceleration)
+        last = self._last
+        if last is not None and last[0] == v and last[1] == accel:
+            return last[2], last[3]
+        train = self.train
         if self._uniform is not None:
             a0, a1, a2 = self._uniform
             need = (a0 + a1 * v + a2 * v * v + accel) * train.mass
@@ -205,6 +211,9 @@ class ForceSplit:
             elong = np.where(self._virtual, 0.0, forces / self._stiffness)
         else:
             elong = forces / self._stiffness
+        inputs.setflags(write=False)
+        elong.setflags(write=False)
+        self._last = (v, accel, inputs, elong)
         return inputs, elong
 
     def _share(self, need: Array) -> Array:

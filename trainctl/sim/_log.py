@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trainctl.controllers.base import StepRecord
+from trainctl.controllers.faults import finite
 from trainctl.exceptions import DimensionError
 from trainctl.models.dynamics import coupler_forces
 from trainctl.models.plant import Plant
@@ -161,7 +162,7 @@ class Log:
                 f"(got {u.shape} at t={t!r} s)."
             )
         status, fallback = str(record.status), str(record.fallback)
-        if not np.isfinite(u).all():
+        if not finite(u):
             u = previous.copy()
             status, fallback = "error", HOLD_FALLBACK
         self.requested[:, k] = u
@@ -198,7 +199,7 @@ class Log:
         with its vehicle and dense column."""
         cols = slice(0, 1) if k < 0 else slice(k * self.per + 1, (k + 1) * self.per + 1)
         error = np.abs(self.dense_states[: self.n, cols] - self.dense_reference[cols])
-        flat = int(np.argmax(error))
+        flat = int(error.argmax())  # np.argmax's method, without its wrapper (per sample)
         i, j = divmod(flat, error.shape[1])
         return float(error[i, j]), i, (cols.start or 0) + j
 
