@@ -12,9 +12,12 @@ tree, base first then new, interleaved round by round) that loads
 ``--duration`` seconds, builds the design and simulates the strategy once to
 warm the caches, then times a second run. Printed per round: the loop's wall
 time per sample [µs] (``meta["wall_time"]``, the samples only) and its share
-spent in the controller's step (``solve_times``); then the medians and the
-ratio new / base of the medians. The machine's load average is printed too:
-the timings are only as quiet as the machine.
+spent in the controller's step (``solve_times``) and the process's CPU time per
+sample of the whole timed run (``time.process_time``: less disturbed by other
+processes than the wall clock, on a loaded machine); then the medians and the
+ratio new / base of the medians, and of the best rounds (the least disturbed).
+The machine's load average is printed too: the timings are only as quiet as the
+machine.
 """
 
 from __future__ import annotations
@@ -37,10 +40,14 @@ from trainctl.scenario import load_scenario
 duration, strategy = float(sys.argv[1]), sys.argv[2]
 scenario = load_scenario("crh2-dmpc-well-sampled").replace("simulation.duration", duration)
 design = build_design(scenario)
+import time
 simulate_strategy(scenario, strategy, design, warn=False)  # warm the caches
+cpu = time.process_time()
 result = simulate_strategy(scenario, strategy, design, warn=False)
+cpu = time.process_time() - cpu
 samples = len(result.statuses)
 print(json.dumps({"samples": samples, "loop": result.meta["wall_time"] / samples,
+                  "cpu": cpu / samples,
                   "controller": float(result.solve_times.sum()) / samples}))
 """
 
@@ -64,18 +71,27 @@ def main() -> None:
     args = parser.parse_args()
     trees = {"base": args.base.resolve(), "new": HERE}
     loops: dict[str, list[float]] = {"base": [], "new": []}
+    cpus: dict[str, list[float]] = {"base": [], "new": []}
     print(f"load average {os.getloadavg()[0]:.2f}; {args.strategy}, {args.duration:g} s")
     for r in range(args.rounds):
         line = []
         for name, tree in trees.items():
             data = _run(tree, args.duration, args.strategy)
             loops[name].append(data["loop"])
+            cpus[name].append(data["cpu"])
             line.append(f"{name} {1e6 * data['loop']:7.1f} µs/sample "
-                        f"(controller {1e6 * data['controller']:5.1f})")
+                        f"(controller {1e6 * data['controller']:5.1f}, "
+                        f"CPU {1e6 * data['cpu']:6.1f})")
         print(f"round {r + 1}: " + "; ".join(line))
     base, new = (statistics.median(loops[k]) for k in ("base", "new"))
     print(f"median: base {1e6 * base:.1f} µs/sample, new {1e6 * new:.1f} µs/sample, "
           f"new/base {new / base:.3f}; load average {os.getloadavg()[0]:.2f}")
+    best_base, best_new = min(loops["base"]), min(loops["new"])
+    cpu_base, cpu_new = (statistics.median(cpus[k]) for k in ("base", "new"))
+    print(f"median CPU time of the whole run: base {1e6 * cpu_base:.1f} µs/sample, "
+          f"new {1e6 * cpu_new:.1f} µs/sample, new/base {cpu_new / cpu_base:.3f}")
+    print(f"best: base {1e6 * best_base:.1f} µs/sample, new {1e6 * best_new:.1f} µs/sample, "
+          f"new/base {best_new / best_base:.3f}")
 
 
 if __name__ == "__main__":

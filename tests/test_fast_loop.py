@@ -276,10 +276,13 @@ def test_force_split_single_is_row_zero_of_the_call() -> None:
 
 def test_envelope_at_one_speed_per_vehicle_equals_the_envelope_limits() -> None:
     train = crh2_half()
-    bounds = EnvelopeBounds(train, enabled=True)
-    for speeds in (np.full(4, 80.0), np.array([0.0, 0.05, -3.0, 40.0]),
-                   np.array([np.nan, 1.0, 2.0, 3.0])):
+    bounds, other = EnvelopeBounds(train, enabled=True), EnvelopeBounds(train, enabled=True)
+    cases = (np.full(4, 80.0), np.array([0.0, 0.05, -3.0, 40.0]),
+             np.array([np.nan, 1.0, 2.0, 3.0]))
+    for speeds in cases + cases[::-1]:  # the kept bounds of the last speeds, then others
         low, high = bounds.at(speeds)
+        again = other.at(speeds.copy())
+        assert again[0] is low and again[1] is high and not high.flags.writeable
         for i, vehicle in enumerate(train.vehicles):
             env = vehicle.envelope
             np.testing.assert_array_equal(high[i], envelope_limit(

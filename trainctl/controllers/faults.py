@@ -83,6 +83,16 @@ def finite(values: NDArray[np.float64]) -> bool:
     its first False entry (or 0). 0.6 µs against 4.4 µs a call on 8 entries in
     numpy 2.4, whose reductions cost ~2.5 µs each; no floating-point flags raised.
 
+    Parameters
+    ----------
+    values : ndarray
+        Any float array.
+
+    Returns
+    -------
+    bool
+        No entry is NaN or infinite (True for an empty array).
+
     Examples
     --------
     >>> finite(np.array([1.0, 2.0])), finite(np.array([1.0, np.inf])), finite(np.empty(0))

@@ -18,9 +18,13 @@ from trainctl.units import GRAVITY
 
 try:  # the ufunc np.clip ends in: 0.7 against 5.0 µs a call on 4 forces (np.clip's
     # wrappers), the same operation; called every sample of a closed loop.
-    from numpy._core.umath import clip as _clip
+    from numpy._core.umath import clip as _clip  # type: ignore[attr-defined]
 except ImportError:  # pragma: no cover - another numpy layout: the public wrapper
     _clip = np.clip
+
+_LAST_AT: dict[bytes, tuple[bytes, NDArray[np.float64], NDArray[np.float64]]] = {}
+""":meth:`EnvelopeBounds.at`'s last speeds and bounds per set of envelopes: a closed loop
+asks twice a sample at the same speeds (the controller's clip, then the actuators)."""
 
 __all__ = ["EnvelopeBounds"]
 
@@ -64,6 +68,7 @@ class EnvelopeBounds:
     """
 
     _at: tuple[Array, Array, Array]
+    _key: bytes
 
     def __init__(self, train: Train, *, enabled: bool) -> None:
         self.train, self.enabled, self.n = train, enabled, train.n_vehicles
@@ -82,6 +87,7 @@ class EnvelopeBounds:
             # :meth:`at`'s per-sample operands, (2, n): envelope_limit's, with its
             # speed-free product adhesion·m·g taken once (the same product, bit for bit).
             self._at = (force[:, 0], power[:, 0], (adhesion * mass * GRAVITY)[:, 0])
+            self._key = b"".join(a.tobytes() for a in self._at)
 
     def pair(self, speeds: Array) -> Array:
         """Bounds [lb; ub] at ``speeds``, shape (2, moves·n), move by move.
@@ -163,6 +169,8 @@ class EnvelopeBounds:
         -------
         (ndarray, ndarray)
             Lower and upper bounds [N], shape (n,); (-inf, inf) when not ``enabled``.
+            Read-only for stock envelopes (the last speeds' are kept and shared by
+            the bounds of equal envelopes).
 
         Examples
         --------
@@ -175,14 +183,24 @@ class EnvelopeBounds:
         if not self.enabled:
             return np.full(self.n, -np.inf), np.full(self.n, np.inf)
         if self.envelopes is not None and v.shape == (self.n,):
-            # envelope_limit's operations on (2, n) without its broadcast wrapper: called
-            # twice a sample in a closed loop (the controller's clip and the actuators).
+            # envelope_limit's operations on (2, n) without its broadcast wrapper, and the
+            # last speeds' bounds again (read-only) when asked at the same speeds: a closed
+            # loop asks twice a sample (the controller's clip and the actuators).
+            speeds = v.tobytes()
+            last = _LAST_AT.get(self._key)
+            if last is not None and last[0] == speeds:
+                return last[1], last[2]
             force, power, cap = self._at
             speed = np.abs(v)
             np.maximum(speed, _MIN_SPEED, out=speed)
             limits = np.divide(power, speed)
             np.minimum(force, limits, out=limits)
             np.minimum(limits, cap, out=limits)
+            low, high = -limits[0], limits[1]
+            low.setflags(write=False)
+            high.setflags(write=False)
+            _LAST_AT[self._key] = (speeds, low, high)
+            return low, high
         elif self.envelopes is not None:
             force, power, adhesion, mass = self.envelopes
             limits = envelope_limit(v[None, None, :], force, power, adhesion, mass)[:, 0]

@@ -180,10 +180,24 @@ class ForceSplit:
         )
 
     def single(self, speed: float, acceleration: float) -> tuple[Array, Array]:
-        """The inputs [N] and elongations [m] of one (speed, acceleration) pair, no line
-        resistance: row 0 of :meth:`__call__`'s, bit for bit (the same operations on the
-        pair's row, without the arrays of one pair; a closed loop calls it every sample).
-        The arrays are read-only: the last pair's are kept and returned again for it.
+        """The inputs and elongations of one (speed, acceleration) pair, no line resistance.
+
+        Row 0 of :meth:`__call__`'s, bit for bit: the same operations on the
+        pair's row, without the arrays of one pair (a closed loop calls it every
+        sample). The last pair's arrays are kept and returned again for it, so
+        they are read-only.
+
+        Parameters
+        ----------
+        speed : float
+            Common speed v [m/s].
+        acceleration : float
+            Common acceleration a [m/s²].
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            Inputs [N], shape (n,), and coupler elongations [m], shape (n-1,).
 
         Examples
         --------

@@ -422,9 +422,32 @@ class Plant(DenseOutput):
         return out
 
     def sample_map(self, dt: float, inner: int = 1) -> SampleMap | None:
-        """The preallocated one-sample path of a closed loop (:mod:`trainctl.models._plant_sample`),
-        ``inner`` dense points per sample; None unless ``dt`` is one substep on dense
-        propagators (then :meth:`advance_dense` is the path). The same result bit for bit."""
+        """The preallocated one-sample path of a closed loop, when it applies.
+
+        :mod:`trainctl.models._plant_sample`: the operations of
+        :meth:`advance_dense` for a sample of one substep, kept from sample to
+        sample; the same result bit for bit.
+
+        Parameters
+        ----------
+        dt : float
+            Sample time [s], > 0.
+        inner : int
+            Dense points per sample, the last at its end (>= 1).
+
+        Returns
+        -------
+        SampleMap or None
+            The map; None unless ``dt`` is one substep on dense propagators
+            (:meth:`advance_dense` is the path then).
+
+        Examples
+        --------
+        >>> from trainctl.models import crh2_half
+        >>> plant = Plant(train=crh2_half())
+        >>> plant.sample_map(0.05) is not None, plant.sample_map(0.2)
+        (True, None)
+        """
         if self._banded or self._substeps(check_positive("Plant.sample_map", "dt", dt)) != 1:
             return None
         return SampleMap(self, dt, inner)

@@ -312,7 +312,7 @@ def _run(plant: Plant, controller: Controller, reference: Reference, log: Log,
          full_state: bool, bound: float,
          network: Network | None = None) -> dict[str, Any] | None:
     """The loop over the samples; returns the divergence record (None: ran to the end)."""
-    n, dt = log.n, log.dt
+    n = log.n
     divergence = _speed_divergence(log, bound, -1)
     if divergence is not None:
         log.stop(0)

@@ -229,9 +229,25 @@ class SpeedProfile:
 
     def previews(self, starts: NDArray[np.float64], dt: float,
                  steps: int) -> tuple[NDArray[np.float64], ...]:
-        """:meth:`preview` at many sample times at once: row k of the times, speeds and
-        accelerations, each of shape (len(starts), steps + 1), is ``preview(starts[k], dt,
-        steps)``'s, bit for bit (the same elementwise operations).
+        """:meth:`preview` at many sample times at once (a closed loop's chunk of samples).
+
+        Row k of each array is ``preview(starts[k], dt, steps)``'s, bit for bit
+        (the same elementwise operations).
+
+        Parameters
+        ----------
+        starts : ndarray
+            First sample times [s], shape (m,).
+        dt : float
+            Sample time [s], > 0.
+        steps : int
+            Number of steps P >= 0 of the horizon.
+
+        Returns
+        -------
+        (ndarray, ndarray, ndarray)
+            Times [s], speeds [m/s] and accelerations [m/s²], each of shape
+            (m, steps + 1).
 
         Examples
         --------
