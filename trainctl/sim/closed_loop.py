@@ -395,7 +395,7 @@ class _Batch:
         else:
             preview = self.reference.preview(t, self.log.dt, self.horizon)
         # vehicle_positions(train, x) for one state, its operations into a kept buffer.
-        np.cumsum(self.spacing + x[n : 2 * n - 1], out=self.behind[1:])
+        (self.spacing + x[n : 2 * n - 1]).cumsum(out=self.behind[1:])
         positions: NDArray[np.float64] = x[2 * n - 1] - self.behind
         return measured, preview, positions
 
