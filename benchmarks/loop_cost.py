@@ -5,6 +5,7 @@ Usage::
 
     python benchmarks/loop_cost.py [--base /work/main] [--duration 200] [--rounds 5]
                                    [--strategy lqr.centralised]
+                                   [--scenario crh2-dmpc-well-sampled]
 
 Each round runs one subprocess per tree (``PYTHONPATH`` switched to that
 tree, base first then new, interleaved round by round) that loads
@@ -37,8 +38,8 @@ import json, sys
 from trainctl.design import build_design
 from trainctl.run import simulate_strategy
 from trainctl.scenario import load_scenario
-duration, strategy = float(sys.argv[1]), sys.argv[2]
-scenario = load_scenario("crh2-dmpc-well-sampled").replace("simulation.duration", duration)
+duration, strategy, name = float(sys.argv[1]), sys.argv[2], sys.argv[3]
+scenario = load_scenario(name).replace("simulation.duration", duration)
 design = build_design(scenario)
 import time
 simulate_strategy(scenario, strategy, design, warn=False)  # warm the caches
@@ -52,9 +53,9 @@ print(json.dumps({"samples": samples, "loop": result.meta["wall_time"] / samples
 """
 
 
-def _run(tree: Path, duration: float, strategy: str) -> dict[str, float]:
+def _run(tree: Path, duration: float, strategy: str, scenario: str) -> dict[str, float]:
     env = dict(os.environ, PYTHONPATH=str(tree))
-    out = subprocess.run([sys.executable, "-c", CHILD, str(duration), strategy], env=env,
+    out = subprocess.run([sys.executable, "-c", CHILD, str(duration), strategy, scenario], env=env,
                          capture_output=True, text=True, cwd=tree)
     if out.returncode:
         raise SystemExit(f"{tree}: the run failed:\n{out.stderr}")
@@ -68,15 +69,18 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=200.0)
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--strategy", default="lqr.centralised")
+    parser.add_argument("--scenario", default="crh2-dmpc-well-sampled",
+                        help="e.g. crh2-potential with --strategy consensus --duration 70")
     args = parser.parse_args()
     trees = {"base": args.base.resolve(), "new": HERE}
     loops: dict[str, list[float]] = {"base": [], "new": []}
     cpus: dict[str, list[float]] = {"base": [], "new": []}
-    print(f"load average {os.getloadavg()[0]:.2f}; {args.strategy}, {args.duration:g} s")
+    print(f"load average {os.getloadavg()[0]:.2f}; {args.scenario} {args.strategy}, "
+          f"{args.duration:g} s")
     for r in range(args.rounds):
         line = []
         for name, tree in trees.items():
-            data = _run(tree, args.duration, args.strategy)
+            data = _run(tree, args.duration, args.strategy, args.scenario)
             loops[name].append(data["loop"])
             cpus[name].append(data["cpu"])
             line.append(f"{name} {1e6 * data['loop']:7.1f} µs/sample "
