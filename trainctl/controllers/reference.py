@@ -85,4 +85,8 @@ def position_errors(head_error: float, spacing_deviations: ArrayLike) -> NDArray
     [1.0, 0.5, 0.75]
     """
     z = np.asarray(spacing_deviations, dtype=float)
-    return head_error - np.concatenate([[0.0], np.cumsum(z)])
+    behind = np.empty(z.size + 1)  # [0, cumsum(z)], without concatenate's list (per step)
+    behind[0] = 0.0
+    z.cumsum(out=behind[1:])
+    errors: NDArray[np.float64] = head_error - behind
+    return errors

@@ -109,11 +109,13 @@ class ActuatorLimits:
         side = np.zeros(u.size, dtype=np.int8)
         if not self.enabled:
             return u, side
-        low, high = self.limits(speeds)
+        low, high = self._bounds.at(self._vector("speeds", speeds))
         tol = self.tolerance
         over, under = u > high + tol, u < low - tol
-        if over.any() or under.any():
-            u[over], u[under] = high[over], low[under]
+        # Where-copies in place of ``if over.any() or under.any(): u[over], u[under] = ...``:
+        # the same values, without two reductions (~2.5 µs each in numpy 2.4) per sample.
+        np.copyto(u, high, where=over)
+        np.copyto(u, low, where=under)
         side[over | ((high > tol) & (u >= high - tol))] = 1
         side[under | ((low < -tol) & (u <= low + tol))] = -1
         return u, side

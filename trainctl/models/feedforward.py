@@ -131,6 +131,8 @@ class ForceSplit:
         # Per unit mass and the same for every vehicle: evaluated once per pair.
         self._uniform = (tuple(float(a) for a in davis[:, 0])
                          if bool(np.all(davis == davis[:, :1])) else None)
+        self._last: tuple[float, float, Array, Array] | None = None
+        """:meth:`single`'s last pair and result (the reference is often constant)."""
 
     def __call__(
         self, speeds: ArrayLike, accelerations: ArrayLike, line: ArrayLike | None = None
@@ -176,6 +178,57 @@ class ForceSplit:
         return QuasiStaticForces(
             inputs=inputs, coupler_forces=forces, elongations=elong, resistance=need
         )
+
+    def single(self, speed: float, acceleration: float) -> tuple[Array, Array]:
+        """The inputs and elongations of one (speed, acceleration) pair, no line resistance.
+
+        Row 0 of :meth:`__call__`'s, bit for bit: the same operations on the
+        pair's row, without the arrays of one pair (a closed loop calls it every
+        sample). The last pair's arrays are kept and returned again for it, so
+        they are read-only.
+
+        Parameters
+        ----------
+        speed : float
+            Common speed v [m/s].
+        acceleration : float
+            Common acceleration a [m/s²].
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            Inputs [N], shape (n,), and coupler elongations [m], shape (n-1,).
+
+        Examples
+        --------
+        >>> from trainctl.models.presets import crh2_half
+        >>> split = ForceSplit(crh2_half())
+        >>> inputs, elongations = split.single(80.0, 0.1)
+        >>> bool(np.array_equal(inputs, split([80.0], [0.1]).inputs[0]))
+        True
+        """
+        v, accel = float(speed), float(acceleration)
+        last = self._last
+        if last is not None and last[0] == v and last[1] == accel:
+            return last[2], last[3]
+        train = self.train
+        if self._uniform is not None:
+            a0, a1, a2 = self._uniform
+            need = (a0 + a1 * v + a2 * v * v + accel) * train.mass
+        else:
+            a0v, a1v, a2v = train.davis
+            need = train.mass * (a0v + a1v * v + a2v * v * v + accel)
+        inputs = self._share(need[None, :])[0]
+        forces = np.add.accumulate(inputs - need)[:-1]
+        if self._any_virtual:
+            forces[self._virtual] = 0.0
+            elong = np.where(self._virtual, 0.0, forces / self._stiffness)
+        else:
+            elong = forces / self._stiffness
+        inputs.setflags(write=False)
+        elong.setflags(write=False)
+        self._last = (v, accel, inputs, elong)
+        return inputs, elong
 
     def _share(self, need: Array) -> Array:
         """Each group's total need spread by the traction shares (or a copy, for "own")."""

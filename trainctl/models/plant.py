@@ -154,6 +154,7 @@ from trainctl.models._plant_dense import DenseOutput, DenseRecord
 from trainctl.models._plant_integrate import integrate
 from trainctl.models._plant_propagators import CACHE_BYTES, LRU, Propagator, TrackArrays
 from trainctl.models._plant_reference import advance_reference
+from trainctl.models._plant_sample import SampleMap
 from trainctl.models.chain import Chain
 from trainctl.models.track import Track
 from trainctl.models.train import Train
@@ -419,6 +420,37 @@ class Plant(DenseOutput):
         out[: 2 * n - 1] = z[: 2 * n - 1]
         out[2 * n - 1] = s
         return out
+
+    def sample_map(self, dt: float, inner: int = 1) -> SampleMap | None:
+        """The preallocated one-sample path of a closed loop, when it applies.
+
+        :mod:`trainctl.models._plant_sample`: the operations of
+        :meth:`advance_dense` for a sample of one substep, kept from sample to
+        sample; the same result bit for bit.
+
+        Parameters
+        ----------
+        dt : float
+            Sample time [s], > 0.
+        inner : int
+            Dense points per sample, the last at its end (>= 1).
+
+        Returns
+        -------
+        SampleMap or None
+            The map; None unless ``dt`` is one substep on dense propagators
+            (:meth:`advance_dense` is the path then).
+
+        Examples
+        --------
+        >>> from trainctl.models import crh2_half
+        >>> plant = Plant(train=crh2_half())
+        >>> plant.sample_map(0.05) is not None, plant.sample_map(0.2)
+        (True, None)
+        """
+        if self._banded or self._substeps(check_positive("Plant.sample_map", "dt", dt)) != 1:
+            return None
+        return SampleMap(self, dt, inner)
 
     # ------------------------------------------------------------- reference
     def advance_reference(

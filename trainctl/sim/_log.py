@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trainctl.controllers.base import StepRecord
+from trainctl.controllers.faults import finite
 from trainctl.exceptions import DimensionError
 from trainctl.models.dynamics import coupler_forces
 from trainctl.models.plant import Plant
@@ -141,6 +142,8 @@ class Log:
         else:
             self.dense_time, self.dense_states = self.times, self.states
         self.dense_reference = np.asarray(reference.speed(self.dense_time), dtype=float)
+        self.fast = plant.sample_map(dt, self.per) if every == 1 else None
+        """The one-substep sample path (:meth:`Plant.sample_map`; None: advance_dense)."""
         self.spacing = float(offsets[0])
         """Spacing of the dense grid [s] (the last point of an interval may be closer)."""
 
@@ -159,7 +162,7 @@ class Log:
                 f"(got {u.shape} at t={t!r} s)."
             )
         status, fallback = str(record.status), str(record.fallback)
-        if not np.isfinite(u).all():
+        if not finite(u):
             u = previous.copy()
             status, fallback = "error", HOLD_FALLBACK
         self.requested[:, k] = u
@@ -175,6 +178,15 @@ class Log:
         self.inputs[:, k] = applied
         self.saturation[:, k] = side
         x = self.states[:, k]
+        if self.fast is not None and finite(x):  # else the plant's checks raise
+            if self.per == 1:
+                block = self.states[:, k + 1 : k + 2]
+                self.fast.advance(x, applied, block)
+                return
+            block = self.dense_states[:, k * self.per + 1 : (k + 1) * self.per + 1]
+            self.fast.advance(x, applied, block)
+            self.states[:, k + 1] = block[:, -1]
+            return
         if self.per == 1:
             self.states[:, k + 1] = plant.advance(x, applied, self.dt)
             return
@@ -187,7 +199,7 @@ class Log:
         with its vehicle and dense column."""
         cols = slice(0, 1) if k < 0 else slice(k * self.per + 1, (k + 1) * self.per + 1)
         error = np.abs(self.dense_states[: self.n, cols] - self.dense_reference[cols])
-        flat = int(np.argmax(error))
+        flat = int(error.argmax())  # np.argmax's method, without its wrapper (per sample)
         i, j = divmod(flat, error.shape[1])
         return float(error[i, j]), i, (cols.start or 0) + j
 

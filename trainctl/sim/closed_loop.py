@@ -44,7 +44,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from trainctl._validation import check_nonnegative, check_positive
-from trainctl.controllers.base import Controller, Measurement
+from trainctl.controllers.base import Controller, Measurement, ReferencePreview
 from trainctl.exceptions import (
     ConvergenceWarning,
     DimensionError,
@@ -52,12 +52,11 @@ from trainctl.exceptions import (
     ModelError,
 )
 from trainctl.models.actuator import SATURATION_TOLERANCE, ActuatorLimits
-from trainctl.models.dynamics import vehicle_positions
 from trainctl.models.network.simulator import FATES, Network
 from trainctl.models.plant import Plant
 from trainctl.sim._log import HOLD_FALLBACK, Log, dense_grid
 from trainctl.sim.metrics import unconverged_steps
-from trainctl.sim.reference import Reference
+from trainctl.sim.reference import Reference, SpeedProfile
 from trainctl.sim.results import SimulationResult, environment
 
 __all__ = ["DIVERGENCE_SPEED_ERROR", "HOLD_FALLBACK", "simulate"]
@@ -313,24 +312,24 @@ def _run(plant: Plant, controller: Controller, reference: Reference, log: Log,
          full_state: bool, bound: float,
          network: Network | None = None) -> dict[str, Any] | None:
     """The loop over the samples; returns the divergence record (None: ran to the end)."""
-    n, dt = log.n, log.dt
+    n = log.n
     divergence = _speed_divergence(log, bound, -1)
     if divergence is not None:
         log.stop(0)
         return divergence
     previous = np.zeros(n)
+    batch = _Batch(plant, reference, log, rng, noise, horizon)
     for k in range(log.steps):
         t = float(log.times[k])
         x = log.states[:, k]
-        measured = x[:n] + noise * rng.standard_normal(n)
+        measured, preview, positions = batch.sample(k, t, x)
         messages = None
         if network is not None:
             network.send_all(t, measured, reference=float(reference.speed(t)))
             messages = network.messages(t)
         measurement = Measurement(state=x.copy() if full_state else None, outputs=measured,
-                                  messages=messages,
-                                  positions=vehicle_positions(plant.train, x))
-        record = controller.step(t, measurement, reference.preview(t, dt, horizon))
+                                  messages=messages, positions=positions)
+        record = controller.step(t, measurement, preview)
         requested = log.record(k, t, controller.name, record, previous)
         applied, side = actuators.apply(requested, x[:n])
         try:
@@ -346,6 +345,59 @@ def _run(plant: Plant, controller: Controller, reference: Reference, log: Log,
             return divergence
         previous = applied
     return None
+
+
+class _Batch:
+    """What the loop can take for many samples at once, in chunks of :attr:`CHUNK`
+    samples: the measurement noise (the generator draws the same numbers in one call
+    of (chunk, n) as in chunk calls of n) and, for a :class:`SpeedProfile`, the
+    reference previews (:meth:`SpeedProfile.previews`, row for row the same as
+    ``preview``). Per sample only views of them are handed out."""
+
+    CHUNK = 256
+
+    def __init__(self, plant: Plant, reference: Reference, log: Log,
+                 rng: np.random.Generator, noise: float, horizon: int) -> None:
+        self.reference, self.log, self.rng = reference, log, rng
+        self.noise, self.horizon, self.n = noise, horizon, log.n
+        kind = type(reference)
+        self.profile = isinstance(reference, SpeedProfile) and all(
+            getattr(kind, name) is getattr(SpeedProfile, name)
+            for name in ("preview", "speed", "acceleration"))
+        self.spacing = plant.train.spacing
+        self.behind = np.zeros(self.n)
+        self.start = -self.CHUNK  # first sample of the current chunk
+        self.draws = np.empty((0, self.n))
+        self.times = self.speeds = self.accelerations = self.draws
+
+    def _chunk(self, k: int) -> None:
+        log = self.log
+        stop = min(k + self.CHUNK, log.steps)
+        self.start = k
+        self.draws = self.noise * self.rng.standard_normal((stop - k, self.n))
+        if self.profile:
+            self.times, self.speeds, self.accelerations = self.reference.previews(  # type: ignore[attr-defined]
+                log.times[k:stop], log.dt, self.horizon)
+
+    def sample(self, k: int, t: float,
+               x: NDArray[np.float64]) -> tuple[NDArray[np.float64], ReferencePreview,
+                                                NDArray[np.float64]]:
+        """Sample k's measured speeds, reference preview and vehicle positions."""
+        n = self.n
+        row = k - self.start
+        if row >= self.draws.shape[0]:
+            self._chunk(k)
+            row = 0
+        measured = x[:n] + self.draws[row]
+        if self.profile:
+            preview = ReferencePreview(times=self.times[row], speed=self.speeds[row],
+                                       acceleration=self.accelerations[row])
+        else:
+            preview = self.reference.preview(t, self.log.dt, self.horizon)
+        # vehicle_positions(train, x) for one state, its operations into a kept buffer.
+        (self.spacing + x[n : 2 * n - 1]).cumsum(out=self.behind[1:])
+        positions: NDArray[np.float64] = x[2 * n - 1] - self.behind
+        return measured, preview, positions
 
 
 def _speed_divergence(log: Log, bound: float, k: int) -> dict[str, Any] | None:

@@ -227,6 +227,40 @@ class SpeedProfile:
             times=times, speed=self.speed(times), acceleration=self.acceleration(times)
         )
 
+    def previews(self, starts: NDArray[np.float64], dt: float,
+                 steps: int) -> tuple[NDArray[np.float64], ...]:
+        """:meth:`preview` at many sample times at once (a closed loop's chunk of samples).
+
+        Row k of each array is ``preview(starts[k], dt, steps)``'s, bit for bit
+        (the same elementwise operations).
+
+        Parameters
+        ----------
+        starts : ndarray
+            First sample times [s], shape (m,).
+        dt : float
+            Sample time [s], > 0.
+        steps : int
+            Number of steps P >= 0 of the horizon.
+
+        Returns
+        -------
+        (ndarray, ndarray, ndarray)
+            Times [s], speeds [m/s] and accelerations [m/s²], each of shape
+            (m, steps + 1).
+
+        Examples
+        --------
+        >>> profile = ramp_profile(10.0, 20.0, 0.0, 10.0)
+        >>> times, speed, accel = profile.previews(np.array([0.0, 5.0]), 1.0, 2)
+        >>> speed.tolist(), bool(np.array_equal(speed[1], profile.preview(5.0, 1.0, 2).speed))
+        ([[10.0, 11.0, 12.0], [15.0, 16.0, 17.0]], True)
+        """
+        dt = check_positive("SpeedProfile.previews", "dt", dt)
+        times = np.asarray(starts, dtype=float)[:, None] + dt * np.arange(
+            int(steps) + 1, dtype=np.float64)
+        return times, self.speed(times), self.acceleration(times)
+
     def to_dict(self) -> dict[str, object]:
         """JSON-safe dict of the breakpoints.
 

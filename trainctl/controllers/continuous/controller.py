@@ -27,11 +27,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trainctl.controllers.base import Measurement, ReferencePreview, StepRecord, control_dt
-from trainctl.controllers.faults import call_solver, fault_record, non_finite_reason
+from trainctl.controllers.faults import call_solver, fault_record, finite, non_finite_reason
 from trainctl.controllers.reference import ReferencePosition, position_errors
 from trainctl.exceptions import ModelError
 from trainctl.models.envelope import EnvelopeBounds
-from trainctl.models.feedforward import ForceSplit, QuasiStaticForces
+from trainctl.models.feedforward import ForceSplit
 from trainctl.models.train import Train
 
 __all__ = ["SampledLaw", "SampledLawController"]
@@ -170,28 +170,29 @@ class SampledLawController(Generic[LawT]):
             raise ModelError(f"{self.name}: needs full-state measurement (got state=None).")
         n = self.train.n_vehicles
         speed, accel = float(reference.speed[0]), float(reference.acceleration[0])
-        ff = self._split([max(speed, 0.1)], [accel])
+        ff_inputs, ff_elongations = self._split.single(max(speed, 0.1), accel)
         x = np.asarray(measurement.state, dtype=float)
-        reason = non_finite_reason("state", x)
+        reason = "" if finite(x) else non_finite_reason("state", x)
         if reason:
-            return self._fallback(ff.inputs[0], np.full(n, speed), reason, start)
-        z = self._deviations(x[n:2 * n - 1], ff)
+            return self._fallback(ff_inputs, np.full(n, speed), reason, start)
+        z = self._deviations(x[n:2 * n - 1], ff_elongations)
         head = x[2 * n - 1] - self._reference(t, speed, float(x[2 * n - 1]))
         x_err = position_errors(head, z)
         reason, info = self._refuse(z)
         if reason:
-            return self._fallback(ff.inputs[0], x[:n], reason, start)
+            return self._fallback(ff_inputs, x[:n], reason, start)
         force, reason = call_solver(self.law.force, x[:n] - speed, z, x_err)
-        if force is None or not np.all(np.isfinite(force)):
-            return self._fallback(ff.inputs[0], x[:n], reason or self._force_fault(z), start)
-        inputs = ff.inputs[0] + force
+        if force is None or not finite(np.asarray(force, dtype=float)):
+            return self._fallback(ff_inputs, x[:n], reason or self._force_fault(z), start)
+        inputs = ff_inputs + force
         inputs, saturated = self._envelope.clip(inputs, x[:n])
         return StepRecord(inputs=inputs, status="optimal", iterations=0,
                           solve_time=time.perf_counter() - start,
                           info={"saturated": saturated, **info})
 
-    def _deviations(self, links: Array, ff: QuasiStaticForces) -> Array:
-        """The law's spacing deviations z [m] from the plant's link states."""
+    def _deviations(self, links: Array, elongations: Array) -> Array:
+        """The law's spacing deviations z [m] from the plant's link states, given the
+        feedforward's quasi-static elongations [m] (read-only)."""
         return links
 
     def _refuse(self, z: Array) -> tuple[str, dict[str, Any]]:

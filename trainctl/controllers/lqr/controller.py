@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trainctl.controllers.base import Measurement, ReferencePreview, StepRecord, control_dt
-from trainctl.controllers.faults import call_solver, fault_record, non_finite_reason
+from trainctl.controllers.faults import call_solver, fault_record, finite, non_finite_reason
 from trainctl.exceptions import DimensionError, ModelError
 from trainctl.models.envelope import EnvelopeBounds
 from trainctl.models.feedforward import ForceSplit
@@ -85,6 +85,7 @@ class LQRController:
         self.input_bounds, self.name = bool(input_bounds), name
         self._split = ForceSplit(train, where=name)
         self._envelope = EnvelopeBounds(train, enabled=self.input_bounds)
+        self._deviation = np.empty(2 * n - 1)
 
     def reset(self) -> None:
         """Nothing to forget: the law is static."""
@@ -120,17 +121,20 @@ class LQRController:
             raise ModelError(f"{self.name}: needs full-state measurement (got state=None).")
         n = self.train.n_vehicles
         speed = float(reference.speed[0])
-        ff = self._split([max(speed, 0.1)], [float(reference.acceleration[0])])
+        ff_inputs, ff_elongations = self._split.single(max(speed, 0.1),
+                                                       float(reference.acceleration[0]))
         x = np.asarray(measurement.state, dtype=float)
-        reason = non_finite_reason("state", x)
+        reason = "" if finite(x) else non_finite_reason("state", x)
         if reason:
-            return self._fallback(ff.inputs[0], np.full(n, speed), reason, start)
-        deviation = np.concatenate([x[:n] - speed, x[n:2 * n - 1] - ff.elongations[0]])
+            return self._fallback(ff_inputs, np.full(n, speed), reason, start)
+        deviation = self._deviation  # [x[:n] - v_ref, delta - delta_ff], kept
+        np.subtract(x[:n], speed, out=deviation[:n])
+        np.subtract(x[n : 2 * n - 1], ff_elongations, out=deviation[n:])
         feedback, reason = call_solver(self._feedback, deviation)
-        if feedback is None or not np.all(np.isfinite(feedback)):
-            return self._fallback(ff.inputs[0], x[:n], reason or "the feedback is not finite",
+        if feedback is None or not finite(feedback):
+            return self._fallback(ff_inputs, x[:n], reason or "the feedback is not finite",
                                   start)
-        inputs = ff.inputs[0] - feedback
+        inputs = ff_inputs - feedback
         inputs, saturated = self._envelope.clip(inputs, x[:n])
         return StepRecord(inputs=inputs, status="optimal", iterations=0,
                           solve_time=time.perf_counter() - start,

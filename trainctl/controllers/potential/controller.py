@@ -25,7 +25,6 @@ from numpy.typing import NDArray
 
 from trainctl.controllers.continuous.controller import SampledLawController
 from trainctl.controllers.potential.law import PotentialLaw
-from trainctl.models.feedforward import QuasiStaticForces
 
 __all__ = ["PotentialController"]
 
@@ -68,9 +67,9 @@ class PotentialController(SampledLawController[PotentialLaw]):
     default_name = "consensus"
     vehicles = ("cars", "train")
 
-    def _deviations(self, links: Array, ff: QuasiStaticForces) -> Array:
+    def _deviations(self, links: Array, elongations: Array) -> Array:
         """z = δ − δ̄: the elongations less the feedforward's quasi-static ones [m]."""
-        z: NDArray[np.float64] = links - ff.elongations[0]
+        z: NDArray[np.float64] = links - elongations
         return z
 
     def _force_fault(self, z: Array) -> str:

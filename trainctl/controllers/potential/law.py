@@ -35,6 +35,7 @@ everywhere else) with ṗ = v̂_0.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING, cast
 
 import numpy as np
@@ -191,10 +192,17 @@ class PotentialLaw:
             barrier crossed).
         """
         grad = np.asarray(self.potential.gradient(np.asarray(z, dtype=float)), dtype=float)
-        damping = self.speed_gain * v_err + self.consensus_laplacian() @ v_err
+        laplacian, links = self._constant
+        damping = self.speed_gain * v_err + laplacian @ v_err
         force: NDArray[np.float64] = (-self.pinning * x_err
-                                      - self.mass * (damping + incidence(self.n) @ grad))
+                                      - self.mass * (damping + links @ grad))
         return force
+
+    @cached_property
+    def _constant(self) -> tuple[Array, Array]:
+        """The Laplacian and the incidence matrix :meth:`force` applies every step (the
+        gains are frozen: built once, the same matrices)."""
+        return self.consensus_laplacian(), incidence(self.n)
 
 
 def law_of(scenario: Scenario, settings: PotentialSettings) -> PotentialLaw:
