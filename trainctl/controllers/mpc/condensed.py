@@ -282,7 +282,7 @@ class QPBlock:
     offset: Array | None             # fast path: data at zero parameters
     pick: Index | None               # fast path, J a scaled selection: source entry of each datum
     scale: Array | None              # ... and its factor (0 for constant data)
-    work: Array | None = None        # fast path with Jo: (2, data) buffer of solve's composition
+    work: tuple[Array, Array] | None = None  # fast path with Jo: solve's data and Jo U buffers
 
     def solve(self, prep: BlockParameters, U: Array | None, path: str) -> QPSolution:
         """Solve the block's QP with the other blocks' moves U (None: zero).
@@ -381,7 +381,11 @@ def build_block(qp: ParametricQP, *, inputs: tuple[int, ...], cols: Index, Kc: A
             column = nonzero.argmax(axis=1)  # 0 for rows without a parameter (scale 0)
             pick, scale = gather[column], J[np.arange(J.shape[0]), column]
             J = None
-    work = None if Jo is None else np.empty((2, Jo.shape[0]))
+    work = None
+    if Jo is not None:  # [data; coupling]: the data in the dense solver's own buffer if any
+        dense = qp.dense_path
+        work = (dense.data_buffer if dense is not None else np.empty(Jo.shape[0]),
+                np.empty(Jo.shape[0]))
     return QPBlock(inputs=inputs, cols=cols, Kc=Kc, Ko=Ko, Fo=Fo, Jo=Jo, qp=qp, params=params,
                    gather=gather, J=J, offset=offset, pick=pick, scale=scale, work=work)
 

@@ -92,7 +92,7 @@ class _Rows:
     """
 
     def __init__(self, n_constraints: int, n_data: int, rows: list[int], groups: list[int],
-                 factors: list[float], n_eq: int) -> None:
+                 factors: list[float], n_eq: int, *, base: int = 0) -> None:
         row, group = np.asarray(rows, dtype=np.int64), np.asarray(groups, dtype=np.int64)
         factor = np.asarray(factors, dtype=float)
         eq = row < n_eq
@@ -100,8 +100,9 @@ class _Rows:
         n = self.n = n_constraints
         # Each side of each constraint gathers its members (padded with a sentinel that
         # gives DAQP's infinity) from the data extended by that sentinel.
-        self._ext = np.empty(n_data + 1)
-        self._ext[n_data] = _DAQP_INF
+        self._base = base
+        self._ext = np.zeros(base + n_data + 1)  # for bounds(): the data and the sentinel
+        self._ext[-1] = _DAQP_INF
         up_src, up_scale = _gather(n, n_data, row[upper], group[upper], 1.0 / factor[upper], 1.0)
         lo_src, lo_scale = _gather(n, n_data, row[lower], group[lower], 1.0 / factor[lower],
                                    -1.0)
@@ -110,7 +111,7 @@ class _Rows:
         scale = np.ones((width, 2 * n))
         src[:up_src.shape[1], :n], scale[:up_scale.shape[1], :n] = up_src.T, up_scale.T
         src[:lo_src.shape[1], n:], scale[:lo_scale.shape[1], n:] = lo_src.T, -lo_scale.T
-        self._src, self._scale = src, scale
+        self._src, self._scale = src + base, scale
         self._huge = _HUGE * np.abs(scale)
         self._cols = np.empty((width, 2 * n))
         self._mask = np.empty((width, 2 * n), dtype=bool)
@@ -121,13 +122,14 @@ class _Rows:
 
         Infinite bounds are DAQP's infinity, ±1e30.
         """
-        lower, upper = self.into(d)
+        self._ext[self._base:-1] = d
+        lower, upper = self.gather(self._ext)
         return lower.copy(), upper.copy()
 
-    def into(self, d: Array) -> tuple[Array, Array]:
-        """:meth:`bounds` in this object's buffers (views, rewritten by the next call)."""
-        ext, cols, n = self._ext, self._cols, self.n
-        ext[:-1] = d
+    def gather(self, ext: Array) -> tuple[Array, Array]:
+        """:meth:`bounds` from ``ext`` = [``base`` entries; OSQP's row data; 1e30] (views of
+        this object's buffers, rewritten by the next call)."""
+        cols, n = self._cols, self.n
         np.take(ext, self._src, out=cols)
         np.multiply(cols, self._scale, out=cols)
         mask = np.greater_equal(cols, self._huge, out=self._mask)
@@ -355,9 +357,20 @@ class FastDAQP:
         simple_sense = [_HARD] * self.n_simple
         self._sense0 = np.array(simple_sense + senses, dtype=np.int32)
         m = A.shape[0]
-        self._rows = _Rows(self.n_simple + self.n_rows, m, rows, groups, factors, self._n_eq)
+        n = self._n
+        self._rows = _Rows(self.n_simple + self.n_rows, m, rows, groups, factors, self._n_eq,
+                           base=n)
         self._zero = _Rows(len(zero_rows), m, [r for r, _ in zero_rows],
-                           list(range(len(zero_rows))), [1.0] * len(zero_rows), self._n_eq)
+                           list(range(len(zero_rows))), [1.0] * len(zero_rows), self._n_eq,
+                           base=n)
+        # The stacked data [q; b; h] and the sentinel the row reduction gathers for a side
+        # without members; data_buffer is the part before the sentinel.
+        self._ext = np.empty(n + m + 1)
+        self._ext[-1] = _DAQP_INF
+        self.data_buffer = self._ext[:-1]
+        """OSQP's stacked data [q; b; h] of the next solve, composed in place (by
+        :meth:`QPBlock.solve`): :meth:`solve_vector` given this array reads it without a
+        copy. Rewritten by every solve."""
         self._hard = slice(0, self._soft_first)
         self._soft_part = slice(self._soft_first, self.n_simple + self.n_rows)
         self._A_soft = self.A[self._soft_first - self.n_simple:]
@@ -399,11 +412,13 @@ class FastDAQP:
 
     def _bounds_view(self, data: Array) -> tuple[Array, Array, bool]:
         """:meth:`_bounds` in the row reduction's buffers (rewritten by the next solve)."""
-        d = data[self._n:]
-        lower, upper = self._rows.into(d)
+        ext = self._ext
+        if data is not self.data_buffer:
+            ext[:-1] = data
+        lower, upper = self._rows.gather(ext)
         violated = False
         if self._zero.n:
-            zl, zu = self._zero.into(d)
+            zl, zu = self._zero.gather(ext)
             violated = bool((zl > _CONTRADICTION).any() or (zu < -_CONTRADICTION).any())
         return lower, upper, violated
 
