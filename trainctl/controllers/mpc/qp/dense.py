@@ -126,15 +126,17 @@ class _Rows:
         lower, upper = self.gather(self._ext)
         return lower.copy(), upper.copy()
 
-    def gather(self, ext: Array) -> tuple[Array, Array]:
+    def gather(self, ext: Array, *, huge: bool = True) -> tuple[Array, Array]:
         """:meth:`bounds` from ``ext`` = [``base`` entries; OSQP's row data; 1e30] (views of
-        this object's buffers, rewritten by the next call)."""
+        this object's buffers, rewritten by the next call). ``huge=False``: no datum is
+        1e19 or more in magnitude (none is looked for)."""
         cols, n = self._cols, self.n
         np.take(ext, self._src, out=cols)
         np.multiply(cols, self._scale, out=cols)
-        mask = np.greater_equal(cols, self._huge, out=self._mask)
-        if mask.any():
-            cols[mask] = _DAQP_INF
+        if huge:
+            mask = np.greater_equal(cols, self._huge, out=self._mask)
+            if mask.any():
+                cols[mask] = _DAQP_INF
         acc = cols[0]
         for j in range(1, cols.shape[0]):  # members in order, as a chain of minima
             np.minimum(acc, cols[j], out=acc)
@@ -410,15 +412,16 @@ class FastDAQP:
         lower, upper, violated = self._bounds_view(data)
         return lower.copy(), upper.copy(), violated
 
-    def _bounds_view(self, data: Array) -> tuple[Array, Array, bool]:
-        """:meth:`_bounds` in the row reduction's buffers (rewritten by the next solve)."""
+    def _bounds_view(self, data: Array, *, small: bool = False) -> tuple[Array, Array, bool]:
+        """:meth:`_bounds` in the row reduction's buffers (rewritten by the next solve);
+        ``small``: every datum is known to be finite and below 1e18 in magnitude."""
         ext = self._ext
         if data is not self.data_buffer:
             ext[:-1] = data
-        lower, upper = self._rows.gather(ext)
+        lower, upper = self._rows.gather(ext, huge=not small)
         violated = False
         if self._zero.n:
-            zl, zu = self._zero.gather(ext)
+            zl, zu = self._zero.gather(ext, huge=not small)
             violated = bool((zl > _CONTRADICTION).any() or (zu < -_CONTRADICTION).any())
         return lower, upper, violated
 
@@ -468,11 +471,18 @@ class FastDAQP:
             wall time [s].
         """
         start = time.perf_counter()
+        buffer = self.data_buffer
+        if data is not buffer:
+            buffer[...] = data
+        # ‖data‖² < 1e36: every datum is finite and below 1e18 in magnitude, so none is a NaN,
+        # an infinity or a clipped infinite bound (>= 1e19). One BLAS call (ddot) instead of
+        # a sum here and the search for infinite data in the bounds (two numpy reductions).
+        small = bool(np.dot(buffer, buffer) < 1e36)
         # One sum finds a NaN or an infinity (the data are clipped to ±1e20); then look closer.
-        if not math.isfinite(data.sum()) and (np.isnan(data).any()
-                                              or not np.isfinite(data[:self._n]).all()):
+        if not small and not math.isfinite(data.sum()) and (
+                np.isnan(data).any() or not np.isfinite(data[:self._n]).all()):
             return self._failed("error", start)
-        lower, upper, violated = self._bounds_view(data)
+        lower, upper, violated = self._bounds_view(buffer, small=small)
         if violated:
             return self._failed("infeasible", start)
         if (lower > upper).any():
