@@ -351,13 +351,12 @@ class MPCController:
         """Why the step cannot be solved ("" when it can): a non-finite measurement or preview."""
         used = measurement.state if self.observer is None else measurement.outputs
         P1 = self.P + 1
-        # One sum per array: finite sums mean finite values (a NaN or an infinity makes the
-        # sum non-finite); otherwise (or on an overflow) look closer.
-        total = float(np.add.reduce(np.asarray(reference.speed[:P1], dtype=float))) \
-            + float(np.add.reduce(np.asarray(reference.acceleration[:P1], dtype=float)))
+        # One test of all the values used; when it fails, look closer.
+        parts = [np.asarray(reference.speed[:P1], dtype=float).ravel(),
+                 np.asarray(reference.acceleration[:P1], dtype=float).ravel()]
         if used is not None:
-            total += float(np.add.reduce(np.asarray(used, dtype=float), axis=None))
-        if math.isfinite(total):
+            parts.append(np.asarray(used, dtype=float).ravel())
+        if np.isfinite(np.concatenate(parts)).all():
             return ""
         if used is not None:
             values = np.asarray(used, dtype=float)
