@@ -23,8 +23,9 @@ controller step time / raw solver time is taken per round (median and range over
 rounds), and ``best/best``: every step (every raw QP) does the same work in every
 round, so its fastest round is its time least disturbed by the other processes of
 a shared machine; the sums of those minima per step and their ratio. Each timed
-interval has the cost of a clock reading (its median over many) subtracted. The controller time is the sum of ``step`` wall times (the loop, the plant
-and ``reset`` outside it). ``--sections`` adds a breakdown of one controller pass
+interval has the cost of a clock reading (its median over many) subtracted. The
+controller time is the sum of ``step`` times (the loop, the plant and ``reset``
+outside it). ``--sections`` adds a breakdown of one controller pass
 (per-step wall time of its parts, measured by wrapping them: the wrappers add about
 0.3 µs per call).
 

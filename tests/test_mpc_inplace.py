@@ -99,7 +99,12 @@ def test_block_data_composed_in_place_equal_the_sum():
     for block, prep in zip(ctl.problem.blocks, params, strict=True):
         seen = []
         original = block.qp.solve_data
-        block.qp.solve_data = lambda data, _o=original: (seen.append(data.copy()), _o(data))[1]
+
+        def record(data, _o=original, _s=seen):
+            _s.append(data.copy())
+            return _o(data)
+
+        block.qp.solve_data = record
         try:
             for _ in range(3):
                 U = rng.normal(0.0, 5.0, ctl.M * ctl.n)

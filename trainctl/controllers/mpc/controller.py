@@ -62,7 +62,6 @@ wins, and only the actuators' own envelope can overrule it
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import replace
 
