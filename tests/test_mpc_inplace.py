@@ -190,3 +190,4 @@ def test_fault_check(where, value, reason):
         getattr(ref, where)[5] = value
     got = ctl._fault(Measurement(state=state), ref)
     assert got.startswith(reason) and (reason or got == "")
+

@@ -412,10 +412,11 @@ class FastDAQP:
         lower, upper, violated = self._bounds_view(data)
         return lower.copy(), upper.copy(), violated
 
-    def _bounds_view(self, data: Array) -> tuple[Array, Array, bool]:
-        """:meth:`_bounds` in the row reduction's buffers (rewritten by the next solve)."""
+    def _bounds_view(self, data: Array, *, in_place: bool = False) -> tuple[Array, Array, bool]:
+        """:meth:`_bounds` in the row reduction's buffers (rewritten by the next solve);
+        ``in_place``: ``data`` is ``self._ext[:-1]`` already."""
         ext = self._ext
-        if data is not self.data_buffer:
+        if not in_place:
             ext[:-1] = data
         lower, upper = self._rows.gather(ext)
         violated = False
@@ -471,15 +472,16 @@ class FastDAQP:
         """
         start = time.perf_counter()
         buffer = self.data_buffer
-        if data is not buffer:
-            buffer[...] = data
+        if data is not buffer or buffer.base is not self._ext:  # (a copied solver: no view)
+            self._ext[:-1] = data
+            buffer = self._ext[:-1]
         # One sum finds a NaN or an infinity (the data are clipped to ±1e20); then look closer.
         # The sum as a BLAS dot product with ones: the same test as data.sum() (a numpy
         # reduction) at a third of its cost.
         if not math.isfinite(np.dot(buffer, self._ones)) and (
                 np.isnan(data).any() or not np.isfinite(data[:self._n]).all()):
             return self._failed("error", start)
-        lower, upper, violated = self._bounds_view(buffer)
+        lower, upper, violated = self._bounds_view(buffer, in_place=True)
         if violated:
             return self._failed("infeasible", start)
         if (lower > upper).any():
