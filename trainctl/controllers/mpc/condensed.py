@@ -31,7 +31,8 @@ from trainctl.controllers.mpc.qp.fast import QPSolution
 from trainctl.controllers.mpc.qp.parametric import PARAMETERS, ParametricQP
 from trainctl.exceptions import ModelError
 
-__all__ = ["BlockParameters", "MoveMaps", "QPBlock", "block_parameters", "build_block",
+__all__ = ["BlockParameters", "MoveMaps", "ParameterGather", "QPBlock", "block_parameters",
+           "build_block",
            "input_rows", "move_maps", "shifted"]
 
 Array = NDArray[np.float64]
@@ -281,6 +282,7 @@ class QPBlock:
     offset: Array | None             # fast path: data at zero parameters
     pick: Index | None               # fast path, J a scaled selection: source entry of each datum
     scale: Array | None              # ... and its factor (0 for constant data)
+    work: tuple[Array, Array] | None = None  # fast path with Jo: solve's data and Jo U buffers
 
     def solve(self, prep: BlockParameters, U: Array | None, path: str) -> QPSolution:
         """Solve the block's QP with the other blocks' moves U (None: zero).
@@ -306,8 +308,12 @@ class QPBlock:
         if prep.data is not None:
             if U is None:
                 return self.qp.solve_data(prep.data)
-            assert self.Jo is not None
-            return self.qp.solve_data(prep.data + self.Jo @ U)
+            assert self.Jo is not None and self.work is not None
+            # prep.data + Jo @ U composed in the block's buffer (the same two operations;
+            # the data handed to the solver are rewritten by the block's next solve)
+            data, coupling = self.work
+            np.matmul(self.Jo, U, out=coupling)
+            return self.qp.solve_data(np.add(prep.data, coupling, out=data))
         values = prep.values
         assert values is not None
         if U is None:
@@ -375,8 +381,76 @@ def build_block(qp: ParametricQP, *, inputs: tuple[int, ...], cols: Index, Kc: A
             column = nonzero.argmax(axis=1)  # 0 for rows without a parameter (scale 0)
             pick, scale = gather[column], J[np.arange(J.shape[0]), column]
             J = None
+    work = None
+    if Jo is not None:  # [data; coupling]: the data in the dense solver's own buffer if any
+        dense = qp.dense_path
+        work = (dense.data_buffer if dense is not None else np.empty(Jo.shape[0]),
+                np.empty(Jo.shape[0]))
     return QPBlock(inputs=inputs, cols=cols, Kc=Kc, Ko=Ko, Fo=Fo, Jo=Jo, qp=qp, params=params,
-                   gather=gather, J=J, offset=offset, pick=pick, scale=scale)
+                   gather=gather, J=J, offset=offset, pick=pick, scale=scale, work=work)
+
+
+class ParameterGather:
+    """:func:`block_parameters` of a fixed list of blocks, in preallocated arrays.
+
+    On the fast path with every block's map a scaled selection (``pick``,
+    ``scale``), all blocks' data are composed by three numpy calls into one
+    buffer, ``scale·src[pick] + offset`` elementwise as :func:`block_parameters`
+    computes it block by block (the same numbers), and the same
+    :class:`BlockParameters` (views of the buffer) are returned every step:
+    their data are rewritten by the next call. Otherwise it calls
+    :func:`block_parameters`.
+
+    Parameters
+    ----------
+    blocks : list of QPBlock
+        The blocks, in the order of the parameters returned.
+    fast : bool
+        Compose the solver data (every block has the fast path).
+
+    Examples
+    --------
+    >>> from trainctl.controllers.mpc.qp.parametric import ParametricQP
+    >>> qp = ParametricQP(np.eye(2), np.eye(2), np.zeros((0, 2)), name="demo")
+    >>> params = {"g": np.arange(2), "lb": np.arange(2, 4), "ub": np.arange(4, 6),
+    ...           "hl": np.arange(0), "hu": np.arange(0)}
+    >>> block = build_block(qp, inputs=(0, 1), cols=np.arange(2), Kc=np.eye(2), params=params)
+    >>> gather = ParameterGather([block], fast=True)
+    >>> src = np.array([-2.0, 1.0, -0.5, -0.5, 0.5, 0.5])  # g, lb, ub
+    >>> [prep] = gather(src)
+    >>> prep.data.tolist() == block_parameters([block], src, fast=True)[0].data.tolist()
+    True
+    """
+
+    def __init__(self, blocks: list[QPBlock], *, fast: bool) -> None:
+        self.blocks, self.fast = blocks, fast
+        self.stacked = fast and all(b.pick is not None and b.scale is not None
+                                    and b.offset is not None for b in blocks)
+        if not self.stacked:
+            return
+        picks = [b.pick for b in blocks if b.pick is not None]
+        self._pick = np.concatenate(picks) if picks else np.zeros(0, dtype=np.int64)
+        self._scale = np.concatenate([b.scale for b in blocks if b.scale is not None] or
+                                     [np.zeros(0)])
+        self._offset = np.concatenate([b.offset for b in blocks if b.offset is not None] or
+                                      [np.zeros(0)])
+        self._data = np.empty(self._pick.size)
+        ends = np.cumsum([p.size for p in picks])
+        self._params = [BlockParameters(data=self._data[end - p.size:end])
+                        for p, end in zip(picks, ends, strict=True)]
+
+    def __call__(self, src: Array) -> list[BlockParameters]:
+        """Every block's parameters from the source vector (clipped to ±1e20 in place on the
+        fast path), as :func:`block_parameters` gives them."""
+        if not self.stacked:
+            return block_parameters(self.blocks, src, self.fast)
+        np.maximum(src, -1e20, out=src)
+        np.minimum(src, 1e20, out=src)
+        data = self._data
+        np.take(src, self._pick, out=data)
+        np.multiply(data, self._scale, out=data)
+        np.add(data, self._offset, out=data)
+        return self._params
 
 
 def block_parameters(blocks: list[QPBlock], src: Array, fast: bool) -> list[BlockParameters]:

@@ -264,6 +264,8 @@ class MPCController:
         self._ff_prev: Array | None = None      # feedforward at the last step [kN]
         self._speeds_prev: Array | None = None  # speeds measured at the last finite step [m/s]
         self._disturbance = 0.0                 # estimated specific force [m/s²]
+        self._ff_key: tuple[bytes, bytes] | None = None  # the preview of _ff_cache
+        self._ff_cache: tuple[Array, Array, Array, Array] | None = None
         if self.observer is not None:
             self.observer.reset()
         self.problem.reset()
@@ -347,6 +349,14 @@ class MPCController:
     def _fault(self, measurement: Measurement, reference: ReferencePreview) -> str:
         """Why the step cannot be solved ("" when it can): a non-finite measurement or preview."""
         used = measurement.state if self.observer is None else measurement.outputs
+        P1 = self.P + 1
+        # One test of all the values used; when it fails, look closer.
+        parts = [np.asarray(reference.speed[:P1], dtype=float).ravel(),
+                 np.asarray(reference.acceleration[:P1], dtype=float).ravel()]
+        if used is not None:
+            parts.append(np.asarray(used, dtype=float).ravel())
+        if np.isfinite(np.concatenate(parts)).all():
+            return ""
         if used is not None:
             values = np.asarray(used, dtype=float)
             if not np.isfinite(values).all():
@@ -354,7 +364,7 @@ class MPCController:
                 what = "state" if self.observer is None else "outputs"
                 return f"non-finite measurement: {what}[{bad}] = {values[bad]!r}"
         for name in ("speed", "acceleration"):
-            preview = np.asarray(getattr(reference, name)[: self.P + 1], dtype=float)
+            preview = np.asarray(getattr(reference, name)[:P1], dtype=float)
             if not np.isfinite(preview).all():
                 return f"non-finite reference {name} in the preview"
         return ""
@@ -421,10 +431,23 @@ class MPCController:
     def _context(self, state: Array, ref: ReferencePreview) -> StepContext:
         n, P, M = self.n, self.P, self.M
         # An estimated disturbance is compensated like an extra acceleration.
-        accel = ref.acceleration[: P + 1]
+        speed, accel = ref.speed[: P + 1], ref.acceleration[: P + 1]
         if self._disturbance:
             accel = accel + self._disturbance
-        u_ff, f_ff, elong0 = self._feedforward(ref.speed[: P + 1], accel)
+        # The feedforward and the move bounds depend on the previewed speeds and
+        # accelerations only: a preview equal to the last one (a constant reference)
+        # reuses them. Read-only, so that no step changes what the next one reuses.
+        key = (np.asarray(speed, dtype=float).tobytes(), np.asarray(accel, dtype=float).tobytes())
+        if key != self._ff_key:
+            u_ff, f_ff, elong0 = self._feedforward(speed, accel)
+            bounds = self._bound_pair(ref.speed[:M])
+            bounds -= u_ff[:M].ravel()
+            cached = (u_ff[:M], f_ff[1:P + 1].ravel(), elong0, bounds)
+            for array in cached:
+                array.flags.writeable = False
+            self._ff_key, self._ff_cache = key, cached
+        assert self._ff_cache is not None
+        u_ff, f_ff, elong0, bounds = self._ff_cache
         x_dev = np.empty(2 * n - 1)
         np.subtract(state[:n], ref.speed[0], out=x_dev[:n])
         np.subtract(state[n:2 * n - 1], elong0, out=x_dev[n:])
@@ -435,9 +458,7 @@ class MPCController:
             tiled = np.tile(u_dev_prev, M)
         else:
             u_dev_prev, tiled = self._zeros_n, self._zeros_MN
-        bounds = self._bound_pair(ref.speed[:M])
-        bounds -= u_ff[:M].ravel()
-        return StepContext(x=x_dev, u_ff=u_ff[:M], f_ff=f_ff[1:P + 1].ravel(), u_prev=u_prev,
+        return StepContext(x=x_dev, u_ff=u_ff, f_ff=f_ff, u_prev=u_prev,
                            u_dev_prev=u_dev_prev, u_dev_prev_tiled=tiled, bounds=bounds)
 
     def _feedforward(self, speeds: Array, accels: Array) -> tuple[Array, Array, Array]:

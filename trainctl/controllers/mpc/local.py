@@ -34,8 +34,8 @@ from numpy.typing import NDArray
 
 from trainctl.controllers.mpc.condensed import (
     BlockParameters,
+    ParameterGather,
     QPBlock,
-    block_parameters,
     build_block,
     input_rows,
     move_maps,
@@ -213,6 +213,7 @@ class LocalTrainProblem(TrainProblem):
         self._rate_pair = np.array([[-constraints.rate_limit / KN], [constraints.rate_limit / KN]])
         self._limit = constraints.coupler_force_limit / KN
         self.fast = all(b.offset is not None for b in self.blocks)
+        self._gather = ParameterGather(self.blocks, fast=self.fast)
         self._free_z: list[Array] = [np.zeros(0)] * n
         self._X: Array | None = None
 
@@ -271,7 +272,7 @@ class LocalTrainProblem(TrainProblem):
             One per coach: OSQP's composed data on the fast path, else the
             vectors g, lb, ub, hl, hu.
         """
-        return block_parameters(self.blocks, self.sources(ctx), self.fast)
+        return self._gather(self.sources(ctx))
 
     def reset(self) -> None:
         """Forget every QP's warm start and the exchanged trajectories."""

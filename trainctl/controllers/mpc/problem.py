@@ -29,8 +29,8 @@ from numpy.typing import NDArray
 from trainctl.controllers.faults import safe_inputs
 from trainctl.controllers.mpc.condensed import (
     BlockParameters,
+    ParameterGather,
     QPBlock,
-    block_parameters,
     build_block,
     input_rows,
     move_maps,
@@ -191,6 +191,7 @@ class TrainProblem:
             g_start += self.blocks[-1].cols.size
         self._source_buffer(g_start)
         self.fast = all(b.offset is not None for b in self.blocks)
+        self._gather = ParameterGather(self.blocks, fast=self.fast)
         covered = np.unique(np.concatenate([b.cols for b in self.blocks]))
         # Iteration residual over the blocks' columns; None: they cover the whole plan.
         self.residual_cols = None if covered.size == M * n else covered
@@ -337,7 +338,7 @@ class TrainProblem:
             One per block of :attr:`blocks`: OSQP's composed data on the fast
             path, else the vectors g, lb, ub, hl, hu.
         """
-        return block_parameters(self.blocks, self.sources(ctx), self.fast)
+        return self._gather(self.sources(ctx))
 
     def reset(self) -> None:
         """Forget every QP's warm start (:meth:`ParametricQP.reset`)."""
