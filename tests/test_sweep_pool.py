@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from trainctl.run.pool import process_pool, worker_pool
+from trainctl.run.pool import available_cpus, process_pool, worker_pool
 
 linux = pytest.mark.skipif(not sys.platform.startswith("linux"),
                            reason="workers fork from the main process on Linux only")
@@ -57,6 +57,10 @@ def sleeper(seconds: float) -> tuple[int, float, float]:
     start = time.monotonic()
     time.sleep(seconds)
     return os.getpid(), start, time.monotonic()
+
+
+def openblas_variable() -> str | None:
+    return os.environ.get("OPENBLAS_NUM_THREADS")
 
 
 def signal_state() -> tuple[Any, Any, int]:
@@ -172,3 +176,54 @@ def test_serial_and_pool_sweeps_identical(tmp_path: Path) -> None:
                     if "solve_time" in name:  # wall-clock
                         continue
                     np.testing.assert_array_equal(a[name], b[name], err_msg=f"{run}/{name}")
+
+
+# --- when the pool is used by default (analyse, report: --jobs not given) ---------------------
+
+two_cpus = pytest.mark.skipif(available_cpus() < 2, reason="a pool needs two usable CPUs")
+
+
+@two_cpus
+def test_a_second_long_run_goes_to_the_pool() -> None:
+    """crh2-dmpc over 200 s (10 samples of 3 MPC strategies, about a second of CPU) is
+    simulated on the pool, though it counts only 30 controller steps."""
+    from trainctl.run.pool import estimated_steps, pool_size, want_pool
+    from trainctl.scenario import load_scenario
+
+    scenario = load_scenario("crh2-dmpc").replace("simulation.duration", 200.0)
+    assert estimated_steps(scenario) == 30
+    assert want_pool([scenario], None) == pool_size(available_cpus(), 3) >= 2
+
+
+@two_cpus
+def test_the_control_interval_counts() -> None:
+    """heavy-haul-flocking steps one strategy every second at a 2 s sample time (1800
+    sample steps): estimated at seconds, it goes to the pool."""
+    from trainctl.design.stage import strategy_interval
+    from trainctl.run.pool import PARALLEL_MIN_SECONDS, estimated_seconds, want_pool
+    from trainctl.scenario import load_scenario
+
+    scenario = load_scenario("heavy-haul-flocking")
+    assert scenario.simulation is not None
+    assert min(strategy_interval(scenario, s) for s in scenario.simulation.strategies) \
+        < scenario.model.sample_time
+    assert estimated_seconds(scenario) > PARALLEL_MIN_SECONDS
+    assert want_pool([scenario], None) >= 2
+
+
+@pytest.mark.slow
+def test_forkserver_pool_still_works(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Without fork (as on macOS) the workers start from a forkserver, with the thread
+    variables at 1, and the default threshold is the forkserver's."""
+    import trainctl.run.pool as pool_module
+    from trainctl.scenario import load_scenario
+
+    monkeypatch.setattr(pool_module, "_fork_context", lambda: None)
+    with pool_module.worker_pool(2) as pool:
+        assert pool is not None
+        assert list(pool.map(abs, [-3, 4])) == [3, 4]
+        env = pool.submit(openblas_variable).result(timeout=120)
+    assert env == os.environ.get("OPENBLAS_NUM_THREADS", "1")
+    scenario = load_scenario("crh2-dmpc").replace("simulation.duration", 200.0)
+    assert pool_module.estimated_seconds(scenario) < pool_module.FORKSERVER_MIN_SECONDS
+    assert pool_module.want_pool([scenario], None) == 0

@@ -49,19 +49,25 @@ if TYPE_CHECKING:
     from trainctl.scenario import Scenario
 
 __all__ = [
-    "PARALLEL_MIN_STEPS", "available_cpus", "estimated_steps", "pool_size", "process_pool",
+    "FORKSERVER_MIN_SECONDS", "PARALLEL_MIN_SECONDS", "available_cpus", "estimated_seconds",
+    "estimated_steps", "pool_size", "process_pool",
     "single_threaded_blas", "terminate_workers", "want_pool", "worker_pool",
 ]
 
 _LIVE: set[Executor] = set()
 """Pools of :func:`worker_pool` that are running (for :func:`terminate_workers`)."""
 
-PARALLEL_MIN_STEPS = 5000
-"""Simulated controller steps (summed over strategies) from which a pool pays off.
+PARALLEL_MIN_SECONDS = 1.0
+"""Estimated seconds of simulation (summed over a run's simulations) from which a pool of
+forked workers (Linux) pays off [s].
 
-Starting the pool costs about a second; a controller step costs 0.2–2 ms, so
-below a few thousand steps the simulations finish sooner in the main process.
-"""
+The estimate is the budget's (:func:`estimated_seconds`), at each strategy's control
+interval. A pool of two forked workers starts in about 10 ms and each worker's first task
+costs nothing extra, so a run of a second or more finishes sooner on two cores."""
+
+FORKSERVER_MIN_SECONDS = 10.0
+""":data:`PARALLEL_MIN_SECONDS` where workers start from a forkserver (not Linux) [s]: the
+forkserver's import of trainctl and each worker's first imports cost about 3 s of CPU."""
 
 
 def available_cpus() -> int:
@@ -158,6 +164,27 @@ def estimated_steps(scenario: Scenario) -> int:
     return estimate_run(scenario).controller_steps
 
 
+def estimated_seconds(scenario: Scenario) -> float:
+    """Estimated seconds of a scenario's simulations, one after the other (0 without
+    ``[simulation]``): the budget's :attr:`~trainctl.run.budget.RunEstimate.simulation_seconds`,
+    each strategy priced at its control interval.
+
+    Examples
+    --------
+    ``crh2-dmpc``'s 180 controller steps are MPC steps (QPs over a horizon of 4 samples),
+    estimated at seconds; ``crh2-potential`` updates its potential-field law every 2 ms:
+
+    >>> from trainctl.scenario import load_scenario
+    >>> estimated_seconds(load_scenario("crh2-dmpc")) > PARALLEL_MIN_SECONDS
+    True
+    >>> estimated_seconds(load_scenario("crh2-dmpc").replace("simulation", None))
+    0.0
+    """
+    from trainctl.run.budget import estimate_run
+
+    return estimate_run(scenario).simulation_seconds
+
+
 def simulation_runs(scenario: Scenario) -> int:
     """Closed-loop runs of a scenario: its strategies, each ``repetitions`` times, plus
     the baseline-network runs (:mod:`trainctl.run.repetitions`); 0 without ``[simulation]``."""
@@ -178,7 +205,9 @@ def want_pool(scenarios: Iterable[Scenario], jobs: int | None) -> int:
         The scenarios to simulate.
     jobs : int or None
         Requested workers; None chooses: the available CPUs when the
-        simulations total at least :data:`PARALLEL_MIN_STEPS` steps, else 0.
+        simulations are estimated at :data:`PARALLEL_MIN_SECONDS` or more
+        (:func:`estimated_seconds`; :data:`FORKSERVER_MIN_SECONDS` where the
+        workers start from a forkserver), else 0.
 
     Returns
     -------
@@ -188,23 +217,24 @@ def want_pool(scenarios: Iterable[Scenario], jobs: int | None) -> int:
 
     Examples
     --------
-    ``crh2-dmpc`` has 3 simulations of 60 steps each (180 steps, far below
-    :data:`PARALLEL_MIN_STEPS`), so by default it runs in the main process;
-    an explicit request is capped at the number of simulations and of CPUs:
+    ``crh2-dmpc`` has 3 simulations estimated at seconds, so by default they
+    run on every available CPU (at most 3); the convergence sweep's single
+    one-second N-DMPC run (estimated under a second) runs in the main
+    process; an explicit request is capped at the number of simulations and
+    of CPUs:
 
     >>> from trainctl.scenario import load_scenario
     >>> scenario = load_scenario("crh2-dmpc")
-    >>> want_pool([scenario], None), want_pool([scenario], 1)
-    (0, 0)
+    >>> want_pool([scenario], None) == pool_size(available_cpus(), 3)
+    True
+    >>> short = load_scenario("crh2-dmpc-convergence-sweep")
+    >>> estimated_seconds(short) < PARALLEL_MIN_SECONDS, want_pool([short], None)
+    (True, 0)
+    >>> want_pool([scenario], 1)
+    0
     >>> want_pool([scenario], 4) == pool_size(4, 3)
     True
     >>> want_pool([scenario, scenario], 10_000) == pool_size(10_000, 6)  # 2 × 3 simulations
-    True
-
-    Thirty copies total 30 × 180 = 5400 >= 5000 steps, so the default uses
-    every available CPU (at most the 90 simulations):
-
-    >>> want_pool([scenario] * 30, None) == pool_size(available_cpus(), 90)
     True
     """
     scenarios = list(scenarios)
@@ -212,7 +242,8 @@ def want_pool(scenarios: Iterable[Scenario], jobs: int | None) -> int:
     if tasks <= 1 or jobs == 1 or jobs == 0:
         return 0
     if jobs is None:
-        if sum(estimated_steps(s) for s in scenarios) < PARALLEL_MIN_STEPS:
+        least = PARALLEL_MIN_SECONDS if _fork_context() is not None else FORKSERVER_MIN_SECONDS
+        if sum(estimated_seconds(s) for s in scenarios) < least:
             return 0
         jobs = available_cpus()
     return pool_size(jobs, tasks)
