@@ -54,6 +54,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import math
 import os
 import statistics
 import subprocess
@@ -259,7 +260,11 @@ def part_speedup(scratch: Path, count: int, duration: float, rounds: int) -> dic
                         after = resource.getrusage(resource.RUSAGE_CHILDREN)
                         used = (after.ru_utime + after.ru_stime
                                 - children.ru_utime - children.ru_stime)
-                        entry["workers_cpu_beyond_points_s"] = used - entry["points_cpu_s"]
+                        # only workers this process waited for count: forked ones, not those of
+                        # a forkserver (whose start-up is in the forkserver, not counted)
+                        entry["workers_cpu_beyond_points_s"] = (
+                            used - entry["points_cpu_s"] if used >= entry["points_cpu_s"]
+                            else math.nan)
                     stats[name].append(entry)
                 tables.setdefault(name, (target / "rows.parquet").read_bytes())
     medians = {name: statistics.median(seconds[name]) for name in names}
@@ -361,6 +366,10 @@ def print_speedup(two: dict[str, Any]) -> None:
                 beyond = statistics.median(r["workers_cpu_beyond_points_s"] for r in runs)
                 line += f" {beyond:8.2f}s"
         print(line)
+    print("  (1st start: from the executor's making to its first point's start; overlap: "
+          "share of the points' span with two running; CPU/wall: CPU share the points' "
+          "processes got; start CPU: the workers' CPU beyond their points, nan where they "
+          "are not this process's children)")
     print(f"  (tables identical: {two['tables_identical']}; load average after: "
           f"{' '.join(f'{x:.2f}' for x in two['load_average_after'])})", flush=True)
 

@@ -10,7 +10,7 @@ scenario dataclasses) pickle.
 
 On Linux the workers are forked from this process when the pool is made
 (:func:`process_pool`), with everything it has imported: a pool of two
-starts in milliseconds. Elsewhere they fork from a ``forkserver`` that
+starts in tens of milliseconds. Elsewhere they fork from a ``forkserver`` that
 imports trainctl first (about 2.5 s of CPU, python-control and SciPy's
 signal and stats modules most of it) and each worker then imports what its
 first task needs (CVXPY: another 0.5 s each); on a 2-core machine that
@@ -62,8 +62,9 @@ PARALLEL_MIN_SECONDS = 1.0
 forked workers (Linux) pays off [s].
 
 The estimate is the budget's (:func:`estimated_seconds`), at each strategy's control
-interval. A pool of two forked workers starts in about 10 ms and each worker's first task
-costs nothing extra, so a run of a second or more finishes sooner on two cores."""
+interval. A pool of two forked workers starts in tens of milliseconds and each worker's
+first task costs nothing extra, so a run of a second or more finishes sooner on two
+cores."""
 
 FORKSERVER_MIN_SECONDS = 10.0
 """:data:`PARALLEL_MIN_SECONDS` where workers start from a forkserver (not Linux) [s]: the
@@ -172,7 +173,7 @@ def estimated_seconds(scenario: Scenario) -> float:
     Examples
     --------
     ``crh2-dmpc``'s 180 controller steps are MPC steps (QPs over a horizon of 4 samples),
-    estimated at seconds; ``crh2-potential`` updates its potential-field law every 2 ms:
+    estimated at seconds:
 
     >>> from trainctl.scenario import load_scenario
     >>> estimated_seconds(load_scenario("crh2-dmpc")) > PARALLEL_MIN_SECONDS
@@ -219,7 +220,7 @@ def want_pool(scenarios: Iterable[Scenario], jobs: int | None) -> int:
     --------
     ``crh2-dmpc`` has 3 simulations estimated at seconds, so by default they
     run on every available CPU (at most 3); the convergence sweep's single
-    one-second N-DMPC run (estimated under a second) runs in the main
+    N-DMPC run (one task, estimated under a second) runs in the main
     process; an explicit request is capped at the number of simulations and
     of CPUs:
 
@@ -423,7 +424,7 @@ def process_pool(workers: int) -> Executor:
     On Linux the workers are forked from this process at once, before this
     returns (so before any thread the caller starts next, and before the
     pool's own threads): they start with every module this process has
-    imported, in milliseconds. Elsewhere they fork from a forkserver that
+    imported, in tens of milliseconds. Elsewhere they fork from a forkserver that
     imports :mod:`trainctl.run.analysis` first.
 
     The workers' BLAS and OpenMP libraries run single-threaded (one thread
