@@ -212,6 +212,8 @@ def timeline_stats(timeline: list[dict[str, float]], start: float) -> dict[str, 
                                                            for e in timeline),
         "points_cpu_s": sum(e["cpu"] for e in timeline),
         "pids": len({e["pid"] for e in timeline}),
+        "busiest_worker_cpu_s": max(sum(e["cpu"] for e in timeline if e["pid"] == pid)
+                                    for pid in {e["pid"] for e in timeline}),
         "points": [{"pid": e["pid"], "start": e["start"] - start, "end": e["end"] - start,
                     "cpu": e["cpu"]} for e in sorted(timeline, key=lambda e: e["start"])],
     }
