@@ -176,7 +176,8 @@ class TimedExecutor(Executor):
     """An executor that runs each task through :func:`_timed` and keeps the timeline."""
 
     def __init__(self, inner: Executor) -> None:
-        self.inner, self.timeline = inner, []  # type: list[dict[str, float]]
+        self.inner = inner
+        self.timeline: list[dict[str, float]] = []
 
     def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> Future[Any]:
         assert not kwargs
@@ -248,7 +249,8 @@ def part_speedup(scratch: Path, count: int, duration: float, rounds: int) -> dic
                     time_sweep(target, sweep, points, scenarios)
                 elif name == "-j 2":
                     with worker_pool(2) as pool:
-                        timed = TimedExecutor(pool)  # type: ignore[arg-type]
+                        assert pool is not None
+                        timed = TimedExecutor(pool)
                         time_sweep(target, sweep, points, scenarios, timed)
                 else:
                     with dask_executor(cluster.scheduler_address) as executor:
