@@ -20,12 +20,20 @@ ratio of the best times); the target is under 5 %. The store's own work is
 also timed alone, on the results of one run, so it can be read without the
 noise of the runs: write_point per point, write_table + read_table.
 
-Part 2 — the same ``--points`` points (default 8) with 1 and 2 local worker
-processes (``-j 1`` is one after the other in this process, ``-j 2`` the
-process pool of trainctl.run.pool.worker_pool, its start-up included) and on
-a Dask LocalCluster of two single-threaded worker processes on loopback
-(started beforehand and warmed, as a running cluster is; the client's
-connection is included). The speed-up is relative to ``-j 1``.
+Part 2 — ``-j 1 / -j 2 / dask``: the same ``--points`` points (default 8) with
+1 and 2 local worker processes (``-j 1`` is one after the other in this
+process, ``-j 2`` the process pool of trainctl.run.pool.worker_pool, its
+start-up and shut-down included) and on a Dask LocalCluster of two
+single-threaded worker processes on loopback (started beforehand and warmed,
+as a running cluster is; the client's connection is included), in
+``--rounds`` interleaved rounds (the order rotates from one round to the
+next). The speed-up is the median over rounds of ``-j 1``'s time over
+each one's in the same round. Each point's run is timed where it runs
+(process, start, end, CPU seconds), so that a shared machine's noise can be
+told from the executor's own cost: the delay before the first point starts,
+the share of the time two points really ran side by side, the CPU share each
+point's process got (CPU / wall), and the CPU seconds of the workers beyond
+their points' runs (the pool's start-up in them; local pool only).
 
 Part 3 — the table of a large sweep: a store of ``--table-points`` points
 (default 10 000) is made from one real point's summary.json (hard-linked
@@ -46,13 +54,14 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import math
 import os
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
-from concurrent.futures import Executor
+from concurrent.futures import Executor, Future
 from pathlib import Path
 from typing import Any
 
@@ -155,37 +164,122 @@ def part_overhead(scratch: Path, count: int, duration: float, repeats: int) -> d
     }
 
 
-def part_speedup(scratch: Path, count: int, duration: float) -> dict[str, Any]:
+def _timed(fn: Any, *args: Any) -> tuple[Any, dict[str, float]]:
+    """Run ``fn(*args)`` where it is submitted; its result and (pid, start, end, CPU)."""
+    start, cpu = time.time(), time.process_time()
+    out = fn(*args)
+    return out, {"pid": os.getpid(), "start": start, "end": time.time(),
+                 "cpu": time.process_time() - cpu}
+
+
+class TimedExecutor(Executor):
+    """An executor that runs each task through :func:`_timed` and keeps the timeline."""
+
+    def __init__(self, inner: Executor) -> None:
+        self.inner = inner
+        self.timeline: list[dict[str, float]] = []
+
+    def submit(self, fn: Any, /, *args: Any, **kwargs: Any) -> Future[Any]:
+        assert not kwargs
+        outer: Future[Any] = Future()
+
+        def done(inner: Future[Any]) -> None:
+            try:
+                result, entry = inner.result()
+            except BaseException as exc:  # noqa: BLE001 - handed to the caller
+                outer.set_exception(exc)
+                return
+            self.timeline.append(entry)
+            outer.set_result(result)
+
+        self.inner.submit(_timed, fn, *args).add_done_callback(done)
+        return outer
+
+
+def timeline_stats(timeline: list[dict[str, float]], start: float) -> dict[str, Any]:
+    """First start after ``start`` [s], the share of the span with 2+ points running, the
+    CPU share of the points' processes (CPU / wall), the points' CPU seconds."""
+    events = sorted([(e["start"], 1) for e in timeline] + [(e["end"], -1) for e in timeline])
+    running, last, both = 0, events[0][0], 0.0
+    for moment, step in events:
+        if running >= 2:
+            both += moment - last
+        running, last = running + step, moment
+    span = max(e["end"] for e in timeline) - min(e["start"] for e in timeline)
+    return {
+        "first_start_s": min(e["start"] for e in timeline) - start,
+        "overlap": both / span if span > 0 else 0.0,
+        "cpu_share": sum(e["cpu"] for e in timeline) / sum(e["end"] - e["start"]
+                                                           for e in timeline),
+        "points_cpu_s": sum(e["cpu"] for e in timeline),
+        "pids": len({e["pid"] for e in timeline}),
+        "busiest_worker_cpu_s": max(sum(e["cpu"] for e in timeline if e["pid"] == pid)
+                                    for pid in {e["pid"] for e in timeline}),
+        "points": [{"pid": e["pid"], "start": e["start"] - start, "end": e["end"] - start,
+                    "cpu": e["cpu"]} for e in sorted(timeline, key=lambda e: e["start"])],
+    }
+
+
+def part_speedup(scratch: Path, count: int, duration: float, rounds: int) -> dict[str, Any]:
     """Part 2: ``count`` points with -j 1, -j 2 and a two-worker Dask LocalCluster."""
+    import resource
+
     import distributed
 
     sweep, points, scenarios = sweep_points(count, duration)
     run_scenario(scenarios[0])
-    seconds: dict[str, float] = {}
-    seconds["-j 1"] = time_sweep(scratch / "j1", sweep, points, scenarios)[0]
-    start = time.perf_counter()
-    with worker_pool(2) as pool:
-        time_sweep(scratch / "j2", sweep, points, scenarios, pool)
-    seconds["-j 2"] = time.perf_counter() - start  # the pool's start and stop included
-    start = time.perf_counter()
+    names = ("-j 1", "-j 2", "dask")
+    seconds: dict[str, list[float]] = {name: [] for name in names}
+    stats: dict[str, list[dict[str, Any]]] = {name: [] for name in names}
+    parent_cpu: dict[str, list[float]] = {name: [] for name in names}
+    tables: dict[str, bytes] = {}
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   host="127.0.0.1", dashboard_address=":0",
                                   silence_logs=40) as cluster:
-        cluster_start = time.perf_counter() - start
         with distributed.Client(cluster.scheduler_address, set_as_default=False) as client:
             # a running cluster's workers have trainctl imported already
             client.run(lambda: __import__("trainctl.run.analysis") and None)
-        start = time.perf_counter()
-        with dask_executor(cluster.scheduler_address) as executor:
-            time_sweep(scratch / "dask", sweep, points, scenarios, executor)
-        seconds["dask 2 workers"] = time.perf_counter() - start
-    tables = {name: (scratch / d / "rows.parquet").read_bytes()
-              for name, d in (("-j 1", "j1"), ("-j 2", "j2"), ("dask", "dask"))}
+        for r in range(rounds):
+            for name in names[r % 3:] + names[:r % 3]:
+                target = scratch / f"{name.replace(' ', '')}-{r}"
+                start, cpu = time.perf_counter(), time.process_time()
+                wall0 = time.time()
+                children = resource.getrusage(resource.RUSAGE_CHILDREN)
+                if name == "-j 1":
+                    time_sweep(target, sweep, points, scenarios)
+                elif name == "-j 2":
+                    with worker_pool(2) as pool:
+                        assert pool is not None
+                        timed = TimedExecutor(pool)
+                        time_sweep(target, sweep, points, scenarios, timed)
+                else:
+                    with dask_executor(cluster.scheduler_address) as executor:
+                        timed = TimedExecutor(executor)
+                        time_sweep(target, sweep, points, scenarios, timed)
+                seconds[name].append(time.perf_counter() - start)
+                parent_cpu[name].append(time.process_time() - cpu)
+                if name != "-j 1":
+                    entry = timeline_stats(timed.timeline, wall0)
+                    if name == "-j 2":
+                        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+                        used = (after.ru_utime + after.ru_stime
+                                - children.ru_utime - children.ru_stime)
+                        # only workers this process waited for count: forked ones, not those of
+                        # a forkserver (whose start-up is in the forkserver, not counted)
+                        entry["workers_cpu_beyond_points_s"] = (
+                            used - entry["points_cpu_s"] if used >= entry["points_cpu_s"]
+                            else math.nan)
+                    stats[name].append(entry)
+                tables.setdefault(name, (target / "rows.parquet").read_bytes())
+    medians = {name: statistics.median(seconds[name]) for name in names}
     return {
-        "points": count, "duration_s": duration, "seconds": seconds,
-        "speedup": {name: seconds["-j 1"] / s for name, s in seconds.items()},
-        "cluster_start_s": cluster_start,
+        "points": count, "duration_s": duration, "rounds": rounds, "seconds": seconds,
+        "median_s": medians, "parent_cpu_s": parent_cpu,
+        "speedup": {name: statistics.median(a / b for a, b in zip(
+            seconds["-j 1"], seconds[name], strict=True)) for name in names},
+        "timelines": stats,
         "tables_identical": len(set(tables.values())) == 1,
+        "load_average_after": os.getloadavg(),
     }
 
 
@@ -224,6 +318,13 @@ print(json.dumps({"seconds": seconds, "baseline_rss": before, "peak_rss": peak,
 """
 
 
+def one_store(scratch: Path) -> SweepStore:
+    """A store of one point (part 3's source when part 1 did not run)."""
+    sweep, points, scenarios = sweep_points(1, 200.0)
+    time_sweep(scratch / "one", sweep, points, scenarios)
+    return SweepStore.load(scratch / "one")
+
+
 def part_table(scratch: Path, source: SweepStore, count: int) -> dict[str, Any]:
     """Part 3: write the table of ``count`` copies of one stored point, in a fresh process."""
     key = source.keys[0]
@@ -251,6 +352,32 @@ def part_table(scratch: Path, source: SweepStore, count: int) -> dict[str, Any]:
     }
 
 
+def print_speedup(two: dict[str, Any]) -> None:
+    """Part 2's table and the timelines' summary."""
+    print(f"Part 2: -j 1 / -j 2 / dask, {two['points']} points ({two['duration_s']:g} s "
+          f"simulated), {two['rounds']} interleaved rounds")
+    print(f"  {'executor':<8} {'median [s]':>10} {'speed-up':>9} {'1st start':>9} "
+          f"{'overlap':>8} {'CPU/wall':>8} {'points CPU':>10} {'start CPU':>9}")
+    for name, median in two["median_s"].items():
+        line = f"  {name:<8} {median:10.2f} {two['speedup'][name]:9.2f}"
+        runs = two["timelines"][name]
+        if runs:
+            med = {k: statistics.median(r[k] for r in runs)
+                   for k in ("first_start_s", "overlap", "cpu_share", "points_cpu_s")}
+            line += (f" {med['first_start_s']:8.2f}s {100 * med['overlap']:7.0f}% "
+                     f"{med['cpu_share']:8.2f} {med['points_cpu_s']:9.2f}s")
+            if "workers_cpu_beyond_points_s" in runs[0]:
+                beyond = statistics.median(r["workers_cpu_beyond_points_s"] for r in runs)
+                line += f" {beyond:8.2f}s"
+        print(line)
+    print("  (1st start: from the executor's making to its first point's start; overlap: "
+          "share of the points' span with two running; CPU/wall: CPU share the points' "
+          "processes got; start CPU: the workers' CPU beyond their points, nan where they "
+          "are not this process's children)")
+    print(f"  (tables identical: {two['tables_identical']}; load average after: "
+          f"{' '.join(f'{x:.2f}' for x in two['load_average_after'])})", flush=True)
+
+
 def main() -> None:
     """Run both parts, print a table, write the numbers as JSON on request."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -262,6 +389,9 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3, help="repeats of part 1 (default 3)")
     parser.add_argument("--table-points", type=int, default=10_000,
                         help="points of part 3's store (default 10 000)")
+    parser.add_argument("--rounds", type=int, default=3,
+                        help="interleaved rounds of part 2 (default 3)")
+    parser.add_argument("--parts", default="123", help="the parts to run (default 123)")
     parser.add_argument("--json", help="also write the numbers to this file")
     args = parser.parse_args()
     count, duration, repeats, table = (args.points, args.duration, args.repeats,
@@ -271,43 +401,42 @@ def main() -> None:
     results: dict[str, Any] = {"load_average": os.getloadavg()}
     with tempfile.TemporaryDirectory() as tmp:
         scratch = Path(tmp)
-        one = part_overhead(scratch, max(2, count // 2), duration, repeats)
-        results["overhead"] = one
         print(f"load average: {' '.join(f'{x:.2f}' for x in results['load_average'])} "
               f"({os.cpu_count()} CPUs)")
-        print(f"Part 1: {one['points']} points of {SCENARIO} ({duration:g} s simulated, "
-              f"{one['point_s']:.2f} s a point), {repeats} interleaved repeats")
-        print(f"  {'':<34} {'best wall':>9}  {'ratio':>5}  {'best CPU':>9}  {'ratio':>5}")
-        print(f"  {'direct (run_scenario + to_dict)':<34} {min(one['direct_wall_s']):7.2f} s  "
-              f"1.000  {min(one['direct_cpu_s']):7.2f} s  1.000")
-        print(f"  {'run_sweep into a store':<34} {min(one['sweep_wall_s']):7.2f} s  "
-              f"{1 + one['overhead_best']:.3f}  {min(one['sweep_cpu_s']):7.2f} s  "
-              f"{1 + one['overhead_cpu_best']:.3f}")
-        print(f"  overhead: {100 * one['overhead_best']:+.1f} % wall, "
-              f"{100 * one['overhead_cpu_best']:+.1f} % CPU (best times), "
-              f"{100 * one['overhead_median']:+.1f} % wall (median of paired ratios); "
-              "target < 5 %")
-        print(f"  store alone: write_point {1e3 * one['store_write_point_s']:.1f} ms a point, "
-              f"table {1e3 * one['store_table_s']:.1f} ms: "
-              f"{100 * one['store_overhead']:.1f} % of the points' runs", flush=True)
-        two = part_speedup(scratch, count, duration)
-        results["speedup"] = two
-        print(f"Part 2: {count} points ({duration:g} s simulated)")
-        print(f"  {'executor':<16} {'wall [s]':>9} {'speed-up':>9}")
-        for name, seconds in two["seconds"].items():
-            print(f"  {name:<16} {seconds:9.2f} {two['speedup'][name]:9.2f}")
-        print(f"  (LocalCluster start, not included: {two['cluster_start_s']:.1f} s; "
-              f"tables identical: {two['tables_identical']})", flush=True)
-        three = part_table(scratch, SweepStore.load(scratch / "overhead-0"), table)
-        results["table"] = three
-        print(f"Part 3: the table of {table} points ({three['rows']} rows), one process")
-        print(f"  write_table {three['seconds']:.1f} s; peak memory "
-              f"+{three['peak_memory_bytes'] / 2**20:.0f} MiB "
-              f"({three['peak_memory_bytes_per_row'] / 1024:.1f} KiB a row); rows.parquet "
-              f"{three['parquet_bytes'] / 2**20:.1f} MiB ({three['parquet_bytes_per_row']:.0f} "
-              f"bytes a row; {three['random_parquet_bytes_per_row']:.0f} with random floats, "
-              f"{three['columns']} columns); summary.json {three['summary_bytes'] / 1024:.0f} "
-              "KiB a point")
+        if "1" in args.parts:
+            one = part_overhead(scratch, max(2, count // 2), duration, repeats)
+            results["overhead"] = one
+            print(f"Part 1: {one['points']} points of {SCENARIO} ({duration:g} s simulated, "
+                  f"{one['point_s']:.2f} s a point), {repeats} interleaved repeats")
+            print(f"  {'':<34} {'best wall':>9}  {'ratio':>5}  {'best CPU':>9}  {'ratio':>5}")
+            print(f"  {'direct (run_scenario + to_dict)':<34} {min(one['direct_wall_s']):7.2f} s  "
+                  f"1.000  {min(one['direct_cpu_s']):7.2f} s  1.000")
+            print(f"  {'run_sweep into a store':<34} {min(one['sweep_wall_s']):7.2f} s  "
+                  f"{1 + one['overhead_best']:.3f}  {min(one['sweep_cpu_s']):7.2f} s  "
+                  f"{1 + one['overhead_cpu_best']:.3f}")
+            print(f"  overhead: {100 * one['overhead_best']:+.1f} % wall, "
+                  f"{100 * one['overhead_cpu_best']:+.1f} % CPU (best times), "
+                  f"{100 * one['overhead_median']:+.1f} % wall (median of paired ratios); "
+                  "target < 5 %")
+            print(f"  store alone: write_point {1e3 * one['store_write_point_s']:.1f} ms a point, "
+                  f"table {1e3 * one['store_table_s']:.1f} ms: "
+                  f"{100 * one['store_overhead']:.1f} % of the points' runs", flush=True)
+        if "2" in args.parts:
+            two = part_speedup(scratch, count, duration, args.rounds)
+            results["speedup"] = two
+            print_speedup(two)
+        if "3" in args.parts:
+            three = part_table(scratch, SweepStore.load(scratch / "overhead-0")
+                               if "1" in args.parts else one_store(scratch), table)
+            results["table"] = three
+            print(f"Part 3: the table of {table} points ({three['rows']} rows), one process")
+            print(f"  write_table {three['seconds']:.1f} s; peak memory "
+                  f"+{three['peak_memory_bytes'] / 2**20:.0f} MiB "
+                  f"({three['peak_memory_bytes_per_row'] / 1024:.1f} KiB a row); rows.parquet "
+                  f"{three['parquet_bytes'] / 2**20:.1f} MiB ({three['parquet_bytes_per_row']:.0f} "
+                  f"bytes a row; {three['random_parquet_bytes_per_row']:.0f} with random floats, "
+                  f"{three['columns']} columns); summary.json {three['summary_bytes'] / 1024:.0f} "
+                  "KiB a point")
     if args.json:
         with open(args.json, "w", encoding="utf-8") as fh:
             json.dump(results, fh, indent=1)

@@ -18,6 +18,7 @@ Examples
 
 from __future__ import annotations
 
+import os
 import sys
 import threading
 from types import TracebackType
@@ -29,6 +30,15 @@ __all__ = ["Progress"]
 
 BAR_FORMAT = "[{bar:24}] {n_fmt}/{total_fmt} {desc} {elapsed}"
 """Counted bar, the current step's label, the elapsed time."""
+
+_DRAWING = threading.Lock()
+"""Held by a bar's thread while it redraws, and around every fork of this process: a pool
+worker forked from it (:mod:`trainctl.run.pool`) while the thread was drawing would start
+with the locks of tqdm and of the stream held by a thread it does not have."""
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(before=_DRAWING.acquire, after_in_parent=_DRAWING.release,
+                        after_in_child=_DRAWING.release)
 
 
 class Progress:
@@ -104,4 +114,5 @@ class Progress:
 
     def _tick(self) -> None:
         while not self._stop.wait(0.5):
-            self._bar.refresh()
+            with _DRAWING:
+                self._bar.refresh()

@@ -24,8 +24,9 @@ build and steps at its control interval (``strategy_seconds``: MPC's QPs;
 an explicit law's evaluation, :mod:`trainctl.controllers.continuous.cost`);
 this module only sums them. :func:`strategy_seconds` is the one estimate of
 a strategy's cost (the report orders its pooled simulations by it) and
-:func:`estimate_run` the one count of a run's steps (the pool's,
-:func:`trainctl.run.pool.estimated_steps`). Recalibrated on the 204-vehicle chain
+:func:`estimate_run` the one count of a run's steps and seconds (the pool
+decides by its simulation seconds, :func:`trainctl.run.pool.estimated_seconds`).
+Recalibrated on the 204-vehicle chain
 (``benchmarks/scenarios/heavy-haul-204-ndmpc.toml`` on the idle machine:
 review 104 s on one BLAS thread, 600 s of decentralised MPC 2.9 s and of
 local N-DMPC 22.6 s) with the CRH2 built-ins' estimates unchanged. Expect

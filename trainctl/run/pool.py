@@ -8,9 +8,17 @@ run side by side. Every function here takes any :class:`concurrent.futures.Execu
 callables (:func:`trainctl.run.analysis.simulate_strategy`) and their arguments (frozen
 scenario dataclasses) pickle.
 
-Workers start from a ``forkserver`` that has imported trainctl once, so a
-worker costs a fork rather than a fresh interpreter; workers ignore SIGINT so
-that Ctrl-C reaches only the main process, which cancels the pool.
+On Linux the workers are forked from this process when the pool is made
+(:func:`process_pool`), with everything it has imported: a pool of two
+starts in tens of milliseconds. Elsewhere they fork from a ``forkserver`` that
+imports trainctl first (about 2.5 s of CPU, python-control and SciPy's
+signal and stats modules most of it) and each worker then imports what its
+first task needs (CVXPY: another 0.5 s each); on a 2-core machine that
+start-up alone cost as much as a sweep of four one-second points, whence
+``-j 2`` ran 1.06 times as fast as ``-j 1`` (``benchmarks/sweep.py``).
+Workers run their BLAS and OpenMP libraries on one thread, ignore SIGINT so
+that Ctrl-C reaches only the main process, which cancels the pool, and die
+with it.
 
 Examples
 --------
@@ -28,6 +36,7 @@ import os
 import signal
 import sys
 import threading
+import warnings
 from collections.abc import Iterable, Iterator
 from concurrent.futures import Executor, ProcessPoolExecutor
 from multiprocessing.connection import Connection
@@ -40,19 +49,26 @@ if TYPE_CHECKING:
     from trainctl.scenario import Scenario
 
 __all__ = [
-    "PARALLEL_MIN_STEPS", "available_cpus", "estimated_steps", "pool_size", "process_pool",
-    "terminate_workers", "want_pool", "worker_pool",
+    "FORKSERVER_MIN_SECONDS", "PARALLEL_MIN_SECONDS", "available_cpus", "estimated_seconds",
+    "estimated_steps", "pool_size", "process_pool",
+    "single_threaded_blas", "terminate_workers", "want_pool", "worker_pool",
 ]
 
 _LIVE: set[Executor] = set()
 """Pools of :func:`worker_pool` that are running (for :func:`terminate_workers`)."""
 
-PARALLEL_MIN_STEPS = 5000
-"""Simulated controller steps (summed over strategies) from which a pool pays off.
+PARALLEL_MIN_SECONDS = 1.0
+"""Estimated seconds of simulation (summed over a run's simulations) from which a pool of
+forked workers (Linux) pays off [s].
 
-Starting the pool costs about a second; a controller step costs 0.2–2 ms, so
-below a few thousand steps the simulations finish sooner in the main process.
-"""
+The estimate is the budget's (:func:`estimated_seconds`), at each strategy's control
+interval. A pool of two forked workers starts in tens of milliseconds and each worker's
+first task costs nothing extra, so a run of a second or more finishes sooner on two
+cores."""
+
+FORKSERVER_MIN_SECONDS = 10.0
+""":data:`PARALLEL_MIN_SECONDS` where workers start from a forkserver (not Linux) [s]: the
+forkserver's import of trainctl and each worker's first imports cost about 3 s of CPU."""
 
 
 def available_cpus() -> int:
@@ -149,6 +165,27 @@ def estimated_steps(scenario: Scenario) -> int:
     return estimate_run(scenario).controller_steps
 
 
+def estimated_seconds(scenario: Scenario) -> float:
+    """Estimated seconds of a scenario's simulations, one after the other (0 without
+    ``[simulation]``): the budget's :attr:`~trainctl.run.budget.RunEstimate.simulation_seconds`,
+    each strategy priced at its control interval.
+
+    Examples
+    --------
+    ``crh2-dmpc``'s 180 controller steps are MPC steps (QPs over a horizon of 4 samples),
+    estimated at seconds:
+
+    >>> from trainctl.scenario import load_scenario
+    >>> estimated_seconds(load_scenario("crh2-dmpc")) > PARALLEL_MIN_SECONDS
+    True
+    >>> estimated_seconds(load_scenario("crh2-dmpc").replace("simulation", None))
+    0.0
+    """
+    from trainctl.run.budget import estimate_run
+
+    return estimate_run(scenario).simulation_seconds
+
+
 def simulation_runs(scenario: Scenario) -> int:
     """Closed-loop runs of a scenario: its strategies, each ``repetitions`` times, plus
     the baseline-network runs (:mod:`trainctl.run.repetitions`); 0 without ``[simulation]``."""
@@ -169,7 +206,9 @@ def want_pool(scenarios: Iterable[Scenario], jobs: int | None) -> int:
         The scenarios to simulate.
     jobs : int or None
         Requested workers; None chooses: the available CPUs when the
-        simulations total at least :data:`PARALLEL_MIN_STEPS` steps, else 0.
+        simulations are estimated at :data:`PARALLEL_MIN_SECONDS` or more
+        (:func:`estimated_seconds`; :data:`FORKSERVER_MIN_SECONDS` where the
+        workers start from a forkserver), else 0.
 
     Returns
     -------
@@ -179,23 +218,24 @@ def want_pool(scenarios: Iterable[Scenario], jobs: int | None) -> int:
 
     Examples
     --------
-    ``crh2-dmpc`` has 3 simulations of 60 steps each (180 steps, far below
-    :data:`PARALLEL_MIN_STEPS`), so by default it runs in the main process;
-    an explicit request is capped at the number of simulations and of CPUs:
+    ``crh2-dmpc`` has 3 simulations estimated at seconds, so by default they
+    run on every available CPU (at most 3); the convergence sweep's single
+    N-DMPC run (one task, estimated under a second) runs in the main
+    process; an explicit request is capped at the number of simulations and
+    of CPUs:
 
     >>> from trainctl.scenario import load_scenario
     >>> scenario = load_scenario("crh2-dmpc")
-    >>> want_pool([scenario], None), want_pool([scenario], 1)
-    (0, 0)
+    >>> want_pool([scenario], None) == pool_size(available_cpus(), 3)
+    True
+    >>> short = load_scenario("crh2-dmpc-convergence-sweep")
+    >>> estimated_seconds(short) < PARALLEL_MIN_SECONDS, want_pool([short], None)
+    (True, 0)
+    >>> want_pool([scenario], 1)
+    0
     >>> want_pool([scenario], 4) == pool_size(4, 3)
     True
     >>> want_pool([scenario, scenario], 10_000) == pool_size(10_000, 6)  # 2 × 3 simulations
-    True
-
-    Thirty copies total 30 × 180 = 5400 >= 5000 steps, so the default uses
-    every available CPU (at most the 90 simulations):
-
-    >>> want_pool([scenario] * 30, None) == pool_size(available_cpus(), 90)
     True
     """
     scenarios = list(scenarios)
@@ -203,27 +243,45 @@ def want_pool(scenarios: Iterable[Scenario], jobs: int | None) -> int:
     if tasks <= 1 or jobs == 1 or jobs == 0:
         return 0
     if jobs is None:
-        if sum(estimated_steps(s) for s in scenarios) < PARALLEL_MIN_STEPS:
+        least = PARALLEL_MIN_SECONDS if _fork_context() is not None else FORKSERVER_MIN_SECONDS
+        if sum(estimated_seconds(s) for s in scenarios) < least:
             return 0
         jobs = available_cpus()
     return pool_size(jobs, tasks)
 
 
-def _init_worker(lifeline: Connection | None = None) -> None:
-    """Workers ignore SIGINT (the main process cancels the pool), print nothing to stdout
-    and die with the main process (:func:`_die_with_parent`)."""
+def _init_worker(lifeline: Connection | None = None, forked: bool = False,
+                 parent_is_thread: bool = False) -> None:
+    """Workers ignore SIGINT (the main process cancels the pool), print nothing to stdout,
+    run their BLAS single-threaded and die with the main process (:func:`_die_with_parent`).
+
+    A ``forked`` worker (a copy of the main process) first drops what it inherited of the
+    main process's signal handling: the handlers of :func:`trainctl.run._signals.signal_guard`
+    (SIGTERM must end a worker, not unwind it) and its wakeup file descriptor (a signal to
+    the worker would otherwise be heard by the main process's watchdog).
+    """
     from trainctl.run._signals import silence_c_stdout
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if forked:
+        for signum in (signal.SIGTERM, getattr(signal, "SIGHUP", None), signal.SIGALRM):
+            if signum is not None:
+                signal.signal(signum, signal.SIG_DFL)
+        with contextlib.suppress(ValueError):  # only possible in the main thread
+            signal.set_wakeup_fd(-1)
+        _LIVE.clear()  # the main process's pools: not this worker's to terminate
+        for name in WORKER_THREAD_VARIABLES:  # for libraries loaded from now on
+            os.environ.setdefault(name, "1")
+        single_threaded_blas()
     silence_c_stdout()
-    _die_with_parent(lifeline)
+    _die_with_parent(lifeline, prctl=not parent_is_thread)
 
 
 _PR_SET_PDEATHSIG = 1
 """``prctl`` option: the signal a process gets when its parent dies (Linux)."""
 
 
-def _die_with_parent(lifeline: Connection | None) -> None:
+def _die_with_parent(lifeline: Connection | None, prctl: bool = True) -> None:
     """End this worker when the process that made its pool dies, however it dies.
 
     A worker's parent is the forkserver, not the main process, and it blocks
@@ -238,12 +296,15 @@ def _die_with_parent(lifeline: Connection | None) -> None:
       down) ends the worker at once (``os._exit``), whatever its main thread
       is doing (a long C call included). Any POSIX system.
     - on Linux, ``prctl(PR_SET_PDEATHSIG, SIGKILL)``: the worker is killed
-      when its own parent (the forkserver) dies.
+      when its own parent (the main process, or the forkserver) dies. Not
+      when ``prctl`` is False: a worker forked from a thread other than the
+      main thread would be killed when that *thread* ends (the kernel's
+      "parent" of a forked process is the thread that forked it).
 
-    With the workers gone, the forkserver sees the end of its "alive" pipe
+    With the workers gone, a forkserver sees the end of its "alive" pipe
     and exits, and the resource tracker with it.
     """
-    if sys.platform.startswith("linux"):
+    if prctl and sys.platform.startswith("linux"):
         with contextlib.suppress(OSError, AttributeError, TypeError):
             libc = ctypes.CDLL(None, use_errno=True)
             libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
@@ -278,13 +339,98 @@ def _single_threaded_libraries() -> Iterator[None]:
             os.environ.pop(name, None)
 
 
+_LIFELINES: set[Connection] = set()
+"""Write ends of the lifelines of this process's pools: a forked worker closes its copies
+(:func:`_forget_lifelines`), or a pool's workers would outlive the main process for as
+long as the workers of a later pool (which inherit them) live."""
+
+
+def _forget_lifelines() -> None:
+    """In a forked child: close the inherited write ends of every pool's lifeline."""
+    for writer in list(_LIFELINES):
+        with contextlib.suppress(OSError):
+            writer.close()
+    _LIFELINES.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_lifelines)
+
+
+_BLAS_THREAD_SETTERS = (
+    "openblas_set_num_threads", "openblas_set_num_threads64_",
+    "scipy_openblas_set_num_threads", "scipy_openblas_set_num_threads64_",
+    "MKL_Set_Num_Threads", "omp_set_num_threads",
+)
+"""Functions that set a loaded BLAS or OpenMP runtime's thread count (OpenBLAS, including the
+``scipy_openblas`` builds that NumPy, SciPy and Slycot each bundle, MKL, OpenMP)."""
+
+_BLAS_LIBRARY_NAMES = ("openblas", "mkl_rt", "libgomp", "libomp", "libiomp")
+
+
+def single_threaded_blas() -> list[str]:
+    """Set every BLAS and OpenMP library loaded in this process to one thread.
+
+    The thread-count variables (:data:`WORKER_THREAD_VARIABLES`) are read
+    once, when a library loads: a worker forked from the main process
+    inherits its libraries configured for every core (two threads each of
+    NumPy's, SciPy's and Slycot's OpenBLAS on 2 cores), so their own
+    setters are called. This is what ``threadpoolctl.threadpool_limits(1)``
+    does, in a few lines: threadpoolctl is not a dependency of trainctl.
+
+    Returns
+    -------
+    list of str
+        The files of the libraries set (Linux: from ``/proc/self/maps``; empty
+        elsewhere, where workers start from a forkserver with the variables set).
+    """
+    try:
+        with open("/proc/self/maps", encoding="utf-8", errors="replace") as maps:
+            paths = sorted({fields[5].strip() for fields in (line.split(maxsplit=5)
+                                                            for line in maps)
+                            if len(fields) == 6 and any(
+                                part in os.path.basename(fields[5])
+                                for part in _BLAS_LIBRARY_NAMES)})
+    except OSError:
+        return []
+    done = []
+    for path in paths:
+        try:
+            library = ctypes.CDLL(path)
+        except OSError:
+            continue
+        setters = [getattr(library, name, None) for name in _BLAS_THREAD_SETTERS]
+        for setter in setters:
+            if setter is not None:
+                setter(1)
+        if any(setter is not None for setter in setters):
+            done.append(path)
+    return done
+
+
+def _fork_context() -> BaseContext | None:
+    """``fork`` on Linux (workers copy the main process, its imports included), else None."""
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        return multiprocessing.get_context("fork")
+    except ValueError:  # pragma: no cover - a Linux without fork
+        return None
+
+
 def process_pool(workers: int) -> Executor:
     """A local process pool whose workers have trainctl imported.
 
+    On Linux the workers are forked from this process at once, before this
+    returns (so before any thread the caller starts next, and before the
+    pool's own threads): they start with every module this process has
+    imported, in tens of milliseconds. Elsewhere they fork from a forkserver that
+    imports :mod:`trainctl.run.analysis` first.
+
     The workers' BLAS and OpenMP libraries run single-threaded (one thread
     per worker, :data:`WORKER_THREAD_VARIABLES`, unless those variables are
-    set), so that ``workers`` processes on as many cores do not oversubscribe
-    them.
+    set; :func:`single_threaded_blas`), so that ``workers`` processes on as
+    many cores do not oversubscribe them.
 
     Parameters
     ----------
@@ -303,25 +449,39 @@ def process_pool(workers: int) -> Executor:
     ...     print(list(pool.map(abs, [-3, 4, -5])))
     [3, 4, 5]
     """
-    context: BaseContext
-    try:
-        forkserver = multiprocessing.get_context("forkserver")
-        forkserver.set_forkserver_preload(["trainctl.run.analysis"])
-        from multiprocessing import forkserver as _server
+    context: BaseContext | None = _fork_context()
+    forked = context is not None
+    if context is None:
+        try:
+            forkserver = multiprocessing.get_context("forkserver")
+            forkserver.set_forkserver_preload(["trainctl.run.analysis"])
+            from multiprocessing import forkserver as _server
 
-        with _single_threaded_libraries():
-            _server.ensure_running()  # the workers fork from it, with its environment
-        context = forkserver
-    except ValueError:  # pragma: no cover - platforms without forkserver
-        context = multiprocessing.get_context("spawn")
+            with _single_threaded_libraries():
+                _server.ensure_running()  # the workers fork from it, with its environment
+            context = forkserver
+        except ValueError:  # pragma: no cover - platforms without forkserver
+            context = multiprocessing.get_context("spawn")
     # The lifeline: the workers get its read end, only this process holds the write end
-    # (non-inheritable, never passed to a child); it closes when the pool is shut down,
-    # or when this process dies in any way, and the workers then end (_die_with_parent).
+    # (non-inheritable, never passed to a child, closed in forked ones: _forget_lifelines);
+    # it closes when the pool is shut down, or when this process dies in any way, and the
+    # workers then end (_die_with_parent).
     reader, writer = context.Pipe(duplex=False)
+    _LIFELINES.add(writer)
+    in_thread = threading.current_thread() is not threading.main_thread()
     pool = _LifelinePool(max_workers=workers, mp_context=context, initializer=_init_worker,
-                         initargs=(reader,))
+                         initargs=(reader, forked, forked and in_thread))
     pool._trainctl_lifeline = writer
     pool._trainctl_lifeline_reader = reader
+    if forked:
+        # The first submission forks every worker (ProcessPoolExecutor does so with "fork",
+        # before its manager thread starts). Python >= 3.12 warns about any fork of a process
+        # with threads; here the others are BLAS threads (which OpenBLAS stops around a fork)
+        # and, in the command, the signal watchdog blocked in a read: no lock is held.
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", category=DeprecationWarning,
+                                    message=r".*multi-threaded.*fork")
+            pool.submit(int)
     return pool
 
 
@@ -338,6 +498,7 @@ class _LifelinePool(ProcessPoolExecutor):
         if reader is not None:
             reader.close()  # this process's copy of the read end (the workers have theirs)
         if wait and self._trainctl_lifeline is not None:
+            _LIFELINES.discard(self._trainctl_lifeline)
             self._trainctl_lifeline.close()  # the workers have exited: nothing to end
             self._trainctl_lifeline = None
 

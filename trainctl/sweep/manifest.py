@@ -46,6 +46,20 @@ _HINT = " The store was edited or damaged; run the sweep again into a new direct
 _HELD: dict[Path, int] = {}
 """Stores this process holds the lock of: resolved directory -> the lock file's descriptor."""
 
+
+def _forget_locks() -> None:
+    """In a forked child (a pool worker, :mod:`trainctl.run.pool`): close the inherited lock
+    descriptors, which share the parent's ``flock``, so that the lock ends with the parent's
+    :func:`_unlock` and never lives on in a worker. The child writes no store."""
+    for fd in _HELD.values():
+        with contextlib.suppress(OSError):
+            os.close(fd)
+    _HELD.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_locks)
+
 MANIFEST = "sweep.json"
 """The manifest's file name; a directory holding it is a sweep store."""
 
