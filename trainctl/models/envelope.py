@@ -186,9 +186,9 @@ class EnvelopeBounds:
             # envelope_limit's operations on (2, n) without its broadcast wrapper, and the
             # last speeds' bounds again (read-only) when asked at the same speeds: a closed
             # loop asks twice a sample (the controller's clip and the actuators).
-            speeds = v.tobytes()
+            seen = v.tobytes()
             last = _LAST_AT.get(self._key)
-            if last is not None and last[0] == speeds:
+            if last is not None and last[0] == seen:
                 return last[1], last[2]
             force, power, cap = self._at
             speed = np.abs(v)
@@ -199,7 +199,7 @@ class EnvelopeBounds:
             low, high = -limits[0], limits[1]
             low.setflags(write=False)
             high.setflags(write=False)
-            _LAST_AT[self._key] = (speeds, low, high)
+            _LAST_AT[self._key] = (seen, low, high)
             return low, high
         elif self.envelopes is not None:
             force, power, adhesion, mass = self.envelopes
