@@ -523,7 +523,12 @@ def _by_strategy(runs: Sequence[tuple[str, int]]) -> dict[str, list[int]]:
 
 
 def _hand_out(futures: Mapping[int, Future[Repetition]], batch: Future[list[Repetition]]) -> None:
-    """Set each run's future from its batch's (its result or its exception)."""
+    """Set each run's future from its batch's (its result or its exception); a cancelled
+    batch (an interrupted command) cancels its runs."""
+    if batch.cancelled():
+        for future in futures.values():
+            future.cancel()
+        return
     error = batch.exception()
     for k, (_, future) in enumerate(futures.items()):
         if error is not None:
