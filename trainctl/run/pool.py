@@ -166,9 +166,20 @@ def estimated_steps(scenario: Scenario) -> int:
 
 
 def estimated_seconds(scenario: Scenario) -> float:
-    """Estimated seconds of a scenario's simulations, one after the other (0 without
-    ``[simulation]``): the budget's :attr:`~trainctl.run.budget.RunEstimate.simulation_seconds`,
-    each strategy priced at its control interval.
+    """Estimated seconds of a scenario's simulations, one after the other.
+
+    The budget's :attr:`~trainctl.run.budget.RunEstimate.simulation_seconds`, each
+    strategy priced at its control interval.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+
+    Returns
+    -------
+    float
+        Seconds [s]; 0 without ``[simulation]``.
 
     Examples
     --------
@@ -383,6 +394,12 @@ def single_threaded_blas() -> list[str]:
     list of str
         The files of the libraries set (Linux: from ``/proc/self/maps``; empty
         elsewhere, where workers start from a forkserver with the variables set).
+
+    Examples
+    --------
+    >>> paths = single_threaded_blas()
+    >>> all(isinstance(path, str) for path in paths)
+    True
     """
     try:
         with open("/proc/self/maps", encoding="utf-8", errors="replace") as maps:

@@ -252,6 +252,9 @@ class QPBlock:
         Fast path with J a scaled selection: the source entry of each datum.
     scale : ndarray or None
         The factor of each picked entry (0 for constant data).
+    work : (ndarray, ndarray) or None
+        Fast path with Jo: the buffers :meth:`solve` composes the solver's data
+        and Jo U in (the data buffer may be the solver's own).
 
     Examples
     --------
