@@ -135,6 +135,30 @@ def test_sigterm_ends_a_worker_at_once() -> None:
             busy[0].result(timeout=20)
 
 
+def lmi_gamma(order: int) -> float:
+    """The bounded-real (H∞) level of a stable random system, an SDP Clarabel solves."""
+    from trainctl.analysis.hinf import bounded_real_gamma
+
+    rng = np.random.default_rng(order)
+    A = rng.standard_normal((order, order))
+    A -= (np.max(np.linalg.eigvals(A).real) + 1.0) * np.eye(order)
+    B, C = rng.standard_normal((order, 2)), rng.standard_normal((2, order))
+    return float(bounded_real_gamma(A, B, C, np.zeros((2, 2))).gamma)
+
+
+@linux
+def test_a_worker_solves_an_lmi_after_the_main_process_did() -> None:
+    """Clarabel's thread pool, started here by a solve, is copied into a forked worker
+    without its threads: a multi-threaded solve there waited for them forever. trainctl
+    solves on one thread (``CLARABEL_THREADS``), so the worker finishes, with the same
+    level as this process."""
+    mine = lmi_gamma(30)
+    with worker_pool(2) as pool:
+        assert pool is not None
+        theirs = pool.submit(lmi_gamma, 30).result(timeout=60)
+    assert theirs == mine
+
+
 @linux
 def test_workers_do_not_hold_the_store_lock(tmp_path: Path) -> None:
     """A store closed while a pool made after its opening lives is free for another writer."""

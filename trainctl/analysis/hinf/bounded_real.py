@@ -22,8 +22,8 @@ if TYPE_CHECKING:
     import cvxpy as cp
 
 __all__ = [
-    "BRL_MARGIN", "BoundedRealProblem", "BoundedRealResult", "bounded_real_gamma",
-    "certified_level", "parameter_terms", "solve_quietly",
+    "BRL_MARGIN", "CLARABEL_THREADS", "BoundedRealProblem", "BoundedRealResult",
+    "bounded_real_gamma", "certified_level", "parameter_terms", "solve_quietly",
 ]
 
 Array = NDArray[np.float64]
@@ -141,12 +141,25 @@ class BoundedRealResult:
                 "message": self.message}
 
 
+CLARABEL_THREADS = 1
+"""Threads of Clarabel's factorisation in every trainctl solve (its ``max_threads``).
+
+One, for two reasons. Clarabel factorises with faer on a global rayon thread
+pool, which a forked process (a pool worker, :mod:`trainctl.run.pool`)
+inherits without its threads: a multi-threaded solve there waits forever for
+them (it hung the test suite's pool tests). And a parallel factorisation's
+rounding depends on the number of threads, so the certificates' last digits
+would depend on the machine. trainctl's LMIs are small enough that the
+threads gained nothing measurable (heavy-haul-hinf-delay's review: same CPU time)."""
+
+
 def solve_quietly(problem: cp.Problem, solver: str, **options: Any) -> str:
     """Solve a cvxpy problem and return its status; solver trouble becomes the status.
 
     cvxpy's "solution may be inaccurate" warning is swallowed because the
     status (``optimal_inaccurate``) says the same and every caller records
-    it; a ``cvxpy.error.SolverError`` becomes ``"solver_error: …"``.
+    it; a ``cvxpy.error.SolverError`` becomes ``"solver_error: …"``. Clarabel
+    runs on :data:`CLARABEL_THREADS` unless ``max_threads`` is given.
 
     Parameters
     ----------
@@ -177,6 +190,8 @@ def solve_quietly(problem: cp.Problem, solver: str, **options: Any) -> str:
 
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="Solution may be inaccurate")
+        if solver == cp.CLARABEL:
+            options = {"max_threads": CLARABEL_THREADS, **options}
         try:
             problem.solve(solver=solver, **options)
         except cp.error.SolverError as exc:

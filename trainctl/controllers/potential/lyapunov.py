@@ -229,6 +229,8 @@ def bound_lmi(A: Array, xi0: Array, rows: Array) -> Array | None:
     """
     import cvxpy as cp
 
+    from trainctl.analysis.hinf import solve_quietly
+
     _, (d, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
     d = np.asarray(d, dtype=float)
     At = A * (1.0 / d)[:, None] * d[None, :]
@@ -240,11 +242,7 @@ def bound_lmi(A: Array, xi0: Array, rows: Array) -> Array | None:
             cp.bmat([[np.ones((1, 1)), x0[None, :]], [x0[:, None], Q]]) >> 0]
     cons += [cp.sum(cp.multiply(np.outer(c, c), Q)) <= gamma for c in C]
     problem = cp.Problem(cp.Minimize(gamma), cons)
-    try:
-        problem.solve(solver=cp.CLARABEL)
-    except cp.error.SolverError:
-        return None
-    if problem.status != cp.OPTIMAL or Q.value is None:
+    if solve_quietly(problem, "CLARABEL") != cp.OPTIMAL or Q.value is None:
         return None
     Qs = 0.5 * (Q.value + Q.value.T)
     w = np.linalg.eigvalsh(Qs)
