@@ -146,3 +146,21 @@ def test_bad_arguments_are_refused() -> None:
     for q in (0.0, 1.5, -0.1, math.nan, True):
         with pytest.raises(ModelError, match=r"DataAge.quantile: 'q' must be a probability"):
             age.quantile(q)
+
+
+@pytest.mark.parametrize("order", [1, 4, 8, 12])
+@pytest.mark.parametrize("tau", [0.013, 0.5, 3.7])
+def test_scaled_pade_realisation_is_control_pade_at_each_delay(tau: float, order: int) -> None:
+    """The delay-τ approximant is realised from the 1 s one (A/τ, B/τ, C, D); its response
+    equals the transfer function of ``control.pade(τ, q)`` itself at every frequency."""
+    import control as ct
+
+    from trainctl.analysis.delay import _pade_ss
+
+    A, B, C, D = _pade_ss(tau, order)
+    num, den = ct.pade(tau, order)
+    for w in np.geomspace(1e-3, 1e3, 25) / tau:
+        s = 1j * w
+        realised = (C @ np.linalg.solve(s * np.eye(order) - A, B) + D)[0, 0]
+        direct = np.polyval(num, s) / np.polyval(den, s)
+        assert abs(realised - direct) <= 1e-11 * max(1.0, abs(direct))

@@ -35,6 +35,7 @@ Examples
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -73,16 +74,51 @@ def _matrices(A0: ArrayLike, B: ArrayLike, K: ArrayLike) -> tuple[Array, Array, 
     return A, Bm, Km
 
 
-def _pade_ss(tau: float, order: int) -> tuple[Array, Array, Array, Array]:
-    """(A, B, C, D) of the order-``order`` Padé approximant of e^{−sτ} (control.pade)."""
+@functools.lru_cache(maxsize=32)
+def _unit_pade(order: int) -> tuple[Array, Array, Array, Array]:
+    """(A, B, C, D) of the order-``order`` Padé approximant of e^{−s} (``control.pade``
+    of a 1 s delay, realised by python-control), read-only."""
     import control as ct
 
+    num, den = ct.pade(1.0, order)
+    sys = ct.ss(ct.tf(num, den))
+    parts = tuple(np.array(m, dtype=float) for m in (sys.A, sys.B, sys.C, sys.D))
+    for part in parts:
+        part.flags.writeable = False
+    return parts  # type: ignore[return-value]
+
+
+def _pade_ss(tau: float, order: int) -> tuple[Array, Array, Array, Array]:
+    """(A, B, C, D) of the order-``order`` Padé approximant of e^{−sτ}.
+
+    The approximant of a delay τ is that of 1 s at s·τ, so it is realised by
+    ``(A₁/τ, B₁/τ, C₁, D₁)`` from the 1 s realisation (:func:`_unit_pade`):
+    one python-control conversion per order instead of one per delay
+    (a delay-margin scan asks for about 250 delays per order; the conversions
+    were 70 % of ``heavy-haul-hinf-delay``'s design review).
+    """
     if tau == 0.0:
         return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.ones((1, 1))
-    num, den = ct.pade(tau, order)
-    sys = ct.ss(ct.tf(num, den))
-    return (np.asarray(sys.A, dtype=float), np.asarray(sys.B, dtype=float),
-            np.asarray(sys.C, dtype=float), np.asarray(sys.D, dtype=float))
+    A1, B1, C1, D1 = _unit_pade(order)
+    return A1 / tau, B1 / tau, C1.copy(), D1.copy()
+
+
+def _loop_matrix(A: Array, Bm: Array, Km: Array, tau: float, order: int) -> Array:
+    """The state matrix of :func:`pade_loop` (arguments checked)."""
+    Ap, Bp, Cp, Dp = _pade_ss(tau, order)
+    m = Km.shape[0]
+    eye = np.eye(m)
+    Az, Bz, Cz, Dz = np.kron(eye, Ap), np.kron(eye, Bp), np.kron(eye, Cp), np.kron(eye, Dp)
+    top = np.hstack([A + Bm @ Dz @ Km, Bm @ Cz])
+    bottom = np.hstack([Bz @ Km, Az])
+    return np.vstack([top, bottom])
+
+
+def _check_delay(who: str, tau: float, order: int) -> None:
+    if not (isinstance(tau, int | float | np.floating) and math.isfinite(tau) and tau >= 0):
+        raise ModelError(f"{who}: 'tau' must be a finite number >= 0 s (got {tau!r}).")
+    if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
+        raise ModelError(f"{who}: 'order' must be an integer >= 1 (got {order!r}).")
 
 
 def pade_loop(A0: ArrayLike, B: ArrayLike, K: ArrayLike, tau: float,
@@ -122,18 +158,9 @@ def pade_loop(A0: ArrayLike, B: ArrayLike, K: ArrayLike, tau: float,
     import control as ct
 
     A, Bm, Km = _matrices(A0, B, K)
-    if not (isinstance(tau, int | float | np.floating) and math.isfinite(tau) and tau >= 0):
-        raise ModelError(f"pade_loop: 'tau' must be a finite number >= 0 s (got {tau!r}).")
-    if isinstance(order, bool) or not isinstance(order, int | np.integer) or order < 1:
-        raise ModelError(f"pade_loop: 'order' must be an integer >= 1 (got {order!r}).")
-    Ap, Bp, Cp, Dp = _pade_ss(float(tau), int(order))
-    m, N = Km.shape
-    eye = np.eye(m)
-    Az, Bz, Cz, Dz = np.kron(eye, Ap), np.kron(eye, Bp), np.kron(eye, Cp), np.kron(eye, Dp)
-    top = np.hstack([A + Bm @ Dz @ Km, Bm @ Cz])
-    bottom = np.hstack([Bz @ Km, Az])
-    Acl = np.vstack([top, bottom])
-    total = Acl.shape[0]
+    _check_delay("pade_loop", tau, order)
+    Acl = _loop_matrix(A, Bm, Km, float(tau), int(order))
+    total, N = Acl.shape[0], A.shape[0]
     C = np.eye(N, total)
     return ct.ss(Acl, np.zeros((total, 1)), C, np.zeros((N, 1)))
 
@@ -166,8 +193,14 @@ def delay_abscissa(A0: ArrayLike, B: ArrayLike, K: ArrayLike, tau: float,
     ...     [[0.0]], [[1.0]], [[-1.0]], 2.0)
     True
     """
-    loop = pade_loop(A0, B, K, tau, order)
-    return float(np.max(np.linalg.eigvals(np.asarray(loop.A, dtype=float)).real))
+    A, Bm, Km = _matrices(A0, B, K)
+    _check_delay("delay_abscissa", tau, order)
+    return _abscissa(A, Bm, Km, float(tau), int(order))
+
+
+def _abscissa(A: Array, Bm: Array, Km: Array, tau: float, order: int) -> float:
+    """:func:`delay_abscissa` of checked arguments."""
+    return float(np.max(np.linalg.eigvals(_loop_matrix(A, Bm, Km, tau, order)).real))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -235,16 +268,16 @@ class DelayMargin:
 def _margin(A: Array, B: Array, K: Array, order: int, tau_max: float, points: int,
             tol: float) -> float:
     """First τ in (0, tau_max] where the abscissa reaches 0 (scan, then bisection)."""
-    if delay_abscissa(A, B, K, 0.0, order) >= 0.0:
+    if _abscissa(A, B, K, 0.0, order) >= 0.0:
         return 0.0
     grid = np.linspace(0.0, tau_max, points + 1)[1:]
     lo = 0.0
     for tau in grid:
-        if delay_abscissa(A, B, K, float(tau), order) >= 0.0:
+        if _abscissa(A, B, K, float(tau), order) >= 0.0:
             hi = float(tau)
             while hi - lo > tol * hi:
                 mid = 0.5 * (lo + hi)
-                if delay_abscissa(A, B, K, mid, order) >= 0.0:
+                if _abscissa(A, B, K, mid, order) >= 0.0:
                     hi = mid
                 else:
                     lo = mid
@@ -302,7 +335,7 @@ def delay_margin(A0: ArrayLike, B: ArrayLike, K: ArrayLike, *, tau_max: float,
     first = margins[0]
     omega = math.nan
     if 0.0 < first < math.inf:
-        lam = np.linalg.eigvals(np.asarray(pade_loop(A, Bm, Km, first, orders[0]).A))
+        lam = np.linalg.eigvals(_loop_matrix(A, Bm, Km, first, int(orders[0])))
         omega = float(abs(lam[int(np.argmax(lam.real))].imag))
     return DelayMargin(margin=first, orders=(int(orders[0]), int(orders[1])),
                        margins=(margins[0], margins[1]), tau_max=float(tau_max),
