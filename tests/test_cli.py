@@ -198,6 +198,7 @@ class TestExport:
         assert exported.train == builtin.train
         assert exported.model == builtin.model
 
+    @pytest.mark.e2e  # a long end-to-end run (make test-e2e)
     def test_output_option(self, tmp_path: Path) -> None:
         """-o PATH writes there, creating missing parent directories."""
         path = tmp_path / "sub" / "mine.toml"
@@ -354,6 +355,7 @@ class TestReport:
     WROTE = re.compile(r"wrote (?P<path>\S+) \((?P<checks>\d+) checks: \d+ pass, \d+ warn, "
                        r"\d+ fail(; \d+ controllers simulated)?; [\d.]+ s\)")
 
+    @pytest.mark.e2e  # a long end-to-end run (make test-e2e)
     def test_output_option(self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
         """report -o writes a parseable page that names the scenario, and says so in one line."""
         path = tmp_path / "tmp" / "x.html"
@@ -372,6 +374,7 @@ class TestReport:
         assert {"html", "head", "body", "table", "style", "svg", "figure"} <= set(page.tags)
         assert not [p for p in tmp_path.rglob("*") if p.name.endswith(".tmp")]
 
+    @pytest.mark.e2e  # a long end-to-end run (make test-e2e)
     def test_default_scenario_and_path(
         self, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
     ) -> None:
@@ -436,6 +439,7 @@ class TestReport:
         assert code == 0, capsys.readouterr().err
         assert [p.name for p in (tmp_path / "dir.html").iterdir()] == ["heavy-haul-hinf.html"]
 
+    @pytest.mark.e2e  # a long end-to-end run (make test-e2e)
     def test_deterministic_renders_identical(
         self, tmp_path: Path, capsys: pytest.CaptureFixture[str]
     ) -> None:
@@ -493,6 +497,7 @@ class TestReport:
         assert "analyse --save" in err
         assert list(tmp_path.iterdir()) == []
 
+    @pytest.mark.e2e  # a long end-to-end run (make test-e2e)
     def test_save_then_render_without_rerunning(
         self, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]

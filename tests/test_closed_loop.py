@@ -12,6 +12,8 @@ from trainctl.models import Plant
 from trainctl.run.analysis import run_scenario
 from trainctl.scenario import load_scenario
 
+pytestmark = pytest.mark.e2e  # a long end-to-end run (make test-e2e): whole pipelines
+
 
 @pytest.fixture(scope="module")
 def book_run():

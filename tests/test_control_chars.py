@@ -111,6 +111,7 @@ def test_tab_and_line_feed_stay_allowed(tmp_path: Path) -> None:
     assert (scenario.name, scenario.description) == ("Two\ncoaches", "a\tb")
 
 
+@pytest.mark.e2e  # a long end-to-end run (make test-e2e)
 def test_file_name_with_escape_reaches_terminal_escaped(tmp_path: Path) -> None:
     """A hostile file name, valid or missing: stdout and stderr hold no raw escape."""
     name = "e\x1b[31mvil\u202e.toml"

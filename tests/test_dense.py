@@ -263,6 +263,7 @@ def replay_max_coupler_force(train, result, points: int) -> float:
     return peak
 
 
+@pytest.mark.e2e  # a long end-to-end run (make test-e2e)
 def test_book_run_max_coupler_force_equals_a_fine_solve_ivp_replay():
     """T = 20 s N-DMPC: max |f| over the dense grid = solve_ivp on a 5 ms grid (1e-3 rel.),
     while the samples alone miss about 10 % of it."""

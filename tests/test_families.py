@@ -115,6 +115,7 @@ class TestDesignStage:
         with pytest.raises(ScenarioError, match=r"no \[controller\] of family 'lqr'.*mpc"):
             design.family("lqr")
 
+    @pytest.mark.e2e  # a long end-to-end run (make test-e2e)
     def test_report_linearises_once_per_model(self, monkeypatch: pytest.MonkeyPatch,
                                               tmp_path: object) -> None:
         """`trainctl report crh2-dmpc` linearises and discretises the train model once."""

@@ -130,6 +130,7 @@ def test_desired_gap_must_agree_with_the_coupler(scenario):
         build_design(scenario.replace("controller.desired_gap_m", 400.0))
 
 
+@pytest.mark.e2e  # a long end-to-end run (make test-e2e)
 def test_analyse_json_has_the_checks_with_numbers():
     result = run_module("analyse", "heavy-haul-flocking", "--json")
     assert result.returncode == 0, result.stderr

@@ -467,6 +467,7 @@ def test_delay_margin_check_around_the_margin(factor: float, status: str,
     assert (late < early) == stable
 
 
+@pytest.mark.e2e  # a long end-to-end run (make test-e2e)
 def test_delay_margin_confirmed_on_the_nonlinear_plant() -> None:
     """T_c = 0.01 s, delay_s = 0.52 s (0.91 × the margin) decays, 0.63 s (1.1 ×) grows.
 

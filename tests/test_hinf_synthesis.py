@@ -191,6 +191,7 @@ def test_synthesis_that_certifies_nothing_keeps_the_given_gains() -> None:
 # -- hinf_gamma ---------------------------------------------------------------------------------
 
 
+@pytest.mark.e2e  # a long end-to-end run (make test-e2e)
 def test_gamma_verdict_flips_with_the_output_scale() -> None:
     """γ scales with 1/output_scale: twice the unit-scale γ passes, half of it fails."""
     unit = _gamma_check(_design())
@@ -215,6 +216,7 @@ def test_gamma_verdict_flips_with_the_output_scale() -> None:
     assert dis.details["groups"]["reference"] < 1.0
 
 
+@pytest.mark.e2e  # a long end-to-end run (make test-e2e)
 @pytest.mark.parametrize(("own_speed", "kp", "kc"), [("delayed", 0.02, 0.01),
                                                       ("current", 0.1, 0.1)])
 def test_delay_certificate_bounds_the_pade_loops(own_speed: str, kp: float, kc: float) -> None:
@@ -243,6 +245,7 @@ def test_delay_certificate_bounds_the_pade_loops(own_speed: str, kp: float, kc: 
         assert res.stable and res.norm <= gamma * (1 + 1e-9)
 
 
+@pytest.mark.e2e  # a long end-to-end run (make test-e2e)
 def test_gamma_check_for_delays_beyond_what_can_be_certified() -> None:
     """Whole law delayed at κ = 0.1: unstable within 2 s (fail), uncertified at 0.5 s (warn)."""
     unstable = _gamma_check(_design({"delay_certificate_s": 2.0}))

@@ -180,6 +180,7 @@ REPORT_UNUSED = ("pandas", "pyarrow", "dask", "distributed", "trainctl.sweep",
 """What the default report (one scenario, simulated in this process) does not use."""
 
 
+@pytest.mark.e2e  # a long end-to-end run (make test-e2e)
 @pytest.mark.slow
 def test_the_default_report_imports_no_sweep_or_dataframe(tmp_path: Path) -> None:
     """``trainctl report`` of a scenario loads neither the sweep machinery nor pandas/Arrow/Dask."""

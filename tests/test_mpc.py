@@ -190,6 +190,7 @@ class TestConstrained:
             assert rec.status == "optimal"
             np.testing.assert_allclose(rec.inputs / 1e3, expected, atol=1e-5)
 
+    @pytest.mark.e2e  # a long end-to-end run (make test-e2e)
     def test_fast_path_equals_cvxpy_path_over_a_closed_loop(self, fast, rng):
         """Fast path and plain cvxpy re-solve give the same inputs over 30 steps (≤ 1e-6 kN)."""
         scenario, d = fast

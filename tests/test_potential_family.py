@@ -188,6 +188,7 @@ def _cli(*args: str) -> subprocess.CompletedProcess[str]:
                           timeout=600)
 
 
+@pytest.mark.e2e  # a long end-to-end run (make test-e2e)
 def test_cli_reports_the_checks() -> None:
     """`trainctl analyse crh2-potential --json --no-simulate`: every check present, as declared."""
     out = _cli("analyse", "crh2-potential", "--json", "--no-simulate")

@@ -297,6 +297,7 @@ class TestSaveLoad:
 class TestContext:
     """build_report_context()."""
 
+    @pytest.mark.e2e  # a long end-to-end run (make test-e2e)
     def test_pure_and_deterministic(self, crh2: ReportData) -> None:
         """The same data and time give the same context and the same bytes."""
         a = build_report_context(crh2, generated_at=FIXED_TIME, deterministic=True)
@@ -304,6 +305,7 @@ class TestContext:
         assert a == b
         assert render_report(a) == render_report(b)
 
+    @pytest.mark.e2e  # a long end-to-end run (make test-e2e)
     def test_deterministic_leaves_out_wall_clock(self, crh2: ReportData) -> None:
         """--deterministic drops solve times, stage timings and, unless given, the time."""
         ctx = build_report_context(crh2, deterministic=True)

@@ -34,6 +34,8 @@ from trainctl.report.figures import FIGURES_SECTION, ReportFigure
 from trainctl.run.analysis import run_scenario
 from trainctl.scenario import load_scenario, read_scenario_text
 
+pytestmark = pytest.mark.e2e  # a long end-to-end run (make test-e2e): whole pipelines
+
 FIXED_TIME = "2025-01-01T00:00:00Z"
 
 

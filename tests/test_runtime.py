@@ -19,6 +19,8 @@ import pytest
 from trainctl.controllers.mpc.qp.fast import SOLVER_OUTPUT, pass_on_interrupt
 from trainctl.scenario import builtin_scenario_text
 
+pytestmark = pytest.mark.e2e  # a long end-to-end run (make test-e2e): whole pipelines
+
 REPO = Path(__file__).resolve().parents[1]
 ENV = dict(os.environ, PYTHONPATH=str(REPO))
 

@@ -23,6 +23,8 @@ from trainctl.models.track import Track, TrackSection
 from trainctl.run.analysis import run_scenario, simulate_strategy
 from trainctl.scenario import builtin_scenario_text, load_scenario, parse_scenario
 
+pytestmark = pytest.mark.e2e  # a long end-to-end run (make test-e2e): whole pipelines
+
 CASES = ("heavy-haul-hinf-ideal", "heavy-haul-hinf-interruption", "heavy-haul-hinf-delay",
          "heavy-haul-hinf-noise", "heavy-haul-hinf-delayed-own-speed")
 

@@ -375,6 +375,7 @@ class TestCli:
         assert rows[0]["check.ndmpc_convergence.status"] == "fail"
         assert rows[1]["check.ndmpc_convergence.status"] != "fail"
 
+    @pytest.mark.e2e  # a long end-to-end run (make test-e2e)
     @pytest.mark.slow
     def test_pool_and_serial_rows_identical(self) -> None:
         """Two worker processes give exactly the rows of a serial run (simulations included)."""

@@ -24,6 +24,8 @@ from trainctl.run.pool import WORKER_THREAD_VARIABLES, worker_pool
 from trainctl.sweep.runner import SCHEDULER_ENV
 from trainctl.sweep.store import SweepStore
 
+pytestmark = pytest.mark.e2e  # a long end-to-end run (make test-e2e): whole pipelines
+
 distributed = pytest.importorskip("distributed")
 
 # two points of the book's CRH2 scenario with its three simulations, shortened

@@ -26,6 +26,8 @@ from trainctl.report.sweep import (
 )
 from trainctl.sweep.store import SweepStore
 
+pytestmark = pytest.mark.e2e  # a long end-to-end run (make test-e2e): whole pipelines
+
 FIXED = "2026-01-01T00:00:00Z"
 
 

@@ -274,6 +274,7 @@ def _sweep_cli(out: Path, *extra: str, hook: bool = False) -> subprocess.Popen[s
         cwd=out.parent, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
+@pytest.mark.e2e  # a long end-to-end run (make test-e2e)
 @pytest.mark.slow
 @pytest.mark.parametrize("jobs", ["1", "2"])
 def test_interrupted_sweep_resumes_to_the_full_table(tmp_path: Path, jobs: str) -> None:

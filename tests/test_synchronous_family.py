@@ -265,6 +265,7 @@ def test_delay_margin_check_against_the_network(hi: float | None, status: str) -
         assert check.value <= hi
 
 
+@pytest.mark.e2e  # a long end-to-end run (make test-e2e)
 def test_small_margin_fails_gsmr_and_is_confirmed_by_simulation() -> None:
     """κ = 1 1/s: a coupler mode crosses at about 0.19 s, so 2 s fails; simulated at T = 0.01 s,
     a 0.1 s delay decays and a 0.3 s delay grows (coupler forces over 150 s)."""

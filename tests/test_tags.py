@@ -70,6 +70,7 @@ def test_tags_do_not_change_equality() -> None:
     assert parse_scenario(tagged) == parse_scenario(text)
 
 
+@pytest.mark.e2e  # a long end-to-end run (make test-e2e)
 def test_report_settings_show_the_sources() -> None:
     """The report's settings tables carry each value's tag; untagged scenarios get no column."""
     from trainctl.report.build import collect_report_data

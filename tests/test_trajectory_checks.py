@@ -132,6 +132,7 @@ def test_final_offset_against_the_matrix_exponential() -> None:
     assert final_offset(pinned.A_cl, pinned.initial_errors) == 0.0
 
 
+@pytest.mark.e2e  # a long end-to-end run (make test-e2e)
 @pytest.mark.parametrize(("name", "code"), [
     ("crh2-potential", 0), ("crh2-potential-unpinned", 1), ("heavy-haul-flocking-collision", 1),
 ])
