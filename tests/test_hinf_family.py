@@ -19,6 +19,7 @@ import pytest
 from tests.test_cli import run_module
 from trainctl.analysis.connectivity import joint_connectivity
 from trainctl.analysis.delay import discrete_delay_loop
+from trainctl.cli.main import main
 from trainctl.controllers.base import Measurement, ReferencePreview
 from trainctl.design import build_design
 from trainctl.models.dynamics import train_rhs
@@ -554,12 +555,14 @@ def _file(tmp_path: Path, *lines: str) -> Path:
     ("kappa_p = 0.1", "kappa_p"),
     ('input_bounds = "yes"', "input_bounds"),
 ])
-def test_bad_settings_exit_2(tmp_path: Path, line: str, match: str) -> None:
+def test_bad_settings_exit_2(tmp_path: Path, line: str, match: str,
+                             capsys: pytest.CaptureFixture[str]) -> None:
     """A wrong [controller] value of the family is a clean scenario error (exit 2)."""
-    result = run_module("analyse", str(_file(tmp_path, line)), "--no-simulate")
-    assert result.returncode == 2, result.stdout + result.stderr
-    assert match in result.stderr
-    assert "Traceback" not in result.stderr
+    code = main(["analyse", str(_file(tmp_path, line)), "--no-simulate"])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert match in err
+    assert "Traceback" not in err
 
 
 def test_cli_analyse_json(tmp_path: Path) -> None:

@@ -20,10 +20,10 @@ import control as ct
 import numpy as np
 import pytest
 
-from tests.test_cli import run_module
 from trainctl.analysis.delay import pade_loop
 from trainctl.analysis.delay_lmi import DelayHinfProblem, delay_hinf_gamma
 from trainctl.analysis.hinf import hinf_norm
+from trainctl.cli.main import main
 from trainctl.controllers.hinf.synthesis import consensus_loop
 from trainctl.design import build_design
 from trainctl.registry import get_family
@@ -302,9 +302,11 @@ def _file(tmp_path: Path, *lines: str) -> Path:
     ("delay_certificate_s = 0.0", "delay_certificate_s"),
     ('performance = "both"', "performance"),
 ])
-def test_bad_synthesis_settings_exit_2(tmp_path: Path, line: str, match: str) -> None:
+def test_bad_synthesis_settings_exit_2(tmp_path: Path, line: str, match: str,
+                                       capsys: pytest.CaptureFixture[str]) -> None:
     """A wrong value of a synthesis setting is a clean scenario error (exit 2)."""
-    result = run_module("analyse", str(_file(tmp_path, line)), "--no-simulate")
-    assert result.returncode == 2, result.stdout + result.stderr
-    assert match in result.stderr
-    assert "Traceback" not in result.stderr
+    code = main(["analyse", str(_file(tmp_path, line)), "--no-simulate"])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert match in err
+    assert "Traceback" not in err

@@ -12,6 +12,7 @@ import pytest
 import scipy.optimize
 
 from tests.test_cli import run_module
+from trainctl.cli.main import main
 from trainctl.controllers.base import Measurement, ReferencePreview
 from trainctl.controllers.synchronous.law import law_of
 from trainctl.controllers.synchronous.relay import RELAY_STREAM, relay_graph
@@ -348,12 +349,14 @@ def _file(tmp_path: Path, *lines: str) -> Path:
     ("control_interval = 0.0", "control_interval"),
     ("speed_gain = 0.1", "speed_gain"),
 ])
-def test_bad_settings_exit_2(tmp_path: Path, line: str, match: str) -> None:
+def test_bad_settings_exit_2(tmp_path: Path, line: str, match: str,
+                             capsys: pytest.CaptureFixture[str]) -> None:
     """A wrong [controller] value of the family is a clean scenario error (exit 2)."""
-    result = run_module("analyse", str(_file(tmp_path, line)), "--no-simulate")
-    assert result.returncode == 2, result.stdout + result.stderr
-    assert match in result.stderr
-    assert "Traceback" not in result.stderr
+    code = main(["analyse", str(_file(tmp_path, line)), "--no-simulate"])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert match in err
+    assert "Traceback" not in err
 
 
 def test_cli_analyse_json(tmp_path: Path) -> None:
