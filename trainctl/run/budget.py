@@ -76,6 +76,8 @@ _MODAL = 4e-10              # × states⁴: modal, controllability, observabilit
                             # test's Cholesky screen and the Kalman SVD; 408 states: ~12 s)
 _SUBSTEP = 1e-4             # × (1 + n / 256) per plant substep and its recording (banded
                             # from 128 vehicles: 204 vehicles ~90 µs measured)
+_BATCHED_RUN = 0.1          # a batched repetition's share of a run alone (heavy-haul-hinf-delay's
+                            # 80 runs, 2026-12-02: 0.053 measured, benchmarks/batch_mc.py)
 _BYTES_PER_ROW = 8 * 6      # result arrays: bytes per sample and vehicle (plus dense grids)
 
 
@@ -95,7 +97,7 @@ class BudgetError(TrainctlError, ValueError):
     ...     check_budget(estimate, max_time=1.0)
     ... except BudgetError as exc:
     ...     print(str(exc).split(", over")[0].split(": ", 1)[1])
-    the run is estimated at about 9.6 s
+    the run is estimated at about 9.3 s
     >>> issubclass(BudgetError, ValueError)
     True
     """
@@ -259,7 +261,8 @@ def estimate_run(scenario: Scenario, *, simulate: bool = True) -> RunEstimate:
     runs = 1 if sim is None else sim.repetitions * (1 + int(
         sim.baseline_network is not None and scenario.network is not None))
     for strategy in strategies:
-        seconds += runs * strategy_seconds(scenario, strategy, samples=samples)
+        seconds += _runs(scenario, strategy, runs) * strategy_seconds(scenario, strategy,
+                                                                     samples=samples)
     memory = max(memory, float(samples) * n * _BYTES_PER_ROW * max(1, len(strategies)))
     if seconds > design:
         dominant = (f"the simulations: {samples * len(strategies) * runs} controller steps "
@@ -565,6 +568,19 @@ def strategy_seconds(scenario: Scenario, strategy: str, *, samples: int | None =
                       interval=strategy_interval(scenario, strategy), substeps=substeps,
                       plant_seconds=_SUBSTEP * (1 + n / 256) * substeps)
     return float(family_hook(get_family(family), "strategy_seconds")(run))
+
+
+def _runs(scenario: Scenario, strategy: str, runs: int) -> float:
+    """The runs of a strategy in units of one run: ``runs``, or, where the family's law
+    runs batched (``batches_repetitions``), the first run and :data:`_BATCHED_RUN` of each
+    further one."""
+    from trainctl.design.stage import split_strategy
+    from trainctl.registry import get_family
+
+    if runs <= 1 or not getattr(get_family(split_strategy(scenario, strategy)[0]),
+                                "batches_repetitions", False):
+        return float(runs)
+    return 1.0 + (runs - 1) * _BATCHED_RUN
 
 
 def _suggest(seconds: float) -> str:

@@ -372,6 +372,8 @@ class HinfFamily(HinfHooks, ContinuousFamily[HinfDesign, "HinfSettings"]):
     """
 
     name = "hinf"
+    batches_repetitions = True
+    """Its laws run batched (the repetitions of a strategy as one batch)."""
     title = "Distributed robust H∞ cooperative control"
     strategies = STRATEGIES
     check_names = CHECK_NAMES

@@ -33,8 +33,14 @@ _MPC_LONG = 2.4e-8          # × n · P^3: the same at long horizons
 _LOCAL = 5e-10              # × (n · (M + 2P))³: the local iteration's spectra (n = 204: ~55 s)
 _EXCHANGE = 5e-6            # per vehicle and iteration: exchanging the local predictions
                             # (204 vehicles, 4 QPs: 2.5 ms per iteration measured)
-_QP = 2e-4                  # one small QP (a vehicle's)
-_CENTRAL = 3e-7             # × (n · M)³: the centralised QP
+_QP = 2e-4                  # one small QP (a vehicle's) on OSQP
+_QP_DAQP = 4e-5             # the same on DAQP, the step's overhead included (well-sampled CRH2
+                            # N-DMPC, 2026-12-02: 172 µs a step of 6.2 coach QPs, quiet machine)
+_CENTRAL = 1e-8             # × (n · M)³: the centralised QP's factorisation (n · M = 20: 80 µs;
+                            # measured 80 µs a step on DAQP; 3e-7 before, 30 × over)
+_DAQP_MAX_DECISIONS = 240   # qp_solver = "auto" gives DAQP QPs up to this size (the controller's
+                            # trainctl.controllers.mpc.qp.parametric.DAQP_MAX_DECISIONS, which
+                            # imports CVXPY: the budget must not; a test checks they agree)
 _BUILD_SIZE = 1e-5          # building a strategy's controller: + _BUILD_SIZE·(n·P)^1.5
 _ITERATIONS = 5             # typical distributed iterations per sample (of max_iterations)
 _DENSE_MATRICES = 5 * 8     # MPC analysis: about five dense (n·P)² float matrices alive
@@ -133,12 +139,16 @@ def strategy_seconds(run: StrategyRun) -> float:
     # A vehicle whose envelope pins its force at 0 kN has no QP (u-form with input bounds:
     # trainctl.controllers.mpc.controller.fixed_inputs); counted here from the envelope alone.
     pinned = sum(1 for v in run.scenario.train.vehicles if v.envelope.pins_force)
+    solver = str(getattr(run.settings, "qp_solver", "auto"))
+    decisions = moves * (n if run.strategy == "centralised" else 1)
+    daqp = solver == "daqp" or (solver == "auto" and decisions <= _DAQP_MAX_DECISIONS)
+    qp = _QP_DAQP if daqp else _QP
     if run.strategy in ("ndmpc", "cooperative", "ndmpc-local"):
         limit = int(getattr(run.settings, "max_iterations", _ITERATIONS) or _ITERATIONS)
-        step = (_QP * (n - pinned) + _EXCHANGE * n) * min(limit, _ITERATIONS)
+        step = (qp * (n - pinned) + _EXCHANGE * n) * min(limit, _ITERATIONS)
     elif run.strategy == "decentralised":
-        step = _QP * (n - pinned)
+        step = qp * (n - pinned)
     else:  # centralised
-        step = _QP + _CENTRAL * float(n * moves) ** 3
+        step = qp + _CENTRAL * float(n * moves) ** 3
     build = BUILD_SECONDS + _BUILD_SIZE * float(n * horizon) ** 1.5
     return float(build + run.samples * (run.plant_seconds + STEP_SECONDS + step))

@@ -230,6 +230,8 @@ class SynchronousFamily(ContinuousFamily[SynchronousDesign, "SynchronousSettings
     """
 
     name = "synchronous"
+    batches_repetitions = True
+    """Its laws run batched (the repetitions of a strategy as one batch)."""
     title = "Synchronous operation (centralised)"
     strategies = STRATEGIES
     check_names = CHECK_NAMES
