@@ -98,6 +98,16 @@ def run_module(*args: str, cwd: Path | None = None) -> subprocess.CompletedProce
     )
 
 
+def assert_refused(path: Path, match: str, capsys: pytest.CaptureFixture[str]) -> None:
+    """``trainctl analyse PATH --no-simulate``, run in this process, refuses the scenario:
+    exit 2, ``match`` in the message, no traceback."""
+    code = main(["analyse", str(path), "--no-simulate"])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert match in err
+    assert "Traceback" not in err
+
+
 def assert_user_error(code: int, err: str) -> None:
     """Exit status 2, a one-line-prefixed message on stderr and no traceback."""
     assert code == 2
