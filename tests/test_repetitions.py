@@ -140,14 +140,19 @@ def test_bad_repetition_keys_exit_2(tmp_path: Path, capsys, line: str, match: st
 
 
 def test_the_budget_counts_every_run() -> None:
-    """Repetitions and the baseline multiply the estimated simulation time."""
+    """Repetitions and the baseline are counted: 3 seeds × (run + baseline) = 6 runs of
+    each strategy; both families here run batched, so the six cost more than one run and
+    less than six alone (the rule: trainctl.run.budget, tests/test_budget.py)."""
     from trainctl.run.budget import estimate_run
 
     sc = parse_scenario(_short_delay())
     one = parse_scenario(_short_delay(**{"repetitions = 3": "repetitions = 1",
                                          'baseline_network = "delay-free"': ""}))
-    assert estimate_run(sc).simulation_seconds == pytest.approx(   # 3 seeds × (run + baseline)
-        6 * estimate_run(one).simulation_seconds)
+    many, single = estimate_run(sc), estimate_run(one)
+    assert (many.runs, single.runs) == (6, 1)
+    assert many.controller_steps == 6 * single.controller_steps
+    assert single.simulation_seconds < many.simulation_seconds \
+        < 6 * single.simulation_seconds
 
 
 def test_delay_claims_from_the_runs(short_run) -> None:
