@@ -167,10 +167,15 @@ def test_workers_do_not_hold_the_store_lock(tmp_path: Path) -> None:
     _lock(tmp_path)
     with worker_pool(2) as pool:
         assert pool is not None
-        # Both workers past their start (which closes their copies of the lock): one task
-        # each, at the same time. One finished task proves only one worker started; the
-        # other, slow under load, still held its inherited copy for a moment.
-        pids = {f.result(timeout=60)[0] for f in [pool.submit(sleeper, 0.5) for _ in range(2)]}
+        # Both workers past their start (which closes their copies of the lock): a task done
+        # by each. One finished task proves only one worker started; the other, slow under
+        # load, still held its inherited copy for a moment. Pairs of overlapping tasks until
+        # both have answered (a slow starter may leave both of one pair to the other).
+        pids: set[int] = set()
+        deadline = time.monotonic() + 60
+        while len(pids) < 2 and time.monotonic() < deadline:
+            pids |= {f.result(timeout=60)[0] for f in [pool.submit(sleeper, 0.2)
+                                                       for _ in range(2)]}
         assert len(pids) == 2
         _unlock(tmp_path)
         fd = os.open(tmp_path / LOCK, os.O_RDWR)
