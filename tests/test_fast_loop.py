@@ -4,7 +4,8 @@
 :meth:`Plant.advance_dense` (the exact integrator) on samples without a section
 boundary, and hand every sample where a vehicle may reach one (a grade change, a
 curve, the head or a trailing vehicle, forward or backward) to that integrator.
-The loop's batched noise and previews must give what the per-sample calls give.
+The loop's batched noise and previews must give what the per-sample calls give, and a
+law's plain step (``step_inputs``, no per-step objects) what its ``step`` gives.
 """
 
 from __future__ import annotations
@@ -298,3 +299,99 @@ def test_finite() -> None:
     assert not finite(np.array([-np.inf, 1.0]))
     assert not finite(np.array([[1.0, np.inf]]))
     assert finite(np.empty(0))
+
+
+class _FlakyLaw:
+    """A potential law that raises on its 40th to 44th calls (a fault on the plain path)."""
+
+    def __init__(self, law) -> None:
+        self.law, self.n, self.calls = law, law.n, 0
+
+    def force(self, v_err, z, x_err):
+        self.calls += 1
+        if 40 <= self.calls < 45:
+            raise RuntimeError("lost the law")
+        return self.law.force(v_err, z, x_err)
+
+
+def _plain_laws(train):
+    """An LQR law whose feedback raises on some calls, and a sampled potential law."""
+    from trainctl.controllers.continuous.controller import SampledLawController
+    from trainctl.controllers.continuous.potentials import QuadraticPotential
+    from trainctl.controllers.lqr.controller import LQRController
+    from trainctl.controllers.potential.law import PotentialLaw
+
+    gain = np.zeros((4, 7))
+    gain[np.arange(4), np.arange(4)] = 40.0  # kN per m/s: saturates after the ramp's start
+    lqr = LQRController(train, gain, dt=DT)
+    feedback, calls = lqr._feedback, [0]
+
+    def flaky(deviation):
+        calls[0] += 1
+        if calls[0] % 97 == 0:
+            raise RuntimeError("lost the gain")
+        return feedback(deviation)
+
+    lqr._feedback = flaky  # type: ignore[method-assign]
+    law = PotentialLaw(mass=train.mass, pinning=np.full(4, 0.02), speed_gain=0.5,
+                       consensus=np.zeros((4, 4)), potential=QuadraticPotential(0.5))
+    return {"lqr": (lqr, calls), "potential": (SampledLawController(train, _FlakyLaw(law),
+                                                                    dt=DT), None)}
+
+
+@pytest.mark.parametrize("kind", ["lqr", "potential"])
+def test_the_plain_path_records_what_step_records(kind: str,
+                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    """``step_inputs`` (no per-step objects) against ``step``: every array and record the
+    same, faults included, on a track with crossings and saturation."""
+    train = crh2_half()
+    track = Track(sections=(TrackSection(start=0.0),
+                            TrackSection(start=1000.0, grade_permille=8.0),
+                            TrackSection(start=1100.0, grade_permille=-5.0,
+                                         curve_radius=1500.0)))
+    reference = ramp_profile(20.0, 30.0, 1.0, 6.0)
+    x0 = equilibrium(train, 20.0).state(position=900.0)
+
+    def run(plain: bool):
+        controller, calls = _plain_laws(train)[kind]
+        used = []
+        original = type(controller).step_inputs
+
+        def counted(self, *args):
+            used.append(1)
+            return original(self, *args)
+
+        monkeypatch.setattr(type(controller), "step_inputs", counted)
+        if not plain:  # the loop's rule: a step set on the instance is called as such
+            controller.step = controller.step
+        result = simulate(Plant(train=train, track=track), controller, reference,
+                          duration=12.0, initial_state=x0, preview_steps=1, warn=False)
+        monkeypatch.setattr(type(controller), "step_inputs", original)
+        return result, len(used)
+
+    fast, used_fast = run(True)
+    slow, used_slow = run(False)
+    assert used_fast == 240 and used_slow == 0
+    assert "error" in fast.statuses and "optimal" in fast.statuses
+    assert np.count_nonzero(fast.saturation) > 0
+    _assert_same(fast, slow)
+
+
+def test_a_subclass_that_overrides_step_alone_is_called_through_step() -> None:
+    from trainctl.controllers.lqr.controller import LQRController
+
+    class Doubled(LQRController):
+        def step(self, t, measurement, reference):
+            record = super().step(t, measurement, reference)
+            return dataclasses.replace(record, inputs=2.0 * record.inputs)
+
+    train = crh2_half()
+    ctl = Doubled(train, np.zeros((4, 7)), dt=DT, input_bounds=False)
+    assert closed_loop._plain_step(ctl) is None
+    assert closed_loop._plain_step(LQRController(train, np.zeros((4, 7)), dt=DT)) is not None
+    result = simulate(Plant(train=train), ctl, ramp_profile(20.0, 20.0, 0.0, 1.0),
+                      duration=0.5, preview_steps=0,
+                      initial_state=equilibrium(train, 20.0).state(position=0.0),
+                      warn=False)
+    np.testing.assert_allclose(result.requested_inputs[:, 0], 2.0 * equilibrium(train, 20.0).inputs,
+                               rtol=1e-12)

@@ -27,6 +27,7 @@ __all__ = [
     "STATUSES",
     "Controller",
     "Measurement",
+    "PlainStep",
     "ReferencePreview",
     "StepRecord",
     "control_dt",
@@ -143,6 +144,62 @@ class StepRecord:
     solve_time: float = 0.0
     fallback: str = ""
     info: Mapping[str, object] = field(default_factory=dict)
+
+
+@runtime_checkable
+class PlainStep(Protocol):
+    """The optional fast form of :meth:`Controller.step` for full-state laws.
+
+    A controller that reads only the state and the reference's first speed
+    and acceleration may also define ``step_inputs``; the simulation loop
+    (:func:`trainctl.sim.simulate`) then calls it instead of ``step`` when it
+    runs without a network and with full-state measurement, and builds no
+    :class:`Measurement`, :class:`ReferencePreview` or :class:`StepRecord`
+    for the step. It must give what ``step`` gives, bit for bit: the same
+    inputs, and a step ``step`` would record as ``"optimal"`` with no
+    iteration, residual or fallback returns None; any other step returns
+    ``step``'s record. The loop uses it only when the class that defines
+    ``step`` defines it too (a subclass that overrides ``step`` alone is
+    called through ``step``).
+
+    Examples
+    --------
+    >>> class Hold:
+    ...     dt, name = 0.5, "hold"
+    ...     def reset(self):
+    ...         pass
+    ...     def step(self, t, measurement, reference):
+    ...         return StepRecord(inputs=np.zeros(2))
+    ...     def step_inputs(self, t, state, speed, acceleration, out):
+    ...         out[:] = 0.0
+    >>> isinstance(Hold(), PlainStep)
+    True
+    """
+
+    def step_inputs(self, t: float, state: NDArray[np.float64], speed: float,
+                    acceleration: float, out: NDArray[np.float64]) -> StepRecord | None:
+        """Write the inputs [N] of the step at ``t`` [s] into ``out``.
+
+        Parameters
+        ----------
+        t : float
+            Time of the sample [s].
+        state : ndarray
+            The full plant state ``[v (n) [m/s], delta (n-1) [m], s [m]]``
+            (a buffer the loop rewrites at the next sample: read it, do not
+            keep it).
+        speed, acceleration : float
+            The reference's speed [m/s] and acceleration [m/s²] at ``t``.
+        out : ndarray
+            Shape (n,): the inputs [N] go here.
+
+        Returns
+        -------
+        StepRecord or None
+            None for a plain ``"optimal"`` step (the inputs are in ``out``);
+            otherwise the step's record, as :meth:`Controller.step` returns it.
+        """
+        ...
 
 
 @runtime_checkable

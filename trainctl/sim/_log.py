@@ -173,6 +173,18 @@ class Log:
         self.fallbacks.append(fallback)
         return u
 
+    def record_plain(self, k: int, inputs: Array, solve_time: float) -> Array:
+        """Store step k of the plain path: finite ``inputs`` [N], status ``"optimal"``, no
+        iteration, residual or fallback; return the request (a view of the record)."""
+        requested = self.requested[:, k]
+        requested[:] = inputs
+        self.statuses.append("optimal")
+        self.iterations[k] = 0
+        self.residuals.append(())
+        self.solve_times[k] = solve_time
+        self.fallbacks.append("")
+        return requested
+
     def advance(self, plant: Plant, k: int, applied: Array, side: NDArray[np.int8]) -> None:
         """Store the applied inputs of step k and advance the plant to sample k + 1."""
         self.inputs[:, k] = applied

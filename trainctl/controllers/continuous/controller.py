@@ -168,10 +168,50 @@ class SampledLawController(Generic[LawT]):
         start = time.perf_counter()
         if measurement.state is None:
             raise ModelError(f"{self.name}: needs full-state measurement (got state=None).")
-        n = self.train.n_vehicles
-        speed, accel = float(reference.speed[0]), float(reference.acceleration[0])
-        ff_inputs, ff_elongations = self._split.single(max(speed, 0.1), accel)
         x = np.asarray(measurement.state, dtype=float)
+        result = self._law_inputs(t, x, float(reference.speed[0]),
+                                  float(reference.acceleration[0]), start)
+        if isinstance(result, StepRecord):
+            return result
+        inputs, saturated, info = result
+        return StepRecord(inputs=inputs, status="optimal", iterations=0,
+                          solve_time=time.perf_counter() - start,
+                          info={"saturated": saturated, **info})
+
+    def step_inputs(self, t: float, state: Array, speed: float, acceleration: float,
+                    out: Array) -> StepRecord | None:
+        """:meth:`step` without its records, for the simulation loop's plain path.
+
+        The same arithmetic (:class:`~trainctl.controllers.base.PlainStep`).
+
+        Parameters
+        ----------
+        t : float
+            Time of the sample [s].
+        state : ndarray
+            The full plant state ``[v (n) [m/s], delta (n-1) [m], s [m]]`` (read only).
+        speed, acceleration : float
+            The reference's speed [m/s] and acceleration [m/s²] at ``t``.
+        out : ndarray
+            Shape (n,): receives the inputs [N].
+
+        Returns
+        -------
+        StepRecord or None
+            None when the step is ``"optimal"``; the fault's record otherwise.
+        """
+        result = self._law_inputs(t, state, speed, acceleration, time.perf_counter())
+        if isinstance(result, StepRecord):
+            return result
+        out[:] = result[0]
+        return None
+
+    def _law_inputs(self, t: float, x: Array, speed: float, accel: float,
+                    start: float) -> tuple[Array, int, dict[str, Any]] | StepRecord:
+        """The step's clipped inputs [N], how many the envelope cut and the law's info;
+        or the fault's record (``start``: the step's clock reading)."""
+        n = self.train.n_vehicles
+        ff_inputs, ff_elongations = self._split.single(max(speed, 0.1), accel)
         reason = "" if finite(x) else non_finite_reason("state", x)
         if reason:
             return self._fallback(ff_inputs, np.full(n, speed), reason, start)
@@ -184,11 +224,8 @@ class SampledLawController(Generic[LawT]):
         force, reason = call_solver(self.law.force, x[:n] - speed, z, x_err)
         if force is None or not finite(np.asarray(force, dtype=float)):
             return self._fallback(ff_inputs, x[:n], reason or self._force_fault(z), start)
-        inputs = ff_inputs + force
-        inputs, saturated = self._envelope.clip(inputs, x[:n])
-        return StepRecord(inputs=inputs, status="optimal", iterations=0,
-                          solve_time=time.perf_counter() - start,
-                          info={"saturated": saturated, **info})
+        inputs, saturated = self._envelope.clip(ff_inputs + force, x[:n])
+        return inputs, saturated, info
 
     def _deviations(self, links: Array, elongations: Array) -> Array:
         """The law's spacing deviations z [m] from the plant's link states, given the

@@ -140,6 +140,44 @@ class LQRController:
                           solve_time=time.perf_counter() - start,
                           info={"saturated": saturated})
 
+    def step_inputs(self, t: float, state: NDArray[np.float64], speed: float,
+                    acceleration: float, out: NDArray[np.float64]) -> StepRecord | None:
+        """:meth:`step` without its records, for the simulation loop's plain path.
+
+        The same arithmetic (:class:`~trainctl.controllers.base.PlainStep`).
+
+        Parameters
+        ----------
+        t : float
+            Time of the sample [s].
+        state : ndarray
+            The full plant state ``[v (n) [m/s], delta (n-1) [m], s [m]]`` (read only).
+        speed, acceleration : float
+            The reference's speed [m/s] and acceleration [m/s²] at ``t``.
+        out : ndarray
+            Shape (n,): receives the inputs [N].
+
+        Returns
+        -------
+        StepRecord or None
+            None when the step is ``"optimal"``; the fault's record otherwise.
+        """
+        start = time.perf_counter()
+        ff_inputs, ff_elongations = self._split.single(max(speed, 0.1), acceleration)
+        n = self.train.n_vehicles
+        if not finite(state):
+            return self._fallback(ff_inputs, np.full(n, speed),
+                                  non_finite_reason("state", state), start)
+        deviation = self._deviation
+        np.subtract(state[:n], speed, out=deviation[:n])
+        np.subtract(state[n : 2 * n - 1], ff_elongations, out=deviation[n:])
+        feedback, reason = call_solver(self._feedback, deviation)
+        if feedback is None or not finite(feedback):
+            return self._fallback(ff_inputs, state[:n], reason or "the feedback is not finite",
+                                  start)
+        out[:] = self._envelope.clip(ff_inputs - feedback, state[:n])[0]
+        return None
+
     def _feedback(self, deviation: NDArray[np.float64]) -> NDArray[np.float64]:
         """K x̃ [N]: the law's correction (the step's solver boundary)."""
         return KN * (self.gain @ deviation)
