@@ -25,11 +25,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from trainctl.declare.constraints import FINITE, POSITIVE, Choice, Rule
 from trainctl.declare.keys import check_fields
-from trainctl.declare.limits import CURVE_RADIUS, GRADE
+from trainctl.declare.limits import CURVE_RADIUS, GRADE, SPEED
 from trainctl.exceptions import ModelError
 from trainctl.units import GRAVITY
 
-__all__ = ["RESISTANCE_FORMULAS", "SECTION_RULES", "TRACK_RULES", "Track", "TrackSection"]
+__all__ = ["LIMIT_RULES", "RESISTANCE_FORMULAS", "SECTION_RULES", "TRACK_RULES", "SpeedLimit",
+           "Track", "TrackSection"]
 
 RESISTANCE_FORMULAS = ("tbt", "ning2016")
 """Names of the supported line-resistance formulas."""
@@ -40,6 +41,9 @@ SECTION_RULES: dict[str, Rule] = {
     "curve_radius": CURVE_RADIUS,
 }
 """The rule of each :class:`TrackSection` field (also used by scenario files)."""
+
+LIMIT_RULES: dict[str, Rule] = {"start": FINITE, "limit": SPEED}
+"""The rule of each :class:`SpeedLimit` field."""
 
 TRACK_RULES: dict[str, Rule] = {"formula": Choice(RESISTANCE_FORMULAS), "wheelbase": POSITIVE}
 """The rule of each :class:`Track` setting (also used by scenario files)."""
@@ -73,6 +77,31 @@ class TrackSection:
 
 
 @dataclass(frozen=True, kw_only=True)
+class SpeedLimit:
+    """A speed restriction from ``start`` to the next restriction's start.
+
+    Parameters
+    ----------
+    start : float
+        Position where the restriction starts [m].
+    limit : float
+        Largest speed allowed there [m/s], > 0.
+
+    Examples
+    --------
+    >>> from trainctl.units import kmh_to_ms
+    >>> round(SpeedLimit(start=413.6, limit=kmh_to_ms(110.0)).limit, 4)  # 110 km/h
+    30.5556
+    """
+
+    start: float
+    limit: float
+
+    def __post_init__(self) -> None:
+        check_fields("SpeedLimit", self, LIMIT_RULES)
+
+
+@dataclass(frozen=True, kw_only=True)
 class Track:
     """Piecewise-constant grade and curvature along the line.
 
@@ -85,6 +114,10 @@ class Track:
         Line-resistance formula (module docstring).
     wheelbase : float
         Wheelset spacing used by ``"ning2016"`` for D = 0.5·wheelbase/R [m].
+    speed_limits : tuple of SpeedLimit
+        Speed restrictions sorted by strictly increasing ``start``; each holds
+        up to the next one's start, the last one to the end of the line. No
+        limit before the first one's start; none at all when empty.
 
     Examples
     --------
@@ -97,8 +130,14 @@ class Track:
     sections: tuple[TrackSection, ...] = field(default=(TrackSection(start=0.0),))
     formula: str = "tbt"
     wheelbase: float = 1.83
+    speed_limits: tuple[SpeedLimit, ...] = ()
 
     def __post_init__(self) -> None:
+        limits = [s.start for s in self.speed_limits]
+        if any(b <= a for a, b in zip(limits, limits[1:], strict=False)):
+            raise ModelError(
+                f"Track: speed-limit starts must increase strictly (got {limits})."
+            )
         if not self.sections:
             raise ModelError("Track: 'sections' must hold at least one TrackSection (got none).")
         starts = [s.start for s in self.sections]
@@ -145,3 +184,33 @@ class Track:
         starts, per_section = self._section_arrays
         index = np.searchsorted(starts, np.asarray(position, dtype=float), side="right") - 1
         return per_section[np.clip(index, 0, len(starts) - 1)]
+
+    def speed_limit(self, position: ArrayLike) -> NDArray[np.float64]:
+        """The speed limit at ``position`` [m/s]; inf where none applies.
+
+        Parameters
+        ----------
+        position : array_like
+            Positions along the track [m].
+
+        Returns
+        -------
+        ndarray
+            The limit of the restriction that holds there [m/s], the shape of
+            ``position``; a restriction holds from its start up to (not
+            including) the next one's start.
+
+        Examples
+        --------
+        >>> track = Track(speed_limits=(SpeedLimit(start=0.0, limit=25.0),
+        ...                             SpeedLimit(start=800.0, limit=15.0)))
+        >>> track.speed_limit([-1.0, 0.0, 799.9, 800.0, 1e6]).tolist()
+        [inf, 25.0, 25.0, 15.0, 15.0]
+        """
+        p = np.asarray(position, dtype=float)
+        if not self.speed_limits:
+            return np.full(p.shape, np.inf)
+        starts = np.array([s.start for s in self.speed_limits])
+        limits = np.array([np.inf] + [s.limit for s in self.speed_limits])
+        found: NDArray[np.float64] = limits[np.searchsorted(starts, p, side="right")]
+        return found
