@@ -35,10 +35,10 @@ input work - (Δkinetic + Δspring + line work + losses), measures what the
 plant's integrator and the quadrature leave unaccounted. Measured on short
 runs of the built-in scenarios on a hilly, curved track (tests/test_energy.py),
 relative to the traction plus braking work: 5e-11 (crh2-potential),
-2e-10 (heavy-haul-hinf-ideal), 8e-10 (crh2-dmpc), 4e-9
+5e-10 (heavy-haul-hinf-ideal), 8e-10 (crh2-dmpc), 4e-9
 (heavy-haul-flocking, 10 200 t trains: about 20 J per section crossing). The
-quadrature is not what is left: on grids 4 and 16 times finer
-(``output_interval``) the losses change by < 0.1 J and the residual stays;
+quadrature is not what is left: on grids 4 and 16 times finer (flocking,
+``output_interval``) the losses change by < 0.1 J and the residual stays;
 it is the plant's own energy error where it switches a section's
 resistance (:class:`~trainctl.models.Plant`).
 """
