@@ -251,3 +251,22 @@ class TestBadInput:
         scenario, result = runs["mpc"]
         with pytest.raises(ModelError, match=re.escape("must be a Track or None (got str)")):
             energy_account(result, scenario.train, "flat")  # type: ignore[arg-type]
+
+
+class TestMetrics:
+    def test_compute_metrics_carries_the_account_given_the_train(self, runs):
+        """compute_metrics(train=, track=) holds the account, in to_dict too; without, None."""
+        from trainctl.sim import compute_metrics
+
+        scenario, result = runs["hinf"]
+        metrics = compute_metrics(result, regen_efficiency=0.7, train=scenario.train,
+                                  track=scenario.track)
+        account = energy_account(result, scenario.train, scenario.track, regen_efficiency=0.7)
+        assert metrics.energy_account is not None
+        np.testing.assert_array_equal(metrics.energy_account.regenerated, account.regenerated)
+        d = json.loads(json.dumps(metrics.to_dict(), allow_nan=False))
+        assert d["energy_account"]["totals"]["net_energy"] == pytest.approx(
+            account.total("net_energy"))
+        assert "energy_kwh" in d  # the trapezoid estimate stays
+        assert compute_metrics(result).energy_account is None
+        assert compute_metrics(result).to_dict()["energy_account"] is None

@@ -26,8 +26,8 @@ exactly as the record allows:
   work m a0 Δp exact from the positions; the rest, m (a1 + a2 v) v², and
   the coupler damping d (v_i - v_{i+1})² by quadrature over the dense grid
   (:func:`dense_quadrature`: Simpson within each sample interval, the
-  trapezoid with an exact kink term where a vehicle crosses a section
-  boundary).
+  trapezoid with a kink term, exact to O(h³), where a vehicle crosses a
+  section boundary).
 
 The regenerated energy is ``regen_efficiency`` × braking work and the net
 energy drawn is traction - regenerated. The balance residual,
