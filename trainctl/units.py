@@ -20,15 +20,18 @@ from __future__ import annotations
 
 __all__ = [
     "GRAVITY",
+    "JOULES_PER_KWH",
     "KMH_PER_MS",
     "davis_book_literal",
     "davis_from_unit_resistance_kmh",
     "davis_from_unit_resistance_ms",
+    "j_to_kwh",
     "kmh_to_ms",
     "kn_per_m_to_n_per_m",
     "kn_s_per_m_to_n_s_per_m",
     "kn_to_n",
     "kw_to_w",
+    "kwh_to_j",
     "ms_to_kmh",
     "n_to_kn",
     "permille_to_accel",
@@ -41,6 +44,9 @@ GRAVITY = 9.81
 
 KMH_PER_MS = 3.6
 """Kilometres per hour in one metre per second."""
+
+JOULES_PER_KWH = 3.6e6
+"""Joules in one kilowatt-hour."""
 
 
 def kmh_to_ms(speed_kmh: float) -> float:
@@ -167,6 +173,48 @@ def kw_to_w(power_kw: float) -> float:
     1200000.0
     """
     return power_kw * 1000.0
+
+
+def j_to_kwh(energy: float) -> float:
+    """Convert an energy from J to kWh.
+
+    Parameters
+    ----------
+    energy : float
+        Energy [J].
+
+    Returns
+    -------
+    float
+        Energy [kWh].
+
+    Examples
+    --------
+    >>> j_to_kwh(7.2e6)
+    2.0
+    """
+    return energy / JOULES_PER_KWH
+
+
+def kwh_to_j(energy_kwh: float) -> float:
+    """Convert an energy from kWh to J.
+
+    Parameters
+    ----------
+    energy_kwh : float
+        Energy [kWh].
+
+    Returns
+    -------
+    float
+        Energy [J].
+
+    Examples
+    --------
+    >>> kwh_to_j(0.5)
+    1800000.0
+    """
+    return energy_kwh * JOULES_PER_KWH
 
 
 def kn_per_m_to_n_per_m(stiffness_kn_per_m: float) -> float:

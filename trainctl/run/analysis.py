@@ -119,7 +119,8 @@ def run_scenario(
             metrics[strategy] = compute_metrics(
                 sims[strategy], settle_time=sim.settle_time,
                 regen_efficiency=sim.regen_efficiency,
-                coupler_limits=scenario.train.max_coupler_force)
+                coupler_limits=scenario.train.max_coupler_force, train=scenario.train,
+                track=scenario.track)
             if on_simulated is not None:
                 on_simulated(strategy)
         with numerical_errors(scenario.source):

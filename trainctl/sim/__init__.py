@@ -5,7 +5,8 @@
 splitting, exact for the stiff couplers); :class:`SpeedProfile` gives the
 reference; :func:`simulate` runs any :class:`~trainctl.controllers.base.Controller`
 in closed loop and returns a :class:`SimulationResult` (save/load, pandas,
-python-control and matplotlib views); :func:`compute_metrics` summarises it.
+python-control and matplotlib views); :func:`compute_metrics` summarises it
+and :func:`energy_account` balances its energy.
 The loop saturates every controller's forces to the vehicles' envelopes and
 records the plant between the samples on a dense grid (:func:`dense_grid`
 gives its rule).
@@ -21,6 +22,8 @@ from trainctl.sim._log import dense_grid as dense_grid
 from trainctl.sim.closed_loop import DIVERGENCE_SPEED_ERROR as DIVERGENCE_SPEED_ERROR
 from trainctl.sim.closed_loop import HOLD_FALLBACK as HOLD_FALLBACK
 from trainctl.sim.closed_loop import simulate as simulate
+from trainctl.sim.energy import EnergyAccount as EnergyAccount
+from trainctl.sim.energy import energy_account as energy_account
 from trainctl.sim.metrics import Metrics as Metrics
 from trainctl.sim.metrics import compute_metrics as compute_metrics
 from trainctl.sim.reference import Reference as Reference
@@ -31,6 +34,7 @@ from trainctl.sim.results import environment as environment
 
 __all__ = [
     "DENSE_PHASE_STEP", "DIVERGENCE_SPEED_ERROR", "HOLD_FALLBACK", "MAX_DENSE_POINTS",
-    "MAX_DENSE_VALUES", "Metrics", "Plant", "Reference", "SimulationResult", "SpeedProfile",
-    "compute_metrics", "dense_grid", "environment", "ramp_profile", "simulate",
+    "MAX_DENSE_VALUES", "EnergyAccount", "Metrics", "Plant", "Reference", "SimulationResult",
+    "SpeedProfile", "compute_metrics", "dense_grid", "energy_account", "environment",
+    "ramp_profile", "simulate",
 ]

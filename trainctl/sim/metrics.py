@@ -40,6 +40,13 @@ Positive work is motoring; negative work is braking, of which the fraction
 ``regen_efficiency`` is recovered:
 
     E = Σ_ik max(W_ik, 0) - regen_efficiency · Σ_ik max(-W_ik, 0)    [J → kWh]
+
+These fields (``energy``, ``motoring_energy``, ``braking_energy``) keep that
+quadrature and its meaning, so that saved runs and sweeps compare. Given the
+train (and track), :func:`compute_metrics` also makes the exact energy
+account, :attr:`Metrics.energy_account` (:func:`trainctl.sim.energy.energy_account`):
+the work u_ik times the distance each vehicle moved, the kinetic and spring
+energy, the line work and the losses, and the residual of their balance.
 """
 
 from __future__ import annotations
@@ -54,13 +61,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from trainctl._validation import check_finite
 from trainctl.exceptions import ModelError
+from trainctl.models.track import Track
+from trainctl.models.train import Train
+from trainctl.sim.energy import EnergyAccount, energy_account
 from trainctl.sim.results import SimulationResult
+from trainctl.units import JOULES_PER_KWH
 
 __all__ = ["Metrics", "compute_metrics"]
-
-JOULES_PER_KWH = 3.6e6
-"""Joules in one kilowatt-hour."""
-
 
 @dataclass(frozen=True, kw_only=True, eq=False)
 class Metrics:
@@ -134,6 +141,10 @@ class Metrics:
         iterations, the last change still above the tolerance
         (``meta["iteration_tolerance"]``, in the residuals' unit); None
         without a limit.
+    energy_account : EnergyAccount or None
+        The exact energy account of the run [J]
+        (:func:`~trainctl.sim.energy.energy_account`); None when
+        :func:`compute_metrics` was not given the train.
 
     Examples
     --------
@@ -187,6 +198,7 @@ class Metrics:
     coupler_over_time: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     iteration_limit: int | None = None
     iteration_limit_steps: int | None = None
+    energy_account: EnergyAccount | None = None
 
     @property
     def iterations_converged(self) -> bool | None:
@@ -259,7 +271,8 @@ class Metrics:
             are keyed ``energy_kwh``, ``motoring_energy_kwh`` and
             ``braking_energy_kwh`` [kWh]; plus ``diverged`` (bool),
             ``coupler_verdict`` (:meth:`coupler_verdict`) and
-            ``iterations_converged``. Mappings become dicts.
+            ``iterations_converged``. Mappings become dicts, and
+            ``energy_account`` its :meth:`EnergyAccount.to_dict` (None without one).
         """
 
         def num(x: float) -> float | None:
@@ -297,12 +310,15 @@ class Metrics:
             "iteration_limit": self.iteration_limit,
             "iteration_limit_steps": self.iteration_limit_steps,
             "iterations_converged": self.iterations_converged,
+            "energy_account": (None if self.energy_account is None
+                               else self.energy_account.to_dict()),
         }
 
 
 def compute_metrics(
     result: SimulationResult, *, settle_time: float = 0.0, regen_efficiency: float = 1.0,
-    coupler_limits: ArrayLike | None = None,
+    coupler_limits: ArrayLike | None = None, train: Train | None = None,
+    track: Track | None = None,
 ) -> Metrics:
     """Metrics of a run.
 
@@ -319,6 +335,11 @@ def compute_metrics(
         Admissible force of each coupler [N], shape (n-1,), > 0, inf for no
         limit (:attr:`trainctl.models.train.Train.max_coupler_force`); None:
         no limits.
+    train : Train or None
+        The simulated train: given, the metrics hold the run's exact energy
+        account (:attr:`Metrics.energy_account`); None: no account.
+    track : Track or None
+        The track it ran on, for the account's line work; None: level and straight.
 
     Returns
     -------
@@ -408,6 +429,8 @@ def compute_metrics(
         **_couplers(result.dense_time, forces, limits),
         iteration_limit=limit,
         iteration_limit_steps=stopped,
+        energy_account=(None if train is None
+                        else energy_account(result, train, track, regen_efficiency=eta)),
     )
 
 
