@@ -758,8 +758,9 @@ class TestLengths:
         )
 
     def test_missing_track_sections(self) -> None:
-        """[track] without sections names the missing key."""
-        check_fails(SINGLE + "[track]\nformula = 'tbt'\n", "missing required key [track].section")
+        """[track] without sections (or a line) names the missing key and the alternatives."""
+        check_fails(SINGLE + "[track]\nformula = 'tbt'\n",
+                    "[track.section] must be given, or 'line' or 'file' instead")
 
 
 class TestSyntaxAndEnums:

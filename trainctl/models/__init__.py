@@ -22,6 +22,10 @@ if TYPE_CHECKING:
     from trainctl.models.linear import linear_matrices as linear_matrices
     from trainctl.models.linear import linearise as linearise
     from trainctl.models.linear import resistance_damping as resistance_damping
+    from trainctl.models.lines import LINES as LINES
+    from trainctl.models.lines import Line as Line
+    from trainctl.models.lines import builtin_line as builtin_line
+    from trainctl.models.lines import read_line as read_line
     from trainctl.models.plant import Plant as Plant
     from trainctl.models.presets import PRESETS as PRESETS
     from trainctl.models.presets import crh2_8car as crh2_8car
@@ -33,6 +37,7 @@ if TYPE_CHECKING:
     from trainctl.models.subsystems import coach_subsystems as coach_subsystems
     from trainctl.models.subsystems import neighbourhood as neighbourhood
     from trainctl.models.subsystems import neighbourhoods as neighbourhoods
+    from trainctl.models.track import SpeedLimit as SpeedLimit
     from trainctl.models.track import Track as Track
     from trainctl.models.track import TrackSection as TrackSection
     from trainctl.models.train import Train as Train
@@ -41,13 +46,13 @@ if TYPE_CHECKING:
     from trainctl.models.vehicle import Vehicle as Vehicle
 
 __all__ = [
-    "ALLOCATIONS", "DISCRETISATIONS", "LINEARISATIONS", "PRESETS",
-    "ActuatorLimits", "Chain", "CoachSubsystems", "Coupler", "Equilibrium", "ForceSplit",
-    "Neighbourhood", "Plant", "QuasiStaticForces", "Track", "TrackSection", "TractionEnvelope",
-    "Train", "Vehicle",
-    "coach_subsystems", "coupler_forces", "crh2_8car", "crh2_half", "discretise",
+    "ALLOCATIONS", "DISCRETISATIONS", "LINEARISATIONS", "LINES", "PRESETS",
+    "ActuatorLimits", "Chain", "CoachSubsystems", "Coupler", "Equilibrium", "ForceSplit", "Line",
+    "Neighbourhood", "Plant", "QuasiStaticForces", "SpeedLimit", "Track", "TrackSection",
+    "TractionEnvelope", "Train", "Vehicle",
+    "builtin_line", "coach_subsystems", "coupler_forces", "crh2_8car", "crh2_half", "discretise",
     "equilibrium", "heavy_haul_1p2p1", "linear_matrices", "linearise", "neighbourhood",
-    "neighbourhoods", "nonlinear_system", "resistance_damping", "train_rhs",
+    "neighbourhoods", "nonlinear_system", "read_line", "resistance_damping", "train_rhs",
     "virtual_formation",
 ]
 
@@ -79,6 +84,11 @@ _EXPORTS = {
     "coach_subsystems": "trainctl.models.subsystems",
     "neighbourhood": "trainctl.models.subsystems",
     "neighbourhoods": "trainctl.models.subsystems",
+    "LINES": "trainctl.models.lines",
+    "Line": "trainctl.models.lines",
+    "builtin_line": "trainctl.models.lines",
+    "read_line": "trainctl.models.lines",
+    "SpeedLimit": "trainctl.models.track",
     "Track": "trainctl.models.track",
     "TrackSection": "trainctl.models.track",
     "Train": "trainctl.models.train",

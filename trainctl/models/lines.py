@@ -41,8 +41,15 @@ from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import (BaseModel, BeforeValidator, ConfigDict, Field, StrictFloat, StrictInt,
-                      model_validator)
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    StrictFloat,
+    StrictInt,
+    model_validator,
+)
 
 from trainctl.declare.constraints import suggest
 from trainctl.declare.jsonfile import read_json, validate_json
@@ -184,7 +191,9 @@ class _Document(_Table):
 def _increasing(loc: tuple[str, ...], values: list[Any], *, first: bool,
                 index: int | None = None) -> None:
     """Refuse values that do not start at 0 (``first``) or do not increase strictly."""
-    where = (lambda i: (*loc, i, index)) if index is not None else (lambda i: (*loc, i))
+    def where(i: int) -> tuple[str | int, ...]:
+        return (*loc, i) if index is None else (*loc, i, index)
+
     if first and values[0] != 0:
         raise_at(where(0), Violation("must be 0, the line's start", got=values[0]), values[0])
     for i in range(1, len(values)):

@@ -304,6 +304,10 @@ class Scenario:
         comment (``"reconstructed: CRH cruise speed"``), read-only
         (:func:`~trainctl.scenario.tags.source_tags`); :meth:`replace` drops
         the tag of the key it changes.
+    directory : str or None
+        The directory a scenario file's relative paths (``[track].file``) are
+        read from: the file's own; None (the working directory) for a built-in
+        or a string.
 
     Examples
     --------
@@ -333,6 +337,7 @@ class Scenario:
     source: str = "<string>"
     document: Mapping[str, Any] | None = field(default=None, compare=False, repr=False)
     tags: Mapping[str, str] = field(default_factory=FrozenMapping, compare=False, repr=False)
+    directory: str | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.document is not None:
@@ -457,7 +462,7 @@ class Scenario:
         tags = {k: v for k, v in self.tags.items()
                 if k != key and not k.startswith((key + ".", key + "["))}
         return parse_document(replaced_document(self.document, key, value), source=label,
-                              tags=tags)
+                              tags=tags, directory=self.directory)
 
     @property
     def slug(self) -> str:

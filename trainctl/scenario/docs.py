@@ -36,6 +36,7 @@ from trainctl.scenario.settings import ModelSettings, SimulationSettings
 from trainctl.scenario.tables import (
     CouplerTable,
     SectionTable,
+    SpeedLimitTable,
     SweepAxisTable,
     SweepTable,
     TopLevel,
@@ -168,7 +169,7 @@ def markdown_tables() -> dict[str, str]:
     -------
     dict of str to str
         ``"top"``, ``"train"``, ``"vehicle"``, ``"coupler"``, ``"track"``,
-        ``"section"``, ``"model"``, ``"controller-<family>"`` for each
+        ``"section"``, ``"speed-limit"``, ``"model"``, ``"controller-<family>"`` for each
         built-in family, ``"communication"``, ``"network"``, ``"interruption"``,
         ``"simulation"``, ``"reference"``, ``"sweep"`` and ``"sweep-axis"``.
 
@@ -176,7 +177,7 @@ def markdown_tables() -> dict[str, str]:
     --------
     >>> tables = markdown_tables()
     >>> len(tables), "controller-mpc" in tables
-    (20, True)
+    (21, True)
     >>> tables["vehicle"].splitlines()[0]
     '| Key | Type | Unit | Default | Meaning |'
     """
@@ -191,6 +192,7 @@ def markdown_tables() -> dict[str, str]:
         "coupler": table(CouplerTable),
         "track": table(TrackTable, "track"),
         "section": table(SectionTable),
+        "speed-limit": table(SpeedLimitTable),
         "model": table(file_model(ModelSettings)),
         "communication": table(file_model(CommunicationSettings)),
         "network": table(file_model(NetworkSettings), "network"),
@@ -217,12 +219,12 @@ def markdown_text() -> str:
 
     Examples
     --------
-    Each of the 20 tables sits between its two markers, the top-level keys
+    Each of the 21 tables sits between its two markers, the top-level keys
     first:
 
     >>> text = markdown_text()
     >>> text.splitlines()[0], text.count("<!-- schema:"), text.count("<!-- /schema:")
-    ('<!-- schema:top -->', 20, 20)
+    ('<!-- schema:top -->', 21, 21)
     """
     return "".join(f"<!-- schema:{name} -->\n{markdown}\n<!-- /schema:{name} -->\n\n"
                    for name, markdown in markdown_tables().items())

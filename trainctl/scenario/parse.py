@@ -18,8 +18,10 @@ from __future__ import annotations
 import functools
 import inspect
 import math
+import os
 import tomllib
 from collections.abc import Callable, Mapping
+from pathlib import Path
 from typing import Any, Literal, TypeVar
 
 from pydantic import BaseModel, ConfigDict, ValidationError, create_model
@@ -27,7 +29,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError, create_model
 from trainctl.declare.constraints import Violation, suggest
 from trainctl.exceptions import ModelError, ScenarioError
 from trainctl.models.network.schema import NetworkSettings
-from trainctl.models.track import Track, TrackSection
+from trainctl.models.track import SpeedLimit, Track, TrackSection
 from trainctl.models.train import Train
 from trainctl.models.vehicle import Coupler, TractionEnvelope, Vehicle
 from trainctl.scenario.communication import CommunicationSettings
@@ -53,10 +55,12 @@ from trainctl.scenario.train_tables import (
     DAVIS_KEYS,
     CouplerTable,
     SectionTable,
+    SpeedLimitTable,
     TrackTable,
     TrainTable,
     VehicleTable,
 )
+from trainctl.units import kmh_to_ms
 
 __all__ = ["MAX_TEXT_BYTES", "check_size", "load_toml", "parse_document", "parse_scenario"]
 
@@ -135,7 +139,8 @@ def check_size(size: int, source: str) -> None:
             "give the right file.")
 
 
-def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:
+def parse_scenario(text: str, *, source: str = "<string>",
+                   directory: str | os.PathLike[str] | None = None) -> Scenario:
     """Parse scenario TOML text.
 
     Parameters
@@ -144,6 +149,10 @@ def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:
         The TOML document.
     source : str
         Label used in error messages and stored as ``Scenario.source``.
+    directory : str or os.PathLike or None
+        Where relative paths in the file (``[track].file``) are read from;
+        None: the directory of ``source`` when it names a file, else the
+        working directory.
 
     Returns
     -------
@@ -200,11 +209,24 @@ def parse_scenario(text: str, *, source: str = "<string>") -> Scenario:
         raise TypeError(f"parse_scenario: 'text' must be a str (got {type(text).__name__}).")
     from trainctl.scenario.tags import source_tags
 
-    return _Parser(source, load_toml(text, source), source_tags(text)).scenario()
+    return _Parser(source, load_toml(text, source), source_tags(text),
+                   _directory(source, directory)).scenario()
+
+
+def _directory(source: str, directory: str | os.PathLike[str] | None) -> str | None:
+    """The directory of a file's relative paths (:func:`parse_scenario`)."""
+    if directory is not None:
+        return os.fspath(directory)
+    path = Path(source)
+    try:
+        return str(path.resolve().parent) if path.is_file() else None
+    except (OSError, ValueError):  # a label that is no path
+        return None
 
 
 def parse_document(document: dict[str, Any], *, source: str = "<string>",
-                   tags: Mapping[str, str] | None = None) -> Scenario:
+                   tags: Mapping[str, str] | None = None,
+                   directory: str | os.PathLike[str] | None = None) -> Scenario:
     """Parse a scenario from its TOML document (the dict ``tomllib`` gives).
 
     Parameters
@@ -216,6 +238,8 @@ def parse_document(document: dict[str, Any], *, source: str = "<string>",
     tags : mapping of str to str or None
         Source tags of the values by file key path (``Scenario.tags``; a
         document has no comments to read them from).
+    directory : str or os.PathLike or None
+        As for :func:`parse_scenario`.
 
     Returns
     -------
@@ -238,15 +262,15 @@ def parse_document(document: dict[str, Any], *, source: str = "<string>",
     if not isinstance(document, dict):
         raise TypeError(f"parse_document: 'document' must be a dict (got "
                         f"{type(document).__name__}).")
-    return _Parser(source, document, tags).scenario()
+    return _Parser(source, document, tags, _directory(source, directory)).scenario()
 
 
 class _Parser:
     """One document being parsed: its label, its TOML data and the error context."""
 
     def __init__(self, file: str, doc: dict[str, Any],
-                 tags: Mapping[str, str] | None = None) -> None:
-        self.file, self.doc = file, doc
+                 tags: Mapping[str, str] | None = None, directory: str | None = None) -> None:
+        self.file, self.doc, self.directory = file, doc, directory
         self.tags = FrozenMapping(tags or {})
 
     def validate(self, model: type[BaseModel], prefix: tuple[Any, ...], data: Any = None,
@@ -309,7 +333,7 @@ class _Parser:
             track=track, model=model, controllers=FrozenMapping(controllers),
             communication=communication, network=network, simulation=simulation,
             expected=expected, sweep=sweep,
-            source=self.file, document=self.doc, tags=self.tags,
+            source=self.file, document=self.doc, tags=self.tags, directory=self.directory,
         ))
 
     def train(self) -> Train:
@@ -355,14 +379,45 @@ class _Parser:
         return train
 
     def track(self) -> Track:
-        """``[track]`` and its sections."""
+        """``[track]``: its sections, or a line's (a shipped one or a TTOBench file), and
+        its speed limits."""
         table: TrackTable = self.validate(TrackTable, ("track",))
-        sections = tuple(
-            self.build(("track", "section", i), functools.partial(_section, s))
-            for i, s in enumerate(table.section)
-        )
+        line = self.line(table)
+        if line is not None:
+            sections, limits = line.track.sections, line.track.speed_limits
+        else:
+            sections = tuple(
+                self.build(("track", "section", i), functools.partial(_section, s))
+                for i, s in enumerate(table.section or ())
+            )
+            limits = ()
+        if table.speed_limit:
+            limits = tuple(
+                self.build(("track", "speed_limit", i), functools.partial(_limit, s))
+                for i, s in enumerate(table.speed_limit)
+            )
         return self.build(("track",), lambda: Track(
-            sections=sections, formula=table.formula, wheelbase=table.wheelbase))
+            sections=sections, formula=table.formula, wheelbase=table.wheelbase,
+            speed_limits=limits))
+
+    def line(self, table: TrackTable) -> Any:
+        """The :class:`~trainctl.models.lines.Line` of ``[track].line`` or ``[track].file``
+        (None for neither): a TTOBench file's error names the file and its key."""
+        from trainctl.models.lines import builtin_line, read_line
+
+        if table.line is not None:
+            return builtin_line(table.line)
+        if table.file is None:
+            return None
+        path = Path(table.file).expanduser()
+        if not path.is_absolute():
+            path = Path(self.directory or os.getcwd()) / path
+        try:
+            return read_line(path)
+        except ScenarioError as exc:
+            where = "" if self.directory is None else " (relative to the scenario file's directory)"
+            raise ScenarioError(f"{self.file}: [track].file = {table.file!r}{where}: {exc}") \
+                from None
 
     def controllers(self, raw: dict[str, Any] | None, n: int) -> dict[str, Any]:
         """``[controller]``: the primary family, then ``[controller.<family>]`` sub-tables."""
@@ -479,6 +534,10 @@ def _coupler(link: CouplerTable, front: float, rear: float) -> Coupler:
         virtual=link.virtual,
         max_force=_si(link, "max_force_kn"),
     )
+
+
+def _limit(limit: SpeedLimitTable) -> SpeedLimit:
+    return SpeedLimit(start=limit.start, limit=kmh_to_ms(limit.limit_kmh))
 
 
 def _section(section: SectionTable) -> TrackSection:

@@ -428,7 +428,8 @@ def _without_sweep(scenario: Scenario) -> Scenario:
     from trainctl.scenario.replace import thaw
 
     document = {k: thaw(v) for k, v in scenario.document.items() if k != "sweep"}
-    return parse_document(document, source=scenario.source, tags=scenario.tags)
+    return parse_document(document, source=scenario.source, tags=scenario.tags,
+                          directory=scenario.directory)
 
 
 def point_key(scenario: Scenario) -> str:

@@ -47,6 +47,7 @@ from trainctl.scenario.filemodel import (
 )
 from trainctl.scenario.train_tables import CouplerTable as CouplerTable
 from trainctl.scenario.train_tables import SectionTable as SectionTable
+from trainctl.scenario.train_tables import SpeedLimitTable as SpeedLimitTable
 from trainctl.scenario.train_tables import TableRule as TableRule
 from trainctl.scenario.train_tables import TrackTable as TrackTable
 from trainctl.scenario.train_tables import TrainTable as TrainTable
@@ -56,6 +57,7 @@ __all__ = [
     "MAX_VEHICLES",
     "CouplerTable",
     "SectionTable",
+    "SpeedLimitTable",
     "SweepAxisTable",
     "SweepTable",
     "TableRule",

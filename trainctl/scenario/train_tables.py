@@ -27,6 +27,7 @@ from pydantic_core import CoreSchema, core_schema
 
 from trainctl.declare.constraints import (
     Array,
+    Choice,
     Flag,
     Integer,
     Number,
@@ -38,7 +39,8 @@ from trainctl.declare.constraints import (
 )
 from trainctl.declare.keys import Key
 from trainctl.declare.limits import COUPLER_GAP, MAX_VEHICLES, VEHICLES_WHY, in_unit
-from trainctl.models.track import SECTION_RULES, TRACK_RULES
+from trainctl.models.lines import LINES
+from trainctl.models.track import LIMIT_RULES, SECTION_RULES, TRACK_RULES
 from trainctl.models.vehicle import COUPLER_RULES, ENVELOPE_RULES, VEHICLE_RULES
 from trainctl.scenario.filemodel import (
     FileTable,
@@ -50,6 +52,7 @@ from trainctl.scenario.filemodel import (
 from trainctl.units import (
     davis_book_literal,
     davis_from_unit_resistance_kmh,
+    kmh_to_ms,
     kn_per_m_to_n_per_m,
     kn_s_per_m_to_n_s_per_m,
     kn_to_n,
@@ -60,6 +63,7 @@ from trainctl.units import (
 __all__ = [
     "CouplerTable",
     "SectionTable",
+    "SpeedLimitTable",
     "TableRule",
     "TrackTable",
     "TrainTable",
@@ -343,8 +347,32 @@ class SectionTable(FileTable):
         "Curve radius", unit="m", omitted="straight track")] = None
 
 
+class SpeedLimitTable(FileTable):
+    """A speed restriction (``[[track.speed_limit]]``).
+
+    Examples
+    --------
+    Trains may run at most 60 km/h from 2.5 km on (up to the next restriction):
+
+    >>> limit = SpeedLimitTable.model_validate({"start": 2500.0, "limit_kmh": 60.0})
+    >>> limit.start, limit.limit_kmh
+    (2500.0, 60.0)
+    """
+
+    start: Annotated[float, LIMIT_RULES["start"], Key(
+        "Where the restriction starts; it holds up to the next one's start", unit="m")]
+    limit_kmh: Annotated[float, in_unit(LIMIT_RULES["limit"], kmh_to_ms), Key(
+        "Largest speed allowed", unit="km/h")]
+
+
 class TrackTable(FileTable):
-    """Grade and curvature along the line (``[track]``).
+    """Grade, curvature and speed limits along the line (``[track]``).
+
+    The sections are given as ``[[track.section]]`` tables, or taken from a
+    line: one shipped with trainctl (``line``, :data:`trainctl.models.lines.LINES`)
+    or a TTOBench track file (``file``, read relative to the scenario file),
+    with the line's speed limits. ``[[track.speed_limit]]`` tables give the
+    limits (replacing a line's own).
 
     Examples
     --------
@@ -365,13 +393,36 @@ class TrackTable(FileTable):
     )] = "tbt"
     wheelbase: Annotated[float, TRACK_RULES["wheelbase"], Key(
         "Wheelset spacing, used by 'ning2016' for D = 0.5·wheelbase/R", unit="m")] = 1.83
-    section: Annotated[list[SectionTable], Field(min_length=1), Key(
-        "Sections in track order, starts strictly increasing")]
+    section: Annotated[list[SectionTable] | None, Field(min_length=1), Key(
+        "Sections in track order, starts strictly increasing", omitted="a line's")] = None
+    line: Annotated[str | None, Choice(LINES), Key(
+        "A railway line shipped with trainctl (trainctl.models.lines)",
+        omitted="sections or a file")] = None
+    file: Annotated[str | None, Text(nonblank=True), Key(
+        "A TTOBench track file (JSON), relative to the scenario file",
+        omitted="sections or a line")] = None
+    speed_limit: Annotated[list[SpeedLimitTable], Key(
+        "Speed restrictions in track order, starts strictly increasing",
+        omitted="the line's, or none")] = []
 
     @model_validator(mode="after")
     def _starts_increase(self) -> TrackTable:
-        for i in range(1, len(self.section)):
-            previous, start = self.section[i - 1].start, self.section[i].start
+        given = [k for k in ("section", "line", "file") if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise_at(("section",) if not given else (given[1],), Violation(
+                text="must be given, or 'line' or 'file' instead" if not given else
+                f"cannot be given with {given[0]!r}",
+                hint=" A track is [[track.section]] tables, a shipped line (line = ...) or "
+                "a TTOBench file (file = ...): one of the three."))
+        for i in range(1, len(self.speed_limit)):
+            previous, start = self.speed_limit[i - 1].start, self.speed_limit[i].start
+            if start <= previous:
+                raise_at(("speed_limit", i, "start"), Violation(
+                    text=f"must be greater than the previous restriction's start {previous!r}",
+                    got=start, hint=" List speed limits in track order."))
+        sections = self.section or []
+        for i in range(1, len(sections)):
+            previous, start = sections[i - 1].start, sections[i].start
             if start <= previous:
                 raise_at(("section", i, "start"), Violation(
                     text=f"must be greater than the previous section's start {previous!r}",
