@@ -187,3 +187,24 @@ def test_analyse_exits_2_on_a_malformed_file(case: str, tmp_path: Path,
     assert_refused(path, "[track].file = 'line.json' (relative to the scenario file's "
                    "directory): ", capsys)
     assert_refused(path, f"line.json: {message}", capsys)
+
+
+def test_a_saved_run_reads_its_track_file_from_the_scenario_directory(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from trainctl.cli.main import main
+
+    work = tmp_path / "work"
+    (work / "lines").mkdir(parents=True)
+    (work / "lines" / "wil.json").write_text((DATA / "CH_StGallen_Wil.json").read_text())
+    (work / "mine.toml").write_text(_scenario_text('file = "lines/wil.json"'))
+    monkeypatch.chdir(work)
+    assert main(["analyse", "mine.toml", "--no-simulate", "--save", "saved"]) == 0
+    monkeypatch.chdir(tmp_path)  # elsewhere: the file is found where the scenario was
+    assert main(["report", str(work / "saved"), "-o", str(tmp_path / "r.html")]) == 0
+    (work / "lines" / "wil.json").unlink()
+    capsys.readouterr()
+    assert main(["report", str(work / "saved"), "-o", str(tmp_path / "r2.html")]) == 2
+    err = capsys.readouterr().err
+    assert "lines/wil.json: file not found" in err and "put it back" in err
+    assert not (tmp_path / "r2.html").exists()

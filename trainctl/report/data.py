@@ -209,6 +209,7 @@ class ReportData:
             "format": FORMAT,
             "source": self.scenario.source,
             "scenario_sha256": text_digest(self.scenario_text),
+            "directory": self.scenario.directory,
             "strategies": list(self.simulations),
             "results": self.results,
             "subsystems": self.subsystems,

@@ -250,6 +250,10 @@ class RunFile(_Closed):
         The scenario's text as it was run.
     scenario_sha256 : str
         SHA-256 of that text (:func:`text_digest`).
+    directory : str or None
+        Where the scenario's relative paths were read from
+        (:attr:`~trainctl.scenario.Scenario.directory`): the run's track file
+        (``[track].file``) is read from there again.
     strategies : list of str
         The simulated strategies, in order.
     results : Results
@@ -294,6 +298,7 @@ class RunFile(_Closed):
     format: StrictStr
     source: StrictStr
     scenario_sha256: str = Field(pattern=r"^[0-9a-f]{64}$")
+    directory: StrictStr | None = None
     strategies: list[StrictStr]
     results: Results
     subsystems: list[Coach]
@@ -403,10 +408,14 @@ def read_saved_run(directory: str | Path) -> dict[str, Any]:
     doc = validate_json(raw, RunFile, manifest, hint=RUN_HINT)
     text = _scenario_text(path, doc)
     try:
-        scenario = parse_scenario(text, source=doc.source)
+        scenario = parse_scenario(text, source=doc.source, directory=doc.directory)
     except ScenarioError as exc:
+        hint = RUN_HINT
+        if "[track].file" in str(exc):
+            hint = (" The run read its track from that file: put it back (or save the run "
+                    "again with 'trainctl analyse SCENARIO --save DIR').")
         raise ScenarioError(f"{path / 'scenario.toml'}: not a valid scenario: {exc}"
-                            f"{RUN_HINT}") from None
+                            f"{hint}") from None
     _check_strategies(manifest, doc)
     _check_scenario(manifest, doc, scenario)
     sims = {name: _simulation(path, name, scenario, doc.results.simulations[name])
