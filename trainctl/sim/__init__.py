@@ -6,7 +6,8 @@ splitting, exact for the stiff couplers); :class:`SpeedProfile` gives the
 reference; :func:`simulate` runs any :class:`~trainctl.controllers.base.Controller`
 in closed loop and returns a :class:`SimulationResult` (save/load, pandas,
 python-control and matplotlib views); :func:`compute_metrics` summarises it
-and :func:`energy_account` balances its energy.
+and :func:`energy_account` balances its energy; :func:`limited_profile` plans a
+reference under a line's speed limits.
 The loop saturates every controller's forces to the vehicles' envelopes and
 records the plant between the samples on a dense grid (:func:`dense_grid`
 gives its rule).
@@ -26,6 +27,8 @@ from trainctl.sim.energy import EnergyAccount as EnergyAccount
 from trainctl.sim.energy import energy_account as energy_account
 from trainctl.sim.metrics import Metrics as Metrics
 from trainctl.sim.metrics import compute_metrics as compute_metrics
+from trainctl.sim.planner import braking_deceleration as braking_deceleration
+from trainctl.sim.planner import limited_profile as limited_profile
 from trainctl.sim.reference import Reference as Reference
 from trainctl.sim.reference import SpeedProfile as SpeedProfile
 from trainctl.sim.reference import ramp_profile as ramp_profile
@@ -35,6 +38,6 @@ from trainctl.sim.results import environment as environment
 __all__ = [
     "DENSE_PHASE_STEP", "DIVERGENCE_SPEED_ERROR", "HOLD_FALLBACK", "MAX_DENSE_POINTS",
     "MAX_DENSE_VALUES", "EnergyAccount", "Metrics", "Plant", "Reference", "SimulationResult",
-    "SpeedProfile", "compute_metrics", "dense_grid", "energy_account", "environment",
-    "ramp_profile", "simulate",
+    "SpeedProfile", "braking_deceleration", "compute_metrics", "dense_grid", "energy_account",
+    "environment", "limited_profile", "ramp_profile", "simulate",
 ]

@@ -1,0 +1,148 @@
+"""The reference planned along a line's speed limits (:mod:`trainctl.sim.planner`).
+
+Checked without the planner's own arithmetic: the profile is integrated to
+positions here (exact for a piecewise-linear speed), and at thousands of
+instants the head's speed is compared with every limit over the train's
+extent, read from :meth:`Track.speed_limit`; each lower limit is met when the
+head reaches its start; every slope is within the plan's acceleration and
+deceleration, and the deceleration within the brakes'. One restriction is
+worked by hand (the braking point and the times of the phases).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from trainctl.exceptions import ModelError
+from trainctl.models import builtin_line, crh2_half, heavy_haul_1p2p1
+from trainctl.models.track import SpeedLimit, Track, TrackSection
+from trainctl.sim.planner import braking_deceleration, limited_profile
+
+
+def _positions(profile, times: np.ndarray) -> np.ndarray:
+    """The head's position [m] at ``times`` from the profile's speed, by exact integration
+    of the piecewise-linear speed (trapezoids on the breakpoints, then within)."""
+    t = np.asarray(profile.times)
+    v = np.asarray(profile.speeds)
+    at_breaks = np.concatenate([[0.0], np.cumsum(np.diff(t) * (v[1:] + v[:-1]) / 2)])
+    i = np.clip(np.searchsorted(t, times, side="right") - 1, 0, t.size - 1)
+    dt = times - t[i]
+    speed_now = profile.speed(times)
+    return at_breaks[i] + dt * (v[i] + speed_now) / 2
+
+
+def _check(profile, track: Track, train, *, cruise: float, a: float, b: float,
+           end: float) -> None:
+    extent = float(np.sum(train.spacing))
+    duration = profile.times[-1]
+    times = np.linspace(0.0, duration, 20_001)
+    s = _positions(profile, times)
+    v = profile.speed(times)
+    assert v.max() <= cruise * (1 + 1e-12)
+    for k in np.linspace(0.0, 1.0, 9):  # head, tail and the points between
+        limit = track.speed_limit(s - k * extent)
+        assert np.all(v <= limit * (1 + 1e-9) + 1e-9), k
+    slopes = np.diff(profile.speeds) / np.diff(profile.times)
+    assert slopes.max() <= a * (1 + 1e-9) and slopes.min() >= -b * (1 + 1e-9)
+    for limit in track.speed_limits:  # met by the start of every restriction
+        if 0.0 < limit.start < _positions(profile, np.array([duration]))[0]:
+            t_hit = _time_at(profile, limit.start)
+            assert profile.speed(t_hit) <= limit.limit * (1 + 1e-9) + 1e-9
+    assert _positions(profile, np.array([duration]))[0] == pytest.approx(end, rel=1e-9)
+
+
+def _time_at(profile, position: float) -> float:
+    lo, hi = 0.0, profile.times[-1]
+    for _ in range(100):
+        mid = 0.5 * (lo + hi)
+        if _positions(profile, np.array([mid]))[0] < position:
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+def test_one_restriction_by_hand() -> None:
+    train = crh2_half()
+    extent = float(np.sum(train.spacing))
+    low, cruise, a, b = 12.0, 25.0, 0.3, 0.5
+    track = Track(speed_limits=(SpeedLimit(start=3000.0, limit=low),
+                                SpeedLimit(start=3500.0, limit=40.0)))
+    profile = limited_profile(track, train, cruise=cruise, acceleration=a, deceleration=b,
+                              end=10_000.0)
+    brake_at = 3000.0 - (cruise**2 - low**2) / (2 * b)
+    accel_at = 3500.0 + extent
+    t_brake = brake_at / cruise
+    t_low = t_brake + (cruise - low) / b
+    t_go = t_low + (accel_at - 3000.0) / low
+    t_up = t_go + (cruise - low) / a
+    expected = [0.0, t_brake, t_low, t_go, t_up]
+    np.testing.assert_allclose(profile.times[:5], expected, rtol=1e-12)
+    np.testing.assert_allclose(profile.speeds[:5], [cruise, cruise, low, low, cruise],
+                               rtol=1e-12)
+    _check(profile, track, train, cruise=cruise, a=a, b=b, end=10_000.0)
+
+
+@pytest.mark.parametrize("name", ["CH_Fribourg_Bern", "SE_Vasteras_Kolback"])
+def test_a_real_line_under_every_limit(name: str) -> None:
+    line = builtin_line(name)
+    train = crh2_half()
+    cruise = 140 / 3.6
+    profile = limited_profile(line.track, train, cruise=cruise, acceleration=0.4,
+                              end=line.length, start_speed=0.0)
+    b = 0.9 * float(braking_deceleration(train, np.linspace(0.0, cruise, 65)).min()
+                    - max(0.0, -min(s.grade_permille for s in line.track.sections)) * 9.81e-3)
+    _check(profile, line.track, train, cruise=cruise, a=0.4, b=b, end=line.length)
+    assert profile.speeds[0] == 0.0
+
+
+def test_a_heavy_train_brakes_earlier_and_waits_for_its_tail() -> None:
+    track = Track(speed_limits=(SpeedLimit(start=4000.0, limit=10.0),
+                                SpeedLimit(start=4100.0, limit=30.0)))
+    heavy, short = heavy_haul_1p2p1(), crh2_half()
+    long_plan = limited_profile(track, heavy, cruise=20.0, acceleration=0.1, end=12_000.0)
+    short_plan = limited_profile(track, short, cruise=20.0, acceleration=0.1,
+                                 deceleration=0.05, end=12_000.0)
+    for plan, train in ((long_plan, heavy), (short_plan, short)):
+        extent = float(np.sum(train.spacing))
+        slopes = np.diff(plan.speeds) / np.diff(plan.times)
+        b = -slopes.min()
+        _check(plan, track, train, cruise=20.0, a=0.1, b=b, end=12_000.0)
+        go = plan.times[int(np.argmax(slopes > 0))]  # the first acceleration
+        assert _positions(plan, np.array([go]))[0] == pytest.approx(4100.0 + extent,
+                                                                     rel=1e-9)
+
+
+def test_bad_plans_are_refused() -> None:
+    train = crh2_half()
+    track = Track(speed_limits=(SpeedLimit(start=0.0, limit=20.0),
+                                SpeedLimit(start=500.0, limit=5.0)))
+    with pytest.raises(ModelError, match="'start_speed' must be from 0 to the ceiling 20"):
+        limited_profile(track, train, cruise=25.0, acceleration=0.3, end=2000.0,
+                        start_speed=22.0)
+    with pytest.raises(ModelError, match="cannot brake at 0.1 m/s² to the next limit in time"):
+        limited_profile(track, train, cruise=25.0, acceleration=0.3, deceleration=0.1,
+                        end=2000.0)
+    with pytest.raises(ModelError, match="'deceleration' must be at most"):
+        limited_profile(track, train, cruise=20.0, acceleration=0.3, deceleration=5.0,
+                        end=2000.0)
+    steep = Track(sections=(TrackSection(start=0.0, grade_permille=-120.0),),
+                  speed_limits=track.speed_limits)
+    with pytest.raises(ModelError, match="cannot hold it on the 120 ‰ down-grade"):
+        limited_profile(steep, heavy_haul_1p2p1(), cruise=20.0, acceleration=0.1, end=2000.0)
+    with pytest.raises(ModelError, match="'end' must be beyond 'start'"):
+        limited_profile(track, train, cruise=20.0, acceleration=0.3, end=0.0)
+
+
+def test_braking_deceleration_is_the_envelopes_over_the_mass() -> None:
+    train = heavy_haul_1p2p1()
+    v = np.array([5.0, 15.0, 25.0])
+    by_hand = np.zeros(3)
+    for vehicle in train.vehicles:
+        env = vehicle.envelope
+        for k, speed in enumerate(v):
+            by_hand[k] += min(env.max_braking, env.max_braking_power / speed,
+                              env.adhesion * vehicle.mass * 9.81)
+    np.testing.assert_allclose(braking_deceleration(train, v), by_hand / train.mass.sum(),
+                               rtol=1e-12)
