@@ -14,9 +14,9 @@ measurement carries per-agent ``messages`` for them.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Protocol, TypeVar, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,8 +31,11 @@ __all__ = [
     "ReferencePreview",
     "StepRecord",
     "control_dt",
+    "documented_as",
     "measured_speeds",
 ]
+
+_F = TypeVar("_F", bound=Callable[..., Any])
 
 STATUSES = ("optimal", "optimal_inaccurate", "max_iterations", "infeasible", "error")
 """Step statuses: the solver's outcome, mapped in one place (trainctl.controllers.mpc.qp.status).
@@ -335,3 +338,31 @@ def measured_speeds(measurement: Measurement, n: int, name: str) -> NDArray[np.f
     if speeds.shape != (n,):
         raise ModelError(f"{name}: expected {n} measured speeds (got shape {speeds.shape}).")
     return speeds
+
+
+def documented_as(protocol_method: Callable[..., Any]) -> Callable[[_F], _F]:
+    """Give a method the docstring of the protocol method it implements (documented once).
+
+    Parameters
+    ----------
+    protocol_method : callable
+        The protocol's method, e.g. ``PlainStep.step_inputs``.
+
+    Returns
+    -------
+    callable
+        A decorator that sets the method's ``__doc__`` to the protocol method's.
+
+    Examples
+    --------
+    >>> class Hold:
+    ...     @documented_as(PlainStep.step_inputs)
+    ...     def step_inputs(self, t, state, speed, acceleration, out):
+    ...         out[:] = 0.0
+    >>> Hold.step_inputs.__doc__ == PlainStep.step_inputs.__doc__
+    True
+    """
+    def apply(method: _F) -> _F:
+        method.__doc__ = protocol_method.__doc__
+        return method
+    return apply

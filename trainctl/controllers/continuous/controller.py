@@ -26,7 +26,14 @@ from typing import Any, ClassVar, Generic, Protocol, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.controllers.base import Measurement, ReferencePreview, StepRecord, control_dt
+from trainctl.controllers.base import (
+    Measurement,
+    PlainStep,
+    ReferencePreview,
+    StepRecord,
+    control_dt,
+    documented_as,
+)
 from trainctl.controllers.faults import call_solver, fault_record, finite, non_finite_reason
 from trainctl.controllers.reference import ReferencePosition, position_errors
 from trainctl.exceptions import ModelError
@@ -178,28 +185,9 @@ class SampledLawController(Generic[LawT]):
                           solve_time=time.perf_counter() - start,
                           info={"saturated": saturated, **info})
 
+    @documented_as(PlainStep.step_inputs)
     def step_inputs(self, t: float, state: Array, speed: float, acceleration: float,
                     out: Array) -> StepRecord | None:
-        """:meth:`step` without its records, for the simulation loop's plain path.
-
-        The same arithmetic (:class:`~trainctl.controllers.base.PlainStep`).
-
-        Parameters
-        ----------
-        t : float
-            Time of the sample [s].
-        state : ndarray
-            The full plant state ``[v (n) [m/s], delta (n-1) [m], s [m]]`` (read only).
-        speed, acceleration : float
-            The reference's speed [m/s] and acceleration [m/s²] at ``t``.
-        out : ndarray
-            Shape (n,): receives the inputs [N].
-
-        Returns
-        -------
-        StepRecord or None
-            None when the step is ``"optimal"``; the fault's record otherwise.
-        """
         result = self._law_inputs(t, state, speed, acceleration, time.perf_counter())
         if isinstance(result, StepRecord):
             return result

@@ -23,7 +23,14 @@ import time
 import numpy as np
 from numpy.typing import NDArray
 
-from trainctl.controllers.base import Measurement, ReferencePreview, StepRecord, control_dt
+from trainctl.controllers.base import (
+    Measurement,
+    PlainStep,
+    ReferencePreview,
+    StepRecord,
+    control_dt,
+    documented_as,
+)
 from trainctl.controllers.faults import call_solver, fault_record, finite, non_finite_reason
 from trainctl.exceptions import DimensionError, ModelError
 from trainctl.models.envelope import EnvelopeBounds
@@ -119,11 +126,31 @@ class LQRController:
         start = time.perf_counter()
         if measurement.state is None:
             raise ModelError(f"{self.name}: needs full-state measurement (got state=None).")
+        result = self._law_inputs(np.asarray(measurement.state, dtype=float),
+                                  float(reference.speed[0]), float(reference.acceleration[0]),
+                                  start)
+        if isinstance(result, StepRecord):
+            return result
+        inputs, saturated = result
+        return StepRecord(inputs=inputs, status="optimal", iterations=0,
+                          solve_time=time.perf_counter() - start,
+                          info={"saturated": saturated})
+
+    @documented_as(PlainStep.step_inputs)
+    def step_inputs(self, t: float, state: NDArray[np.float64], speed: float,
+                    acceleration: float, out: NDArray[np.float64]) -> StepRecord | None:
+        result = self._law_inputs(state, speed, acceleration, time.perf_counter())
+        if isinstance(result, StepRecord):
+            return result
+        out[:] = result[0]
+        return None
+
+    def _law_inputs(self, x: NDArray[np.float64], speed: float, accel: float,
+                    start: float) -> tuple[NDArray[np.float64], int] | StepRecord:
+        """The step's clipped inputs [N] and how many the envelope cut; or the fault's
+        record (``start``: the step's clock reading)."""
         n = self.train.n_vehicles
-        speed = float(reference.speed[0])
-        ff_inputs, ff_elongations = self._split.single(max(speed, 0.1),
-                                                       float(reference.acceleration[0]))
-        x = np.asarray(measurement.state, dtype=float)
+        ff_inputs, ff_elongations = self._split.single(max(speed, 0.1), accel)
         reason = "" if finite(x) else non_finite_reason("state", x)
         if reason:
             return self._fallback(ff_inputs, np.full(n, speed), reason, start)
@@ -134,49 +161,7 @@ class LQRController:
         if feedback is None or not finite(feedback):
             return self._fallback(ff_inputs, x[:n], reason or "the feedback is not finite",
                                   start)
-        inputs = ff_inputs - feedback
-        inputs, saturated = self._envelope.clip(inputs, x[:n])
-        return StepRecord(inputs=inputs, status="optimal", iterations=0,
-                          solve_time=time.perf_counter() - start,
-                          info={"saturated": saturated})
-
-    def step_inputs(self, t: float, state: NDArray[np.float64], speed: float,
-                    acceleration: float, out: NDArray[np.float64]) -> StepRecord | None:
-        """:meth:`step` without its records, for the simulation loop's plain path.
-
-        The same arithmetic (:class:`~trainctl.controllers.base.PlainStep`).
-
-        Parameters
-        ----------
-        t : float
-            Time of the sample [s].
-        state : ndarray
-            The full plant state ``[v (n) [m/s], delta (n-1) [m], s [m]]`` (read only).
-        speed, acceleration : float
-            The reference's speed [m/s] and acceleration [m/s²] at ``t``.
-        out : ndarray
-            Shape (n,): receives the inputs [N].
-
-        Returns
-        -------
-        StepRecord or None
-            None when the step is ``"optimal"``; the fault's record otherwise.
-        """
-        start = time.perf_counter()
-        ff_inputs, ff_elongations = self._split.single(max(speed, 0.1), acceleration)
-        n = self.train.n_vehicles
-        if not finite(state):
-            return self._fallback(ff_inputs, np.full(n, speed),
-                                  non_finite_reason("state", state), start)
-        deviation = self._deviation
-        np.subtract(state[:n], speed, out=deviation[:n])
-        np.subtract(state[n : 2 * n - 1], ff_elongations, out=deviation[n:])
-        feedback, reason = call_solver(self._feedback, deviation)
-        if feedback is None or not finite(feedback):
-            return self._fallback(ff_inputs, state[:n], reason or "the feedback is not finite",
-                                  start)
-        out[:] = self._envelope.clip(ff_inputs - feedback, state[:n])[0]
-        return None
+        return self._envelope.clip(ff_inputs - feedback, x[:n])
 
     def _feedback(self, deviation: NDArray[np.float64]) -> NDArray[np.float64]:
         """K x̃ [N]: the law's correction (the step's solver boundary)."""
