@@ -237,7 +237,7 @@ def test_figures_for_every_strategy(report: Path) -> None:
     html = report.read_text(encoding="utf-8")
     texts = _figure_texts(html)
     strategies = ("centralised", "decentralised", "ndmpc")
-    for key in ("speed", "coupler-force", "input", "sigma-speed", "sigma-force",
+    for key in ("speed", "coupler-force", "input", "energy", "sigma-speed", "sigma-force",
                 "sensitivity", "complementary", "grade-step"):
         assert key in texts, key
         for name in strategies:
@@ -256,8 +256,8 @@ def test_mixed_families_report_fits_1280(mixed: Path, tmp_path: Path) -> None:
     texts = _figure_texts(mixed.read_text(encoding="utf-8"))
     for name in ("centralised", "decentralised", "ndmpc", "lqr.centralised",
                  "lqr.decentralised"):
-        for key in ("speed", "coupler-force", "input", "sigma-speed", "sensitivity",
-                    "grade-step"):
+        for key in ("speed", "coupler-force", "input", "energy", "sigma-speed",
+                    "sensitivity", "grade-step"):
             assert re.search(rf"(^|\s){re.escape(name)}(\s|$)", texts[key]), (key, name)
 
 

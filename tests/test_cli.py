@@ -526,7 +526,7 @@ class TestReport:
         path = tmp_path / "r.html"
         assert main(["report", str(saved), "-o", str(path), "--deterministic"]) == 0
         html = path.read_text(encoding="utf-8")
-        assert html.count("<svg") == 12  # 4 time, 5 frequency, string, eigenvalues, ρ(D0)
+        assert html.count("<svg") == 13  # 5 time, 5 frequency, string, eigenvalues, ρ(D0)
         assert "trainctl analyse crh2-dmpc --save saved" in html
 
     def test_save_refuses_foreign_directory(

@@ -270,3 +270,45 @@ class TestMetrics:
         assert "energy_kwh" in d  # the trapezoid estimate stays
         assert compute_metrics(result).energy_account is None
         assert compute_metrics(result).to_dict()["energy_account"] is None
+
+
+class TestReportFigure:
+    @pytest.mark.parametrize("family", ["potential", "hinf"])
+    def test_cumulative_energy_ends_at_the_account_net_energy(self, runs, family):
+        """The report's energy figure ends each curve at the account's net energy (η = 0.6).
+
+        Both runs brake (so η matters); the account is the independent route.
+        """
+        from trainctl.report.figures_time import time_figures
+
+        scenario, result = runs[family]
+        scenario = replace(scenario, simulation=replace(scenario.simulation,
+                                                        regen_efficiency=0.6))
+        figures = {}
+
+        def make(key, title, caption, figure):
+            figures[key] = figure
+            return key
+
+        keys = list(time_figures(scenario, {"run": result}, make))
+        assert "energy" in keys and keys.index("energy") == keys.index("input") + 1
+        account = energy_account(result, scenario.train, scenario.track, regen_efficiency=0.6)
+        assert account.total("braking_work") > 1e-3 * account.total("traction_work")
+        drawn = figures["energy"].axes[1].lines[0].get_ydata()
+        np.testing.assert_allclose(drawn[-1] * JOULES_PER_KWH, account.total("net_energy"),
+                                   rtol=1e-9)
+        assert drawn[0] == 0.0
+
+    def test_interval_work_sums_to_the_account(self, runs):
+        """interval_work: (n, N) arrays, >= 0, traction where u > 0, braking where u < 0."""
+        from trainctl.sim.energy import interval_work
+
+        scenario, result = runs["potential"]
+        traction, braking = interval_work(result, scenario.train)
+        assert traction.shape == braking.shape == result.inputs.shape
+        assert np.all(traction >= 0) and np.all(braking[result.inputs < 0] >= 0)
+        assert not np.any(traction[result.inputs <= 0]) and not np.any(
+            braking[result.inputs >= 0])
+        account = energy_account(result, scenario.train, scenario.track)
+        np.testing.assert_array_equal(traction.sum(axis=1), account.traction_work)
+        np.testing.assert_array_equal(braking.sum(axis=1), account.braking_work)

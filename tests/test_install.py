@@ -146,5 +146,5 @@ class TestInstalledWheel:
         assert result.stdout.startswith(f"wrote {Path('reports') / 'crh2-dmpc.html'} (")
         html = page.read_text(encoding="utf-8")
         assert "border-collapse" in html
-        assert html.count("<svg") == 12  # 4 time, 5 frequency, string, eigenvalues, ρ(D0)
+        assert html.count("<svg") == 13  # 5 time, 5 frequency, string, eigenvalues, ρ(D0)
         assert 'id="reproducibility"' in html

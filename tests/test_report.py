@@ -396,7 +396,7 @@ class TestFigures:
     def test_every_figure_non_empty(self, context: dict[str, object]) -> None:
         """Each figure is an <svg> with a positive viewBox and drawn paths."""
         keys = [f.key for f in context["figures"]]
-        assert keys == ["speed", "coupler-force", "input", "iterations", "eigenvalues",
+        assert keys == ["speed", "coupler-force", "input", "energy", "iterations", "eigenvalues",
                         "sigma-speed", "sigma-force", "sensitivity", "complementary",
                         "grade-step", "string-stability", "convergence"]
         for figure in context["figures"]:
@@ -432,10 +432,10 @@ class TestPage:
         assert page.text_of("h2").count("Design checks") == 1
 
     def test_figures_are_inline_svg(self, html: str) -> None:
-        """Twelve figures, each an inline SVG inside a <figure> with a caption."""
+        """Thirteen figures, each an inline SVG inside a <figure> with a caption."""
         svgs = _svgs(html)
-        assert len(svgs) == 12
-        assert html.count("<figcaption>") == 12
+        assert len(svgs) == 13
+        assert html.count("<figcaption>") == 13
         assert "<img" not in html
 
     def test_tables_carry_units(self, html: str) -> None:

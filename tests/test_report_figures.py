@@ -114,10 +114,11 @@ class TestTimeFigures:
         sims = {"centralised": _result("centralised"), "ndmpc": _result("ndmpc", iterations=3)}
         figures: dict[str, Figure] = {}
         list(time_figures(scenario, sims, _capture(figures)))
-        assert list(figures) == ["speed", "coupler-force", "input", "iterations"]
+        assert list(figures) == ["speed", "coupler-force", "input", "energy", "iterations"]
         assert len(figures["speed"].axes) == 1 + 4
         assert len(figures["coupler-force"].axes) == 3
         assert len(figures["input"].axes) == 4
+        assert len(figures["energy"].axes) == 2
         for key, figure in figures.items():
             assert figure.legends, key
             assert all(ax.get_legend() is None for ax in figure.axes), key
@@ -215,6 +216,60 @@ class TestDenseTraces:
         assert len(ax.lines[0].get_xdata()) == sampled.time.size
         ax = plot.velocity_plot(sampled)
         assert len(ax.lines[0].get_xdata()) == sampled.time.size
+
+
+def _moving(result: SimulationResult) -> SimulationResult:
+    """The run with states that match its speeds: no coupler deflection, the head's
+    position the trapezoid integral of its speed."""
+    v = result.velocities
+    n = v.shape[0]
+    head = np.concatenate([[0.0], np.cumsum(0.5 * (v[0, 1:] + v[0, :-1]) * np.diff(result.time))])
+    states = np.vstack([v, np.zeros((n - 1, v.shape[1])), head])
+    return dataclasses.replace(result, states=states)
+
+
+class TestEnergyFigure:
+    """The power and cumulative-energy figure: Σ u v on the dense grid, net energy drawn."""
+
+    def test_power_is_the_held_input_times_the_dense_speeds(self, scenario) -> None:
+        """Each interval's dense points with its held inputs; a sample instant twice."""
+        result = _dense(_moving(_result("c", steps=6)), per_sample=4)
+        figures: dict[str, Figure] = {}
+        list(time_figures(scenario, {"c": result}, _capture(figures)))
+        line = figures["energy"].axes[0].lines[0]
+        index = result.dense_sample_index
+        times, power = [], []
+        for k in range(result.n_samples):  # independently: interval by interval
+            span = slice(index[k], index[k + 1] + 1)
+            times.extend(result.dense_time[span])
+            power.extend(result.inputs[:, k] @ result.dense_velocities[:, span])
+        np.testing.assert_array_equal(line.get_xdata(), times)
+        np.testing.assert_allclose(line.get_ydata(), np.array(power) / 1e6, rtol=1e-12)
+        assert len(times) == result.dense_time.size + result.n_samples - 1
+
+    def test_long_run_thinned_with_its_extremes(self, scenario) -> None:
+        """A 72 000-point record: the power line is thinned and keeps its extremes."""
+        result = _dense(_moving(_result("c", steps=60)), per_sample=1200)
+        figures: dict[str, Figure] = {}
+        list(time_figures(scenario, {"c": result}, _capture(figures)))
+        y = figures["energy"].axes[0].lines[0].get_ydata()
+        assert len(y) <= 2 * THIN_BUCKETS + 2 < result.dense_time.size
+        v = result.dense_velocities
+        assert np.isclose(y.max(), np.max(result.inputs[:, -1] @ v[:, -1201:]) / 1e6)
+
+    def test_caption_names_the_regen_efficiency(self, scenario) -> None:
+        """The caption states the units and the scenario's regen_efficiency."""
+        captions: dict[str, str] = {}
+
+        def make(key: str, title: str, caption: str, figure: Figure) -> str:
+            captions[key] = caption
+            return key
+
+        efficient = scenario.replace("simulation.regen_efficiency", 0.6)
+        list(time_figures(efficient, {"c": _moving(_result("c"))}, make))
+        caption = captions["energy"]
+        assert "regen_efficiency = 0.6" in caption and "0.6 × braking" in caption
+        assert "[MW]" in caption and "[kWh]" in caption
 
 
 def test_eigenvalue_legend_outside_the_circle() -> None:
@@ -357,7 +412,7 @@ def test_nothing_clipped(scenario) -> None:
 
     loops = analyse_closed_loops(build_design(load_scenario("crh2-dmpc")))
     list(frequency_figures({k: r.curves() for k, r in loops.items()}, _capture(figures)))
-    assert len(figures) == 11  # with the string-stability figure
+    assert len(figures) == 12  # with the energy and string-stability figures
     for key, figure in figures.items():
         assert _inside(figure), key
 

@@ -247,6 +247,51 @@ class TestRunner:
             (tmp_path / "b" / "rows.parquet").read_bytes()
 
 
+    def test_rows_carry_the_energy_account(self, tmp_path: Path) -> None:
+        """net_energy_kwh and energy_per_tonne_km are the account's of the same run, per η.
+
+        The CRH2 train slows from 72 to 40 km/h, so it brakes and η matters.
+        """
+        from trainctl.run.simulate import simulate_strategy
+        from trainctl.sim.energy import energy_account
+
+        base = (load_scenario("crh2-dmpc").replace("simulation.settle_time", 60.0)
+                .replace("simulation.duration", 120.0)
+                .replace("simulation.strategies", ["decentralised"])
+                .replace("simulation.reference.times", [0.0, 40.0, 100.0, 110.0, 120.0])
+                .replace("simulation.reference.speeds_kmh", [72.0, 72.0, 40.0, 40.0, 40.0]))
+        sweep = SweepDefinition([parse_set("simulation.regen_efficiency=0.5,1")])
+        points, scenarios = sweep.points(), sweep.validate(base)
+        keys = [point_key(s) for s in scenarios]
+        store = SweepStore.open(tmp_path / "s", label="x", scenario_text="", points=points,
+                                keys=keys, swept=sweep.keys, simulate=True)
+        frame = run_sweep(store, dict(zip(keys, scenarios, strict=True)))
+        assert list(frame["strategy"]) == ["decentralised"] * 2
+        assert str(frame["metric.net_energy_kwh"].dtype) == "float64"
+        for (_, row), scenario in zip(frame.iterrows(), scenarios, strict=True):
+            eta = scenario.simulation.regen_efficiency
+            assert row["simulation.regen_efficiency"] == eta
+            result = simulate_strategy(scenario, "decentralised", warn=False)
+            account = energy_account(result, scenario.train, scenario.track,
+                                     regen_efficiency=eta)
+            assert account.total("braking_work") > account.total("traction_work") > 0
+            assert row["metric.net_energy_kwh"] == pytest.approx(
+                account.total("net_energy") / 3.6e6, rel=1e-12)
+            assert row["metric.energy_per_tonne_km"] == pytest.approx(
+                account.energy_per_tonne_km, rel=1e-12)
+        assert frame["metric.net_energy_kwh"].nunique() == 2
+
+
+    def test_energy_columns_empty_without_an_account(self) -> None:
+        """A summary whose metrics hold no energy account: both columns None."""
+        from trainctl.sweep import point_rows
+
+        summary = {"simulations": {"c": {"energy_kwh": 1.0, "energy_account": None}}}
+        (row,) = point_rows(SweepPoint(0, {}), "k", summary)
+        assert row["metric.energy_kwh"] == 1.0
+        assert row["metric.net_energy_kwh"] is None and row["metric.energy_per_tonne_km"] is None
+
+
 _HOOK = """
 import sys, time
 from trainctl.sweep import store as _store

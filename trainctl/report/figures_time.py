@@ -1,5 +1,5 @@
 # The report's closed-loop time-domain figures: small multiples, strategies overlaid.
-"""Speed, coupler-force, input and iteration figures of a report.
+"""Speed, coupler-force, input, energy and iteration figures of a report.
 
 The strategies are compared where an engineer compares them: one panel per
 vehicle (or coupler), every strategy overlaid in its own colour and line
@@ -21,7 +21,9 @@ from matplotlib.lines import Line2D
 from numpy.typing import NDArray
 
 from trainctl.plots import time as plot
-from trainctl.plots._common import fixed_margins, legend_outside, limit_lines, series_style
+from trainctl.plots._common import fixed_margins, legend_outside, limit_lines, series_style, thin
+from trainctl.sim.energy import interval_work
+from trainctl.units import JOULES_PER_KWH
 
 if TYPE_CHECKING:
     from trainctl.report.figures import ReportFigure
@@ -125,8 +127,9 @@ def time_figures(scenario: Scenario, sims: Mapping[str, SimulationResult],
     Yields
     ------
     ReportFigure
-        Speed tracking, coupler forces (with couplers), inputs, and the
-        iterations of the iterating strategies (when any iterated).
+        Speed tracking, coupler forces (with couplers), inputs, traction
+        power and cumulative energy, and the iterations of the iterating
+        strategies (when any iterated).
 
     Examples
     --------
@@ -142,13 +145,14 @@ def time_figures(scenario: Scenario, sims: Mapping[str, SimulationResult],
     >>> def key_only(key, title, caption, figure):  # keep the key, drop the drawing
     ...     return key
     >>> list(time_figures(scenario, sims, key_only))
-    ['speed', 'coupler-force', 'input', 'iterations']
+    ['speed', 'coupler-force', 'input', 'energy', 'iterations']
     """
     yield _speed(scenario, sims, make)
     first = next(iter(sims.values()))
     if first.coupler_forces.shape[0]:
         yield _couplers(scenario, sims, make)
     yield _inputs(scenario, sims, make)
+    yield _energy(scenario, sims, make)
     iterating = {k: r for k, r in sims.items() if r.n_samples and np.any(r.iterations > 1)}
     if iterating:
         yield _iterations(iterating, make)
@@ -290,6 +294,63 @@ def _inputs(scenario: Scenario, sims: Mapping[str, SimulationResult],
                "named at the panel's edge." + _which(first.n_vehicles, "vehicle"))
     return make("input", "Traction and braking forces", caption, figure)
 
+
+def _power(result: SimulationResult) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Times [s] and the train's traction power Σ u_i v_i [W] on the dense grid.
+
+    Each sample interval contributes its dense points, both ends included, with
+    its held input, so a sample instant appears twice: the jump of the inputs.
+    """
+    index = result.dense_sample_index
+    counts = np.diff(index) + 1
+    interval = np.repeat(np.arange(counts.size), counts)
+    first = np.repeat(np.cumsum(counts) - counts, counts)
+    columns = np.repeat(index[:-1], counts) + np.arange(int(counts.sum())) - first
+    power = np.sum(result.inputs[:, interval] * result.dense_velocities[:, columns], axis=0)
+    return result.dense_time[columns], np.asarray(power, dtype=float)
+
+
+def _net_energy(scenario: Scenario, result: SimulationResult,
+                eta: float) -> NDArray[np.float64]:
+    """Cumulative net energy drawn at the sample instants [J], shape (N + 1,).
+
+    Interval by interval, traction - ``eta`` × braking work
+    (:func:`~trainctl.sim.energy.interval_work`, as the energy account sums it).
+    """
+    traction, braking = interval_work(result, scenario.train)
+    net = np.sum(traction - eta * braking, axis=0)
+    return np.concatenate([[0.0], np.cumsum(net)])
+
+
+def _energy(scenario: Scenario, sims: Mapping[str, SimulationResult],
+            make: Callable[..., ReportFigure]) -> ReportFigure:
+    eta = scenario.simulation.regen_efficiency if scenario.simulation else 1.0
+    figure, axes = _panels(2)
+    ends = []
+    for k, (name, result) in enumerate(sims.items()):
+        style = series_style(k)
+        t, power = _power(result)
+        axes[0].plot(*thin(t, power / 1e6), linewidth=0.9, **style)
+        energy = _net_energy(scenario, result, eta) / JOULES_PER_KWH
+        axes[1].plot(*thin(result.time, energy), linewidth=1.2, **style)
+        ends.append(f"{name} {energy[-1]:.4g} kWh")
+    for ax in axes:
+        ax.axhline(0.0, color="0.6", linewidth=0.6, zorder=0)
+    axes[0].set_ylabel("traction power\n[MW]", fontsize="small")
+    axes[1].set_ylabel("net energy\n[kWh]", fontsize="small")
+    _tidy(axes)
+    legend_outside(figure, _strategy_handles(sims))
+    fixed_margins(figure)
+    caption = ("Top: the train's traction power Σ u·v over its vehicles [MW], motoring "
+               "positive, braking negative: each vehicle's input, held over the sample, "
+               "times its speed on the dense grid between the samples (at the sample "
+               "instants when the run recorded none). Bottom: the cumulative net energy drawn "
+               f"[kWh], traction − {eta:g} × braking work (regen_efficiency = {eta:g}, "
+               "[simulation] regen_efficiency), at the sample instants; each interval's work "
+               "is the held input times the distance the vehicle moved, as in the exact "
+               "energy account, so each curve ends at the run's net energy: "
+               + "; ".join(ends) + ".")
+    return make("energy", "Traction power and energy", caption, figure)
 
 def _iterations(sims: Mapping[str, SimulationResult],
                 make: Callable[..., ReportFigure]) -> ReportFigure:

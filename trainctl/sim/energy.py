@@ -14,7 +14,8 @@ exactly as the record allows:
 - the inputs' work: u_i is held over each sample interval, so its work there
   is u_i times the distance vehicle i moved, p_i(t_{k+1}) - p_i(t_k), from
   the sampled states (no quadrature); traction where u_i > 0, braking
-  (counted positive, the energy the brakes take) where u_i < 0;
+  (counted positive, the energy the brakes take) where u_i < 0
+  (:func:`interval_work` gives them interval by interval);
 - kinetic and spring energy at the first and last sample, from the states
   (a virtual link has k = 0: no spring energy);
 - the line work m_i (R(p_i,end) - R(p_i,start)), with R the track's
@@ -59,7 +60,7 @@ from trainctl.models.train import Train
 from trainctl.sim.results import SimulationResult
 from trainctl.units import j_to_kwh
 
-__all__ = ["EnergyAccount", "dense_quadrature", "energy_account"]
+__all__ = ["EnergyAccount", "dense_quadrature", "energy_account", "interval_work"]
 
 Array = NDArray[np.float64]
 
@@ -297,12 +298,12 @@ def energy_account(result: SimulationResult, train: Train, track: Track | None =
         raise ModelError(
             f"{where}: 'regen_efficiency' must be in [0, 1] (got {regen_efficiency!r})."
         )
-    _check_run(result, train, track)
+    _check_run(where, result, train, track)
     n = train.n_vehicles
     x = result.states
     positions = vehicle_positions(train, x)
     moved = np.diff(positions, axis=1)
-    work = result.inputs * moved
+    traction, braking = interval_work(result, train)
     ends = positions[:, [0, -1]]
     v, delta = x[:n][:, [0, -1]], x[n : 2 * n - 1][:, [0, -1]]
     kinetic = 0.5 * train.mass[:, None] * v**2
@@ -310,8 +311,8 @@ def energy_account(result: SimulationResult, train: Train, track: Track | None =
     grade, curve = _line_work(train, track, ends)
     running, damping = _dense_losses(result, train, track, moved.sum(axis=1))
     return EnergyAccount(
-        traction_work=np.where(result.inputs > 0, work, 0.0).sum(axis=1),
-        braking_work=np.where(result.inputs < 0, -work, 0.0).sum(axis=1),
+        traction_work=traction.sum(axis=1),
+        braking_work=braking.sum(axis=1),
         regen_efficiency=eta,
         kinetic_start=kinetic[:, 0], kinetic_end=kinetic[:, 1],
         spring_start=spring[:, 0], spring_end=spring[:, 1],
@@ -320,6 +321,61 @@ def energy_account(result: SimulationResult, train: Train, track: Track | None =
         mass=train.mass.copy(),
         distance=float(x[-1, -1] - x[-1, 0]),
     )
+
+
+def interval_work(result: SimulationResult, train: Train) -> tuple[Array, Array]:
+    """Traction and braking work of each vehicle in each sample interval [J].
+
+    The input u_i is held over sample interval k, so its work there is u_i
+    times the distance vehicle i moved, p_i(t_{k+1}) - p_i(t_k), from the
+    sampled states: no quadrature. :func:`energy_account`'s traction and
+    braking work are these arrays summed over the intervals.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        The run, simulated with ``train``.
+    train : Train
+        The simulated train (its spacings place the vehicles behind the head).
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        Traction work (u_i > 0) and braking work (u_i < 0, counted positive:
+        -u_i Δp_i, the energy the brakes take) [J], each shape (n, N); 0 where
+        the input is of the other sign.
+
+    Raises
+    ------
+    ModelError
+        A ``result`` of another number of vehicles than ``train``.
+
+    Examples
+    --------
+    One 1 t vehicle pulls 100 N over its first 10 m, then brakes with
+    50 N over the next 8 m:
+
+    >>> from trainctl.models.train import Train
+    >>> from trainctl.models.vehicle import Vehicle
+    >>> train = Train(vehicles=(Vehicle(mass=1000.0, a0=0.0, a1=0.0, a2=0.0),), couplers=())
+    >>> result = SimulationResult(
+    ...     time=np.array([0.0, 1.0, 2.0]),
+    ...     states=np.array([[10.0, 10.0, 6.0], [0.0, 10.0, 18.0]]),
+    ...     velocities=np.array([[10.0, 10.0, 6.0]]), coupler_forces=np.zeros((0, 3)),
+    ...     inputs=np.array([[100.0, -50.0]]), reference_speed=np.full(3, 10.0),
+    ...     reference_acceleration=np.zeros(3), statuses=("optimal",) * 2,
+    ...     iterations=np.ones(2), residuals=((),) * 2, solve_times=np.zeros(2),
+    ...     fallbacks=("",) * 2, controller_name="demo", seed=0, dt=1.0)
+    >>> traction, braking = interval_work(result, train)  # [J]
+    >>> traction.tolist(), braking.tolist()
+    ([[1000.0, 0.0]], [[0.0, 400.0]])
+    """
+    _check_run("interval_work", result, train, None)
+    moved = np.diff(vehicle_positions(train, result.states), axis=1)
+    u = result.inputs
+    work = u * moved
+    return (np.asarray(np.where(u > 0, work, 0.0), dtype=float),
+            np.asarray(np.where(u < 0, -work, 0.0), dtype=float))
 
 
 def dense_quadrature(result: SimulationResult, power: ArrayLike,
@@ -399,9 +455,8 @@ def dense_quadrature(result: SimulationResult, power: ArrayLike,
     return np.asarray(total - second @ h[first] / 6.0, dtype=float)
 
 
-def _check_run(result: SimulationResult, train: Train, track: Track | None) -> None:
+def _check_run(where: str, result: SimulationResult, train: Train, track: Track | None) -> None:
     """ModelError unless ``result`` is a run of ``train`` (and ``track`` a Track or None)."""
-    where = "energy_account"
     if not isinstance(train, Train):
         raise ModelError(f"{where}: 'train' must be a Train (got {type(train).__name__}).")
     if track is not None and not isinstance(track, Track):
