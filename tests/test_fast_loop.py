@@ -395,3 +395,41 @@ def test_a_subclass_that_overrides_step_alone_is_called_through_step() -> None:
                       warn=False)
     np.testing.assert_allclose(result.requested_inputs[:, 0], 2.0 * equilibrium(train, 20.0).inputs,
                                rtol=1e-12)
+
+
+def test_non_finite_plain_inputs_are_held_as_on_the_step_path() -> None:
+    """A ``step_inputs`` that writes NaN gets what ``step`` returning NaN gets: the previous
+    input held, status "error" and the hold fallback."""
+
+    class Flaky:
+        dt, name, preview_steps, needs_full_state = DT, "flaky", 0, True
+
+        def __init__(self, train) -> None:
+            self.inputs, self.calls = equilibrium(train, 20.0).inputs, 0
+
+        def reset(self) -> None:
+            self.calls = 0
+
+        def _inputs(self):
+            self.calls += 1
+            return np.full(4, np.nan) if self.calls % 5 == 0 else self.inputs
+
+        def step(self, t, measurement, reference):
+            return StepRecord(inputs=self._inputs())
+
+        def step_inputs(self, t, state, speed, acceleration, out):
+            out[:] = self._inputs()
+
+    train = crh2_half()
+    x0 = equilibrium(train, 20.0).state(position=0.0)
+    runs = []
+    for plain in (True, False):
+        ctl = Flaky(train)
+        assert (closed_loop._plain_step(ctl) is not None) is True
+        if not plain:
+            ctl.step = ctl.step
+        runs.append(simulate(Plant(train=train), ctl, ramp_profile(20.0, 20.0, 0.0, 1.0),
+                             duration=1.0, preview_steps=0, initial_state=x0, warn=False))
+    assert runs[0].statuses.count("error") == 4
+    assert set(runs[0].fallbacks) == {"", closed_loop.HOLD_FALLBACK}
+    _assert_same(*runs)

@@ -8,7 +8,10 @@ At each sample k = 0 .. N-1 (t_k = k·T with T = ``controller.dt``) the loop
    from ``numpy.random.default_rng(seed)`` (one draw of n numbers per sample,
    whatever the noise level, so runs are reproducible);
 2. previews the reference over ``preview_steps`` steps;
-3. calls ``controller.step`` and records its :class:`StepRecord`;
+3. calls ``controller.step`` and records its :class:`StepRecord` (or, for a
+   full-state law run without a network, its ``step_inputs``:
+   :class:`~trainctl.controllers.base.PlainStep`, the same record without the
+   per-step objects);
 4. saturates the requested forces to each vehicle's envelope at its speed
    at t_k (:class:`~trainctl.models.ActuatorLimits`; unless ``saturation``
    is False), holds them over [t_k, t_{k+1}) and advances the plant,
@@ -44,7 +47,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from trainctl._validation import check_nonnegative, check_positive
-from trainctl.controllers.base import Controller, Measurement, ReferencePreview
+from trainctl.controllers.base import Controller, Measurement, ReferencePreview, StepRecord
+from trainctl.controllers.faults import finite
 from trainctl.exceptions import (
     ConvergenceWarning,
     DimensionError,
@@ -330,9 +334,10 @@ def _run(plant: Plant, controller: Controller, reference: Reference, log: Log,
             state[:] = x  # the controller's to read (rewritten next sample)
             start = clock()
             record = plain(t, state, speed, acceleration, out)
-            if record is None:
+            if record is None and finite(out):
                 requested = log.record_plain(k, out, clock() - start)
-            else:
+            else:  # a fault's record, or inputs that are not finite (held as for step)
+                record = record or StepRecord(inputs=out.copy(), solve_time=clock() - start)
                 requested = log.record(k, t, controller.name, record, previous)
         else:
             measured, preview, positions = batch.sample(k, t, x)
