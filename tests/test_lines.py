@@ -202,6 +202,14 @@ def test_a_saved_run_reads_its_track_file_from_the_scenario_directory(
     assert main(["analyse", "mine.toml", "--no-simulate", "--save", "saved"]) == 0
     monkeypatch.chdir(tmp_path)  # elsewhere: the file is found where the scenario was
     assert main(["report", str(work / "saved"), "-o", str(tmp_path / "r.html")]) == 0
+    original = (work / "lines" / "wil.json").read_text()
+    changed = json.loads(original)
+    changed["gradients"]["values"][1][1] += 1.0  # another track under the same name
+    (work / "lines" / "wil.json").write_text(json.dumps(changed))
+    capsys.readouterr()
+    assert main(["report", str(work / "saved"), "-o", str(tmp_path / "r1.html")]) == 2
+    assert "the track file of [track].file changed since the run was saved" in (
+        capsys.readouterr().err)
     (work / "lines" / "wil.json").unlink()
     capsys.readouterr()
     assert main(["report", str(work / "saved"), "-o", str(tmp_path / "r2.html")]) == 2

@@ -35,6 +35,8 @@ Examples
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import math
 from dataclasses import dataclass
 from importlib import resources
@@ -51,6 +53,7 @@ from pydantic import (
     model_validator,
 )
 
+from trainctl._files import read_regular
 from trainctl.declare.constraints import suggest
 from trainctl.declare.jsonfile import read_json, validate_json
 from trainctl.declare.violations import Violation, raise_at
@@ -221,6 +224,8 @@ class Line:
         Where it was read from (a path, or ``"trainctl:NAME"`` for a shipped line).
     credit : str
         The file's ``created by`` and ``license``, to be cited with the line.
+    digest : str
+        SHA-256 of the file's bytes (:func:`read_line`; "" for a parsed document).
 
     Examples
     --------
@@ -235,6 +240,7 @@ class Line:
     altitude: float = 0.0
     source: str = ""
     credit: str = ""
+    digest: str = ""
 
     @property
     def length(self) -> float:
@@ -360,7 +366,12 @@ def read_line(path: str | Path) -> Line:
     missing required key 'metadata'
     """
     file = Path(path)
-    return line_from_document(read_json(file, hint=_HINT), source=file)
+    line = line_from_document(read_json(file, hint=_HINT), source=file)
+    try:
+        digest = hashlib.sha256(read_regular(file)).hexdigest()
+    except OSError as exc:  # gone between the two reads
+        raise ScenarioError(f"{file}: cannot read the file again ({exc}).") from None
+    return dataclasses.replace(line, digest=digest)
 
 
 def builtin_line(name: str) -> Line:
@@ -392,6 +403,5 @@ def builtin_line(name: str) -> Line:
     file = resources.files("trainctl.models") / "data" / "lines" / f"{name}.json"
     with resources.as_file(file) as path:
         line = read_line(path)
-    return Line(name=line.name, track=line.track, stops=line.stops, altitude=line.altitude,
-                source=f"trainctl:{name}", credit=line.credit)
+    return dataclasses.replace(line, source=f"trainctl:{name}")
 

@@ -210,6 +210,7 @@ class ReportData:
             "source": self.scenario.source,
             "scenario_sha256": text_digest(self.scenario_text),
             "directory": self.scenario.directory,
+            "track_sha256": self.scenario.track_digest,
             "strategies": list(self.simulations),
             "results": self.results,
             "subsystems": self.subsystems,

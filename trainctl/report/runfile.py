@@ -254,6 +254,9 @@ class RunFile(_Closed):
         Where the scenario's relative paths were read from
         (:attr:`~trainctl.scenario.Scenario.directory`): the run's track file
         (``[track].file``) is read from there again.
+    track_sha256 : str or None
+        SHA-256 of that track file when the run was saved: a file changed
+        since is refused.
     strategies : list of str
         The simulated strategies, in order.
     results : Results
@@ -299,6 +302,7 @@ class RunFile(_Closed):
     source: StrictStr
     scenario_sha256: str = Field(pattern=r"^[0-9a-f]{64}$")
     directory: StrictStr | None = None
+    track_sha256: str | None = Field(default=None, pattern=r"^[0-9a-f]{64}$")
     strategies: list[StrictStr]
     results: Results
     subsystems: list[Coach]
@@ -416,6 +420,13 @@ def read_saved_run(directory: str | Path) -> dict[str, Any]:
                     "again with 'trainctl analyse SCENARIO --save DIR').")
         raise ScenarioError(f"{path / 'scenario.toml'}: not a valid scenario: {exc}"
                             f"{hint}") from None
+    if doc.track_sha256 is not None and scenario.track_digest != doc.track_sha256:
+        raise ScenarioError(
+            f"{path / 'scenario.toml'}: the track file of [track].file changed since the run "
+            f"was saved (SHA-256 {doc.track_sha256[:12]}… then, "
+            f"{(scenario.track_digest or 'none')[:12]}… now): the saved results are not "
+            "this track's. Put the original file back, or save the run again with "
+            "'trainctl analyse SCENARIO --save DIR'.")
     _check_strategies(manifest, doc)
     _check_scenario(manifest, doc, scenario)
     sims = {name: _simulation(path, name, scenario, doc.results.simulations[name])

@@ -308,6 +308,8 @@ class Scenario:
         The directory a scenario file's relative paths (``[track].file``) are
         read from: the file's own; None (the working directory) for a built-in
         or a string.
+    track_digest : str or None
+        SHA-256 of the ``[track].file`` the track was read from (None: no file).
 
     Examples
     --------
@@ -338,6 +340,7 @@ class Scenario:
     document: Mapping[str, Any] | None = field(default=None, compare=False, repr=False)
     tags: Mapping[str, str] = field(default_factory=FrozenMapping, compare=False, repr=False)
     directory: str | None = field(default=None, compare=False, repr=False)
+    track_digest: str | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.document is not None:

@@ -271,6 +271,7 @@ class _Parser:
     def __init__(self, file: str, doc: dict[str, Any],
                  tags: Mapping[str, str] | None = None, directory: str | None = None) -> None:
         self.file, self.doc, self.directory = file, doc, directory
+        self.track_digest: str | None = None
         self.tags = FrozenMapping(tags or {})
 
     def validate(self, model: type[BaseModel], prefix: tuple[Any, ...], data: Any = None,
@@ -334,6 +335,7 @@ class _Parser:
             communication=communication, network=network, simulation=simulation,
             expected=expected, sweep=sweep,
             source=self.file, document=self.doc, tags=self.tags, directory=self.directory,
+            track_digest=self.track_digest,
         ))
 
     def train(self) -> Train:
@@ -413,7 +415,9 @@ class _Parser:
         if not path.is_absolute():
             path = Path(self.directory or os.getcwd()) / path
         try:
-            return read_line(path)
+            line = read_line(path)
+            self.track_digest = line.digest
+            return line
         except ScenarioError as exc:
             where = "" if self.directory is None else " (relative to the scenario file's directory)"
             raise ScenarioError(f"{self.file}: [track].file = {table.file!r}{where}: {exc}") \
