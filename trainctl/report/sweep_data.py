@@ -387,7 +387,8 @@ class Quantity:
 
 _METRIC_UNITS = {"rms_error": "m/s", "max_error": "m/s", "max_coupler_force": "N",
                  "energy_kwh": "kWh", "net_energy_kwh": "kWh",
-                 "energy_per_tonne_km": "J/(t·km)", "iterations_mean": "per sample",
+                 "energy_per_tonne_km": "J/(t·km)", "operating_cost": "[cost] currency",
+                 "iterations_mean": "per sample",
                  "iteration_limit_steps": "steps"}
 _GOOD_WHEN = {"tracking_ok": True, "converged": True, "diverged": False}
 

@@ -120,7 +120,7 @@ def run_scenario(
                 sims[strategy], settle_time=sim.settle_time,
                 regen_efficiency=sim.regen_efficiency,
                 coupler_limits=scenario.train.max_coupler_force, train=scenario.train,
-                track=scenario.track)
+                track=scenario.track, cost=scenario.cost)
             if on_simulated is not None:
                 on_simulated(strategy)
         with numerical_errors(scenario.source):

@@ -22,6 +22,7 @@ from trainctl.models.network.schema import NetworkSettings
 from trainctl.models.track import Track
 from trainctl.models.train import Train
 from trainctl.scenario.communication import CommunicationSettings
+from trainctl.scenario.cost import CostSettings
 from trainctl.scenario.frozen import FrozenMapping as FrozenMapping
 from trainctl.scenario.settings import ModelSettings, SimulationSettings
 
@@ -271,6 +272,9 @@ class Scenario:
         The communication graph of consensus controllers (``[communication]``);
         None: a bidirectional chain with every vehicle hearing the reference
         (:meth:`graph`).
+    cost : CostSettings or None
+        Prices of energy and train-hours for the runs' operating cost
+        (``[cost]``); None: no cost.
     network : NetworkSettings or None
         The radio links over which networked controllers receive their
         neighbours' data (``[network]``: delays, losses, noise, outage
@@ -332,6 +336,7 @@ class Scenario:
     controller: Any = None
     controllers: Mapping[str, Any] = field(default_factory=FrozenMapping)
     communication: CommunicationSettings | None = None
+    cost: CostSettings | None = None
     network: NetworkSettings | None = None
     simulation: SimulationSettings | None = None
     expected: Mapping[str, str] = field(default_factory=FrozenMapping)

@@ -31,6 +31,7 @@ from trainctl.declare.constraints import Choice
 from trainctl.declare.keys import DeclaredField, Key, declared_fields
 from trainctl.models.network.schema import Interruption, NetworkSettings
 from trainctl.scenario.communication import CommunicationSettings
+from trainctl.scenario.cost import CostSettings
 from trainctl.scenario.filemodel import file_model, rule_of, sub_model, table_kind
 from trainctl.scenario.settings import ModelSettings, SimulationSettings
 from trainctl.scenario.tables import (
@@ -170,14 +171,14 @@ def markdown_tables() -> dict[str, str]:
     dict of str to str
         ``"top"``, ``"train"``, ``"vehicle"``, ``"coupler"``, ``"track"``,
         ``"section"``, ``"speed-limit"``, ``"model"``, ``"controller-<family>"`` for each
-        built-in family, ``"communication"``, ``"network"``, ``"interruption"``,
+        built-in family, ``"communication"``, ``"cost"``, ``"network"``, ``"interruption"``,
         ``"simulation"``, ``"reference"``, ``"sweep"`` and ``"sweep-axis"``.
 
     Examples
     --------
     >>> tables = markdown_tables()
     >>> len(tables), "controller-mpc" in tables
-    (21, True)
+    (22, True)
     >>> tables["vehicle"].splitlines()[0]
     '| Key | Type | Unit | Default | Meaning |'
     """
@@ -195,6 +196,7 @@ def markdown_tables() -> dict[str, str]:
         "speed-limit": table(SpeedLimitTable),
         "model": table(file_model(ModelSettings)),
         "communication": table(file_model(CommunicationSettings)),
+        "cost": table(file_model(CostSettings)),
         "network": table(file_model(NetworkSettings), "network"),
         "interruption": table(file_model(Interruption)),
         "simulation": table(simulation, "simulation"),
@@ -219,12 +221,12 @@ def markdown_text() -> str:
 
     Examples
     --------
-    Each of the 21 tables sits between its two markers, the top-level keys
+    Each of the 22 tables sits between its two markers, the top-level keys
     first:
 
     >>> text = markdown_text()
     >>> text.splitlines()[0], text.count("<!-- schema:"), text.count("<!-- /schema:")
-    ('<!-- schema:top -->', 21, 21)
+    ('<!-- schema:top -->', 22, 22)
     """
     return "".join(f"<!-- schema:{name} -->\n{markdown}\n<!-- /schema:{name} -->\n\n"
                    for name, markdown in markdown_tables().items())

@@ -41,6 +41,7 @@ from trainctl.scenario.core import (
     expectation_violation,
     strategy_names,
 )
+from trainctl.scenario.cost import CostSettings
 from trainctl.scenario.errors import DocumentTable, describe, got, scenario_error
 from trainctl.scenario.filemodel import FileTable, convert, field_at, file_model, load_settings
 from trainctl.scenario.settings import ModelSettings, SimulationSettings
@@ -324,6 +325,7 @@ class _Parser:
         controllers = self.controllers(top.controller, train.n_vehicles)
         communication = None if top.communication is None else self.settings(
             CommunicationSettings, top.communication, ("communication",), {})
+        cost = None if top.cost is None else self.settings(CostSettings, top.cost, ("cost",), {})
         network = None if top.network is None else self.settings(
             NetworkSettings, top.network, ("network",), {"n_vehicles": train.n_vehicles})
         simulation = self.simulation(top.simulation, model.sample_time, tuple(controllers))
@@ -332,7 +334,7 @@ class _Parser:
         return self.build((), lambda: Scenario(
             name=top.name, description=top.description, seed=top.seed, train=train,
             track=track, model=model, controllers=FrozenMapping(controllers),
-            communication=communication, network=network, simulation=simulation,
+            communication=communication, cost=cost, network=network, simulation=simulation,
             expected=expected, sweep=sweep,
             source=self.file, document=self.doc, tags=self.tags, directory=self.directory,
             track_digest=self.track_digest,

@@ -30,6 +30,7 @@ from trainctl.declare.keys import Key, declared_fields
 from trainctl.models.network.schema import NetworkSettings
 from trainctl.scenario.communication import CommunicationSettings
 from trainctl.scenario.core import SCHEMA_VERSION, check_names, check_statuses
+from trainctl.scenario.cost import CostSettings
 from trainctl.scenario.filemodel import FileTable, file_model
 from trainctl.scenario.settings import ModelSettings, SimulationSettings
 from trainctl.scenario.tables import SweepTable, TopLevel, TrackTable, TrainTable, expected_table
@@ -44,6 +45,7 @@ _SECTIONS: dict[str, Any] = {
     "track": TrackTable,
     "model": lambda: file_model(ModelSettings),
     "communication": lambda: file_model(CommunicationSettings),
+    "cost": lambda: file_model(CostSettings),
     "network": lambda: file_model(NetworkSettings),
     "simulation": lambda: file_model(SimulationSettings),
     "expected": lambda: expected_table(dict.fromkeys(check_names(), ""), check_statuses()),

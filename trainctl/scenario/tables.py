@@ -221,6 +221,9 @@ class TopLevel(FileTable):
     communication: Annotated[dict[str, Any] | None, _SECTION, Section(None), Key(
         "Communication graph of consensus controllers: who hears whom, who hears the "
         "reference", omitted="bidirectional chain, every vehicle hears the reference")] = None
+    cost: Annotated[dict[str, Any] | None, _SECTION, Section(None), Key(
+        "Prices of energy and train-hours, for each run's operating cost",
+        omitted="no cost")] = None
     network: Annotated[dict[str, Any] | None, _SECTION, Section(None), Key(
         "Radio links of networked controllers: delays, losses, noise, outage windows",
         omitted="no network model")] = None

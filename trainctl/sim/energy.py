@@ -60,7 +60,8 @@ from trainctl.models.train import Train
 from trainctl.sim.results import SimulationResult
 from trainctl.units import j_to_kwh
 
-__all__ = ["EnergyAccount", "dense_quadrature", "energy_account", "interval_work"]
+__all__ = ["EnergyAccount", "OperatingCost", "dense_quadrature", "energy_account",
+           "interval_work", "operating_cost", "trains_in"]
 
 Array = NDArray[np.float64]
 
@@ -566,3 +567,139 @@ def _kink_corrections(result: SimulationResult, train: Train, track: Track,
         if i < n - 1:  # the coupler behind: slip v_i - v_{i+1} rises by Δa
             out[n + i] -= weight * train.damping[i] * 2.0 * (vi[i] - vi[i + 1])
     return out
+
+
+@dataclass(frozen=True, kw_only=True)
+class OperatingCost:
+    """A run's operating cost at declared prices (:func:`operating_cost`).
+
+    Parameters
+    ----------
+    supply_energy : float
+        Energy drawn from the supply [kWh]: the net energy at the wheels
+        (traction minus regenerated) over the drive's efficiency.
+    train_hours : float
+        Trains times the run's duration [h].
+    energy : float
+        Cost of the energy [currency].
+    time : float
+        Cost of the train-hours [currency].
+    currency : str
+        The currency label.
+
+    Examples
+    --------
+    >>> cost = OperatingCost(supply_energy=100.0, train_hours=2.0, energy=12.0, time=900.0,
+    ...                      currency="EUR")
+    >>> cost.total, cost.to_dict()["total"]
+    (912.0, 912.0)
+    """
+
+    supply_energy: float
+    train_hours: float
+    energy: float
+    time: float
+    currency: str
+
+    @property
+    def total(self) -> float:
+        """Energy plus time [currency]."""
+        return self.energy + self.time
+
+    def to_dict(self) -> dict[str, object]:
+        """The cost as JSON-safe numbers.
+
+        Returns
+        -------
+        dict
+            ``supply_energy_kwh``, ``train_hours``, ``energy``, ``time``, ``total``
+            and ``currency``.
+        """
+        return {"supply_energy_kwh": self.supply_energy, "train_hours": self.train_hours,
+                "energy": self.energy, "time": self.time, "total": self.total,
+                "currency": self.currency}
+
+
+def trains_in(train: Train) -> int:
+    """The trains a formation is made of: one, plus one per virtual coupler.
+
+    Parameters
+    ----------
+    train : Train
+        A physically coupled train, or a formation of unit trains.
+
+    Returns
+    -------
+    int
+        The number of trains (each with its crew and its timetable path).
+
+    Examples
+    --------
+    >>> from trainctl.models import crh2_half
+    >>> trains_in(crh2_half())
+    1
+    """
+    return 1 + int(np.count_nonzero(train.virtual))
+
+
+def operating_cost(account: EnergyAccount, *, duration: float, trains: int,
+                   energy_price: float, train_hour_price: float,
+                   drive_efficiency: float = 1.0, currency: str = "EUR") -> OperatingCost:
+    """The operating cost of a run: its supply energy and its train-hours at their prices.
+
+    cost = energy_price · (Σ net energy [kWh]) / drive_efficiency
+    + train_hour_price · trains · duration [h].
+
+    Parameters
+    ----------
+    account : EnergyAccount
+        The run's energy account (:func:`energy_account`).
+    duration : float
+        The run's duration [s], >= 0.
+    trains : int
+        Trains that ran (:func:`trains_in`), >= 1.
+    energy_price : float
+        Price of a kWh from the supply [currency/kWh], >= 0.
+    train_hour_price : float
+        Price of a train-hour [currency/h], >= 0.
+    drive_efficiency : float
+        Supply-to-wheel efficiency [-], in (0, 1].
+    currency : str
+        The currency label.
+
+    Returns
+    -------
+    OperatingCost
+        Energy, time and total.
+
+    Raises
+    ------
+    ModelError
+        For a price or duration below 0, an efficiency outside (0, 1] or no train.
+
+    Examples
+    --------
+    A run that drew 360 MJ (100 kWh) net over two hours, one train, at 0.12 per kWh
+    and 450 per train-hour:
+
+    >>> from types import SimpleNamespace
+    >>> account = SimpleNamespace(total=lambda name: 3.6e8)
+    >>> cost = operating_cost(account, duration=7200.0, trains=1, energy_price=0.12,
+    ...                       train_hour_price=450.0)
+    >>> round(cost.energy, 6), cost.time, round(cost.total, 6)
+    (12.0, 900.0, 912.0)
+    """
+    where = "operating_cost"
+    for name, value in (("duration", duration), ("energy_price", energy_price),
+                        ("train_hour_price", train_hour_price)):
+        if not check_finite(where, name, value) >= 0:
+            raise ModelError(f"{where}: {name!r} must be >= 0 (got {value!r}).")
+    if not 0.0 < check_finite(where, "drive_efficiency", drive_efficiency) <= 1.0:
+        raise ModelError(f"{where}: 'drive_efficiency' must be in (0, 1] "
+                         f"(got {drive_efficiency!r}).")
+    if isinstance(trains, bool) or not isinstance(trains, int | np.integer) or trains < 1:
+        raise ModelError(f"{where}: 'trains' must be a whole number >= 1 (got {trains!r}).")
+    supply = j_to_kwh(account.total("net_energy")) / drive_efficiency
+    hours = int(trains) * duration / 3600.0
+    return OperatingCost(supply_energy=supply, train_hours=hours, energy=energy_price * supply,
+                         time=train_hour_price * hours, currency=currency)

@@ -55,6 +55,7 @@ import math
 from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -63,7 +64,13 @@ from trainctl._validation import check_finite
 from trainctl.exceptions import ModelError
 from trainctl.models.track import Track
 from trainctl.models.train import Train
-from trainctl.sim.energy import EnergyAccount, energy_account
+from trainctl.sim.energy import (
+    EnergyAccount,
+    OperatingCost,
+    energy_account,
+    operating_cost,
+    trains_in,
+)
 from trainctl.sim.results import SimulationResult
 from trainctl.units import JOULES_PER_KWH
 
@@ -145,6 +152,10 @@ class Metrics:
         The exact energy account of the run [J]
         (:func:`~trainctl.sim.energy.energy_account`); None when
         :func:`compute_metrics` was not given the train.
+    operating_cost : OperatingCost or None
+        The run's operating cost at the scenario's ``[cost]`` prices
+        (:func:`~trainctl.sim.energy.operating_cost`); None without prices or
+        without an energy account.
 
     Examples
     --------
@@ -199,6 +210,7 @@ class Metrics:
     iteration_limit: int | None = None
     iteration_limit_steps: int | None = None
     energy_account: EnergyAccount | None = None
+    operating_cost: OperatingCost | None = None
 
     @property
     def iterations_converged(self) -> bool | None:
@@ -312,13 +324,15 @@ class Metrics:
             "iterations_converged": self.iterations_converged,
             "energy_account": (None if self.energy_account is None
                                else self.energy_account.to_dict()),
+            "operating_cost": (None if self.operating_cost is None
+                               else self.operating_cost.to_dict()),
         }
 
 
 def compute_metrics(
     result: SimulationResult, *, settle_time: float = 0.0, regen_efficiency: float = 1.0,
     coupler_limits: ArrayLike | None = None, train: Train | None = None,
-    track: Track | None = None,
+    track: Track | None = None, cost: Any = None,
 ) -> Metrics:
     """Metrics of a run.
 
@@ -340,6 +354,10 @@ def compute_metrics(
         account (:attr:`Metrics.energy_account`); None: no account.
     track : Track or None
         The track it ran on, for the account's line work; None: level and straight.
+    cost : CostSettings or None
+        Prices (:class:`~trainctl.scenario.cost.CostSettings`: ``energy_price``,
+        ``train_hour_price``, ``drive_efficiency``, ``currency``) for
+        :attr:`Metrics.operating_cost` (with ``train``); None: no cost.
 
     Returns
     -------
@@ -406,6 +424,8 @@ def compute_metrics(
     times = result.solve_times
     limit, stopped = _iteration_limit(result)
     has = iters.size > 0
+    account = None if train is None else energy_account(result, train, track,
+                                                        regen_efficiency=eta)
     return Metrics(
         settle_time=settle,
         rms_error=rms_error,
@@ -429,8 +449,12 @@ def compute_metrics(
         **_couplers(result.dense_time, forces, limits),
         iteration_limit=limit,
         iteration_limit_steps=stopped,
-        energy_account=(None if train is None
-                        else energy_account(result, train, track, regen_efficiency=eta)),
+        energy_account=account,
+        operating_cost=None if cost is None or account is None or train is None else
+        operating_cost(account, duration=float(result.time[-1] - result.time[0]),
+                       trains=trains_in(train), energy_price=cost.energy_price,
+                       train_hour_price=cost.train_hour_price,
+                       drive_efficiency=cost.drive_efficiency, currency=cost.currency),
     )
 
 

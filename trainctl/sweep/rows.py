@@ -38,13 +38,14 @@ if TYPE_CHECKING:
 __all__ = ["METRICS", "point_rows", "rows_frame", "run_point", "sweep_rows"]
 
 METRICS = ("rms_error", "max_error", "max_coupler_force", "energy_kwh", "net_energy_kwh",
-           "energy_per_tonne_km", "tracking_ok", "iterations_mean", "diverged", "converged",
-           "iteration_limit_steps", "deviation_ratio")
+           "energy_per_tonne_km", "operating_cost", "tracking_ok", "iterations_mean", "diverged",
+           "converged", "iteration_limit_steps", "deviation_ratio")
 """Per-strategy metric columns: the RMS speed error over every vehicle and sample after
 ``settle_time`` [m/s], the largest speed error [m/s], the largest |coupler force| [N], the
 net traction energy [kWh] (:attr:`trainctl.sim.Metrics.energy`), the exact energy
 account's net energy drawn [kWh] and net energy per tonne of train and km run
-[J/(t·km)] (:class:`trainctl.sim.EnergyAccount`; both None without an account), whether
+[J/(t·km)] (:class:`trainctl.sim.EnergyAccount`; both None without an account), the
+operating cost's total at the ``[cost]`` prices [currency] (None without them), whether
 tracking held, the mean solver iterations per sample,
 whether the run diverged, whether an iterating strategy's iteration (N-DMPC, cooperative
 DMPC) converged within its ``max_iterations`` at every step (bool), and the number of steps
@@ -113,6 +114,8 @@ def _metric(name: str, m: Mapping[str, Any], summary: Mapping[str, Any],
         return m.get("divergence") is not None
     if name == "converged":
         return m.get("iterations_converged")
+    if name == "operating_cost":  # the total at the [cost] prices (None without them)
+        return (m.get("operating_cost") or {}).get("total")
     if name in ("net_energy_kwh", "energy_per_tonne_km"):
         account = m.get("energy_account") or {}
         if name == "net_energy_kwh":
