@@ -159,12 +159,12 @@ class _Document(_Table):
         stops = self.stops.values
         _increasing(("stops", "values"), stops, first=True)
         length = stops[-1] * _LENGTH[self.stops.unit]
-        lists: list[tuple[str, Any, str]] = [("speed limits", self.speed_limits, "")]
+        lists: list[tuple[str, Any]] = [("speed limits", self.speed_limits)]
         if self.gradients is not None:
-            lists.append(("gradients", self.gradients, ""))
+            lists.append(("gradients", self.gradients))
         if self.curvatures is not None:
-            lists.append(("curvatures", self.curvatures, ""))
-        for key, table, _ in lists:
+            lists.append(("curvatures", self.curvatures))
+        for key, table in lists:
             scale = _LENGTH[table.units.position]
             positions = [row[0] for row in table.values]
             _increasing((key, "values"), positions, first=True, index=0)

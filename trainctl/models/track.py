@@ -270,10 +270,13 @@ class Track:
         >>> track.speed_limit([-1.0, 0.0, 799.9, 800.0, 1e6]).tolist()
         [inf, 25.0, 25.0, 15.0, 15.0]
         """
+        starts, limits = self._limit_arrays
         p = np.asarray(position, dtype=float)
-        if not self.speed_limits:
-            return np.full(p.shape, np.inf)
-        starts = np.array([s.start for s in self.speed_limits])
-        limits = np.array([np.inf] + [s.limit for s in self.speed_limits])
         found: NDArray[np.float64] = limits[np.searchsorted(starts, p, side="right")]
         return found
+
+    @cached_property
+    def _limit_arrays(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The restrictions' starts [m], and inf followed by their limits [m/s]."""
+        starts = np.array([s.start for s in self.speed_limits], dtype=float)
+        return starts, np.array([np.inf] + [s.limit for s in self.speed_limits])
