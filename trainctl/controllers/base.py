@@ -16,16 +16,21 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Protocol, TypeVar, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
 from trainctl.exceptions import ModelError
 
+if TYPE_CHECKING:
+    from trainctl.models.envelope import EnvelopeBounds
+    from trainctl.models.feedforward import ForceSplit
+
 __all__ = [
     "STATUSES",
     "Controller",
+    "LinearLaw",
     "Measurement",
     "PlainStep",
     "ReferencePreview",
@@ -203,6 +208,30 @@ class PlainStep(Protocol):
             otherwise the step's record, as :meth:`Controller.step` returns it.
         """
         ...
+
+
+@dataclass(frozen=True, eq=False)
+class LinearLaw:
+    """What a static full-state law u = clip(u_ff - scale · K x̃) is made of.
+
+    x̃ = [v - v_ref; δ - δ_ff] and (u_ff, δ_ff) = ``split.single(max(v_ref, 0.1),
+    a_ref)``; clip is ``envelope.clip`` at the measured speeds. A controller
+    whose :class:`PlainStep` is exactly this law (faults aside: a state or a
+    feedback that is not finite goes through ``step_inputs``) may say so with a
+    method ``linear_law()`` returning one; the simulation loop may then run its
+    samples compiled (:mod:`trainctl.sim.closed_loop`), bit for bit
+    ``step_inputs``. Used only when the class that defines ``step`` defines
+    ``linear_law`` too.
+    """
+
+    gain: NDArray[np.float64]
+    """K, shape (n, 2n-1), in units of ``scale``."""
+    scale: float
+    """Newtons per unit of K x̃ (1e3: K in kN)."""
+    split: ForceSplit
+    """The feedforward of the reference (:class:`~trainctl.models.feedforward.ForceSplit`)."""
+    envelope: EnvelopeBounds
+    """The controller's own clip (:class:`~trainctl.models.envelope.EnvelopeBounds`)."""
 
 
 @runtime_checkable

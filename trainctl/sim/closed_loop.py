@@ -58,6 +58,7 @@ from trainctl.exceptions import (
 from trainctl.models.actuator import SATURATION_TOLERANCE, ActuatorLimits
 from trainctl.models.network.simulator import FATES, Network
 from trainctl.models.plant import Plant
+from trainctl.sim._lane import lane as _lane
 from trainctl.sim._log import HOLD_FALLBACK, Log, dense_grid
 from trainctl.sim.metrics import unconverged_steps
 from trainctl.sim.reference import Reference, SpeedProfile
@@ -326,8 +327,24 @@ def _run(plant: Plant, controller: Controller, reference: Reference, log: Log,
     plain = _plain_step(controller) if network is None and full_state else None
     out, state = np.empty(n), np.empty(2 * n)
     clock = _time.perf_counter
-    for k in range(log.steps):
+    lane = _lane(controller, log, actuators, bound) if plain is not None and batch.profile \
+        else None
+    k = -1
+    while k + 1 < log.steps:
+        k += 1
         t = float(log.times[k])
+        if lane is not None:  # the compiled samples (sim._lane), chunk by chunk
+            batch.reference_at(k, t)
+            k, code = lane.run(k, batch.start, batch.speeds[:, 0], batch.accelerations[:, 0])
+            if code == lane.kernel.DIVERGED:
+                log.stop(k + 1)
+                return _speed_divergence(log, bound, k)
+            if k > 0:
+                previous = log.inputs[:, k - 1].copy()
+            if code == lane.kernel.DONE:
+                k -= 1  # the next chunk's first sample comes next
+                continue
+            t = float(log.times[k])  # a sample for the Python path
         x = log.states[:, k]
         if plain is not None:  # the plain path (controllers.base.PlainStep)
             speed, acceleration = batch.reference_at(k, t)

@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from trainctl.controllers.base import (
+    LinearLaw,
     Measurement,
     PlainStep,
     ReferencePreview,
@@ -144,6 +145,11 @@ class LQRController:
             return result
         out[:] = result[0]
         return None
+
+    def linear_law(self) -> LinearLaw:
+        """The law as data (:class:`~trainctl.controllers.base.LinearLaw`): K [kN]."""
+        return LinearLaw(gain=np.ascontiguousarray(self.gain, dtype=float), scale=KN,
+                         split=self._split, envelope=self._envelope)
 
     def _law_inputs(self, x: NDArray[np.float64], speed: float, accel: float,
                     start: float) -> tuple[NDArray[np.float64], int] | StepRecord:
