@@ -113,8 +113,9 @@ def test_a_divergence_stops_where_the_python_loop_stops(monkeypatch: pytest.Monk
 
 
 def test_grid_speeds_outside_the_table_go_the_python_way(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(_lane, "_GRID", 4)  # the table holds |v̄| <= 6 m/s: none of this run
-    _both(monkeypatch, duration=5.0)
+    monkeypatch.setattr(_lane, "_GRID", 12)  # the table holds |v̄| <= 22 m/s
+    result = _both(monkeypatch)  # lane, Python above 23 m/s, lane again at each chunk
+    assert result.velocities[0].max() > 25.0
 
 
 def test_when_the_lane_is_taken(monkeypatch: pytest.MonkeyPatch) -> None:

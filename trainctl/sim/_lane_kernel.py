@@ -1,6 +1,6 @@
 # The compiled inner loop of a static linear law on the one-substep plant map (numba).
 """The closed loop of a :class:`~trainctl.controllers.base.LinearLaw` in one compiled
-function (private; imported only when numba is installed: ``pip install trainctl-rail[fast]``).
+function (private; imported only when numba is installed: ``pip install trainctl-toolbox[fast]``).
 
 Why compiled: the loop's NumPy floor for the 4-coach LQR run is 17 µs a sample,
 nearly all of it the dispatch of some forty ufunc calls on four-entry arrays
@@ -18,6 +18,8 @@ its own way and calls again.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numba
 import numpy as np
 
@@ -28,9 +30,11 @@ k is done and its speed error exceeds the divergence bound."""
 
 
 @numba.njit(cache=True, nogil=True)
-def run_chunk(k0, k1, states, dense, requested, applied, saturation, dense_ref,  # pragma: no cover
-              vref, ff, eff, gain, scale, limits, clip_on, actuate_on, tol,
-              davis0, grade, quadratic, half, spacing, steps, flows, drags, have, g0, per, bound):
+def run_chunk(k0: Any, k1: Any, states: Any, dense: Any, requested: Any, applied: Any,
+              saturation: Any, dense_ref: Any, vref: Any, ff: Any, eff: Any, gain: Any,
+              scale: Any, limits: Any, clip_on: Any, actuate_on: Any, tol: Any, davis0: Any,
+              grade: Any, quadratic: Any, half: Any, spacing: Any, steps: Any, flows: Any,
+              drags: Any, have: Any, g0: Any, per: Any, bound: Any) -> Any:
     """Samples k0 <= k < k1 (rows k - k0 of vref, ff, eff); returns (k, code)."""
     n = requested.shape[0]
     m = 2 * n - 1
