@@ -18,7 +18,9 @@ sample of the whole timed run (``time.process_time``: less disturbed by other
 processes than the wall clock, on a loaded machine); then the medians and the
 ratio new / base of the medians, and of the best rounds (the least disturbed).
 The machine's load average is printed too: the timings are only as quiet as the
-machine.
+machine. Runs of 10 000 samples or more (``--duration 500`` and up) take the
+compiled lane when numba is installed (``trainctl.sim._lane``); set
+``TRAINCTL_COMPILED=0`` to time the Python loop, ``=1`` for any length.
 
 ``--floor`` measures instead, in this tree alone, the least a NumPy loop does per
 sample for this law and plant: the recorded run replayed as (1) the plant's
