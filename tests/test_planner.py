@@ -146,3 +146,102 @@ def test_braking_deceleration_is_the_envelopes_over_the_mass() -> None:
                               env.adhesion * vehicle.mass * 9.81)
     np.testing.assert_allclose(braking_deceleration(train, v), by_hand / train.mass.sum(),
                                rtol=1e-12)
+
+
+# --- [simulation.plan]: the planned reference of a scenario file -------------------------
+
+def _plan_text(track: str, plan: str, reference: bool = False) -> str:
+    """crh2-dmpc with ``track`` and ``plan`` in place of its typed reference."""
+    from trainctl.scenario import builtin_scenario_text
+
+    text = builtin_scenario_text("crh2-dmpc")
+    head, rest = text.split("[simulation.reference]", 1)
+    typed = "[simulation.reference]" + rest.split("\n[", 1)[0] + "\n" if reference else ""
+    tail = "\n[" + rest.split("\n[", 1)[1] if "\n[" in rest else ""
+    return (head + typed + "[simulation.plan]\n" + plan + "\n" + tail
+            + "\n[track]\n" + track + "\n")
+
+
+LIMITED = ("[[track.section]]\nstart = 0.0\ngrade_permille = -3.0\n"
+           "[[track.speed_limit]]\nstart = 0.0\nlimit_kmh = 250.0\n"
+           "[[track.speed_limit]]\nstart = 8000.0\nlimit_kmh = 120.0\n"
+           "[[track.speed_limit]]\nstart = 9000.0\nlimit_kmh = 250.0\n")
+
+
+def test_a_scenario_plans_its_reference_along_the_track() -> None:
+    from trainctl.scenario import parse_scenario
+
+    scenario = parse_scenario(_plan_text(LIMITED, "cruise_kmh = 200.0\nacceleration = 0.3\n"
+                                         "end = 20000.0\nstart_speed_kmh = 72.0"))
+    sim = scenario.simulation
+    profile = limited_profile(scenario.track, scenario.train, cruise=200 / 3.6,
+                              acceleration=0.3, end=20_000.0, start_speed=20.0)
+    assert sim.reference_times == profile.times and sim.reference_speeds == profile.speeds
+    b = 0.9 * float(braking_deceleration(scenario.train, np.linspace(0.0, 200 / 3.6, 65)).min())
+    _check(profile, scenario.track, scenario.train, cruise=200 / 3.6, a=0.3, b=b, end=20_000.0)
+    assert min(sim.reference_speeds[1:]) == pytest.approx(120 / 3.6)  # the restriction binds
+    slower = scenario.replace("simulation.plan.cruise_kmh", 100.0)  # planned anew
+    assert max(slower.simulation.reference_speeds) == pytest.approx(100 / 3.6)
+    assert slower.simulation.reference_times[-1] > sim.reference_times[-1]
+
+
+def test_a_plan_on_a_shipped_line_ends_at_its_last_stop() -> None:
+    from trainctl.scenario import parse_scenario
+
+    scenario = parse_scenario(_plan_text('line = "CH_Fribourg_Bern"',
+                                         "cruise_kmh = 140.0\nacceleration = 0.4"))
+    line = builtin_line("CH_Fribourg_Bern")
+    times = np.linspace(0.0, scenario.simulation.reference_times[-1], 50_001)
+    profile = limited_profile(line.track, scenario.train, cruise=140 / 3.6, acceleration=0.4,
+                              end=line.stops[-1])
+    assert scenario.simulation.reference_speeds == profile.speeds
+    assert _positions(profile, times[-1:])[0] == pytest.approx(line.stops[-1], rel=1e-9)
+
+
+@pytest.mark.parametrize("track, plan, message", [
+    (LIMITED, "cruise_kmh = 200.0\nacceleration = 0.3", "[simulation.plan] needs end"),
+    (LIMITED, "cruise_kmh = -1.0\nacceleration = 0.3\nend = 9e3",
+     "[simulation.plan].cruise_kmh must be"),
+    (LIMITED, "cruise_kmh = 200.0\nacceleration = 0.3\nend = 9e3\ndeceleration = 5.0",
+     "[simulation.plan]: limited_breakpoints: 'deceleration' must be at most"),
+    (LIMITED, "cruise_kmh = 200.0\nacceleration = 0.3\nend = 9e3\nspeed = 3",
+     "[simulation.plan]"),
+])
+def test_bad_plans_in_a_file_are_refused(track: str, plan: str, message: str,
+                                         tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
+    from tests.test_cli import assert_refused
+
+    path = tmp_path / "mine.toml"
+    path.write_text(_plan_text(track, plan))
+    assert_refused(path, message, capsys)
+
+
+def test_a_plan_needs_a_track_and_no_typed_reference(tmp_path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    from tests.test_cli import assert_refused
+
+    plan = "cruise_kmh = 200.0\nacceleration = 0.3\nend = 9e3"
+    path = tmp_path / "both.toml"
+    path.write_text(_plan_text(LIMITED, plan, reference=True))
+    assert_refused(path, "[simulation.plan] cannot be given with [simulation.reference]", capsys)
+    path = tmp_path / "trackless.toml"
+    path.write_text(_plan_text(LIMITED, plan).split("\n[track]\n")[0].replace(
+        LIMITED, ""))
+    assert_refused(path, "[simulation.plan] needs a [track] to plan along", capsys)
+
+
+def test_the_schema_takes_a_plan_or_a_reference_not_both() -> None:
+    import tomllib
+
+    import jsonschema
+
+    from trainctl.scenario.schema import json_schema
+
+    validator = jsonschema.Draft202012Validator(json_schema())
+    plan = "cruise_kmh = 200.0\nacceleration = 0.3\nend = 9e3"
+    assert not list(validator.iter_errors(tomllib.loads(_plan_text(LIMITED, plan))))
+    both = tomllib.loads(_plan_text(LIMITED, plan, reference=True))
+    assert list(validator.iter_errors(both))
+    neither = tomllib.loads(_plan_text(LIMITED, plan))
+    del neither["simulation"]["plan"]
+    assert list(validator.iter_errors(neither))

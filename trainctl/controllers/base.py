@@ -222,16 +222,31 @@ class LinearLaw:
     samples compiled (:mod:`trainctl.sim.closed_loop`), bit for bit
     ``step_inputs``. Used only when the class that defines ``step`` defines
     ``linear_law`` too.
+
+    Parameters
+    ----------
+    gain : ndarray
+        K, shape (n, 2n-1), in units of ``scale``.
+    scale : float
+        Newtons per unit of K x̃ (1e3: K in kN).
+    split : ForceSplit
+        The feedforward of the reference.
+    envelope : EnvelopeBounds
+        The controller's own clip.
+
+    Examples
+    --------
+    >>> from trainctl.controllers.lqr import LQRController
+    >>> from trainctl.models import crh2_half
+    >>> law = LQRController(crh2_half(), np.zeros((4, 7)), dt=0.05).linear_law()
+    >>> law.gain.shape, law.scale
+    ((4, 7), 1000.0)
     """
 
     gain: NDArray[np.float64]
-    """K, shape (n, 2n-1), in units of ``scale``."""
     scale: float
-    """Newtons per unit of K x̃ (1e3: K in kN)."""
     split: ForceSplit
-    """The feedforward of the reference (:class:`~trainctl.models.feedforward.ForceSplit`)."""
     envelope: EnvelopeBounds
-    """The controller's own clip (:class:`~trainctl.models.envelope.EnvelopeBounds`)."""
 
 
 @runtime_checkable

@@ -33,6 +33,7 @@ from trainctl.models.network.schema import Interruption, NetworkSettings
 from trainctl.scenario.communication import CommunicationSettings
 from trainctl.scenario.cost import CostSettings
 from trainctl.scenario.filemodel import file_model, rule_of, sub_model, table_kind
+from trainctl.scenario.plan import PlanSettings
 from trainctl.scenario.settings import ModelSettings, SimulationSettings
 from trainctl.scenario.tables import (
     CouplerTable,
@@ -178,7 +179,7 @@ def markdown_tables() -> dict[str, str]:
     --------
     >>> tables = markdown_tables()
     >>> len(tables), "controller-mpc" in tables
-    (22, True)
+    (23, True)
     >>> tables["vehicle"].splitlines()[0]
     '| Key | Type | Unit | Default | Meaning |'
     """
@@ -201,6 +202,7 @@ def markdown_tables() -> dict[str, str]:
         "interruption": table(file_model(Interruption)),
         "simulation": table(simulation, "simulation"),
         "reference": table(sub_model(reference) or simulation),
+        "plan": table(file_model(PlanSettings)),
         "sweep": table(SweepTable, "sweep"),
         "sweep-axis": table(SweepAxisTable),
     }
@@ -221,12 +223,12 @@ def markdown_text() -> str:
 
     Examples
     --------
-    Each of the 22 tables sits between its two markers, the top-level keys
+    Each of the 23 tables sits between its two markers, the top-level keys
     first:
 
     >>> text = markdown_text()
     >>> text.splitlines()[0], text.count("<!-- schema:"), text.count("<!-- /schema:")
-    ('<!-- schema:top -->', 22, 22)
+    ('<!-- schema:top -->', 23, 23)
     """
     return "".join(f"<!-- schema:{name} -->\n{markdown}\n<!-- /schema:{name} -->\n\n"
                    for name, markdown in markdown_tables().items())

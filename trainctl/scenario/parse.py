@@ -273,6 +273,7 @@ class _Parser:
                  tags: Mapping[str, str] | None = None, directory: str | None = None) -> None:
         self.file, self.doc, self.directory = file, doc, directory
         self.track_digest: str | None = None
+        self.line_stops: tuple[float, ...] | None = None
         self.tags = FrozenMapping(tags or {})
 
     def validate(self, model: type[BaseModel], prefix: tuple[Any, ...], data: Any = None,
@@ -328,7 +329,8 @@ class _Parser:
         cost = None if top.cost is None else self.settings(CostSettings, top.cost, ("cost",), {})
         network = None if top.network is None else self.settings(
             NetworkSettings, top.network, ("network",), {"n_vehicles": train.n_vehicles})
-        simulation = self.simulation(top.simulation, model.sample_time, tuple(controllers))
+        simulation = self.simulation(top.simulation, model.sample_time, tuple(controllers),
+                                     train, track)
         expected = self.expected(top.expected, tuple(controllers))
         sweep = None if top.sweep is None else self.sweep()
         return self.build((), lambda: Scenario(
@@ -410,7 +412,9 @@ class _Parser:
         from trainctl.models.lines import builtin_line, read_line
 
         if table.line is not None:
-            return builtin_line(table.line)
+            line = builtin_line(table.line)
+            self.line_stops = line.stops
+            return line
         if table.file is None:
             return None
         path = Path(table.file).expanduser()
@@ -419,6 +423,7 @@ class _Parser:
         try:
             line = read_line(path)
             self.track_digest = line.digest
+            self.line_stops = line.stops
             return line
         except ScenarioError as exc:
             where = "" if self.directory is None else " (relative to the scenario file's directory)"
@@ -449,8 +454,10 @@ class _Parser:
         return found
 
     def simulation(self, raw: dict[str, Any] | None, sample_time: float,
-                   families: tuple[str, ...]) -> SimulationSettings | None:
-        """``[simulation]``, checked against the sample time and the families present."""
+                   families: tuple[str, ...], train: Train | None = None,
+                   track: Track | None = None) -> SimulationSettings | None:
+        """``[simulation]``, checked against the sample time and the families present;
+        a ``[simulation.plan]`` planned along the track into the reference."""
         if raw is None:
             return None
         if not families:
@@ -458,10 +465,48 @@ class _Parser:
                 text="needs a [controller] section", got_text="none",
                 hint=" The simulation runs the design given in [controller]. Add [controller] "
                 "or remove [simulation]."), ("simulation",))
+        if "plan" in raw:
+            raw = self.plan(raw, train, track)
         context = {"sample_time": sample_time, "strategies": strategy_names(families)}
         simulation: SimulationSettings = self.settings(SimulationSettings, raw, ("simulation",),
                                                        context)
         return simulation
+
+    def plan(self, raw: dict[str, Any], train: Train | None,
+             track: Track | None) -> dict[str, Any]:
+        """``[simulation]`` with its ``plan`` made into the reference's breakpoints
+        (:mod:`trainctl.scenario.plan`)."""
+        from trainctl.models.planner import limited_breakpoints
+        from trainctl.scenario.plan import PlanSettings
+
+        where = ("simulation", "plan")
+        if "reference" in raw:
+            raise self.fail(Violation(
+                text="cannot be given with [simulation.reference]", got_text="both",
+                hint=" Plan the reference along the track or type its breakpoints: remove "
+                "one of the two tables."), where)
+        if not isinstance(raw["plan"], dict):
+            raise self.fail(Violation(text="must be a table", got=raw["plan"]), where)
+        plan: PlanSettings = self.settings(PlanSettings, raw["plan"], where, {})
+        if track is None or train is None:
+            raise self.fail(Violation(
+                text="needs a [track] to plan along", got_text="no [track]",
+                hint=" Add [track] (line = \"...\", file = \"...\" or sections with "
+                "[[track.speed_limit]]), or give [simulation.reference] instead."), where)
+        end = plan.end
+        if end is None:
+            if self.line_stops is None:
+                raise self.fail(Violation(
+                    text="needs end (the head position where the plan ends, m)",
+                    got_text="none",
+                    hint=" Only a [track].line or [track].file has a last stop to end at."),
+                    where)
+            end = self.line_stops[-1]
+        times, speeds = self.build(where, lambda: limited_breakpoints(
+            track, train, cruise=plan.cruise, acceleration=plan.acceleration, end=end,
+            deceleration=plan.deceleration, start_speed=plan.start_speed, margin=plan.margin))
+        reference = {"times": list(times), "speeds": list(speeds)}
+        return {**{k: v for k, v in raw.items() if k != "plan"}, "reference": reference}
 
     def expected(self, raw: dict[str, Any] | None, families: tuple[str, ...]) -> FrozenMapping[str]:
         """``[expected]``: known checks, statuses, and each check's family present."""

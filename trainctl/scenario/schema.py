@@ -24,6 +24,7 @@ from __future__ import annotations
 from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, create_model
+from pydantic.fields import FieldInfo
 from pydantic.json_schema import models_json_schema
 
 from trainctl.declare.keys import Key, declared_fields
@@ -32,6 +33,7 @@ from trainctl.scenario.communication import CommunicationSettings
 from trainctl.scenario.core import SCHEMA_VERSION, check_names, check_statuses
 from trainctl.scenario.cost import CostSettings
 from trainctl.scenario.filemodel import FileTable, file_model
+from trainctl.scenario.plan import PlanSettings
 from trainctl.scenario.settings import ModelSettings, SimulationSettings
 from trainctl.scenario.tables import SweepTable, TopLevel, TrackTable, TrainTable, expected_table
 
@@ -47,10 +49,32 @@ _SECTIONS: dict[str, Any] = {
     "communication": lambda: file_model(CommunicationSettings),
     "cost": lambda: file_model(CostSettings),
     "network": lambda: file_model(NetworkSettings),
-    "simulation": lambda: file_model(SimulationSettings),
+    "simulation": lambda: _simulation(),
     "expected": lambda: expected_table(dict.fromkeys(check_names(), ""), check_statuses()),
     "sweep": SweepTable,
 }
+
+
+def _simulation() -> type[BaseModel]:
+    """``[simulation]``: its settings' keys, with ``[simulation.plan]``
+    (:mod:`trainctl.scenario.plan`) in place of ``[simulation.reference]``, one of the two."""
+    base = file_model(SimulationSettings)
+    fields: dict[str, Any] = {}
+    for name, f in base.model_fields.items():
+        if name == "reference":
+            f = FieldInfo.merge_field_infos(f, default=None)
+            fields[name] = (f.annotation | None, f)  # type: ignore[operator]
+        else:
+            fields[name] = (f.annotation, f)
+    plan = file_model(PlanSettings)
+    fields["plan"] = (Annotated[plan | None, Key(doc=(
+        "The reference planned along [track] under its speed limits, in place of "
+        "[simulation.reference]"))], None)
+    extra: dict[str, Any] = dict(base.model_config.get("json_schema_extra") or {})  # type: ignore[arg-type]
+    either = {"oneOf": [{"required": ["reference"]}, {"required": ["plan"]}]}
+    extra["allOf"] = [*extra.get("allOf", []), either]
+    config = ConfigDict(**FileTable.model_config, json_schema_extra=extra)
+    return create_model(base.__name__, __config__=config, __doc__=base.__doc__, **fields)
 
 
 def _document() -> type[BaseModel]:

@@ -147,7 +147,14 @@ class LQRController:
         return None
 
     def linear_law(self) -> LinearLaw:
-        """The law as data (:class:`~trainctl.controllers.base.LinearLaw`): K [kN]."""
+        """The law as data, for the loop's compiled lane.
+
+        Returns
+        -------
+        LinearLaw
+            K [kN per unit deviation], the feedforward and the envelope
+            (:class:`~trainctl.controllers.base.LinearLaw`).
+        """
         return LinearLaw(gain=np.ascontiguousarray(self.gain, dtype=float), scale=KN,
                          split=self._split, envelope=self._envelope)
 
