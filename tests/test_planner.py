@@ -245,3 +245,58 @@ def test_the_schema_takes_a_plan_or_a_reference_not_both() -> None:
     neither = tomllib.loads(_plan_text(LIMITED, plan))
     del neither["simulation"]["plan"]
     assert list(validator.iter_errors(neither))
+
+
+def _typed(times: list[float], speeds_kmh: list[float]) -> str:
+    """crh2-dmpc on LIMITED with a typed reference."""
+    from trainctl.scenario import builtin_scenario_text
+
+    text = builtin_scenario_text("crh2-dmpc")
+    head, rest = text.split("[simulation.reference]", 1)
+    tail = "\n[" + rest.split("\n[", 1)[1] if "\n[" in rest else ""
+    return (head + f"[simulation.reference]\ntimes = {times}\nspeeds_kmh = {speeds_kmh}\n"
+            + tail + "\n[track]\n" + LIMITED + "\n")
+
+
+def test_the_review_fails_a_reference_over_a_speed_limit() -> None:
+    from trainctl.analysis.feasibility import feasibility_check
+    from trainctl.scenario import parse_scenario
+
+    scenario = parse_scenario(_typed([0.0], [250.0]))  # 250 km/h through the 120 km/h zone
+    check = feasibility_check(scenario)
+    assert check.status == "fail"
+    found = check.details["speed_limit"]
+    assert found["excess"] == pytest.approx(130 / 3.6, rel=1e-12)
+    assert found["time"] == pytest.approx(8000.0 / (250 / 3.6), rel=1e-9)  # head at 8 km
+    assert "exceeds the speed limit of 120 km/h (from 8000 m) by 130 km/h" in check.message
+
+
+def test_the_tail_must_leave_a_restriction_before_the_reference_speeds_up() -> None:
+    from trainctl.analysis.feasibility import feasibility_check
+    from trainctl.scenario import parse_scenario
+
+    v = 119.5 / 3.6  # just under 120 km/h; then 100 s at 0.1 m/s²
+    length = float(np.sum(parse_scenario(_typed([0.0], [100.0])).train.spacing))
+    head_out = 9000.0 / v  # the head leaves the 120 km/h zone; the tail is still in it
+    tail_out = (9000.0 + length) / v
+    top = 3.6 * (v + 10.0)
+    early = parse_scenario(_typed([0.0, head_out, head_out + 100.0], [119.5, 119.5, top]))
+    late = parse_scenario(_typed([0.0, tail_out, tail_out + 100.0], [119.5, 119.5, top]))
+    check = feasibility_check(early)
+    assert check.status == "fail" and "120 km/h (from 8000 m)" in check.message
+    # from head_out the speed grows at 0.1 m/s² while the head runs `length` more: the tail
+    # leaves at v_out² = v² + 2 · 0.1 · length
+    assert check.details["speed_limit"]["excess"] == pytest.approx(
+        np.sqrt(v * v + 0.2 * length) - 120 / 3.6, rel=1e-9)
+    assert "speed limit" not in feasibility_check(late).message
+    assert feasibility_check(late).details["speed_limit"]["excess"] <= 1e-9
+
+
+def test_a_planned_reference_passes_the_speed_limit_review() -> None:
+    from trainctl.analysis.feasibility import feasibility_check
+    from trainctl.scenario import parse_scenario
+
+    scenario = parse_scenario(_plan_text(LIMITED, "cruise_kmh = 200.0\nacceleration = 0.3\n"
+                                         "end = 20000.0"))
+    excess = feasibility_check(scenario).details["speed_limit"]["excess"]
+    assert abs(excess) <= 1e-9  # the plan runs at the limit, never over it

@@ -21,7 +21,10 @@ braking envelope (force, power and adhesion, at v).
   section in turn (a section shorter than the train is judged as if it held
   the whole train, which is conservative).
 
-:func:`feasibility_check` is the design review's ``feasibility`` check.
+:func:`feasibility_check` is the design review's ``feasibility`` check; with a
+reference on a track with speed limits it also fails where the reference
+exceeds a limit under the train (:func:`speed_limit_excess`): a route the
+train may not run is not feasible either.
 """
 
 from __future__ import annotations
@@ -42,7 +45,8 @@ if TYPE_CHECKING:
     from trainctl.models.train import Train
     from trainctl.scenario import Scenario, SimulationSettings
 
-__all__ = ["GRID_POINTS", "RouteForces", "feasibility_check", "reference_motion", "route_forces"]
+__all__ = ["GRID_POINTS", "LimitExcess", "RouteForces", "feasibility_check", "reference_motion",
+           "route_forces", "speed_limit_excess"]
 
 KN = 1e3
 Array = NDArray[np.float64]
@@ -54,6 +58,9 @@ _MAX_CROSSINGS = 200_000
 """Above this many (vehicle, section) crossings only the head's and tail's are added."""
 
 _SHOWN = 4
+
+_LIMIT_TOL = 1e-9
+"""Relative excess over a speed limit the check allows (the planner meets limits exactly)."""
 """Vehicles listed by name in a check message (the rest are counted)."""
 
 
@@ -245,6 +252,115 @@ def reference_motion(sim: SimulationSettings, times: Array) -> tuple[Array, Arra
     return speed, slopes[j], travelled[j] + vb[j] * tau + slopes[j] * tau * tau / 2
 
 
+class LimitExcess(NamedTuple):
+    """The reference's worst excess over a speed limit (:func:`speed_limit_excess`).
+
+    Parameters
+    ----------
+    excess : float
+        Reference speed minus the limit [m/s] (> 0: over it).
+    time : float
+        When [s].
+    speed : float
+        The reference speed then [m/s].
+    limit : float
+        The limit [m/s].
+    start : float
+        Where that limit starts [m].
+    head : float
+        The head's position then [m].
+
+    Examples
+    --------
+    >>> LimitExcess(excess=2.0, time=5.0, speed=27.0, limit=25.0, start=800.0,
+    ...             head=820.0).excess
+    2.0
+    """
+
+    excess: float
+    time: float
+    speed: float
+    limit: float
+    start: float
+    head: float
+
+
+def speed_limit_excess(sim: SimulationSettings, train: Train,
+                       track: Track) -> LimitExcess | None:
+    """The largest excess of the reference over the speed limits under the train.
+
+    The reference speed is common to the train; restriction j (limit ℓ from
+    its start a to the next start b) holds while any vehicle is on it: from
+    the head reaching a until the tail leaving b. The reference is piecewise
+    linear in time, so its largest value over that interval is at the
+    interval's ends or at a breakpoint inside: the check is exact (the ends
+    located by bisection on the head position to 1e-12 s).
+
+    Parameters
+    ----------
+    sim : SimulationSettings
+        The reference (head at 0 m at t = 0).
+    train, track : Train, Track
+        The train's length; the track's speed limits.
+
+    Returns
+    -------
+    LimitExcess or None
+        The worst point (largest speed minus limit) over every restriction the
+        run meets; None without speed limits or when the run meets none.
+
+    Examples
+    --------
+    >>> from trainctl.models import crh2_half
+    >>> from trainctl.models.track import SpeedLimit
+    >>> from trainctl.scenario import SimulationSettings
+    >>> sim = SimulationSettings(duration=100.0, strategies=("centralised",),
+    ...                          reference_times=(0.0,), reference_speeds=(30.0,))
+    >>> track = Track(speed_limits=(SpeedLimit(start=0.0, limit=40.0),
+    ...                             SpeedLimit(start=1500.0, limit=25.0)))
+    >>> worst = speed_limit_excess(sim, crh2_half(), track)
+    >>> round(worst.excess, 6), worst.time  # 5 m/s over, from t = 50 s
+    (5.0, 50.0)
+    """
+    limits = track.speed_limits
+    if not limits:
+        return None
+    duration = float(sim.duration)
+    length = float(np.sum(train.spacing))
+    end_head = float(reference_motion(sim, np.array([duration]))[2][0])
+    tb = np.asarray(sim.reference_times, dtype=float)
+    worst: LimitExcess | None = None
+    for j, limit in enumerate(limits):
+        stop = limits[j + 1].start + length if j + 1 < len(limits) else math.inf
+        if limit.start > end_head or stop <= 0.0:
+            continue
+        t0 = 0.0 if limit.start <= 0.0 else _time_at(sim, limit.start, duration)
+        t1 = duration if stop >= end_head else _time_at(sim, stop, duration)
+        inside = tb[(tb > t0) & (tb < t1)]
+        t = np.concatenate([[t0, t1], inside])
+        speed, _, head = reference_motion(sim, t)
+        k = int(np.argmax(speed))
+        excess = float(speed[k] - limit.limit)
+        if worst is None or excess > worst.excess:
+            worst = LimitExcess(excess=excess, time=float(t[k]), speed=float(speed[k]),
+                                limit=limit.limit, start=limit.start, head=float(head[k]))
+    return worst
+
+
+def _time_at(sim: SimulationSettings, position: float, duration: float) -> float:
+    """The first time in [0, duration] the reference's head reaches ``position`` [m]."""
+    lo, hi = 0.0, duration
+    for _ in range(200):
+        if hi - lo <= 1e-12 * max(1.0, hi):
+            break
+        mid = 0.5 * (lo + hi)
+        if float(reference_motion(sim, np.array([mid]))[2][0]) < position:
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
 def feasibility_check(scenario: Scenario, route: RouteForces | None = None) -> Check:
     """The ``feasibility`` check: every vehicle within its envelope along the route.
 
@@ -277,6 +393,21 @@ def feasibility_check(scenario: Scenario, route: RouteForces | None = None) -> C
     bad = route.infeasible()
     details: dict[str, object] = {"mode": route.mode, "points": int(route.speeds.size),
                                   "max_utilisation": finite_or_none(worst)}
+    sim, track = scenario.simulation, scenario.track
+    excess = None if sim is None or track is None else speed_limit_excess(
+        sim, scenario.train, track)
+    if excess is not None:
+        details["speed_limit"] = excess._asdict()
+    if excess is not None and excess.excess > _LIMIT_TOL * (1.0 + excess.limit):
+        found = _failed(route, bad, worst, details) if bad.any() else None
+        text = (f"the reference exceeds the speed limit of {3.6 * excess.limit:.4g} km/h "
+                f"(from {excess.start:g} m) by {3.6 * excess.excess:.3g} km/h at "
+                f"t = {excess.time:.6g} s (head at {excess.head:.6g} m, reference "
+                f"{3.6 * excess.speed:.4g} km/h)")
+        return Check(name="feasibility", status="fail", value=worst, threshold=1.0, unit="",
+                     message=text if found is None else f"{text}; {found.message}",
+                     hint="Plan the reference under the limits ([simulation.plan]) or lower "
+                     "its speeds there.", details=details)
     if bad.any():
         return _failed(route, bad, worst, details)
     k, i = (int(x) for x in np.unravel_index(int(np.argmax(ratio)), ratio.shape))
