@@ -26,6 +26,7 @@ __all__ = [
     "davis_from_unit_resistance_kmh",
     "davis_from_unit_resistance_ms",
     "j_to_kwh",
+    "kg_per_s_to_t_per_h",
     "kmh_to_ms",
     "kn_per_m_to_n_per_m",
     "kn_s_per_m_to_n_s_per_m",
@@ -215,6 +216,27 @@ def kwh_to_j(energy_kwh: float) -> float:
     1800000.0
     """
     return energy_kwh * JOULES_PER_KWH
+
+
+def kg_per_s_to_t_per_h(flow: float) -> float:
+    """Convert a mass flow from kg/s to tonnes per hour (3600 s/h over 1000 kg/t).
+
+    Parameters
+    ----------
+    flow : float
+        Mass flow [kg/s].
+
+    Returns
+    -------
+    float
+        Mass flow [t/h].
+
+    Examples
+    --------
+    >>> kg_per_s_to_t_per_h(1000.0)
+    3600.0
+    """
+    return flow * 3.6
 
 
 def kn_per_m_to_n_per_m(stiffness_kn_per_m: float) -> float:
