@@ -7,7 +7,8 @@ reference; :func:`simulate` runs any :class:`~trainctl.controllers.base.Controll
 in closed loop and returns a :class:`SimulationResult` (save/load, pandas,
 python-control and matplotlib views); :func:`compute_metrics` summarises it
 and :func:`energy_account` balances its energy; :func:`limited_profile` plans a
-reference under a line's speed limits.
+reference under a line's speed limits; :mod:`trainctl.sim.capacity` gives a
+line's braking distances, headways and throughput.
 The loop saturates every controller's forces to the vehicles' envelopes and
 records the plant between the samples on a dense grid (:func:`dense_grid`
 gives its rule).
