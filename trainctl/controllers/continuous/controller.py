@@ -34,9 +34,11 @@ from trainctl.controllers.base import (
     control_dt,
     documented_as,
 )
+from trainctl.controllers.continuous.resistance import line_resistance
 from trainctl.controllers.faults import call_solver, fault_record, finite, non_finite_reason
 from trainctl.controllers.reference import ReferencePosition, position_errors
 from trainctl.exceptions import ModelError
+from trainctl.models.dynamics import vehicle_positions
 from trainctl.models.envelope import EnvelopeBounds
 from trainctl.models.feedforward import ForceSplit
 from trainctl.models.train import Train
@@ -203,6 +205,10 @@ class SampledLawController(Generic[LawT]):
         reason = "" if finite(x) else non_finite_reason("state", x)
         if reason:
             return self._fallback(ff_inputs, np.full(n, speed), reason, start)
+        line = getattr(self.law, "line", None)
+        if line is not None:  # the law's line feedforward: m_i r(p_i) at each position
+            ff_inputs = ff_inputs + self.train.mass * line_resistance(
+                line, vehicle_positions(self.train, x), n)
         z = self._deviations(x[n:2 * n - 1], ff_elongations)
         head = x[2 * n - 1] - self._reference(t, speed, float(x[2 * n - 1]))
         x_err = position_errors(head, z)

@@ -201,6 +201,23 @@ class FlockingFamily(ContinuousFamily[FlockingDesign, "FlockingSettings"]):
 
         return trajectory_checks(design, strategy, result)
 
+    def claims(self, run: Any) -> list[Any]:
+        """Seed 002's claims (:func:`trainctl.controllers.flocking.claims.paper_claims`).
+
+        Parameters
+        ----------
+        run : AnalysisRun
+            The analysis run.
+
+        Returns
+        -------
+        list of Claim
+            The claims the run decides (none without a simulated ``flocking``).
+        """
+        from trainctl.controllers.flocking.claims import paper_claims
+
+        return paper_claims(run)
+
     def report_data(self, design: FlockingDesign) -> dict[str, Any]:
         """Potential parameters, the closed-loop spectrum (sampled) and the graph, JSON-safe.
 

@@ -63,6 +63,7 @@ from trainctl.exceptions import ModelError, ScenarioError
 
 if TYPE_CHECKING:
     from trainctl.controllers.flocking.settings import FlockingSettings
+    from trainctl.models.track import Track
     from trainctl.scenario import Scenario
 
 __all__ = ["FlockingLaw", "desired_gaps", "law_of"]
@@ -90,6 +91,11 @@ class FlockingLaw:
         c₁ [1/s²].
     speed_gain : float
         c₂ [1/s].
+    line : Track or None
+        The line fed forward: each train adds m_i·r(p_i), the grade and curve
+        resistance at its measured position
+        (:func:`~trainctl.controllers.continuous.resistance.line_resistance`);
+        None: no line feedforward.
 
     Examples
     --------
@@ -108,6 +114,7 @@ class FlockingLaw:
     consensus_gain: float
     position_gain: float
     speed_gain: float
+    line: Track | None = None
 
     @property
     def n(self) -> int:
@@ -378,4 +385,5 @@ def law_of(scenario: Scenario, settings: FlockingSettings) -> FlockingLaw:
         graph=np.asarray(scenario.graph().adjacency, dtype=float),
         consensus_gain=float(settings.consensus_gain),
         position_gain=float(settings.position_gain),
-        speed_gain=float(settings.speed_gain))
+        speed_gain=float(settings.speed_gain),
+        line=scenario.track if settings.line_feedforward else None)

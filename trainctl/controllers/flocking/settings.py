@@ -64,6 +64,10 @@ class FlockingSettings:
         simulation; None: ``[model].sample_time``.
     input_bounds : bool
         Clip the forces to each train's traction/braking envelope.
+    line_feedforward : bool
+        Each train adds the grade and curve resistance at its own position
+        to its feedforward (as the synchronous and hinf laws do); false: the
+        line is left to the feedback.
 
     Examples
     --------
@@ -110,6 +114,9 @@ class FlockingSettings:
         omitted="[model].sample_time")] = None
     input_bounds: Annotated[bool, Flag(), Key(
         "Saturate the plant input to the traction/braking envelope")] = True
+    line_feedforward: Annotated[bool, Flag(), Key(
+        "Each train feeds forward the grade and curve resistance at its own position "
+        "(false: the feedback alone meets the line)")] = False
 
     @model_validator(mode="after")
     def _cross_field_rules(self) -> FlockingSettings:
