@@ -312,6 +312,26 @@ class MPCFamily(FamilyBase[MPCFamilyDesign, ControllerSettings]):
     checks_path = "trainctl.controllers.mpc.checks:mpc_checks"
     _design = staticmethod(design_mpc)
 
+
+    def claims(self, run: Any) -> list[Any]:
+        """Seed 000's claims when this is the primary family
+        (:func:`trainctl.analysis.paper_claims.mpc_claims`).
+
+        Parameters
+        ----------
+        run : AnalysisRun
+            The analysis run.
+
+        Returns
+        -------
+        list of Claim
+            The claims the run decides; none when another family is primary.
+        """
+        from trainctl.analysis.paper_claims import mpc_claims
+
+        if next(iter(run.design.families), None) != self.name:
+            return []
+        return mpc_claims(run)
     def make(self, design: MPCFamilyDesign, strategy: str) -> MPCController:
         """See :func:`make_mpc_controller`.
 

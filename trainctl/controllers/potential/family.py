@@ -196,6 +196,26 @@ class PotentialFamily(ContinuousFamily[PotentialDesign, "PotentialSettings"]):
     graph_usage = GRAPH_USAGE
     _design = staticmethod(design_potential)
 
+
+    def claims(self, run: Any) -> list[Any]:
+        """Seed 001's claims when this is the primary family
+        (:func:`trainctl.analysis.paper_claims.potential_claims`).
+
+        Parameters
+        ----------
+        run : AnalysisRun
+            The analysis run.
+
+        Returns
+        -------
+        list of Claim
+            The claims the run decides; none when another family is primary.
+        """
+        from trainctl.analysis.paper_claims import potential_claims
+
+        if next(iter(run.design.families), None) != self.name:
+            return []
+        return potential_claims(run)
     def trajectory_checks(self, design: PotentialDesign, strategy: str,
                           result: SimulationResult) -> list[Check]:
         """``potential_linearisation`` judged on the simulated trajectory.
