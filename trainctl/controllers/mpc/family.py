@@ -314,8 +314,7 @@ class MPCFamily(FamilyBase[MPCFamilyDesign, ControllerSettings]):
 
 
     def claims(self, run: Any) -> list[Any]:
-        """Seed 000's claims when this is the primary family
-        (:func:`trainctl.analysis.paper_claims.mpc_claims`).
+        """Seed 000's claims (:func:`~trainctl.analysis.paper_claims.mpc_claims`), when primary.
 
         Parameters
         ----------

@@ -198,8 +198,7 @@ class PotentialFamily(ContinuousFamily[PotentialDesign, "PotentialSettings"]):
 
 
     def claims(self, run: Any) -> list[Any]:
-        """Seed 001's claims when this is the primary family
-        (:func:`trainctl.analysis.paper_claims.potential_claims`).
+        """Seed 001's claims (:func:`~trainctl.analysis.paper_claims.potential_claims`), when primary.
 
         Parameters
         ----------
