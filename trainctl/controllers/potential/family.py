@@ -198,7 +198,9 @@ class PotentialFamily(ContinuousFamily[PotentialDesign, "PotentialSettings"]):
 
 
     def claims(self, run: Any) -> list[Any]:
-        """Seed 001's claims (:func:`~trainctl.analysis.paper_claims.potential_claims`), when primary.
+        """Seed 001's claims (:func:`~trainctl.analysis.paper_claims.potential_claims`).
+
+        None when another family is primary.
 
         Parameters
         ----------
