@@ -27,6 +27,8 @@ _METRICS = (
 )
 _COUPLER_LIMIT = ("coupler_limit", "Coupler admissible force (max_force_kn)", "")
 """Column of the metrics table when some coupler has an admissible force."""
+_COST = ("operating_cost", "Operating cost (energy + train-hours)", "")
+"""Column of the metrics table when the scenario declares prices (``[cost]``)."""
 _SOLVER = (
     ("strategy", "Strategy", ""), ("iterations", "Iterations mean / max", "-"),
     ("solve_time", "Step time median / p95", "ms"), ("statuses", "Step statuses", ""),
@@ -81,6 +83,8 @@ def controllers_context(data: ReportData, *, deterministic: bool) -> dict[str, A
     if sims:
         limited = any(m.get("coupler_verdict") for m in sims.values())
         metrics = _METRICS[:-1] + (_COUPLER_LIMIT,) + _METRICS[-1:] if limited else _METRICS
+        if any(m.get("operating_cost") for m in sims.values()):
+            metrics = metrics[:5] + (_COST,) + metrics[5:]
         tables.append(_table("metrics", "Tracking, forces and energy", metrics,
                              {name: _metric_cells(m) for name, m in sims.items()}, sims))
         solver = [c for c in _SOLVER if not (deterministic and c[0] == "solve_time")]
@@ -177,7 +181,22 @@ def _metric_cells(m: Mapping[str, Any]) -> dict[str, str]:
         "max_jerk": format_value(_round(m["max_jerk"])),
         "tracking": "within tolerance" if m.get("tracking_ok") else "outside tolerance",
         "coupler_limit": _coupler_cell(m.get("coupler_verdict")),
+        "operating_cost": _cost_cell(m.get("operating_cost")),
     }
+
+
+def _cost_cell(cost: Mapping[str, Any] | None) -> str:
+    """The operating cost of one strategy (:class:`~trainctl.sim.energy.OperatingCost`).
+
+    Examples
+    --------
+    >>> _cost_cell({"total": 1234.5, "energy": 434.5, "time": 800.0, "currency": "EUR"})
+    '1234 EUR (energy 434.5, time 800)'
+    """
+    if not cost:
+        return "—"
+    return (f"{format_number(cost['total'], 4)} {cost['currency']} (energy "
+            f"{format_number(cost['energy'], 4)}, time {format_number(cost['time'], 4)})")
 
 
 def _coupler_cell(verdict: Mapping[str, Any] | None) -> str:
