@@ -208,6 +208,7 @@ def paper_claims(run: Any) -> list[Claim]:
     b = min(float(braking_deceleration(_single(train, i), np.linspace(0.0, v, 65)).min())
             for i in range(units))
     capacity = _capacity(train, v, b, potential.desired_gap, scenario.network)
+    capacity["simulated"] = _simulated_headway(train, result)
     out.append(_efficiency(capacity, units, unit_mass))
     allocation = scenario.model.allocation
     whole = reference_energy(combined_train(train), scenario.track, sim, allocation=allocation)
@@ -282,6 +283,20 @@ def _capacity(train: Train, v: float, b: float, gap: float, network: Any) -> dic
         "delay": delay, "deceleration": b, "speed": v, "gap": gap}
 
 
+def _simulated_headway(train: Train, result: Any) -> tuple[float, float] | None:
+    """(mean headway [s], where [m]) of the simulated units passing the point halfway
+    between where the last unit starts and where the head ends; None if some never pass."""
+    from trainctl.models.dynamics import vehicle_positions
+    from trainctl.sim.capacity import headways_at
+
+    positions = vehicle_positions(train, result.states)
+    point = 0.5 * (float(positions[-1, 0]) + float(positions[0, -1]))
+    gaps = headways_at(result.time, positions, point)
+    if gaps.size != train.n_vehicles - 1:
+        return None
+    return float(np.mean(gaps)), point
+
+
 def _efficiency(cap: dict[str, Any], units: int, unit_mass: float) -> Claim:
     a, b, c = cap["a"], cap["b"], cap["c"]
     safe = cap["gap"] >= cap["relative"]
@@ -300,7 +315,10 @@ def _efficiency(cap: dict[str, Any], units: int, unit_mass: float) -> Claim:
         f"{cap['deceleration']:.3g} m/s² (c), or coupled {units} by {units} (a). "
         f"The relative braking distance (delay {cap['delay']:g} s) is "
         f"{cap['relative']:.0f} m: d {'covers' if safe else 'does not cover'} it"
-        f"{'' if safe else ' (virtual coupling at d is not safe without a supervisor)'}.")
+        f"{'' if safe else ' (virtual coupling at d is not safe without a supervisor)'}."
+        + ("" if cap.get("simulated") is None else
+           f" Simulated: the units pass {cap['simulated'][1]:.0f} m every "
+           f"{cap['simulated'][0]:.1f} s on average (at the gap d, {b.headway:.1f} s)."))
 
 
 def _energy(simulated: float, alone: dict[str, Any], whole: dict[str, Any]) -> Claim:
