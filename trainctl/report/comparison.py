@@ -82,7 +82,8 @@ def controllers_context(data: ReportData, *, deterministic: bool) -> dict[str, A
     tables = []
     if sims:
         limited = any(m.get("coupler_verdict") for m in sims.values())
-        metrics = _METRICS[:-1] + (_COUPLER_LIMIT,) + _METRICS[-1:] if limited else _METRICS
+        metrics: tuple[tuple[str, str, str], ...] = (
+            _METRICS[:-1] + (_COUPLER_LIMIT,) + _METRICS[-1:] if limited else _METRICS)
         if any(m.get("operating_cost") for m in sims.values()):
             metrics = metrics[:5] + (_COST,) + metrics[5:]
         tables.append(_table("metrics", "Tracking, forces and energy", metrics,
