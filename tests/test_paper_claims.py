@@ -1,4 +1,4 @@
-"""Seeds 000 and 001's claims tables (:mod:`trainctl.analysis.paper_claims`).
+"""Seeds 000 and 001's claims tables (``trainctl.controllers.mpc.claims``, ``...potential.claims``).
 
 The rules are checked on stand-in runs whose metrics sit on either side of
 each threshold; one short run of each seed's scenario checks that the claims
@@ -12,7 +12,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from trainctl.analysis.paper_claims import mpc_claims, potential_claims
+from trainctl.controllers.mpc.claims import mpc_claims
+from trainctl.controllers.potential.claims import potential_claims
 from trainctl.models import crh2_half, equilibrium
 
 

@@ -236,7 +236,7 @@ class LinearLaw:
 
     Examples
     --------
-    >>> from trainctl.controllers.lqr import LQRController
+    >>> from trainctl.controllers.lqr.controller import LQRController
     >>> from trainctl.models import crh2_half
     >>> law = LQRController(crh2_half(), np.zeros((4, 7)), dt=0.05).linear_law()
     >>> law.gain.shape, law.scale

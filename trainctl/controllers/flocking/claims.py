@@ -146,8 +146,8 @@ def reference_energy(train: Train, track: Track | None, sim: SimulationSettings,
     >>> from trainctl.scenario import load_scenario
     >>> sc = load_scenario("heavy-haul-flocking")
     >>> one = reference_energy(combined_train(sc.train), sc.track, sc.simulation)
-    >>> round(one["per_tonne_km"], 2)  # Wh/(t·km) at 80 km/h, level
-    5.84
+    >>> round(one["per_tonne_km"], 2)  # level: (a0 + a1 v + a2 v²) / 0.0036 at 80 km/h
+    5.73
     """
     from trainctl.models.track import Track
 

@@ -314,7 +314,7 @@ class MPCFamily(FamilyBase[MPCFamilyDesign, ControllerSettings]):
 
 
     def claims(self, run: Any) -> list[Any]:
-        """Seed 000's claims (:func:`~trainctl.analysis.paper_claims.mpc_claims`), when primary.
+        """Seed 000's claims (:func:`~trainctl.controllers.mpc.claims.mpc_claims`), when primary.
 
         Parameters
         ----------
@@ -326,7 +326,7 @@ class MPCFamily(FamilyBase[MPCFamilyDesign, ControllerSettings]):
         list of Claim
             The claims the run decides; none when another family is primary.
         """
-        from trainctl.analysis.paper_claims import mpc_claims
+        from trainctl.controllers.mpc.claims import mpc_claims
 
         if next(iter(run.design.families), None) != self.name:
             return []

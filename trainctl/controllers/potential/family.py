@@ -198,7 +198,7 @@ class PotentialFamily(ContinuousFamily[PotentialDesign, "PotentialSettings"]):
 
 
     def claims(self, run: Any) -> list[Any]:
-        """Seed 001's claims (:func:`~trainctl.analysis.paper_claims.potential_claims`).
+        """Seed 001's claims (:func:`~trainctl.controllers.potential.claims.potential_claims`).
 
         None when another family is primary.
 
@@ -212,7 +212,7 @@ class PotentialFamily(ContinuousFamily[PotentialDesign, "PotentialSettings"]):
         list of Claim
             The claims the run decides; none when another family is primary.
         """
-        from trainctl.analysis.paper_claims import potential_claims
+        from trainctl.controllers.potential.claims import potential_claims
 
         if next(iter(run.design.families), None) != self.name:
             return []
