@@ -42,6 +42,7 @@ BUILTIN_NAMES = [
     "crh2-potential-unpinned",
     "heavy-haul-flocking",
     "heavy-haul-flocking-collision",
+    "heavy-haul-flocking-outage",
     "heavy-haul-hinf",
     "heavy-haul-hinf-delay",
     "heavy-haul-hinf-delay-sweep",
