@@ -404,6 +404,28 @@ def braking_margins(design: FlockingDesign,
     (ndarray, ndarray of bool)
         The margins [m], shape (n-1, N) (follower 1 first, one column per
         step), and where the follower braked at full.
+
+    Examples
+    --------
+    One step of heavy-haul-flocking's formation cruising at 80 km/h, 500 m
+    apart, no network: each follower may run on, with 500 m − 22.2 m/s × 1 s
+    − 50 m to spare.
+
+    >>> from types import SimpleNamespace
+    >>> from trainctl.design import build_model
+    >>> from trainctl.models import equilibrium
+    >>> from trainctl.scenario import load_scenario
+    >>> from trainctl.controllers.flocking.family import design_flocking
+    >>> scenario = load_scenario("heavy-haul-flocking")
+    >>> design = design_flocking(scenario, build_model(scenario),
+    ...                          scenario.controllers["flocking"])
+    >>> eq = equilibrium(scenario.train, 80 / 3.6)
+    >>> x = eq.state(position=0.0)
+    >>> result = SimpleNamespace(states=np.column_stack([x, x]), inputs=eq.inputs[:, None],
+    ...                          time=np.array([0.0, 1.0]))
+    >>> margins, braking = braking_margins(design, result)
+    >>> margins.round(1).tolist(), bool(braking.any())
+    ([[427.8], [427.8], [427.8]], False)
     """
     from trainctl.models.actuator import SATURATION_TOLERANCE
 

@@ -275,8 +275,8 @@ class BrakingSupervisor:
         Returns
         -------
         float
-            t_r [s]: t - τ, or for an outage window [s, e) of the link with
-            s - τ < t - τ < e the instant s - τ (windows chained).
+            The send time t_r [s]: t - τ, or for an outage window [s, e) of
+            the link with s - τ < t - τ < e the instant s - τ (windows chained).
         """
         sent = t - self.delay
         moved = True
@@ -409,10 +409,10 @@ def supervisor_of(scenario: Scenario, settings: FlockingSettings,
     Returns
     -------
     BrakingSupervisor
-        τ: ``supervisor_delay_s``, else the ``[network]``'s largest delay, else
-        0; T: ``supervisor_outage_s``, else the longest ``[network.interruption]``
-        window, else 0; each follower's windows: those that cut its link from
-        the train ahead.
+        Its delay τ is ``supervisor_delay_s``, else the ``[network]``'s largest
+        delay, else 0; its outage T ``supervisor_outage_s``, else the longest
+        ``[network.interruption]`` window, else 0; each follower's windows are
+        those that cut its link from the train ahead.
 
     Raises
     ------
