@@ -52,9 +52,11 @@ harder than b_L and every follower's brakes give at least b_f(v) at every
 speed below v. It does not depend on the cruise law: the flocking law keeps
 using the full state, and the supervisor only checks the command it
 proposes. At a cruise speed v with equal trains and brakes the rule lets a
-gap g run on through an outage of T exactly when g >= v·(T_c + T + 2τ) +
-margin (T_c + τ without an outage): the design-time
-``flocking_braking_distance`` check (:mod:`~trainctl.controllers.flocking.checks`).
+gap g run on through an outage of T when g >= v·(T_c + T + 2τ) + margin
+(T_c + τ without an outage): the design-time ``flocking_braking_distance``
+check (:mod:`~trainctl.controllers.flocking.checks`). Exactly so when τ is a
+whole number of control intervals; otherwise the newest sample received is
+older than t - τ by up to T_c, and the rule asks up to v·T_c more.
 
 What the margin must cover (the model's assumptions): constant
 decelerations; running resistance and grade left out of the braking on both
