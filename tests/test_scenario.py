@@ -43,6 +43,7 @@ BUILTIN_NAMES = [
     "heavy-haul-flocking",
     "heavy-haul-flocking-collision",
     "heavy-haul-flocking-line",
+    "heavy-haul-flocking-outage",
     "heavy-haul-hinf",
     "heavy-haul-hinf-delay",
     "heavy-haul-hinf-delay-sweep",

@@ -31,10 +31,18 @@ from numpy.typing import ArrayLike, NDArray
 
 from trainctl.controllers.base import StepRecord
 
-__all__ = ["call_solver", "fault_record", "finite", "non_finite_reason", "safe_inputs"]
+__all__ = ["SUPERVISOR_BRAKING", "call_solver", "fault_record", "finite", "non_finite_reason",
+           "safe_inputs"]
 
 T = TypeVar("T")
 Array = NDArray[np.float64]
+
+SUPERVISOR_BRAKING = "supervisor_braking"
+"""The fallback name of a step at which a safety supervisor overrode the law with full braking.
+
+Not a fault: the step keeps its status (``"optimal"`` when the law answered),
+and ``info["supervisor"]`` names the vehicles braked
+(:mod:`trainctl.controllers.flocking.supervisor`)."""
 
 
 def call_solver(solve: Callable[..., T], *args: object,

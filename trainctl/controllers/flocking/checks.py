@@ -45,6 +45,22 @@
     + c₂ max|v̂(0)| + c₁ max|x̂(0)|), against its traction and braking limits
     at the cruise speed minus the feedforward; warn when it exceeds them
     (the law may saturate, and the collision certificate assumes it does not).
+``flocking_braking_distance``
+    The design-time worst case of virtual coupling: the formation at the
+    cruise speed v, each gap the smaller of d and its initial gap, the leader
+    braking at its strongest just after its last message before an outage of
+    the assumed length T, the follower running on until it can have heard
+    (T_c + τ, and T + τ more with an outage:
+    :meth:`~trainctl.controllers.flocking.supervisor.BrakingSupervisor.design_lag`),
+    then braking. Value: the smallest gap minus its relative braking distance
+    (with the margin) [m]. Pass when >= 0; else fail without the supervisor
+    (a leader braking during such an outage can be hit) and warn with it
+    (the supervisor will brake: capacity is lost, safety kept). After a
+    simulation (:func:`trajectory_checks`) the supervisor's rule is judged
+    at every control step of the run (:func:`braking_margins`): a follower
+    that ran on needs its run-on margin, one braking at full its brake-now
+    margin; a negative one fails, whatever the design-time verdict, and the
+    supervisor's activations join the message.
 """
 
 from __future__ import annotations
@@ -57,13 +73,15 @@ from numpy.typing import NDArray
 from trainctl.analysis.check import Check
 from trainctl.controllers.continuous.loops import Translation, hurwitz_check
 from trainctl.controllers.continuous.sampled import cumulative, sampling_check
+from trainctl.models.braking import relative_braking_distance
 
 if TYPE_CHECKING:
     from trainctl.controllers.flocking.family import FlockingDesign
+    from trainctl.controllers.flocking.supervisor import BrakingSupervisor
     from trainctl.sim import SimulationResult
 
-__all__ = ["SOFT_SPRING", "flocking_checks", "initial_energy", "trajectory_checks",
-           "trajectory_gaps"]
+__all__ = ["SOFT_SPRING", "braking_distance_check", "braking_margins", "flocking_checks",
+           "initial_energy", "trajectory_checks", "trajectory_gaps"]
 
 Array = NDArray[np.float64]
 
@@ -73,7 +91,7 @@ SOFT_SPRING = 0.5
 
 
 def flocking_checks(design: FlockingDesign) -> list[Check]:
-    """The six checks (module docstring), in ``CHECK_NAMES`` order.
+    """The seven checks (module docstring), in ``CHECK_NAMES`` order.
 
     Parameters
     ----------
@@ -83,8 +101,8 @@ def flocking_checks(design: FlockingDesign) -> list[Check]:
     Returns
     -------
     list of Check
-        The checks parameters, closed loop, sampling, collision, connectivity
-        and actuators.
+        The checks parameters, closed loop, sampling, collision, connectivity,
+        actuators and braking distance.
 
     Examples
     --------
@@ -103,7 +121,7 @@ def flocking_checks(design: FlockingDesign) -> list[Check]:
             sampling_check("flocking_sampling", design.A_cl, design.sampled_matrix(),
                            design.control_interval),
             collision_check(design, energy), connectivity_check(design, energy),
-            actuators_check(design)]
+            actuators_check(design), braking_distance_check(design)]
 
 
 def initial_errors(design: FlockingDesign) -> tuple[Array, Array, Array]:
@@ -284,6 +302,186 @@ def actuators_check(design: FlockingDesign) -> Check:
                  threshold=1.0, unit="", message=text, details=details)
 
 
+def _supervisor(design: FlockingDesign) -> BrakingSupervisor:
+    """The design's braking supervisor (also when the settings leave it off)."""
+    from trainctl.controllers.flocking.supervisor import supervisor_of
+
+    return supervisor_of(design.scenario, design.settings, design.control_interval)
+
+
+def braking_distance_check(design: FlockingDesign) -> Check:
+    """``flocking_braking_distance`` at design time: the cruise worst case (module docstring).
+
+    Parameters
+    ----------
+    design : FlockingDesign
+        The family's design (settings, initial errors, control interval).
+
+    Returns
+    -------
+    Check
+        Value: the smallest gap minus its relative braking distance [m];
+        pass when >= 0, else fail without the supervisor and warn with it.
+
+    Examples
+    --------
+    heavy-haul-flocking cruises at 80 km/h (22.2 m/s) with no network: a
+    follower needs v·T_c + 50 m = 72.2 m, and the smallest gap is 400 m:
+
+    >>> from trainctl.design import build_model
+    >>> from trainctl.scenario import load_scenario
+    >>> from trainctl.controllers.flocking.family import design_flocking
+    >>> scenario = load_scenario("heavy-haul-flocking")
+    >>> design = design_flocking(scenario, build_model(scenario),
+    ...                          scenario.controllers["flocking"])
+    >>> check = braking_distance_check(design)
+    >>> check.status, round(check.value, 1), round(check.details["required_m"][0], 1)
+    ('pass', 327.8, 72.2)
+    """
+    sup = _supervisor(design)
+    law, n = design.law, design.law.n
+    v = float(design.model.settings.speed)
+    _, z, _ = initial_errors(design)
+    gaps = np.minimum(law.gaps(z), law.potential.desired_gap)
+    lag = sup.design_lag()
+    follower = [sup.follower_deceleration(i, v) for i in range(1, n)]
+    leader = [sup.leader_deceleration(i - 1) for i in range(1, n)]
+    required = np.array([relative_braking_distance(
+        v, v, follower_deceleration=follower[i - 1], leader_deceleration=leader[i - 1],
+        delay=lag, margin=sup.margin) for i in range(1, n)])
+    spare = gaps - required
+    worst = int(np.argmin(spare))
+    value = float(spare[worst])
+    on = bool(design.settings.supervisor)
+    details: dict[str, object] = {
+        "speed_m_s": v, "gaps_m": gaps.tolist(), "required_m": required.tolist(),
+        "follower_deceleration_m_s2": follower, "leader_deceleration_m_s2": leader,
+        "lag_s": lag, "control_interval_s": sup.interval, "delay_s": sup.delay,
+        "outage_s": sup.outage, "margin_m": sup.margin, "supervisor": on}
+    outage = f" and a {sup.outage:g} s outage" if sup.outage > 0.0 else ""
+    text = (f"follower {worst + 1}: gap {gaps[worst]:.4g} m against the relative braking "
+            f"distance {required[worst]:.4g} m at {v * 3.6:.4g} km/h (leader braking at "
+            f"{leader[worst]:.3g} m/s², the follower at {follower[worst]:.3g} m/s² after "
+            f"{lag:.4g} s: T_c {sup.interval:g} s, delay {sup.delay:g} s{outage}; margin "
+            f"{sup.margin:g} m)")
+    name = "flocking_braking_distance"
+    if value >= 0.0:
+        return Check(name=name, status="pass", value=value, threshold=0.0, unit="m",
+                     message=f"braking-safe at cruise: {text}", details=details)
+    if on:
+        return Check(name=name, status="warn", value=value, threshold=0.0, unit="m",
+                     message=f"{text}: a leader braking then can be hit unless the follower "
+                     "brakes; the supervisor will brake (capacity lost, safety kept)",
+                     hint="raise the gap or shorten the outage to keep the formation "
+                     "together through it", details=details)
+    return Check(name=name, status="fail", value=value, threshold=0.0, unit="m",
+                 message=f"{text}: a leader braking then can be hit, and no supervisor "
+                 "brakes the follower", hint="raise the gap, shorten the outage "
+                 "(supervisor_outage_s) or set supervisor = true", details=details)
+
+
+def braking_margins(design: FlockingDesign,
+                    result: SimulationResult) -> tuple[Array, NDArray[np.bool_]]:
+    """The supervisor's rule judged at every control step of a simulation.
+
+    The design's supervisor (on or not in the run) follows the recorded
+    states step by step: where a follower's applied force was its full
+    braking, its brake-now margin; elsewhere its run-on margin with the
+    applied force (:mod:`~trainctl.controllers.flocking.supervisor`). With
+    the supervisor on, a run-on step is one the supervisor let pass, so only
+    a start that is already unsafe, or a plant that leaves the rule's
+    assumptions, gives a negative margin.
+
+    Parameters
+    ----------
+    design : FlockingDesign
+        The family's design.
+    result : SimulationResult
+        A simulation of its scenario (the samples: states, applied inputs).
+
+    Returns
+    -------
+    (ndarray, ndarray of bool)
+        The margins [m], shape (n-1, N) (follower 1 first, one column per
+        step), and where the follower braked at full.
+
+    Examples
+    --------
+    One step of heavy-haul-flocking's formation cruising at 80 km/h, 500 m
+    apart, no network: each follower may run on, with 500 m − 22.2 m/s × 1 s
+    − 50 m to spare.
+
+    >>> from types import SimpleNamespace
+    >>> from trainctl.design import build_model
+    >>> from trainctl.models import equilibrium
+    >>> from trainctl.scenario import load_scenario
+    >>> from trainctl.controllers.flocking.family import design_flocking
+    >>> scenario = load_scenario("heavy-haul-flocking")
+    >>> design = design_flocking(scenario, build_model(scenario),
+    ...                          scenario.controllers["flocking"])
+    >>> eq = equilibrium(scenario.train, 80 / 3.6)
+    >>> x = eq.state(position=0.0)
+    >>> result = SimpleNamespace(states=np.column_stack([x, x]), inputs=eq.inputs[:, None],
+    ...                          time=np.array([0.0, 1.0]))
+    >>> margins, braking = braking_margins(design, result)
+    >>> margins.round(1).tolist(), bool(braking.any())
+    ([[427.8], [427.8], [427.8]], False)
+    """
+    from trainctl.models.actuator import SATURATION_TOLERANCE
+
+    sup = _supervisor(design)
+    n = design.law.n
+    states = np.asarray(result.states, dtype=float)
+    inputs = np.asarray(result.inputs, dtype=float)
+    times = np.asarray(result.time, dtype=float)
+    steps = inputs.shape[1]
+    margins = np.empty((n - 1, steps))
+    braking = np.zeros((n - 1, steps), dtype=bool)
+    for k in range(steps):
+        t, x, u = float(times[k]), states[:, k], inputs[:, k]
+        sup.observe(t, x)
+        margins[:, k] = sup.run_on_margins(t, x, u)
+        full = u[1:] <= sup.full_braking(x[:n])[1:] + SATURATION_TOLERANCE
+        if full.any():
+            braking[:, k] = full
+            margins[full, k] = sup.brake_now_margins(t, x)[full]
+    return margins, braking
+
+
+def _braking_trajectory_check(design: FlockingDesign, strategy: str,
+                              result: SimulationResult) -> Check:
+    """``flocking_braking_distance`` with the simulated run (module docstring)."""
+    from trainctl.controllers.faults import SUPERVISOR_BRAKING
+
+    before = braking_distance_check(design)
+    margins, braking = braking_margins(design, result)
+    if not margins.size:
+        return before
+    follower, k = np.unravel_index(int(np.argmin(margins)), margins.shape)
+    smallest, at = float(margins[follower, k]), float(result.time[k])
+    activations = sum(f == SUPERVISOR_BRAKING for f in result.fallbacks)
+    below = float(np.count_nonzero((margins < 0.0).any(axis=0)) * float(result.dt))
+    seen: dict[str, object] = {
+        "simulated_strategy": strategy, "simulated_min_margin_m": smallest,
+        "simulated_min_margin_time_s": at, "simulated_min_margin_follower": int(follower) + 1,
+        "simulated_time_below_s": below,
+        "simulated_full_braking_steps": int(braking.any(axis=0).sum()),
+        "supervisor_activations": int(activations)}
+    sim_text = (f"simulated {strategy}: smallest margin {smallest:.4g} m (follower "
+                f"{int(follower) + 1} at t = {at:g} s"
+                + (f", below 0 for {below:g} s" if below else "")
+                + f"); the supervisor braked at {activations} step(s)")
+    details = {**before.details, **seen}
+    if smallest < 0.0:
+        return Check(name=before.name, status="fail", value=smallest, threshold=0.0, unit="m",
+                     message=f"below the relative braking distance: {sim_text} "
+                     f"({before.message})", hint=before.hint or "set supervisor = true, or "
+                     "start with smaller speed errors or wider gaps", details=details)
+    return Check(name=before.name, status=before.status, value=before.value,
+                 threshold=before.threshold, unit=before.unit,
+                 message=f"{before.message}; {sim_text}", hint=before.hint, details=details)
+
+
 def trajectory_gaps(design: FlockingDesign, result: SimulationResult) -> tuple[float, float]:
     """(smallest, largest) gap [m] along a simulated result of the formation.
 
@@ -327,7 +525,7 @@ def trajectory_gaps(design: FlockingDesign, result: SimulationResult) -> tuple[f
 
 def trajectory_checks(design: FlockingDesign, strategy: str,
                       result: SimulationResult) -> list[Check]:
-    """``flocking_collision`` and ``flocking_connectivity`` with a simulation's gaps.
+    """``flocking_collision``, ``flocking_connectivity`` and ``flocking_braking_distance``.
 
     Parameters
     ----------
@@ -347,7 +545,8 @@ def trajectory_checks(design: FlockingDesign, strategy: str,
     Examples
     --------
     With the stand-in result of :func:`trajectory_gaps` (gaps between 400 m
-    and 590 m, inside the 600 m interaction range), both checks pass:
+    and 590 m, inside the 600 m interaction range), the gap checks pass (the
+    braking distance needs a full result: :func:`braking_margins`):
 
     >>> from trainctl.design import build_model
     >>> from trainctl.scenario import load_scenario
@@ -358,8 +557,9 @@ def trajectory_checks(design: FlockingDesign, strategy: str,
     >>> from types import SimpleNamespace
     >>> states = np.zeros((8, 2))
     >>> states[4:7] = [[90.0, 0.0], [-100.0, -50.0], [90.0, 20.0]]
-    >>> result = SimpleNamespace(states=states, dense_states=None)
-    >>> collision, connectivity = trajectory_checks(design, "flocking", result)
+    >>> result = SimpleNamespace(states=states, dense_states=None, inputs=np.zeros((4, 0)),
+    ...                          time=np.zeros(1), fallbacks=())
+    >>> collision, connectivity, braking = trajectory_checks(design, "flocking", result)
     >>> collision.details["simulated_min_gap_m"], connectivity.status, connectivity.value
     (400.0, 'pass', 590.0)
     """
@@ -393,4 +593,4 @@ def trajectory_checks(design: FlockingDesign, strategy: str,
                              message=f"every gap within the range along the simulated "
                              f"{strategy} run (widest {widest:.4g} m < {p.r:.4g} m)",
                              details=details)
-    return [collision, connectivity]
+    return [collision, connectivity, _braking_trajectory_check(design, strategy, result)]

@@ -12,7 +12,9 @@ no ``f[i]`` outputs. Generic analyses sample it
 (:func:`trainctl.analysis.loops.as_discrete`).
 
 The desired gap is the ``[train.coupler] gap`` (the plant measures the gap
-deviation from it); ``desired_gap_m``, when given, must agree.
+deviation from it); ``desired_gap_m``, when given, must agree. With
+``supervisor = true`` the controller carries the braking supervisor
+(:mod:`~trainctl.controllers.flocking.supervisor`).
 """
 
 from __future__ import annotations
@@ -40,7 +42,8 @@ STRATEGIES = ("flocking",)
 """The flocking family's one strategy."""
 
 CHECK_NAMES = ("flocking_parameters", "flocking_closed_loop", "flocking_sampling",
-               "flocking_collision", "flocking_connectivity", "flocking_actuators")
+               "flocking_collision", "flocking_connectivity", "flocking_actuators",
+               "flocking_braking_distance")
 """The flocking family's design checks (:mod:`trainctl.controllers.flocking.checks`)."""
 
 Array = NDArray[np.float64]
@@ -154,7 +157,7 @@ class FlockingFamily(ContinuousFamily[FlockingDesign, "FlockingSettings"]):
     >>> design = FAMILY.design(scenario, build_model(scenario),
     ...                          scenario.controllers["flocking"])
     >>> FAMILY.name, len(FAMILY.check_names)
-    ('flocking', 6)
+    ('flocking', 7)
     >>> ctl = FAMILY.make(design, "flocking")
     >>> ctl.name, ctl.dt  # sampled every control interval [s]
     ('flocking', 1.0)
@@ -164,7 +167,8 @@ class FlockingFamily(ContinuousFamily[FlockingDesign, "FlockingSettings"]):
     title = "Flocking (virtual coupling)"
     strategies = STRATEGIES
     check_names = CHECK_NAMES
-    trajectory_check_names = ("flocking_collision", "flocking_connectivity")
+    trajectory_check_names = ("flocking_collision", "flocking_connectivity",
+                              "flocking_braking_distance")
     """The checks :meth:`trajectory_checks` judges again on a simulation."""
     measures_gaps = True
     """The law measures the gaps (the model's observability check adds them to the outputs)."""
@@ -178,9 +182,18 @@ class FlockingFamily(ContinuousFamily[FlockingDesign, "FlockingSettings"]):
     graph_usage = GRAPH_USAGE
     _design = staticmethod(design_flocking)
 
+    def _controller_options(self, design: FlockingDesign) -> dict[str, Any]:
+        """The braking supervisor when the settings ask for it (``supervisor = true``)."""
+        if not design.settings.supervisor:
+            return {}
+        from trainctl.controllers.flocking.supervisor import supervisor_of
+
+        return {"supervisor": supervisor_of(design.scenario, design.settings,
+                                            design.control_interval)}
+
     def trajectory_checks(self, design: FlockingDesign, strategy: str,
                           result: SimulationResult) -> list[Check]:
-        """``flocking_collision`` and ``flocking_connectivity`` on the simulated gaps.
+        """``flocking_collision``, ``flocking_connectivity`` and ``flocking_braking_distance``.
 
         Parameters
         ----------
@@ -194,8 +207,8 @@ class FlockingFamily(ContinuousFamily[FlockingDesign, "FlockingSettings"]):
         Returns
         -------
         list of Check
-            The two checks, replacing the design review's checks of the same
-            names.
+            The three checks judged on the simulated gaps and speeds,
+            replacing the design review's checks of the same names.
         """
         from trainctl.controllers.flocking.checks import trajectory_checks
 

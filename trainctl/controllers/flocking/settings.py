@@ -68,12 +68,36 @@ class FlockingSettings:
         Each train adds the grade and curve resistance at its own position
         to its feedforward (as the synchronous and hinf laws do); false: the
         line is left to the feedback.
+    supervisor : bool
+        Run the braking-curve supervisor
+        (:mod:`~trainctl.controllers.flocking.supervisor`): a follower that
+        could not stop behind its leader braking at its strongest brakes at
+        full instead of following the law. Off by default.
+    supervisor_margin : float
+        Least gap [m] the supervisor keeps at the closest approach, >= 0
+        (file key ``supervisor_margin_m``).
+    leader_braking : float or None
+        The leaders' worst-case (strongest) deceleration [m/s²], > 0 (file key
+        ``leader_braking_m_s2``); None: each leader's braking envelope over its
+        mass, at its strongest (low speed: the envelope does not grow with
+        speed; for a brake without a power limit the value at every speed).
+    supervisor_delay : float or None
+        Delay of the leader's messages the supervisor assumes [s], >= 0 (file
+        key ``supervisor_delay_s``); None: the largest ``[network]`` delay, 0
+        without a ``[network]``.
+    supervisor_outage : float or None
+        Longest outage of the leader's messages the supervisor and the
+        ``flocking_braking_distance`` check assume [s], >= 0 (file key
+        ``supervisor_outage_s``); None: the longest ``[network.interruption]``
+        window, 0 without one.
 
     Examples
     --------
     >>> s = FlockingSettings()
     >>> s.desired_gap, s.length_scale, s.bump_h, s.force_scale, s.speed_gain
     (None, 50.0, 0.2, 0.05, 0.02)
+    >>> s.supervisor, s.supervisor_margin, s.supervisor_delay  # off; 50 m; from [network]
+    (False, 50.0, None)
     >>> FlockingSettings(bump_h=1.0)
     Traceback (most recent call last):
     ...
@@ -117,6 +141,23 @@ class FlockingSettings:
     line_feedforward: Annotated[bool, Flag(), Key(
         "Each train feeds forward the grade and curve resistance at its own position "
         "(false: the feedback alone meets the line)")] = False
+    supervisor: Annotated[bool, Flag(), Key(
+        "Braking-curve supervisor: a follower that could not stop behind its leader braking "
+        "at its strongest (from the leader's last received state) brakes at full")] = False
+    supervisor_margin: Annotated[float, Number(ge=0), Key(
+        "Least gap the supervisor keeps at the closest approach of a follower to its leader",
+        file="supervisor_margin_m", unit="m")] = 50.0
+    leader_braking: Annotated[Annotated[float, Number(gt=0)] | None, Key(
+        "Worst-case (strongest) deceleration of a leader, for the supervisor and its check",
+        file="leader_braking_m_s2", unit="m/s²",
+        omitted="each leader's strongest envelope braking over its mass")] = None
+    supervisor_delay: Annotated[Annotated[float, Number(ge=0)] | None, Key(
+        "Delay of the leader's messages that the supervisor assumes", file="supervisor_delay_s",
+        unit="s", omitted="the largest [network] delay, else 0")] = None
+    supervisor_outage: Annotated[Annotated[float, Number(ge=0)] | None, Key(
+        "Longest outage of the leader's messages that the supervisor and its check assume",
+        file="supervisor_outage_s", unit="s",
+        omitted="the longest [network.interruption] window, else 0")] = None
 
     @model_validator(mode="after")
     def _cross_field_rules(self) -> FlockingSettings:
