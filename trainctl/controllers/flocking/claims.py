@@ -207,7 +207,9 @@ def paper_claims(run: Any) -> list[Claim]:
     unit_mass = float(np.mean(train.mass))
     b = min(float(braking_deceleration(_single(train, i), np.linspace(0.0, v, 65)).min())
             for i in range(units))
-    capacity = _capacity(train, v, b, potential.desired_gap, scenario.network)
+    capacity = _capacity(train, v, b, potential.desired_gap, scenario.network,
+                         float(design.control_interval),
+                         float(design.settings.supervisor_margin))
     capacity["simulated"] = _simulated_headway(train, result)
     out.append(_efficiency(capacity, units, unit_mass))
     allocation = scenario.model.allocation
@@ -263,7 +265,8 @@ def _speed(metrics: Any, sim: Any) -> Claim:
         f"{sim.tracking_tolerance:g} m/s after settle_time.")
 
 
-def _capacity(train: Train, v: float, b: float, gap: float, network: Any) -> dict[str, Any]:
+def _capacity(train: Train, v: float, b: float, gap: float, network: Any, reaction: float,
+              margin: float) -> dict[str, Any]:
     from trainctl.sim.capacity import (
         absolute_braking_capacity,
         relative_braking_distance,
@@ -273,13 +276,14 @@ def _capacity(train: Train, v: float, b: float, gap: float, network: Any) -> dic
     units = train.n_vehicles
     length = float(np.mean([veh.length for veh in train.vehicles]))
     mass = float(np.mean(train.mass))
-    delay = 0.0 if network is None else float(network.delay_bounds()[1])
+    delay = reaction + (0.0 if network is None else float(network.delay_bounds()[1]))
     return {
         "a": absolute_braking_capacity(units * length, v, b, units * mass),
         "b": uniform_capacity(length, gap, v, mass),
         "c": absolute_braking_capacity(length, v, b, mass),
         "relative": relative_braking_distance(v, v, follower_deceleration=b,
-                                              leader_deceleration=b, delay=delay),
+                                              leader_deceleration=b, delay=delay,
+                                              margin=margin),
         "delay": delay, "deceleration": b, "speed": v, "gap": gap}
 
 
@@ -313,7 +317,8 @@ def _efficiency(cap: dict[str, Any], units: int, unit_mass: float) -> Claim:
         f"{cap['gap']:g} m (b), at the absolute braking distance "
         f"{cap['speed'] ** 2 / (2 * cap['deceleration']):.0f} m of b = "
         f"{cap['deceleration']:.3g} m/s² (c), or coupled {units} by {units} (a). "
-        f"The relative braking distance (delay {cap['delay']:g} s) is "
+        f"The relative braking distance (the control interval and the radio's delay, "
+        f"{cap['delay']:g} s, and the supervisor's margin) is "
         f"{cap['relative']:.0f} m: d {'covers' if safe else 'does not cover'} it"
         f"{'' if safe else ' (virtual coupling at d is not safe without a supervisor)'}."
         + ("" if cap.get("simulated") is None else
