@@ -164,6 +164,7 @@ class FlockingFamily(ContinuousFamily[FlockingDesign, "FlockingSettings"]):
     """
 
     name = "flocking"
+    claims_source = "the 2023 virtual-coupling patent, on the formation's line"
     title = "Flocking (virtual coupling)"
     strategies = STRATEGIES
     check_names = CHECK_NAMES

@@ -183,6 +183,7 @@ class PotentialFamily(ContinuousFamily[PotentialDesign, "PotentialSettings"]):
     """
 
     name = "potential"
+    claims_source = "Zhao & Wang 2017, the potential-function law"
     title = "Potential-function consensus"
     strategies = STRATEGIES
     check_names = CHECK_NAMES
