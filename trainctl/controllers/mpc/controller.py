@@ -35,8 +35,13 @@ strategy (:mod:`.strategies`) decides the blocks and combines their plans:
 Constraints: the traction/braking envelope of every coach at the reference
 speed (hard; trailers brake only), the input rate (hard, per step), and the
 absolute coupler force including its static part (soft, with slack
-penalties). A local problem carries the bounds of its own inputs and the
-force rows of the couplers next to its coach (centralised: all).
+penalties) and, on a track with speed limits (``track``, with
+``MPCConstraints.speed_limits``), every vehicle's predicted speed under the
+limit at its predicted position less ``speed_limit_margin`` (soft,
+one-sided, at the coupler-force steps; :mod:`.speed_limits`). A local
+problem carries the bounds of its own inputs, the force rows of the couplers
+next to its coach and the speed rows of its own vehicle (centralised: all).
+Without speed limits there are no speed rows at all.
 
 Faults (:mod:`trainctl.controllers.faults`): a solve that returns no usable
 solution keeps its outcome as the step status (``"infeasible"``,
@@ -75,12 +80,15 @@ from trainctl.controllers.mpc.local import LocalTrainProblem
 from trainctl.controllers.mpc.observer import KalmanObserver, ObserverSettings
 from trainctl.controllers.mpc.problem import StepContext, TrainProblem
 from trainctl.controllers.mpc.settings import QP_SOLVERS, STRATEGIES, MPCConstraints
+from trainctl.controllers.mpc.speed_limits import HorizonLimits
 from trainctl.controllers.mpc.strategies.coordinators import make_strategy
 from trainctl.controllers.mpc.theory.local_iteration.model import LocalModel
 from trainctl.controllers.mpc.theory.mpc import MPCDesign
 from trainctl.exceptions import ModelError
+from trainctl.models.dynamics import vehicle_positions
 from trainctl.models.envelope import EnvelopeBounds
 from trainctl.models.feedforward import ForceSplit
+from trainctl.models.track import Track
 from trainctl.models.train import Train
 
 __all__ = ["HOLD_INPUT", "ITERATING", "STRATEGIES", "MPCConstraints", "MPCController", "make_mpc"]
@@ -143,6 +151,11 @@ class MPCController:
         The continuous design model partitioned by coach
         (:func:`trainctl.controllers.mpc.theory.local_iteration.local_model`); required by
         ``"ndmpc-local"``, ignored otherwise.
+    track : Track or None
+        The track the train runs on: with speed limits (and
+        ``constraints.speed_limits``) every QP bounds its vehicles' predicted
+        speeds; the measurements then need the vehicles' positions
+        (``positions``, or a full state with the head position).
 
     Examples
     --------
@@ -174,7 +187,7 @@ class MPCController:
                  cooperative_weights: Array | None = None, path: str = "fast",
                  qp_solver: str = "auto", name: str | None = None,
                  observer: KalmanObserver | None = None,
-                 local_model: LocalModel | None = None) -> None:
+                 local_model: LocalModel | None = None, track: Track | None = None) -> None:
         if strategy not in STRATEGIES:
             raise ModelError(
                 f"MPCController: 'strategy' must be one of {STRATEGIES} (got {strategy!r}).")
@@ -202,6 +215,13 @@ class MPCController:
                 raise ModelError(f"{self.name}: vehicles {idx.tolist()} form a coupled group "
                                  "without traction (all traction_share are 0).")
         self._precompute()
+        limited = (constraints.speed_limits and track is not None
+                   and bool(track.speed_limits))
+        self.speed_limits: HorizonLimits | None = (
+            HorizonLimits(track, constraints.speed_limit_margin)
+            if limited and track is not None else None)
+        """The speed rows' bounds (None: no speed rows, the track has no limits or the
+        constraints ignore them)."""
         self.fixed_inputs = fixed_inputs(train, design, constraints)
         """Coaches whose force the envelope pins (no traction, no braking: an unpowered
         wagon); u-form with input bounds only. They get no QP: their moves are the bound."""
@@ -218,11 +238,12 @@ class MPCController:
                                  "local_iteration.local_model(design, A, B, dt, owners)).")
             self.problem = LocalTrainProblem(design, local_model, force_matrix, constraints,
                                              self._strategy, name=self.name, path=path,
-                                             qp_solver=qp_solver, fixed=self.fixed_inputs)
+                                             qp_solver=qp_solver, fixed=self.fixed_inputs,
+                                             speed_rows=limited)
         else:
             self.problem = TrainProblem(design, force_matrix, constraints, self._strategy,
                                         name=self.name, path=path, qp_solver=qp_solver,
-                                        fixed=self.fixed_inputs)
+                                        fixed=self.fixed_inputs, speed_rows=limited)
         self.reset()
 
     @property
@@ -310,6 +331,10 @@ class MPCController:
             return self._hold(reference, reason, start)
         state = self._state(measurement)
         ctx = self._context(state, reference)
+        if self.speed_limits is not None:
+            ctx = replace(ctx, speed_bound=self.speed_limits.bounds(
+                self._positions(measurement), reference.times[:self.P + 1],
+                reference.speed[:self.P + 1]))
         problem = self.problem
         plan0 = shifted(problem.maps, self._plan)
         pinned = self._fixed_cols
@@ -355,6 +380,11 @@ class MPCController:
                  np.asarray(reference.acceleration[:P1], dtype=float).ravel()]
         if used is not None:
             parts.append(np.asarray(used, dtype=float).ravel())
+        positions = None
+        if self.speed_limits is not None:
+            positions = self._positions(measurement)
+            parts.append(positions)
+            parts.append(np.asarray(reference.times[:P1], dtype=float).ravel())
         if np.isfinite(np.concatenate(parts)).all():
             return ""
         if used is not None:
@@ -363,11 +393,27 @@ class MPCController:
                 bad = int(np.flatnonzero(~np.isfinite(values))[0])
                 what = "state" if self.observer is None else "outputs"
                 return f"non-finite measurement: {what}[{bad}] = {values[bad]!r}"
-        for name in ("speed", "acceleration"):
+        if positions is not None and not np.isfinite(positions).all():
+            bad = int(np.flatnonzero(~np.isfinite(positions))[0])
+            return f"non-finite measurement: positions[{bad}] = {positions[bad]!r}"
+        for name in ("speed", "acceleration") + (("times",) if positions is not None else ()):
             preview = np.asarray(getattr(reference, name)[:P1], dtype=float)
             if not np.isfinite(preview).all():
                 return f"non-finite reference {name} in the preview"
         return ""
+
+    def _positions(self, measurement: Measurement) -> Array:
+        """Each vehicle's position [m], head first, for the speed rows: the measured
+        ``positions``, else from the full state
+        (:func:`~trainctl.models.dynamics.vehicle_positions`)."""
+        if measurement.positions is not None:
+            return np.asarray(measurement.positions, dtype=float)
+        state = measurement.state
+        if state is None or np.shape(state) != (2 * self.n,):
+            raise ModelError(f"{self.name}: the speed-limit rows need the vehicles' positions: "
+                             "give the measurement 'positions' [m] or the full state "
+                             "[v (n), delta (n-1), s] with the head position s.")
+        return vehicle_positions(self.train, np.asarray(state, dtype=float))
 
     def _applied(self) -> Array | None:
         """The input the actuators applied at the previous sample, as far as the controller
@@ -489,7 +535,8 @@ def make_mpc(train: Train, design: MPCDesign, *, dt: float, strategy: str = "ndm
              qp_solver: str = "auto", name: str | None = None,
              observer: ObserverSettings | None = None,
              design_speed: float | None = None,
-             local_model: LocalModel | None = None) -> MPCController:
+             local_model: LocalModel | None = None,
+             track: Track | None = None) -> MPCController:
     """Build an MPC controller; every QP is modelled once here.
 
     Parameters
@@ -526,6 +573,9 @@ def make_mpc(train: Train, design: MPCDesign, *, dt: float, strategy: str = "ndm
         Speed at which the observer gain is designed [m/s]; required with ``observer``.
     local_model : LocalModel or None
         Required by ``"ndmpc-local"`` (see :class:`MPCController`).
+    track : Track or None
+        The track: its speed limits bound the predicted speeds (see
+        :class:`MPCController`).
 
     Returns
     -------
@@ -569,7 +619,7 @@ def make_mpc(train: Train, design: MPCDesign, *, dt: float, strategy: str = "ndm
                          max_iterations=max_iterations, tolerance=tolerance,
                          relaxation=relaxation, cooperative_weights=cooperative_weights,
                          path=path, qp_solver=qp_solver, name=name, observer=kalman,
-                         local_model=local_model)
+                         local_model=local_model, track=track)
 
 
 def _check_design(where: str, train: Train, design: MPCDesign, force_matrix: Array) -> None:

@@ -224,7 +224,8 @@ def make_mpc_controller(design: MPCFamilyDesign, strategy: str) -> MPCController
                          cooperative_weights=design.cooperative_weights(),
                          path=ctl.solver_path, qp_solver=ctl.qp_solver, name=strategy,
                          observer=observer,
-                         local_model=design.local if strategy == "ndmpc-local" else None)
+                         local_model=design.local if strategy == "ndmpc-local" else None,
+                         track=scenario.track)
 
 
 def mpc_closed_loop(design: MPCFamilyDesign, strategy: str) -> ct.StateSpace:

@@ -4,15 +4,17 @@
 Coach i's QP is built from its neighbourhood model alone
 (:mod:`trainctl.controllers.mpc.theory.local_iteration`): its decision is its own M moves,
 its cost the outputs of its neighbourhood N_i over P steps, its rows its own
-input bounds and rates and the soft force rows of the couplers next to it —
-all of a size that does not depend on the train length. The rest of the
+input bounds and rates, the soft force rows of the couplers next to it and,
+under speed limits, the soft rows on its own predicted speed — all of a size
+that does not depend on the train length. The rest of the
 train enters through the exchange vector ξ_i = [U_j for the other inputs
 acting on the neighbourhood; the outer states' predicted trajectory], in
 the QP's data only:
 
     g_i = Kc_i c0_i + Ko_i ξ_i,   hl_i, hu_i = ∓limit - f0_i - Fo_i ξ_i,
 
-with c0_i, f0_i the free responses of the local model (measured x_S, x_O,
+(a speed row: hl = -inf, hu = the step's speed bound - v0_i - Fo_i ξ_i) with
+c0_i, f0_i, v0_i the free responses of the local model (measured x_S, x_O,
 u(k-1) of the members). After its solve coach i publishes its plan and the
 trajectory of its own states that its local model predicts with it.
 
@@ -40,7 +42,13 @@ from trainctl.controllers.mpc.condensed import (
     input_rows,
     move_maps,
 )
-from trainctl.controllers.mpc.problem import KN, StepContext, TrainProblem, fill_move_sources
+from trainctl.controllers.mpc.problem import (
+    KN,
+    StepContext,
+    TrainProblem,
+    fill_move_sources,
+    speed_matrix,
+)
 from trainctl.controllers.mpc.qp.parametric import ParametricQP
 from trainctl.controllers.mpc.qp.status import is_usable
 from trainctl.controllers.mpc.settings import MPCConstraints
@@ -61,6 +69,7 @@ from trainctl.controllers.mpc.theory.local_iteration.predictions import (
     rows_response,
 )
 from trainctl.controllers.mpc.theory.mpc import MPCDesign
+from trainctl.exceptions import ModelError
 
 __all__ = ["LocalNDMPC", "LocalTrainProblem"]
 
@@ -80,13 +89,17 @@ class _Coach:
     up_idx: Index          # its inputs I in u(k-1)
     y: LocalResponse       # cost rows
     f: LocalResponse | None  # bounded force rows
+    v: LocalResponse | None  # its own speed (speed rows)
     f_rows: Index          # the bounded rows in the stacked feedforward forces
     f_sel: Index           # ... and in the force response
     Gz_own: Array          # own-state trajectory from its own moves
     Gz_xi: Array           # ... from ξ_i
-    g: slice               # its g, hl, hu in the source vector
+    g: slice               # its g and its force rows' hl, hu in the source vector
     hl: slice
     hu: slice
+    v_sel: Index           # the speed rows' steps in its speed response
+    v_bound: Index         # ... and in the stacked speed bounds (step-major, (P·n,))
+    hu_speed: slice        # the speed rows' hu in the source vector
 
 
 class LocalTrainProblem(TrainProblem):
@@ -113,6 +126,9 @@ class LocalTrainProblem(TrainProblem):
     fixed : tuple of int
         Coaches whose moves the envelope pins (:func:`~.controller.fixed_inputs`): no QP
         is solved for them; they still publish their predicted own-state trajectory.
+    speed_rows : bool
+        Bound each coach's own predicted speed (soft, one-sided) at the
+        coupler-force steps; each step's context then carries ``speed_bound``.
 
     Examples
     --------
@@ -130,8 +146,10 @@ class LocalTrainProblem(TrainProblem):
 
     def __init__(self, design: MPCDesign, model: LocalModel, force_matrix: Array,
                  constraints: MPCConstraints, strategy: Strategy, *, name: str,
-                 path: str, qp_solver: str = "auto", fixed: tuple[int, ...] = ()) -> None:
+                 path: str, qp_solver: str = "auto", fixed: tuple[int, ...] = (),
+                 speed_rows: bool = False) -> None:
         self.design, self.constraints, self.strategy = design, constraints, strategy
+        self.speed_rows = speed_rows
         self.fixed = frozenset(fixed)
         self.model, self.name, self.path = model, name, path
         n, M, P = design.n_inputs, design.control_horizon, design.prediction_horizon
@@ -152,6 +170,7 @@ class LocalTrainProblem(TrainProblem):
         MN = M * n
         start = 4 * MN
         shared: dict[bytes, ParametricQP] = {}
+        self._speed_hl: list[slice] = []  # the speed rows' hl: -inf throughout
         self.coaches: list[_Coach] = []
         self.distinct = 0
         for c in self.predictions:
@@ -168,20 +187,34 @@ class LocalTrainProblem(TrainProblem):
             sel = (steps[:, None] * len(couplers) + np.arange(len(couplers))[None, :]).ravel()
             f_rows = (steps[:, None] * nf + np.array(couplers, dtype=np.int64)[None, :]).ravel()
             F = f.G[np.ix_(sel, own_cols)] if f is not None else np.zeros((0, M))
+            v = (rows_response(design, model, c, speed_matrix(design)[[i]], every=self.N)
+                 if speed_rows else None)
+            soft_linear: float | Array = constraints.soft_linear
+            soft_quadratic: float | Array = constraints.soft_quadratic
+            nF = F.shape[0]
+            nV = steps.size if v is not None else 0
+            if v is not None:  # its speed rows follow the force rows
+                F = np.vstack([F, v.G[np.ix_(steps, own_cols)]])
+                soft_linear = np.concatenate([np.full(nF, constraints.soft_linear),
+                                              np.full(nV, constraints.speed_soft_linear)])
+                soft_quadratic = np.concatenate([np.full(nF, constraints.soft_quadratic),
+                                                 np.full(nV, constraints.speed_soft_quadratic)])
             key = b"".join(np.ascontiguousarray(a).tobytes() + str(a.shape).encode()
                            for a in (H, hard, F))
             label = f"{name}[{i}]"
             if key in shared:
                 qp = shared[key].clone(name=label)
             else:
-                qp = ParametricQP(H, hard, F, soft_linear=constraints.soft_linear,
-                                  soft_quadratic=constraints.soft_quadratic, name=label,
+                qp = ParametricQP(H, hard, F, soft_linear=soft_linear,
+                                  soft_quadratic=soft_quadratic, name=label,
                                   fast=path == "fast", solver=qp_solver)
                 shared[key] = qp
             Kc = 2.0 * Gii.T * q[None, :]
             Ko = Kc @ np.hstack([c.y.G[:, others], c.y.Psi])
             Fo = (np.hstack([f.G[np.ix_(sel, others)], f.Psi[sel]]) if f is not None
                   else np.zeros((0, Ko.shape[1])))
+            if v is not None:
+                Fo = np.vstack([Fo, np.hstack([v.G[np.ix_(steps, others)], v.Psi[steps]])])
             cols = np.arange(M) * n + i
             nb = F.shape[0]
             g, hl, hu = (slice(start, start + M), slice(start + M, start + M + nb),
@@ -204,10 +237,16 @@ class LocalTrainProblem(TrainProblem):
                 own_idx=(fine[:, None] * self.nx + c.own[None, :]).ravel(),
                 up_idx=c.inputs, y=c.y, f=f,
                 f_rows=f_rows if f is not None else empty, f_sel=sel, Gz_own=c.z.G[:, own_cols],
-                Gz_xi=np.hstack([c.z.G[:, others], c.z.Psi]), g=g, hl=hl, hu=hu))
+                Gz_xi=np.hstack([c.z.G[:, others], c.z.Psi]), g=g,
+                hl=slice(hl.start, hl.start + nF), hu=slice(hu.start, hu.start + nF), v=v,
+                v_sel=steps if v is not None else empty, v_bound=steps * n + i,
+                hu_speed=slice(hu.start + nF, hu.stop)))
+            self._speed_hl.append(slice(hl.start + nF, hl.stop))
         self.distinct = len(shared)
         self.blocks = [c.block for c in self.coaches]
         self._src = np.zeros(start)
+        for where in self._speed_hl:
+            self._src[where] = -np.inf
         self._src_bounds = self._src[:2 * MN].reshape(2, MN)
         self._src_rate = self._src[2 * MN:4 * MN].reshape(2, MN)
         self._rate_pair = np.array([[-constraints.rate_limit / KN], [constraints.rate_limit / KN]])
@@ -255,6 +294,15 @@ class LocalTrainProblem(TrainProblem):
                 f0 = f0[c.f_sel] + ctx.f_ff[c.f_rows]
                 src[c.hl] = -self._limit - f0
                 src[c.hu] = self._limit - f0
+            if c.v is not None:
+                if ctx.speed_bound is None:
+                    raise ModelError(f"{self.name}: the speed rows need this step's speed "
+                                     "bounds (StepContext.speed_bound is None).")
+                v = c.v
+                v0 = v.Phi @ xs + v.Phi_o @ xo
+                if self._du:
+                    v0 += v.Su @ up[c.up_idx]
+                src[c.hu_speed] = ctx.speed_bound.ravel()[c.v_bound] - v0[c.v_sel]
         self._x = x
         return src
 

@@ -14,6 +14,11 @@ with the train's data:
   include the feedforward's own change;
 - soft rows on the absolute coupler forces (the feedforward's static forces
   plus the predicted deviations) at the chosen prediction steps;
+- under speed limits (``speed_rows``), one-sided soft rows on every vehicle's
+  predicted speed at the same steps: the predicted deviation
+  v_i(k+j) - v_ref(k+j) at most ℓ - margin - v_ref(k+j), the bound of each
+  step (:class:`StepContext` ``speed_bound``, from
+  :class:`~.speed_limits.HorizonLimits`) less the free response;
 - the cost of the outputs of the block's members (its neighbourhood).
 """
 
@@ -39,6 +44,7 @@ from trainctl.controllers.mpc.qp.parametric import ParametricQP
 from trainctl.controllers.mpc.settings import MPCConstraints
 from trainctl.controllers.mpc.strategies.base import Strategy
 from trainctl.controllers.mpc.theory.mpc import MPCDesign, Prediction, prediction
+from trainctl.exceptions import ModelError
 
 if TYPE_CHECKING:
     from trainctl.controllers.mpc.local import LocalTrainProblem
@@ -79,6 +85,10 @@ class StepContext:
         For a fallback: each vehicle's envelope at its measured speed now,
         [lower; upper], (2, n) [kN] (what the actuators can apply; ``bounds``
         are at the reference speeds); None: ``bounds`` only.
+    speed_bound : ndarray or None
+        The upper bound of every vehicle's speed deviation at steps 1..P,
+        (P, n) [m/s] (inf where no limit applies); None for a problem without
+        speed rows.
 
     Examples
     --------
@@ -102,6 +112,7 @@ class StepContext:
     bounds: Array
     applied: Array | None = None
     actuator: Array | None = None
+    speed_bound: Array | None = None
 
     @property
     def lb(self) -> Array:
@@ -138,6 +149,11 @@ class TrainProblem:
     fixed : tuple of int
         Coaches whose moves the envelope pins (:func:`~.controller.fixed_inputs`): a
         block of only such coaches is not built; their moves are the controller's.
+    speed_rows : bool
+        Bound every vehicle's predicted speed (soft, one-sided) at the
+        coupler-force steps, each block its own vehicles'
+        (:meth:`~.strategies.base.Strategy.vehicles`); each step's context
+        then carries ``speed_bound``.
 
     Examples
     --------
@@ -169,7 +185,8 @@ class TrainProblem:
 
     def __init__(self, design: MPCDesign, force_matrix: Array, constraints: MPCConstraints,
                  strategy: Strategy, *, name: str, path: str,
-                 qp_solver: str = "auto", fixed: tuple[int, ...] = ()) -> None:
+                 qp_solver: str = "auto", fixed: tuple[int, ...] = (),
+                 speed_rows: bool = False) -> None:
         self.design, self.constraints, self.strategy = design, constraints, strategy
         self.fixed = frozenset(fixed)
         self.name, self.path, self.qp_solver = name, path, qp_solver
@@ -179,6 +196,11 @@ class TrainProblem:
         self.fpred: Prediction = prediction(replace(design, C=force_matrix,
                                                     q=np.ones(force_matrix.shape[0]),
                                                     output_owner=tuple(range(force_matrix.shape[0]))))
+        self.speed_rows = speed_rows
+        # The speeds' prediction (deviations from the reference [m/s]); only with speed rows.
+        self.vpred: Prediction | None = (
+            prediction(replace(design, C=speed_matrix(design), q=np.ones(n),
+                               output_owner=tuple(range(n)))) if speed_rows else None)
         self.maps = move_maps(n, M, design.form)
         self._du = design.form == "du"
         self._layout()
@@ -212,8 +234,17 @@ class TrainProblem:
         self._bounded_rows = np.array(bounded, dtype=np.int64)
         self._fPhi = self.fpred.Phi[self._bounded_rows]
         self._fSu = self.fpred.Su[self._bounded_rows]
-        nb = self._bounded_rows.size
-        # Source layout (see sources): [lb_u; ub_u; lb_rate; ub_rate; hl; hu; g of each block].
+        n = self.n
+        # Speed rows of vehicle i at step j: row j·n + i of the speed prediction.
+        speeds = (sorted(j * n + i for j in steps for i in range(n)) if self.vpred is not None
+                  else [])
+        self._speed_rows = np.array(speeds, dtype=np.int64)
+        if self.vpred is not None:
+            self._vPhi = self.vpred.Phi[self._speed_rows]
+            self._vSu = self.vpred.Su[self._speed_rows]
+        nb = self._bounded_rows.size + self._speed_rows.size
+        # Source layout (see sources): [lb_u; ub_u; lb_rate; ub_rate; hl; hu; g of each block],
+        # hl and hu each the force rows, then the speed rows.
         self._source_hl, self._source_hu = 4 * MN, 4 * MN + nb
         self._source_g = 4 * MN + 2 * nb
 
@@ -222,11 +253,15 @@ class TrainProblem:
 
         One buffer, rewritten every step; parts that no problem uses stay zero.
         """
-        MN, nb = self.M * self.n, self._bounded_rows.size
+        MN, nf, nv = self.M * self.n, self._bounded_rows.size, self._speed_rows.size
+        nb = nf + nv
         self._src = np.zeros(size)
         self._src_bounds = self._src[:2 * MN].reshape(2, MN)
         self._src_rate = self._src[2 * MN:4 * MN].reshape(2, MN)
-        self._src_force = self._src[4 * MN:4 * MN + 2 * nb].reshape(2, nb)
+        soft = self._src[4 * MN:4 * MN + 2 * nb].reshape(2, nb)
+        self._src_force = soft[:, :nf]
+        self._src_speed = soft[1, nf:]  # hu of the speed rows; their hl stay -inf
+        soft[0, nf:] = -np.inf
         self._src_g = [self._src[int(b.params["g"][0]):int(b.params["g"][-1]) + 1]
                        for b in self.blocks]
         limit = self.constraints.coupler_force_limit / KN
@@ -245,18 +280,28 @@ class TrainProblem:
         H = 2.0 * (Gi.T @ (weight[:, None] * Gi) + pred.Rbar[np.ix_(cols, cols)])
         rows = self._force_rows(inputs)
         F = self.fpred.G[np.ix_(rows, cols)] if rows.size else np.zeros((0, cols.size))
+        Fo = self.fpred.G[rows, :].copy()
+        soft_linear: float | Array = c.soft_linear
+        soft_quadratic: float | Array = c.soft_quadratic
+        vrows = self._vehicle_rows(inputs)
+        if self.vpred is not None and vrows.size:  # the speed rows follow the force rows
+            F = np.vstack([F, self.vpred.G[np.ix_(vrows, cols)]])
+            Fo = np.vstack([Fo, self.vpred.G[vrows, :]])
+            soft_linear = np.concatenate([np.full(rows.size, c.soft_linear),
+                                          np.full(vrows.size, c.speed_soft_linear)])
+            soft_quadratic = np.concatenate([np.full(rows.size, c.soft_quadratic),
+                                             np.full(vrows.size, c.speed_soft_quadratic)])
         hard = input_rows(self.maps, cols, bounds=c.input_bounds,
                           rate=math.isfinite(c.rate_limit))
-        qp = ParametricQP(H, hard, F, soft_linear=c.soft_linear, soft_quadratic=c.soft_quadratic,
+        qp = ParametricQP(H, hard, F, soft_linear=soft_linear, soft_quadratic=soft_quadratic,
                           name=f"{self.name}[{','.join(map(str, inputs))}]",
                           fast=self.path == "fast", solver=self.qp_solver)
         Kc = 2.0 * Gi.T * weight[None, :]
         Ko = Kc @ pred.G
         Ko[:, cols] = 0.0
-        Fo = self.fpred.G[rows, :].copy()
         Fo[:, cols] = 0.0
         return build_block(qp, inputs=inputs, cols=cols, Kc=Kc,
-                           params=self._positions(cols, rows, g_start), Ko=Ko, Fo=Fo)
+                           params=self._positions(cols, rows, g_start, vrows), Ko=Ko, Fo=Fo)
 
     def _force_rows(self, inputs: tuple[int, ...]) -> Index:
         """Rows of the force prediction that the block of ``inputs`` bounds."""
@@ -267,13 +312,27 @@ class TrainProblem:
         return np.array([j * nf + c for j in self._force_steps for c in couplers],
                         dtype=np.int64)
 
-    def _positions(self, cols: Index, rows: Index, g_start: int) -> dict[str, Index]:
-        """Positions of the block's g, lb, ub, hl, hu in the source vector."""
+    def _vehicle_rows(self, inputs: tuple[int, ...]) -> Index:
+        """Rows of the speed prediction that the block of ``inputs`` bounds (none without
+        speed rows)."""
+        if self.vpred is None:
+            return np.zeros(0, dtype=np.int64)
+        vehicles = self.strategy.vehicles(inputs, self.n)
+        return np.array([j * self.n + i for j in self._force_steps for i in vehicles],
+                        dtype=np.int64)
+
+    def _positions(self, cols: Index, rows: Index, g_start: int,
+                   vrows: Index | None = None) -> dict[str, Index]:
+        """Positions of the block's g, lb, ub, hl, hu in the source vector (the force rows
+        ``rows``, then the speed rows ``vrows``)."""
         MN = self.M * self.n
         empty = np.zeros(0, dtype=np.int64)
         bounds = self.constraints.input_bounds
         rate = math.isfinite(self.constraints.rate_limit)
         where = np.searchsorted(self._bounded_rows, rows)
+        if vrows is not None and vrows.size:
+            speeds = self._bounded_rows.size + np.searchsorted(self._speed_rows, vrows)
+            where = np.concatenate([where, speeds])
         return {"g": g_start + np.arange(cols.size),
                 "lb": np.concatenate([cols if bounds else empty,
                                       2 * MN + cols if rate else empty]),
@@ -287,10 +346,11 @@ class TrainProblem:
 
         Layout (M·n entries each for the first four): lower and upper bounds
         of the hard rows on the input moves, then on the move rates, then hl
-        and hu for the bounded rows of the force prediction, then g of each
-        block in turn (``QPBlock.params`` holds the positions). Parts that no
-        problem uses are zero. The array is the problem's buffer, rewritten
-        by the next call.
+        and hu for the bounded rows of the force prediction followed by the
+        speed rows (their hl -inf, their hu ``ctx.speed_bound`` less the
+        free response), then g of each block in turn (``QPBlock.params``
+        holds the positions). Parts that no problem uses are zero. The array
+        is the problem's buffer, rewritten by the next call.
 
         Input moves are ũ = L U + t0; absolute forces u_ff + ũ. The rate of
         move m is (u_ff(m) - u_ff(m-1)) + (ũ(m) - ũ(m-1)), with the applied
@@ -317,6 +377,14 @@ class TrainProblem:
                 f0 += self._fSu @ ctx.u_dev_prev
             f0 += ctx.f_ff[self._bounded_rows]
             np.subtract(self._force_pair, f0, out=self._src_force)
+        if self._speed_rows.size:
+            if ctx.speed_bound is None:
+                raise ModelError(f"{self.name}: the speed rows need this step's speed bounds "
+                                 "(StepContext.speed_bound is None).")
+            v0 = self._vPhi @ ctx.x
+            if self._du:
+                v0 += self._vSu @ ctx.u_dev_prev
+            np.subtract(ctx.speed_bound.ravel()[self._speed_rows], v0, out=self._src_speed)
         c0 = pred.Phi @ ctx.x
         if self._du:
             c0 += pred.Su @ ctx.u_dev_prev
@@ -418,6 +486,29 @@ class TrainProblem:
         z = maps.D @ moves
         z[:n] -= ctx.u_dev_prev
         return z
+
+
+def speed_matrix(design: MPCDesign) -> Array:
+    """The rows picking the n speeds [m/s] out of the design state [v; delta] (n, 2n-1).
+
+    Parameters
+    ----------
+    design : MPCDesign
+        The train's design (n inputs, 2n-1 states).
+
+    Returns
+    -------
+    ndarray
+        [I_n, 0].
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> speed_matrix(SimpleNamespace(n_inputs=2, A=np.zeros((3, 3)))).tolist()
+    [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+    """
+    n = design.n_inputs
+    return np.eye(n, design.A.shape[0])
 
 
 def fill_move_sources(problem: TrainProblem | LocalTrainProblem, ctx: StepContext) -> None:

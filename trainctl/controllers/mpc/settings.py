@@ -40,7 +40,7 @@ from trainctl.controllers.tracking import (
 from trainctl.declare.constraints import Array, Choice, Flag, Integer, Number, Violation, raise_at
 from trainctl.declare.keys import Key, python_error, settings
 from trainctl.declare.limits import HORIZON, ITERATIONS
-from trainctl.units import kn_to_n
+from trainctl.units import kmh_to_ms, kn_to_n
 
 __all__ = [
     "CONTROLLER_FORMS",
@@ -97,9 +97,20 @@ class MPCConstraints:
     soft_quadratic : float
         Quadratic penalty per kN² of violation.
     force_steps : tuple of int or None
-        Prediction steps (1..P) at which the coupler forces are bounded; None
-        for every step. Bounding a subset (e.g. the first few steps, then every
-        fifth) shrinks each QP with little effect when the bound is far from active.
+        Prediction steps (1..P) at which the coupler forces (and the speeds,
+        under speed limits) are bounded; None for every step. Bounding a
+        subset (e.g. the first few steps, then every fifth) shrinks each QP
+        with little effect when the bound is far from active.
+    speed_limits : bool
+        Bound each vehicle's predicted speed by the track's speed limit at its
+        predicted position (soft) when the controller is given a track with
+        speed limits; False: ignore them.
+    speed_limit_margin : float
+        How far under the limit the predicted speeds are kept [m/s], >= 0.
+    speed_soft_linear : float
+        Linear penalty per m/s of speed over a limit.
+    speed_soft_quadratic : float
+        Quadratic penalty per (m/s)² of speed over a limit, > 0.
 
     Examples
     --------
@@ -116,6 +127,10 @@ class MPCConstraints:
     soft_linear: float = 1e3
     soft_quadratic: float = 1e2
     force_steps: tuple[int, ...] | None = None
+    speed_limits: bool = True
+    speed_limit_margin: float = 0.0
+    speed_soft_linear: float = 1e4
+    speed_soft_quadratic: float = 1e3
 
 
 _LIMIT = Number(gt=0, allow_inf=True)
@@ -203,7 +218,18 @@ class ControllerSettings:
         Random-walk step of the estimated disturbance per sample [m/s²], > 0.
     coupler_force_steps : tuple of int or None
         Prediction steps (1..P, increasing) at which the coupler-force bound
-        applies; None for every step.
+        and the speed-limit rows apply; None for every step.
+    speed_limits : bool
+        Keep every vehicle's predicted speed under the track's speed limit at
+        its predicted position (soft rows) when ``[track]`` has speed limits;
+        False: ignore them. No rows without limits.
+    speed_limit_margin : float
+        Keep the predicted speeds this far under the limits [m/s], >= 0 (file
+        key ``speed_limit_margin_kmh``, km/h).
+    speed_penalty_linear : float
+        Linear penalty on a predicted speed over its limit [per m/s], >= 0.
+    speed_penalty_quadratic : float
+        Quadratic penalty on a predicted speed over its limit [per (m/s)^2], > 0.
     local_hold : {"foh", "zoh"}
         ``"ndmpc-local"``: the exchanged outer states between their samples,
         linear or constant (:func:`trainctl.controllers.mpc.theory.local_iteration.local_model`).
@@ -275,8 +301,18 @@ class ControllerSettings:
     observer_disturbance_noise: Annotated[float, Number(gt=0), Key(
         "Random-walk step of the estimated disturbance per sample", unit="m/s²")] = 1e-3
     coupler_force_steps: Annotated[Annotated[tuple[int, ...], _STEPS] | None, Key(
-        "Prediction steps (1..P, increasing) at which the coupler-force bound applies",
-        omitted="every step")] = None
+        "Prediction steps (1..P, increasing) at which the coupler-force bound and the "
+        "speed-limit rows apply", omitted="every step")] = None
+    speed_limits: Annotated[bool, Flag(), Key(
+        "Keep every vehicle's predicted speed under the track's speed limit at its predicted "
+        "position (soft) when [track] has speed limits; false: ignore them")] = True
+    speed_limit_margin: Annotated[float, Number(ge=0), Key(
+        "How far under the speed limits the predicted speeds are kept",
+        file="speed_limit_margin_kmh", unit="km/h", to_si=kmh_to_ms, si_unit="m/s")] = 0.0
+    speed_penalty_linear: Annotated[float, Number(ge=0), Key(
+        "Linear penalty on a predicted speed over its limit", unit="per m/s")] = 1e4
+    speed_penalty_quadratic: Annotated[float, Number(gt=0), Key(
+        "Quadratic penalty on a predicted speed over its limit", unit="per (m/s)²")] = 1e3
     local_hold: Annotated[str, Choice(LOCAL_HOLDS), Key(
         "ndmpc-local: the exchanged outer states between their samples, 'foh' linear or "
         "'zoh' constant")] = "foh"
@@ -316,8 +352,10 @@ class ControllerSettings:
         -------
         MPCConstraints
             ``input_bounds``, ``rate_limit`` [N], ``coupler_force_limit``
-            [N], ``soft_linear`` [per kN] and ``soft_quadratic`` [per kN^2]
-            copied from these settings.
+            [N], ``soft_linear`` [per kN], ``soft_quadratic`` [per kN^2],
+            ``force_steps``, ``speed_limits``, ``speed_limit_margin`` [m/s],
+            ``speed_soft_linear`` [per m/s] and ``speed_soft_quadratic``
+            [per (m/s)^2] copied from these settings.
 
         Examples
         --------
@@ -336,6 +374,10 @@ class ControllerSettings:
             soft_linear=self.soft_penalty_linear,
             soft_quadratic=self.soft_penalty_quadratic,
             force_steps=self.coupler_force_steps,
+            speed_limits=self.speed_limits,
+            speed_limit_margin=self.speed_limit_margin,
+            speed_soft_linear=self.speed_penalty_linear,
+            speed_soft_quadratic=self.speed_penalty_quadratic,
         )
 
     def input_weight_per_kn2(self) -> float:

@@ -81,8 +81,9 @@ class Strategy(Protocol):
     >>> from trainctl.controllers.mpc.strategies.coordinators import make_strategy
     >>> ndmpc = make_strategy("ndmpc", max_iterations=10, tolerance=1e-3, relaxation=0.5,
     ...                       weights=np.full(2, 0.5))
-    >>> ndmpc.name, [hasattr(ndmpc, m) for m in ("block_inputs", "members", "couplers", "plan")]
-    ('ndmpc', [True, True, True, True])
+    >>> ndmpc.name, [hasattr(ndmpc, m) for m in ("block_inputs", "members", "couplers",
+    ...                                          "vehicles", "plan")]
+    ('ndmpc', [True, True, True, True, True])
     """
 
     name: str
@@ -136,6 +137,23 @@ class Strategy(Protocol):
         """
         ...
 
+    def vehicles(self, inputs: tuple[int, ...], n: int) -> list[int]:
+        """The vehicles whose speed rows a block bounds (under speed limits).
+
+        Parameters
+        ----------
+        inputs : tuple of int
+            The inputs (coaches, 0-based) the block decides for.
+        n : int
+            Number of vehicles (= inputs) of the train.
+
+        Returns
+        -------
+        list of int
+            The vehicle indices (0-based) whose predicted speed the block's soft rows bound.
+        """
+        ...
+
     def plan(self, problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
              fallback: FallbackPlan) -> PlanResult:
         """Solve the blocks and combine their solutions into the plan.
@@ -162,13 +180,16 @@ class Strategy(Protocol):
 
 
 class _PerCoach:
-    """One block per coach bounding the couplers next to it."""
+    """One block per coach bounding the couplers next to it and its own speed."""
 
     def block_inputs(self, n: int) -> list[tuple[int, ...]]:
         return [(i,) for i in range(n)]
 
     def couplers(self, inputs: tuple[int, ...], n_couplers: int) -> list[int]:
         return sorted({c for i in inputs for c in (i - 1, i) if 0 <= c < n_couplers})
+
+    def vehicles(self, inputs: tuple[int, ...], n: int) -> list[int]:
+        return sorted(inputs)
 
 
 def solve_once(problem: Blocks, params: Sequence[BlockParameters], plan0: Array,

@@ -35,8 +35,8 @@ class Centralised:
     --------
     >>> from types import SimpleNamespace
     >>> strategy = Centralised()
-    >>> strategy.block_inputs(3), strategy.couplers((0, 1, 2), 2)
-    ([(0, 1, 2)], [0, 1])
+    >>> strategy.block_inputs(3), strategy.couplers((0, 1, 2), 2), strategy.vehicles((0, 1, 2), 3)
+    ([(0, 1, 2)], [0, 1], [0, 1, 2])
     >>> strategy.members((0, 1, 2), SimpleNamespace(n_inputs=3))
     (0, 1, 2)
 
@@ -107,6 +107,23 @@ class Centralised:
         """
         return list(range(n_couplers))
 
+    def vehicles(self, inputs: tuple[int, ...], n: int) -> list[int]:
+        """Every vehicle.
+
+        Parameters
+        ----------
+        inputs : tuple of int
+            The inputs (coaches, 0-based) the block decides for.
+        n : int
+            Number of vehicles of the train.
+
+        Returns
+        -------
+        list of int
+            ``[0, 1, ..., n-1]``.
+        """
+        return list(range(n))
+
     def plan(self, problem: Blocks, params: Sequence[BlockParameters], plan0: Array,
              fallback: FallbackPlan) -> PlanResult:
         """One solve of the single block gives the plan.
@@ -137,13 +154,14 @@ class Decentralised(_PerCoach):
 
     Examples
     --------
-    One block per coach, bounding the couplers in front of and behind it:
+    One block per coach, bounding the couplers in front of and behind it
+    and its own speed:
 
     >>> strategy = Decentralised()
     >>> strategy.block_inputs(3), strategy.members((1,), None)
     ([(0,), (1,), (2,)], (1,))
-    >>> [strategy.couplers((i,), 2) for i in range(3)]
-    [[0], [0, 1], [1]]
+    >>> [strategy.couplers((i,), 2) for i in range(3)], strategy.vehicles((1,), 3)
+    ([[0], [0, 1], [1]], [1])
     """
 
     name = "decentralised"
