@@ -72,7 +72,7 @@ class HorizonLimits:
         Returns
         -------
         ndarray
-            min ℓ over [a, b] for each stretch [m/s], the shape of ``a``.
+            The least limit ℓ over [a, b] of each stretch [m/s], the shape of ``a``.
         """
         starts, ext = self.starts, self._ext
         found: Array = ext[np.searchsorted(starts, a, side="right")]  # ℓ(a)
